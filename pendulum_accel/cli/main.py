@@ -15,7 +15,7 @@ from pendulum_accel import __version__
 from pendulum_accel.errors import PendulumAccelError
 
 # Order is the order of ``pendulum-accel --help``.
-COMMANDS: tuple[str, ...] = ()
+COMMANDS: tuple[str, ...] = ("lecture",)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,277 @@
+"""Offline analysis of a bag: re-run an estimator on the recorded angles, compare with the recorded truth.
+
+Error e(t) = â(t) − a(t) at the joint-state stamps (truth interpolated onto them). Reported:
+bias = mean e, RMS = √(mean e²), max |e| (over the samples after ``skip`` seconds that have an
+estimate), and the settling time: from the last jump of the truth before it, the time after
+which |e| stays within the tolerance to the end of the bag.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pendulum_accel.bag.messages import (
+    ACCEL_STAMPED,
+    ACCEL_WITH_COVARIANCE_STAMPED,
+    JOINT_STATE,
+    TOPIC_ACCEL_ESTIMATE,
+    TOPIC_ACCEL_TRUTH,
+    TOPIC_JOINT_STATES,
+)
+from pendulum_accel.bag.reader import Bag, read_bag, scene_name
+from pendulum_accel.errors import BagError
+
+DEFAULT_REL_TOLERANCE = 0.02
+DEFAULT_ABS_TOLERANCE = 0.1  # m/s², about 1 % of g: below it sensor noise, not the method, dominates
+
+
+@dataclass(frozen=True)
+class ErrorStats:
+    """bias = mean e, rms = √(mean e²), max_abs = max |e| over n samples (NaN when n = 0)."""
+
+    bias: float
+    rms: float
+    max_abs: float
+    n: int
+
+    @classmethod
+    def of(cls, error: NDArray[np.float64]) -> ErrorStats:
+        """Statistics of the finite entries of ``error``."""
+        e = error[np.isfinite(error)]
+        if e.size == 0:
+            return cls(math.nan, math.nan, math.nan, 0)
+        return cls(float(e.mean()), float(np.sqrt(np.mean(e * e))), float(np.abs(e).max()), int(e.size))
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """Result of analyze_bag: the aligned series and the error figures."""
+
+    path: Path
+    scene: str | None
+    estimator: str
+    config: dict[str, float]
+    t: NDArray[np.float64]
+    theta: NDArray[np.float64]
+    accel_true: NDArray[np.float64]
+    accel_est: NDArray[np.float64]
+    variance: NDArray[np.float64]
+    skip: float
+    tolerance: float
+    stats: ErrorStats
+    settled_stats: ErrorStats
+    settle_from: float
+    settling_time: float | None
+    recorded: ErrorStats | None
+    problem: str | None
+
+    @property
+    def error(self) -> NDArray[np.float64]:
+        """e = â − a at every joint-state sample (NaN where the estimator gave nothing yet)."""
+        return self.accel_est - self.accel_true
+
+    def lines(self) -> list[str]:
+        """Human-readable report, one figure per line."""
+        s, ss = self.stats, self.settled_stats
+        settle = (
+            f"{self.settling_time:.3f} s after the truth's last jump at t={self.settle_from:.3f} s"
+            if self.settling_time is not None
+            else "never (|error| still above the tolerance at the end)"
+        )
+        cfg = ", ".join(f"{k}={v:g}" for k, v in self.config.items())
+        out = [
+            f"bag:        {self.path}" + (f"  (scene {self.scene})" if self.scene else ""),
+            f"estimator:  {self.estimator}  ({cfg})",
+            f"samples:    {self.t.size} angles over {self.t[-1] - self.t[0]:.3f} s, {s.n} estimates compared"
+            + (f" after skipping {self.skip:g} s" if self.skip > 0 else ""),
+            f"bias:       {s.bias:+.5f} m/s²",
+            f"RMS:        {s.rms:.5f} m/s²",
+            f"max error:  {s.max_abs:.5f} m/s²",
+            f"settling:   {settle}  (tolerance ±{self.tolerance:.4f} m/s²)",
+        ]
+        if ss.n:
+            out.append(f"settled:    bias {ss.bias:+.5f}, RMS {ss.rms:.5f}, max {ss.max_abs:.5f} m/s² ({ss.n} samples)")
+        if self.recorded is not None:
+            r = self.recorded
+            out.append(f"recorded /car/accel/estimate: bias {r.bias:+.5f}, RMS {r.rms:.5f}, max {r.max_abs:.5f} m/s²")
+        return out
+
+
+def settling(
+    t: NDArray[np.float64], error: NDArray[np.float64], truth: NDArray[np.float64], tolerance: float
+) -> tuple[float, float | None]:
+    """(t_ref, t_s − t_ref): t_s = first sample after the last one with |e| > tol (or no estimate);
+    t_ref = the last truth jump (|Δa| > tol between samples) at or before t_s, else t[0]."""
+    bad = ~(np.abs(error) <= tolerance)  # NaN counts as out of tolerance
+    if bad[-1]:
+        return float(t[0]), None
+    last_bad = np.flatnonzero(bad)
+    i_s = int(last_bad[-1]) + 1 if last_bad.size else 0
+    jumps = np.flatnonzero(np.abs(np.diff(truth)) > tolerance) + 1
+    jumps = jumps[jumps <= i_s]
+    t_ref = float(t[jumps[-1]]) if jumps.size else float(t[0])
+    return t_ref, float(t[i_s]) - t_ref
+
+
+def default_tolerance(truth: NDArray[np.float64]) -> float:
+    """max(2 % of max |a|, 0.1 m/s²)."""
+    peak = float(np.abs(truth).max()) if truth.size else 0.0
+    return max(DEFAULT_REL_TOLERANCE * peak, DEFAULT_ABS_TOLERANCE)
+
+
+def analyze_bag(
+    bag: Bag | Path | str,
+    *,
+    estimator: str | None = None,
+    config: dict[str, float] | None = None,
+    skip: float = 0.0,
+    tolerance: float | None = None,
+) -> Analysis:
+    """Re-run ``estimator`` (default: the package default) on the bag's angles and compare with its truth.
+
+    ``config`` overrides the estimator configuration taken from the bag's scene (length, gravity,
+    noise_std, rate_hz); without a stored scene, ``length`` must be given.
+    """
+    from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
+
+    if not skip >= 0.0:
+        raise BagError(f"skip must be >= 0 s, got {skip!r}")
+    if tolerance is not None and not tolerance > 0.0:
+        raise BagError(f"tolerance must be > 0 m/s², got {tolerance!r}")
+    data = bag if isinstance(bag, Bag) else read_bag(bag)
+    js = data.decode(TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"])
+    truth = data.decode(TOPIC_ACCEL_TRUTH, ACCEL_STAMPED, fields=["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"])
+    if len(js) < 2:
+        raise BagError(f"bag {data.path} holds {len(js)} joint states; at least 2 are needed")
+    if len(truth) == 0:
+        raise BagError(f"bag {data.path} holds no {TOPIC_ACCEL_TRUTH} messages to compare with")
+    t = js.stamp
+    order = np.argsort(t, kind="stable")
+    t, theta = t[order], js["position[0]"][order]
+    tt = truth.stamp
+    t_order = np.argsort(tt, kind="stable")
+    a_true = np.interp(t, tt[t_order], truth["accel.linear.x"][t_order])
+    cfg = estimator_config(data, t)
+    cfg.update(config or {})
+    if "length" not in cfg:
+        raise BagError(f"bag {data.path} stores no scene: give the pendulum length (--length)")
+    name = estimator or DEFAULT_ESTIMATOR
+    a_est, variance = estimate_batch(name, t, theta, **cfg)
+    a_est = np.asarray(a_est, dtype=np.float64)
+    variance = np.asarray(variance, dtype=np.float64)
+    tol = default_tolerance(a_true) if tolerance is None else float(tolerance)
+    error = a_est - a_true
+    window = t >= t[0] + skip
+    settle_from, settling_time = settling(t, error, a_true, tol)
+    settled = np.zeros(t.size, dtype=bool)
+    if settling_time is not None:
+        settled = t >= settle_from + settling_time
+    return Analysis(
+        path=data.path,
+        scene=scene_name(data),
+        estimator=name,
+        config=cfg,
+        t=t,
+        theta=theta,
+        accel_true=a_true,
+        accel_est=a_est,
+        variance=variance,
+        skip=skip,
+        tolerance=tol,
+        stats=ErrorStats.of(error[window]),
+        settled_stats=ErrorStats.of(error[settled & window]),
+        settle_from=settle_from,
+        settling_time=settling_time,
+        recorded=_recorded_stats(data, tt[t_order], truth["accel.linear.x"][t_order], skip + t[0]),
+        problem=data.problem,
+    )
+
+
+def _recorded_stats(bag: Bag, t_truth: NDArray[np.float64], a_truth: NDArray[np.float64], t_from: float) -> ErrorStats | None:
+    """Error figures of the estimate recorded in the bag (live estimator), None without that topic."""
+    if TOPIC_ACCEL_ESTIMATE not in bag.topics or bag.topics[TOPIC_ACCEL_ESTIMATE].count == 0:
+        return None
+    est = bag.decode(
+        TOPIC_ACCEL_ESTIMATE,
+        ACCEL_WITH_COVARIANCE_STAMPED,
+        fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x"],
+    )
+    te = est.stamp
+    keep = te >= t_from
+    return ErrorStats.of(est["accel.accel.linear.x"][keep] - np.interp(te[keep], t_truth, a_truth))
+
+
+def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
+    """length, gravity, noise_std, rate_hz from the bag's stored scene; rate from the stamps otherwise."""
+    cfg: dict[str, float] = {}
+    dt = np.diff(t)
+    dt = dt[dt > 0]
+    if dt.size:
+        cfg["rate_hz"] = float(1.0 / np.median(dt))
+    text = bag.custom_data.get("pendulum_accel.scene")
+    if text:
+        cfg.update(_scene_config(text))
+    return cfg
+
+
+def _scene_config(text: str) -> dict[str, float]:
+    """Estimator settings of a scene given as YAML text (via pendulum_accel.scene)."""
+    from pendulum_accel.scene_config import estimator_settings
+
+    return estimator_settings(text)
+
+
+def plot_analysis(result: Analysis, out: Path | str) -> Path:
+    """Three panels, shared time axis: θ (deg); true vs estimated a; error with the ±tolerance band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True, constrained_layout=True)
+    t = result.t
+    axes[0].plot(t, np.degrees(result.theta), lw=0.8, color="tab:gray")
+    axes[0].set_ylabel("θ (deg)")
+    title = f"{result.scene or result.path.name}: {result.estimator}"
+    axes[0].set_title(title)
+    axes[1].plot(t, result.accel_true, lw=1.5, color="black", label="truth a(t)")
+    axes[1].plot(t, result.accel_est, lw=0.9, color="tab:blue", label=f"estimate ({result.estimator})")
+    axes[1].set_ylabel("a (m/s²)")
+    axes[1].legend(loc="best")
+    axes[2].plot(t, result.error, lw=0.8, color="tab:red", label="â − a")
+    axes[2].axhspan(-result.tolerance, result.tolerance, color="tab:green", alpha=0.15, label="± tolerance")
+    if result.settling_time is not None:
+        axes[2].axvline(result.settle_from + result.settling_time, color="tab:green", ls="--", lw=1, label="settled")
+    axes[2].set_ylabel("error (m/s²)")
+    axes[2].set_xlabel("t (s)")
+    axes[2].legend(loc="best")
+    s = result.stats
+    axes[2].set_title(f"bias {s.bias:+.4f}, RMS {s.rms:.4f}, max {s.max_abs:.4f} m/s²", fontsize=9)
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+    path = Path(out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def analysis_dict(result: Analysis) -> dict[str, Any]:
+    """Figures of an analysis as a flat dict (for tables and JSON)."""
+    return {
+        "bag": str(result.path),
+        "scene": result.scene,
+        "estimator": result.estimator,
+        "bias": result.stats.bias,
+        "rms": result.stats.rms,
+        "max_error": result.stats.max_abs,
+        "settling_time": result.settling_time,
+        "tolerance": result.tolerance,
+        "samples": result.stats.n,
+    }

@@ -1,0 +1,342 @@
+"""ROS 2 messages of the chain as CDR bytes: one-off via the rosbags typestore, in bulk via numpy.
+
+A *fixed-layout* message (JointState with one joint, AccelStamped, AccelWithCovarianceStamped,
+Clock, ...) serialises to the same bytes except at the offsets of its numeric fields once its
+strings and sequence lengths are fixed. :class:`Layout` learns those offsets from the typestore
+serializer itself (it serialises the message twice with two different values in one field and
+looks where the bytes differ), so no CDR alignment rule is written here; bulk encoding fills a
+serialized template row-wise, bulk decoding reads the field columns back with numpy.
+"""
+
+from __future__ import annotations
+
+import copy
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from rosbags.interfaces import (
+    Nodetype,
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
+from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys.store import Typestore
+
+from pendulum_accel.errors import BagError
+
+TYPESTORE: Typestore = get_typestore(Stores.ROS2_KILTED)
+
+JOINT_STATE = "sensor_msgs/msg/JointState"
+ACCEL_STAMPED = "geometry_msgs/msg/AccelStamped"
+ACCEL_WITH_COVARIANCE_STAMPED = "geometry_msgs/msg/AccelWithCovarianceStamped"
+CLOCK = "rosgraph_msgs/msg/Clock"
+DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
+
+TOPIC_JOINT_STATES = "/pendulum/joint_states"
+TOPIC_ACCEL_TRUTH = "/car/accel/truth"
+TOPIC_STRING = "/pendulum/string"
+TOPIC_ACCEL_ESTIMATE = "/car/accel/estimate"
+TOPIC_CLOCK = "/clock"
+TOPIC_DIAGNOSTICS = "/diagnostics"
+
+# The fixed topic contract: topic -> message type.
+TOPIC_TYPES: dict[str, str] = {
+    TOPIC_JOINT_STATES: JOINT_STATE,
+    TOPIC_ACCEL_TRUTH: ACCEL_STAMPED,
+    TOPIC_STRING: JOINT_STATE,
+    TOPIC_ACCEL_ESTIMATE: ACCEL_WITH_COVARIANCE_STAMPED,
+    TOPIC_CLOCK: CLOCK,
+    TOPIC_DIAGNOSTICS: DIAGNOSTIC_ARRAY,
+}
+
+FRAME_ID = "base_link"
+PENDULUM_JOINT = "pendulum_joint"
+STRING_JOINT = "string_joint"
+
+_NUMERIC: dict[str, str] = {
+    "int8": "i1",
+    "uint8": "u1",
+    "byte": "u1",
+    "char": "u1",
+    "octet": "u1",
+    "int16": "<i2",
+    "uint16": "<u2",
+    "int32": "<i4",
+    "uint32": "<u4",
+    "int64": "<i8",
+    "uint64": "<u8",
+    "float32": "<f4",
+    "float64": "<f8",
+}
+_NS_PER_S = 1_000_000_000
+
+
+def qos_profile(*, reliable: bool = True, depth: int = 1000, transient_local: bool = False) -> Qos:
+    """Offered QoS of one publisher, as rosbag2 stores it (KEEP_LAST depth, reliability, durability)."""
+    zero = QosTime(sec=0, nsec=0)
+    return Qos(
+        history=QosHistory.KEEP_LAST,
+        depth=depth,
+        reliability=QosReliability.RELIABLE if reliable else QosReliability.BEST_EFFORT,
+        durability=QosDurability.TRANSIENT_LOCAL if transient_local else QosDurability.VOLATILE,
+        deadline=zero,
+        lifespan=zero,
+        liveliness=QosLiveliness.AUTOMATIC,
+        liveliness_lease_duration=zero,
+        avoid_ros_namespace_conventions=False,
+    )
+
+
+def seconds_to_ns(t: ArrayLike) -> NDArray[np.int64]:
+    """ns = round(t · 1e9), rejecting NaN, inf and negative times (ROS stamps are unsigned)."""
+    arr = np.asarray(t, dtype=np.float64)
+    if not np.all(np.isfinite(arr)):
+        raise BagError("time stamps must be finite, got NaN or inf")
+    if np.any(arr < 0.0):
+        raise BagError(f"time stamps must be >= 0, got {float(arr.min())!r}")
+    return np.rint(arr * _NS_PER_S).astype(np.int64)
+
+
+def split_stamp(ns: ArrayLike) -> tuple[NDArray[np.int32], NDArray[np.uint32]]:
+    """(sec, nanosec) = (ns div 1e9, ns mod 1e9): builtin_interfaces/Time from integer nanoseconds."""
+    arr = np.asarray(ns, dtype=np.int64)
+    return (arr // _NS_PER_S).astype(np.int32), (arr % _NS_PER_S).astype(np.uint32)
+
+
+def stamp_seconds(sec: ArrayLike, nanosec: ArrayLike) -> NDArray[np.float64]:
+    """t = sec + nanosec · 1e-9 (float seconds from a builtin_interfaces/Time column pair)."""
+    return np.asarray(sec, dtype=np.float64) + np.asarray(nanosec, dtype=np.float64) * 1e-9
+
+
+def _time(ns: int) -> Any:
+    """builtin_interfaces/Time for integer nanoseconds."""
+    sec, nanosec = divmod(int(ns), _NS_PER_S)
+    return TYPESTORE.types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec)
+
+
+def _header(ns: int, frame_id: str = FRAME_ID) -> Any:
+    """std_msgs/Header with stamp = ns and the given frame."""
+    return TYPESTORE.types["std_msgs/msg/Header"](stamp=_time(ns), frame_id=frame_id)
+
+
+def _vector3(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Any:
+    """geometry_msgs/Vector3 (x, y, z)."""
+    return TYPESTORE.types["geometry_msgs/msg/Vector3"](x=float(x), y=float(y), z=float(z))
+
+
+def _floats(values: Sequence[float]) -> NDArray[np.float64]:
+    """float64 sequence field as the typestore expects it (a numpy array)."""
+    return np.asarray(values, dtype=np.float64).reshape(-1)
+
+
+def joint_state(
+    stamp_ns: int,
+    names: Sequence[str],
+    position: Sequence[float],
+    velocity: Sequence[float] = (),
+    effort: Sequence[float] = (),
+    frame_id: str = FRAME_ID,
+) -> Any:
+    """sensor_msgs/JointState(header(stamp, frame_id), name, position, velocity, effort)."""
+    return TYPESTORE.types[JOINT_STATE](
+        header=_header(stamp_ns, frame_id),
+        name=list(names),
+        position=_floats(position),
+        velocity=_floats(velocity),
+        effort=_floats(effort),
+    )
+
+
+def accel_stamped(stamp_ns: int, ax: float, frame_id: str = FRAME_ID) -> Any:
+    """geometry_msgs/AccelStamped with accel.linear.x = ax, all else 0."""
+    accel = TYPESTORE.types["geometry_msgs/msg/Accel"](linear=_vector3(ax), angular=_vector3())
+    return TYPESTORE.types[ACCEL_STAMPED](header=_header(stamp_ns, frame_id), accel=accel)
+
+
+def accel_with_covariance_stamped(stamp_ns: int, ax: float, variance: float, frame_id: str = FRAME_ID) -> Any:
+    """geometry_msgs/AccelWithCovarianceStamped: accel.accel.linear.x = ax, covariance[0] = variance."""
+    accel = TYPESTORE.types["geometry_msgs/msg/Accel"](linear=_vector3(ax), angular=_vector3())
+    cov = np.zeros(36, dtype=np.float64)
+    cov[0] = variance
+    wrapped = TYPESTORE.types["geometry_msgs/msg/AccelWithCovariance"](accel=accel, covariance=cov)
+    return TYPESTORE.types[ACCEL_WITH_COVARIANCE_STAMPED](header=_header(stamp_ns, frame_id), accel=wrapped)
+
+
+def clock(stamp_ns: int) -> Any:
+    """rosgraph_msgs/Clock(clock = stamp)."""
+    return TYPESTORE.types[CLOCK](clock=_time(stamp_ns))
+
+
+def diagnostic_array(
+    stamp_ns: int, level: int, name: str, message: str, values: Mapping[str, str] | None = None
+) -> Any:
+    """diagnostic_msgs/DiagnosticArray holding one DiagnosticStatus(level, name, message, values)."""
+    kv = TYPESTORE.types["diagnostic_msgs/msg/KeyValue"]
+    status = TYPESTORE.types["diagnostic_msgs/msg/DiagnosticStatus"](
+        level=int(level),
+        name=name,
+        message=message,
+        hardware_id="pendulum_accel",
+        values=[kv(key=k, value=v) for k, v in (values or {}).items()],
+    )
+    return TYPESTORE.types[DIAGNOSTIC_ARRAY](header=_header(stamp_ns, ""), status=[status])
+
+
+def serialize(msg: object, msgtype: str) -> bytes:
+    """CDR bytes of one message via the rosbags typestore."""
+    return bytes(TYPESTORE.serialize_cdr(msg, msgtype))
+
+
+def deserialize(raw: bytes | memoryview, msgtype: str) -> Any:
+    """One message from its CDR bytes via the rosbags typestore; BagError when they do not parse."""
+    try:
+        return TYPESTORE.deserialize_cdr(raw, msgtype)
+    except Exception as err:  # rosbags raises assorted low-level errors on bad bytes
+        raise BagError(f"cannot decode a {msgtype} message ({len(raw)} bytes): {err}") from None
+
+
+_PATH_TOKEN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?")
+
+
+def _resolve(msg: Any, path: str) -> tuple[Any, str, int | None]:
+    """(parent object, attribute, index or None) that ``path`` (e.g. ``accel.covariance[0]``) names."""
+    obj = msg
+    parts = path.split(".")
+    for part in parts[:-1]:
+        m = _PATH_TOKEN.fullmatch(part)
+        assert m is not None
+        obj = getattr(obj, m.group(1))
+        if m.group(2) is not None:
+            obj = obj[int(m.group(2))]
+    m = _PATH_TOKEN.fullmatch(parts[-1])
+    assert m is not None
+    return obj, m.group(1), None if m.group(2) is None else int(m.group(2))
+
+
+def _set_leaf(msg: Any, path: str, value: Any) -> None:
+    """msg.<path> = value, in place (numeric scalar or one element of a numeric array)."""
+    parent, attr, index = _resolve(msg, path)
+    if index is None:
+        setattr(parent, attr, value)
+    else:
+        # Deserialized arrays are read-only views into the CDR buffer: replace, don't mutate.
+        array = np.array(getattr(parent, attr))
+        array[index] = value
+        setattr(parent, attr, array)
+
+
+def _numeric_leaves(msgtype: str, msg: Any, prefix: str = "") -> list[tuple[str, str]]:
+    """(path, numpy dtype) of every numeric field of ``msg``, array elements one by one, in field order."""
+    leaves: list[tuple[str, str]] = []
+    fielddefs: list[tuple[str, tuple[Any, Any]]] = TYPESTORE.fielddefs[msgtype][1]
+    for name, (kind, detail) in fielddefs:
+        path = prefix + name
+        value = getattr(msg, name)
+        if kind == Nodetype.NAME:
+            leaves += _numeric_leaves(detail, value, path + ".")
+        elif kind == Nodetype.BASE:
+            if detail[0] in _NUMERIC:
+                leaves.append((path, _NUMERIC[detail[0]]))
+        elif kind in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+            (sub_kind, sub_detail), _ = detail
+            if sub_kind == Nodetype.BASE and sub_detail[0] in _NUMERIC:
+                leaves += [(f"{path}[{i}]", _NUMERIC[sub_detail[0]]) for i in range(len(value))]
+            elif sub_kind == Nodetype.NAME:
+                for i, item in enumerate(value):
+                    leaves += _numeric_leaves(sub_detail, item, f"{path}[{i}].")
+    return leaves
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Byte layout of one message shape: a serialized template plus the offset of each numeric field.
+
+    ``fields[path] = (offset, dtype)``; ``mask`` is True on the bytes no numeric field covers, which
+    every message of this shape has equal to ``template``.
+    """
+
+    msgtype: str
+    template: NDArray[np.uint8]
+    fields: dict[str, tuple[int, str]]
+    mask: NDArray[np.bool_] = field(repr=False)
+
+    @property
+    def size(self) -> int:
+        """Serialized size in bytes (the same for every message of this shape)."""
+        return int(self.template.size)
+
+    @classmethod
+    def of(cls, msg: Any, msgtype: str) -> Layout:
+        """Layout of ``msg``'s shape, learnt from the typestore serializer (two values per field, diff)."""
+        template = np.frombuffer(serialize(msg, msgtype), dtype=np.uint8).copy()
+        mask = np.ones(template.size, dtype=bool)
+        fields: dict[str, tuple[int, str]] = {}
+        for path, dtype in _numeric_leaves(msgtype, msg):
+            width = np.dtype(dtype).itemsize
+            probes = []
+            for fill in (0x01, 0x02):
+                probe = copy.deepcopy(msg)
+                value = np.frombuffer(bytes([fill] * width), dtype=dtype)[0]
+                _set_leaf(probe, path, value.item())
+                probes.append(np.frombuffer(serialize(probe, msgtype), dtype=np.uint8))
+            if probes[0].size != template.size or probes[1].size != template.size:
+                raise BagError(f"{msgtype}.{path}: serialized size depends on the value, not a fixed layout")
+            diff = np.flatnonzero(probes[0] != probes[1])
+            if diff.size != width or diff[-1] - diff[0] != width - 1:
+                raise BagError(f"{msgtype}.{path}: cannot locate the field in the serialized bytes")
+            offset = int(diff[0])
+            fields[path] = (offset, dtype)
+            mask[offset : offset + width] = False
+        return cls(msgtype=msgtype, template=template, fields=fields, mask=mask)
+
+    def encode(self, n: int, columns: Mapping[str, ArrayLike]) -> NDArray[np.uint8]:
+        """(n, size) uint8 rows: the template with each named field set from its column (or scalar)."""
+        out = np.empty((n, self.size), dtype=np.uint8)
+        out[:] = self.template
+        for path, values in columns.items():
+            if path not in self.fields:
+                raise BagError(f"{self.msgtype} has no numeric field {path!r} in this layout")
+            offset, dtype = self.fields[path]
+            col = np.asarray(values)
+            if col.dtype.kind == "f" and not np.all(np.isfinite(col)):
+                raise BagError(f"{self.msgtype}.{path}: refusing to write NaN or inf")
+            col = np.ascontiguousarray(np.broadcast_to(col.astype(dtype), (n,)))
+            width = np.dtype(dtype).itemsize
+            out[:, offset : offset + width] = col.view(np.uint8).reshape(n, width)
+        return out
+
+    def matches(self, rows: NDArray[np.uint8]) -> NDArray[np.bool_]:
+        """Per row: True when every non-field byte equals the template (the row has this shape)."""
+        if rows.ndim != 2 or rows.shape[1] != self.size:
+            return np.zeros(rows.shape[0] if rows.ndim else 0, dtype=bool)
+        result: NDArray[np.bool_] = np.all(rows[:, self.mask] == self.template[self.mask], axis=1)
+        return result
+
+    def decode(self, rows: NDArray[np.uint8], paths: Sequence[str] | None = None) -> dict[str, NDArray[Any]]:
+        """{path: column} read from (n, size) rows of this shape (all fields, or just ``paths``)."""
+        wanted = self.fields if paths is None else paths
+        out: dict[str, NDArray[Any]] = {}
+        for path in wanted:
+            if path not in self.fields:
+                raise BagError(f"{self.msgtype} messages have no field {path!r}")
+            offset, dtype = self.fields[path]
+            width = np.dtype(dtype).itemsize
+            block = np.ascontiguousarray(rows[:, offset : offset + width])
+            out[path] = block.view(dtype).reshape(-1).astype(np.dtype(dtype).newbyteorder("="))
+        return out
+
+
+def rows_from_bytes(payloads: Sequence[bytes]) -> NDArray[np.uint8]:
+    """(n, size) uint8 matrix from n equally long CDR payloads (one join, no per-row copies)."""
+    if not payloads:
+        return np.zeros((0, 0), dtype=np.uint8)
+    size = len(payloads[0])
+    return np.frombuffer(b"".join(payloads), dtype=np.uint8).reshape(len(payloads), size)

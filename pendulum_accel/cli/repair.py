@@ -1,0 +1,41 @@
+"""``pendulum-accel repair BAG``: rebuild metadata.yaml and the MCAP index/summary from the data on disk."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from pendulum_accel.bag.repair import repair_bag
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``repair`` subcommand."""
+    parser = subparsers.add_parser(
+        "repair",
+        help="rebuild a damaged bag (killed recorder) from what its MCAP file holds",
+        description=(
+            "Rewrite BAG from every message readable before the damage, with a new MCAP summary/index "
+            "and metadata.yaml. The damaged file is kept as <name>.mcap.damaged unless --no-backup."
+        ),
+    )
+    parser.add_argument("bag", help="bag directory")
+    parser.add_argument(
+        "--no-backup", action="store_true", help="delete the damaged file instead of keeping it"
+    )
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Repair and report what was kept."""
+    result = repair_bag(args.bag, keep_backup=not args.no_backup)
+    if not result.rewritten:
+        total = sum(result.counts.values())
+        print(f"{result.path}: intact ({total} messages), nothing to repair")
+        return 0
+    print(f"{result.path}: {result.problem}")
+    print(f"rebuilt with {sum(result.counts.values())} messages:")
+    for name, count in result.counts.items():
+        print(f"  {name}: {count}")
+    if result.backup is not None:
+        print(f"damaged file kept as {result.backup}")
+    return 0

@@ -1,0 +1,98 @@
+"""Estimators of the car's acceleration from the pendulum angle — ROS-free (numpy/scipy only).
+
+``make_estimator(name, length=..., noise_std=..., rate_hz=...)`` gives a streaming estimator
+(``update(t, θ) -> Estimate | None``, ``reset()``); ``estimate_batch(name, t, θ, ...)`` gives the same
+numbers for a whole recording at once. ``guard.InputGuard`` screens the input and reports health.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Mapping
+
+import numpy as np
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.estimators.base import Estimate, Estimator, EstimatorConfig, cramer_rao_std
+from pendulum_accel.estimators.dynamic import DynamicEstimator
+from pendulum_accel.estimators.instant import InstantEstimator
+from pendulum_accel.estimators.kalman import KalmanEstimator
+from pendulum_accel.estimators.lowpass import LowpassEstimator
+from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
+from pendulum_accel.physics.params import STANDARD_GRAVITY
+
+ESTIMATORS: Mapping[str, type[Estimator]] = {
+    cls.name: cls
+    for cls in (InstantEstimator, PeriodMeanEstimator, LowpassEstimator, DynamicEstimator, KalmanEstimator)
+}
+# Best accuracy/latency trade in ``python -m pendulum_accel.bench.estimators`` (see the README).
+DEFAULT_ESTIMATOR = "kalman"
+
+_CONFIG_FIELDS = ("damping", "clamp_angle", "max_gap")
+
+
+def method_options(name: str) -> tuple[str, ...]:
+    """Keyword options the method ``name`` accepts beyond the shared configuration."""
+    cls = _lookup(name)
+    params = inspect.signature(cls.__init__).parameters.values()
+    return tuple(p.name for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY)
+
+
+def _lookup(name: str) -> type[Estimator]:
+    """The class registered under ``name``, or ParameterError listing the known ones."""
+    try:
+        return ESTIMATORS[name]
+    except KeyError:
+        raise ParameterError(f"unknown estimator {name!r}; choose one of {', '.join(ESTIMATORS)}") from None
+
+
+def make_estimator(
+    name: str,
+    *,
+    length: float,
+    gravity: float = STANDARD_GRAVITY,
+    noise_std: float = 1e-3,
+    rate_hz: float = 200.0,
+    **opts: object,
+) -> Estimator:
+    """Build method ``name`` for a pendulum of length l (m) and angle noise σ (rad) sampled at rate_hz.
+
+    ``opts`` may hold EstimatorConfig fields (damping, clamp_angle, max_gap) and the method's own
+    options (``method_options(name)``); anything else raises ParameterError naming it.
+    """
+    cls = _lookup(name)
+    config_opts = {k: opts.pop(k) for k in _CONFIG_FIELDS if k in opts}
+    allowed = method_options(name)
+    unknown = sorted(set(opts) - set(allowed))
+    if unknown:
+        raise ParameterError(
+            f"estimator {name!r} has no option {unknown[0]!r}; options: {', '.join(allowed) or 'none'}"
+        )
+    config = EstimatorConfig(
+        length=length,
+        gravity=gravity,
+        noise_std=noise_std,
+        rate_hz=rate_hz,
+        **config_opts,  # type: ignore[arg-type]
+    )
+    return cls(config, **opts)
+
+
+def estimate_batch(
+    name: str, t: np.ndarray, theta: np.ndarray, **cfg: object
+) -> tuple[np.ndarray, np.ndarray]:
+    """(â, var_a) for a whole recording; ``cfg`` as for make_estimator; equals streaming from fresh state."""
+    return make_estimator(name, **cfg).batch(t, theta)  # type: ignore[arg-type]
+
+
+__all__ = [
+    "DEFAULT_ESTIMATOR",
+    "ESTIMATORS",
+    "Estimate",
+    "Estimator",
+    "EstimatorConfig",
+    "cramer_rao_std",
+    "estimate_batch",
+    "make_estimator",
+    "method_options",
+]

@@ -1,0 +1,199 @@
+"""What every estimator shares: configuration, the Estimate record, angle conditioning and input checks.
+
+The accelerometer relation is a = g tan θ, so an angle error dθ becomes an acceleration error
+da = g sec²θ dθ. Every method reports var_a = (g sec²θ)² σ² / N, where N is the number of
+independent angle samples its averaging is worth (its noise-equivalent sample count).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.physics.params import STANDARD_GRAVITY, require_finite, require_positive
+
+# A sensor is never perfect; a floor keeps variances and the Kalman gain finite when a scene says σ = 0.
+MIN_NOISE_STD = 1e-6  # rad
+# tan θ is undefined at 90°; beyond this the angle is clamped and the estimate flagged.
+DEFAULT_CLAMP_ANGLE = math.radians(89.0)
+
+
+@dataclass(frozen=True, slots=True)
+class Estimate:
+    """â (m/s²) and its variance ((m/s²)²) for one input sample; ``clamped`` when |θ| hit the clamp."""
+
+    a: float
+    variance: float
+    clamped: bool = False
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """Pendulum and sensor description shared by all methods: l, g, c, angle noise σ and nominal rate f.
+
+    ``max_gap`` (s): a forward gap in the input longer than this restarts the window-based methods,
+    whose filters assume the nominal rate (default: 10 nominal sample periods).
+    """
+
+    length: float
+    gravity: float = STANDARD_GRAVITY
+    noise_std: float = 1e-3
+    rate_hz: float = 200.0
+    damping: float = 0.0
+    clamp_angle: float = DEFAULT_CLAMP_ANGLE
+    max_gap: float | None = None
+
+    def __post_init__(self) -> None:
+        """Validate every field once; raise ParameterError naming the bad one."""
+        object.__setattr__(self, "length", require_positive("length", self.length))
+        object.__setattr__(self, "gravity", require_positive("gravity", self.gravity))
+        object.__setattr__(self, "rate_hz", require_positive("rate_hz", self.rate_hz))
+        noise = require_finite("noise_std", self.noise_std)
+        if noise < 0.0:
+            raise ParameterError(f"noise_std must be >= 0, got {noise!r}")
+        object.__setattr__(self, "noise_std", noise)
+        damping = require_finite("damping", self.damping)
+        if damping < 0.0:
+            raise ParameterError(f"damping must be >= 0, got {damping!r}")
+        object.__setattr__(self, "damping", damping)
+        clamp = require_positive("clamp_angle", self.clamp_angle)
+        if clamp >= math.pi / 2:
+            raise ParameterError(f"clamp_angle must be < π/2 rad, got {clamp!r}")
+        object.__setattr__(self, "clamp_angle", clamp)
+        gap = 10.0 / self.rate_hz if self.max_gap is None else require_positive("max_gap", self.max_gap)
+        object.__setattr__(self, "max_gap", gap)
+
+    @property
+    def sigma(self) -> float:
+        """σ used in variances: max(noise_std, MIN_NOISE_STD) rad."""
+        return max(self.noise_std, MIN_NOISE_STD)
+
+    @property
+    def gap(self) -> float:
+        """The resolved max_gap in seconds."""
+        assert self.max_gap is not None
+        return self.max_gap
+
+    def omega(self, accel: float) -> float:
+        """ω = (√(g² + a²)/l)^½, small-oscillation angular frequency about θ_eq."""
+        return math.sqrt(math.hypot(self.gravity, accel) / self.length)
+
+    def period(self, accel: float) -> float:
+        """T = 2π/ω(a), the small-oscillation period."""
+        return 2.0 * math.pi / self.omega(accel)
+
+
+def wrap_clamp(theta: float, limit: float) -> tuple[float, bool]:
+    """θ wrapped into [−π, π) then clamped to [−limit, limit]; returns (θ_c, clamped)."""
+    if -limit <= theta <= limit:
+        return theta, False
+    wrapped = (theta + math.pi) % (2.0 * math.pi) - math.pi
+    if abs(wrapped) <= limit:
+        return wrapped, False
+    return math.copysign(limit, wrapped), True
+
+
+def wrap_clamp_array(theta: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Vectorised :func:`wrap_clamp`: (θ_c, clamped) arrays."""
+    inside = np.abs(theta) <= limit
+    if inside.all():
+        return theta.astype(float, copy=True), np.zeros(theta.shape, dtype=bool)
+    wrapped = np.where(inside, theta, np.remainder(theta + np.pi, 2.0 * np.pi) - np.pi)
+    clamped = np.abs(wrapped) > limit
+    return np.where(clamped, np.copysign(limit, wrapped), wrapped), clamped
+
+
+def accel_gain(theta: float, gravity: float) -> float:
+    """da/dθ = g sec²θ."""
+    c = math.cos(theta)
+    return gravity / (c * c)
+
+
+def accel_gain_array(theta: np.ndarray, gravity: float) -> np.ndarray:
+    """Vectorised da/dθ = g sec²θ."""
+    c = np.cos(theta)
+    return gravity / (c * c)
+
+
+def cramer_rao_std(accel: float, sigma: float, samples: float, gravity: float = STANDARD_GRAVITY) -> float:
+    """σ_a ≥ σ (g² + a²)/(g √N): the bound for a static a from N independent angle samples of noise σ."""
+    return sigma * (gravity * gravity + accel * accel) / (gravity * math.sqrt(samples))
+
+
+def check_batch_input(t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return (t, θ) as 1-D float arrays; raise ParameterError unless finite, equal length, t increasing."""
+    t = np.asarray(t, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    if t.ndim != 1 or theta.ndim != 1 or t.shape != theta.shape:
+        raise ParameterError(
+            f"t and theta must be 1-D arrays of equal length, got {t.shape} and {theta.shape}"
+        )
+    if not np.isfinite(t).all():
+        raise ParameterError(f"t must be finite, sample {int(np.argmin(np.isfinite(t)))} is not")
+    if not np.isfinite(theta).all():
+        raise ParameterError(f"theta must be finite, sample {int(np.argmin(np.isfinite(theta)))} is not")
+    if t.size > 1 and not (np.diff(t) > 0.0).all():
+        bad = int(np.argmin(np.diff(t) > 0.0)) + 1
+        raise ParameterError(f"t must be strictly increasing, t[{bad}] = {t[bad]!r} <= t[{bad - 1}]")
+    return t, theta
+
+
+def segments(t: np.ndarray, max_gap: float) -> list[slice]:
+    """Slices of t between forward gaps longer than max_gap (where streaming methods restart)."""
+    if t.size == 0:
+        return []
+    cuts = (np.flatnonzero(np.diff(t) > max_gap) + 1).tolist()
+    edges = [0, *cuts, t.size]
+    return [slice(a, b) for a, b in itertools.pairwise(edges)]
+
+
+class Estimator(ABC):
+    """One acceleration estimator: streaming ``update`` (O(1) per sample) and a batch path with equal numbers.
+
+    ``update(t, θ)`` expects finite θ and increasing t (the InputGuard ensures both); a sample that
+    violates this is ignored and gives None, so the output is never NaN or inf.
+    """
+
+    name: ClassVar[str]
+    summary: ClassVar[str]
+
+    def __init__(self, config: EstimatorConfig) -> None:
+        """Keep the shared configuration; subclasses build their filters from it."""
+        self.config = config
+
+    @abstractmethod
+    def update(self, t: float, theta: float) -> Estimate | None:
+        """Consume one sample (t s, θ rad); return â and its variance, or None when the sample is ignored."""
+
+    @abstractmethod
+    def reset(self) -> None:
+        """Forget every past sample (a looping bag, a restart)."""
+
+    @abstractmethod
+    def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(â, var_a) for a whole recording, equal to streaming ``update`` from a fresh state (to ~1e-12)."""
+
+    @abstractmethod
+    def noise_equivalent_samples(self, accel: float) -> float:
+        """N such that the steady-state variance at constant a is (g sec²θ_eq)² σ²/N."""
+
+    @abstractmethod
+    def nominal_delay(self, accel: float) -> float:
+        """Group delay at zero frequency (s) of the linearised method about θ_eq(a)."""
+
+    def describe(self) -> str:
+        """One line: method name, its settings, N and delay at a = 0."""
+        return (
+            f"{self.name}: {self.summary}; N_eff={self.noise_equivalent_samples(0.0):.1f}, "
+            f"delay={self.nominal_delay(0.0):.3f} s"
+        )
+
+    def _accepts(self, t: float, theta: float, last_t: float | None) -> bool:
+        """True when θ is finite and t finite and later than last_t."""
+        return math.isfinite(theta) and math.isfinite(t) and (last_t is None or t > last_t)

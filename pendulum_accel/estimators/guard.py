@@ -1,0 +1,204 @@
+"""Input guard and health state machine for an estimator — ROS-free; the node maps it to /diagnostics.
+
+Each input sample gets a decision:
+
+* ACCEPT — finite θ, t later than the last accepted t;
+* DROP   — NaN/inf θ or t (state ERROR), or t ≤ last t by less than ``reset_jump`` (a small reorder
+  or a duplicate, state WARN);
+* RESET  — t jumped back by more than ``reset_jump`` (a looping bag): the estimator must restart
+  (state RESET), then the sample is used.
+
+|θ| ≥ ``warn_angle`` is accepted but ill-conditioned (da/dθ = g sec²θ explodes near 90°): state WARN.
+``check_stale(now)`` (called by the node on a timer) turns the state STALE when no input arrived
+for ``stale_after`` seconds. ``report()`` returns the worst state since the previous report, so a
+single dropped NaN between two diagnostics publications is still seen.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+from pendulum_accel.estimators.base import Estimate, Estimator
+from pendulum_accel.physics.params import require_positive
+
+
+class GuardState(enum.Enum):
+    """Health of the input stream; ``level`` is the diagnostic_msgs/DiagnosticStatus level byte."""
+
+    OK = "OK"
+    WARN = "WARN"
+    RESET = "RESET"
+    ERROR = "ERROR"
+    STALE = "STALE"
+
+    @property
+    def level(self) -> int:
+        """DiagnosticStatus level: OK 0, WARN 1, ERROR 2, STALE 3; RESET is reported as WARN (1)."""
+        return {"OK": 0, "WARN": 1, "RESET": 1, "ERROR": 2, "STALE": 3}[self.value]
+
+    @property
+    def rank(self) -> int:
+        """Severity used to keep the worst state between reports: OK < WARN < RESET < ERROR < STALE."""
+        return ("OK", "WARN", "RESET", "ERROR", "STALE").index(self.value)
+
+
+class Decision(enum.Enum):
+    """What the caller does with one sample."""
+
+    ACCEPT = "accept"
+    DROP = "drop"
+    RESET = "reset"
+
+
+@dataclass(frozen=True)
+class GuardReport:
+    """One diagnostic: state, a one-line message, and (key, value) strings for diagnostic_msgs/KeyValue."""
+
+    state: GuardState
+    message: str
+    values: tuple[tuple[str, str], ...]
+
+    @property
+    def level(self) -> int:
+        """The DiagnosticStatus level byte of ``state``."""
+        return self.state.level
+
+
+class InputGuard:
+    """Screens (t, θ) samples and tracks OK/WARN/ERROR/STALE/RESET with counters.
+
+    ``warn_angle`` (rad, default 80°) starts the ill-conditioned warning; ``reset_jump`` (s, default
+    1 s) separates a dropped reorder from a reset; ``stale_after`` (s) defaults to 20 sample periods
+    but at least 0.5 s. ``now`` arguments are arrival times on any monotonic clock (the node uses
+    its steady clock); without them the sample time t is used.
+    """
+
+    def __init__(
+        self,
+        *,
+        rate_hz: float = 200.0,
+        warn_angle: float = math.radians(80.0),
+        reset_jump: float = 1.0,
+        stale_after: float | None = None,
+    ) -> None:
+        """Validate the thresholds; start with no input seen."""
+        rate = require_positive("rate_hz", rate_hz)
+        self.warn_angle = require_positive("warn_angle", warn_angle)
+        self.reset_jump = require_positive("reset_jump", reset_jump)
+        self.stale_after = (
+            max(0.5, 20.0 / rate) if stale_after is None else require_positive("stale_after", stale_after)
+        )
+        self.accepted = 0
+        self.dropped_nonfinite = 0
+        self.dropped_out_of_order = 0
+        self.resets = 0
+        self.ill_conditioned = 0
+        self.last_t: float | None = None
+        self.last_theta: float | None = None
+        self._last_arrival: float | None = None
+        self._first_check: float | None = None
+        self._stale_for: float | None = None
+        self._worst = GuardState.OK
+        self._worst_message = ""
+
+    def note(self, state: GuardState, message: str) -> None:
+        """Latch ``state`` if it is worse than what was seen since the last report."""
+        if state.rank >= self._worst.rank:
+            self._worst, self._worst_message = state, message
+
+    def check(self, t: float, theta: float, now: float | None = None) -> Decision:
+        """ACCEPT, DROP (non-finite, small reorder, duplicate) or RESET (t back by more than reset_jump)."""
+        arrival = now if now is not None else t
+        if math.isfinite(arrival):
+            self._last_arrival = arrival
+            self._stale_for = None
+        if not (math.isfinite(t) and math.isfinite(theta)):
+            self.dropped_nonfinite += 1
+            self.note(GuardState.ERROR, f"dropped non-finite input t={t!r}, θ={theta!r}")
+            return Decision.DROP
+        decision = Decision.ACCEPT
+        if self.last_t is not None and t <= self.last_t:
+            back = self.last_t - t
+            if back <= self.reset_jump:
+                self.dropped_out_of_order += 1
+                self.note(GuardState.WARN, f"dropped out-of-order sample t={t:.6f} s ({back:.6f} s back)")
+                return Decision.DROP
+            self.resets += 1
+            self.note(GuardState.RESET, f"time jumped back by {back:.3f} s to t={t:.3f} s: estimator reset")
+            decision = Decision.RESET
+        if abs(theta) >= self.warn_angle:
+            self.ill_conditioned += 1
+            deg = math.degrees(abs(theta))
+            why = "tan θ undefined, angle clamped" if abs(theta) >= math.pi / 2 else "ill-conditioned"
+            self.note(GuardState.WARN, f"|θ| = {deg:.1f}° near 90°: {why}")
+        self.accepted += 1
+        self.last_t, self.last_theta = t, theta
+        return decision
+
+    def check_stale(self, now: float) -> bool:
+        """True (and state STALE) when no input arrived for more than stale_after seconds before ``now``."""
+        if self._first_check is None:
+            self._first_check = now
+        since = now - (self._last_arrival if self._last_arrival is not None else self._first_check)
+        if since > self.stale_after:
+            self._stale_for = since
+            self.note(GuardState.STALE, f"no input for {since:.2f} s (limit {self.stale_after:.2f} s)")
+            return True
+        return False
+
+    def values(self) -> tuple[tuple[str, str], ...]:
+        """Counters and the last sample as (key, value) strings."""
+
+        def fmt(x: float | None) -> str:
+            return "none" if x is None else f"{x:.6g}"
+
+        return (
+            ("accepted", str(self.accepted)),
+            ("dropped_nonfinite", str(self.dropped_nonfinite)),
+            ("dropped_out_of_order", str(self.dropped_out_of_order)),
+            ("resets", str(self.resets)),
+            ("ill_conditioned", str(self.ill_conditioned)),
+            ("last_t", fmt(self.last_t)),
+            ("last_theta", fmt(self.last_theta)),
+            ("stale_for_s", fmt(self._stale_for)),
+        )
+
+    def report(self) -> GuardReport:
+        """The worst state since the previous report, then re-arm (check_stale re-raises STALE each tick)."""
+        state, message = self._worst, self._worst_message
+        if state is GuardState.OK:
+            message = f"input normal: {self.accepted} samples accepted"
+        report = GuardReport(state, message, self.values())
+        self._worst, self._worst_message = GuardState.OK, ""
+        return report
+
+
+class GuardedEstimator:
+    """InputGuard in front of an Estimator: drops bad input, resets on a jump back, never yields NaN/inf."""
+
+    def __init__(self, estimator: Estimator, guard: InputGuard | None = None) -> None:
+        """Wrap ``estimator``; a default InputGuard at the estimator's nominal rate when none is given."""
+        self.estimator = estimator
+        self.guard = guard if guard is not None else InputGuard(rate_hz=estimator.config.rate_hz)
+
+    def update(self, t: float, theta: float, now: float | None = None) -> Estimate | None:
+        """Guard the sample, then estimator.update; None when the sample was dropped."""
+        decision = self.guard.check(t, theta, now)
+        if decision is Decision.DROP:
+            return None
+        if decision is Decision.RESET:
+            self.estimator.reset()
+        estimate = self.estimator.update(t, theta)
+        if estimate is None:
+            return None
+        if not (math.isfinite(estimate.a) and math.isfinite(estimate.variance)):
+            self.guard.note(GuardState.ERROR, "estimator produced a non-finite value: dropped and reset")
+            self.estimator.reset()
+            return None
+        return estimate
+
+    def reset(self) -> None:
+        """Reset the estimator (the guard's counters are kept)."""
+        self.estimator.reset()

@@ -1,0 +1,107 @@
+"""Core values ↔ ROS messages; the only place where the nodes build or read message fields."""
+
+from __future__ import annotations
+
+import importlib
+import math
+from typing import Any
+
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import AccelStamped, AccelWithCovarianceStamped
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.nodes.topics import FRAME_ID, PENDULUM_JOINT, STRING_JOINT
+
+_NS_PER_S = 1_000_000_000
+
+
+def time_from_ns(ns: int) -> Time:
+    """Time(sec = ns // 1e9, nanosec = ns mod 1e9); ns ≥ 0."""
+    sec, nanosec = divmod(int(ns), _NS_PER_S)
+    return Time(sec=sec, nanosec=nanosec)
+
+
+def seconds_to_ns(t: float) -> int:
+    """ns = round(t · 1e9): the one rounding rule for sim-time stamps (t ≥ 0, finite)."""
+    return round(t * _NS_PER_S)
+
+
+def time_to_seconds(stamp: Any) -> float:
+    """t = sec + nanosec · 1e-9 for a builtin_interfaces/Time."""
+    return float(stamp.sec) + float(stamp.nanosec) * 1e-9
+
+
+def time_to_ns(stamp: Any) -> int:
+    """ns = sec · 1e9 + nanosec for a builtin_interfaces/Time."""
+    return int(stamp.sec) * _NS_PER_S + int(stamp.nanosec)
+
+
+def joint_state(stamp: Time, theta: float, theta_dot: float) -> JointState:
+    """JointState(name=[pendulum_joint], position=[θ], velocity=[θ']) in the car frame."""
+    msg = JointState()
+    msg.header.stamp = stamp
+    msg.header.frame_id = FRAME_ID
+    msg.name = [PENDULUM_JOINT]
+    msg.position = [float(theta)]
+    msg.velocity = [float(theta_dot)]
+    return msg
+
+
+def string_state(stamp: Time, stretch: float, stretch_rate: float, tension: float) -> JointState:
+    """JointState(name=[string_joint], position=[r − l], velocity=[ṙ], effort=[T])."""
+    msg = JointState()
+    msg.header.stamp = stamp
+    msg.header.frame_id = FRAME_ID
+    msg.name = [STRING_JOINT]
+    msg.position = [float(stretch)]
+    msg.velocity = [float(stretch_rate)]
+    msg.effort = [float(tension)]
+    return msg
+
+
+def accel_truth(stamp: Time, accel: float) -> AccelStamped:
+    """AccelStamped with accel.linear.x = true a(t)."""
+    msg = AccelStamped()
+    msg.header.stamp = stamp
+    msg.header.frame_id = FRAME_ID
+    msg.accel.linear.x = float(accel)
+    return msg
+
+
+def accel_estimate(stamp: Time, accel: float, variance: float) -> AccelWithCovarianceStamped:
+    """AccelWithCovarianceStamped: linear.x = â, covariance[0] = var(â), the other entries 0."""
+    msg = AccelWithCovarianceStamped()
+    msg.header.stamp = stamp
+    msg.header.frame_id = FRAME_ID
+    msg.accel.accel.linear.x = float(accel)
+    covariance = [0.0] * 36
+    covariance[0] = float(variance)
+    msg.accel.covariance = covariance
+    return msg
+
+
+def clock(stamp: Time) -> Clock:
+    """Clock(clock = stamp)."""
+    return Clock(clock=stamp)
+
+
+def pendulum_angle(msg: JointState) -> float:
+    """θ = position[index of pendulum_joint] (or position[0] when the message has no names); NaN if absent."""
+    names = list(msg.name)
+    index = names.index(PENDULUM_JOINT) if PENDULUM_JOINT in names else 0
+    position = msg.position
+    return float(position[index]) if len(position) > index else math.nan
+
+
+def message_class(type_name: str) -> Any:
+    """The rclpy message class of a ROS 2 type name "pkg/msg/Type"; ParameterError if unknown."""
+    parts = type_name.split("/")
+    if len(parts) != 3 or parts[1] != "msg":
+        raise ParameterError(f"message type {type_name!r} is not of the form pkg/msg/Type")
+    try:
+        module = importlib.import_module(f"{parts[0]}.msg")
+        return getattr(module, parts[2])
+    except (ImportError, AttributeError):
+        raise ParameterError(f"message type {type_name!r} is not installed") from None

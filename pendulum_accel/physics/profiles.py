@@ -1,0 +1,447 @@
+"""Car acceleration profiles a(t) in m/s², forward (+x, REP-103) positive, all vectorised over t.
+
+Every profile is a frozen dataclass with:
+
+- ``profile(t)``: a(t) for a scalar or array ``t`` (returns an array of ``t``'s shape);
+- ``breakpoints()``: the times where a or a' jumps, so integrators can stop there and keep their order;
+- ``constant_pieces(t0, t1)``: ``[(start, end, a), ...]`` covering [t0, t1] when a is piecewise
+  constant there (closed-form models chain over these), else ``None``;
+- ``max_abs(t0, t1)``: max |a| on [t0, t1] (for step-size stability limits);
+- ``to_dict()``: a plain mapping that ``profile_from_dict`` turns back into an equal profile.
+
+Outside its defined span each profile holds its end value (a Table or Ramp stays flat, Braking is 0).
+"""
+
+from __future__ import annotations
+
+import bisect
+import csv
+import itertools
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.physics.params import require_finite, require_positive
+
+Piece = tuple[float, float, float]
+
+
+def _as_times(t: ArrayLike) -> np.ndarray:
+    """Return ``t`` as a float array (0-d for a scalar)."""
+    return np.asarray(t, dtype=float)
+
+
+def _check_interval(t0: float, t1: float) -> tuple[float, float]:
+    """Return (t0, t1) as floats when finite and t0 <= t1, else raise ParameterError."""
+    start = require_finite("t0", t0)
+    end = require_finite("t1", t1)
+    if end < start:
+        raise ParameterError(f"time interval must have t1 >= t0, got t0={start!r}, t1={end!r}")
+    return start, end
+
+
+def _split_constant(
+    t0: float, t1: float, cuts: Sequence[float], value: Callable[[float], float]
+) -> list[Piece]:
+    """Pieces of [t0, t1] between the ``cuts`` inside it; each piece's a is ``value(midpoint)``."""
+    edges = [t0, *sorted(c for c in cuts if t0 < c < t1), t1]
+    if t0 == t1:
+        return [(t0, t1, value(t0))]
+    return [(lo, hi, value(0.5 * (lo + hi))) for lo, hi in itertools.pairwise(edges)]
+
+
+class AccelProfile(ABC):
+    """a(t): car acceleration along +x (forward), m/s²."""
+
+    kind: ClassVar[str] = ""
+
+    @abstractmethod
+    def __call__(self, t: ArrayLike) -> np.ndarray:
+        """a(t), element-wise over ``t``."""
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """Times where a(t) or a'(t) is discontinuous, ascending (none by default)."""
+        return ()
+
+    def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
+        """[(start, end, a)] covering [t0, t1] when a is piecewise constant there, else None."""
+        return None
+
+    def max_abs(self, t0: float, t1: float) -> float:
+        """max |a(t)| on [t0, t1], from the values at the ends and at the breakpoints inside."""
+        start, end = _check_interval(t0, t1)
+        times = np.array([start, end, *(b for b in self.breakpoints() if start < b < end)])
+        return float(np.max(np.abs(self(times))))
+
+    @abstractmethod
+    def to_dict(self) -> dict[str, Any]:
+        """{'type': kind, field: value, ...}, the inverse of ``profile_from_dict``."""
+
+
+@dataclass(frozen=True)
+class Constant(AccelProfile):
+    """a(t) = a."""
+
+    a: float
+    kind: ClassVar[str] = "constant"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "a", require_finite("a", self.a))
+
+    def __call__(self, t: ArrayLike) -> np.ndarray:
+        """a(t) = a."""
+        return np.full_like(_as_times(t), self.a)
+
+    def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
+        """[(t0, t1, a)]."""
+        start, end = _check_interval(t0, t1)
+        return [(start, end, self.a)]
+
+    def max_abs(self, t0: float, t1: float) -> float:
+        """|a|."""
+        _check_interval(t0, t1)
+        return abs(self.a)
+
+    def to_dict(self) -> dict[str, Any]:
+        """{'type': 'constant', 'a': a}."""
+        return {"type": self.kind, "a": self.a}
+
+
+@dataclass(frozen=True)
+class Step(AccelProfile):
+    """a(t) = a_before for t < t_step, a_after for t >= t_step."""
+
+    t_step: float
+    a_before: float
+    a_after: float
+    kind: ClassVar[str] = "step"
+
+    def __post_init__(self) -> None:
+        for name in ("t_step", "a_before", "a_after"):
+            object.__setattr__(self, name, require_finite(name, getattr(self, name)))
+
+    def __call__(self, t: ArrayLike) -> np.ndarray:
+        """a(t) = a_before if t < t_step else a_after."""
+        times = _as_times(t)
+        return np.where(times < self.t_step, self.a_before, self.a_after).astype(float)
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """(t_step,)."""
+        return (self.t_step,)
+
+    def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
+        """[(t0, t_step, a_before), (t_step, t1, a_after)] clipped to [t0, t1]."""
+        start, end = _check_interval(t0, t1)
+        return _split_constant(start, end, self.breakpoints(), lambda s: float(self(s)))
+
+    def to_dict(self) -> dict[str, Any]:
+        """{'type': 'step', 't_step', 'a_before', 'a_after'}."""
+        return {"type": self.kind, "t_step": self.t_step, "a_before": self.a_before, "a_after": self.a_after}
+
+
+@dataclass(frozen=True)
+class Ramp(AccelProfile):
+    """a = a_start for t <= t_start, linear to a_end at t_end, a_end after."""
+
+    t_start: float
+    t_end: float
+    a_start: float
+    a_end: float
+    kind: ClassVar[str] = "ramp"
+
+    def __post_init__(self) -> None:
+        for name in ("t_start", "t_end", "a_start", "a_end"):
+            object.__setattr__(self, name, require_finite(name, getattr(self, name)))
+        if self.t_end <= self.t_start:
+            raise ParameterError(
+                f"ramp t_end must be > t_start, got t_start={self.t_start}, t_end={self.t_end}"
+            )
+
+    def __call__(self, t: ArrayLike) -> np.ndarray:
+        """a(t) = interp(t, [t_start, t_end], [a_start, a_end]), flat outside."""
+        times = _as_times(t)
+        return np.asarray(
+            np.interp(times, [self.t_start, self.t_end], [self.a_start, self.a_end]), dtype=float
+        )
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """(t_start, t_end): a' jumps at both."""
+        return (self.t_start, self.t_end)
+
+    def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
+        """Pieces when [t0, t1] avoids the sloped part (or a_start == a_end), else None."""
+        start, end = _check_interval(t0, t1)
+        if self.a_start != self.a_end and start < self.t_end and end > self.t_start:
+            return None
+        return _split_constant(start, end, (), lambda s: float(self(s)))
+
+    def to_dict(self) -> dict[str, Any]:
+        """{'type': 'ramp', 't_start', 't_end', 'a_start', 'a_end'}."""
+        return {
+            "type": self.kind,
+            "t_start": self.t_start,
+            "t_end": self.t_end,
+            "a_start": self.a_start,
+            "a_end": self.a_end,
+        }
+
+
+@dataclass(frozen=True)
+class Sinusoid(AccelProfile):
+    """a(t) = offset + amplitude · sin(2π · frequency_hz · t + phase)."""
+
+    amplitude: float
+    frequency_hz: float
+    offset: float = 0.0
+    phase: float = 0.0
+    kind: ClassVar[str] = "sinusoid"
+
+    def __post_init__(self) -> None:
+        for name in ("amplitude", "frequency_hz", "offset", "phase"):
+            object.__setattr__(self, name, require_finite(name, getattr(self, name)))
+        if self.frequency_hz < 0.0:
+            raise ParameterError(f"sinusoid frequency_hz must be >= 0, got {self.frequency_hz!r}")
+
+    def __call__(self, t: ArrayLike) -> np.ndarray:
+        """a(t) = offset + A sin(2π f t + φ)."""
+        times = _as_times(t)
+        return self.offset + self.amplitude * np.sin(2.0 * math.pi * self.frequency_hz * times + self.phase)
+
+    def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
+        """[(t0, t1, a)] when A = 0 or f = 0, else None."""
+        start, end = _check_interval(t0, t1)
+        if self.amplitude == 0.0 or self.frequency_hz == 0.0:
+            return [(start, end, float(self(start)))]
+        return None
+
+    def max_abs(self, t0: float, t1: float) -> float:
+        """max |a| on [t0, t1]: ends plus every crest 2πft + φ = π/2 + kπ inside."""
+        start, end = _check_interval(t0, t1)
+        omega = 2.0 * math.pi * self.frequency_hz
+        candidates = [start, end]
+        if omega > 0.0:
+            k_lo = math.ceil((omega * start + self.phase - math.pi / 2) / math.pi)
+            k_hi = math.floor((omega * end + self.phase - math.pi / 2) / math.pi)
+            if k_hi - k_lo >= 2:
+                return abs(self.offset) + abs(self.amplitude)
+            candidates += [(math.pi / 2 + k * math.pi - self.phase) / omega for k in range(k_lo, k_hi + 1)]
+        return float(np.max(np.abs(self(np.array(candidates)))))
+
+    def to_dict(self) -> dict[str, Any]:
+        """{'type': 'sinusoid', 'amplitude', 'frequency_hz', 'offset', 'phase'}."""
+        return {
+            "type": self.kind,
+            "amplitude": self.amplitude,
+            "frequency_hz": self.frequency_hz,
+            "offset": self.offset,
+            "phase": self.phase,
+        }
+
+
+@dataclass(frozen=True)
+class Table(AccelProfile):
+    """a(t) piecewise linear through (times[i], accels[i]), flat beyond the first and last point."""
+
+    times: tuple[float, ...]
+    accels: tuple[float, ...]
+    kind: ClassVar[str] = "table"
+    _t: np.ndarray = field(init=False, repr=False, compare=False)
+    _a: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        times = tuple(require_finite(f"times[{i}]", v) for i, v in enumerate(self.times))
+        accels = tuple(require_finite(f"accels[{i}]", v) for i, v in enumerate(self.accels))
+        if not times:
+            raise ParameterError("table needs at least one (t, a) point, got none")
+        if len(times) != len(accels):
+            raise ParameterError(f"table times and accels differ in length: {len(times)} vs {len(accels)}")
+        for i in range(1, len(times)):
+            if times[i] <= times[i - 1]:
+                raise ParameterError(
+                    f"table times must be strictly increasing: times[{i}]={times[i]} <= {times[i - 1]}"
+                )
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "accels", accels)
+        object.__setattr__(self, "_t", np.array(times))
+        object.__setattr__(self, "_a", np.array(accels))
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> Table:
+        """Table from CSV rows ``t, a`` (s, m/s²); a header row and ``#`` comments are skipped."""
+        source = Path(path)
+        try:
+            text = source.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ParameterError(f"cannot read acceleration CSV {source}: {exc.strerror}") from None
+        times: list[float] = []
+        accels: list[float] = []
+        for line_no, row in enumerate(csv.reader(text.splitlines()), start=1):
+            cells = [c.strip() for c in row]
+            if not cells or not any(cells) or cells[0].startswith("#"):
+                continue
+            if len(cells) < 2:
+                raise ParameterError(f"{source}:{line_no}: expected 't, a', got {','.join(cells)!r}")
+            try:
+                t_value, a_value = float(cells[0]), float(cells[1])
+            except ValueError:
+                if not times and not accels:
+                    continue  # a header row such as "t,a"
+                raise ParameterError(f"{source}:{line_no}: not a number in {','.join(cells)!r}") from None
+            if not (math.isfinite(t_value) and math.isfinite(a_value)):
+                raise ParameterError(
+                    f"{source}:{line_no}: t and a must be finite, got {t_value!r}, {a_value!r}"
+                )
+            if times and t_value <= times[-1]:
+                raise ParameterError(
+                    f"{source}:{line_no}: times must be strictly increasing, "
+                    f"got {t_value!r} after {times[-1]!r}"
+                )
+            times.append(t_value)
+            accels.append(a_value)
+        if not times:
+            raise ParameterError(f"{source}: no (t, a) rows found")
+        return cls(tuple(times), tuple(accels))
+
+    def __call__(self, t: ArrayLike) -> np.ndarray:
+        """a(t) = linear interpolation of the table, flat beyond its ends."""
+        times = _as_times(t)
+        return np.asarray(np.interp(times, self._t, self._a), dtype=float)
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """Every table time where the slope changes."""
+        # Flat extrapolation means slope 0 before the first point and after the last.
+        slopes = np.concatenate(([0.0], np.diff(self._a) / np.diff(self._t), [0.0]))
+        return tuple(t for i, t in enumerate(self.times) if slopes[i] != slopes[i + 1])
+
+    def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
+        """Pieces when every segment meeting [t0, t1] is flat, else None."""
+        start, end = _check_interval(t0, t1)
+        for i in range(len(self.times) - 1):
+            lo, hi = self.times[i], self.times[i + 1]
+            if self.accels[i] != self.accels[i + 1] and start < hi and end > lo:
+                return None
+        return _split_constant(start, end, self.times, lambda s: float(self(s)))
+
+    def to_dict(self) -> dict[str, Any]:
+        """{'type': 'table', 'times': [...], 'accels': [...]}."""
+        return {"type": self.kind, "times": list(self.times), "accels": list(self.accels)}
+
+
+@dataclass(frozen=True)
+class Braking(AccelProfile):
+    """a = -decel for t_start <= t < t_start + v0/decel (the car stops), 0 otherwise."""
+
+    v0: float
+    decel: float
+    t_start: float = 0.0
+    kind: ClassVar[str] = "braking"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "v0", require_positive("v0", self.v0))
+        object.__setattr__(self, "decel", require_positive("decel", self.decel))
+        object.__setattr__(self, "t_start", require_finite("t_start", self.t_start))
+
+    @property
+    def t_stop(self) -> float:
+        """t_stop = t_start + v0/decel."""
+        return self.t_start + self.v0 / self.decel
+
+    def __call__(self, t: ArrayLike) -> np.ndarray:
+        """a(t) = -decel on [t_start, t_stop), else 0."""
+        times = _as_times(t)
+        braking = (times >= self.t_start) & (times < self.t_stop)
+        return np.where(braking, -self.decel, 0.0).astype(float)
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """(t_start, t_stop)."""
+        return (self.t_start, self.t_stop)
+
+    def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
+        """Always piecewise constant: split at t_start and t_stop."""
+        start, end = _check_interval(t0, t1)
+        return _split_constant(start, end, self.breakpoints(), lambda s: float(self(s)))
+
+    def to_dict(self) -> dict[str, Any]:
+        """{'type': 'braking', 'v0', 'decel', 't_start'}."""
+        return {"type": self.kind, "v0": self.v0, "decel": self.decel, "t_start": self.t_start}
+
+
+_FIELDS: dict[str, tuple[type[AccelProfile], tuple[str, ...], tuple[str, ...]]] = {
+    # kind: (class, required fields, optional fields)
+    "constant": (Constant, ("a",), ()),
+    "step": (Step, ("t_step", "a_before", "a_after"), ()),
+    "ramp": (Ramp, ("t_start", "t_end", "a_start", "a_end"), ()),
+    "sinusoid": (Sinusoid, ("amplitude", "frequency_hz"), ("offset", "phase")),
+    "table": (Table, ("times", "accels"), ()),
+    "braking": (Braking, ("v0", "decel"), ("t_start",)),
+    "csv": (Table, ("path",), ()),
+}
+PROFILE_TYPES: tuple[str, ...] = tuple(_FIELDS)
+
+
+def _number(kind: str, name: str, value: object) -> float:
+    """float(value) for profile field ``name``, else ParameterError naming it."""
+    if isinstance(value, bool) or not isinstance(value, int | float | str):
+        raise ParameterError(f"{kind} profile field '{name}' must be a number, got {value!r}")
+    return require_finite(f"{kind} profile field '{name}'", value)  # type: ignore[arg-type]
+
+
+def _numbers(kind: str, name: str, value: object) -> tuple[float, ...]:
+    """Tuple of floats for list field ``name``, else ParameterError naming it."""
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence):
+        raise ParameterError(f"{kind} profile field '{name}' must be a list of numbers, got {value!r}")
+    return tuple(_number(kind, f"{name}[{i}]", v) for i, v in enumerate(value))
+
+
+def profile_from_dict(d: Mapping[str, object], base_dir: Path | None = None) -> AccelProfile:
+    """Profile from {'type': kind, field: value}, kind in PROFILE_TYPES; csv 'path' is under base_dir."""
+    if not isinstance(d, Mapping):
+        raise ParameterError(f"acceleration profile must be a mapping with a 'type', got {d!r}")
+    kind = d.get("type")
+    if kind not in _FIELDS:
+        raise ParameterError(
+            f"acceleration profile field 'type' must be one of {', '.join(_FIELDS)}, got {kind!r}"
+        )
+    assert isinstance(kind, str)
+    cls, required, optional = _FIELDS[kind]
+    for name in d:
+        if name != "type" and name not in required and name not in optional:
+            raise ParameterError(
+                f"{kind} profile has unknown field '{name}' (allowed: {', '.join(required + optional)})"
+            )
+    for name in required:
+        if name not in d:
+            raise ParameterError(f"{kind} profile is missing field '{name}'")
+    if kind == "csv":
+        raw = d["path"]
+        if not isinstance(raw, str | Path):
+            raise ParameterError(f"csv profile field 'path' must be a file path, got {raw!r}")
+        path = Path(raw)
+        if not path.is_absolute() and base_dir is not None:
+            path = Path(base_dir) / path
+        return Table.from_csv(path)
+    if kind == "table":
+        return Table(_numbers(kind, "times", d["times"]), _numbers(kind, "accels", d["accels"]))
+    kwargs = {name: _number(kind, name, d[name]) for name in required + optional if name in d}
+    return cls(**kwargs)
+
+
+def scalar_accel(profile: AccelProfile, t0: float, t1: float) -> Callable[[float], float]:
+    """t ↦ float a(t) on [t0, t1], by table lookup when piecewise constant there (fast in tight loops)."""
+    pieces = profile.constant_pieces(t0, t1)
+    if pieces is None:
+        return lambda t: float(profile(t))
+    if len(pieces) == 1:
+        value = pieces[0][2]
+        return lambda t: value
+    inner_ends = [end for _, end, _ in pieces[:-1]]
+    values = [a for _, _, a in pieces]
+    # bisect_right puts a time equal to a breakpoint in the later piece, like the profiles do.
+    return lambda t: values[bisect.bisect_right(inner_ends, t)]

@@ -1,0 +1,241 @@
+"""Bag writer/reader: bulk CDR and MCAP paths equal the rosbags ones byte for byte; damage is salvaged."""
+
+from __future__ import annotations
+
+import filecmp
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+
+from pendulum_accel.bag import messages as M
+from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag.repair import repair_bag
+from pendulum_accel.bag.writer import BagWriter, Stream
+from pendulum_accel.errors import BagError
+
+RNG = np.random.default_rng(20261122)
+
+
+def _layouts() -> list[tuple[str, object, dict[str, np.ndarray]]]:
+    """(msgtype, template message, random columns) for every fixed-layout message of the chain."""
+    n = 50
+    ns = np.sort(RNG.integers(0, 4 * 10**9, n))
+    sec, nsec = M.split_stamp(ns)
+    stamp = {"header.stamp.sec": sec, "header.stamp.nanosec": nsec}
+    return [
+        (
+            M.JOINT_STATE,
+            M.joint_state(0, [M.PENDULUM_JOINT], [0.0], [0.0]),
+            {**stamp, "position[0]": RNG.normal(size=n), "velocity[0]": RNG.normal(size=n)},
+        ),
+        (
+            M.JOINT_STATE,
+            M.joint_state(0, [M.STRING_JOINT], [0.0], [0.0], [0.0]),
+            {**stamp, "position[0]": RNG.normal(size=n), "effort[0]": RNG.normal(size=n) * 10},
+        ),
+        (M.ACCEL_STAMPED, M.accel_stamped(0, 0.0), {**stamp, "accel.linear.x": RNG.normal(size=n)}),
+        (
+            M.ACCEL_WITH_COVARIANCE_STAMPED,
+            M.accel_with_covariance_stamped(0, 0.0, 0.0),
+            {**stamp, "accel.accel.linear.x": RNG.normal(size=n), "accel.covariance[0]": RNG.random(n)},
+        ),
+        (M.CLOCK, M.clock(0), {"clock.sec": sec, "clock.nanosec": nsec}),
+    ]
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_bulk_cdr_equals_typestore_byte_for_byte(case: int) -> None:
+    """Layout.encode rows == typestore.serialize_cdr of the same message; decode inverts both."""
+    msgtype, template, columns = _layouts()[case]
+    layout = M.Layout.of(template, msgtype)
+    n = len(next(iter(columns.values())))
+    rows = layout.encode(n, columns)
+    for i in range(n):
+        msg = M.deserialize(M.serialize(template, msgtype), msgtype)
+        for path, col in columns.items():
+            M._set_leaf(msg, path, col[i].item())
+        assert rows[i].tobytes() == M.serialize(msg, msgtype)
+    decoded = layout.decode(rows)
+    for path, col in columns.items():
+        np.testing.assert_array_equal(decoded[path], col)
+    assert layout.matches(rows).all()
+
+
+def test_encode_refuses_nan() -> None:
+    """A NaN field is a one-line BagError, never written."""
+    layout = M.Layout.of(M.accel_stamped(0, 0.0), M.ACCEL_STAMPED)
+    with pytest.raises(BagError, match="NaN"):
+        layout.encode(2, {"accel.linear.x": [1.0, np.nan]})
+
+
+def _chain_streams(n: int) -> tuple[list[Stream], dict[str, str]]:
+    """Streams like a 1 kHz recording: clock, joint states, truth, estimate, diagnostics with 2 sizes."""
+    ns = M.seconds_to_ns(np.arange(n) * 1e-3)
+    sec, nsec = M.split_stamp(ns)
+    stamp = {"header.stamp.sec": sec, "header.stamp.nanosec": nsec}
+    js = M.Layout.of(M.joint_state(0, [M.PENDULUM_JOINT], [0.0], [0.0]), M.JOINT_STATE)
+    tr = M.Layout.of(M.accel_stamped(0, 0.0), M.ACCEL_STAMPED)
+    est = M.Layout.of(M.accel_with_covariance_stamped(0, 0.0, 0.0), M.ACCEL_WITH_COVARIANCE_STAMPED)
+    ck = M.Layout.of(M.clock(0), M.CLOCK)
+    theta = RNG.normal(size=n) * 0.1
+    diag_ns = ns[::500]
+    diag = [
+        M.serialize(M.diagnostic_array(int(t), 0, "accel_estimator", "OK" if i % 2 else "warming up"), M.DIAGNOSTIC_ARRAY)
+        for i, t in enumerate(diag_ns)
+    ]
+    streams = [
+        Stream(M.TOPIC_CLOCK, ns, ck.encode(n, {"clock.sec": sec, "clock.nanosec": nsec})),
+        Stream(M.TOPIC_JOINT_STATES, ns, js.encode(n, {**stamp, "position[0]": theta})),
+        Stream(M.TOPIC_ACCEL_TRUTH, ns, tr.encode(n, {**stamp, "accel.linear.x": np.tan(theta) * 9.8})),
+        Stream(M.TOPIC_ACCEL_ESTIMATE, ns, est.encode(n, {**stamp, "accel.accel.linear.x": theta})),
+        Stream(M.TOPIC_DIAGNOSTICS, diag_ns, diag),
+    ]
+    return streams, {s.topic: M.TOPIC_TYPES[s.topic] for s in streams}
+
+
+def _merged(streams: list[Stream]) -> list[tuple[int, int, str, bytes]]:
+    """Messages of all streams in (log time, stream order) order, as per-message writes see them."""
+    out = []
+    for k, s in enumerate(streams):
+        payloads = s.payloads if isinstance(s.payloads, list) else [bytes(r) for r in s.payloads]
+        out += [(int(t), k, s.topic, p) for t, p in zip(s.log_time_ns, payloads, strict=True)]
+    return sorted(out, key=lambda m: (m[0], m[1]))
+
+
+def test_bulk_write_equals_plain_rosbags_writer(tmp_path: Path) -> None:
+    """write_sorted produces the same .mcap bytes as a plain rosbags Writer fed message by message."""
+    streams, types = _chain_streams(12_000)  # > 1 MiB: several chunks
+    custom = {"pendulum_accel.scene": "name: x\n", "pendulum_accel.plan": "rigid/DOP853"}
+    with BagWriter(tmp_path / "a" / "bag", custom_data=custom, flush_interval=None) as w:
+        for topic, msgtype in types.items():
+            w.add_topic(topic, msgtype)
+        w.write_sorted(streams)
+    plain = Writer(tmp_path / "b" / "bag", version=9, storage_plugin=StoragePlugin.MCAP)
+    for key, value in {"pendulum_accel.version": "0.1.0", **custom}.items():
+        plain.set_custom_data(key, value)
+    plain.open()
+    conns = {
+        t: plain.add_connection(t, m, typestore=M.TYPESTORE, offered_qos_profiles=[M.qos_profile()])
+        for t, m in types.items()
+    }
+    for t, _, topic, payload in _merged(streams):
+        plain.write(conns[topic], t, payload)
+    plain.close()
+    assert filecmp.cmp(tmp_path / "a" / "bag" / "bag.mcap", tmp_path / "b" / "bag" / "bag.mcap", shallow=False)
+    assert (tmp_path / "a/bag/bag.mcap").stat().st_size > 2 * 2**20
+
+
+def test_reader_matches_rosbags_deserializer(tmp_path: Path) -> None:
+    """Bulk-decoded columns equal rosbags Reader + deserialize_cdr field by field; counts, custom_data."""
+    streams, types = _chain_streams(3000)
+    with BagWriter(tmp_path / "bag", custom_data={"pendulum_accel.plan": "p"}) as w:
+        for topic, msgtype in types.items():
+            w.add_topic(topic, msgtype)
+        w.write_sorted(streams)
+        counts = w.counts
+    bag = read_bag(tmp_path / "bag")
+    assert bag.problem is None and bag.complete
+    assert {n: t.count for n, t in bag.topics.items()} == counts
+    assert bag.custom_data["pendulum_accel.plan"] == "p"
+    js = bag.decode(M.TOPIC_JOINT_STATES, M.JOINT_STATE)
+    est = bag.decode(M.TOPIC_ACCEL_ESTIMATE, M.ACCEL_WITH_COVARIANCE_STAMPED)
+    ref_theta, ref_stamp, ref_est = [], [], []
+    with Reader(tmp_path / "bag") as reader:
+        for conn, _, raw in reader.messages():
+            msg = M.TYPESTORE.deserialize_cdr(raw, conn.msgtype)
+            if conn.topic == M.TOPIC_JOINT_STATES:
+                ref_theta.append(msg.position[0])
+                ref_stamp.append(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+            elif conn.topic == M.TOPIC_ACCEL_ESTIMATE:
+                ref_est.append(msg.accel.accel.linear.x)
+    np.testing.assert_array_equal(js["position[0]"], ref_theta)
+    np.testing.assert_allclose(js.stamp, ref_stamp, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(est["accel.accel.linear.x"], ref_est)
+    # The variable-size diagnostics fall back to shape groups; iter_raw is time-ordered.
+    diag = bag.decode(M.TOPIC_DIAGNOSTICS)
+    assert len(diag) == counts[M.TOPIC_DIAGNOSTICS]
+    times = [t for _, t, _ in bag.iter_raw()]
+    assert times == sorted(times) and len(times) == sum(counts.values())
+
+
+def test_never_overwrites(tmp_path: Path) -> None:
+    """An existing bag is a BagError unless overwrite=True; a non-bag folder is never deleted."""
+    BagWriter(tmp_path / "bag").close()
+    with pytest.raises(BagError, match="exists already"):
+        BagWriter(tmp_path / "bag")
+    BagWriter(tmp_path / "bag", overwrite=True).close()
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "thesis.tex").write_text("precious")
+    with pytest.raises(BagError, match="not a bag directory"):
+        BagWriter(tmp_path / "notes", overwrite=True)
+    assert (tmp_path / "notes" / "thesis.tex").read_text() == "precious"
+
+
+def _write_chain_bag(path: Path, n: int = 6000) -> dict[str, int]:
+    """A multi-chunk bag of the chain's topics; returns its counts."""
+    streams, types = _chain_streams(n)
+    with BagWriter(path, custom_data={"pendulum_accel.plan": "plan line"}) as w:
+        for topic, msgtype in types.items():
+            w.add_topic(topic, msgtype)
+        w.write_sorted(streams)
+        return w.counts
+
+
+def test_truncated_bag_is_salvaged_and_repaired(tmp_path: Path) -> None:
+    """Cut the file mid-way: clear BagError when strict, the complete chunks before the cut otherwise."""
+    counts = _write_chain_bag(tmp_path / "bag")
+    mcap = tmp_path / "bag" / "bag.mcap"
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[: int(len(data) * 0.6)])
+    with pytest.raises(BagError, match="truncated"):
+        read_bag(tmp_path / "bag", salvage=False)
+    bag = read_bag(tmp_path / "bag")
+    assert bag.problem is not None and "truncated" in bag.problem
+    kept = bag.topics[M.TOPIC_JOINT_STATES].count
+    assert 0.3 * counts[M.TOPIC_JOINT_STATES] < kept < counts[M.TOPIC_JOINT_STATES]
+    js = bag.decode(M.TOPIC_JOINT_STATES, M.JOINT_STATE)
+    np.testing.assert_allclose(js.stamp, np.arange(kept) * 1e-3, atol=1e-9)  # a prefix, in order
+    result = repair_bag(tmp_path / "bag")
+    assert result.rewritten and result.counts[M.TOPIC_JOINT_STATES] == kept
+    assert result.backup is not None and result.backup.exists()
+    fixed = read_bag(tmp_path / "bag", salvage=False)
+    assert fixed.custom_data["pendulum_accel.plan"] == "plan line"
+    with Reader(tmp_path / "bag") as reader:
+        assert reader.message_count == fixed.message_count
+        assert sum(1 for _ in reader.messages()) == fixed.message_count
+    assert not repair_bag(tmp_path / "bag").rewritten
+
+
+def test_corrupt_bytes_stop_at_first_bad_record(tmp_path: Path) -> None:
+    """Garbage over the middle of the file: the records before it are kept, the problem is named."""
+    _write_chain_bag(tmp_path / "bag")
+    mcap = tmp_path / "bag" / "bag.mcap"
+    data = bytearray(mcap.read_bytes())
+    middle = len(data) // 2
+    data[middle : middle + 4096] = b"\xff" * 4096
+    mcap.write_bytes(bytes(data))
+    bag = read_bag(tmp_path / "bag")
+    assert bag.problem is not None and "corrupt" in bag.problem
+    js = bag.decode(M.TOPIC_JOINT_STATES, M.JOINT_STATE)
+    assert 0 < len(js)
+    np.testing.assert_allclose(js.stamp, np.arange(len(js)) * 1e-3, atol=1e-9)
+
+
+def test_not_a_bag_and_wrong_type(tmp_path: Path) -> None:
+    """Not an MCAP file, a missing path, a topic of another type: one-line BagErrors naming the cause."""
+    (tmp_path / "junk").mkdir()
+    (tmp_path / "junk" / "junk.mcap").write_bytes(b"this is not an mcap file")
+    with pytest.raises(BagError, match="not an MCAP file"):
+        read_bag(tmp_path / "junk")
+    with pytest.raises(BagError, match="does not exist"):
+        read_bag(tmp_path / "nothing")
+    _write_chain_bag(tmp_path / "bag", n=100)
+    bag = read_bag(tmp_path / "bag")
+    with pytest.raises(BagError, match=r"/car/accel/truth .* has type geometry_msgs/msg/AccelStamped, expected"):
+        bag.decode(M.TOPIC_ACCEL_TRUTH, M.JOINT_STATE)
+    with pytest.raises(BagError, match="has no topic /nope"):
+        bag.decode("/nope")
+    with pytest.raises(BagError, match="no field 'effort\\[0\\]'"):
+        bag.decode(M.TOPIC_JOINT_STATES, M.JOINT_STATE, fields=["effort[0]"])

@@ -1,0 +1,134 @@
+"""InputGuard: every diagnostic state provoked (NaN, reorder, time jump, near 90°, stale) and the wrapper."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.estimators import make_estimator
+from pendulum_accel.estimators.guard import Decision, GuardedEstimator, GuardState, InputGuard
+
+
+def feed(guard: InputGuard, n: int, t0: float = 0.0, theta: float = 0.05) -> None:
+    """n good samples at 200 Hz from t0."""
+    for k in range(n):
+        assert guard.check(t0 + k / 200.0, theta) is Decision.ACCEPT
+
+
+def test_normal_input_is_ok_with_counters_as_key_values() -> None:
+    guard = InputGuard(rate_hz=200.0)
+    feed(guard, 10)
+    report = guard.report()
+    assert report.state is GuardState.OK and report.level == 0
+    assert report.message == "input normal: 10 samples accepted"
+    values = dict(report.values)
+    assert values["accepted"] == "10" and values["dropped_nonfinite"] == "0"
+    assert all(isinstance(k, str) and isinstance(v, str) for k, v in report.values)
+
+
+@pytest.mark.parametrize(
+    ("t", "theta"), [(0.1, math.nan), (0.1, math.inf), (math.nan, 0.1), (-math.inf, 0.0)]
+)
+def test_nonfinite_input_is_dropped_as_error(t: float, theta: float) -> None:
+    guard = InputGuard()
+    feed(guard, 3)
+    assert guard.check(t, theta) is Decision.DROP
+    report = guard.report()
+    assert report.state is GuardState.ERROR and report.level == 2
+    assert "non-finite" in report.message
+    assert dict(report.values)["dropped_nonfinite"] == "1"
+
+
+def test_worst_state_is_latched_until_reported_then_rearmed() -> None:
+    """A NaN between two diagnostics publications is still reported, once."""
+    guard = InputGuard()
+    feed(guard, 3)
+    guard.check(0.02, math.nan)
+    feed(guard, 5, t0=0.03)
+    assert guard.report().state is GuardState.ERROR
+    assert guard.report().state is GuardState.OK
+
+
+def test_small_reorder_and_duplicate_are_dropped_with_warning() -> None:
+    guard = InputGuard(reset_jump=1.0)
+    feed(guard, 10)  # last t = 0.045
+    assert guard.check(0.045, 0.05) is Decision.DROP  # duplicate stamp
+    assert guard.check(0.030, 0.05) is Decision.DROP  # 15 ms back
+    report = guard.report()
+    assert report.state is GuardState.WARN and report.level == 1
+    assert "out-of-order" in report.message
+    assert dict(report.values)["dropped_out_of_order"] == "2"
+    assert guard.last_t == pytest.approx(0.045)
+
+
+def test_large_jump_back_resets() -> None:
+    """A looping bag: t goes from 12 s back to 0 s."""
+    guard = InputGuard(reset_jump=1.0)
+    feed(guard, 5, t0=12.0)
+    assert guard.check(0.0, 0.05) is Decision.RESET
+    report = guard.report()
+    assert report.state is GuardState.RESET and report.level == 1
+    assert "jumped back by 12.020 s" in report.message
+    assert dict(report.values)["resets"] == "1"
+    assert guard.check(0.005, 0.05) is Decision.ACCEPT  # the new timeline continues
+
+
+@pytest.mark.parametrize(
+    ("degrees", "words"), [(85.0, "ill-conditioned"), (90.0, "clamped"), (120.0, "clamped")]
+)
+def test_near_90_degrees_warns_but_accepts(degrees: float, words: str) -> None:
+    guard = InputGuard(warn_angle=math.radians(80.0))
+    assert guard.check(0.0, -math.radians(degrees)) is Decision.ACCEPT
+    report = guard.report()
+    assert report.state is GuardState.WARN and words in report.message
+    assert f"{degrees:.1f}°" in report.message
+
+
+def test_stale_after_silence_and_recovery() -> None:
+    guard = InputGuard(rate_hz=200.0, stale_after=0.5)
+    guard.check(0.0, 0.0, now=100.0)
+    assert not guard.check_stale(100.4)
+    assert guard.report().state is GuardState.OK
+    assert guard.check_stale(100.8)
+    report = guard.report()
+    assert report.state is GuardState.STALE and report.level == 3
+    assert "no input for 0.80 s" in report.message
+    assert guard.check_stale(101.5)  # still stale on the next timer tick
+    assert guard.report().state is GuardState.STALE
+    guard.check(0.005, 0.0, now=101.6)
+    assert not guard.check_stale(101.7)
+    assert guard.report().state is GuardState.OK
+
+
+def test_stale_when_nothing_ever_arrived() -> None:
+    guard = InputGuard(stale_after=1.0)
+    assert not guard.check_stale(5.0)  # first tick starts the clock
+    assert guard.check_stale(6.5)
+    assert guard.report().state is GuardState.STALE
+
+
+def test_default_stale_threshold_and_validation() -> None:
+    assert InputGuard(rate_hz=200.0).stale_after == 0.5
+    assert InputGuard(rate_hz=10.0).stale_after == pytest.approx(2.0)
+    with pytest.raises(ParameterError, match="reset_jump"):
+        InputGuard(reset_jump=0.0)
+
+
+def test_guarded_estimator_replays_a_looping_bag_identically_and_never_emits_nonfinite() -> None:
+    rng = np.random.default_rng(5)
+    t = np.arange(800) / 200.0
+    theta = 0.2 + 0.05 * np.sin(4.4 * t) + 1e-3 * rng.standard_normal(t.size)
+    theta[[100, 300]] = np.nan
+    theta[500] = np.inf
+    wrapped = GuardedEstimator(make_estimator("kalman", length=0.5, noise_std=1e-3, rate_hz=200.0))
+    first = [wrapped.update(ti, yi) for ti, yi in zip(t.tolist(), theta.tolist(), strict=True)]
+    second = [wrapped.update(ti, yi) for ti, yi in zip(t.tolist(), theta.tolist(), strict=True)]
+    assert first == second  # the jump back reset the estimator, so the replay is bit-identical
+    assert sum(o is None for o in first) == 3
+    assert all(math.isfinite(o.a) and math.isfinite(o.variance) for o in first + second if o is not None)
+    guard = wrapped.guard
+    assert guard.resets == 1 and guard.dropped_nonfinite == 6
+    assert guard.report().state is GuardState.ERROR  # worst since the last report

@@ -1,0 +1,100 @@
+"""Package metadata is consistent for colcon (ament_python) and for pip."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+import pendulum_accel
+from test.conftest import REPO
+
+NODES = ("pendulum_sim", "accel_estimator", "bag_recorder", "bag_player")
+
+
+def _package_xml() -> ET.Element:
+    return ET.parse(REPO / "package.xml").getroot()
+
+
+def _console_scripts() -> dict[str, str]:
+    """console_scripts from setup.py, read without running it."""
+    tree = ast.parse((REPO / "setup.py").read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Dict):
+            for key, value in zip(node.keys, node.values, strict=True):
+                if isinstance(key, ast.Constant) and key.value == "console_scripts":
+                    entries = ast.literal_eval(value)
+                    return dict(tuple(part.strip() for part in e.split("=", 1)) for e in entries)
+    raise AssertionError("setup.py has no console_scripts")
+
+
+def test_package_xml_is_format_3_ament_python() -> None:
+    root = _package_xml()
+    assert root.get("format") == "3"
+    assert root.findtext("name") == "pendulum_accel"
+    assert root.findtext("license") == "Apache-2.0"
+    assert root.findtext("export/build_type") == "ament_python"
+    exec_deps = {e.text for e in root.findall("exec_depend")}
+    expected = {"rclpy", "std_msgs", "sensor_msgs", "geometry_msgs", "diagnostic_msgs", "rosgraph_msgs"}
+    assert expected | {"python3-numpy", "python3-scipy", "python3-yaml"} <= exec_deps
+    assert {e.text for e in root.findall("test_depend")} == {"python3-pytest"}
+
+
+def test_one_version_everywhere() -> None:
+    xml_version = _package_xml().findtext("version")
+    assert pendulum_accel.__version__ == xml_version
+    assert importlib.metadata.version("pendulum_accel") == xml_version
+
+
+def test_ament_resource_marker_and_setup_cfg() -> None:
+    assert (REPO / "resource" / "pendulum_accel").is_file()
+    cfg = (REPO / "setup.cfg").read_text()
+    assert "script_dir=$base/lib/pendulum_accel" in cfg
+    assert "install_scripts=$base/lib/pendulum_accel" in cfg
+
+
+def test_console_scripts_point_at_real_functions() -> None:
+    scripts = _console_scripts()
+    assert set(NODES) | {"pendulum-accel"} <= set(scripts)
+    for target in scripts.values():
+        module, func = target.split(":")
+        assert callable(getattr(importlib.import_module(module), func)), target
+
+
+def test_ros_wheels_are_not_a_hard_dependency() -> None:
+    requires = importlib.metadata.requires("pendulum_accel") or []
+    assert not [r for r in requires if r.lower().startswith(("ros-", "rclpy"))]
+    pinned = [
+        line for line in (REPO / "requirements-ros.txt").read_text().splitlines() if line.startswith("ros-")
+    ]
+    assert pinned and all("==" in line for line in pinned)
+
+
+@pytest.mark.slow
+def test_colcon_build_installs_ros2_run_layout(tmp_path: Path) -> None:
+    colcon = str(Path(sys.executable).with_name("colcon"))
+    if not Path(colcon).exists():
+        colcon = shutil.which("colcon") or "colcon"
+    workspace = tmp_path / "ws"
+    (workspace / "src").mkdir(parents=True)
+    (workspace / "src" / "pendulum_accel").symlink_to(REPO)
+    result = subprocess.run(
+        [colcon, "build", "--base-paths", "src"],
+        cwd=workspace,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    prefix = workspace / "install" / "pendulum_accel"
+    for name in (*NODES, "pendulum-accel"):
+        assert (prefix / "lib" / "pendulum_accel" / name).is_file(), name
+    assert (prefix / "share" / "ament_index" / "resource_index" / "packages" / "pendulum_accel").is_file()
+    assert (prefix / "share" / "pendulum_accel" / "package.xml").is_file()
+    assert list((prefix / "share" / "pendulum_accel" / "scenes").glob("*.yaml"))
