@@ -16,6 +16,7 @@ estimated acceleration) are written as one CSV table.
 from __future__ import annotations
 
 import csv
+import itertools
 import math
 import sys
 from collections.abc import Callable, Sequence
@@ -28,8 +29,10 @@ from tqdm import tqdm
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, METHODS, integrate
-from pendulum_accel.physics.params import Pendulum, require_finite
+from pendulum_accel.physics.params import Pendulum, require_finite, require_positive
 from pendulum_accel.physics.profiles import AccelProfile, scalar_accel
+from pendulum_accel.scene import Scene
+from pendulum_accel.sensor import SensorModel
 
 SWEEP_FIELDS: tuple[str, ...] = ("length", "accel", "noise")
 DEFAULT_METHOD = "rk4"
@@ -174,10 +177,8 @@ def integrate_batch(
         disable=not progress,
         leave=False,
     ) as bar:
-        for lo, hi in zip(edges[:-1], edges[1:], strict=True):
-            chunk = integrate(
-                rhs, y, times[lo : hi + 1], method, dt, breakpoints=breakpoints, omega=omega
-            )
+        for lo, hi in itertools.pairwise(edges):
+            chunk = integrate(rhs, y, times[lo : hi + 1], method, dt, breakpoints=breakpoints, omega=omega)
             out[..., lo + 1 : hi + 1] = chunk.y[..., 1:]
             y = chunk.y[..., -1]
             bar.update(int(hi - lo))
@@ -193,9 +194,28 @@ class SweepSetup:
     theta0: float
     theta_dot0: float
     t: np.ndarray
-    sensor: object  # pendulum_accel.sensor.SensorModel (duck-typed: replace(noise_std=...), measure(t, θ))
+    sensor: SensorModel | None  # None: run_batch only (no measurement)
     noise_std: float
     rate_hz: float
+
+
+def setup_from_scene(scene: Scene, *, duration: float | None = None) -> SweepSetup:
+    """SweepSetup of a scene: its pendulum, a(t), initial state and sensor, sampled at the sensor rate.
+
+    ``duration`` (s) overrides the scene's. The scene's forced model or accuracy target is not used:
+    a sweep always steps the rigid model (see ``run_sweep``).
+    """
+    span = scene.duration if duration is None else require_positive("duration", duration)
+    return SweepSetup(
+        pendulum=scene.pendulum,
+        profile=scene.profile,
+        theta0=scene.theta0,
+        theta_dot0=scene.theta_dot0,
+        t=scene.sensor.sample_times(span),
+        sensor=scene.sensor,
+        noise_std=scene.sensor.noise_std,
+        rate_hz=scene.sensor.rate_hz,
+    )
 
 
 @dataclass(frozen=True)
@@ -303,7 +323,9 @@ def run_batch(
     y0 = np.empty((2, n))
     y0[0] = setup.theta0
     y0[1] = setup.theta_dot0
-    y = integrate_batch(rhs, y0, t, method=method, dt=step, breakpoints=breaks, omega=omega, progress=progress)
+    y = integrate_batch(
+        rhs, y0, t, method=method, dt=step, breakpoints=breaks, omega=omega, progress=progress
+    )
     return y[0], y[1], step, steps
 
 
@@ -323,7 +345,7 @@ def run_sweep(
     ``estimator`` (default: the package's DEFAULT_ESTIMATOR; 'none' skips it) runs on each variant's
     measured angle through its batch path.
     """
-    from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
+    from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
 
     if field not in SWEEP_FIELDS:
         raise ParameterError(f"unknown sweep field {field!r}; choose one of {', '.join(SWEEP_FIELDS)}")
@@ -338,27 +360,37 @@ def run_sweep(
     noises = vals if field == "noise" else np.full(n, setup.noise_std)
     if field == "noise":
         # The dynamics do not depend on the sensor: integrate the one trajectory, measure it n times.
-        theta1, theta_dot1, step, steps = run_batch(setup, lengths[:1], None, method=method, dt=dt, progress=progress)
+        theta1, _, step, steps = run_batch(
+            setup, lengths[:1], None, method=method, dt=dt, progress=progress
+        )
         theta = np.broadcast_to(theta1, (n, t.size))
     else:
         theta, _, step, steps = run_batch(setup, lengths, accels, method=method, dt=dt, progress=progress)
     if not np.all(np.isfinite(theta)):
         bad = int(np.flatnonzero(~np.all(np.isfinite(theta), axis=1))[0])
-        raise ParameterError(f"variant {bad} ({field}={vals[bad]!r}) produced a non-finite angle; try a smaller dt")
+        raise ParameterError(
+            f"variant {bad} ({field}={vals[bad]!r}) produced a non-finite angle; try a smaller dt"
+        )
 
     tail = slice(t.size // 2, None)  # steady-state figures use the second half of the run
-    a_final = vals if field == "accel" else np.full(n, float(setup.profile(t[-1])))
-    theta_eq = np.arctan2(a_final, p.gravity)
+    # For a time-varying profile the steady-state figures compare with a(t) averaged over the same tail.
+    a_steady = vals if field == "accel" else np.full(n, float(np.mean(setup.profile(t[tail]))))
+    theta_eq = np.arctan2(a_steady, p.gravity)
     theta_mean = theta[:, tail].mean(axis=1)
     period = _periods(t[tail], theta[:, tail])
-    small_period = 2.0 * math.pi / np.sqrt(np.hypot(p.gravity, a_final) / lengths)
+    small_period = 2.0 * math.pi / np.sqrt(np.hypot(p.gravity, a_steady) / lengths)
 
     name = DEFAULT_ESTIMATOR if estimator is None else estimator
+    if name != "none" and name not in ESTIMATORS:
+        raise ParameterError(f"unknown estimator {name!r}; choose one of {', '.join(ESTIMATORS)}, none")
+    base_sensor = SensorModel(rate_hz=setup.rate_hz) if setup.sensor is None else setup.sensor
     a_est = np.full(n, np.nan)
     a_gtan = np.full(n, np.nan)
-    for i in tqdm(range(n), desc="estimate", unit="variant", file=sys.stderr, disable=not progress, leave=False):
-        sensor = replace(setup.sensor, noise_std=float(noises[i]))  # type: ignore[type-var]
-        measured = np.asarray(sensor.measure(t, theta[i]), dtype=float)  # type: ignore[attr-defined]
+    for i in tqdm(
+        range(n), desc="estimate", unit="variant", file=sys.stderr, disable=not progress, leave=False
+    ):
+        sensor = replace(base_sensor, noise_std=float(noises[i]))
+        measured = sensor.measure(t, theta[i])
         a_gtan[i] = p.gravity * math.tan(float(np.mean(measured[tail])))
         if name != "none":
             a_hat, _ = estimate_batch(
@@ -376,7 +408,7 @@ def run_sweep(
     columns: dict[str, np.ndarray] = {
         "variant": np.arange(n),
         "length": lengths,
-        "accel": a_final,
+        "accel": a_steady,
         "noise_std": noises,
         "theta_eq": theta_eq,
         "theta_mean": theta_mean,
@@ -385,7 +417,7 @@ def run_sweep(
         "period_small_angle": small_period,
         "accel_g_tan_mean": a_gtan,
         "accel_estimate": a_est,
-        "accel_estimate_error": a_est - a_final,
+        "accel_estimate_error": a_est - a_steady,
     }
     return SweepResult(
         field=field,
@@ -408,4 +440,5 @@ __all__ = [
     "parse_values",
     "run_batch",
     "run_sweep",
+    "setup_from_scene",
 ]

@@ -15,7 +15,7 @@ from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 from ruamel.yaml import YAML
 
-from pendulum_accel.bag import messages as M
+from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import BagWriter
 from test.test_bag_io import _chain_streams
@@ -25,13 +25,15 @@ from test.test_bag_io import _chain_streams
 MCAP_CORE_SCRIPT = r"""
 const fs = require("fs");
 const { McapIndexedReader, McapStreamReader } = require("@mcap/core");
+const fzstd = require("fzstd");
+const decompressHandlers = { zstd: (data, size) => fzstd.decompress(data, new Uint8Array(Number(size))) };
 async function main() {
   const buf = fs.readFileSync(process.argv[2]);
   const readable = {
     size: async () => BigInt(buf.length),
     read: async (offset, size) => buf.subarray(Number(offset), Number(offset + size)),
   };
-  const reader = await McapIndexedReader.Initialize({ readable });
+  const reader = await McapIndexedReader.Initialize({ readable, decompressHandlers });
   const counts = {};
   for await (const msg of reader.readMessages()) {
     const topic = reader.channelsById.get(msg.channelId).topic;
@@ -47,24 +49,28 @@ async function main() {
       qos: ch.metadata.get("offered_qos_profiles") || "",
     };
   }
-  const stream = new McapStreamReader();
+  const stream = new McapStreamReader({ decompressHandlers });
   stream.append(buf);
   let streamed = 0;
   for (let rec; (rec = stream.nextRecord()); ) {
     if (rec.type === "Message") streamed++;
   }
-  console.log(JSON.stringify({ profile: reader.header.profile, counts, channels, streamed, done: stream.done() }));
+  const profile = reader.header.profile;
+  console.log(JSON.stringify({ profile, counts, channels, streamed, done: stream.done() }));
 }
 main().catch((err) => { console.error(String(err)); process.exit(1); });
 """
 
 
-@pytest.fixture(scope="module")
-def chain_bag(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, int]]:
-    """A multi-chunk bag of the chain's six topics written by BagWriter.write_sorted."""
+@pytest.fixture(scope="module", params=[None, "zstd"], ids=["plain", "zstd"])
+def chain_bag(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> tuple[Path, dict[str, int]]:
+    """A multi-chunk bag of the chain's topics written by BagWriter.write_sorted, chunks plain or zstd."""
     path = tmp_path_factory.mktemp("compat") / "chain"
     streams, types = _chain_streams(8000)
-    with BagWriter(path, custom_data={"pendulum_accel.plan": "compat"}) as writer:
+    custom = {"pendulum_accel.plan": "compat"}
+    with BagWriter(path, custom_data=custom, compression=request.param) as writer:
         for topic, msgtype in types.items():
             writer.add_topic(topic, msgtype)
         writer.write_sorted(streams)
@@ -95,23 +101,23 @@ def test_mcap_ros2_support_decodes_every_message(chain_bag: tuple[Path, dict[str
         for schema, channel, _, ros_msg in reader.iter_decoded_messages():
             seen[channel.topic] = seen.get(channel.topic, 0) + 1
             assert schema is not None and schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
-            if channel.topic == M.TOPIC_JOINT_STATES:
+            if channel.topic == bm.TOPIC_JOINT_STATES:
                 theta.append(ros_msg.position[0])
-                assert ros_msg.name == [M.PENDULUM_JOINT]
+                assert ros_msg.name == [bm.PENDULUM_JOINT]
     assert seen == counts
-    ours = read_bag(path).decode(M.TOPIC_JOINT_STATES, M.JOINT_STATE)["position[0]"]
+    ours = read_bag(path).decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)["position[0]"]
     np.testing.assert_array_equal(theta, ours)
 
 
 def _mcap_core_dir() -> Path:
-    """Folder with @mcap/core installed from the npm registry (once per machine, under the temp dir)."""
+    """Folder with @mcap/core (and fzstd for zstd chunks) from the npm registry, once per machine."""
     if shutil.which("node") is None or shutil.which("npm") is None:
         pytest.skip("node/npm are not installed: cannot run Foxglove's @mcap/core reader")
     folder = Path(tempfile.gettempdir()) / "pendulum_accel_mcap_core"
-    if not (folder / "node_modules" / "@mcap" / "core").is_dir():
+    if not all((folder / "node_modules" / pkg).is_dir() for pkg in ("@mcap/core", "fzstd")):
         folder.mkdir(exist_ok=True)
         subprocess.run(
-            ["npm", "install", "--no-audit", "--no-fund", "--silent", "@mcap/core@2"],
+            ["npm", "install", "--no-audit", "--no-fund", "--silent", "@mcap/core@2", "fzstd@0"],
             cwd=folder,
             check=True,
             timeout=300,
@@ -140,5 +146,5 @@ def test_foxglove_mcap_core_reads_the_bag(chain_bag: tuple[Path, dict[str, int]]
     for topic, channel in report["channels"].items():
         assert channel["messageEncoding"] == "cdr"
         assert channel["schemaEncoding"] == "ros2msg"
-        assert channel["schemaName"] == M.TOPIC_TYPES[topic]
+        assert channel["schemaName"] == bm.TOPIC_TYPES[topic]
         assert "reliability: reliable" in channel["qos"]

@@ -1,4 +1,4 @@
-"""SIGKILL a process writing a bag at 1 kHz: at most ~1 s is lost, and repair makes a valid bag of the rest."""
+"""SIGKILL a process writing a bag at 1 kHz: at most ~1 s is lost; repair makes a valid bag of the rest."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 from rosbags.rosbag2 import Reader
 
-from pendulum_accel.bag import messages as M
+from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.repair import repair_bag
 from test.conftest import Spawn
@@ -19,18 +19,19 @@ from test.conftest import Spawn
 # Writes JointState + Clock at 1 kHz of wall time, log time = wall clock, until killed.
 WRITER_SCRIPT = """
 import sys, time
-from pendulum_accel.bag import messages as M
+from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.writer import BagWriter
 w = BagWriter(sys.argv[1], custom_data={"pendulum_accel.plan": "crash test"})
-w.add_topic(M.TOPIC_JOINT_STATES, M.JOINT_STATE)
-w.add_topic(M.TOPIC_CLOCK, M.CLOCK)
+w.add_topic(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)
+w.add_topic(bm.TOPIC_CLOCK, bm.CLOCK)
 print("ready", flush=True)
 i = 0
 next_t = time.monotonic()
 while True:
     now = time.time_ns()
-    w.write(M.TOPIC_JOINT_STATES, now, M.serialize(M.joint_state(now, [M.PENDULUM_JOINT], [i * 1e-3]), M.JOINT_STATE))
-    w.write(M.TOPIC_CLOCK, now, M.serialize(M.clock(now), M.CLOCK))
+    js = bm.joint_state(now, [bm.PENDULUM_JOINT], [i * 1e-3])
+    w.write(bm.TOPIC_JOINT_STATES, now, bm.serialize(js, bm.JOINT_STATE))
+    w.write(bm.TOPIC_CLOCK, now, bm.serialize(bm.clock(now), bm.CLOCK))
     i += 1
     next_t += 1e-3
     time.sleep(max(0.0, next_t - time.monotonic()))
@@ -53,7 +54,7 @@ def test_sigkill_loses_at_most_a_second_and_repair_restores(tmp_path: Path, spaw
 
     bag = read_bag(bag_dir)
     assert bag.problem is not None  # no footer: the process never closed the bag
-    js = bag.decode(M.TOPIC_JOINT_STATES, M.JOINT_STATE)
+    js = bag.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)
     assert len(js) > 1000
     lost_s = (kill_ns - int(js.log_time_ns[-1])) * 1e-9
     assert 0.0 <= lost_s <= MAX_LOSS_S, f"lost {lost_s:.3f} s of data"
@@ -63,10 +64,10 @@ def test_sigkill_loses_at_most_a_second_and_repair_restores(tmp_path: Path, spaw
 
     result = repair_bag(bag_dir)
     assert result.rewritten
-    assert result.counts[M.TOPIC_JOINT_STATES] == len(js)
+    assert result.counts[bm.TOPIC_JOINT_STATES] == len(js)
     fixed = read_bag(bag_dir, salvage=False)
     assert fixed.complete and fixed.custom_data["pendulum_accel.plan"] == "crash test"
     with Reader(bag_dir) as reader:
         topics = {c.topic: c.msgcount for c in reader.connections}
-        assert topics[M.TOPIC_JOINT_STATES] == len(js)
+        assert topics[bm.TOPIC_JOINT_STATES] == len(js)
         assert sum(1 for _ in reader.messages()) == fixed.message_count

@@ -1,7 +1,9 @@
 """Closed-form constant-a pendulum against a 30-digit Taylor integration of θ'' itself.
 
 The reference integrates θ'' = -(g/l) sin θ + (a/l) cos θ (not the reduced φ equation) from the same
-double-precision initial state, read exactly into mpmath at mp.dps = 30.
+double-precision initial state, taken exactly. It runs in 124-bit fixed point (mp_reference, fast) and
+is itself checked against the same method in mpmath arithmetic at mp.dps = 30 (mp_taylor_reference).
+Near the separatrix the allowance is 10x the reference's own spread under a one-ulp change of the start.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ from pendulum_accel.physics.exact import (
     exact_solution,
     jacobi_reduced,
     libration_amplitude,
+    libration_motion,
+    rotation_motion,
 )
 from pendulum_accel.physics.params import STANDARD_GRAVITY as G
 from pendulum_accel.physics.params import Pendulum
@@ -92,7 +96,7 @@ def mp_reference(
         g_l = to_fixed(mp.mpf(gravity) / length)
         a_l = to_fixed(mp.mpf(accel) / length)
         start = mp.mpf(theta0)
-        state = [to_fixed(start), to_fixed(mp.mpf(theta_dot0)), to_fixed(mp.sin(start)), to_fixed(mp.cos(start))]
+        state = [to_fixed(v) for v in (start, mp.mpf(theta_dot0), mp.sin(start), mp.cos(start))]
         h_max = to_fixed(mp.mpf(_taylor_step_bound(gravity, accel, length, theta_dot0)))
         now = 0
         fixed_out = []
@@ -121,7 +125,7 @@ def mp_reference(
 
 def theta_errors(reference: list[tuple[mp.mpf, mp.mpf]], theta: np.ndarray) -> np.ndarray:
     """|θ_closed - θ_ref| at each check time, exact difference rounded once."""
-    return np.array([float(abs(mp.mpf(float(x)) - ref[0])) for x, ref in zip(theta, reference)])
+    return np.array([float(abs(mp.mpf(float(x)) - ref[0])) for x, ref in zip(theta, reference, strict=True)])
 
 
 EQ2 = math.atan2(2.0, G)
@@ -130,30 +134,33 @@ EQ_M5 = math.atan2(-5.0, G)
 # (name, length, accel, θ0, θ0', tolerance): states away from the separatrix; tolerance in rad.
 ORDINARY = [
     ("lecture a=2, rest", 1.0, 2.0, 0.0, 0.0, 1e-12),  # team target for the lecture case
-    ("tiny amplitude 1e-13", 4.0, 2.0, EQ2 + 1e-13, 0.0, TOLERANCE),
-    ("large libration 2.5 rad", 4.0, 2.0, EQ2 + 2.5, 1.0, TOLERANCE),
+    ("tiny amplitude 1e-13 (linear branch)", 4.0, 2.0, EQ2 + 1e-13, 0.0, TOLERANCE),
+    ("amplitude 1e-5 (Fourier)", 4.0, 2.0, EQ2 - 1e-5, 1e-5, TOLERANCE),
+    ("libration 2.5 rad (Fourier)", 4.0, 2.0, EQ2 + 2.5, 0.0, TOLERANCE),
+    ("libration 2.9 rad (doubling)", 4.0, 2.0, EQ2 - 2.9, 0.0, TOLERANCE),
+    ("rotation just over the top", 4.0, 2.0, EQ2 + 2.5, 1.0, TOLERANCE),
     ("rotation forward", 1.0, 2.0, 0.0, 8.0, TOLERANCE),
     ("rotation backward a=-5, 3 turns start", 4.0, -5.0, 6 * math.pi + 0.3, -6.0, TOLERANCE),
 ]
 
 
 def test_fixed_point_reference_matches_mpmath_arithmetic() -> None:
-    """The fixed-point Taylor reference equals the mp.dps = 30 one to 1e-20 rad within 1e-9 of the separatrix."""
+    """Fixed-point Taylor reference = the mp.dps = 30 one to 1e-20 rad, 1e-9 from the separatrix."""
     args = (G, 0.0, G, 0.0, 2.0 - 1e-9)
     fixed = mp_reference(*args, CHECK_TIMES)
     arbitrary = mp_taylor_reference(*args, CHECK_TIMES)
-    assert max(abs(x[0] - y[0]) + abs(x[1] - y[1]) for x, y in zip(fixed, arbitrary)) <= 1e-20
+    assert max(abs(x[0] - y[0]) + abs(x[1] - y[1]) for x, y in zip(fixed, arbitrary, strict=True)) <= 1e-20
 
 
 @pytest.mark.parametrize(("name", "length", "accel", "theta0", "rate0", "tol"), ORDINARY)
 def test_matches_30_digit_reference(
     name: str, length: float, accel: float, theta0: float, rate0: float, tol: float
 ) -> None:
-    """|θ - θ_ref| ≤ tol over 20 s, θ' to 10 tol: libration, rotation (both ways, wrapped start), tiny swing."""
+    """|θ - θ_ref| ≤ tol over 20 s, θ' to 10 tol: libration, rotation (both ways, wrapped start), tiny."""
     theta, rate = exact_solution(Pendulum(length), accel, theta0, rate0, CHECK_TIMES)
     reference = mp_reference(G, accel, length, theta0, rate0, CHECK_TIMES)
     assert theta_errors(reference, theta).max() <= tol, name
-    rate_err = max(float(abs(mp.mpf(float(w)) - ref[1])) for w, ref in zip(rate, reference))
+    rate_err = max(float(abs(mp.mpf(float(w)) - ref[1])) for w, ref in zip(rate, reference, strict=True))
     assert rate_err <= 10 * tol, name
 
 
@@ -183,7 +190,7 @@ def test_near_separatrix_within_intrinsic_sensitivity(
         nudged = mp_reference(G, accel, length, float(np.nextafter(theta0, np.inf)), rate0, CHECK_TIMES)
     else:
         nudged = mp_reference(G, accel, length, theta0, float(np.nextafter(rate0, np.inf)), CHECK_TIMES)
-    sensitivity = np.array([float(abs(x[0] - y[0])) for x, y in zip(nudged, reference)])
+    sensitivity = np.array([float(abs(x[0] - y[0])) for x, y in zip(nudged, reference, strict=True)])
     allowed = np.maximum(TOLERANCE, 10.0 * sensitivity)
     errors = theta_errors(reference, theta)
     assert np.all(errors <= allowed), (name, errors, sensitivity)
@@ -191,7 +198,10 @@ def test_near_separatrix_within_intrinsic_sensitivity(
 
 @pytest.mark.parametrize("m1", [0.5, 1e-3, 1e-9, 1e-17, 1e-33])
 def test_jacobi_functions_match_mpmath_down_to_tiny_complement(m1: float) -> None:
-    """K to 1e-15 relative; sn, cn, dn(u | 1 - m1) to 5e-14 absolute on [-1.3K, 4.3K], m1 as small as 1e-33 (inverted start)."""
+    """K to 1e-15 relative; sn, cn, dn(u | 1 - m1) to 5e-14 absolute on [-1.3K, 4.3K], m1 down to 1e-33.
+
+    m1 = 1e-33 is the float θ0 = π inverted start.
+    """
     m = 1.0 - m1
     K = complete_k(m1)
     u = np.linspace(-1.3 * K, 4.3 * K, 13)
@@ -203,7 +213,33 @@ def test_jacobi_functions_match_mpmath_down_to_tiny_complement(m1: float) -> Non
         for i, ui in enumerate(u):
             want = [mp.ellipfun(kind, mp.mpf(float(ui)), m=m_exact) for kind in ("sn", "cn", "dn")]
             got = (sn_r[i] * parity[i], cn_r[i] * parity[i], dn_r[i])
-            assert max(float(abs(x - y)) for x, y in zip(got, want)) <= 5e-14
+            assert max(float(abs(x - y)) for x, y in zip(got, want, strict=True)) <= 5e-14
+
+
+@pytest.mark.parametrize(("phi0", "rate_scale"), [(0.2, 0.0), (1.5, 0.3), (2.7, -0.1), (2.85, 0.0)])
+def test_libration_fourier_and_doubling_agree(phi0: float, rate_scale: float) -> None:
+    """Both libration evaluations (Fourier series, halving/doubling) agree to 1e-13 rad over ±20 periods."""
+    pendulum = Pendulum(1.0)
+    start = OrbitStart.from_state(pendulum, 0.0, phi0, rate_scale * pendulum.omega(0.0))
+    assert 0.0 < start.m < 1.0
+    times = np.linspace(-40.0, 40.0, 2001)
+    phi_f, rate_f = libration_motion(times, start, "fourier")
+    phi_d, rate_d = libration_motion(times, start, "doubling")
+    assert np.max(np.abs(phi_f - phi_d)) <= 1e-13
+    assert np.max(np.abs(rate_f - rate_d)) <= 1e-13 * pendulum.omega(0.0)
+
+
+@pytest.mark.parametrize("rate_scale", [-2.1, 2.5, 4.0, 30.0])
+def test_rotation_fourier_and_doubling_agree(rate_scale: float) -> None:
+    """Both rotation evaluations agree to 1e-13 relative to |φ| over ±40 s, for m from 1.1 to 225."""
+    pendulum = Pendulum(1.0)
+    start = OrbitStart.from_state(pendulum, 0.0, 0.4, rate_scale * pendulum.omega(0.0))
+    assert start.m1 < 0.0
+    times = np.linspace(-40.0, 40.0, 2001)
+    phi_f, rate_f = rotation_motion(times, start, "fourier")
+    phi_d, rate_d = rotation_motion(times, start, "doubling")
+    assert np.max(np.abs(phi_f - phi_d)) <= 1e-13 * np.max(np.abs(phi_d))
+    assert np.max(np.abs(rate_f - rate_d)) <= 1e-13 * np.max(np.abs(rate_d))
 
 
 @settings(max_examples=40, deadline=None)
@@ -213,7 +249,9 @@ def test_jacobi_functions_match_mpmath_down_to_tiny_complement(m1: float) -> Non
     phi0=st.floats(-math.pi, math.pi),
     rate_scale=st.floats(-3.0, 3.0),
 )
-def test_energy_invariant_and_start_state(length: float, accel: float, phi0: float, rate_scale: float) -> None:
+def test_energy_invariant_and_start_state(
+    length: float, accel: float, phi0: float, rate_scale: float
+) -> None:
     """E = ½l²θ'² - gl cos θ - al sin θ constant to 1e-11 l g_eff; θ(0), θ'(0) = start to 1e-15 relative."""
     pendulum = Pendulum(length)
     omega = pendulum.omega(accel)
@@ -235,7 +273,7 @@ def test_energy_invariant_and_start_state(length: float, accel: float, phi0: flo
     rate_scale=st.floats(-3.0, 3.0),
 )
 def test_agrees_with_dop853(accel: float, phi0: float, rate_scale: float) -> None:
-    """Away from the separatrix (|m1| > 1e-2), θ matches solve_ivp DOP853 (rtol 1e-12) to 1e-8 rad over 10 s."""
+    """Away from the separatrix (|m1| > 1e-2), θ matches DOP853 (rtol 1e-12) to 1e-8 rad over 10 s."""
     pendulum = Pendulum(1.0)
     omega = pendulum.omega(accel)
     theta0 = pendulum.equilibrium_angle(accel) + phi0
@@ -258,7 +296,9 @@ def test_agrees_with_dop853(accel: float, phi0: float, rate_scale: float) -> Non
     assert np.max(np.abs(sol.y[1] - rate)) <= 1e-8 * (1.0 + abs(rate0))
 
 
-@pytest.mark.parametrize(("theta0", "rate0"), [(0.4, 0.0), (2.9, 1.5), (0.0, 7.0), (1.0, -9.0), (math.pi, 1e-8)])
+@pytest.mark.parametrize(
+    ("theta0", "rate0"), [(0.4, 0.0), (2.9, 1.5), (0.0, 7.0), (1.0, -9.0), (math.pi, 1e-8)]
+)
 def test_restart_and_time_reversal(theta0: float, rate0: float) -> None:
     """Chaining (restart from the state at t1) and θ(-t; θ0, θ0') = θ(t; θ0, -θ0') agree to 1e-11 rad."""
     pendulum, accel = Pendulum(0.8), 1.5
@@ -302,20 +342,24 @@ def test_vectorised_shape_and_scalar_time() -> None:
 
 
 def test_exact_period_known_values() -> None:
-    """T(0) = 2π/ω; T(π/2) = 4K(½)/ω with K(½) = 1.854074677301372; T matches θ returning to the start (1e-12)."""
+    """T(0) = 2π/ω; T(π/2) = 4K(½)/ω, K(½) = 1.854074677301372; θ(T) = θ0 and θ(T/2) = θ_eq - A (1e-12)."""
     pendulum, accel = Pendulum(2.0), 3.0
     omega = pendulum.omega(accel)
     assert exact_period(pendulum, accel, 0.0) == pytest.approx(2 * math.pi / omega, rel=1e-15)
-    assert exact_period(pendulum, accel, math.pi / 2) == pytest.approx(4 * 1.854074677301372 / omega, rel=1e-14)
+    quarter_turn = exact_period(pendulum, accel, math.pi / 2)
+    assert quarter_turn == pytest.approx(4 * 1.854074677301372 / omega, rel=1e-14)
     amp = 2.7
     period = exact_period(pendulum, accel, amp)
     theta0 = pendulum.equilibrium_angle(accel) + amp
-    theta, rate = exact_solution(pendulum, accel, theta0, 0.0, [0.5 * period, period])
+    theta, _ = exact_solution(pendulum, accel, theta0, 0.0, [0.5 * period, period])
     assert theta[1] == pytest.approx(theta0, abs=1e-12)
     assert theta[0] == pytest.approx(theta0 - 2 * amp, abs=1e-12)  # turning point on the other side
     assert libration_amplitude(pendulum, accel, theta0, 0.0) == pytest.approx(amp, abs=1e-14)
     assert math.isfinite(exact_period(pendulum, accel, math.pi))  # float π sits just below the top
     assert libration_amplitude(pendulum, accel, 0.0, 50.0) == math.inf
+
+
+ONE_METRE = Pendulum(1.0)
 
 
 @pytest.mark.parametrize(
@@ -329,9 +373,10 @@ def test_exact_period_known_values() -> None:
         (lambda: exact_solution(Pendulum(1.0, gravity=-9.8), 1.0, 0.0, 0.0, [1.0]), "gravity"),
         (lambda: exact_period(Pendulum(1.0), 0.0, 3.5), "amplitude"),
         (lambda: exact_period(Pendulum(1.0), 0.0, math.nan), "amplitude"),
+        (lambda: libration_motion(np.zeros(2), OrbitStart.from_state(ONE_METRE, 0, 1, 0), "agm"), "method"),
     ],
 )
 def test_invalid_input_names_the_value(call: object, field: str) -> None:
-    """NaN/inf inputs, l ≤ 0, g ≤ 0, amplitude outside [0, π]: ParameterError whose message names the field."""
+    """NaN/inf inputs, l ≤ 0, g ≤ 0, amplitude outside [0, π]: ParameterError naming the field."""
     with pytest.raises(ParameterError, match=field):
         call()  # type: ignore[operator]

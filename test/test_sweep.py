@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import csv
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Constant, Sinusoid, Step
@@ -25,7 +24,11 @@ DEFAULT_STEP_TOL = 1e-7
 
 
 def _setup(
-    profile: object, damping: float = 0.0, theta0: float = 0.3, duration: float = 10.0, theta_dot0: float = 0.1
+    profile: object,
+    damping: float = 0.0,
+    theta0: float = 0.3,
+    duration: float = 10.0,
+    theta_dot0: float = 0.1,
 ) -> SweepSetup:
     """A SweepSetup without a sensor (run_batch does not measure)."""
     t = np.linspace(0.0, duration, int(duration * 100) + 1)
@@ -55,14 +58,26 @@ def test_length_sweep_matches_simulate(profile: object, damping: float) -> None:
     assert dt is not None and steps > 0
     for i, length in enumerate(lengths):
         single = simulate(
-            Pendulum(float(length), damping=damping), setup.profile, setup.t,
-            theta0=setup.theta0, theta_dot0=setup.theta_dot0, model="rigid", method="rk4", dt=dt,
+            Pendulum(float(length), damping=damping),
+            setup.profile,
+            setup.t,
+            theta0=setup.theta0,
+            theta_dot0=setup.theta_dot0,
+            model="rigid",
+            method="rk4",
+            dt=dt,
         )
         assert np.max(np.abs(theta[i] - single.theta)) < SAME_STEP_TOL
         assert np.max(np.abs(theta_dot[i] - single.theta_dot)) < SAME_STEP_TOL * 10
         reference = simulate(
-            Pendulum(float(length), damping=damping), setup.profile, setup.t,
-            theta0=setup.theta0, theta_dot0=setup.theta_dot0, model="rigid", method="DOP853", rtol=1e-12,
+            Pendulum(float(length), damping=damping),
+            setup.profile,
+            setup.t,
+            theta0=setup.theta0,
+            theta_dot0=setup.theta_dot0,
+            model="rigid",
+            method="DOP853",
+            rtol=1e-12,
             atol=1e-12,
         )
         assert np.max(np.abs(theta[i] - reference.theta)) < DEFAULT_STEP_TOL
@@ -75,8 +90,14 @@ def test_accel_sweep_matches_simulate_with_constant_profiles() -> None:
     theta, _, dt, _ = run_batch(setup, np.full(accels.size, 1.0), accels)
     for i, a in enumerate(accels):
         single = simulate(
-            setup.pendulum, Constant(float(a)), setup.t, theta0=setup.theta0, theta_dot0=setup.theta_dot0,
-            model="rigid", method="rk4", dt=dt,
+            setup.pendulum,
+            Constant(float(a)),
+            setup.t,
+            theta0=setup.theta0,
+            theta_dot0=setup.theta_dot0,
+            model="rigid",
+            method="rk4",
+            dt=dt,
         )
         assert np.max(np.abs(theta[i] - single.theta)) < SAME_STEP_TOL
 
@@ -137,3 +158,63 @@ def test_period_of_a_length_sweep_matches_small_angle_theory() -> None:
     measured = _periods(setup.t, theta)
     expected = 2 * math.pi / np.sqrt(math.hypot(9.80665, 2.0) / lengths)
     np.testing.assert_allclose(measured, expected, rtol=1e-4)
+
+
+def _read(path: Path) -> list[dict[str, str]]:
+    """CSV rows as dicts."""
+    with path.open(newline="", encoding="utf-8") as handle:
+        return list(csv.DictReader(handle))
+
+
+def test_cli_writes_one_row_per_variant(tmp_path: Path) -> None:
+    """`pendulum-accel sweep lecture_constant --accel ...` writes the table; θ_eq = atan2(a, g) per row."""
+    out = tmp_path / "table.csv"
+    argv = ["sweep", "lecture_constant", "--accel", "0,2,5", "--duration", "3", "--out", str(out), "--no-progress"]
+    assert main(argv) == 0
+    rows = _read(out)
+    assert [float(r["accel"]) for r in rows] == [0.0, 2.0, 5.0]
+    for r in rows:
+        assert float(r["theta_eq"]) == pytest.approx(math.atan2(float(r["accel"]), 9.80665), abs=1e-12)
+        # Released hanging: the swing is about θ_eq with amplitude θ_eq, so max |θ| ≈ 2 θ_eq.
+        assert float(r["max_abs_theta"]) == pytest.approx(2 * float(r["theta_eq"]), abs=2e-3)
+        assert math.isfinite(float(r["accel_estimate"]))
+
+
+def test_noise_sweep_measures_one_trajectory(tmp_path: Path) -> None:
+    """A noise sweep shares the true angle; only the measured-angle columns change with σ."""
+    out = tmp_path / "noise.csv"
+    argv = ["sweep", "step_start", "--noise", "0,0.05", "--duration", "4", "--out", str(out), "--no-progress"]
+    assert main(argv) == 0
+    quiet, noisy = _read(out)
+    assert quiet["theta_mean"] == noisy["theta_mean"] and quiet["period"] == noisy["period"]
+    assert float(quiet["noise_std"]) == 0.0 and float(noisy["noise_std"]) == 0.05
+    assert quiet["accel_g_tan_mean"] != noisy["accel_g_tan_mean"]
+
+
+def test_cli_prints_table_without_out(capsys: pytest.CaptureFixture[str]) -> None:
+    """Without --out the table goes to stdout and the summary line to stderr."""
+    argv = ["sweep", "lecture_constant", "--length", "0.5,2", "--duration", "1", "--estimator", "none",
+            "--no-progress"]  # fmt: skip
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    lines = captured.out.strip().splitlines()
+    assert lines[0].startswith("variant,length,") and len(lines) == 3
+    assert "2 variants of length" in captured.err
+
+
+@pytest.mark.parametrize(
+    ("flags", "fragment"),
+    [
+        (["--length", "1,zero"], "'zero' is not a number"),
+        (["--length", "0,1"], "must be > 0"),
+        (["--noise", "-1"], "must be >= 0"),
+        (["--accel", "1", "--estimator", "psychic"], "unknown estimator"),
+        (["--accel", "1", "--method", "leapfrog"], "unknown method"),
+        (["--accel", "1", "--dt", "2.0"], "stability limit"),
+    ],
+)
+def test_cli_bad_input_is_one_line(flags: list[str], fragment: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """Bad sweep lists and options: exit code 2 and one line on stderr naming the problem."""
+    assert main(["sweep", "lecture_constant", "--duration", "1", "--no-progress", *flags]) == 2
+    err = capsys.readouterr().err.strip()
+    assert fragment in err and "\n" not in err and err.startswith("pendulum-accel sweep: error:")

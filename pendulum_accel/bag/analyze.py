@@ -2,8 +2,8 @@
 
 Error e(t) = â(t) − a(t) at the joint-state stamps (truth interpolated onto them). Reported:
 bias = mean e, RMS = √(mean e²), max |e| (over the samples after ``skip`` seconds that have an
-estimate), and the settling time: from the last jump of the truth before it, the time after
-which |e| stays within the tolerance to the end of the bag.
+estimate), and the settling time: from the truth's own last change (step or end of ramp), the time
+after which |e| stays within the tolerance to the end of the bag.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from pendulum_accel.bag.messages import (
     TOPIC_JOINT_STATES,
 )
 from pendulum_accel.bag.reader import Bag, read_bag, scene_name
-from pendulum_accel.errors import BagError
+from pendulum_accel.errors import BagError, PendulumAccelError
 
 DEFAULT_REL_TOLERANCE = 0.02
 DEFAULT_ABS_TOLERANCE = 0.1  # m/s², about 1 % of g: below it sensor noise, not the method, dominates
@@ -80,7 +80,7 @@ class Analysis:
         """Human-readable report, one figure per line."""
         s, ss = self.stats, self.settled_stats
         settle = (
-            f"{self.settling_time:.3f} s after the truth's last jump at t={self.settle_from:.3f} s"
+            f"{self.settling_time:.3f} s after the truth's last change at t={self.settle_from:.3f} s"
             if self.settling_time is not None
             else "never (|error| still above the tolerance at the end)"
         )
@@ -96,10 +96,14 @@ class Analysis:
             f"settling:   {settle}  (tolerance ±{self.tolerance:.4f} m/s²)",
         ]
         if ss.n:
-            out.append(f"settled:    bias {ss.bias:+.5f}, RMS {ss.rms:.5f}, max {ss.max_abs:.5f} m/s² ({ss.n} samples)")
+            out.append(
+                f"settled:    bias {ss.bias:+.5f}, RMS {ss.rms:.5f}, max {ss.max_abs:.5f} m/s² (n={ss.n})"
+            )
         if self.recorded is not None:
             r = self.recorded
-            out.append(f"recorded /car/accel/estimate: bias {r.bias:+.5f}, RMS {r.rms:.5f}, max {r.max_abs:.5f} m/s²")
+            out.append(
+                f"recorded /car/accel/estimate: bias {r.bias:+.5f}, RMS {r.rms:.5f}, max {r.max_abs:.5f} m/s²"
+            )
         return out
 
 
@@ -107,16 +111,16 @@ def settling(
     t: NDArray[np.float64], error: NDArray[np.float64], truth: NDArray[np.float64], tolerance: float
 ) -> tuple[float, float | None]:
     """(t_ref, t_s − t_ref): t_s = first sample after the last one with |e| > tol (or no estimate);
-    t_ref = the last truth jump (|Δa| > tol between samples) at or before t_s, else t[0]."""
+    t_ref = first sample after the truth last differed from its final value by more than tol (its
+    last step, the end of its last ramp), else t[0]. None when |e| > tol at the last sample."""
     bad = ~(np.abs(error) <= tolerance)  # NaN counts as out of tolerance
     if bad[-1]:
         return float(t[0]), None
     last_bad = np.flatnonzero(bad)
     i_s = int(last_bad[-1]) + 1 if last_bad.size else 0
-    jumps = np.flatnonzero(np.abs(np.diff(truth)) > tolerance) + 1
-    jumps = jumps[jumps <= i_s]
-    t_ref = float(t[jumps[-1]]) if jumps.size else float(t[0])
-    return t_ref, float(t[i_s]) - t_ref
+    moving = np.flatnonzero(np.abs(truth - truth[-1]) > tolerance)
+    t_ref = float(t[int(moving[-1]) + 1]) if moving.size else float(t[0])
+    return t_ref, max(0.0, float(t[i_s]) - t_ref)
 
 
 def default_tolerance(truth: NDArray[np.float64]) -> float:
@@ -145,8 +149,14 @@ def analyze_bag(
     if tolerance is not None and not tolerance > 0.0:
         raise BagError(f"tolerance must be > 0 m/s², got {tolerance!r}")
     data = bag if isinstance(bag, Bag) else read_bag(bag)
-    js = data.decode(TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"])
-    truth = data.decode(TOPIC_ACCEL_TRUTH, ACCEL_STAMPED, fields=["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"])
+    js = data.decode(
+        TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
+    )
+    truth = data.decode(
+        TOPIC_ACCEL_TRUTH,
+        ACCEL_STAMPED,
+        fields=["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"],
+    )
     if len(js) < 2:
         raise BagError(f"bag {data.path} holds {len(js)} joint states; at least 2 are needed")
     if len(truth) == 0:
@@ -193,7 +203,9 @@ def analyze_bag(
     )
 
 
-def _recorded_stats(bag: Bag, t_truth: NDArray[np.float64], a_truth: NDArray[np.float64], t_from: float) -> ErrorStats | None:
+def _recorded_stats(
+    bag: Bag, t_truth: NDArray[np.float64], a_truth: NDArray[np.float64], t_from: float
+) -> ErrorStats | None:
     """Error figures of the estimate recorded in the bag (live estimator), None without that topic."""
     if TOPIC_ACCEL_ESTIMATE not in bag.topics or bag.topics[TOPIC_ACCEL_ESTIMATE].count == 0:
         return None
@@ -221,10 +233,15 @@ def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
 
 
 def _scene_config(text: str) -> dict[str, float]:
-    """Estimator settings of a scene given as YAML text (via pendulum_accel.scene)."""
-    from pendulum_accel.scene_config import estimator_settings
+    """Estimator settings of a scene stored as YAML text; BagError when it no longer loads."""
+    from pendulum_accel.bag.generate import estimator_settings
+    from pendulum_accel.scene import scene_from_yaml
 
-    return estimator_settings(text)
+    try:
+        scene = scene_from_yaml(text, label="the scene stored in the bag")
+    except PendulumAccelError as err:
+        raise BagError(f"{err}; give --length (and --noise-std) instead") from None
+    return estimator_settings(scene)
 
 
 def plot_analysis(result: Analysis, out: Path | str) -> Path:
@@ -247,7 +264,9 @@ def plot_analysis(result: Analysis, out: Path | str) -> Path:
     axes[2].plot(t, result.error, lw=0.8, color="tab:red", label="â − a")
     axes[2].axhspan(-result.tolerance, result.tolerance, color="tab:green", alpha=0.15, label="± tolerance")
     if result.settling_time is not None:
-        axes[2].axvline(result.settle_from + result.settling_time, color="tab:green", ls="--", lw=1, label="settled")
+        axes[2].axvline(
+            result.settle_from + result.settling_time, color="tab:green", ls="--", lw=1, label="settled"
+        )
     axes[2].set_ylabel("error (m/s²)")
     axes[2].set_xlabel("t (s)")
     axes[2].legend(loc="best")

@@ -20,13 +20,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, Metadata, Schema
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
-from ruamel.yaml import YAML
-from ruamel.yaml.error import YAMLError
 
 from pendulum_accel.bag.messages import Layout, deserialize, rows_from_bytes, stamp_seconds
 from pendulum_accel.errors import BagError
@@ -36,7 +36,8 @@ _RECORD_HEAD = struct.Struct("<BQ")
 _MESSAGE_HEAD = struct.Struct("<BQHIQ")
 _MESSAGE_DATA_OFFSET = 31  # opcode 1 + length 8 + channel 2 + sequence 4 + log time 8 + publish time 8
 _OPCODES = {int(op) for op in Opcode}
-_IN_CHUNK = {int(Opcode.SCHEMA), int(Opcode.CHANNEL), int(Opcode.MESSAGE)}
+# What a malformed record makes the parsers raise.
+_RECORD_ERRORS = (ValueError, struct.error, UnicodeDecodeError, KeyError, IndexError)
 
 
 @dataclass(frozen=True)
@@ -87,8 +88,33 @@ class _ChannelData:
     msgtype: str
     encoding: str
     qos: str
+    # Blocks in file order: (log times, payloads as (n, size) rows or a list of bytes).
+    blocks: list[tuple[NDArray[np.int64], NDArray[np.uint8] | list[bytes]]] = field(default_factory=list)
+    # Messages found by walking records one by one, not yet sealed into a block.
     times: list[int] = field(default_factory=list)
     payloads: list[bytes] = field(default_factory=list)
+
+    def seal(self) -> None:
+        """Move the walked messages into a block (keeps file order with later blocks)."""
+        if self.times:
+            self.blocks.append((np.array(self.times, dtype=np.int64), self.payloads))
+            self.times, self.payloads = [], []
+
+    def add_block(self, times: NDArray[np.int64], payloads: NDArray[np.uint8] | list[bytes]) -> None:
+        """Append a bulk-read block after the walked messages so far."""
+        self.seal()
+        self.blocks.append((times, payloads))
+
+    @property
+    def count(self) -> int:
+        """Messages held."""
+        return sum(t.size for t, _ in self.blocks) + len(self.times)
+
+    def all_times(self) -> NDArray[np.int64]:
+        """Log times of every message in file order."""
+        self.seal()
+        parts = [t for t, _ in self.blocks]
+        return np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
 
 
 class Bag:
@@ -120,27 +146,27 @@ class Bag:
                     prev.msgtype,
                     prev.serialization_format,
                     prev.offered_qos_profiles,
-                    prev.count + len(ch.times),
+                    prev.count + ch.count,
                 )
             else:
-                out[ch.topic] = TopicInfo(ch.topic, ch.msgtype, ch.encoding, ch.qos, len(ch.times))
+                out[ch.topic] = TopicInfo(ch.topic, ch.msgtype, ch.encoding, ch.qos, ch.count)
         return out
 
     @property
     def message_count(self) -> int:
         """Total messages read."""
-        return sum(len(ch.times) for ch in self._channels.values())
+        return sum(ch.count for ch in self._channels.values())
 
     @property
     def start_ns(self) -> int:
         """Earliest log time (ns), 0 for an empty bag."""
-        firsts = [min(ch.times) for ch in self._channels.values() if ch.times]
+        firsts = [int(t.min()) for t in (ch.all_times() for ch in self._channels.values()) if t.size]
         return min(firsts) if firsts else 0
 
     @property
     def end_ns(self) -> int:
         """Latest log time (ns), 0 for an empty bag."""
-        lasts = [max(ch.times) for ch in self._channels.values() if ch.times]
+        lasts = [int(t.max()) for t in (ch.all_times() for ch in self._channels.values()) if t.size]
         return max(lasts) if lasts else 0
 
     @property
@@ -166,15 +192,56 @@ class Bag:
                 raise BagError(f"topic {topic} in {self.path} is {ch.encoding!r}-encoded, expected cdr")
         return chans
 
+    def _blocks(self, topic: str, msgtype: str | None) -> list[tuple[NDArray[np.int64], Any]]:
+        """Blocks of every channel of ``topic`` (type-checked), in channel then file order."""
+        blocks = []
+        for ch in self._channels_of(topic, msgtype):
+            ch.seal()
+            blocks += ch.blocks
+        return blocks
+
     def raw(self, topic: str, msgtype: str | None = None) -> tuple[NDArray[np.int64], list[bytes]]:
         """(log times ns, CDR payloads) of ``topic``, sorted by log time (stable)."""
-        chans = self._channels_of(topic, msgtype)
-        times = np.array([t for ch in chans for t in ch.times], dtype=np.int64)
-        payloads = [p for ch in chans for p in ch.payloads]
+        blocks = self._blocks(topic, msgtype)
+        times = np.concatenate([t for t, _ in blocks]) if blocks else np.zeros(0, dtype=np.int64)
+        payloads: list[bytes] = []
+        for _, data in blocks:
+            payloads += [row.tobytes() for row in data] if isinstance(data, np.ndarray) else data
         if times.size > 1 and np.any(np.diff(times) < 0):
             order = np.argsort(times, kind="stable")
             return times[order], [payloads[i] for i in order]
         return times, payloads
+
+    def _shape_groups(
+        self, topic: str, msgtype: str | None
+    ) -> tuple[NDArray[np.int64], list[tuple[NDArray[np.int64], NDArray[np.uint8]]]]:
+        """(log times sorted, [(message indices, (n, size) rows)] one group per payload size)."""
+        blocks = self._blocks(topic, msgtype)
+        times = np.concatenate([t for t, _ in blocks]) if blocks else np.zeros(0, dtype=np.int64)
+        by_size: dict[int, list[tuple[NDArray[np.int64], NDArray[np.uint8]]]] = {}
+        start = 0
+        for t, data in blocks:
+            idx = np.arange(start, start + t.size)
+            start += t.size
+            if isinstance(data, np.ndarray):
+                by_size.setdefault(data.shape[1], []).append((idx, data))
+                continue
+            lengths = np.fromiter(map(len, data), dtype=np.int64, count=len(data))
+            for size in np.unique(lengths).tolist():
+                sel = np.flatnonzero(lengths == size)
+                by_size.setdefault(size, []).append((idx[sel], rows_from_bytes([data[i] for i in sel])))
+        groups = []
+        for parts in by_size.values():
+            if len(parts) == 1:
+                groups.append(parts[0])
+            else:
+                groups.append((np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])))
+        if times.size > 1 and np.any(np.diff(times) < 0):
+            order = np.argsort(times, kind="stable")
+            rank = np.empty_like(order)
+            rank[order] = np.arange(order.size)
+            return times[order], [(rank[idx], rows) for idx, rows in groups]
+        return times, groups
 
     def decode(
         self, topic: str, msgtype: str | None = None, fields: Sequence[str] | None = None
@@ -186,22 +253,19 @@ class Bag:
         """
         chans = self._channels_of(topic, msgtype)
         mtype = chans[0].msgtype
-        times, payloads = self.raw(topic)
-        n = len(payloads)
+        times, groups = self._shape_groups(topic, msgtype)
+        n = times.size
         columns: dict[str, NDArray[Any]] = {}
         if n == 0:
             return TopicArrays(topic, mtype, times, {p: np.zeros(0) for p in fields or ()})
-        lengths = np.fromiter(map(len, payloads), dtype=np.int64, count=n)
         assigned = np.zeros(n, dtype=bool)
         wanted: Sequence[str] | None = fields
-        for size in np.unique(lengths):
-            idx = np.flatnonzero(lengths == size)
-            rows = rows_from_bytes([payloads[i] for i in idx]) if idx.size < n else rows_from_bytes(payloads)
+        for idx, rows in groups:
             todo = np.ones(idx.size, dtype=bool)
             while todo.any():
                 first = int(np.flatnonzero(todo)[0])
                 try:
-                    layout = Layout.of(deserialize(payloads[idx[first]], mtype), mtype)
+                    layout = Layout.of(deserialize(rows[first].tobytes(), mtype), mtype)
                 except BagError as err:
                     raise BagError(f"topic {topic}, message {int(idx[first])}: {err}") from None
                 ok = todo & layout.matches(rows)
@@ -263,8 +327,8 @@ def _find_mcap(path: Path) -> tuple[Path, Path]:
 def _load_yaml(path: Path) -> Any:
     """Parsed YAML of a file; None when it does not parse."""
     try:
-        return YAML(typ="safe").load(path.read_text(encoding="utf8"))
-    except (YAMLError, OSError, UnicodeDecodeError):
+        return load_yaml(path.read_text(encoding="utf8"))
+    except (yaml.YAMLError, OSError, UnicodeDecodeError):
         return None
 
 
@@ -293,6 +357,7 @@ class _Scanner:
         """Scan state for ``bag``."""
         self.bag = bag
         self.schemas: dict[int, Schema] = {}
+        self.pending: tuple[bytes, list[tuple[int, NDArray[np.uint64]]]] | None = None
 
     def schema(self, body: memoryview) -> None:
         """Register a Schema record."""
@@ -310,21 +375,20 @@ class _Scanner:
         if rec.id not in self.bag._channels:
             self.bag._channels[rec.id] = _ChannelData(rec.topic, msgtype, rec.message_encoding, qos)
 
-    def chunk_records(self, data: bytes) -> None:
-        """Walk the records of one uncompressed chunk; ValueError at the first malformed one."""
+    def walk(self, data: bytes, start: int, stop: int) -> None:
+        """Walk the records of data[start:stop] (inside one chunk); ValueError at the first malformed one."""
         channels = self.bag._channels
         view = memoryview(data)
-        end = len(data)
-        pos = 0
+        pos = start
         unpack_message = _MESSAGE_HEAD.unpack_from
-        while pos < end:
-            if pos + 9 > end:
+        while pos < stop:
+            if pos + 9 > stop:
                 raise ValueError(f"record header cut off at chunk byte {pos}")
             op, length = _RECORD_HEAD.unpack_from(data, pos)
-            stop = pos + 9 + length
-            if stop > end:
+            end = pos + 9 + length
+            if end > stop:
                 raise ValueError(f"record at chunk byte {pos} overruns its chunk")
-            if op == 0x05:
+            if op == Opcode.MESSAGE:
                 if length < 22:
                     raise ValueError(f"message record at chunk byte {pos} is too short")
                 _, _, cid, _, log_time = unpack_message(data, pos)
@@ -332,19 +396,89 @@ class _Scanner:
                 if ch is None:
                     raise ValueError(f"message at chunk byte {pos} on unknown channel {cid}")
                 ch.times.append(log_time)
-                ch.payloads.append(data[pos + _MESSAGE_DATA_OFFSET : stop])
+                ch.payloads.append(data[pos + _MESSAGE_DATA_OFFSET : end])
             elif op == Opcode.SCHEMA:
-                self.schema(view[pos + 9 : stop])
+                self.schema(view[pos + 9 : end])
             elif op == Opcode.CHANNEL:
-                self.channel(view[pos + 9 : stop])
-            elif op not in _IN_CHUNK:
-                raise ValueError(
-                    f"record with opcode 0x{op:02x} at chunk byte {pos} does not belong in a chunk"
+                self.channel(view[pos + 9 : end])
+            else:
+                raise ValueError(f"opcode 0x{op:02x} at chunk byte {pos} does not belong in a chunk")
+            pos = end
+
+    def chunk(self, data: bytes, indexes: list[tuple[int, NDArray[np.uint64]]]) -> None:
+        """Read one uncompressed chunk, in bulk where its message index tiles it, by walking elsewhere.
+
+        The index offsets are checked against the records themselves (opcode, channel, lengths,
+        no overlap); the gaps between indexed messages (schemas, channels, unindexed messages)
+        are walked. Anything inconsistent falls back to walking the whole chunk.
+        """
+        end = len(data)
+        if not indexes:
+            self.walk(data, 0, end)
+            return
+        offs = np.concatenate([e[:, 1] for _, e in indexes]).astype(np.int64)
+        cids = np.concatenate([np.full(e.shape[0], cid, dtype=np.int64) for cid, e in indexes])
+        order = np.argsort(offs, kind="stable")
+        offs, cids = offs[order], cids[order]
+        arr = np.frombuffer(data, dtype=np.uint8)
+        if offs.size == 0 or offs[0] < 0 or offs[-1] + _MESSAGE_DATA_OFFSET > end:
+            self.walk(data, 0, end)
+            return
+        lengths = _gather(arr, offs + 1, 8).view("<u8")[:, 0].astype(np.int64)
+        rec_cids = _gather(arr, offs + 9, 2).view("<u2")[:, 0].astype(np.int64)
+        ends = offs + 9 + lengths
+        if (
+            np.any(arr[offs] != Opcode.MESSAGE)
+            or np.any(rec_cids != cids)
+            or np.any(lengths < 22)
+            or np.any(ends[:-1] > offs[1:])
+            or ends[-1] > end
+        ):
+            self.walk(data, 0, end)
+            return
+        gap_starts = np.concatenate(([0], ends))
+        gap_stops = np.concatenate((offs, [end]))
+        for g in np.flatnonzero(gap_stops > gap_starts).tolist():
+            self.walk(data, int(gap_starts[g]), int(gap_stops[g]))
+        log_times = _gather(arr, offs + 15, 8).view("<u8")[:, 0].astype(np.int64)
+        channels = self.bag._channels
+        for cid in np.unique(cids).tolist():
+            ch = channels.get(cid)
+            if ch is None:
+                raise ValueError(f"message index refers to unknown channel {cid}")
+            sel = np.flatnonzero(cids == cid)
+            sizes = lengths[sel] - 22
+            starts = offs[sel] + _MESSAGE_DATA_OFFSET
+            if np.all(sizes == sizes[0]):
+                ch.add_block(log_times[sel], _gather(arr, starts, int(sizes[0])))
+            else:
+                ch.add_block(
+                    log_times[sel],
+                    [data[a : a + z] for a, z in zip(starts.tolist(), sizes.tolist(), strict=True)],
                 )
-            pos = stop
 
     def scan(self, data: bytes) -> None:
         """Read all top-level records; sets bag.problem and stops at the first bad one."""
+        bag = self.bag
+        try:
+            self._scan(data)
+        finally:
+            try:
+                self._flush_chunk()
+            except _RECORD_ERRORS as err:
+                bag.problem = bag.problem or f"{bag.mcap_path} is corrupt: last chunk: {err}"
+            for ch in bag._channels.values():
+                ch.seal()
+
+    def _flush_chunk(self) -> None:
+        """Read the pending chunk with the message indexes that followed it."""
+        if self.pending is not None:
+            data, indexes = self.pending
+            self.pending = None
+            self.chunk(data, indexes)
+
+    def _scan(self, data: bytes) -> None:
+        """The record loop of scan()."""
         bag = self.bag
         size = len(data)
         if size < len(_MAGIC) or data[: len(_MAGIC)] != _MAGIC:
@@ -353,9 +487,7 @@ class _Scanner:
         pos = len(_MAGIC)
         while True:
             if pos >= size:
-                bag.problem = (
-                    f"{bag.mcap_path} ends at byte {size} without an MCAP footer (recording interrupted?)"
-                )
+                bag.problem = f"{bag.mcap_path} ends at byte {size} without its MCAP footer (interrupted?)"
                 return
             if pos + 9 > size:
                 bag.problem = f"{bag.mcap_path} is truncated: record header cut off at byte {pos} of {size}"
@@ -373,37 +505,69 @@ class _Scanner:
                 return
             body = view[pos + 9 : stop]
             try:
-                if op == Opcode.FOOTER:
-                    bag.complete = True
-                    return
-                self._top_level(op, body)
-            except (ValueError, struct.error, UnicodeDecodeError, KeyError) as err:
+                if op == Opcode.MESSAGE_INDEX and self.pending is not None:
+                    index = _message_index(body)
+                    if index is not None:
+                        self.pending[1].append(index)
+                else:
+                    self._flush_chunk()
+                    if op == Opcode.FOOTER:
+                        bag.complete = True
+                        return
+                    self._top_level(op, body)
+            except _RECORD_ERRORS as err:
                 bag.problem = f"{bag.mcap_path} is corrupt at byte {pos} ({Opcode(op).name} record): {err}"
                 return
             pos = stop
 
     def _top_level(self, op: int, body: memoryview) -> None:
-        """Handle one top-level record."""
+        """Handle one top-level record (a chunk waits for its message indexes)."""
         if op == Opcode.CHUNK:
             chunk = Chunk.read(ReadDataStream(BytesIO(body)))
             if chunk.compression == "" and len(chunk.data) != chunk.uncompressed_size:
                 raise ValueError("chunk data is shorter than its declared size")
-            self.chunk_records(_decompress(chunk))
+            self.pending = (_decompress(chunk), [])
         elif op == Opcode.SCHEMA:
             self.schema(body)
         elif op == Opcode.CHANNEL:
             self.channel(body)
         elif op == Opcode.MESSAGE:
-            self.chunk_records(bytes([0x05]) + struct.pack("<Q", len(body)) + bytes(body))
+            record = bytes([0x05]) + struct.pack("<Q", len(body)) + bytes(body)
+            self.walk(record, 0, len(record))
         elif op == Opcode.METADATA:
             meta = Metadata.read(ReadDataStream(BytesIO(body)))
             if meta.name == "rosbag2" and "serialized_metadata" in meta.metadata:
                 try:
-                    doc = YAML(typ="safe").load(meta.metadata["serialized_metadata"])
-                except YAMLError:
+                    doc = load_yaml(meta.metadata["serialized_metadata"])
+                except yaml.YAMLError:
                     doc = None
                 if isinstance(doc, dict) and isinstance(doc.get("custom_data"), dict):
                     self.bag.custom_data.update({str(k): str(v) for k, v in doc["custom_data"].items()})
+
+
+def load_yaml(text: str) -> Any:
+    """yaml.safe_load with libyaml's C loader when available (metadata can be long)."""
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    return yaml.load(text, Loader=loader)
+
+
+def _gather(arr: NDArray[np.uint8], starts: NDArray[np.int64], width: int) -> NDArray[np.uint8]:
+    """(n, width) bytes arr[s : s + width] for each start s."""
+    if width > 32:  # copying whole rows of a window view beats an element-wise index here
+        rows: NDArray[np.uint8] = sliding_window_view(arr, width)[starts]
+        return rows
+    return arr[starts[:, None] + np.arange(width)]
+
+
+def _message_index(body: memoryview) -> tuple[int, NDArray[np.uint64]] | None:
+    """(channel id, (n, 2) log time/offset entries) of a MessageIndex record; None when malformed."""
+    if len(body) < 6:
+        return None
+    cid, nbytes = struct.unpack_from("<HI", body, 0)
+    if nbytes != len(body) - 6 or nbytes % 16:
+        return None
+    entries = np.frombuffer(body, dtype="<u8", offset=6).reshape(-1, 2)
+    return cid, entries
 
 
 def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
@@ -449,8 +613,8 @@ def scene_name(bag: Bag) -> str | None:
     if not text:
         return None
     try:
-        doc = YAML(typ="safe").load(text)
-    except YAMLError:
+        doc = load_yaml(text)
+    except yaml.YAMLError:
         return None
     name = doc.get("name") if isinstance(doc, dict) else None
     return str(name) if name is not None else None

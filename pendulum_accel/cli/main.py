@@ -15,7 +15,18 @@ from pendulum_accel import __version__
 from pendulum_accel.errors import PendulumAccelError
 
 # Order is the order of ``pendulum-accel --help``.
-COMMANDS: tuple[str, ...] = ("lecture",)
+COMMANDS: tuple[str, ...] = (
+    "simulate",
+    "scenes",
+    "sweep",
+    "lecture",
+    "info",
+    "analyze",
+    "generate",
+    "repair",
+    "golden_bags",
+    "run",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

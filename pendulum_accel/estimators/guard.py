@@ -72,7 +72,7 @@ class InputGuard:
     ``warn_angle`` (rad, default 80°) starts the ill-conditioned warning; ``reset_jump`` (s, default
     1 s) separates a dropped reorder from a reset; ``stale_after`` (s) defaults to 20 sample periods
     but at least 0.5 s. ``now`` arguments are arrival times on any monotonic clock (the node uses
-    its steady clock); without them the sample time t is used.
+    its steady clock, and check_stale must get the same clock); without them the sample time t is used.
     """
 
     def __init__(
@@ -152,6 +152,7 @@ class InputGuard:
         """Counters and the last sample as (key, value) strings."""
 
         def fmt(x: float | None) -> str:
+            """'none' or x with 6 significant digits."""
             return "none" if x is None else f"{x:.6g}"
 
         return (

@@ -67,6 +67,10 @@ class KalmanEstimator(Estimator):
         self.boost_tau = require_positive("boost_tau", boost_tau)
         self.init_angle_std = require_positive("init_angle_std", init_angle_std)
         self.reset_gap = require_positive("reset_gap", reset_gap)
+        # Plain floats for the per-sample code.
+        self._g, self._l_inv, self._c = config.gravity, 1.0 / config.length, config.damping
+        self._r = config.sigma**2
+        self._a_max = config.gravity * math.tan(config.clamp_angle)
         self.reset()
 
     def reset(self) -> None:
@@ -88,32 +92,33 @@ class KalmanEstimator(Estimator):
         self._p = [cfg.sigma**2, 0.0, 0.0, (w0 * amp) ** 2, 0.0, (ga * amp) ** 2]
         self._nis, self._q_now = 1.0, self.q_accel
 
-    def _rhs(self, th: float, om: float, ac: float) -> tuple[float, float]:
-        """(θ', θ'') = (ω, −(g/l) sin θ + (a/l) cos θ − c ω)."""
-        cfg = self.config
-        return om, (ac * math.cos(th) - cfg.gravity * math.sin(th)) / cfg.length - cfg.damping * om
-
     def _predict(self, dt: float) -> None:
-        """x ← RK4(x, dt); P ← F P Fᵀ + Q with F = I + J dt + J² dt²/2, Q = diag(0, q_ω dt, q_a dt)."""
-        cfg = self.config
+        """x ← RK4(x, dt); P ← F P Fᵀ + Q with F = I + J dt + J² dt²/2, Q = diag(0, q_ω dt, q_a dt).
+
+        θ'' = (a cos θ − g sin θ)/l − c θ', written out inline: this runs once per sample.
+        """
         th, om, ac = self._x
-        l_inv, c = 1.0 / cfg.length, cfg.damping
+        g, l_inv, c = self._g, self._l_inv, self._c
         cos_th, sin_th = math.cos(th), math.sin(th)
         # Jacobian J = [[0, 1, 0], [j10, -c, j12], [0, 0, 0]] at the prior state.
-        j10 = -(cfg.gravity * cos_th + ac * sin_th) * l_inv
+        j10 = -(g * cos_th + ac * sin_th) * l_inv
         j12 = cos_th * l_inv
         h2 = 0.5 * dt * dt
         # F = I + J dt + J² dt²/2; J² = [[j10, -c, j12], [-c j10, j10 + c², -c j12], [0, 0, 0]].
         f00, f01, f02 = 1.0 + j10 * h2, dt - c * h2, j12 * h2
         f10, f11, f12 = j10 * dt - c * j10 * h2, 1.0 - c * dt + (j10 + c * c) * h2, j12 * dt - c * j12 * h2
-        k1 = self._rhs(th, om, ac)
-        k2 = self._rhs(th + 0.5 * dt * k1[0], om + 0.5 * dt * k1[1], ac)
-        k3 = self._rhs(th + 0.5 * dt * k2[0], om + 0.5 * dt * k2[1], ac)
-        k4 = self._rhs(th + dt * k3[0], om + dt * k3[1], ac)
+        half = 0.5 * dt
+        w1 = (ac * cos_th - g * sin_th) * l_inv - c * om
+        th2, om2 = th + half * om, om + half * w1
+        w2 = (ac * math.cos(th2) - g * math.sin(th2)) * l_inv - c * om2
+        th3, om3 = th + half * om2, om + half * w2
+        w3 = (ac * math.cos(th3) - g * math.sin(th3)) * l_inv - c * om3
+        th4, om4 = th + dt * om3, om + dt * w3
+        w4 = (ac * math.cos(th4) - g * math.sin(th4)) * l_inv - c * om4
         sixth = dt / 6.0
         self._x = [
-            th + sixth * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-            om + sixth * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+            th + sixth * (om + 2.0 * om2 + 2.0 * om3 + om4),
+            om + sixth * (w1 + 2.0 * w2 + 2.0 * w3 + w4),
             ac,
         ]
         p00, p01, p02, p11, p12, p22 = self._p
@@ -136,7 +141,7 @@ class KalmanEstimator(Estimator):
     def _correct(self, theta: float, dt: float) -> None:
         """K = P Hᵀ/S, x ← x + K ν, P ← P − K Kᵀ S (H = [1, 0, 0], S = P₀₀ + σ²); then pick the next q_a."""
         p00, p01, p02, p11, p12, p22 = self._p
-        s = p00 + self.config.sigma**2
+        s = p00 + self._r
         k0, k1, k2 = p00 / s, p01 / s, p02 / s
         innovation = theta - self._x[0]
         # At least ~10 samples in the average, or χ²₁ scatter alone would trigger the boost at low rates.
@@ -166,15 +171,15 @@ class KalmanEstimator(Estimator):
             for _ in range(steps):
                 self._predict(dt / steps)
             self._correct(theta, dt)
-        if not all(math.isfinite(v) for v in (*self._x, *self._p)):
+        x, p = self._x, self._p
+        # NaN and inf propagate through a sum: one test covers all nine numbers.
+        if not math.isfinite(x[0] + x[1] + x[2] + p[0] + p[1] + p[2] + p[3] + p[4] + p[5]):
             self._initialise(theta)  # a diverged filter restarts rather than publish inf/NaN
         self._last_t = t
-        cfg = self.config
-        a_max = cfg.gravity * math.tan(cfg.clamp_angle)
         a = self._x[2]
-        clamped = abs(a) > a_max
+        clamped = abs(a) > self._a_max
         if clamped:
-            a = math.copysign(a_max, a)
+            a = math.copysign(self._a_max, a)
         return Estimate(a, self._p[5], clamped)
 
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -12,7 +12,7 @@ lasts longer than 2π/ω: the exact libration period is T = (2π/ω)/AGM(1, cos(
 ``exact_period=False`` keeps the small-swing 2π/ω of the issue text (0.6 % short at A = 0.3 rad,
 which leaves a residual swing in the average). The averages are exact integrals of the
 piecewise-linear θ(t) and θ²(t) over [t − T, t], accumulated by the trapezoid rule, so irregular
-sampling is handled.
+sampling is handled; a hole longer than a quarter of T₀ (or ``max_gap``) restarts the average.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from pendulum_accel.estimators.base import (
     accel_gain,
     accel_gain_array,
     check_batch_input,
+    segments,
     wrap_clamp,
     wrap_clamp_array,
 )
@@ -102,6 +103,8 @@ class PeriodMeanEstimator(Estimator):
         self.stages = int(stages)
         self._t0_window = config.period(0.0)
         self._horizon = _HORIZON * self._t0_window
+        # A hole of a quarter swing or more leaves nothing to average the swing out with: start over.
+        self._restart_gap = max(config.gap, 0.25 * self._t0_window)
         self.reset()
 
     def reset(self) -> None:
@@ -152,6 +155,9 @@ class PeriodMeanEstimator(Estimator):
         last_t = self._t[-1] if self._t else None
         if not self._accepts(t, theta, last_t):
             return None
+        if last_t is not None and t - last_t > self._restart_gap:
+            self.reset()
+            last_t = None
         cfg = self.config
         k = self._base + len(self._t)
         if last_t is None:
@@ -186,24 +192,29 @@ class PeriodMeanEstimator(Estimator):
             self._base = self._jh
 
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Vectorised staged window means, the same formulas as ``update``."""
+        """Vectorised staged window means per gap-free segment, the same formulas as ``update``."""
         t, theta = check_batch_input(t, theta)
+        accel, var = np.empty(t.size), np.empty(t.size)
+        for seg in segments(t, self._restart_gap):
+            accel[seg], var[seg] = self._batch_segment(t[seg], theta[seg])
+        return accel, var
+
+    def _batch_segment(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(â, var_a) for one gap-free stretch of samples."""
         cfg = self.config
-        if t.size == 0:
-            return np.empty(0), np.empty(0)
         dt = np.diff(t)
         sq = theta * theta
         i1 = np.concatenate(([0.0], np.cumsum(0.5 * (theta[1:] + theta[:-1]) * dt)))
         i2 = np.concatenate(([0.0], np.cumsum(0.5 * (sq[1:] + sq[:-1]) * dt)))
         window: np.ndarray | float = self._t0_window
         for stage in range(self.stages):
-            mean, sq, n = _window_means(t, theta, i1, i2, window)
+            mean, mean_sq, n = _window_means(t, theta, i1, i2, window)
             th, _ = wrap_clamp_array(mean, cfg.clamp_angle)
             if stage + 1 < self.stages:
                 a_stage = cfg.gravity * np.tan(th)
                 window = 2.0 * math.pi / np.sqrt(np.hypot(cfg.gravity, a_stage) / cfg.length)
                 if self.exact_period:
-                    amplitude = np.sqrt(2.0 * np.maximum(sq - mean * mean, 0.0))
+                    amplitude = np.sqrt(2.0 * np.maximum(mean_sq - mean * mean, 0.0))
                     window = window / _agm_cos_half_array(np.minimum(amplitude, 2.0))
                 window = np.minimum(window, self._horizon)
         gain = accel_gain_array(th, cfg.gravity)

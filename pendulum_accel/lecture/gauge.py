@@ -138,7 +138,8 @@ def run(quick: bool = False) -> LectureReport:
         styles = ("-", "--", ":")
         for (label, theta), style in zip(swings.items(), styles, strict=True):
             ax1.plot(t, np.degrees(theta), style, lw=2 if style == "-" else 1.5, label=label)
-        ax1.set(ylabel="θ [deg]")
+        span = np.degrees([with_term.min(), with_term.max()])
+        ax1.set(ylabel="θ [deg]", ylim=(span[0] - 3.0, span[1] + 0.45 * (span[1] - span[0])))
         ax1.set_title("θ(t) from the finite-difference Euler–Lagrange equation of each L", fontsize=10)
         theta_dot = states[next(iter(states))][1]
         for (label, lag), style in zip(lagrangians.items(), styles, strict=True):
@@ -154,7 +155,9 @@ def run(quick: bool = False) -> LectureReport:
         ax3.set(xlabel="time t [s]", ylabel="difference [rad]")
         for ax in (ax1, ax2, ax3):
             ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=8, loc="upper left")
+        ax1.legend(fontsize=8, loc="upper center", ncol=3)
+        ax2.legend(fontsize=8, loc="upper left")
+        ax3.legend(fontsize=8, loc="lower right", ncol=2)
 
     return LectureReport(
         name=NAME,

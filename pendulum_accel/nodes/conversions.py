@@ -8,11 +8,13 @@ from typing import Any
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import AccelStamped, AccelWithCovarianceStamped
+from rclpy.qos import QoSProfile
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
+from pendulum_accel.bag.messages import FRAME_ID, PENDULUM_JOINT, STRING_JOINT
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.nodes.topics import FRAME_ID, PENDULUM_JOINT, STRING_JOINT
 
 _NS_PER_S = 1_000_000_000
 
@@ -105,3 +107,24 @@ def message_class(type_name: str) -> Any:
         return getattr(module, parts[2])
     except (ImportError, AttributeError):
         raise ParameterError(f"message type {type_name!r} is not installed") from None
+
+
+def _qos_time(duration: Any) -> QosTime:
+    """QosTime(sec, nsec) of an rclpy Duration."""
+    sec, nsec = divmod(int(duration.nanoseconds), _NS_PER_S)
+    return QosTime(sec=sec, nsec=nsec)
+
+
+def bag_qos(profile: QoSProfile) -> Qos:
+    """The rosbags Qos (what metadata.yaml and MCAP channel metadata store) of an rclpy QoSProfile."""
+    return Qos(
+        history=QosHistory(int(profile.history)),
+        depth=int(profile.depth),
+        reliability=QosReliability(int(profile.reliability)),
+        durability=QosDurability(int(profile.durability)),
+        deadline=_qos_time(profile.deadline),
+        lifespan=_qos_time(profile.lifespan),
+        liveliness=QosLiveliness(int(profile.liveliness)),
+        liveliness_lease_duration=_qos_time(profile.liveliness_lease_duration),
+        avoid_ros_namespace_conventions=bool(profile.avoid_ros_namespace_conventions),
+    )

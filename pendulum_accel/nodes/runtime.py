@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import signal
 import sys
-import threading
+import time
 from collections.abc import Callable, Sequence
 from types import FrameType
 from typing import Any
 
 import rclpy
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
@@ -20,6 +22,7 @@ from pendulum_accel.errors import PendulumAccelError
 
 # How often the main thread wakes to run pending signal handlers.
 _SIGNAL_POLL_PERIOD = 0.05  # s
+_PUBLISH_RETRY_PERIOD = 0.001  # s
 
 
 class ChainNode(Node):
@@ -36,11 +39,27 @@ class ChainNode(Node):
             self.finished.set_result(code)
 
     def request_stop(self) -> None:
-        """First SIGINT/SIGTERM: stop gracefully; this default finishes at once (nodes that drain override)."""
+        """First SIGINT/SIGTERM: stop gracefully; this default finishes at once (draining nodes override)."""
         self.finish(0)
 
     def close(self) -> None:
         """Release files and threads; called once by ``run_node`` whatever ended the spin."""
+
+
+def publish_blocking(publisher: Publisher, msg: Any, stopping: Callable[[], bool]) -> bool:
+    """Publish ``msg`` (message or CDR bytes), retrying while the keep-all history is full; False if stopped.
+
+    A reliable keep-all writer refuses a sample when its readers have not acknowledged enough of
+    the previous ones: waiting here is the back-pressure that keeps the chain lossless.
+    """
+    while True:
+        try:
+            publisher.publish(msg)
+            return True
+        except Exception:  # rclpy raises RCLError (not exported) when the history is full
+            if stopping():
+                return False
+            time.sleep(_PUBLISH_RETRY_PERIOD)
 
 
 def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None = None) -> int:
@@ -68,7 +87,9 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
             raise KeyboardInterrupt
 
     try:
-        rclpy.init(args=list(args) if args is not None else None, signal_handler_options=SignalHandlerOptions.NO)
+        rclpy.init(
+            args=list(args) if args is not None else None, signal_handler_options=SignalHandlerOptions.NO
+        )
         signal.signal(signal.SIGINT, on_signal)
         signal.signal(signal.SIGTERM, on_signal)
         node = factory()
@@ -77,17 +98,15 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
         if not isinstance(node, ChainNode):
             executor.spin()
         else:
-            # The executor spins in a worker thread so that the main thread stays in Python,
-            # where signal handlers run (they never run while the C++ executor holds it).
-            worker = threading.Thread(target=executor.spin_until_future_complete, args=(node.finished,))
-            worker.start()
-            while worker.is_alive():
-                worker.join(_SIGNAL_POLL_PERIOD)
-            result = node.finished.result() if node.finished.done() else 0
+            # Short spins in a loop: between two of them the main thread is back in Python,
+            # where signal handlers run (never while the C++ executor holds it).
+            while not node.finished.done():
+                executor.spin_until_future_complete(node.finished, timeout_sec=_SIGNAL_POLL_PERIOD)
+            result = node.finished.result()
             code = result if isinstance(result, int) else 0
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except PendulumAccelError as err:
+    except (PendulumAccelError, ParameterException) as err:
         print(f"{name}: error: {err}", file=sys.stderr, flush=True)
         code = 2
     finally:

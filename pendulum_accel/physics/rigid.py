@@ -42,17 +42,16 @@ def rigid_rhs(p: Pendulum, accel: ArrayAccel) -> Callable[[float, np.ndarray], n
     return rhs
 
 
-def rigid_rhs_scalar(p: Pendulum, accel: ScalarAccel) -> Callable[[float, list[float]], list[float]]:
-    """Same as ``rigid_rhs`` on a list [θ, θ'] of Python floats (fast path for long fixed-step runs)."""
+def rigid_rhs_scalar(p: Pendulum, accel: ScalarAccel) -> Callable[[float, float, float], tuple[float, float]]:
+    """(θ', θ'') from (t, θ, θ') in Python floats: the fast path for long fixed-step runs."""
     g_l = p.gravity / p.length
     inv_l = 1.0 / p.length
     c = p.damping
     sin, cos = math.sin, math.cos
 
-    def rhs(t: float, y: list[float]) -> list[float]:
-        """[θ', −(g/l) sin θ + (a(t)/l) cos θ − c θ']."""
-        th, w = y
-        return [w, -g_l * sin(th) + accel(t) * inv_l * cos(th) - c * w]
+    def rhs(t: float, th: float, w: float) -> tuple[float, float]:
+        """(θ', −(g/l) sin θ + (a(t)/l) cos θ − c θ')."""
+        return w, -g_l * sin(th) + accel(t) * inv_l * cos(th) - c * w
 
     return rhs
 

@@ -8,7 +8,7 @@ Models (equations in each module's docstring):
 - ``multiplier``: Cartesian (x, z) with the constraint ½(x² + z² − l²) = 0 (physics.multiplier);
 - ``elastic``: radial spring V(r) = ½ k (r − l)², state (r, θ, r', θ') (physics.elastic).
 
-Integration always stops at the profile's breakpoints. ``method="auto"`` picks DOP853, or Radau for
+Integration always stops at the profile's breakpoints. ``method="auto"`` picks DOP853, or LSODA for
 the elastic string when √(k/m) ≥ ``STIFF_RATIO``·ω (stiff). ``atol`` is per unit of each state
 component's natural scale (rad, rad·ω, l, l·ω). Fixed-step methods refuse a dt past their stability
 limit, computed from ω = max(√(√(g² + a_max²)/l), c) (and √(k/m) for the elastic string).
@@ -24,7 +24,9 @@ import numpy as np
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics import elastic as elastic_model
 from pendulum_accel.physics import multiplier as multiplier_model
+from pendulum_accel.physics.exact import exact_solution
 from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, METHODS, check_method, integrate
+from pendulum_accel.physics.linear import linear_solution
 from pendulum_accel.physics.params import Pendulum, require_finite
 from pendulum_accel.physics.profiles import AccelProfile, Piece, scalar_accel
 from pendulum_accel.physics.rigid import rigid_rhs, rigid_rhs_scalar, tension
@@ -47,13 +49,15 @@ def stability_omega(pendulum: Pendulum, profile: AccelProfile, t0: float, t1: fl
 
 
 def choose_method(pendulum: Pendulum, model: str, method: str) -> str:
-    """``method`` unless 'auto': closed-form for exact/linear, Radau for a stiff string, else DOP853."""
+    """``method`` unless 'auto': closed-form for exact/linear, LSODA for a stiff string, else DOP853."""
     if model in CLOSED_FORM_MODELS:
         return CLOSED_FORM_METHOD
     if method != AUTO_METHOD:
         return check_method(method)
     if model == "elastic" and elastic_model.radial_omega(pendulum) >= STIFF_RATIO * pendulum.omega(0.0):
-        return "Radau"
+        # LSODA switches between Adams and BDF by itself: BDF steps over a quiet radial mode, and
+        # Adams is cheaper than an implicit method when a jump in a(t) sets the string ringing.
+        return "LSODA"
     return "DOP853"
 
 
@@ -227,10 +231,7 @@ def _closed_form(
             f"model {model!r} needs a piecewise-constant acceleration, got a {type(profile).__name__} "
             f"profile that varies continuously; use model='rigid'"
         )
-    if model == "exact":
-        from pendulum_accel.physics.exact import exact_solution as solution
-    else:
-        from pendulum_accel.physics.linear import linear_solution as solution
+    solution = exact_solution if model == "exact" else linear_solution
     theta = np.empty_like(times)
     theta_dot = np.empty_like(times)
     th, w = theta0, theta_dot0

@@ -1,0 +1,209 @@
+"""Bag benchmark: ``generate`` and ``analyze`` throughput against a plain rosbags loop, in one run.
+
+    python -m pendulum_accel.bench.bags [--out DIR] [--scene NAME] [--rate HZ] [--duration S] [--repeat N]
+
+1. generate: a scene at ``--rate`` (default 1 kHz) with every topic of the chain, simulated,
+   estimated and written; messages/s and × real time, per phase.
+2. analyze: ``analyze_bag`` on that bag (read, bulk decode, re-run the estimator, metrics) and our
+   reader alone, against a plain rosbags ``Reader.messages()`` + ``deserialize_cdr`` loop over the
+   same bag. Best of ``--repeat`` runs each.
+
+Writes bags.csv and bags.md into the output directory (default out/bench) and prints the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from rosbags.rosbag2 import Reader
+
+from pendulum_accel.bag.analyze import analyze_bag
+from pendulum_accel.bag.generate import generate_bag
+from pendulum_accel.bag.messages import (
+    ACCEL_STAMPED,
+    JOINT_STATE,
+    TOPIC_ACCEL_TRUTH,
+    TOPIC_JOINT_STATES,
+    TYPESTORE,
+)
+from pendulum_accel.bag.reader import read_bag
+
+
+@dataclasses.dataclass(frozen=True)
+class Row:
+    """One benchmark line: what ran, messages handled, best wall time, and the derived rates."""
+
+    task: str
+    messages: int
+    seconds: float
+    sim_seconds: float
+    baseline_seconds: float | None = None
+
+    @property
+    def rate(self) -> float:
+        """messages / s."""
+        return self.messages / self.seconds if self.seconds > 0 else float("inf")
+
+    @property
+    def realtime(self) -> float:
+        """sim seconds per wall second (× real time)."""
+        return self.sim_seconds / self.seconds if self.seconds > 0 else float("inf")
+
+    @property
+    def speedup(self) -> float | None:
+        """baseline time / this time, for rows compared with the plain rosbags loop."""
+        return None if self.baseline_seconds is None else self.baseline_seconds / self.seconds
+
+
+def best_of(repeat: int, fn: Callable[[], Any]) -> tuple[float, Any]:
+    """(smallest wall time over ``repeat`` calls, last result)."""
+    best = float("inf")
+    result: Any = None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        result = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, result
+
+
+def plain_rosbags_loop(path: Path) -> int:
+    """Baseline: every message through rosbags' Reader and typestore.deserialize_cdr; returns the count."""
+    count = 0
+    with Reader(path) as reader:
+        for conn, _, raw in reader.messages():
+            TYPESTORE.deserialize_cdr(raw, conn.msgtype)
+            count += 1
+    return count
+
+
+def our_read_decode(path: Path) -> int:
+    """Our reader: scan the file and bulk-decode the two topics analyze needs; returns messages read."""
+    bag = read_bag(path)
+    bag.decode(TOPIC_JOINT_STATES, JOINT_STATE)
+    bag.decode(TOPIC_ACCEL_TRUTH, ACCEL_STAMPED)
+    return bag.message_count
+
+
+def scene_at_rate(name: str, rate_hz: float, duration: float) -> Any:
+    """Bundled scene ``name`` with its sensor at ``rate_hz`` and its length set to ``duration`` s."""
+    from pendulum_accel.scene import load_scene
+
+    scene = load_scene(name)
+    sensor = dataclasses.replace(scene.sensor, rate_hz=float(rate_hz))
+    return dataclasses.replace(scene, sensor=sensor, duration=float(duration))
+
+
+def run_benchmark(scene_name: str, rate_hz: float, duration: float, repeat: int, folder: Path) -> list[Row]:
+    """All rows of the benchmark for one scene, writing its bag under ``folder``."""
+    scene = scene_at_rate(scene_name, rate_hz, duration)
+    bag_path = folder / "bench_bag"
+    results = []
+    for _ in range(repeat):
+        results.append(generate_bag(scene, bag_path, overwrite=True))
+    gen = min(results, key=lambda r: r.wall_s)
+    sim = gen.sim_duration
+    n = gen.messages
+    rows = [
+        Row("generate: total (simulate + estimate + write)", n, gen.wall_s, sim),
+        Row("generate: simulate (run_scene)", n, gen.simulate_s, sim),
+        Row("generate: estimate (estimate_batch)", n, gen.estimate_s, sim),
+        Row("generate: serialise + write bag", n, gen.write_s, sim),
+    ]
+    base_s, base_n = best_of(repeat, lambda: plain_rosbags_loop(bag_path))
+    rows.append(Row("plain rosbags read + deserialize loop", base_n, base_s, sim, base_s))
+    read_s, read_n = best_of(repeat, lambda: our_read_decode(bag_path))
+    rows.append(Row("our reader: scan + bulk decode", read_n, read_s, sim, base_s))
+    an_s, _ = best_of(repeat, lambda: analyze_bag(bag_path))
+    rows.append(Row("analyze (read + decode + estimator + metrics)", n, an_s, sim, base_s))
+    return rows
+
+
+def _fmt(value: float | None, spec: str) -> str:
+    """Format a number, '' for None."""
+    return "" if value is None else format(value, spec)
+
+
+def table(rows: Sequence[Row]) -> list[list[str]]:
+    """Header + formatted rows."""
+    out = [["task", "messages", "wall s", "msg/s", "x real time", "x plain rosbags loop"]]
+    for r in rows:
+        out.append(
+            [
+                r.task,
+                str(r.messages),
+                f"{r.seconds:.4f}",
+                f"{r.rate:,.0f}",
+                f"{r.realtime:.0f}",
+                _fmt(r.speedup, ".1f"),
+            ]
+        )
+    return out
+
+
+def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
+    """bags.csv and bags.md into ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path, md_path = out / "bags.csv", out / "bags.md"
+    with csv_path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["task", "messages", "seconds", "messages_per_s", "x_realtime", "x_plain_rosbags"])
+        for r in rows:
+            writer.writerow(
+                [
+                    r.task,
+                    r.messages,
+                    f"{r.seconds:.6f}",
+                    f"{r.rate:.1f}",
+                    f"{r.realtime:.2f}",
+                    _fmt(r.speedup, ".3f"),
+                ]
+            )
+    cells = table(rows)
+    lines = [header, "", "| " + " | ".join(cells[0]) + " |", "|" + "---|" * len(cells[0])]
+    lines += ["| " + " | ".join(c) + " |" for c in cells[1:]]
+    md_path.write_text("\n".join(lines) + "\n")
+    return [csv_path, md_path]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the benchmark, print the table, write bags.csv and bags.md."""
+    parser = argparse.ArgumentParser(
+        prog="python -m pendulum_accel.bench.bags", description=__doc__.split("\n")[0]
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path("out/bench"), help="output directory (default out/bench)"
+    )
+    parser.add_argument("--scene", default="elastic_string", help="bundled scene (default elastic_string)")
+    parser.add_argument("--rate", type=float, default=1000.0, help="sensor rate in Hz (default 1000)")
+    parser.add_argument("--duration", type=float, default=30.0, help="scene length in s (default 30)")
+    parser.add_argument("--repeat", type=int, default=3, help="runs per task, best kept (default 3)")
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_") as folder:
+        rows = run_benchmark(args.scene, args.rate, args.duration, max(1, args.repeat), Path(folder))
+    header = (
+        f"Bag benchmark: scene {args.scene} at {args.rate:g} Hz, {args.duration:g} s of sim time, "
+        f"all topics; best of {args.repeat} runs."
+    )
+    cells = table(rows)
+    widths = [max(len(row[i]) for row in cells) for i in range(len(cells[0]))]
+    print(header)
+    for row in cells:
+        print(
+            "  ".join(
+                c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))
+            )
+        )
+    for path in write_outputs(rows, header, args.out):
+        print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,110 @@
+"""``pendulum-accel run [SCENE] --record DIR``: run the live ROS 2 chain on a scene and summarise it."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from pendulum_accel.errors import ParameterError
+
+if TYPE_CHECKING:
+    from pendulum_accel.nodes.launcher import ChainConfig
+
+
+def parse_override(text: str) -> tuple[str, float]:
+    """'name=value' → (name, float(value)); ParameterError naming the text otherwise."""
+    name, sep, value = text.partition("=")
+    try:
+        if not sep or not name:
+            raise ValueError
+        return name.strip(), float(value)
+    except ValueError:
+        raise ParameterError(f"--set expects NAME=NUMBER (e.g. duration=5), got {text!r}") from None
+
+
+def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
+    """The chain's options, shared by ``pendulum-accel run`` and ``launch_scripts/chain.py``."""
+    from pendulum_accel.nodes.scene_overrides import OVERRIDES
+
+    parser.add_argument("scene", nargs="?", default=None, help="bundled scene name or scene YAML path")
+    parser.add_argument("--record", type=Path, metavar="DIR", help="record the chain to this bag directory")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing bag")
+    pace = parser.add_mutually_exclusive_group()
+    pace.add_argument("--realtime", dest="realtime", action="store_true", default=True, help="wall-clock pace (default)")
+    pace.add_argument("--fast", dest="realtime", action="store_false", help="as fast as possible, graph on /clock")
+    parser.add_argument("--estimator", metavar="M", help="estimation method (default: the package default)")
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="override a scene field: " + ", ".join(o.name for o in OVERRIDES),
+    )
+
+
+def chain_config(args: argparse.Namespace) -> ChainConfig:
+    """ChainConfig from parsed chain arguments."""
+    from pendulum_accel.nodes.launcher import ChainConfig
+    from pendulum_accel.scene import DEFAULT_SCENE
+
+    return ChainConfig(
+        scene=args.scene or DEFAULT_SCENE,
+        record=args.record,
+        overwrite=args.overwrite,
+        realtime=args.realtime,
+        estimator=args.estimator,
+        overrides=dict(parse_override(text) for text in args.overrides),
+    )
+
+
+def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
+    """Messages per topic, live-estimator error vs truth (bias, RMS, max), plan line and bag path."""
+    from pendulum_accel.bag.analyze import analyze_bag
+    from pendulum_accel.bag.reader import read_bag
+    from pendulum_accel.bag.writer import CUSTOM_PLAN
+
+    bag = read_bag(bag_path)
+    lines = ["messages:"] + [f"  {name:<22} {info.count:>8}" for name, info in bag.topics.items()]
+    analysis = analyze_bag(bag, estimator=estimator)
+    recorded = analysis.recorded
+    if recorded is not None and recorded.n:
+        lines.append(
+            f"estimate vs truth ({analysis.estimator}, live, {recorded.n} estimates): bias {recorded.bias:+.5f}, "
+            f"RMS {recorded.rms:.5f}, max {recorded.max_abs:.5f} m/s²"
+        )
+    if analysis.settling_time is not None:
+        s = analysis.settled_stats
+        lines.append(
+            f"offline {analysis.estimator} after settling ({analysis.settling_time:.3f} s): bias {s.bias:+.5f}, RMS {s.rms:.5f}, "
+            f"max {s.max_abs:.5f} m/s²"
+        )
+    plan = bag.custom_data.get(CUSTOM_PLAN, "plan: (none stored)")
+    lines.append(plan if plan.startswith("plan:") else f"plan: {plan}")
+    lines.append(f"bag: {bag.path}")
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the chain until the scene ends (or Ctrl-C), then print the summary from the recorded bag."""
+    from pendulum_accel.nodes.launcher import run_chain
+
+    config = chain_config(args)
+    code = run_chain(config)
+    if config.record is not None and (config.record / "metadata.yaml").exists():
+        for line in summary_lines(config.record, config.estimator):
+            print(line)
+    return code
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add ``run``: the live chain (simulator, estimator, recorder over DDS) on one scene."""
+    parser = subparsers.add_parser(
+        "run",
+        help="run the live ROS 2 chain on a scene and record it",
+        description="Start simulator, estimator and recorder (separate processes over DDS) on a scene, "
+        "wait for the scene to end, stop everything and summarise the recording.",
+    )
+    add_chain_arguments(parser)
+    parser.set_defaults(func=run)

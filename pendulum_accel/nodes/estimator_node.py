@@ -1,0 +1,280 @@
+"""``accel_estimator``: joint states in, acceleration estimates and input health (/diagnostics) out.
+
+Each angle goes through ``estimators.guard.GuardedEstimator`` (drops NaN/inf, resets on a time jump
+back, flags |θ| near 90°), then the chosen method; the estimate carries the input's stamp and its
+variance in covariance[0]. Nothing non-finite is ever published.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import AccelWithCovarianceStamped
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
+from rclpy.parameter import Parameter
+from rclpy.subscription import Subscription
+from sensor_msgs.msg import JointState
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.errors import PendulumAccelError
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, make_estimator
+from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, InputGuard
+from pendulum_accel.nodes.conversions import accel_estimate, pendulum_angle, time_to_seconds
+from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
+from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
+
+NODE_NAME = "accel_estimator"
+DIAGNOSTIC_NAME = "accel_estimator"
+HARDWARE_ID = "pendulum_accel"
+_DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
+_DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
+
+# Parameters that configure the method; a change rebuilds it (and resets its state).
+_CONFIG = {
+    "length": (1e-3, 1e3, "pendulum length l, m"),
+    "gravity": (0.1, 100.0, "gravitational acceleration g, m/s²"),
+    "damping": (0.0, 100.0, "linear damping c, 1/s"),
+    "noise_std": (0.0, 1.0, "angle noise σ, rad"),
+    "rate_hz": (1.0, 100_000.0, "nominal input rate, Hz"),
+}
+
+
+def _range(low: float, high: float) -> list[FloatingPointRange]:
+    """[FloatingPointRange(low, high)] for a descriptor."""
+    return [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
+
+
+def diagnostic_array(report: GuardReport, method: str, stamp: Any) -> DiagnosticArray:
+    """DiagnosticArray with one status: level and message from the guard, counters + method as values."""
+    status = DiagnosticStatus(
+        level=bytes([report.level]),
+        name=DIAGNOSTIC_NAME,
+        message=f"{report.state.value}: {report.message}",
+        hardware_id=HARDWARE_ID,
+        values=[KeyValue(key="method", value=method), KeyValue(key="state", value=report.state.value)]
+        + [KeyValue(key=k, value=v) for k, v in report.values],
+    )
+    msg = DiagnosticArray(status=[status])
+    msg.header.stamp = stamp
+    return msg
+
+
+class EstimatorNode(ChainNode):
+    """Streams the chosen estimator over /pendulum/joint_states; publishes estimates and diagnostics."""
+
+    def __init__(self) -> None:
+        """Declare parameters, build the guarded estimator, subscribe (after waiting for subscribers)."""
+        super().__init__(NODE_NAME)
+        from pendulum_accel.bag.generate import estimator_settings
+        from pendulum_accel.scene import DEFAULT_SCENE, load_scene
+
+        scene = str(
+            self.declare_parameter(
+                "scene",
+                DEFAULT_SCENE,
+                ParameterDescriptor(
+                    description="scene whose pendulum and sensor configure the method", read_only=True
+                ),
+            ).value
+        )
+        settings = estimator_settings(load_scene(scene))
+        self.method = str(
+            self.declare_parameter(
+                "method",
+                DEFAULT_ESTIMATOR,
+                ParameterDescriptor(
+                    description="estimation method", additional_constraints=" | ".join(ESTIMATORS)
+                ),
+            ).value
+        )
+        for name, (low, high, text) in _CONFIG.items():
+            self.declare_parameter(
+                name,
+                float(settings[name]),
+                ParameterDescriptor(
+                    description=f"{text} (default: the scene's)", floating_point_range=_range(low, high)
+                ),
+            )
+        self.warn_angle_deg = float(
+            self.declare_parameter(
+                "warn_angle_deg",
+                80.0,
+                ParameterDescriptor(
+                    description="|θ| from which the input is flagged ill-conditioned (WARN), degrees",
+                    floating_point_range=_range(1.0, 89.9),
+                    read_only=True,
+                ),
+            ).value
+        )
+        self.stale_after = float(
+            self.declare_parameter(
+                "stale_after",
+                0.0,
+                ParameterDescriptor(
+                    description="STALE after this long without input, s (0: 20 periods, at least 0.5 s)",
+                    floating_point_range=_range(0.0, 3600.0),
+                    read_only=True,
+                ),
+            ).value
+        )
+        period = float(
+            self.declare_parameter(
+                "diagnostics_period",
+                1.0,
+                ParameterDescriptor(
+                    description="seconds between /diagnostics messages (wall clock)",
+                    floating_point_range=_range(0.01, 60.0),
+                    read_only=True,
+                ),
+            ).value
+        )
+        self.wait_for_subscribers = int(
+            self.declare_parameter(
+                "wait_for_subscribers",
+                0,
+                ParameterDescriptor(
+                    description="subscribe to the input only once the outputs have this many subscribers",
+                    integer_range=[IntegerRange(from_value=0, to_value=64, step=1)],
+                    read_only=True,
+                ),
+            ).value
+        )
+        self.guarded = GuardedEstimator(self._build(self._config_values()), self._new_guard())
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._parameters_applied)
+        self.estimate_publisher = self.create_publisher(
+            AccelWithCovarianceStamped, bm.TOPIC_ACCEL_ESTIMATE, DATA_QOS
+        )
+        self.diagnostics_publisher = self.create_publisher(
+            DiagnosticArray, bm.TOPIC_DIAGNOSTICS, DIAGNOSTICS_QOS
+        )
+        self.inputs = 0
+        self.estimates = 0
+        self._last_stamp: Any = None
+        self._last_input = time.monotonic()
+        self._stopping_since: float | None = None
+        self._subscription: Subscription | None = None
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(period, self._publish_diagnostics, clock=steady)
+        self.create_timer(0.05, self._tick, clock=steady)
+        self._subscribe_when_ready()
+
+    # -- configuration --------------------------------------------------------------------------
+
+    def _config_values(self, changes: Sequence[Parameter] = ()) -> dict[str, Any]:
+        """method and the _CONFIG values, with ``changes`` applied on top."""
+        values: dict[str, Any] = {name: self.get_parameter(name).value for name in ("method", *_CONFIG)}
+        for param in changes:
+            if param.name in values:
+                values[param.name] = param.value
+        return values
+
+    def _build(self, values: dict[str, Any]) -> Any:
+        """make_estimator(method, length, gravity, noise_std, rate_hz, damping) (ParameterError if bad)."""
+        cfg = {k: float(v) for k, v in values.items() if k != "method"}
+        if not all(math.isfinite(v) for v in cfg.values()):
+            raise PendulumAccelError("estimator parameters must be finite")
+        return make_estimator(str(values["method"]), **cfg)
+
+    def _new_guard(self) -> InputGuard:
+        """InputGuard at the configured rate, warn angle and stale limit."""
+        return InputGuard(
+            rate_hz=float(self.get_parameter("rate_hz").value),
+            warn_angle=math.radians(self.warn_angle_deg),
+            stale_after=self.stale_after if self.stale_after > 0.0 else None,
+        )
+
+    def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        """Accept a change only if the estimator it makes is valid; else keep the old value and say why."""
+        try:
+            self._build(self._config_values(params))
+        except PendulumAccelError as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        except (TypeError, ValueError) as err:
+            return SetParametersResult(successful=False, reason=f"invalid value: {err}")
+        return SetParametersResult(successful=True)
+
+    def _parameters_applied(self, params: list[Parameter]) -> None:
+        """Rebuild the estimator from the new values; it starts over from the next sample."""
+        values = self._config_values()
+        self.method = str(values["method"])
+        self.guarded.estimator = self._build(values)
+        self.get_logger().info(f"estimator rebuilt: {self.guarded.estimator.describe()}")
+
+    # -- data flow ------------------------------------------------------------------------------
+
+    def _subscribe_when_ready(self) -> None:
+        """Subscribe once the estimate and diagnostics publishers both have wait_for_subscribers readers."""
+        if self._subscription is not None:
+            return
+        ready = (
+            self.estimate_publisher.get_subscription_count() >= self.wait_for_subscribers
+            and self.diagnostics_publisher.get_subscription_count() >= self.wait_for_subscribers
+        )
+        if ready:
+            self._subscription = self.create_subscription(
+                JointState, bm.TOPIC_JOINT_STATES, self._on_joint_state, DATA_QOS
+            )
+            self.get_logger().info(f"estimating with {self.guarded.estimator.describe()}")
+
+    def _stopping(self) -> bool:
+        """True once a second stop request made the node finish."""
+        return self.finished.done()
+
+    def _on_joint_state(self, msg: JointState) -> None:
+        """â for one angle sample, stamped like it; nothing when the guard drops it or the method warms up."""
+        now = time.monotonic()
+        self._last_input = now
+        self.inputs += 1
+        stamp = msg.header.stamp
+        self._last_stamp = stamp
+        estimate = self.guarded.update(time_to_seconds(stamp), pendulum_angle(msg), now)
+        if estimate is None:
+            return
+        out = accel_estimate(stamp, estimate.a, estimate.variance)
+        if publish_blocking(self.estimate_publisher, out, self._stopping):
+            self.estimates += 1
+
+    def _publish_diagnostics(self) -> None:
+        """One DiagnosticArray with the worst input state since the previous one (STALE checked first)."""
+        guard = self.guarded.guard
+        guard.check_stale(time.monotonic())
+        stamp = self._last_stamp if self._last_stamp is not None else self.get_clock().now().to_msg()
+        self.diagnostics_publisher.publish(diagnostic_array(guard.report(), self.method, stamp))
+
+    def _tick(self) -> None:
+        """Subscribe when ready; during a stop, finish once the input has been idle (queue drained)."""
+        self._subscribe_when_ready()
+        if self._stopping_since is None:
+            return
+        now = time.monotonic()
+        if now - self._last_input > _DRAIN_IDLE or now - self._stopping_since > _DRAIN_LIMIT:
+            self.finish(0)
+
+    def request_stop(self) -> None:
+        """Drain: keep estimating until the input has been idle for a moment, then finish."""
+        self._stopping_since = time.monotonic()
+
+    def close(self) -> None:
+        """Deliver what was published, then log the counts."""
+        self.estimate_publisher.wait_for_all_acked(Duration(seconds=2))
+        guard = self.guarded.guard
+        self.get_logger().info(
+            f"{self.inputs} inputs, {self.estimates} estimates published; dropped {guard.dropped_nonfinite} "
+            f"non-finite and {guard.dropped_out_of_order} out-of-order, {guard.resets} resets"
+        )
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Console script ``accel_estimator``: run the estimator node until a signal."""
+    return run_node(EstimatorNode, NODE_NAME, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,268 @@
+"""Start the chain (simulator, estimator, recorder), each in its own process, and stop it cleanly.
+
+Plain ``subprocess`` (the PyPI ROS wheels have no ``ros2 launch``); no rclpy import here. Start order
+and the nodes' wait parameters make sure nothing published is missed: the recorder subscribes first,
+the estimator subscribes to the angles once the recorder listens to its outputs, and the simulator
+publishes once both listen. Stop order is the data-flow order (simulator, estimator, recorder), each
+asked with one SIGINT (the estimator and recorder drain their queues, the recorder closes the bag),
+then SIGKILL after a timeout. Each child also gets SIGTERM from the kernel if the launcher itself
+dies (PR_SET_PDEATHSIG), so nothing is ever left running.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import FrameType
+
+from pendulum_accel.errors import ParameterError
+
+_PR_SET_PDEATHSIG = 1
+_STOP_TIMEOUT = 15.0  # s a node gets to exit after SIGINT before SIGKILL
+_POLL = 0.05  # s
+
+ParamValue = bool | int | float | str
+
+
+def _die_with_parent() -> None:
+    """In the child, before exec: SIGTERM me when the launcher dies (Linux prctl)."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def ros_param(name: str, value: ParamValue) -> list[str]:
+    """['-p', 'name:=value'] with the value written as YAML (strings quoted, so '1' stays a string)."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, int | float):
+        text = repr(value)
+    else:
+        text = json.dumps(value)
+    return ["-p", f"{name}:={text}"]
+
+
+def node_command(module: str, params: Mapping[str, ParamValue], name: str | None = None) -> list[str]:
+    """python -m pendulum_accel.nodes.<module> --ros-args -p k:=v … (optionally remapping the node name)."""
+    cmd = [sys.executable, "-m", f"pendulum_accel.nodes.{module}", "--ros-args"]
+    if name:
+        cmd += ["-r", f"__node:={name}"]
+    for key, value in params.items():
+        cmd += ros_param(key, value)
+    return cmd
+
+
+@dataclass
+class ChainConfig:
+    """What to run: scene (+ overrides of its fields), recording, pacing and estimator."""
+
+    scene: str
+    record: Path | None = None
+    overwrite: bool = False
+    realtime: bool = True
+    estimator: str | None = None
+    overrides: dict[str, float] = field(default_factory=dict)
+    estimator_params: dict[str, ParamValue] = field(default_factory=dict)
+    simulator_params: dict[str, ParamValue] = field(default_factory=dict)
+
+
+@dataclass
+class Child:
+    """One started node: its role, command and process."""
+
+    role: str
+    command: list[str]
+    process: subprocess.Popen[bytes]
+    expected_exit: bool = False
+
+    @property
+    def pid(self) -> int:
+        """Process id."""
+        return self.process.pid
+
+
+def effective_scene_file(config: ChainConfig, directory: Path) -> str:
+    """Scene argument for the nodes: the name itself, or (with overrides) a YAML file of the overridden scene."""
+    if not config.overrides:
+        return config.scene
+    from pendulum_accel.nodes.scene_overrides import apply_overrides
+    from pendulum_accel.scene import load_scene, scene_to_yaml
+
+    scene = apply_overrides(load_scene(config.scene), config.overrides)
+    path = directory / f"{scene.name}.yaml"
+    path.write_text(scene_to_yaml(scene))
+    return str(path)
+
+
+def describe_exit(code: int | None) -> str:
+    """'exit 0', 'exit 2' or 'killed by SIGKILL' for a Popen return code."""
+    if code is None:
+        return "running"
+    if code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit {code}"
+
+
+class Chain:
+    """The running chain; ``run()`` blocks until the scene ends, a signal arrives or a node dies."""
+
+    def __init__(self, config: ChainConfig, *, log: bool = True) -> None:
+        """Check the configuration (no process is started yet)."""
+        if config.record is not None and config.record.exists() and not config.overwrite:
+            raise ParameterError(f"{config.record} exists already; pass --overwrite to replace it")
+        self.config = config
+        self.children: list[Child] = []
+        self.log = log
+        self._signalled = 0
+
+    def _say(self, text: str) -> None:
+        """One launcher line on stderr (the nodes' own logs interleave there too)."""
+        if self.log:
+            print(f"chain: {text}", file=sys.stderr, flush=True)
+
+    def commands(self, scene_arg: str) -> list[tuple[str, list[str]]]:
+        """(role, command) of each node, in start order: recorder (if recording), estimator, simulator."""
+        cfg = self.config
+        sim_time = not cfg.realtime
+        out: list[tuple[str, list[str]]] = []
+        if cfg.record is not None:
+            rec: dict[str, ParamValue] = {
+                "path": str(cfg.record),
+                "overwrite": cfg.overwrite,
+                "scene": scene_arg,
+                "use_sim_time": sim_time,
+            }
+            out.append(("recorder", node_command("recorder_node", rec)))
+        est: dict[str, ParamValue] = {
+            "scene": scene_arg,
+            "wait_for_subscribers": 1 if cfg.record is not None else 0,
+            "use_sim_time": sim_time,
+        }
+        if cfg.estimator:
+            est["method"] = cfg.estimator
+        est.update(cfg.estimator_params)
+        out.append(("estimator", node_command("estimator_node", est)))
+        sim: dict[str, ParamValue] = {
+            "scene": scene_arg,
+            "realtime": cfg.realtime,
+            "wait_for_subscribers": 2 if cfg.record is not None else 1,
+            "wait_for_recorder": cfg.record is not None,
+        }
+        sim.update(cfg.simulator_params)
+        out.append(("simulator", node_command("simulator_node", sim)))
+        return out
+
+    def _start(self, role: str, command: list[str]) -> None:
+        """Start one node in its own process group (a terminal's Ctrl-C reaches only the launcher)."""
+        proc = subprocess.Popen(command, preexec_fn=_die_with_parent, start_new_session=True)
+        self.children.append(Child(role, command, proc))
+        self._say(f"started {role} (pid {proc.pid})")
+
+    def _on_signal(self, signum: int, frame: FrameType | None) -> None:
+        """Remember a SIGINT/SIGTERM; run() stops the chain."""
+        self._signalled += 1
+
+    def _stop_child(self, child: Child, timeout: float = _STOP_TIMEOUT) -> None:
+        """SIGINT, wait up to ``timeout`` s, then SIGKILL; always reaps the process."""
+        proc = child.process
+        child.expected_exit = True
+        if proc.poll() is None:
+            try:
+                proc.send_signal(signal.SIGINT)
+                proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                self._say(f"{child.role} did not stop within {timeout:g} s: killing it")
+                proc.kill()
+            except ProcessLookupError:
+                pass
+        proc.wait()
+
+    def stop(self) -> None:
+        """Stop every child in data-flow order: simulator, estimator, recorder."""
+        order = {"simulator": 0, "estimator": 1, "recorder": 2}
+        for child in sorted(self.children, key=lambda c: order.get(c.role, 3)):
+            self._stop_child(child)
+
+    def child(self, role: str) -> Child | None:
+        """The child with this role, if started."""
+        return next((c for c in self.children if c.role == role), None)
+
+    def run(self) -> int:
+        """Start, wait for the end of the scene (or a signal or a dead node), stop; 0 when all went well."""
+        previous = {s: signal.signal(s, self._on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            with tempfile.TemporaryDirectory(prefix="pendulum_accel_chain_") as tmp:
+                scene_arg = effective_scene_file(self.config, Path(tmp))
+                for role, command in self.commands(scene_arg):
+                    self._start(role, command)
+                return self._supervise()
+        finally:
+            self.stop()
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+
+    def _supervise(self) -> int:
+        """Watch the children until the simulator ends, a signal arrives or another child dies."""
+        simulator = self.child("simulator")
+        assert simulator is not None
+        while True:
+            if self._signalled:
+                self._say("interrupted: stopping the chain")
+                self.stop()
+                return 130
+            code = simulator.process.poll()
+            if code is not None:
+                simulator.expected_exit = True
+                if code != 0:
+                    self._say(f"simulator ended with {describe_exit(code)}: stopping the chain")
+                    self.stop()
+                    return 1
+                self._say("scene finished: stopping the chain")
+                self.stop()
+                failed = [c for c in self.children if c.process.returncode not in (0, None)]
+                for c in failed:
+                    self._say(f"{c.role} ended with {describe_exit(c.process.returncode)}")
+                return 1 if failed else 0
+            for child in self.children:
+                code = child.process.poll()
+                if code is not None and not child.expected_exit:
+                    self._say(f"{child.role} (pid {child.pid}) died with {describe_exit(code)}: stopping the chain")
+                    child.expected_exit = True
+                    self.stop()
+                    return 1
+            time.sleep(_POLL)
+
+
+def run_chain(config: ChainConfig, *, log: bool = True) -> int:
+    """Run the chain to completion (see Chain.run); returns the launcher's exit code."""
+    return Chain(config, log=log).run()
+
+
+def pids_alive(pids: Sequence[int]) -> list[int]:
+    """The pids among ``pids`` that still exist and are not zombies (read from /proc)."""
+    alive = []
+    for pid in pids:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            continue
+        except PermissionError:
+            pass
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except (OSError, IndexError):
+            continue
+        if state != "Z":
+            alive.append(pid)
+    return alive

@@ -1,0 +1,205 @@
+"""``bag_player``: publishes a bag's messages (raw CDR) with their original timing.
+
+Options: ``rate`` factor, ``loop`` (the stamps jump back at each pass, which the estimator sees as a
+reset), ``start_offset`` into the bag, a ``topics`` filter, and ``clock``: publish /clock from the
+bag's log time (the recorded /clock, if any, is then not replayed).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Sequence
+
+import numpy as np
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.duration import Duration
+from rclpy.publisher import Publisher
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import read_bag, salvage_note
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.nodes.conversions import message_class
+from pendulum_accel.nodes.qos import qos_for
+from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
+from pendulum_accel.nodes.simulator_node import clock_mask
+
+NODE_NAME = "bag_player"
+_ACK_TIMEOUT = Duration(seconds=10)
+
+
+def _range(low: float, high: float) -> list[FloatingPointRange]:
+    """[FloatingPointRange(low, high)] for a descriptor."""
+    return [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
+
+
+class PlayerNode(ChainNode):
+    """Replays one bag into the graph from a publishing thread."""
+
+    def __init__(self) -> None:
+        """Declare parameters, read the bag (BagError when unreadable), create publishers, start playing."""
+        super().__init__(NODE_NAME)
+        fixed = {"read_only": True}
+        path = str(
+            self.declare_parameter("path", "", ParameterDescriptor(description="bag to play", **fixed)).value
+        )
+        self.rate = float(
+            self.declare_parameter(
+                "rate",
+                1.0,
+                ParameterDescriptor(
+                    description="speed factor (2: twice as fast)",
+                    floating_point_range=_range(1e-3, 1e3),
+                    **fixed,
+                ),
+            ).value
+        )
+        self.loop = bool(
+            self.declare_parameter(
+                "loop", False, ParameterDescriptor(description="start over at the end", **fixed)
+            ).value
+        )
+        self.start_offset = float(
+            self.declare_parameter(
+                "start_offset",
+                0.0,
+                ParameterDescriptor(
+                    description="skip this many seconds of the bag",
+                    floating_point_range=_range(0.0, 1e6),
+                    **fixed,
+                ),
+            ).value
+        )
+        topics: list[str] = list(
+            self.declare_parameter(
+                "topics", [""], ParameterDescriptor(description="topics to play (empty: all)", **fixed)
+            ).value
+        )
+        self.clock = bool(
+            self.declare_parameter(
+                "clock", False, ParameterDescriptor(description="publish /clock from the bag time", **fixed)
+            ).value
+        )
+        self.clock_rate_hz = float(
+            self.declare_parameter(
+                "clock_rate_hz",
+                100.0,
+                ParameterDescriptor(
+                    description="/clock messages per bag second (0: one per message)",
+                    floating_point_range=_range(0.0, 1e5),
+                    **fixed,
+                ),
+            ).value
+        )
+        self.exit_on_end = bool(
+            self.declare_parameter(
+                "exit_on_end", True, ParameterDescriptor(description="exit after the last message", **fixed)
+            ).value
+        )
+        self.wait_for_subscribers = int(
+            self.declare_parameter(
+                "wait_for_subscribers",
+                0,
+                ParameterDescriptor(
+                    description="start once /pendulum/joint_states has this many subscribers",
+                    integer_range=[IntegerRange(from_value=0, to_value=64, step=1)],
+                    **fixed,
+                ),
+            ).value
+        )
+        if not path:
+            raise ParameterError("parameter path (the bag to play) is required")
+        bag = read_bag(path)
+        note = salvage_note(bag)
+        if note:
+            self.get_logger().warning(note)
+        available = bag.topics
+        wanted = [t for t in topics if t] or list(available)
+        missing = [t for t in wanted if t not in available]
+        if missing:
+            raise ParameterError(f"bag {path} has no topic {missing[0]} (it has {', '.join(available)})")
+        if self.clock:
+            wanted = [t for t in wanted if t != bm.TOPIC_CLOCK]
+        self._outputs: dict[str, Publisher] = {
+            topic: self.create_publisher(message_class(available[topic].msgtype), topic, qos_for(topic))
+            for topic in wanted
+        }
+        if self.clock:
+            self._outputs[bm.TOPIC_CLOCK] = self.create_publisher(
+                message_class(bm.CLOCK), bm.TOPIC_CLOCK, qos_for(bm.TOPIC_CLOCK)
+            )
+        start = bag.start_ns + round(self.start_offset * 1e9)
+        self._messages = [(topic, ns, data) for topic, ns, data in bag.iter_raw(wanted) if ns >= start]
+        if not self._messages:
+            raise ParameterError(f"bag {path} has no messages after start_offset {self.start_offset:g} s")
+        self._stop = threading.Event()
+        self.passes = 0
+        self.published = 0
+        self._thread = threading.Thread(target=self._play, name="bag_player", daemon=True)
+        self._thread.start()
+        self.get_logger().info(
+            f"playing {len(self._messages)} messages of {path} ({', '.join(wanted)}) at rate {self.rate:g}"
+            + (", looping" if self.loop else "")
+        )
+
+    def _wait(self) -> bool:
+        """True once /pendulum/joint_states has wait_for_subscribers subscribers (or none are asked for)."""
+        joint = self._outputs.get(bm.TOPIC_JOINT_STATES)
+        while joint is not None and joint.get_subscription_count() < self.wait_for_subscribers:
+            if self._stop.wait(0.01):
+                return False
+        return True
+
+    def _play(self) -> None:
+        """Thread body: publish every message at (log time − first)/rate after the start, pass after pass."""
+        if not self._wait():
+            return
+        times = np.array([ns for _, ns, _ in self._messages], dtype=np.int64)
+        ticks = (
+            clock_mask(times.astype(np.float64) * 1e-9, self.clock_rate_hz)
+            if self.clock
+            else np.zeros(times.size, dtype=bool)
+        )
+        stopping = self._stop.is_set
+        while not stopping():
+            start = time.perf_counter()
+            for i, (topic, ns, data) in enumerate(self._messages):
+                due = start + (ns - times[0]) * 1e-9 / self.rate
+                delay = due - time.perf_counter()
+                if delay > 0 and self._stop.wait(delay):
+                    return
+                if ticks[i]:
+                    publish_blocking(
+                        self._outputs[bm.TOPIC_CLOCK], bm.serialize(bm.clock(int(ns)), bm.CLOCK), stopping
+                    )
+                if not publish_blocking(self._outputs[topic], data, stopping):
+                    return
+                self.published += 1
+            self.passes += 1
+            if not self.loop:
+                break
+        for publisher in self._outputs.values():
+            publisher.wait_for_all_acked(_ACK_TIMEOUT)
+        self.get_logger().info(f"played {self.published} messages in {self.passes} pass(es)")
+        if self.exit_on_end:
+            self.finish(0)
+
+    def request_stop(self) -> None:
+        """Stop playing and finish."""
+        self._stop.set()
+        self.finish(0)
+
+    def close(self) -> None:
+        """Stop the playing thread and wait for it."""
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=5.0)
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Console script ``bag_player``: play the bag, then exit (or loop until a signal)."""
+    return run_node(PlayerNode, NODE_NAME, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

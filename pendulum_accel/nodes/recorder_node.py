@@ -1,0 +1,193 @@
+"""``bag_recorder``: records the chain's topics, as raw CDR, into a rosbag2 MCAP bag (``bag.writer``).
+
+Subscriptions are raw (no deserialisation) and reliable keep-all, so a slow disk pushes back on the
+publishers instead of losing messages. Log time is the message's own stamp by default (simulation
+time, as ``pendulum-accel generate`` writes it), so a bag replays on the scene's timeline whatever
+the pacing of the recording was. The first SIGINT/SIGTERM drains the queues, then the bag is closed.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.clock import Clock, ClockType
+
+from pendulum_accel import __version__
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE, CUSTOM_VERSION, BagWriter
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.nodes.conversions import bag_qos, message_class
+from pendulum_accel.nodes.qos import qos_for
+from pendulum_accel.nodes.runtime import ChainNode, run_node
+
+NODE_NAME = "bag_recorder"
+_DRAIN_IDLE = 0.3  # s without any message after a stop request: the queues are empty
+_DRAIN_LIMIT = 10.0  # s: close the bag even if messages keep coming
+_LOG_TIMES = ("stamp", "receive")
+
+
+def _stamp_offset(msgtype: str) -> int:
+    """Offset of the leading stamp's ``sec`` in the CDR of ``msgtype`` (learnt by bm.Layout)."""
+    templates = {
+        bm.JOINT_STATE: lambda: bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]),
+        bm.ACCEL_STAMPED: lambda: bm.accel_stamped(0, 0.0),
+        bm.ACCEL_WITH_COVARIANCE_STAMPED: lambda: bm.accel_with_covariance_stamped(0, 0.0, 0.0),
+        bm.CLOCK: lambda: bm.clock(0),
+        bm.DIAGNOSTIC_ARRAY: lambda: bm.diagnostic_array(0, 0, "n", "m"),
+    }
+    layout = bm.Layout.of(templates[msgtype](), msgtype)
+    key = "clock.sec" if msgtype == bm.CLOCK else "header.stamp.sec"
+    offset, _ = layout.fields[key]
+    nano, _ = layout.fields[key.replace(".sec", ".nanosec")]
+    if nano != offset + 4:
+        raise ParameterError(f"{msgtype}: stamp fields are not adjacent in CDR")
+    return offset
+
+
+def stamp_ns(data: bytes, offset: int) -> int:
+    """ns = sec · 1e9 + nanosec read from the int32/uint32 pair at ``offset`` of a CDR payload."""
+    sec = int(np.frombuffer(data, dtype="<i4", count=1, offset=offset)[0])
+    nanosec = int(np.frombuffer(data, dtype="<u4", count=1, offset=offset + 4)[0])
+    return sec * 1_000_000_000 + nanosec
+
+
+def custom_data_for(scene_name: str) -> dict[str, str]:
+    """Bag custom_data for a scene: its YAML and the planner's one-line explanation (empty name: none)."""
+    if not scene_name:
+        return {CUSTOM_VERSION: __version__}
+    from pendulum_accel.planner import plan_scene
+    from pendulum_accel.scene import load_scene, scene_to_yaml
+
+    scene = load_scene(scene_name)
+    return {
+        CUSTOM_SCENE: scene_to_yaml(scene),
+        CUSTOM_PLAN: plan_scene(scene).explain(),
+        CUSTOM_VERSION: __version__,
+    }
+
+
+class RecorderNode(ChainNode):
+    """Writes every message of the chosen topics to one bag; reports received/written counts on exit."""
+
+    def __init__(self) -> None:
+        """Declare parameters, create the bag (BagError if it exists and overwrite is false), subscribe."""
+        super().__init__(NODE_NAME)
+        fixed = {"read_only": True}
+        path = str(
+            self.declare_parameter(
+                "path", "", ParameterDescriptor(description="bag directory to create", **fixed)
+            ).value
+        )
+        overwrite = bool(
+            self.declare_parameter(
+                "overwrite", False, ParameterDescriptor(description="replace an existing bag", **fixed)
+            ).value
+        )
+        topics: list[str] = list(
+            self.declare_parameter(
+                "topics",
+                list(bm.TOPIC_TYPES),
+                ParameterDescriptor(description="topics to record (any of the chain's)", **fixed),
+            ).value
+        )
+        scene = str(
+            self.declare_parameter(
+                "scene", "", ParameterDescriptor(description="scene stored in the bag's custom_data", **fixed)
+            ).value
+        )
+        self.log_time = str(
+            self.declare_parameter(
+                "log_time",
+                "stamp",
+                ParameterDescriptor(
+                    description="log time: the message stamp (sim time) or its receive time (node clock)",
+                    additional_constraints=" | ".join(_LOG_TIMES),
+                    **fixed,
+                ),
+            ).value
+        )
+        if not path:
+            raise ParameterError("parameter path (the bag directory to create) is required")
+        if self.log_time not in _LOG_TIMES:
+            raise ParameterError(f"log_time must be one of {', '.join(_LOG_TIMES)}, got {self.log_time!r}")
+        unknown = [t for t in topics if t not in bm.TOPIC_TYPES]
+        if unknown:
+            raise ParameterError(
+                f"cannot record {unknown[0]}: not a chain topic ({', '.join(bm.TOPIC_TYPES)})"
+            )
+        self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data_for(scene))
+        self.received: dict[str, int] = dict.fromkeys(topics, 0)
+        self._offsets = {topic: _stamp_offset(bm.TOPIC_TYPES[topic]) for topic in topics}
+        self._last_message = time.monotonic()
+        self._stopping_since: float | None = None
+        self._closed = False
+        for topic in topics:
+            self.create_subscription(
+                message_class(bm.TOPIC_TYPES[topic]),
+                topic,
+                lambda data, topic=topic: self._on_message(topic, data),
+                qos_for(topic),
+                raw=True,
+            )
+        self.create_timer(0.1, self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.get_logger().info(f"recording {len(topics)} topics to {path}")
+
+    def _add_topic(self, topic: str) -> None:
+        """Register ``topic`` in the bag with the QoS its publishers offer (reliable keep-all if unknown)."""
+        offered = [bag_qos(info.qos_profile) for info in self.get_publishers_info_by_topic(topic)]
+        self.writer.add_topic(topic, bm.TOPIC_TYPES[topic], offered or [bag_qos(qos_for(topic))])
+
+    def _on_message(self, topic: str, data: bytes) -> None:
+        """Write one raw message at its stamp (or receive time)."""
+        self._last_message = time.monotonic()
+        if self._closed:
+            return
+        if self.received[topic] == 0:
+            self._add_topic(topic)
+        self.received[topic] += 1
+        if self.log_time == "stamp":
+            log_ns = stamp_ns(data, self._offsets[topic])
+        else:
+            log_ns = self.get_clock().now().nanoseconds
+        self.writer.write(topic, max(log_ns, 0), data)
+
+    def _tick(self) -> None:
+        """Flush when due (a kill loses at most ~1 s); during a stop, finish once the queues are drained."""
+        if self._closed:
+            return
+        self.writer.flush_if_due()
+        if self._stopping_since is None:
+            return
+        now = time.monotonic()
+        if now - self._last_message > _DRAIN_IDLE or now - self._stopping_since > _DRAIN_LIMIT:
+            self.finish(0)
+
+    def request_stop(self) -> None:
+        """Drain: keep recording until no message came for a moment, then finish."""
+        self._stopping_since = time.monotonic()
+
+    def close(self) -> None:
+        """Close the bag (final metadata.yaml) and report received/written counts per topic."""
+        if self._closed:
+            return
+        self._closed = True
+        written = self.writer.close()
+        for topic, count in self.received.items():
+            print(
+                f"{NODE_NAME}: {topic}: received {count}, written {written.get(topic, 0)}",
+                flush=True,
+            )
+        print(f"{NODE_NAME}: bag closed: {self.writer.path}", flush=True)
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Console script ``bag_recorder``: record until SIGINT/SIGTERM, then close the bag."""
+    return run_node(RecorderNode, NODE_NAME, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

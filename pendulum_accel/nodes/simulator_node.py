@@ -1,0 +1,404 @@
+"""``pendulum_sim``: publishes a scene's measured angle, true acceleration, string state and /clock.
+
+The whole scene is simulated up front by the ROS-free core (``scene_run.run_scene``) and serialised
+in bulk (``bag.messages.Layout``), so publishing is a loop over ready CDR rows: the same scene and
+seed always give the same bytes. ``realtime`` paces the loop by the wall clock and logs its jitter;
+otherwise it runs as fast as the subscribers take the messages (reliable keep-all QoS blocks the
+publisher when a reader lags, so nothing is lost) and the graph follows /clock.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import AccelStamped
+from numpy.typing import NDArray
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    ParameterType,
+    SetParametersResult,
+)
+from rclpy.duration import Duration
+from rclpy.parameter import Parameter
+from rclpy.publisher import Publisher
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.errors import PendulumAccelError
+from pendulum_accel.nodes.qos import DATA_QOS
+from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
+from pendulum_accel.nodes.scene_overrides import OVERRIDES, apply_overrides
+
+NODE_NAME = "pendulum_sim"
+_ACK_TIMEOUT = Duration(seconds=10)
+
+
+@dataclass(frozen=True)
+class Frames:
+    """One scene run, serialised: sample times (s) and one CDR row per sample for each topic."""
+
+    t: NDArray[np.float64]
+    rows: dict[str, NDArray[np.uint8]]
+    clock_rows: NDArray[np.uint8]
+    clock_mask: NDArray[np.bool_]
+    plan: str
+
+    @property
+    def size(self) -> int:
+        """Number of samples."""
+        return int(self.t.size)
+
+
+def _stamp_columns(t: NDArray[np.float64], prefix: str) -> dict[str, NDArray[Any]]:
+    """{prefix.sec, prefix.nanosec} for times t (s), rounded to ns as the bags round them."""
+    sec, nanosec = bm.split_stamp(bm.seconds_to_ns(t))
+    return {f"{prefix}.sec": sec, f"{prefix}.nanosec": nanosec}
+
+
+def clock_mask(t: NDArray[np.float64], clock_rate_hz: float) -> NDArray[np.bool_]:
+    """Samples that also publish /clock: all when clock_rate_hz ≤ 0, else the first in each 1/rate tick."""
+    if clock_rate_hz <= 0.0 or t.size == 0:
+        return np.ones(t.size, dtype=bool)
+    ticks = np.floor((t - t[0]) * clock_rate_hz + 1e-9).astype(np.int64)
+    mask = np.ones(t.size, dtype=bool)
+    mask[1:] = ticks[1:] != ticks[:-1]
+    return mask
+
+
+def serialise_run(run: Any, clock_rate_hz: float) -> Frames:
+    """Frames of a SceneRun: joint_states (measured θ, θ'), truth (a), string (r − l, ṙ, T) if any, clock."""
+    t = np.asarray(run.t, dtype=np.float64)
+    n = t.size
+    stamp = _stamp_columns(t, "header.stamp")
+    joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+    truth = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+    rows = {
+        bm.TOPIC_JOINT_STATES: joint.encode(
+            n,
+            {
+                **stamp,
+                "position[0]": np.asarray(run.theta_measured),
+                "velocity[0]": np.asarray(run.theta_dot),
+            },
+        ),
+        bm.TOPIC_ACCEL_TRUTH: truth.encode(n, {**stamp, "accel.linear.x": np.asarray(run.accel_true)}),
+    }
+    if run.tension is not None or run.stretch is not None:
+        zeros = np.zeros(n)
+        string = bm.Layout.of(bm.joint_state(0, [bm.STRING_JOINT], [0.0], [0.0], [0.0]), bm.JOINT_STATE)
+        rows[bm.TOPIC_STRING] = string.encode(
+            n,
+            {
+                **stamp,
+                "position[0]": zeros if run.stretch is None else np.asarray(run.stretch),
+                "velocity[0]": zeros if run.stretch_rate is None else np.asarray(run.stretch_rate),
+                "effort[0]": zeros if run.tension is None else np.asarray(run.tension),
+            },
+        )
+    mask = clock_mask(t, clock_rate_hz)
+    clock = bm.Layout.of(bm.clock(0), bm.CLOCK)
+    clock_rows = clock.encode(int(mask.sum()), _stamp_columns(t[mask], "clock"))
+    return Frames(t, rows, clock_rows, mask, run.plan.explain())
+
+
+def jitter_summary(lateness: NDArray[np.float64]) -> str:
+    """'jitter (publish − due): median …, p99 …, max … µs over n samples' for lateness in seconds."""
+    if lateness.size == 0:
+        return "jitter: no samples"
+    us = lateness * 1e6
+    med, p99 = np.percentile(us, [50.0, 99.0])
+    return (
+        f"jitter (publish − due): median {med:.0f} µs, p99 {p99:.0f} µs, max {us.max():.0f} µs "
+        f"over {us.size} samples"
+    )
+
+
+def _float_range(low: float, high: float) -> list[FloatingPointRange]:
+    """[FloatingPointRange(low, high, step 0)] for a descriptor."""
+    return [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
+
+
+def _int_range(low: int, high: int) -> list[IntegerRange]:
+    """[IntegerRange(low, high, step 1)] for a descriptor."""
+    return [IntegerRange(from_value=int(low), to_value=int(high), step=1)]
+
+
+class SimulatorNode(ChainNode):
+    """Publishes one scene: parameters pick the scene, override its physics and choose the pacing."""
+
+    def __init__(self) -> None:
+        """Declare parameters, build the scene (PendulumAccelError on a bad one) and start publishing."""
+        super().__init__(NODE_NAME)
+        from pendulum_accel.scene import DEFAULT_SCENE, load_scene
+
+        scene_name = str(
+            self.declare_parameter(
+                "scene",
+                DEFAULT_SCENE,
+                ParameterDescriptor(
+                    description="bundled scene name or path of a scene YAML (fixed for the node's life)",
+                    read_only=True,
+                ),
+            ).value
+        )
+        self._base_scene = load_scene(scene_name)
+        for spec in OVERRIDES:
+            default = spec.get(self._base_scene)
+            if spec.kind is int:
+                descriptor = ParameterDescriptor(
+                    description=f"{spec.description} (overrides the scene's)",
+                    type=ParameterType.PARAMETER_INTEGER,
+                    integer_range=_int_range(int(spec.low), int(spec.high)),
+                )
+                self.declare_parameter(spec.name, int(default if default is not None else 0), descriptor)
+            else:
+                descriptor = ParameterDescriptor(
+                    description=f"{spec.description}, {spec.unit} (overrides the scene's)",
+                    type=ParameterType.PARAMETER_DOUBLE,
+                    floating_point_range=_float_range(spec.low, spec.high),
+                )
+                self.declare_parameter(spec.name, float(default), descriptor)
+        fixed = {"read_only": True}
+        self.realtime = bool(
+            self.declare_parameter(
+                "realtime",
+                True,
+                ParameterDescriptor(description="pace by the wall clock (else as fast as possible)", **fixed),
+            ).value
+        )
+        self.exit_on_end = bool(
+            self.declare_parameter(
+                "exit_on_end",
+                True,
+                ParameterDescriptor(description="exit when the scene ends (else stay idle)"),
+            ).value
+        )
+        self.wait_for_subscribers = int(
+            self.declare_parameter(
+                "wait_for_subscribers",
+                0,
+                ParameterDescriptor(
+                    description="start only once /pendulum/joint_states has this many subscribers",
+                    integer_range=_int_range(0, 64),
+                    **fixed,
+                ),
+            ).value
+        )
+        self.wait_for_recorder = bool(
+            self.declare_parameter(
+                "wait_for_recorder",
+                False,
+                ParameterDescriptor(
+                    description="start only once every published topic has a subscriber", **fixed
+                ),
+            ).value
+        )
+        self.wait_timeout = float(
+            self.declare_parameter(
+                "wait_timeout",
+                30.0,
+                ParameterDescriptor(
+                    description="give up waiting for subscribers after this many seconds (s)",
+                    floating_point_range=_float_range(0.0, 3600.0),
+                    **fixed,
+                ),
+            ).value
+        )
+        self.clock_rate_hz = float(
+            self.declare_parameter(
+                "clock_rate_hz",
+                1000.0,
+                ParameterDescriptor(
+                    description="/clock messages per simulated second (0: one per sample)",
+                    floating_point_range=_float_range(0.0, 100_000.0),
+                    **fixed,
+                ),
+            ).value
+        )
+        self.scene = self._scene_from(self._override_values())
+        self._outputs: dict[str, Publisher] = {
+            bm.TOPIC_CLOCK: self.create_publisher(Clock, bm.TOPIC_CLOCK, DATA_QOS),
+            bm.TOPIC_JOINT_STATES: self.create_publisher(JointState, bm.TOPIC_JOINT_STATES, DATA_QOS),
+            bm.TOPIC_ACCEL_TRUTH: self.create_publisher(AccelStamped, bm.TOPIC_ACCEL_TRUTH, DATA_QOS),
+        }
+        self._string_publisher: Publisher | None = None
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._parameters_applied)
+        self._stop = threading.Event()
+        self._restart = threading.Event()
+        self.published = 0
+        self._thread = threading.Thread(target=self._publish_loop, name="pendulum_sim_publisher", daemon=True)
+        self._thread.start()
+
+    # -- parameters ---------------------------------------------------------------------------
+
+    def _override_values(self, changes: Sequence[Parameter] = ()) -> dict[str, float]:
+        """Current override parameter values, with ``changes`` applied on top."""
+        values: dict[str, float] = {spec.name: self.get_parameter(spec.name).value for spec in OVERRIDES}
+        for param in changes:
+            if param.name in values:
+                values[param.name] = param.value
+        return values
+
+    def _scene_from(self, values: dict[str, float]) -> Any:
+        """The base scene with the override values (PendulumAccelError naming a bad value)."""
+        return apply_overrides(self._base_scene, values)
+
+    def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        """Accept a change only if the scene it makes is valid; otherwise keep the old value and say why."""
+        for param in params:
+            if isinstance(param.value, float) and not math.isfinite(param.value):
+                return SetParametersResult(
+                    successful=False, reason=f"{param.name} must be finite, got {param.value}"
+                )
+        try:
+            self._scene_from(self._override_values(params))
+        except PendulumAccelError as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        except (TypeError, ValueError) as err:
+            return SetParametersResult(successful=False, reason=f"invalid value: {err}")
+        return SetParametersResult(successful=True)
+
+    def _parameters_applied(self, params: list[Parameter]) -> None:
+        """A physics change restarts the scene at t = 0 with the new values (receivers see time jump back)."""
+        if any(p.name in {spec.name for spec in OVERRIDES} for p in params):
+            self.scene = self._scene_from(self._override_values())
+            self.get_logger().info(
+                "parameters changed ("
+                + ", ".join(f"{p.name}={p.value}" for p in params)
+                + "): restarting the scene"
+            )
+            self._restart.set()
+
+    # -- publishing -----------------------------------------------------------------------------
+
+    def _wait_for_subscribers(self, topics: Sequence[str]) -> bool:
+        """True once the subscriber counts reach what the wait_* parameters ask; False on timeout or stop."""
+        deadline = time.monotonic() + self.wait_timeout
+        while not self._stop.is_set():
+            counts = {topic: self._outputs[topic].get_subscription_count() for topic in topics}
+            ok = counts[bm.TOPIC_JOINT_STATES] >= self.wait_for_subscribers
+            if self.wait_for_recorder:
+                ok = ok and all(c >= 1 for c in counts.values())
+            if ok:
+                return True
+            if time.monotonic() > deadline:
+                self.get_logger().error(
+                    f"gave up after {self.wait_timeout:g} s waiting for subscribers: {counts}"
+                )
+                return False
+            time.sleep(0.01)
+        return False
+
+    def _publish(self, topic: str, data: bytes) -> None:
+        """Publish CDR bytes on ``topic``, waiting out a full keep-all history unless stopping."""
+        publish_blocking(self._outputs[topic], data, self._stop.is_set)
+
+    def _publish_loop(self) -> None:
+        """Thread body: simulate, wait for subscribers, publish every sample, then exit or idle."""
+        from pendulum_accel.scene_run import run_scene
+
+        try:
+            while not self._stop.is_set():
+                self._restart.clear()
+                scene = self.scene
+                wall0 = time.perf_counter()
+                frames = serialise_run(run_scene(scene), self.clock_rate_hz)
+                self.get_logger().info(
+                    f"scene {getattr(scene, 'name', '?')}: {frames.size} samples over "
+                    f"{frames.t[-1] - frames.t[0]:.3f} s simulated in {time.perf_counter() - wall0:.2f} s; "
+                    f"{frames.plan}"
+                )
+                if bm.TOPIC_STRING in frames.rows and bm.TOPIC_STRING not in self._outputs:
+                    self._outputs[bm.TOPIC_STRING] = self.create_publisher(
+                        JointState, bm.TOPIC_STRING, DATA_QOS
+                    )
+                if not self._wait_for_subscribers([*frames.rows, bm.TOPIC_CLOCK]):
+                    self.finish(1)
+                    return
+                self.get_logger().info("subscribers matched: publishing")
+                completed = self._publish_frames(frames)
+                if completed:
+                    for publisher in self._outputs.values():
+                        publisher.wait_for_all_acked(_ACK_TIMEOUT)
+                if self._restart.is_set():
+                    continue
+                if self.exit_on_end or self._stop.is_set():
+                    self.finish(0)
+                    return
+                self.get_logger().info(
+                    "scene ended; idle (exit_on_end is false; change a parameter to restart)"
+                )
+                while not (self._stop.is_set() or self._restart.wait(0.1)):
+                    pass
+        except PendulumAccelError as err:
+            self.get_logger().error(str(err))
+            self.finish(2)
+
+    def _publish_frames(self, frames: Frames) -> bool:
+        """Publish every sample in order, paced by the wall clock in real-time mode; True when all went."""
+        joint = frames.rows[bm.TOPIC_JOINT_STATES]
+        others = [(topic, rows) for topic, rows in frames.rows.items() if topic != bm.TOPIC_JOINT_STATES]
+        clock_index = np.cumsum(frames.clock_mask) - 1
+        lateness = np.empty(frames.size)
+        t_rel = frames.t - frames.t[0]
+        start = time.perf_counter()
+        sent = 0
+        for i in range(frames.size):
+            if self._stop.is_set() or self._restart.is_set():
+                break
+            if self.realtime:
+                due = start + t_rel[i]
+                now = time.perf_counter()
+                if due > now:
+                    time.sleep(due - now)
+                    now = time.perf_counter()
+                lateness[i] = now - due
+            if frames.clock_mask[i]:
+                self._publish(bm.TOPIC_CLOCK, frames.clock_rows[clock_index[i]].tobytes())
+            self._publish(bm.TOPIC_JOINT_STATES, joint[i].tobytes())
+            for topic, rows in others:
+                self._publish(topic, rows[i].tobytes())
+            sent += 1
+        self.published += sent
+        wall = time.perf_counter() - start
+        span = float(t_rel[sent - 1]) if sent else 0.0
+        factor = f"{span / wall:.1f}" if wall > 0 else "inf"
+        mode = "real time" if self.realtime else "as fast as possible"
+        line = (
+            f"published {sent}/{frames.size} samples ({span:.3f} s simulated) in {wall:.3f} s wall, "
+            f"{mode}: real-time factor {factor}"
+        )
+        if self.realtime:
+            line += "; " + jitter_summary(lateness[:sent])
+        self.get_logger().info(line)
+        return sent == frames.size
+
+    def request_stop(self) -> None:
+        """Stop publishing and finish."""
+        self._stop.set()
+        self.finish(0)
+
+    def close(self) -> None:
+        """Stop the publishing thread and wait for it."""
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=5.0)
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Console script ``pendulum_sim``: run the simulator node until the scene ends or a signal."""
+    return run_node(SimulatorNode, NODE_NAME, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

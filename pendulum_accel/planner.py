@@ -1,0 +1,398 @@
+"""Planner: the cheapest model and solver that meets a scene's angle-accuracy target, explained in one line.
+
+Cost order (cheapest first, measured CPU per sample on this machine): linear closed form (≈0.2 µs/sample)
+< exact closed form (≈0.6 µs/sample, Jacobi elliptic functions) < rigid, stepped (fixed-step RK4 at
+≈14 µs/step or DOP853 at ≈24 µs per right-hand-side call, whichever the cost model below makes cheaper)
+< elastic string (stiff, LSODA). The Lagrange-multiplier model is used only when a scene forces it.
+
+Rules, in order:
+
+1. A forced model (scene ``force.model``) is used as is; its method is forced too or chosen by rule 5/6.
+2. Stretch requested, or the string's static stretch makes the rigid model miss the target
+   (angle error of ignoring it ≈ (δ/l)(1 + A ωT), δ = g_eff m/k, checked against the elastic model):
+   elastic string with LSODA, a stiff-capable solver (rule 6).
+3. a(t) piecewise constant on [0, T] and no damping: closed form, chained over the pieces.
+   Linear when its proven bound (``physics.linear.linear_error_bound`` per piece, A the piece's
+   libration amplitude; errors carried across pieces in the energy norm, hence ×√2·ω_max/ω_min)
+   meets the target; else exact, whose error is round-off, ≈ 1e-13 (1 + ωT) per piece, amplified near
+   the separatrix by 1/m₁ (m₁ = cos²(A/2): the period's sensitivity to the amplitude).
+4. Otherwise the rigid model, stepped.
+5. Fixed step of order p: global error ≤ C (hω)^p (1 + ωT), ω = max(√(√(g²+a_max²)/l), c), so
+   h = (target / (C (1 + ωT)))^(1/p) / ω. RK4 (p = 4): C = 0.1, the largest ratio measured over the lecture
+   case, θ0 = 2.5 and 3.1 rad swings, a rotating bob, damped and sinusoidal/table profiles was 0.06 (at
+   θ0 = 3.1 rad, next to the separatrix); the harmonic-oscillator value is A/120.
+6. Adaptive (DOP853 for rigid/multiplier, LSODA for elastic): global error ≈ K rtol (1 + ωT). K is
+   measured for the scene by a pilot pair (rtol 1e-6 against 1e-9 on a coarse grid) and multiplied by 20
+   for safety (K grew up to 8× from rtol 1e-6 to rtol 6e-13 in those measurements); floor 0.05.
+   RK4 and DOP853 are costed (steps × 14 µs, or 2 µs when a(t) is a table lookup of constant pieces,
+   vs 3.5 (1 + ωT) rtol^(−1/8) calls × 24 µs, all measured)
+   and the cheaper one wins.
+
+Every prediction is an upper estimate; ``test/test_planner.py`` runs a tight reference for every bundled
+scene and checks the chosen plan meets the target.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from pendulum_accel.errors import ParameterError, SceneError
+from pendulum_accel.physics.exact import exact_solution, libration_amplitude
+from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, stability_limit
+from pendulum_accel.physics.linear import linear_error_bound
+from pendulum_accel.physics.params import Pendulum
+from pendulum_accel.physics.profiles import AccelProfile, Piece
+from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, simulate, stability_omega
+from pendulum_accel.scene import Scene
+
+COST_ORDER: tuple[str, ...] = ("linear", "exact", "rigid", "elastic")  # multiplier: forced only
+
+# Fixed-step error model: order p and constant C in  err ≤ C (hω)^p (1 + ωT).
+FIXED_STEP_ORDER: dict[str, tuple[int, float]] = {
+    "rk4": (4, 0.1),
+    "verlet": (2, 0.5),
+    "symplectic_euler": (1, 1.0),
+    "euler": (1, 1.0),
+}
+MAX_H_OMEGA = 0.5  # beyond this the (hω)^p error model is no longer asymptotic
+MAX_FIXED_STEPS = 20_000_000
+K_FLOOR = 0.05
+PILOT_SAFETY = 20.0
+PILOT_RTOLS = (1e-6, 1e-9)
+PILOT_POINTS = 1000
+RTOL_RANGE = (1e-13, 1e-3)
+EXACT_ROUNDOFF = 1e-13  # rad per unit (1 + ωT) per piece, before the separatrix factor
+LINEAR_CARRY = math.sqrt(2.0)
+# Measured CPU on this machine (see module docstring); only their ratio matters for the choice.
+RK4_STEP_S = 14e-6  # a(t) evaluated through numpy at every stage
+RK4_STEP_CONSTANT_S = 2e-6  # a(t) from the piecewise-constant lookup (physics.profiles.scalar_accel)
+ADAPTIVE_CALL_S = 24e-6
+ADAPTIVE_CALLS = 3.5  # calls ≈ 3.5 (1 + ωT) rtol^(-1/8) for DOP853 (fit over rtol 1e-4 … 1e-12)
+CLOSED_FORM_SAMPLE_S = {"linear": 0.2e-6, "exact": 0.6e-6}
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Model, method, step dt (s) or rtol, predicted max angle error (rad), target, and why (one line)."""
+
+    model: str
+    method: str
+    dt: float | None
+    rtol: float | None
+    predicted_error: float
+    reason: str
+    target: float = math.nan
+    estimated_cpu_s: float = math.nan
+
+    @property
+    def meets_target(self) -> bool:
+        """predicted_error ≤ target."""
+        return self.predicted_error <= self.target
+
+    def setting(self) -> str:
+        """'dt = … s', 'rtol = …' or 'no stepping'."""
+        if self.dt is not None:
+            return f"dt = {self.dt:.3g} s"
+        if self.rtol is not None:
+            return f"rtol = {self.rtol:.1e}"
+        return "no stepping"
+
+    def explain(self) -> str:
+        """'plan: <model> model, <method> (<dt/rtol>), predicted max angle error … rad (target …): <why>'."""
+        verdict = "" if self.meets_target else " — TARGET NOT MET"
+        text = (
+            f"plan: {self.model} model, {self.method} ({self.setting()}), predicted max angle error "
+            f"{self.predicted_error:.1e} rad (target {self.target:.1e} rad){verdict}: {self.reason}"
+        )
+        return " ".join(text.split())
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """What every rule needs: the scene's pendulum, profile, span, ω, and sample count."""
+
+    scene: Scene
+    pendulum: Pendulum
+    profile: AccelProfile
+    duration: float
+    omega: float
+    samples: int
+
+    @property
+    def omega_t(self) -> float:
+        """1 + ωT, the secular growth factor of every error estimate."""
+        return 1.0 + self.omega * self.duration
+
+
+def _setup(scene: Scene, model: str = "rigid") -> _Setup:
+    """_Setup of ``scene`` with ω from physics.simulate.stability_omega for ``model``."""
+    omega = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, model)
+    return _Setup(
+        scene, scene.pendulum, scene.profile, scene.duration, omega, scene.sensor.sample_count(scene.duration)
+    )
+
+
+def plan_scene(scene: Scene) -> Plan:
+    """The cheapest (model, method, dt | rtol) whose predicted max angle error meets scene.accuracy."""
+    try:
+        return _plan(scene)
+    except ParameterError as err:
+        raise SceneError(f"scene {scene.name}: cannot plan: {err}") from None
+
+
+def _plan(scene: Scene) -> Plan:
+    """Rules 1-6 of the module docstring."""
+    target = scene.accuracy
+    if scene.model is not None:
+        return _forced(scene)
+    if scene.wants_stretch:
+        return _adaptive(
+            _setup(scene, "elastic"), "elastic", "LSODA", target, "the outputs ask for the stretch"
+        )
+    string_error = rigid_string_error(scene)
+    if string_error > 0.5 * target:
+        why = (
+            f"ignoring the stretch δ = g_eff m/k would cost ≈ {string_error:.1e} rad, over half the target, "
+            f"so the elastic string with a stiff-capable solver"
+        )
+        return _adaptive(_setup(scene, "elastic"), "elastic", "LSODA", target, why)
+    budget = target - string_error
+    setup = _setup(scene)
+    pieces = _closed_form_pieces(scene)
+    if pieces is not None:
+        linear = _closed_form(setup, pieces, "linear", string_error)
+        if linear.predicted_error <= target:
+            return linear
+        exact = _closed_form(setup, pieces, "exact", string_error)
+        rejected = f"; linear rejected, its bound {linear.predicted_error:.1e} rad exceeds the target"
+        return _replace_reason(exact, exact.reason + rejected)
+    why = (
+        f"damping c = {scene.pendulum.damping:g} 1/s rules out the closed forms"
+        if scene.pendulum.damping != 0.0
+        else f"a(t) ({scene.profile.kind}) is not piecewise constant, so no closed form"
+    )
+    return _rigid(setup, "rigid", budget, string_error, why)
+
+
+def _replace_reason(plan: Plan, reason: str) -> Plan:
+    """``plan`` with a new reason."""
+    return Plan(
+        plan.model,
+        plan.method,
+        plan.dt,
+        plan.rtol,
+        plan.predicted_error,
+        reason,
+        plan.target,
+        plan.estimated_cpu_s,
+    )
+
+
+def rigid_string_error(scene: Scene) -> float:
+    """Angle error of the rigid model on an elastic string ≈ (δ/l)(1 + A ωT), δ = g_eff m / k (0 if rigid).
+
+    The static stretch δ lengthens the pendulum by δ/l relatively, shifting ω by δ/(2l) and the phase by
+    A ωT δ/(2l); measured 2.4e-5 rad for k = 1e5 N/m, a = 2, A = 0.1, ωT = 6.3, within the formula's 1.6e-4.
+    """
+    p = scene.pendulum
+    if p.stiffness is None:
+        return 0.0
+    a_max = scene.profile.max_abs(0.0, scene.duration)
+    stretch = p.effective_gravity(a_max) * p.mass / p.stiffness
+    omega = p.omega(a_max)
+    amplitude = min(math.pi, abs(scene.theta0 - p.equilibrium_angle(float(scene.profile(0.0)))))
+    amplitude += abs(scene.theta_dot0) / omega
+    return stretch / p.length * (1.0 + amplitude * omega * scene.duration)
+
+
+def _closed_form_pieces(scene: Scene) -> list[Piece] | None:
+    """The constant pieces of a(t) on [0, T] when undamped, else None."""
+    if scene.pendulum.damping != 0.0:
+        return None
+    return scene.profile.constant_pieces(0.0, scene.duration)
+
+
+def _closed_form(setup: _Setup, pieces: list[Piece], model: str, extra: float) -> Plan:
+    """Closed-form plan with its predicted error: linear bound or exact round-off, per piece (rule 3)."""
+    p = setup.pendulum
+    th, w = setup.scene.theta0, setup.scene.theta_dot0
+    linear_sum = 0.0
+    exact_sum = 0.0
+    omegas = []
+    for start, end, a in pieces:
+        span = end - start
+        omega = p.omega(a)
+        omegas.append(omega)
+        amplitude = libration_amplitude(p, a, th, w)
+        linear_sum += linear_error_bound(p, a, amplitude, span) if math.isfinite(amplitude) else math.inf
+        half_cos = math.cos(0.5 * min(amplitude, math.pi))
+        m1 = max(half_cos * half_cos, 1e-6)
+        exact_sum += EXACT_ROUNDOFF * (1.0 + omega * span) / m1
+        th_end, w_end = exact_solution(p, a, th, w, np.array([span]))
+        th, w = float(th_end[0]), float(w_end[0])
+    n = len(pieces)
+    shape = "constant" if n == 1 else f"piecewise constant ({n} pieces)"
+    cpu = CLOSED_FORM_SAMPLE_S[model] * setup.samples
+    if model == "linear":
+        carry = 1.0 if n == 1 else LINEAR_CARRY * max(omegas) / min(omegas)
+        predicted = min(linear_sum * carry, math.inf) + exact_sum + extra
+        why = f"a(t) is {shape} and undamped, and the small-angle bound meets the target: linear closed form"
+    else:
+        predicted = exact_sum + extra
+        chained = "" if n == 1 else " chained over the pieces"
+        why = f"a(t) is {shape} and undamped: exact closed form{chained}"
+    return Plan(model, CLOSED_FORM_METHOD, None, None, predicted, why, setup.scene.accuracy, cpu)
+
+
+def _fixed_step(
+    setup: _Setup, model: str, method: str, budget: float, extra: float, why: str, dt: float | None = None
+) -> Plan:
+    """Fixed step h = (budget / (C (1 + ωT)))^(1/p) / ω or the given dt, ≤ a sample period (rule 5)."""
+    order, const = FIXED_STEP_ORDER[method]
+    span = setup.duration
+    if dt is None:
+        h_omega = min((budget / (const * setup.omega_t)) ** (1.0 / order), MAX_H_OMEGA)
+        limit = stability_limit(method)
+        if limit is not None and limit > 0.0:
+            h_omega = min(h_omega, 0.5 * limit)
+        h_omega = max(h_omega, setup.omega * span / MAX_FIXED_STEPS)
+        dt = h_omega / setup.omega
+    elif not (math.isfinite(dt) and dt > 0.0):
+        raise SceneError(f"dt must be a finite step > 0 s, got {dt!r}")
+    # The integrator shortens the step to fill each sample interval with whole steps.
+    interval = span / max(setup.samples - 1, 1)
+    per_interval = max(1, math.ceil(interval / dt * (1.0 - 1e-12)))
+    h_eff = interval / per_interval
+    steps = per_interval * max(setup.samples - 1, 1)
+    predicted = const * (h_eff * setup.omega) ** order * setup.omega_t + extra
+    per_step = RK4_STEP_S if setup.profile.constant_pieces(0.0, span) is None else RK4_STEP_CONSTANT_S
+    cpu = per_step * steps * (order / 4.0 if order < 4 else 1.0)
+    detail = f"{method} with hω = {h_eff * setup.omega:.1e} ({steps} steps)"
+    return Plan(model, method, dt, None, predicted, f"{why}; {detail}", setup.scene.accuracy, cpu)
+
+
+def pilot_error_constant(setup: _Setup, model: str, method: str) -> float:
+    """K in err ≈ K rtol (1 + ωT): 10 × |θ(rtol 1e-6) − θ(rtol 1e-9)| / (1e-6 (1 + ωT)), at least K_FLOOR."""
+    scene = setup.scene
+    t = np.linspace(0.0, setup.duration, min(setup.samples, PILOT_POINTS))
+    runs = [
+        simulate(setup.pendulum, setup.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
+                 model=model, method=method, rtol=rtol).theta
+        for rtol in PILOT_RTOLS
+    ]  # fmt: skip
+    error = float(np.max(np.abs(runs[0] - runs[1])))
+    return max(K_FLOOR, PILOT_SAFETY * error / (PILOT_RTOLS[0] * setup.omega_t))
+
+
+def _adaptive(
+    setup: _Setup,
+    model: str,
+    method: str,
+    target: float,
+    why: str,
+    extra: float = 0.0,
+    rtol: float | None = None,
+) -> Plan:
+    """rtol = budget / (K (1 + ωT)) or the given rtol; K from the pilot pair; within RTOL_RANGE (rule 6)."""
+    budget = target - extra
+    k = pilot_error_constant(setup, model, method)
+    if rtol is None:
+        rtol = min(max(budget / (k * setup.omega_t), RTOL_RANGE[0]), RTOL_RANGE[1])
+    elif not (math.isfinite(rtol) and rtol > 0.0):
+        raise SceneError(f"rtol must be a finite tolerance > 0, got {rtol!r}")
+    predicted = k * rtol * setup.omega_t + extra
+    calls = ADAPTIVE_CALLS * setup.omega_t * rtol ** (-1.0 / 8.0)
+    cpu = ADAPTIVE_CALL_S * calls
+    detail = f"{method} with K = {k:.2g} from a pilot pair"
+    return Plan(model, method, None, rtol, predicted, f"{why}; {detail}", target, cpu)
+
+
+def _rigid(setup: _Setup, model: str, budget: float, extra: float, why: str) -> Plan:
+    """The cheaper of RK4 (rule 5) and DOP853 (rule 6) that meets the budget; else the more accurate."""
+    fixed = _fixed_step(setup, model, "rk4", budget, extra, why)
+    target = setup.scene.accuracy
+    adaptive = _adaptive(setup, model, "DOP853", target, why, extra)
+    ok = [p for p in (fixed, adaptive) if p.predicted_error <= target]
+    if ok:
+        best = min(ok, key=lambda p: p.estimated_cpu_s)
+        other = adaptive if best is fixed else fixed
+        note = (
+            f"cheaper than {other.method} "
+            f"({best.estimated_cpu_s:.2g} s vs {other.estimated_cpu_s:.2g} s estimated)"
+            if other.predicted_error <= target
+            else f"{other.method} cannot promise the target"
+        )
+        return _replace_reason(best, f"{best.reason}, {note}")
+    best = min((fixed, adaptive), key=lambda p: p.predicted_error)
+    return _replace_reason(best, f"{best.reason}; the target is below what double precision can promise")
+
+
+def _forced(scene: Scene) -> Plan:
+    """Rule 1: the scene's forced model (and method, or the rule's method for it)."""
+    model = scene.model or "rigid"
+    target = scene.accuracy
+    why = f"model {model} forced by the scene"
+    if model in ("exact", "linear"):
+        pieces = _closed_form_pieces(scene)
+        if pieces is None:  # Scene validation rejects this; kept for scenes built by replace()
+            raise SceneError(f"force.model: {model} needs an undamped, piecewise-constant scene")
+        plan = _closed_form(_setup(scene), pieces, model, rigid_string_error(scene))
+        return _replace_reason(plan, why)
+    setup = _setup(scene, model)
+    extra = rigid_string_error(scene) if model in ("rigid", "multiplier") else 0.0
+    method = scene.method
+    if method is None:
+        if model == "elastic":
+            return _adaptive(setup, model, "LSODA", target, why)
+        if model == "multiplier":
+            return _adaptive(setup, model, "DOP853", target, why, extra)
+        return _rigid(setup, model, target - extra, extra, why)
+    why = f"model {model} and method {method} forced by the scene"
+    if method in FIXED_STEP_METHODS:
+        return _fixed_step(setup, model, method, target - extra, extra, why)
+    return _adaptive(setup, model, method, target, why, extra)
+
+
+def plan_with(
+    scene: Scene,
+    *,
+    model: str | None = None,
+    method: str | None = None,
+    dt: float | None = None,
+    rtol: float | None = None,
+) -> Plan:
+    """The plan for ``scene`` with the user's model/method/dt/rtol; the error prediction follows them.
+
+    A method, dt or rtol without a model forces the rigid model (elastic when the stretch is asked for);
+    ``dt`` alone switches to RK4 and ``rtol`` alone to the adaptive default when the plan had the other kind.
+    """
+    if dt is not None and rtol is not None:
+        raise SceneError("give --dt (fixed-step methods) or --rtol (adaptive methods), not both")
+    stepping = method is not None or dt is not None or rtol is not None
+    if model is not None or stepping:
+        if model is None and scene.model is None and method != CLOSED_FORM_METHOD:
+            model = "elastic" if scene.wants_stretch else "rigid"
+        scene = replace(scene, model=model or scene.model, method=method or scene.method)
+    base = plan_scene(scene)
+    if dt is None and rtol is None:
+        return base
+    if base.model in ("exact", "linear"):
+        raise SceneError(f"model {base.model} is a closed form: it takes no --dt or --rtol")
+    setup = _setup(scene, base.model)
+    extra = rigid_string_error(scene) if base.model != "elastic" else 0.0
+    why = f"{base.model} model, step settings given by the user"
+    if dt is not None:
+        chosen = base.method if base.method in FIXED_STEP_METHODS else None
+        if chosen is None and method is not None:
+            raise SceneError(
+                f"--dt applies to fixed-step methods ({', '.join(FIXED_STEP_METHODS)}), not {method}"
+            )
+        return _fixed_step(setup, base.model, chosen or "rk4", scene.accuracy - extra, extra, why, dt=dt)
+    chosen = None if base.method in FIXED_STEP_METHODS else base.method
+    if chosen is None and method is not None:
+        raise SceneError(f"--rtol applies to adaptive methods, not {method}")
+    default = "LSODA" if base.model == "elastic" else "DOP853"
+    return _adaptive(setup, base.model, chosen or default, scene.accuracy, why, extra, rtol=rtol)

@@ -1,0 +1,448 @@
+"""Scenes: one YAML file describes one run (physics, car acceleration, sensor, outputs, accuracy).
+
+File layout (every key is checked; unknown keys are errors so a typo never passes silently)::
+
+    name: lecture_constant          # [A-Za-z0-9_-]+
+    description: one line of text
+    duration: 20.0                  # s, > 0
+    gravity: 9.80665                # m/s², > 0 (optional, default standard gravity)
+    pendulum:
+      length: 1.0                   # m, > 0
+      mass: 1.0                     # kg, > 0 (optional, 1)
+      damping: 0.0                  # 1/s, >= 0 (optional, 0)
+      theta0: 0.0                   # rad (optional, 0)
+      theta_dot0: 0.0               # rad/s (optional, 0)
+      stiffness: 1.0e5              # N/m, > 0 (optional; the elastic string's k)
+    acceleration: {type: constant, a: 2.0}   # any physics.profiles type; csv paths are relative to this file
+    sensor:
+      rate_hz: 100                  # Hz, > 0
+      noise_std: 1.0e-3             # rad, >= 0 (optional, 0)
+      bias: 0.0                     # rad (optional, 0)
+      bias_random_walk: 0.0         # rad/√s, >= 0 (optional, 0)
+      quantization: 0.0             # rad, >= 0 (optional, 0 = none)
+      seed: 1                       # integer >= 0 (optional, 0)
+    outputs: [angle, tension]       # angle always; tension, stretch optional (optional, [angle])
+    accuracy:
+      max_angle_error: 1.0e-6       # rad, > 0
+    force:                          # optional: teaching comparisons
+      model: multiplier             # one of physics.simulate.MODELS
+      method: DOP853                # optional, one of physics.integrators.METHODS
+
+Files are read with a safe loader (no object construction). Every problem is one line naming the file,
+the field path and what was expected, raised as SceneError.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from pendulum_accel.errors import ParameterError, SceneError
+from pendulum_accel.physics.integrators import METHODS
+from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
+from pendulum_accel.physics.profiles import AccelProfile, profile_from_dict
+from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, MODELS
+from pendulum_accel.sensor import SensorModel
+
+SCENES_DIR = Path(__file__).resolve().parent / "scenes"
+SCENE_NAMES: tuple[str, ...] = (
+    "at_rest",
+    "lecture_constant",
+    "step_start",
+    "braking",
+    "stop_and_go",
+    "large_swing",
+    "elastic_string",
+    "multiplier_lecture",
+)
+DEFAULT_SCENE = "lecture_constant"
+OUTPUTS: tuple[str, ...] = ("angle", "tension", "stretch")
+_NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+class _SceneLoader(yaml.SafeLoader):
+    """yaml.SafeLoader whose floats follow YAML 1.2, so ``1e-3`` is a number and not the string '1e-3'."""
+
+
+_SceneLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(
+        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+        |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+        |[-+]?\.(?:inf|Inf|INF)
+        |\.(?:nan|NaN|NAN))$""",
+        re.VERBOSE,
+    ),
+    list("-+0123456789."),
+)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """One run: pendulum (with g), θ(0), θ'(0), a(t), sensor, duration, outputs, accuracy, forced model.
+
+    ``accuracy`` is the max |θ_simulated − θ_true| allowed, rad. ``model``/``method`` force the planner's
+    choice (None: the planner decides). ``source`` is the file it came from (None when built in code).
+    Construction re-checks the fields that depend on each other (SceneError naming the field).
+    """
+
+    name: str
+    description: str
+    duration: float
+    pendulum: Pendulum
+    profile: AccelProfile
+    sensor: SensorModel
+    theta0: float = 0.0
+    theta_dot0: float = 0.0
+    outputs: tuple[str, ...] = ("angle",)
+    accuracy: float = 1e-6
+    model: str | None = None
+    method: str | None = None
+    source: Path | None = field(default=None, compare=False)
+
+    def __post_init__(self) -> None:
+        """Check every field and the cross-field rules; raise SceneError('<field>: <expected>')."""
+        _check_scene(self)
+
+    @property
+    def wants_tension(self) -> bool:
+        """True when the outputs ask for the string tension."""
+        return "tension" in self.outputs
+
+    @property
+    def wants_stretch(self) -> bool:
+        """True when the outputs ask for the string stretch r − l (needs the elastic model)."""
+        return "stretch" in self.outputs
+
+
+def _finite(value: object) -> bool:
+    """True for an int or float (not a bool) that is finite."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _check_scene(scene: Scene) -> None:
+    """Raise SceneError('<field path>: expected …, got …') for the first field that is wrong."""
+    if not isinstance(scene.name, str) or not _NAME_RE.match(scene.name):
+        raise SceneError(f"name: expected letters, digits, '_' or '-', got {scene.name!r}")
+    if not isinstance(scene.description, str):
+        raise SceneError(f"description: expected text, got {scene.description!r}")
+    if not _finite(scene.duration) or scene.duration <= 0.0:
+        raise SceneError(f"duration: expected a number of seconds > 0, got {scene.duration!r}")
+    for name in ("theta0", "theta_dot0"):
+        if not _finite(getattr(scene, name)):
+            raise SceneError(f"pendulum.{name}: expected a finite number, got {getattr(scene, name)!r}")
+    if not _finite(scene.accuracy) or scene.accuracy <= 0.0:
+        raise SceneError(f"accuracy.max_angle_error: expected a number of rad > 0, got {scene.accuracy!r}")
+    if not isinstance(scene.outputs, tuple) or any(o not in OUTPUTS for o in scene.outputs):
+        raise SceneError(f"outputs: expected a list drawn from {', '.join(OUTPUTS)}, got {scene.outputs!r}")
+    try:
+        scene.sensor.sample_count(scene.duration)
+    except ParameterError as err:
+        raise SceneError(f"sensor.rate_hz: {err}") from None
+    stiff = scene.pendulum.stiffness is not None
+    if scene.wants_stretch and not stiff:
+        raise SceneError("pendulum.stiffness: expected a value in N/m, since outputs ask for stretch")
+    if scene.model is not None and scene.model not in MODELS:
+        raise SceneError(f"force.model: expected one of {', '.join(MODELS)}, got {scene.model!r}")
+    if scene.method is not None:
+        if scene.model is None:
+            raise SceneError(f"force.method: expected only with force.model, got {scene.method!r} alone")
+        allowed = (CLOSED_FORM_METHOD,) if scene.model in ("exact", "linear") else METHODS
+        if scene.method not in allowed:
+            raise SceneError(
+                f"force.method: expected one of {', '.join(allowed)} for model {scene.model}, "
+                f"got {scene.method!r}"
+            )
+    if scene.model == "elastic" and not stiff:
+        raise SceneError("pendulum.stiffness: expected a value in N/m, since force.model is elastic")
+    if scene.wants_stretch and scene.model not in (None, "elastic"):
+        raise SceneError(f"force.model: expected elastic (outputs ask for stretch), got {scene.model!r}")
+    if scene.model in ("exact", "linear"):
+        if scene.pendulum.damping != 0.0:
+            raise SceneError(
+                f"force.model: {scene.model} is undamped only, "
+                f"but pendulum.damping is {scene.pendulum.damping!r}"
+            )
+        if scene.profile.constant_pieces(0.0, scene.duration) is None:
+            raise SceneError(
+                f"force.model: {scene.model} needs a piecewise-constant acceleration, "
+                f"got a varying {scene.profile.kind} profile"
+            )
+
+
+# ---------------------------------------------------------------- reading YAML
+
+
+class _Fields:
+    """Typed reads from one YAML mapping at ``path``; every failure is SceneError('<path>.<key>: …')."""
+
+    def __init__(self, data: object, path: str, allowed: tuple[str, ...]) -> None:
+        """Wrap ``data``: it must be a mapping whose keys are all in ``allowed``."""
+        where = path or "scene"
+        if not isinstance(data, Mapping):
+            raise SceneError(f"{where}: expected a mapping of keys to values, got {_show(data)}")
+        for key in data:
+            if key not in allowed:
+                field = f"{path}.{key}" if path else str(key)
+                raise SceneError(f"{field}: unknown key (expected one of {', '.join(allowed)})")
+        self.data = data
+        self.path = path
+
+    def path_of(self, key: str) -> str:
+        """Dotted path of ``key``."""
+        return f"{self.path}.{key}" if self.path else key
+
+    def has(self, key: str) -> bool:
+        """True when ``key`` is present."""
+        return key in self.data
+
+    def raw(self, key: str, expected: str) -> object:
+        """The value of a required ``key``; SceneError 'missing' when absent."""
+        if key not in self.data:
+            raise SceneError(f"{self.path_of(key)}: missing (expected {expected})")
+        return self.data[key]
+
+    def number(
+        self, key: str, default: float | None = None, *, low: float | None = None, strict: bool = False
+    ) -> float:
+        """A finite number (≥ low, or > low when strict); ``default`` when absent and not None."""
+        bound = "" if low is None else f" {'>' if strict else '>='} {low:g}"
+        expected = f"a number{bound}"
+        if default is not None and key not in self.data:
+            return default
+        value = self.raw(key, expected)
+        if not _finite(value):
+            raise SceneError(f"{self.path_of(key)}: expected a finite number{bound}, got {_show(value)}")
+        number = float(value)  # type: ignore[arg-type]
+        if low is not None and (number < low or (strict and number == low)):
+            raise SceneError(f"{self.path_of(key)}: expected a number{bound}, got {_show(value)}")
+        return number
+
+    def integer(self, key: str, default: int) -> int:
+        """An integer ≥ 0 (``default`` when absent)."""
+        if key not in self.data:
+            return default
+        value = self.data[key]
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise SceneError(f"{self.path_of(key)}: expected an integer >= 0, got {_show(value)}")
+        return value
+
+    def text(self, key: str, default: str | None = None, *, choices: tuple[str, ...] = ()) -> str:
+        """A string (one of ``choices`` when given); ``default`` when absent and not None."""
+        expected = f"one of {', '.join(choices)}" if choices else "text"
+        if default is not None and key not in self.data:
+            return default
+        value = self.raw(key, expected)
+        if not isinstance(value, str) or (choices and value not in choices):
+            raise SceneError(f"{self.path_of(key)}: expected {expected}, got {_show(value)}")
+        return value
+
+
+def _show(value: object) -> str:
+    """Short repr of a YAML value with its type, for error messages."""
+    text = repr(value)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{text} ({type(value).__name__})"
+
+
+_TOP = ("name", "description", "duration", "gravity", "pendulum", "acceleration", "sensor", "outputs",
+        "accuracy", "force")  # fmt: skip
+_PENDULUM = ("length", "mass", "damping", "theta0", "theta_dot0", "stiffness")
+_SENSOR = ("rate_hz", "noise_std", "bias", "bias_random_walk", "quantization", "seed")
+
+
+def _outputs(top: _Fields) -> tuple[str, ...]:
+    """outputs: a list from OUTPUTS, no repeats; 'angle' always first whether listed or not."""
+    if not top.has("outputs"):
+        return ("angle",)
+    value = top.data["outputs"]
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise SceneError(f"outputs: expected a list drawn from {', '.join(OUTPUTS)}, got {_show(value)}")
+    for i, item in enumerate(value):
+        if item not in OUTPUTS:
+            raise SceneError(f"outputs[{i}]: expected one of {', '.join(OUTPUTS)}, got {item!r}")
+        if item in value[:i]:
+            raise SceneError(f"outputs[{i}]: {item!r} is listed twice")
+    return tuple(o for o in OUTPUTS if o == "angle" or o in value)
+
+
+def _parse(data: object, base_dir: Path | None) -> Scene:
+    """Scene from a parsed YAML document; SceneError('<field>: …') on the first bad field."""
+    top = _Fields(data, "", _TOP)
+    name = top.text("name")
+    description = top.text("description")
+    duration = top.number("duration", low=0.0, strict=True)
+    gravity = top.number("gravity", STANDARD_GRAVITY, low=0.0, strict=True)
+
+    pend = _Fields(top.raw("pendulum", "a mapping with length, ..."), "pendulum", _PENDULUM)
+    length = pend.number("length", low=0.0, strict=True)
+    mass = pend.number("mass", 1.0, low=0.0, strict=True)
+    damping = pend.number("damping", 0.0, low=0.0)
+    theta0 = pend.number("theta0", 0.0)
+    theta_dot0 = pend.number("theta_dot0", 0.0)
+    stiffness = pend.number("stiffness", low=0.0, strict=True) if pend.has("stiffness") else None
+    pendulum = Pendulum(length, mass=mass, gravity=gravity, damping=damping, stiffness=stiffness)
+
+    accel = top.raw("acceleration", "a mapping with a 'type'")
+    try:
+        profile = profile_from_dict(accel, base_dir)  # type: ignore[arg-type]
+    except ParameterError as err:
+        # physics.profiles names the field as "... field 'x' ..."; lift it into the path.
+        named = re.search(r"field '([A-Za-z_]\w*)", str(err))
+        where = f"acceleration.{named.group(1)}" if named else "acceleration"
+        raise SceneError(f"{where}: {err}") from None
+
+    sens = _Fields(top.raw("sensor", "a mapping with rate_hz, ..."), "sensor", _SENSOR)
+    sensor = SensorModel(
+        rate_hz=sens.number("rate_hz", low=0.0, strict=True),
+        noise_std=sens.number("noise_std", 0.0, low=0.0),
+        bias=sens.number("bias", 0.0),
+        bias_random_walk=sens.number("bias_random_walk", 0.0, low=0.0),
+        quantization=sens.number("quantization", 0.0, low=0.0),
+        seed=sens.integer("seed", 0),
+    )
+    acc = _Fields(top.raw("accuracy", "a mapping with max_angle_error"), "accuracy", ("max_angle_error",))
+    accuracy = acc.number("max_angle_error", low=0.0, strict=True)
+
+    model: str | None = None
+    method: str | None = None
+    if top.has("force"):
+        force = _Fields(top.data["force"], "force", ("model", "method"))
+        model = force.text("model", choices=MODELS)
+        if force.has("method"):
+            method = force.text("method")
+    return Scene(
+        name=name,
+        description=description,
+        duration=duration,
+        pendulum=pendulum,
+        profile=profile,
+        sensor=sensor,
+        theta0=theta0,
+        theta_dot0=theta_dot0,
+        outputs=_outputs(top),
+        accuracy=accuracy,
+        model=model,
+        method=method,
+    )
+
+
+def scene_from_yaml(text: str, *, label: str = "<scene>", base_dir: Path | None = None) -> Scene:
+    """Scene from YAML text; errors read '<label>: <field>: expected …' ('<label>:<line>: …' for bad YAML)."""
+    try:
+        data = yaml.load(text, Loader=_SceneLoader)  # a SafeLoader subclass: no objects
+    except yaml.MarkedYAMLError as err:
+        mark = err.problem_mark or err.context_mark
+        line = f":{mark.line + 1}" if mark is not None else ""
+        problem = err.problem or err.context or "not valid YAML"
+        raise SceneError(f"{label}{line}: malformed YAML: {problem}") from None
+    except yaml.YAMLError as err:
+        raise SceneError(f"{label}: malformed YAML: {str(err).splitlines()[0]}") from None
+    try:
+        return _parse(data, base_dir)
+    except SceneError as err:
+        raise SceneError(f"{label}: {err}") from None
+    except ParameterError as err:
+        # A rule checked inside Pendulum or SensorModel that the field reads above did not catch first.
+        raise SceneError(f"{label}: {err}") from None
+
+
+def scene_path(name_or_path: str | Path) -> Path:
+    """The file of a bundled scene name, or ``name_or_path`` itself when it names a file."""
+    text = str(name_or_path)
+    if (
+        isinstance(name_or_path, Path)
+        or "/" in text
+        or text.endswith((".yaml", ".yml"))
+        or Path(text).is_file()
+    ):
+        return Path(name_or_path)
+    if text not in SCENE_NAMES and not (SCENES_DIR / f"{text}.yaml").is_file():
+        raise SceneError(
+            f"no bundled scene named {text!r}; choose one of {', '.join(SCENE_NAMES)} or give a path"
+        )
+    return SCENES_DIR / f"{text}.yaml"
+
+
+def load_scene(name_or_path: str | Path) -> Scene:
+    """Scene from a bundled name (see SCENE_NAMES) or a YAML file path; SceneError naming file and field."""
+    path = scene_path(name_or_path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SceneError(f"{path}: scene file not found") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise SceneError(f"{path}: cannot read scene file ({err})") from None
+    scene = scene_from_yaml(text, label=str(path), base_dir=path.parent)
+    return _with_source(scene, path)
+
+
+def _with_source(scene: Scene, path: Path) -> Scene:
+    """``scene`` with ``source`` set to ``path``."""
+    return replace(scene, source=path)
+
+
+def list_scenes() -> tuple[Scene, ...]:
+    """Every bundled scene, in SCENE_NAMES order."""
+    return tuple(load_scene(name) for name in SCENE_NAMES)
+
+
+def scene_to_dict(scene: Scene) -> dict[str, Any]:
+    """The YAML mapping of ``scene`` (a CSV profile is written inline as a table, so it stands alone)."""
+    p = scene.pendulum
+    pendulum: dict[str, Any] = {
+        "length": p.length,
+        "mass": p.mass,
+        "damping": p.damping,
+        "theta0": float(scene.theta0),
+        "theta_dot0": float(scene.theta_dot0),
+    }
+    if p.stiffness is not None:
+        pendulum["stiffness"] = p.stiffness
+    s = scene.sensor
+    out: dict[str, Any] = {
+        "name": scene.name,
+        "description": scene.description,
+        "duration": float(scene.duration),
+        "gravity": p.gravity,
+        "pendulum": pendulum,
+        "acceleration": _plain(scene.profile.to_dict()),
+        "sensor": {
+            "rate_hz": s.rate_hz,
+            "noise_std": s.noise_std,
+            "bias": s.bias,
+            "bias_random_walk": s.bias_random_walk,
+            "quantization": s.quantization,
+            "seed": s.seed,
+        },
+        "outputs": list(scene.outputs),
+        "accuracy": {"max_angle_error": float(scene.accuracy)},
+    }
+    if scene.model is not None:
+        out["force"] = {"model": scene.model} | ({"method": scene.method} if scene.method else {})
+    return out
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with tuples as lists and numpy scalars as Python numbers, for yaml.safe_dump."""
+    convert: Callable[[Any], Any] = _plain
+    if isinstance(value, Mapping):
+        return {str(k): convert(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [convert(v) for v in value]
+    if hasattr(value, "item"):
+        return value.item()
+    return value
+
+
+def scene_to_yaml(scene: Scene) -> str:
+    """YAML text that ``scene_from_yaml`` reads back into an equal scene (the text stored in bags)."""
+    return yaml.safe_dump(scene_to_dict(scene), sort_keys=False, allow_unicode=True, width=100)

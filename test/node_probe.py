@@ -1,0 +1,106 @@
+"""A scripted DDS peer for the node tests: feeds joint states, listens, sets parameters; prints JSON.
+
+python test/node_probe.py SPEC_JSON
+
+SPEC keys (all optional):
+  "listen": [topic, ...]          record /car/accel/estimate and /diagnostics messages
+  "wait_subscribers": n           before feeding, wait until /pendulum/joint_states has n subscribers
+  "feed": [[t, theta] | ["pause", seconds], ...]  joint states at 100 Hz wall pace; theta null = NaN
+  "set": {"node": name, "params": {name: value}}  call SetParameters, then GetParameters
+  "linger": seconds               keep listening after feeding
+Prints one JSON object: {"estimates": [[t, a, var], ...], "diagnostics": [[level, message, values]],
+"set": [[successful, reason], ...], "get": {name: value}}.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from typing import Any
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import AccelWithCovarianceStamped
+from rcl_interfaces.msg import Parameter as ParameterMsg
+from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+
+from pendulum_accel.nodes.conversions import joint_state, time_from_ns, time_to_seconds
+from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
+
+
+def spin_for(node: Node, seconds: float) -> None:
+    """Process callbacks for ``seconds``."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        rclpy.spin_once(node, timeout_sec=0.01)
+
+
+def call(node: Node, client: Any, request: Any) -> Any:
+    """Call a service and wait (10 s) for the answer."""
+    if not client.wait_for_service(timeout_sec=20.0):
+        raise RuntimeError(f"service {client.srv_name} not available")
+    future = client.call_async(request)
+    rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+    return future.result()
+
+
+def main() -> None:
+    """Run the spec from argv[1] and print the JSON result."""
+    spec = json.loads(sys.argv[1])
+    rclpy.init()
+    node = Node("node_probe")
+    out: dict[str, Any] = {"estimates": [], "diagnostics": [], "set": [], "get": {}}
+
+    def on_estimate(msg: AccelWithCovarianceStamped) -> None:
+        """Keep (t, â, var)."""
+        out["estimates"].append([time_to_seconds(msg.header.stamp), msg.accel.accel.linear.x, msg.accel.covariance[0]])
+
+    def on_diagnostics(msg: DiagnosticArray) -> None:
+        """Keep (level, message, values) of each status."""
+        for status in msg.status:
+            values = {kv.key: kv.value for kv in status.values}
+            out["diagnostics"].append([int.from_bytes(status.level, "little"), status.message, values])
+
+    listen = spec.get("listen", [])
+    if "/car/accel/estimate" in listen:
+        node.create_subscription(AccelWithCovarianceStamped, "/car/accel/estimate", on_estimate, DATA_QOS)
+    if "/diagnostics" in listen:
+        node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, DIAGNOSTICS_QOS)
+    publisher = node.create_publisher(JointState, "/pendulum/joint_states", DATA_QOS)
+    deadline = time.monotonic() + 30.0
+    while publisher.get_subscription_count() < spec.get("wait_subscribers", 0) and time.monotonic() < deadline:
+        spin_for(node, 0.05)
+    spin_for(node, 0.3)  # let the listeners match too
+    for item in spec.get("feed", []):
+        if item[0] == "pause":
+            spin_for(node, float(item[1]))
+            continue
+        t, theta = float(item[0]), math.nan if item[1] is None else float(item[1])
+        publisher.publish(joint_state(time_from_ns(round(t * 1e9)), theta, 0.0))
+        spin_for(node, 0.01)
+    if "set" in spec:
+        target = spec["set"]["node"]
+        params = spec["set"]["params"]
+        setter = node.create_client(SetParameters, f"/{target}/set_parameters")
+        getter = node.create_client(GetParameters, f"/{target}/get_parameters")
+        request = SetParameters.Request()
+        for name, value in params.items():
+            request.parameters.append(Parameter(name, value=value).to_parameter_msg())
+        response = call(node, setter, request)
+        out["set"] = [[r.successful, r.reason] for r in response.results]
+        reply = call(node, getter, GetParameters.Request(names=list(params)))
+        for name, value in zip(params, reply.values, strict=True):
+            out["get"][name] = Parameter.from_parameter_msg(ParameterMsg(name=name, value=value)).value
+    spin_for(node, float(spec.get("linger", 0.0)))
+    print(json.dumps(out), flush=True)
+    node.destroy_node()
+    rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

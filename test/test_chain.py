@@ -1,0 +1,137 @@
+"""The whole chain over real DDS (simulator, estimator, recorder in separate processes, via the launcher).
+
+Convergence to the truth, nothing lost at 1 kHz (as fast as possible and in real time), bit-for-bit
+determinism across runs and modes, clean shutdown on SIGINT and when a node is killed.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pendulum_accel.bag.reader import Bag, read_bag
+from pendulum_accel.nodes.launcher import pids_alive
+from test.chain_helpers import Output, child_pids, start_chain
+from test.conftest import PYTHON, Spawn, rclpy_available
+
+pytestmark = [
+    pytest.mark.ros,
+    pytest.mark.skipif(not rclpy_available(), reason="rclpy is not installed (make setup installs it)"),
+]
+
+RATE = 1000  # Hz
+DURATION = 3.0  # s
+SAMPLES = int(RATE * DURATION) + 1
+SCENE_ARGS = ["lecture_constant", "--set", f"rate_hz={RATE}", "--set", f"duration={DURATION}"]
+
+
+def _recorder_counts(output: Output) -> dict[str, tuple[int, int]]:
+    """{topic: (received, written)} from the recorder's exit report."""
+    counts = {}
+    for line in output.lines:
+        if line.startswith("bag_recorder: /") and "received" in line:
+            topic, rest = line.removeprefix("bag_recorder: ").split(": ", 1)
+            received, written = (int(part.split()[-1]) for part in rest.split(", "))
+            counts[topic] = (received, written)
+    return counts
+
+
+def _check_lossless(bag: Bag, output: Output) -> None:
+    """Every sample on every topic of the simulator, and one estimate per angle, recorded and written."""
+    counts = {name: info.count for name, info in bag.topics.items()}
+    for topic in ("/pendulum/joint_states", "/car/accel/truth", "/pendulum/string", "/clock", "/car/accel/estimate"):
+        assert counts[topic] == SAMPLES, (topic, counts)
+    assert counts["/diagnostics"] >= 1
+    for topic, (received, written) in _recorder_counts(output).items():
+        assert received == written == counts.get(topic, 0), (topic, received, written)
+
+
+def _angles(bag: Bag) -> tuple[np.ndarray, np.ndarray]:
+    """(stamps, measured θ) of the bag's joint states."""
+    js = bag.decode("/pendulum/joint_states")
+    return js.stamp, js["position[0]"]
+
+
+def test_chain_converges_loses_nothing_at_1khz_and_is_deterministic(spawn: Spawn, tmp_path: Path) -> None:
+    fast_bag, live_bag = tmp_path / "fast", tmp_path / "live"
+    # As fast as possible, through the user-facing command.
+    run = Output(spawn([PYTHON, "-m", "pendulum_accel.cli.main", "run", *SCENE_ARGS, "--record", str(fast_bag), "--fast"]))
+    assert run.finish(timeout=120) == 0, run.text
+    fast = read_bag(fast_bag)
+    assert fast.problem is None and fast.complete
+    _check_lossless(fast, run)
+    assert "estimate vs truth (kalman, live, 3001 estimates)" in run.text
+    assert f"bag: {fast_bag}" in run.text and "plan: " in run.text
+    # Convergence: after 1 s every estimate is within 4 of its own stated standard deviations
+    # (covariance[0]) of the true acceleration, and the last second's RMS error is below 1 %.
+    est = fast.decode("/car/accel/estimate")
+    t, a, var = est.stamp, est["accel.accel.linear.x"], est["accel.covariance[0]"]
+    truth = fast.decode("/car/accel/truth")
+    a_true = np.interp(t, truth.stamp, truth["accel.linear.x"])
+    assert np.all(np.isfinite(a)) and np.all(var > 0)
+    settled = t >= 1.0
+    assert np.all(np.abs(a - a_true)[settled] <= 4.0 * np.sqrt(var[settled]))
+    last = t >= DURATION - 1.0
+    assert np.sqrt(np.mean((a - a_true)[last] ** 2)) < 0.02
+    # Real time, through the launcher script: the same bytes, still nothing lost.
+    chain = start_chain(spawn, *SCENE_ARGS, "--record", str(live_bag))
+    assert chain.finish(timeout=120) == 0, chain.text
+    assert "jitter (publish − due)" in chain.text
+    live = read_bag(live_bag)
+    _check_lossless(live, chain)
+    t_fast, theta_fast = _angles(fast)
+    t_live, theta_live = _angles(live)
+    assert np.array_equal(t_fast, t_live)
+    assert theta_fast.tobytes() == theta_live.tobytes()  # bit for bit
+    est_live = live.decode("/car/accel/estimate")
+    assert est_live["accel.accel.linear.x"].tobytes() == a.tobytes()
+
+
+def _start_long_chain(spawn: Spawn, bag: Path) -> tuple[Output, dict[str, int]]:
+    """A real-time chain on a 60 s scene, once its simulator publishes; (output, {role: pid})."""
+    chain = start_chain(spawn, "lecture_constant", "--set", "duration=60", "--record", str(bag))
+    chain.wait_for(r"\[pendulum_sim\]: subscribers matched: publishing", timeout=60)
+    time.sleep(2.0)  # a couple of seconds of data
+    pids = child_pids(chain)
+    assert set(pids) == {"recorder", "estimator", "simulator"}
+    assert pids_alive(list(pids.values())) == list(pids.values())
+    return chain, pids
+
+
+def test_sigint_stops_every_node_and_leaves_a_valid_bag(spawn: Spawn, tmp_path: Path) -> None:
+    chain, pids = _start_long_chain(spawn, tmp_path / "bag")
+    chain.proc.send_signal(signal.SIGINT)
+    assert chain.finish(timeout=60) == 130, chain.text
+    assert pids_alive(list(pids.values())) == []
+    bag = read_bag(tmp_path / "bag")
+    assert bag.problem is None and bag.complete
+    assert bag.topics["/pendulum/joint_states"].count > 50
+    for topic, (received, written) in _recorder_counts(chain).items():
+        assert received == written, topic
+
+
+def test_killed_node_stops_the_chain_and_nothing_lingers(spawn: Spawn, tmp_path: Path) -> None:
+    chain, pids = _start_long_chain(spawn, tmp_path / "bag")
+    os.kill(pids["estimator"], signal.SIGKILL)
+    assert chain.finish(timeout=60) == 1, chain.text
+    assert "estimator" in chain.text and "died with killed by SIGKILL" in chain.text
+    assert pids_alive(list(pids.values())) == []
+    bag = read_bag(tmp_path / "bag")  # the recorder still closed its bag
+    assert bag.problem is None and bag.topics["/pendulum/joint_states"].count > 50
+
+
+def test_killed_launcher_takes_its_nodes_with_it(spawn: Spawn, tmp_path: Path) -> None:
+    chain, pids = _start_long_chain(spawn, tmp_path / "bag")
+    chain.proc.kill()
+    chain.finish(timeout=30)
+    deadline = time.monotonic() + 30.0
+    while pids_alive(list(pids.values())) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert pids_alive(list(pids.values())) == []
+    bag = read_bag(tmp_path / "bag")  # SIGTERM from the dying parent: the recorder closed the bag
+    assert bag.problem is None and bag.topics["/pendulum/joint_states"].count > 50

@@ -1,0 +1,84 @@
+"""accel_estimator over real DDS: each diagnostic state provoked, estimates finite and stamped, parameters checked."""
+
+from __future__ import annotations
+
+import math
+import signal
+
+import pytest
+
+from test.chain_helpers import run_probe, start_node
+from test.conftest import Spawn, rclpy_available
+
+pytestmark = [
+    pytest.mark.ros,
+    pytest.mark.skipif(not rclpy_available(), reason="rclpy is not installed (make setup installs it)"),
+]
+
+G = 9.80665
+THETA_2 = math.atan(2.0 / G)  # at rest under a = 2 m/s²
+
+
+def test_every_diagnostic_state_and_no_nonfinite_output(spawn: Spawn) -> None:
+    estimator = start_node(
+        spawn,
+        "estimator_node",
+        {"scene": "lecture_constant", "diagnostics_period": 0.2, "stale_after": 0.5},
+    )
+    estimator.wait_for(r"estimating with", timeout=60)
+    # Stamps advance 50 ms per sample (wall pace 10 ms): after 2 s of sim time a jump back to 0
+    # is longer than the guard's 1 s reset threshold.
+    normal = [[0.05 * i, THETA_2] for i in range(1, 41)]
+    nan_sample = [[2.05, None]]
+    after_nan = [[2.05 + 0.05 * i, THETA_2] for i in range(1, 11)]
+    steep = [[2.6 + 0.05 * i, math.radians(85.0)] for i in range(10)]
+    jumped = [[0.001 + 0.05 * i, THETA_2] for i in range(30)]
+    feed = [*normal, *nan_sample, *after_nan, ["pause", 0.3], *steep, ["pause", 0.3], *jumped, ["pause", 0.3]]
+    result = run_probe(
+        spawn,
+        {"listen": ["/car/accel/estimate", "/diagnostics"], "wait_subscribers": 1, "feed": feed, "linger": 1.5},
+    )
+    states = [values["state"] for _, _, values in result["diagnostics"]]
+    messages = [message for _, message, _ in result["diagnostics"]]
+    # Each state shows up, in the order it was provoked (STALE may also precede the first input).
+    order = []
+    position = 0
+    for wanted in ("OK", "ERROR", "WARN near 90°", "RESET", "STALE"):
+        for i in range(position, len(states)):
+            if (states[i] == wanted) or (wanted.startswith("WARN") and states[i] == "WARN" and "near 90°" in messages[i]):
+                order.append(i)
+                position = i + 1
+                break
+        else:
+            raise AssertionError(f"no {wanted} after diagnostic #{position}: {list(zip(states, messages))}")
+    first = dict(zip(("OK", "ERROR", "WARN", "RESET", "STALE"), order))
+    levels = {values["state"]: level for level, _, values in result["diagnostics"]}
+    assert levels == {"OK": 0, "WARN": 1, "ERROR": 2, "RESET": 1, "STALE": 3}
+    assert "non-finite" in messages[first["ERROR"]]
+    assert "time jumped back" in messages[first["RESET"]]
+    # Estimates: finite, variance ≥ 0, each stamped with an input's stamp, none for the NaN input.
+    fed_stamps = {round(t, 9) for t, _ in [*normal, *after_nan, *steep, *jumped]}
+    estimates = result["estimates"]
+    assert len(estimates) >= 60
+    for t, a, var in estimates:
+        assert math.isfinite(a) and math.isfinite(var) and var >= 0.0
+        assert round(t, 9) in fed_stamps
+    # After the reset the estimator starts over from the θ of a = 2 m/s²: the last estimates are near 2.
+    assert abs(estimates[-1][1] - 2.0) < 0.05
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=20) == 0
+    assert "dropped 1 non-finite" in estimator.text and "1 resets" in estimator.text
+
+
+def test_invalid_parameters_are_rejected_with_a_reason(spawn: Spawn) -> None:
+    estimator = start_node(spawn, "estimator_node", {"scene": "lecture_constant"})
+    estimator.wait_for(r"estimating with", timeout=60)
+    result = run_probe(
+        spawn,
+        {"set": {"node": "accel_estimator", "params": {"method": "bogus", "length": -1.0, "noise_std": 0.002}}},
+    )
+    (method_ok, method_reason), (length_ok, length_reason), (noise_ok, noise_reason) = result["set"]
+    assert not method_ok and "unknown estimator 'bogus'" in method_reason
+    assert not length_ok and "length" in length_reason
+    assert noise_ok, noise_reason
+    assert result["get"] == {"method": "kalman", "length": 1.0, "noise_std": 0.002}

@@ -1,0 +1,287 @@
+"""Scene files: every bundled scene loads, round-trips, and every kind of bad file is one clear line."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from pendulum_accel.errors import SceneError
+from pendulum_accel.physics.profiles import Constant, Table
+from pendulum_accel.scene import (
+    DEFAULT_SCENE,
+    SCENE_NAMES,
+    SCENES_DIR,
+    list_scenes,
+    load_scene,
+    scene_from_yaml,
+    scene_to_yaml,
+)
+
+Doc = dict[str, Any]
+
+
+def base_doc() -> Doc:
+    """The lecture scene's YAML mapping, with every optional section present (elastic k, force)."""
+    doc: Doc = yaml.safe_load((SCENES_DIR / "lecture_constant.yaml").read_text(encoding="utf-8"))
+    doc["pendulum"]["stiffness"] = 1.0e7
+    return doc
+
+
+def write(tmp_path: Path, doc: Doc, name: str = "scene.yaml") -> Path:
+    """Dump ``doc`` to tmp_path/name."""
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    return path
+
+
+def test_every_bundled_scene_loads_and_is_listed() -> None:
+    """All contract names exist, load, and list_scenes gives them in order with descriptions."""
+    scenes = list_scenes()
+    assert tuple(s.name for s in scenes) == SCENE_NAMES
+    assert DEFAULT_SCENE in SCENE_NAMES
+    for scene in scenes:
+        assert scene.description.strip()
+        assert scene.source == SCENES_DIR / f"{scene.name}.yaml"
+        assert load_scene(scene.name) == scene
+
+
+def test_bundled_scenes_cover_the_issue() -> None:
+    """The issue's scenes: at rest a=0, constant lecture case, step, braking, stop-and-go, >90°, elastic, multiplier."""
+    s = {scene.name: scene for scene in list_scenes()}
+    assert s["at_rest"].profile == Constant(0.0)
+    assert isinstance(s["lecture_constant"].profile, Constant) and s["lecture_constant"].theta0 == 0.0
+    assert 10.0 <= s["at_rest"].duration <= 20.0 and 10.0 <= s["lecture_constant"].duration <= 20.0
+    assert s["step_start"].profile.kind == "step" and s["step_start"].profile(0.0) == 0.0
+    braking = s["braking"]
+    assert braking.profile.kind == "braking" and braking.profile(braking.duration) == 0.0
+    assert isinstance(s["stop_and_go"].profile, Table)  # read from stop_and_go.csv next to the YAML
+    assert abs(s["large_swing"].theta0) > math.pi / 2
+    assert s["elastic_string"].wants_stretch and s["elastic_string"].wants_tension
+    assert s["multiplier_lecture"].model == "multiplier"
+    noisy = [scene for scene in s.values() if scene.sensor.noise_std > 0.0]
+    assert len(noisy) >= 6
+
+
+@pytest.mark.parametrize("name", SCENE_NAMES)
+def test_yaml_round_trip(name: str, tmp_path: Path) -> None:
+    """scene_to_yaml → file → load_scene gives an equal scene (a CSV profile becomes an inline table)."""
+    scene = load_scene(name)
+    text = scene_to_yaml(scene)
+    path = tmp_path / "copy.yaml"
+    path.write_text(text, encoding="utf-8")
+    assert load_scene(path) == scene
+    assert scene_from_yaml(text) == scene
+
+
+def test_exponent_without_dot_is_a_number(tmp_path: Path) -> None:
+    """YAML 1.1 would read 1e-3 as a string; scene files read it as the number 0.001."""
+    text = (SCENES_DIR / "lecture_constant.yaml").read_text(encoding="utf-8")
+    text = text.replace("noise_std: 1.0e-3", "noise_std: 1e-3").replace("max_angle_error: 1.0e-6", "max_angle_error: 1e-6")
+    scene = scene_from_yaml(text)
+    assert scene.sensor.noise_std == 1e-3
+    assert scene.accuracy == 1e-6
+
+
+def test_defaults_for_optional_fields(tmp_path: Path) -> None:
+    """Only the required fields: gravity standard, mass 1, no damping, at rest, angle output, seed 0."""
+    doc = {
+        "name": "minimal",
+        "description": "",
+        "duration": 1,
+        "pendulum": {"length": 2},
+        "acceleration": {"type": "constant", "a": 1},
+        "sensor": {"rate_hz": 10},
+        "accuracy": {"max_angle_error": 1e-3},
+    }
+    scene = load_scene(write(tmp_path, doc))
+    assert scene.pendulum.gravity == pytest.approx(9.80665)
+    assert (scene.pendulum.mass, scene.pendulum.damping, scene.theta0, scene.theta_dot0) == (1.0, 0.0, 0.0, 0.0)
+    assert scene.outputs == ("angle",)
+    assert scene.sensor.seed == 0 and scene.model is None
+
+
+def _set(path: str, value: object) -> Callable[[Doc], None]:
+    """Mutation: set doc[a][b]… = value."""
+
+    def mutate(doc: Doc) -> None:
+        *head, last = path.split(".")
+        target = doc
+        for key in head:
+            target = target[key]
+        target[last] = value
+
+    return mutate
+
+
+def _drop(path: str) -> Callable[[Doc], None]:
+    """Mutation: delete doc[a][b]…."""
+
+    def mutate(doc: Doc) -> None:
+        *head, last = path.split(".")
+        target = doc
+        for key in head:
+            target = target[key]
+        del target[last]
+
+    return mutate
+
+
+# (mutation, field path the message must name, a word of what was expected)
+BAD_SCENES: list[tuple[str, Callable[[Doc], None], str, str]] = [
+    ("missing name", _drop("name"), "name", "missing"),
+    ("missing duration", _drop("duration"), "duration", "missing"),
+    ("missing pendulum", _drop("pendulum"), "pendulum", "missing"),
+    ("missing length", _drop("pendulum.length"), "pendulum.length", "missing"),
+    ("missing sensor rate", _drop("sensor.rate_hz"), "sensor.rate_hz", "missing"),
+    ("missing accuracy", _drop("accuracy"), "accuracy", "missing"),
+    ("missing target", _drop("accuracy.max_angle_error"), "accuracy.max_angle_error", "missing"),
+    ("missing acceleration", _drop("acceleration"), "acceleration", "missing"),
+    ("name with space", _set("name", "two words"), "name", "letters"),
+    ("name a number", _set("name", 3), "name", "text"),
+    ("description a list", _set("description", ["a"]), "description", "text"),
+    ("duration text", _set("duration", "long"), "duration", "number"),
+    ("duration zero", _set("duration", 0), "duration", "> 0"),
+    ("duration inf", _set("duration", math.inf), "duration", "finite"),
+    ("duration bool", _set("duration", True), "duration", "number"),
+    ("gravity negative", _set("gravity", -9.8), "gravity", "> 0"),
+    ("pendulum a list", _set("pendulum", [1, 2]), "pendulum", "mapping"),
+    ("length negative", _set("pendulum.length", -1.0), "pendulum.length", "> 0"),
+    ("length nan", _set("pendulum.length", math.nan), "pendulum.length", "finite"),
+    ("mass zero", _set("pendulum.mass", 0.0), "pendulum.mass", "> 0"),
+    ("damping negative", _set("pendulum.damping", -0.1), "pendulum.damping", ">= 0"),
+    ("theta0 text", _set("pendulum.theta0", "up"), "pendulum.theta0", "number"),
+    ("theta_dot0 null", _set("pendulum.theta_dot0", None), "pendulum.theta_dot0", "number"),
+    ("stiffness zero", _set("pendulum.stiffness", 0.0), "pendulum.stiffness", "> 0"),
+    ("pendulum typo", _set("pendulum.lenght", 1.0), "pendulum.lenght", "unknown"),
+    ("top-level typo", _set("durration", 1.0), "durration", "unknown"),
+    ("profile type", _set("acceleration.type", "jerk"), "acceleration", "type"),
+    ("profile field", _set("acceleration.b", 1.0), "acceleration", "unknown field 'b'"),
+    ("profile value", _set("acceleration.a", "fast"), "acceleration", "'a'"),
+    ("profile missing", _drop("acceleration.a"), "acceleration", "missing field 'a'"),
+    ("csv missing", _set("acceleration", {"type": "csv", "path": "nowhere.csv"}), "acceleration", "nowhere.csv"),
+    ("sensor typo", _set("sensor.noise", 1e-3), "sensor.noise", "unknown"),
+    ("rate zero", _set("sensor.rate_hz", 0), "sensor.rate_hz", "> 0"),
+    ("noise negative", _set("sensor.noise_std", -1e-3), "sensor.noise_std", ">= 0"),
+    ("bias text", _set("sensor.bias", "small"), "sensor.bias", "number"),
+    ("walk negative", _set("sensor.bias_random_walk", -1.0), "sensor.bias_random_walk", ">= 0"),
+    ("quantization negative", _set("sensor.quantization", -1.0), "sensor.quantization", ">= 0"),
+    ("seed float", _set("sensor.seed", 1.5), "sensor.seed", "integer"),
+    ("seed negative", _set("sensor.seed", -2), "sensor.seed", "integer"),
+    ("too many samples", _set("sensor.rate_hz", 1e9), "sensor.rate_hz", "samples"),
+    ("outputs not a list", _set("outputs", "angle"), "outputs", "list"),
+    ("unknown output", _set("outputs", ["angle", "speed"]), "outputs[1]", "one of"),
+    ("repeated output", _set("outputs", ["angle", "angle"]), "outputs[1]", "twice"),
+    ("target zero", _set("accuracy.max_angle_error", 0.0), "accuracy.max_angle_error", "> 0"),
+    ("accuracy typo", _set("accuracy.max_error", 1e-3), "accuracy.max_error", "unknown"),
+    ("force unknown model", _set("force", {"model": "spring"}), "force.model", "one of"),
+    ("force typo", _set("force", {"modle": "rigid"}), "force.modle", "unknown"),
+    ("force bad method", _set("force", {"model": "rigid", "method": "leapfrog"}), "force.method", "one of"),
+    ("method without model", _set("force", {"method": "rk4"}), "force.model", "missing"),
+    ("closed form with stepping", _set("force", {"model": "exact", "method": "rk4"}), "force.method", "closed-form"),
+    ("exact with damping", lambda d: (_set("pendulum.damping", 0.1)(d), _set("force", {"model": "exact"})(d)),
+     "force.model", "undamped"),
+    ("linear with ramp", lambda d: (_set("acceleration", {"type": "ramp", "t_start": 0, "t_end": 1, "a_start": 0,
+                                                          "a_end": 1})(d), _set("force", {"model": "linear"})(d)),
+     "force.model", "piecewise-constant"),
+    ("stretch without k", lambda d: (_drop("pendulum.stiffness")(d), _set("outputs", ["angle", "stretch"])(d)),
+     "pendulum.stiffness", "stretch"),
+    ("elastic without k", lambda d: (_drop("pendulum.stiffness")(d), _set("force", {"model": "elastic"})(d)),
+     "pendulum.stiffness", "elastic"),
+    ("stretch with rigid", lambda d: (_set("outputs", ["stretch"])(d), _set("force", {"model": "rigid"})(d)),
+     "force.model", "elastic"),
+    ("document a list", lambda d: d.clear(), "scene", "mapping"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("mutate", "field", "expected"), [case[1:] for case in BAD_SCENES], ids=[case[0] for case in BAD_SCENES]
+)
+def test_bad_scene_is_one_line_naming_file_and_field(
+    tmp_path: Path, mutate: Callable[[Doc], None], field: str, expected: str
+) -> None:
+    """Each mutation of a valid scene gives SceneError: one line, '<file>: <field>: … <expected> …'."""
+    doc = base_doc()
+    mutate(doc)
+    path = write(tmp_path, doc if doc else [], "bad.yaml")  # type: ignore[arg-type]
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    message = str(info.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}: ")
+    assert f" {field}:" in message or f" {field} " in message or message.startswith(f"{path}: {field}")
+    assert expected in message
+
+
+def test_malformed_yaml_names_file_and_line(tmp_path: Path) -> None:
+    """Broken YAML: '<file>:<line>: malformed YAML: …' on one line."""
+    path = tmp_path / "broken.yaml"
+    path.write_text("name: x\ndescription: y\nduration: [1, 2\nsensor: {}\n", encoding="utf-8")
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    message = str(info.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}:") and "malformed YAML" in message
+    line = int(message[len(str(path)) + 1 :].split(":")[0])
+    assert 3 <= line <= 5
+
+
+def test_unsafe_yaml_tag_is_refused(tmp_path: Path) -> None:
+    """The safe loader constructs no Python objects: a python/object tag is an error, not a call."""
+    path = tmp_path / "evil.yaml"
+    path.write_text("name: !!python/object/apply:os.system ['true']\n", encoding="utf-8")
+    with pytest.raises(SceneError, match="malformed YAML"):
+        load_scene(path)
+
+
+def test_missing_file_and_unknown_name() -> None:
+    """A missing path and an unknown bundled name are one-line SceneErrors."""
+    with pytest.raises(SceneError, match="not found"):
+        load_scene("/nonexistent/scene.yaml")
+    with pytest.raises(SceneError, match="no bundled scene named 'nosuch'.*lecture_constant"):
+        load_scene("nosuch")
+
+
+def test_csv_profile_is_read_next_to_the_scene(tmp_path: Path) -> None:
+    """type: csv with a relative path reads the file beside the YAML."""
+    (tmp_path / "traffic.csv").write_text("t,a\n0,0\n1,2\n3,2\n4,0\n", encoding="utf-8")
+    doc = base_doc()
+    doc["acceleration"] = {"type": "csv", "path": "traffic.csv"}
+    scene = load_scene(write(tmp_path, doc))
+    assert scene.profile(2.0) == 2.0 and scene.profile(0.5) == 1.0
+
+
+def test_replace_revalidates() -> None:
+    """dataclasses.replace on a Scene re-checks cross-field rules (nodes override fields this way)."""
+    scene = load_scene("lecture_constant")
+    with pytest.raises(SceneError, match="duration"):
+        dataclasses.replace(scene, duration=-1.0)
+    with pytest.raises(SceneError, match="pendulum.stiffness"):
+        dataclasses.replace(scene, outputs=("angle", "stretch"))
+
+
+SECTIONS = ("", "pendulum", "sensor", "accuracy")
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(section=st.sampled_from(SECTIONS), key=st.from_regex(r"[a-z][a-z_]{0,12}", fullmatch=True))
+def test_any_unknown_key_is_refused(tmp_path: Path, section: str, key: str) -> None:
+    """Property: an extra key anywhere (not a real field) is an error naming '<section>.<key>'."""
+    doc = base_doc()
+    target = doc[section] if section else doc
+    if key in target:
+        return
+    doc = copy.deepcopy(doc)
+    (doc[section] if section else doc)[key] = 1
+    path = write(tmp_path, doc, "extra.yaml")
+    field = f"{section}.{key}" if section else key
+    with pytest.raises(SceneError, match=f"{path}: {field}: unknown key"):
+        load_scene(path)

@@ -1,0 +1,115 @@
+"""Sensor model: sample times, Gazebo-style noise knobs, determinism, and clear errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.sensor import SensorModel
+
+
+def test_sample_times_cover_the_duration_at_the_rate() -> None:
+    """t_k = k/f on [0, T]: 1001 samples for 10 s at 100 Hz, spacing 1/f to 1e-12 s."""
+    t = SensorModel(100.0).sample_times(10.0)
+    assert t.size == 1001
+    assert t[0] == 0.0
+    assert t[-1] == pytest.approx(10.0, abs=1e-12)
+    assert np.allclose(np.diff(t), 0.01, atol=1e-12)
+    # A duration that is not a whole number of periods stops at the last sample inside it.
+    assert SensorModel(3.0).sample_times(1.0).size == 4
+    assert SensorModel(3.0).sample_times(1.2).size == 4
+
+
+def test_noise_free_sensor_returns_the_angle_exactly() -> None:
+    """All knobs 0: y = θ bit for bit."""
+    t = np.linspace(0.0, 1.0, 101)
+    theta = np.sin(t)
+    assert np.array_equal(SensorModel(100.0).measure(t, theta), theta)
+
+
+def test_same_seed_same_bits_and_other_seed_differs() -> None:
+    """Determinism: identical output for one seed; a different seed gives different noise."""
+    sensor = SensorModel(100.0, noise_std=1e-3, bias=2e-3, bias_random_walk=1e-4, quantization=1e-5, seed=42)
+    t = sensor.sample_times(5.0)
+    theta = 0.1 * np.cos(3.0 * t)
+    first = sensor.measure(t, theta)
+    assert np.array_equal(first, sensor.measure(t, theta))
+    other = SensorModel(100.0, noise_std=1e-3, bias=2e-3, bias_random_walk=1e-4, quantization=1e-5, seed=43)
+    assert not np.array_equal(first, other.measure(t, theta))
+
+
+def test_white_noise_and_bias_statistics() -> None:
+    """σ within 2% (n = 200 000, the std's own 1σ spread is 0.16%) and mean = bias within 5σ/√n."""
+    sensor = SensorModel(1000.0, noise_std=2e-3, bias=5e-3, seed=7)
+    t = sensor.sample_times(199.999)
+    error = sensor.measure(t, np.zeros_like(t))
+    assert np.std(error) == pytest.approx(2e-3, rel=0.02)
+    assert abs(np.mean(error) - 5e-3) < 5 * 2e-3 / math.sqrt(t.size)
+
+
+def test_bias_random_walk_increments_have_sigma_b_sqrt_dt() -> None:
+    """β_k − β_{k−1} ~ N(0, σ_b² Δt): increment std within 2% of σ_b √Δt; the walk starts at 0."""
+    sensor = SensorModel(100.0, bias_random_walk=1e-3, seed=3)
+    t = sensor.sample_times(1000.0)
+    walk = sensor.measure(t, np.zeros_like(t))
+    assert walk[0] == 0.0
+    assert np.std(np.diff(walk)) == pytest.approx(1e-3 * math.sqrt(0.01), rel=0.02)
+
+
+def test_knobs_share_the_same_draws() -> None:
+    """Turning the bias walk on does not change the white-noise draws (fixed draw order)."""
+    t = np.linspace(0.0, 1.0, 11)
+    white = SensorModel(10.0, noise_std=1e-3, seed=5).measure(t, np.zeros_like(t))
+    both = SensorModel(10.0, noise_std=1e-3, bias_random_walk=1e-2, seed=5).measure(t, np.zeros_like(t))
+    walk = SensorModel(10.0, bias_random_walk=1e-2, seed=5).measure(t, np.zeros_like(t))
+    assert np.allclose(both, white + walk, rtol=0.0, atol=1e-15)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    q=st.floats(1e-6, 1e-1),
+    values=st.lists(st.floats(-10.0, 10.0), min_size=1, max_size=50),
+)
+def test_quantization_rounds_to_the_nearest_step(q: float, values: list[float]) -> None:
+    """Q(x) = q round(x/q): every output is a multiple of q and within q/2 (+1 ulp slack) of the input."""
+    theta = np.array(values)
+    t = np.arange(theta.size, dtype=float)
+    y = SensorModel(1.0, quantization=q).measure(t, theta)
+    assert np.all(np.abs(y - theta) <= 0.5 * q * (1 + 1e-9) + 1e-15)
+    assert np.allclose(y / q, np.round(y / q), rtol=0.0, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"rate_hz": 0.0}, "rate_hz"),
+        ({"rate_hz": math.nan}, "rate_hz"),
+        ({"rate_hz": 10.0, "noise_std": -1e-3}, "noise_std"),
+        ({"rate_hz": 10.0, "bias": math.inf}, "bias"),
+        ({"rate_hz": 10.0, "bias_random_walk": -1.0}, "bias_random_walk"),
+        ({"rate_hz": 10.0, "quantization": -1.0}, "quantization"),
+        ({"rate_hz": 10.0, "seed": -1}, "seed"),
+        ({"rate_hz": 10.0, "seed": True}, "seed"),
+        ({"rate_hz": 10.0, "seed": 1.5}, "seed"),
+    ],
+)
+def test_bad_settings_name_the_field(kwargs: dict[str, float], field: str) -> None:
+    """A bad knob is a ParameterError whose one-line message names it."""
+    with pytest.raises(ParameterError, match=field) as info:
+        SensorModel(**kwargs)  # type: ignore[arg-type]
+    assert "\n" not in str(info.value)
+
+
+def test_non_finite_angle_is_refused() -> None:
+    """NaN in the input angle is an error, never a NaN reading."""
+    with pytest.raises(ParameterError, match="finite"):
+        SensorModel(10.0).measure(np.array([0.0, 0.1]), np.array([0.0, math.nan]))
+    with pytest.raises(ParameterError, match="shape"):
+        SensorModel(10.0).measure(np.array([0.0, 0.1]), np.array([0.0]))
+    with pytest.raises(ParameterError, match="samples"):
+        SensorModel(1e6).sample_times(1e6)
