@@ -20,7 +20,10 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/launch_scripts", sorted(glob("launch_scripts/*.py"))),
-        (f"share/{PACKAGE}/scenes", sorted(glob(f"{PACKAGE}/scenes/*.yaml") + glob(f"{PACKAGE}/scenes/*.csv"))),
+        (
+            f"share/{PACKAGE}/scenes",
+            sorted(glob(f"{PACKAGE}/scenes/*.yaml") + glob(f"{PACKAGE}/scenes/*.csv")),
+        ),
     ],
     # ROS 2 (rclpy and message packages) is deliberately absent: it comes from
     # a system install or from requirements-ros.txt.

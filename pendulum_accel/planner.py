@@ -57,6 +57,7 @@ FIXED_STEP_ORDER: dict[str, tuple[int, float]] = {
     "symplectic_euler": (1, 1.0),
     "euler": (1, 1.0),
 }
+ROUND_SLACK = 1e-9  # aim a hair inside the budget so the prediction's own rounding stays ≤ target
 MAX_H_OMEGA = 0.5  # beyond this the (hω)^p error model is no longer asymptotic
 MAX_FIXED_STEPS = 20_000_000
 K_FLOOR = 0.05
@@ -112,27 +113,33 @@ class Plan:
 
 @dataclass(frozen=True)
 class _Setup:
-    """What every rule needs: the scene's pendulum, profile, span, ω, and sample count."""
+    """What every rule needs: pendulum, profile, span, ω of the swing, the model's fastest ω, sample count."""
 
     scene: Scene
     pendulum: Pendulum
     profile: AccelProfile
     duration: float
     omega: float
+    omega_fast: float
     samples: int
 
     @property
     def omega_t(self) -> float:
-        """1 + ωT, the secular growth factor of every error estimate."""
+        """1 + ωT, the secular growth factor of the angle error (ω of the swing)."""
         return 1.0 + self.omega * self.duration
+
+    @property
+    def omega_fast_t(self) -> float:
+        """1 + ω_fast T, the same with the fastest mode (the elastic string's √(k/m)), for fixed steps."""
+        return 1.0 + self.omega_fast * self.duration
 
 
 def _setup(scene: Scene, model: str = "rigid") -> _Setup:
-    """_Setup of ``scene`` with ω from physics.simulate.stability_omega for ``model``."""
-    omega = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, model)
-    return _Setup(
-        scene, scene.pendulum, scene.profile, scene.duration, omega, scene.sensor.sample_count(scene.duration)
-    )
+    """_Setup of ``scene``: ω and ω_fast from physics.simulate.stability_omega (rigid and ``model``)."""
+    omega = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, "rigid")
+    fast = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, model)
+    samples = scene.sensor.sample_count(scene.duration)
+    return _Setup(scene, scene.pendulum, scene.profile, scene.duration, omega, fast, samples)
 
 
 def plan_scene(scene: Scene) -> Plan:
@@ -254,12 +261,14 @@ def _fixed_step(
     order, const = FIXED_STEP_ORDER[method]
     span = setup.duration
     if dt is None:
-        h_omega = min((budget / (const * setup.omega_t)) ** (1.0 / order), MAX_H_OMEGA)
+        h_omega = min(
+            (budget * (1.0 - ROUND_SLACK) / (const * setup.omega_fast_t)) ** (1.0 / order), MAX_H_OMEGA
+        )
         limit = stability_limit(method)
         if limit is not None and limit > 0.0:
             h_omega = min(h_omega, 0.5 * limit)
-        h_omega = max(h_omega, setup.omega * span / MAX_FIXED_STEPS)
-        dt = h_omega / setup.omega
+        h_omega = max(h_omega, setup.omega_fast * span / MAX_FIXED_STEPS)
+        dt = h_omega / setup.omega_fast
     elif not (math.isfinite(dt) and dt > 0.0):
         raise SceneError(f"dt must be a finite step > 0 s, got {dt!r}")
     # The integrator shortens the step to fill each sample interval with whole steps.
@@ -267,10 +276,10 @@ def _fixed_step(
     per_interval = max(1, math.ceil(interval / dt * (1.0 - 1e-12)))
     h_eff = interval / per_interval
     steps = per_interval * max(setup.samples - 1, 1)
-    predicted = const * (h_eff * setup.omega) ** order * setup.omega_t + extra
+    predicted = const * (h_eff * setup.omega_fast) ** order * setup.omega_fast_t + extra
     per_step = RK4_STEP_S if setup.profile.constant_pieces(0.0, span) is None else RK4_STEP_CONSTANT_S
     cpu = per_step * steps * (order / 4.0 if order < 4 else 1.0)
-    detail = f"{method} with hω = {h_eff * setup.omega:.1e} ({steps} steps)"
+    detail = f"{method} with hω = {h_eff * setup.omega_fast:.1e} ({steps} steps)"
     return Plan(model, method, dt, None, predicted, f"{why}; {detail}", setup.scene.accuracy, cpu)
 
 
@@ -300,7 +309,7 @@ def _adaptive(
     budget = target - extra
     k = pilot_error_constant(setup, model, method)
     if rtol is None:
-        rtol = min(max(budget / (k * setup.omega_t), RTOL_RANGE[0]), RTOL_RANGE[1])
+        rtol = min(max(budget / (k * setup.omega_t) * (1.0 - ROUND_SLACK), RTOL_RANGE[0]), RTOL_RANGE[1])
     elif not (math.isfinite(rtol) and rtol > 0.0):
         raise SceneError(f"rtol must be a finite tolerance > 0, got {rtol!r}")
     predicted = k * rtol * setup.omega_t + extra

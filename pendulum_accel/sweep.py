@@ -360,9 +360,7 @@ def run_sweep(
     noises = vals if field == "noise" else np.full(n, setup.noise_std)
     if field == "noise":
         # The dynamics do not depend on the sensor: integrate the one trajectory, measure it n times.
-        theta1, _, step, steps = run_batch(
-            setup, lengths[:1], None, method=method, dt=dt, progress=progress
-        )
+        theta1, _, step, steps = run_batch(setup, lengths[:1], None, method=method, dt=dt, progress=progress)
         theta = np.broadcast_to(theta1, (n, t.size))
     else:
         theta, _, step, steps = run_batch(setup, lengths, accels, method=method, dt=dt, progress=progress)

@@ -26,7 +26,9 @@ class Output:
         self.lines: list[str] = []
         self._lock = threading.Lock()
         self._threads = [
-            threading.Thread(target=self._read, args=(pipe,), daemon=True) for pipe in (proc.stdout, proc.stderr) if pipe
+            threading.Thread(target=self._read, args=(pipe,), daemon=True)
+            for pipe in (proc.stdout, proc.stderr)
+            if pipe
         ]
         for thread in self._threads:
             thread.start()
@@ -44,7 +46,7 @@ class Output:
             return "\n".join(self.lines)
 
     def wait_for(self, pattern: str, timeout: float) -> re.Match[str]:
-        """The first match of ``pattern`` in the output, waiting up to ``timeout`` s (AssertionError on timeout)."""
+        """First match of ``pattern`` in the output, waiting up to ``timeout`` s (else AssertionError)."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             match = re.search(pattern, self.text)
@@ -56,7 +58,9 @@ class Output:
                 match = re.search(pattern, self.text)
                 if match:
                     return match
-                raise AssertionError(f"process exited ({self.proc.returncode}) before {pattern!r}:\n{self.text}")
+                raise AssertionError(
+                    f"process exited ({self.proc.returncode}) before {pattern!r}:\n{self.text}"
+                )
             time.sleep(0.05)
         raise AssertionError(f"no {pattern!r} within {timeout} s:\n{self.text}")
 

@@ -6,6 +6,7 @@ a test starts, so two test runs on one machine never see each other's topics.
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import os
 import random
@@ -89,14 +90,11 @@ def spawn() -> Iterator[Spawn]:
             except ProcessLookupError:
                 continue
     for proc in procs:
-        try:
+        with contextlib.suppress(subprocess.TimeoutExpired):
             proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            pass
-        try:  # the group may hold children of the child
+        # The group may hold children of the child.
+        with contextlib.suppress(ProcessLookupError, PermissionError):
             os.killpg(proc.pid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
-            pass
         proc.wait()
 
 

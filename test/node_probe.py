@@ -58,7 +58,9 @@ def main() -> None:
 
     def on_estimate(msg: AccelWithCovarianceStamped) -> None:
         """Keep (t, â, var)."""
-        out["estimates"].append([time_to_seconds(msg.header.stamp), msg.accel.accel.linear.x, msg.accel.covariance[0]])
+        out["estimates"].append(
+            [time_to_seconds(msg.header.stamp), msg.accel.accel.linear.x, msg.accel.covariance[0]]
+        )
 
     def on_diagnostics(msg: DiagnosticArray) -> None:
         """Keep (level, message, values) of each status."""
@@ -73,7 +75,9 @@ def main() -> None:
         node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, DIAGNOSTICS_QOS)
     publisher = node.create_publisher(JointState, "/pendulum/joint_states", DATA_QOS)
     deadline = time.monotonic() + 30.0
-    while publisher.get_subscription_count() < spec.get("wait_subscribers", 0) and time.monotonic() < deadline:
+    while (
+        publisher.get_subscription_count() < spec.get("wait_subscribers", 0) and time.monotonic() < deadline
+    ):
         spin_for(node, 0.05)
     spin_for(node, 0.3)  # let the listeners match too
     for item in spec.get("feed", []):
@@ -86,8 +90,8 @@ def main() -> None:
     if "set" in spec:
         target = spec["set"]["node"]
         params = spec["set"]["params"]
-        setter = node.create_client(SetParameters, f"/{target}/set_parameters")
-        getter = node.create_client(GetParameters, f"/{target}/get_parameters")
+        setter: Any = node.create_client(SetParameters, f"/{target}/set_parameters")
+        getter: Any = node.create_client(GetParameters, f"/{target}/get_parameters")
         request = SetParameters.Request()
         for name, value in params.items():
             request.parameters.append(Parameter(name, value=value).to_parameter_msg())

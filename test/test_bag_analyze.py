@@ -12,6 +12,7 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.analyze import analyze_bag, plot_analysis, settling
 from pendulum_accel.bag.generate import chain_streams, write_chain_bag
 from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import BagError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
@@ -37,7 +38,7 @@ def step_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     theta = traj.theta + np.random.default_rng(7).normal(0.0, NOISE, t.size)
     a_est, var = estimate_batch(DEFAULT_ESTIMATOR, t, theta, rate_hz=RATE, **CONFIG)
     streams = chain_streams(
-        t, theta, traj.theta_dot, traj.accel, a_est, var, estimator=DEFAULT_ESTIMATOR, string=None
+        t, theta, traj.theta_dot, traj.accel, a_est, var, estimator=DEFAULT_ESTIMATOR, rate_hz=RATE
     )
     path = tmp_path_factory.mktemp("analyze") / "step"
     write_chain_bag(path, streams, custom_data={"pendulum_accel.plan": "rigid/DOP853 (test)"})
@@ -117,3 +118,19 @@ def test_cli_damaged_bag_warns_and_salvages(
     assert 0 < bag.topics[bm.TOPIC_JOINT_STATES].count < 2400
     assert main(["info", str(tmp_path / "missing")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_cli_wrong_type_topic(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """/pendulum/joint_states recorded as AccelStamped: analyze names the topic and both types, exit 2."""
+    layout = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+    ns = np.arange(10, dtype=np.int64) * 10_000_000
+    sec, nsec = bm.split_stamp(ns)
+    rows = layout.encode(10, {"header.stamp.sec": sec, "header.stamp.nanosec": nsec})
+    with BagWriter(tmp_path / "wrong") as writer:
+        writer.add_topic(bm.TOPIC_JOINT_STATES, bm.ACCEL_STAMPED)
+        writer.write_sorted([Stream(bm.TOPIC_JOINT_STATES, ns, rows)])
+    assert main(["analyze", str(tmp_path / "wrong"), "--length", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "/pendulum/joint_states" in err and "geometry_msgs/msg/AccelStamped" in err
+    assert "expected sensor_msgs/msg/JointState" in err

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import fcntl
 import json
 import shutil
 import subprocess
@@ -114,16 +115,18 @@ def _mcap_core_dir() -> Path:
     if shutil.which("node") is None or shutil.which("npm") is None:
         pytest.skip("node/npm are not installed: cannot run Foxglove's @mcap/core reader")
     folder = Path(tempfile.gettempdir()) / "pendulum_accel_mcap_core"
-    if not all((folder / "node_modules" / pkg).is_dir() for pkg in ("@mcap/core", "fzstd")):
-        folder.mkdir(exist_ok=True)
-        subprocess.run(
-            ["npm", "install", "--no-audit", "--no-fund", "--silent", "@mcap/core@2", "fzstd@0"],
-            cwd=folder,
-            check=True,
-            timeout=300,
-            capture_output=True,
-        )
-    (folder / "count.js").write_text(MCAP_CORE_SCRIPT)
+    folder.mkdir(exist_ok=True)
+    with (folder / ".lock").open("w") as lock:  # parallel test runs install once
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not all((folder / "node_modules" / pkg).is_dir() for pkg in ("@mcap/core", "fzstd")):
+            subprocess.run(
+                ["npm", "install", "--no-audit", "--no-fund", "--silent", "@mcap/core@2", "fzstd@0"],
+                cwd=folder,
+                check=True,
+                timeout=300,
+                capture_output=True,
+            )
+        (folder / "count.js").write_text(MCAP_CORE_SCRIPT)
     return folder
 
 
@@ -148,3 +151,22 @@ def test_foxglove_mcap_core_reads_the_bag(chain_bag: tuple[Path, dict[str, int]]
         assert channel["schemaEncoding"] == "ros2msg"
         assert channel["schemaName"] == bm.TOPIC_TYPES[topic]
         assert "reliability: reliable" in channel["qos"]
+
+
+def test_foxglove_mcap_core_reads_a_golden_bag() -> None:
+    """The golden elastic_string bag (all six topics, zstd chunks) reads fully in @mcap/core."""
+    path = Path(__file__).resolve().parent.parent / "bags" / "elastic_string"
+    counts = {name: topic.count for name, topic in read_bag(path, salvage=False).topics.items()}
+    assert len(counts) == 6
+    folder = _mcap_core_dir()
+    out = subprocess.run(
+        ["node", "count.js", str(path / "elastic_string.mcap")],
+        cwd=folder,
+        check=True,
+        timeout=120,
+        capture_output=True,
+        text=True,
+    )
+    report = json.loads(out.stdout)
+    assert report["profile"] == "ros2" and report["counts"] == counts
+    assert report["streamed"] == sum(counts.values())

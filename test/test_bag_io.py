@@ -271,3 +271,21 @@ def test_not_a_bag_and_wrong_type(tmp_path: Path) -> None:
         bag.decode("/nope")
     with pytest.raises(BagError, match="no field 'effort\\[0\\]'"):
         bag.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE, fields=["effort[0]"])
+
+
+def test_damaged_payload_is_skipped_not_fatal(tmp_path: Path) -> None:
+    """A message whose CDR no longer decodes is dropped from its topic and named in bag.problem."""
+    counts = _write_chain_bag(tmp_path / "bag", n=500)
+    mcap = tmp_path / "bag" / "bag.mcap"
+    data = bytearray(mcap.read_bytes())
+    name = bm.PENDULUM_JOINT.encode()
+    at = -1
+    for _ in range(3):  # the third joint state's name: break its string length
+        at = data.index(name, at + 1)
+    data[at - 4 : at] = b"\xff\xff\xff\x7f"
+    mcap.write_bytes(bytes(data))
+    bag = read_bag(tmp_path / "bag")
+    js = bag.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)
+    assert len(js) == counts[bm.TOPIC_JOINT_STATES] - 1
+    assert bag.problem is not None and "skipped 1 damaged" in bag.problem
+    np.testing.assert_allclose(np.delete(np.arange(500) * 1e-3, 2), js.stamp, atol=1e-9)

@@ -44,7 +44,13 @@ def _recorder_counts(output: Output) -> dict[str, tuple[int, int]]:
 def _check_lossless(bag: Bag, output: Output) -> None:
     """Every sample on every topic of the simulator, and one estimate per angle, recorded and written."""
     counts = {name: info.count for name, info in bag.topics.items()}
-    for topic in ("/pendulum/joint_states", "/car/accel/truth", "/pendulum/string", "/clock", "/car/accel/estimate"):
+    for topic in (
+        "/pendulum/joint_states",
+        "/car/accel/truth",
+        "/pendulum/string",
+        "/clock",
+        "/car/accel/estimate",
+    ):
         assert counts[topic] == SAMPLES, (topic, counts)
     assert counts["/diagnostics"] >= 1
     for topic, (received, written) in _recorder_counts(output).items():
@@ -60,7 +66,11 @@ def _angles(bag: Bag) -> tuple[np.ndarray, np.ndarray]:
 def test_chain_converges_loses_nothing_at_1khz_and_is_deterministic(spawn: Spawn, tmp_path: Path) -> None:
     fast_bag, live_bag = tmp_path / "fast", tmp_path / "live"
     # As fast as possible, through the user-facing command.
-    run = Output(spawn([PYTHON, "-m", "pendulum_accel.cli.main", "run", *SCENE_ARGS, "--record", str(fast_bag), "--fast"]))
+    run = Output(
+        spawn(
+            [PYTHON, "-m", "pendulum_accel.cli.main", "run", *SCENE_ARGS, "--record", str(fast_bag), "--fast"]
+        )
+    )
     assert run.finish(timeout=120) == 0, run.text
     fast = read_bag(fast_bag)
     assert fast.problem is None and fast.complete

@@ -126,7 +126,7 @@ def test_euler_refused_when_growth_too_large():
 
 @pytest.mark.parametrize("method", FIXED_STEP_METHODS)
 def test_batch_equals_single_runs(method):
-    """A (2, 5) batch steps exactly like five separate runs (bit for bit)."""
+    """A (2, 5) batch steps like five separate runs (to 1e-12: same scheme, same steps)."""
     p = Pendulum(0.8, damping=0.3)
     rhs = rigid_rhs(p, lambda t: 2.0)
     y0 = np.array([np.linspace(-2.0, 2.5, 5), np.linspace(1.0, -1.0, 5)])
@@ -135,7 +135,8 @@ def test_batch_equals_single_runs(method):
     assert batch.y.shape == (2, 5, 6)
     for j in range(5):
         single = integrate(rhs, y0[:, j], t, method, 0.01)
-        np.testing.assert_array_equal(batch.y[:, j, :], single.y)
+        # math.sin (single) and np.sin (batch) may differ in the last bit, hence the 1e-12.
+        np.testing.assert_allclose(batch.y[:, j, :], single.y, rtol=0, atol=1e-12)
 
 
 def test_batch_adaptive_matches_single():

@@ -1,4 +1,4 @@
-"""accel_estimator over real DDS: each diagnostic state provoked, estimates finite and stamped, parameters checked."""
+"""accel_estimator over real DDS: each diagnostic state provoked, estimates finite and stamped, parameters."""
 
 from __future__ import annotations
 
@@ -36,7 +36,12 @@ def test_every_diagnostic_state_and_no_nonfinite_output(spawn: Spawn) -> None:
     feed = [*normal, *nan_sample, *after_nan, ["pause", 0.3], *steep, ["pause", 0.3], *jumped, ["pause", 0.3]]
     result = run_probe(
         spawn,
-        {"listen": ["/car/accel/estimate", "/diagnostics"], "wait_subscribers": 1, "feed": feed, "linger": 1.5},
+        {
+            "listen": ["/car/accel/estimate", "/diagnostics"],
+            "wait_subscribers": 1,
+            "feed": feed,
+            "linger": 1.5,
+        },
     )
     states = [values["state"] for _, _, values in result["diagnostics"]]
     messages = [message for _, message, _ in result["diagnostics"]]
@@ -45,13 +50,17 @@ def test_every_diagnostic_state_and_no_nonfinite_output(spawn: Spawn) -> None:
     position = 0
     for wanted in ("OK", "ERROR", "WARN near 90°", "RESET", "STALE"):
         for i in range(position, len(states)):
-            if (states[i] == wanted) or (wanted.startswith("WARN") and states[i] == "WARN" and "near 90°" in messages[i]):
+            if (states[i] == wanted) or (
+                wanted.startswith("WARN") and states[i] == "WARN" and "near 90°" in messages[i]
+            ):
                 order.append(i)
                 position = i + 1
                 break
         else:
-            raise AssertionError(f"no {wanted} after diagnostic #{position}: {list(zip(states, messages))}")
-    first = dict(zip(("OK", "ERROR", "WARN", "RESET", "STALE"), order))
+            raise AssertionError(
+                f"no {wanted} after diagnostic #{position}: {list(zip(states, messages, strict=True))}"
+            )
+    first = dict(zip(("OK", "ERROR", "WARN", "RESET", "STALE"), order, strict=True))
     levels = {values["state"]: level for level, _, values in result["diagnostics"]}
     assert levels == {"OK": 0, "WARN": 1, "ERROR": 2, "RESET": 1, "STALE": 3}
     assert "non-finite" in messages[first["ERROR"]]
@@ -75,7 +84,12 @@ def test_invalid_parameters_are_rejected_with_a_reason(spawn: Spawn) -> None:
     estimator.wait_for(r"estimating with", timeout=60)
     result = run_probe(
         spawn,
-        {"set": {"node": "accel_estimator", "params": {"method": "bogus", "length": -1.0, "noise_std": 0.002}}},
+        {
+            "set": {
+                "node": "accel_estimator",
+                "params": {"method": "bogus", "length": -1.0, "noise_std": 0.002},
+            }
+        },
     )
     (method_ok, method_reason), (length_ok, length_reason), (noise_ok, noise_reason) = result["set"]
     assert not method_ok and "unknown estimator 'bogus'" in method_reason

@@ -49,7 +49,7 @@ def test_small_oscillation_frequency_from_simulated_period(a):
 
 
 def test_a_to_zero_recovers_sqrt_g_over_l():
-    """ω(a) → √(g/l) as a → 0: |ω(a) − √(g/l)| shrinks like a² (ratio within 2% of (a₁/a₂)²), and ω(0) = √(g/l)."""
+    """ω(a) → √(g/l) as a → 0: ω(a) − √(g/l) shrinks like a² (ratio within 2% of 4 for a halved)."""
     p = Pendulum(0.9)
     base = math.sqrt(G / p.length)
     deviations = []
@@ -84,14 +84,14 @@ def test_damping_dissipates_energy():
 
 @pytest.mark.parametrize("damping", [0.0, 0.5])
 def test_tension_matches_newton_in_inertial_frame(damping):
-    """T = m(lθ'² + g cos θ + a sin θ) equals m (r̈·û + g cos θ) from finite differences of the bob path (rel 1e-5).
+    """T = m(lθ'² + g cos θ + a sin θ) equals m (r̈·û + g cos θ) from the bob path (tol 1e-5 m g).
 
     r̈ is the inertial acceleration (car a plus the second difference of the car-frame position), û the
     unit vector from bob to pivot; damping acts tangentially and so drops out of the radial balance.
     """
     p = Pendulum(0.8, mass=1.7, damping=damping)
     profile = Sinusoid(4.0, 0.4, offset=1.0)
-    h = 1e-3
+    h = 2.5e-4
     t = np.arange(0.0, 4.0 + h / 2, h)
     tr = simulate(p, profile, t, theta0=1.2, theta_dot0=-0.5)
     x = -p.length * np.sin(tr.theta)
@@ -101,14 +101,14 @@ def test_tension_matches_newton_in_inertial_frame(damping):
     th = tr.theta[1:-1]
     newton = p.mass * (x_dd * np.sin(th) + z_dd * np.cos(th) + G * np.cos(th))
     assert tr.tension is not None
-    np.testing.assert_allclose(tr.tension[1:-1], newton, rtol=0, atol=1e-5 * p.mass * G)
+    np.testing.assert_allclose(tr.tension[1:-1], newton, rtol=1e-6, atol=1e-5 * p.mass * G)
 
 
 Lagrangian = Callable[[float, float, float], float]
 
 
 def euler_lagrange_rhs(lagrangian: Lagrangian, h: float = 1e-4) -> Callable[[float, np.ndarray], np.ndarray]:
-    """θ'' = (L_θ − L_θ't − L_θ'θ θ')/L_θ'θ' with every partial derivative a central finite difference of L."""
+    """θ'' = (L_θ − L_θ't − L_θ'θ θ')/L_θ'θ', each partial derivative a central finite difference of L."""
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         th, w = float(y[0]), float(y[1])
@@ -129,7 +129,7 @@ def test_total_derivative_term_changes_nothing():
     """EOMs derived numerically from L with and without ½ m v² (and with d/dt[m l v cos θ]) agree to 1e-6 rad.
 
     The car's a(t) = 3 + 2 sin(2π·0.5 t), so v(t) = 3t + 2(1 − cos(πt))/π is not constant. All three match
-    θ'' = −(g/l) sin θ + (a/l) cos θ to 1e-6 rad over 4 s; a term that is *not* a total derivative,
+    θ'' = −(g/l) sin θ + (a/l) cos θ to 1e-6 rad over 3 s; a term that is *not* a total derivative,
     ½ m v² sin θ · 1e-3, moves the motion by more than 1e-3 rad (the check has teeth).
     """
     p = Pendulum(1.1, mass=0.6)
@@ -154,11 +154,12 @@ def test_total_derivative_term_changes_nothing():
     def not_a_gauge(th: float, w: float, t: float) -> float:
         return base(th, w, t) + 1e-3 * 0.5 * m * v_of(t) ** 2 * math.sin(th)
 
-    t = np.linspace(0.0, 4.0, 41)
+    t = np.linspace(0.0, 3.0, 31)
     y0 = np.array([0.4, 0.1])
 
     def run(rhs: Callable[[float, np.ndarray], np.ndarray]) -> np.ndarray:
-        return integrate(rhs, y0, t, "DOP853", rtol=1e-10, atol=1e-12).y[0]
+        # Fixed steps: the finite-difference noise in the derived θ'' would stall an adaptive controller.
+        return integrate(rhs, y0, t, "rk4", 5e-3).y[0]
 
     reference = run(rigid_rhs(p, a_of))
     plain = run(euler_lagrange_rhs(base))

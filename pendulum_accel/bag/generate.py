@@ -3,9 +3,9 @@
 Topics (stamp = log time = sim time t, starting at 0): /clock, /pendulum/joint_states (measured θ,
 θ'), /car/accel/truth, /pendulum/string (only when the scene computes tension or stretch),
 /car/accel/estimate (the default estimator, from the first sample it gives a value on) and
-/diagnostics (one status per second of sim time). Every fixed-layout topic is serialised in bulk
-(:class:`Layout`) and written in one ``write_sorted`` call, so a 1 kHz scene goes far faster than
-real time.
+/diagnostics (the estimator node's input-guard report, once per second of sim time). Every
+fixed-layout topic is serialised in bulk (:class:`Layout`) and written in one ``write_sorted``
+call, so a 1 kHz scene goes far faster than real time.
 """
 
 from __future__ import annotations
@@ -65,6 +65,7 @@ def chain_streams(
     variance: NDArray[np.float64],
     *,
     estimator: str,
+    rate_hz: float,
     string: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> list[Stream]:
     """Bulk-serialised streams of the chain's topics for samples at times t (s).
@@ -103,15 +104,35 @@ def chain_streams(
         "accel.covariance[0]": variance[ok],
     }
     streams.append(Stream(bm.TOPIC_ACCEL_ESTIMATE, est_ns, est.encode(est_ns.size, est_cols)))
-    diag_ns = np.arange(0, int(ns[-1]) + 1, 1_000_000_000, dtype=np.int64) if n else np.zeros(0, np.int64)
-    diag = [
-        bm.serialize(
-            bm.diagnostic_array(int(d), 0, DIAGNOSTIC_NAME, "OK", {"method": estimator}), bm.DIAGNOSTIC_ARRAY
-        )
-        for d in diag_ns
-    ]
+    diag_ns, diag = diagnostics(t, theta, estimator, rate_hz)
     streams.append(Stream(bm.TOPIC_DIAGNOSTICS, diag_ns, diag))
     return streams
+
+
+def diagnostics(
+    t: NDArray[np.float64], theta: NDArray[np.float64], estimator: str, rate_hz: float
+) -> tuple[NDArray[np.int64], list[bytes]]:
+    """(stamps, CDR) of the estimator node's /diagnostics: its InputGuard fed every sample, one report
+    per second of sim time (at the first sample at or after each whole second), same fields as live."""
+    from pendulum_accel.estimators.guard import InputGuard
+
+    guard = InputGuard(rate_hz=rate_hz)
+    stamps: list[int] = []
+    out: list[bytes] = []
+    next_report = 0.0
+    for ti, yi in zip(t.tolist(), theta.tolist(), strict=True):
+        guard.check(ti, yi)
+        if ti >= next_report:
+            report = guard.report()
+            ns = int(bm.seconds_to_ns(ti))
+            values = {"method": estimator, "state": report.state.value, **dict(report.values)}
+            msg = bm.diagnostic_array(
+                ns, report.level, DIAGNOSTIC_NAME, f"{report.state.value}: {report.message}", values
+            )
+            stamps.append(ns)
+            out.append(bm.serialize(msg, bm.DIAGNOSTIC_ARRAY))
+            next_report = float(np.floor(ti)) + 1.0
+    return np.array(stamps, dtype=np.int64), out
 
 
 def write_chain_bag(
@@ -157,7 +178,8 @@ def generate_bag(
     t0 = time.perf_counter()
     run = run_scene(scene)
     t1 = time.perf_counter()
-    t = np.asarray(run.t, dtype=np.float64)
+    # The estimator sees the stamps as a subscriber does: rounded to ns, t = sec + nanosec·1e-9.
+    t = bm.stamp_seconds(*bm.split_stamp(bm.seconds_to_ns(run.t)))
     theta = np.asarray(run.theta_measured, dtype=np.float64)
     a_est, variance = estimate_batch(method, t, theta, **estimator_settings(scene))
     t2 = time.perf_counter()
@@ -177,6 +199,7 @@ def generate_bag(
         np.asarray(a_est, dtype=np.float64),
         np.asarray(variance, dtype=np.float64),
         estimator=method,
+        rate_hz=float(scene.sensor.rate_hz),
         string=string,
     )
     custom = {

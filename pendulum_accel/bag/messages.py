@@ -11,6 +11,7 @@ serialized template row-wise, bulk decoding reads the field columns back with nu
 from __future__ import annotations
 
 import copy
+import dataclasses
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -275,7 +276,26 @@ class Layout:
 
     @classmethod
     def of(cls, msg: Any, msgtype: str) -> Layout:
-        """Layout of ``msg``'s shape, learnt from the typestore serializer (two values per field, diff)."""
+        """Layout of ``msg``'s shape, learnt from the typestore serializer (two values per field, diff).
+
+        Cached per shape (the message with every numeric field zeroed); the template is ``msg``'s bytes.
+        """
+        leaves = _numeric_leaves(msgtype, msg)
+        zeroed = copy.deepcopy(msg)
+        for path, _ in leaves:
+            _set_leaf(zeroed, path, 0)
+        key = (msgtype, serialize(zeroed, msgtype))
+        cached = _LAYOUTS.get(key)
+        if cached is None:
+            cached = _LAYOUTS[key] = cls._learn(zeroed, msgtype)
+        template = np.frombuffer(serialize(msg, msgtype), dtype=np.uint8).copy()
+        if template.size != cached.size:
+            raise BagError(f"{msgtype}: serialized size depends on the values, not a fixed layout")
+        return dataclasses.replace(cached, template=template)
+
+    @classmethod
+    def _learn(cls, msg: Any, msgtype: str) -> Layout:
+        """Uncached Layout.of: one pair of serializations per numeric field."""
         template = np.frombuffer(serialize(msg, msgtype), dtype=np.uint8).copy()
         mask = np.ones(template.size, dtype=bool)
         fields: dict[str, tuple[int, str]] = {}
@@ -332,6 +352,9 @@ class Layout:
             block = np.ascontiguousarray(rows[:, offset : offset + width])
             out[path] = block.view(dtype).reshape(-1).astype(np.dtype(dtype).newbyteorder("="))
         return out
+
+
+_LAYOUTS: dict[tuple[str, bytes], Layout] = {}
 
 
 def rows_from_bytes(payloads: Sequence[bytes]) -> NDArray[np.uint8]:

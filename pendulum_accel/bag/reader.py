@@ -249,7 +249,8 @@ class Bag:
         """Numeric columns of ``topic`` (all, or ``fields``) decoded in bulk, one array per field.
 
         Messages are grouped by shape (strings and sequence lengths); each shape is decoded with numpy
-        over all its messages. BagError when a requested field is missing from some shape.
+        over all its messages. BagError when a requested field is missing from some shape; messages whose
+        bytes do not decode are skipped and named in ``problem``.
         """
         chans = self._channels_of(topic, msgtype)
         mtype = chans[0].msgtype
@@ -266,11 +267,13 @@ class Bag:
                 first = int(np.flatnonzero(todo)[0])
                 try:
                     layout = Layout.of(deserialize(rows[first].tobytes(), mtype), mtype)
-                except BagError as err:
-                    raise BagError(f"topic {topic}, message {int(idx[first])}: {err}") from None
-                ok = todo & layout.matches(rows)
-                if not ok[first]:
-                    raise BagError(f"topic {topic}, message {int(idx[first])}: bytes do not re-serialize")
+                except BagError:
+                    layout = None
+                ok = todo & layout.matches(rows) if layout is not None else np.zeros(idx.size, dtype=bool)
+                if layout is None or not ok[first]:
+                    # Damaged bytes that do not decode (or do not re-serialize to themselves): skip it.
+                    todo[first] = False
+                    continue
                 if wanted is None:
                     wanted = list(layout.fields)
                 missing = [p for p in wanted if p not in layout.fields]
@@ -285,7 +288,12 @@ class Bag:
                     columns[path][idx[ok]] = col
                 assigned[idx[ok]] = True
                 todo &= ~ok
-        assert assigned.all()
+        if not assigned.all():
+            skipped = int(n - assigned.sum())
+            note = f"topic {topic}: skipped {skipped} damaged message(s) that do not decode"
+            self.problem = note if self.problem is None else f"{self.problem}; {note}"
+            columns = {path: col[assigned] for path, col in columns.items()}
+            times = times[assigned]
         return TopicArrays(topic, mtype, times, columns)
 
     def iter_raw(self, topics: Sequence[str] | None = None) -> Iterator[tuple[str, int, bytes]]:

@@ -3,10 +3,12 @@
 Built on ``rosbags.rosbag2.Writer`` with the MCAP storage plugin. That plugin keeps the open chunk
 (up to 1 MiB) in memory, so a killed process would lose all of it: :class:`BagWriter` closes the
 chunk and flushes the file at least every ``flush_interval`` seconds of wall time, and writes a
-provisional metadata.yaml (topics, QoS, custom_data) at open, which ``close`` replaces with the final
-one. ``write_sorted`` is the bulk path for whole recordings (``generate``): it lays out the MCAP
-message records of many messages at once with numpy and hands them to the same storage object,
-producing the very bytes per-message ``write`` calls would (checked in test_bag_writer.py).
+provisional metadata.yaml (topics, QoS, custom_data) before the first message, which ``close``
+replaces with the final one. ``write_sorted`` is the bulk path for whole recordings (``generate``):
+it lays out the MCAP message records of many messages at once with numpy and hands them to the same
+storage object, producing the very bytes per-message ``write`` calls would (test_bag_io.py compares
+the file with a plain rosbags Writer's). Two storage steps are replaced by equivalents: the message
+index is packed by numpy (``_close_chunk``), and the metadata YAML is dumped by libyaml.
 """
 
 from __future__ import annotations
@@ -100,15 +102,15 @@ class BagWriter:
     ) -> None:
         """Create the bag directory ``path``; BagError if it exists and ``overwrite`` is false."""
         self.path = Path(path)
-        prepare_output(self.path, overwrite)
         if flush_interval is not None and not flush_interval > 0.0:
             raise BagError(f"flush_interval must be > 0 s, got {flush_interval!r}")
+        if compression not in (None, "", "none", "zstd"):
+            raise BagError(f"unknown compression {compression!r}; use 'zstd' or none")
+        prepare_output(self.path, overwrite)
         self.flush_interval = flush_interval
         self._writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
         if compression == "zstd":
             self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-        elif compression not in (None, "", "none"):
-            raise BagError(f"unknown compression {compression!r}; use 'zstd' or none")
         data = {CUSTOM_VERSION: __version__, **dict(custom_data or {})}
         for key, value in data.items():
             self._writer.set_custom_data(key, str(value))
@@ -259,7 +261,10 @@ class BagWriter:
         for i, rows in enumerate(rows_list):
             sel = np.flatnonzero(which == i)
             if sel.size and rows.shape[1]:
-                _scatter_rows(buf, local[sel] + head_size, rows[index[sel]])
+                lo, hi = int(index[sel[0]]), int(index[sel[-1]])
+                # A stream's messages arrive in order, so its rows are usually one slice: no copy.
+                part = rows[lo : hi + 1] if hi - lo + 1 == sel.size else rows[index[sel]]
+                _scatter_rows(buf, local[sel] + head_size, part)
         offsets = storage.chunk.bio.tell() + local
         cids = head["channel"].astype(np.int64)
         # Message-index entries per channel in file order, new channels in order of first
@@ -273,7 +278,7 @@ class BagWriter:
             storage.chunk.msgs[cid].append(block)  # type: ignore[arg-type]
             storage.channel_stats[cid] += int(sel.size)
             self._writer.counts[cid] += int(sel.size)
-        storage.chunk.bio.write(buf.tobytes())
+        storage.chunk.bio.write(buf.data)
         t_min, t_max = int(t.min()), int(t.max())
         storage.chunk.message_start_time = min(t_min, storage.chunk.message_start_time)
         storage.chunk.message_end_time = max(t_max, storage.chunk.message_end_time)

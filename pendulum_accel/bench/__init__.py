@@ -1,1 +1,1 @@
-"""Benchmarks: each module is runnable with ``python -m pendulum_accel.bench.<name>`` and prints its figures."""
+"""Benchmarks: each module runs as ``python -m pendulum_accel.bench.<name>`` and prints its figures."""

@@ -4,9 +4,9 @@
 
 1. generate: a scene at ``--rate`` (default 1 kHz) with every topic of the chain, simulated,
    estimated and written; messages/s and × real time, per phase.
-2. analyze: ``analyze_bag`` on that bag (read, bulk decode, re-run the estimator, metrics) and our
-   reader alone, against a plain rosbags ``Reader.messages()`` + ``deserialize_cdr`` loop over the
-   same bag. Best of ``--repeat`` runs each.
+2. analyze: ``analyze_bag`` on that bag (read, bulk decode, re-run the estimator, metrics) with each
+   estimator, and our reader alone, against a plain rosbags ``Reader.messages()`` +
+   ``deserialize_cdr`` loop over the same bag. Best of ``--repeat`` runs each.
 
 Writes bags.csv and bags.md into the output directory (default out/bench) and prints the table.
 """
@@ -34,6 +34,7 @@ from pendulum_accel.bag.messages import (
     TYPESTORE,
 )
 from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 
 
 @dataclasses.dataclass(frozen=True)
@@ -120,8 +121,10 @@ def run_benchmark(scene_name: str, rate_hz: float, duration: float, repeat: int,
     rows.append(Row("plain rosbags read + deserialize loop", base_n, base_s, sim, base_s))
     read_s, read_n = best_of(repeat, lambda: our_read_decode(bag_path))
     rows.append(Row("our reader: scan + bulk decode", read_n, read_s, sim, base_s))
-    an_s, _ = best_of(repeat, lambda: analyze_bag(bag_path))
-    rows.append(Row("analyze (read + decode + estimator + metrics)", n, an_s, sim, base_s))
+    for name in ESTIMATORS:
+        label = f"analyze --estimator {name}" + (" (default)" if name == DEFAULT_ESTIMATOR else "")
+        an_s, _ = best_of(repeat, lambda name=name: analyze_bag(bag_path, estimator=name))  # type: ignore[misc]
+        rows.append(Row(label, n, an_s, sim, base_s))
     return rows
 
 
@@ -180,9 +183,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--out", type=Path, default=Path("out/bench"), help="output directory (default out/bench)"
     )
-    parser.add_argument("--scene", default="elastic_string", help="bundled scene (default elastic_string)")
+    parser.add_argument(
+        "--scene", default="lecture_constant", help="bundled scene (default lecture_constant)"
+    )
     parser.add_argument("--rate", type=float, default=1000.0, help="sensor rate in Hz (default 1000)")
-    parser.add_argument("--duration", type=float, default=30.0, help="scene length in s (default 30)")
+    parser.add_argument("--duration", type=float, default=60.0, help="scene length in s (default 60)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per task, best kept (default 3)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_") as folder:

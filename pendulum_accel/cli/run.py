@@ -31,8 +31,12 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--record", type=Path, metavar="DIR", help="record the chain to this bag directory")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing bag")
     pace = parser.add_mutually_exclusive_group()
-    pace.add_argument("--realtime", dest="realtime", action="store_true", default=True, help="wall-clock pace (default)")
-    pace.add_argument("--fast", dest="realtime", action="store_false", help="as fast as possible, graph on /clock")
+    pace.add_argument(
+        "--realtime", dest="realtime", action="store_true", default=True, help="wall-clock pace (default)"
+    )
+    pace.add_argument(
+        "--fast", dest="realtime", action="store_false", help="as fast as possible, graph on /clock"
+    )
     parser.add_argument("--estimator", metavar="M", help="estimation method (default: the package default)")
     parser.add_argument(
         "--set",
@@ -71,14 +75,14 @@ def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
     recorded = analysis.recorded
     if recorded is not None and recorded.n:
         lines.append(
-            f"estimate vs truth ({analysis.estimator}, live, {recorded.n} estimates): bias {recorded.bias:+.5f}, "
-            f"RMS {recorded.rms:.5f}, max {recorded.max_abs:.5f} m/s²"
+            f"estimate vs truth ({analysis.estimator}, live, {recorded.n} estimates): "
+            f"bias {recorded.bias:+.5f}, RMS {recorded.rms:.5f}, max {recorded.max_abs:.5f} m/s²"
         )
     if analysis.settling_time is not None:
         s = analysis.settled_stats
         lines.append(
-            f"offline {analysis.estimator} after settling ({analysis.settling_time:.3f} s): bias {s.bias:+.5f}, RMS {s.rms:.5f}, "
-            f"max {s.max_abs:.5f} m/s²"
+            f"offline {analysis.estimator} after settling ({analysis.settling_time:.3f} s): "
+            f"bias {s.bias:+.5f}, RMS {s.rms:.5f}, max {s.max_abs:.5f} m/s²"
         )
     plan = bag.custom_data.get(CUSTOM_PLAN, "plan: (none stored)")
     lines.append(plan if plan.startswith("plan:") else f"plan: {plan}")

@@ -7,9 +7,14 @@ import io
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from pendulum_accel.errors import ParameterError
+
+if TYPE_CHECKING:
+    from pendulum_accel.sweep import SweepResult
 
 
 def register(subparsers: Any) -> None:
@@ -35,6 +40,9 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--duration", type=float, help="override the scene's duration in s")
     parser.add_argument(
         "--estimator", help="estimator for the accel_estimate column (default: the package default; 'none')"
+    )
+    parser.add_argument(
+        "--plot", type=Path, help="also plot the table's columns against the swept value (PNG)"
     )
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar (stderr)")
     parser.set_defaults(func=run)
@@ -67,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write(buffer.getvalue())
     else:
         result.write_csv(args.out)
+    if args.plot is not None:
+        plot_sweep(result, args.plot)
     where = "stdout" if args.out is None else str(args.out)
     step = "adaptive" if result.dt is None else f"dt={result.dt:.3g} s"
     print(
@@ -75,3 +85,39 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     return 0
+
+
+_UNITS = {"length": "l (m)", "accel": "a (m/s²)", "noise": "σ (rad)"}
+
+
+def plot_sweep(result: SweepResult, path: Path) -> None:
+    """Three panels against the swept value: mean θ vs θ_eq, period vs 2π/ω, estimated vs true a."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x = result.values
+    cols = result.columns
+    order = np.argsort(x)
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+    axes[0].plot(x[order], cols["theta_eq"][order], "k-", label="θ_eq = atan(a/g)")
+    axes[0].plot(x[order], cols["theta_mean"][order], "o", ms=3, label="mean θ (2nd half)")
+    axes[0].set_ylabel("angle (rad)")
+    axes[1].plot(x[order], cols["period_small_angle"][order], "k-", label="2π/ω, ω² = √(g²+a²)/l")
+    axes[1].plot(x[order], cols["period"][order], "o", ms=3, label="measured period")
+    axes[1].set_ylabel("period (s)")
+    axes[2].plot(x[order], cols["accel"][order], "k-", label="true a")
+    axes[2].plot(x[order], cols["accel_g_tan_mean"][order], "s", ms=3, label="g tan(mean measured θ)")
+    if np.any(np.isfinite(cols["accel_estimate"])):
+        axes[2].plot(x[order], cols["accel_estimate"][order], "o", ms=3, label="default estimator")
+    axes[2].set_ylabel("a (m/s²)")
+    for ax in axes:
+        ax.set_xlabel(_UNITS[result.field])
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"sweep over {result.field}: {x.size} variants, {result.method}", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

@@ -18,6 +18,7 @@ from pendulum_accel.lecture.report import SIGN_NOTE, Comparison, LectureReport
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Step
 from pendulum_accel.physics.simulate import simulate
+from pendulum_accel.sensor import SensorModel
 
 NAME = "accelerometer"
 SUMMARY = "a = g tan θ off a swinging bob: the raw reading's bias, and how each estimator removes it"
@@ -26,7 +27,8 @@ LENGTH = 0.5  # m
 ACCEL = 3.0  # m/s²
 T_STEP = 1.0  # s
 RATE_HZ = 200.0
-NOISE_STD = 1e-3  # rad, the σ each estimator is told (the simulated angle itself is noise-free)
+NOISE_STD = 1e-3  # rad, white angle noise of the sensor (and the σ each estimator is told)
+SEED = 6
 DURATION = 24.0  # s: the low-pass filter's own step transient (cut-off f_osc/8) needs ~13 s to die out
 SETTLED = 6.0  # s: checks use the last SETTLED seconds, after every estimator's start-up
 RAW = "instant"  # a = g tan θ per sample: the raw reading
@@ -41,11 +43,13 @@ def run(quick: bool = False) -> LectureReport:
     p = Pendulum(length=LENGTH)
     del quick  # one run of the chain takes well under a second; there is nothing to coarsen
     duration = DURATION
-    t = np.arange(0.0, duration + 0.5 / RATE_HZ, 1.0 / RATE_HZ)
+    sensor = SensorModel(rate_hz=RATE_HZ, noise_std=NOISE_STD, seed=SEED)
+    t = sensor.sample_times(duration)
     traj = simulate(p, Step(T_STEP, 0.0, ACCEL), t, theta0=0.0, model="rigid", rtol=RTOL, atol=ATOL)
     theta = traj.theta
+    measured = sensor.measure(t, theta)
     cfg = {"length": LENGTH, "gravity": p.gravity, "noise_std": NOISE_STD, "rate_hz": RATE_HZ}
-    estimates = {name: estimate_batch(name, t, theta, **cfg)[0] for name in ESTIMATORS}
+    estimates = {name: estimate_batch(name, t, measured, **cfg)[0] for name in ESTIMATORS}
 
     theta_eq = float(formulas.equilibrium_angle(p, ACCEL))
     amplitude = theta_eq  # released hanging at rest: the swing reaches from 0 to 2 θ_eq
@@ -133,7 +137,7 @@ def run(quick: bool = False) -> LectureReport:
         ),
         setup=(
             f"l = {LENGTH:g} m, undamped, step 0 → {ACCEL:g} m/s² at t = {T_STEP:g} s, θ sampled at "
-            f"{RATE_HZ:g} Hz for {duration:g} s; estimators told σ = {NOISE_STD:g} rad; "
+            f"{RATE_HZ:g} Hz for {duration:g} s with noise σ = {NOISE_STD:g} rad (seed {SEED}); "
             f"checked over the last {SETTLED:g} s"
         ),
         comparisons=tuple(comparisons),

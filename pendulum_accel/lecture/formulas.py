@@ -44,8 +44,3 @@ def exact_period(p: Pendulum, accel: ArrayLike, amplitude: ArrayLike) -> FloatAr
 def multiplier_from_tension(p: Pendulum, tension: ArrayLike) -> FloatArray:
     """μ = −T/l (constraint term (μ/2)(x² + z² − l²) in the Lagrangian)."""
     return -np.asarray(tension, dtype=float) / p.length
-
-
-def accel_from_angle(p: Pendulum, theta: ArrayLike) -> FloatArray:
-    """a = g tan θ (the accelerometer reading)."""
-    return p.gravity * np.tan(np.asarray(theta, dtype=float))

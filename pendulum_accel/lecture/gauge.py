@@ -79,15 +79,23 @@ def inertial_lagrangian(p: Pendulum, accel: float) -> Lagrangian:
 def without_gauge_term(p: Pendulum, accel: float) -> Lagrangian:
     """L − ½ m a² t² = ½ m (l² θ'² − 2 a t l θ' cos θ) + m g l cos θ."""
     full = inertial_lagrangian(p, accel)
-    return lambda q, v, t: full(q, v, t) - 0.5 * p.mass * accel * accel * t * t
+
+    def lagrangian(q: float, v: float, t: float) -> float:
+        """L(θ, θ', t) without the ½ m a² t² term."""
+        return full(q, v, t) - 0.5 * p.mass * accel * accel * t * t
+
+    return lagrangian
 
 
 def car_frame_lagrangian(p: Pendulum, accel: float) -> Lagrangian:
     """L_car = ½ m l² θ'² + m g l cos θ + m a l sin θ (fictitious force −m a as a potential)."""
     m, g, length = p.mass, p.gravity, p.length
-    return lambda q, v, t: (
-        0.5 * m * length**2 * v * v + m * g * length * math.cos(q) + m * accel * length * math.sin(q)
-    )
+
+    def lagrangian(q: float, v: float, t: float) -> float:
+        """L_car(θ, θ'): no explicit time dependence at all."""
+        return 0.5 * m * length**2 * v * v + m * g * length * math.cos(q) + m * accel * length * math.sin(q)
+
+    return lagrangian
 
 
 def run(quick: bool = False) -> LectureReport:

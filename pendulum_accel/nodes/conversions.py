@@ -7,13 +7,12 @@ import math
 from typing import Any
 
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import AccelStamped, AccelWithCovarianceStamped
+from geometry_msgs.msg import AccelWithCovarianceStamped
 from rclpy.qos import QoSProfile
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from pendulum_accel.bag.messages import FRAME_ID, PENDULUM_JOINT, STRING_JOINT
+from pendulum_accel.bag.messages import FRAME_ID, PENDULUM_JOINT
 from pendulum_accel.errors import ParameterError
 
 _NS_PER_S = 1_000_000_000
@@ -25,19 +24,9 @@ def time_from_ns(ns: int) -> Time:
     return Time(sec=sec, nanosec=nanosec)
 
 
-def seconds_to_ns(t: float) -> int:
-    """ns = round(t · 1e9): the one rounding rule for sim-time stamps (t ≥ 0, finite)."""
-    return round(t * _NS_PER_S)
-
-
 def time_to_seconds(stamp: Any) -> float:
     """t = sec + nanosec · 1e-9 for a builtin_interfaces/Time."""
     return float(stamp.sec) + float(stamp.nanosec) * 1e-9
-
-
-def time_to_ns(stamp: Any) -> int:
-    """ns = sec · 1e9 + nanosec for a builtin_interfaces/Time."""
-    return int(stamp.sec) * _NS_PER_S + int(stamp.nanosec)
 
 
 def joint_state(stamp: Time, theta: float, theta_dot: float) -> JointState:
@@ -51,27 +40,6 @@ def joint_state(stamp: Time, theta: float, theta_dot: float) -> JointState:
     return msg
 
 
-def string_state(stamp: Time, stretch: float, stretch_rate: float, tension: float) -> JointState:
-    """JointState(name=[string_joint], position=[r − l], velocity=[ṙ], effort=[T])."""
-    msg = JointState()
-    msg.header.stamp = stamp
-    msg.header.frame_id = FRAME_ID
-    msg.name = [STRING_JOINT]
-    msg.position = [float(stretch)]
-    msg.velocity = [float(stretch_rate)]
-    msg.effort = [float(tension)]
-    return msg
-
-
-def accel_truth(stamp: Time, accel: float) -> AccelStamped:
-    """AccelStamped with accel.linear.x = true a(t)."""
-    msg = AccelStamped()
-    msg.header.stamp = stamp
-    msg.header.frame_id = FRAME_ID
-    msg.accel.linear.x = float(accel)
-    return msg
-
-
 def accel_estimate(stamp: Time, accel: float, variance: float) -> AccelWithCovarianceStamped:
     """AccelWithCovarianceStamped: linear.x = â, covariance[0] = var(â), the other entries 0."""
     msg = AccelWithCovarianceStamped()
@@ -82,11 +50,6 @@ def accel_estimate(stamp: Time, accel: float, variance: float) -> AccelWithCovar
     covariance[0] = float(variance)
     msg.accel.covariance = covariance
     return msg
-
-
-def clock(stamp: Time) -> Clock:
-    """Clock(clock = stamp)."""
-    return Clock(clock=stamp)
 
 
 def pendulum_angle(msg: JointState) -> float:

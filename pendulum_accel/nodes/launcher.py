@@ -30,7 +30,7 @@ _PR_SET_PDEATHSIG = 1
 _STOP_TIMEOUT = 15.0  # s a node gets to exit after SIGINT before SIGKILL
 _POLL = 0.05  # s
 
-ParamValue = bool | int | float | str
+ParamValue = bool | int | float | str | list[str]
 
 
 def _die_with_parent() -> None:
@@ -41,7 +41,9 @@ def _die_with_parent() -> None:
 
 def ros_param(name: str, value: ParamValue) -> list[str]:
     """['-p', 'name:=value'] with the value written as YAML (strings quoted, so '1' stays a string)."""
-    if isinstance(value, bool):
+    if isinstance(value, list):
+        text = json.dumps([str(v) for v in value])
+    elif isinstance(value, bool):
         text = "true" if value else "false"
     elif isinstance(value, int | float):
         text = repr(value)
@@ -90,7 +92,7 @@ class Child:
 
 
 def effective_scene_file(config: ChainConfig, directory: Path) -> str:
-    """Scene argument for the nodes: the name itself, or (with overrides) a YAML file of the overridden scene."""
+    """Scene argument for the nodes: the name, or (with overrides) a YAML file of the overridden scene."""
     if not config.overrides:
         return config.scene
     from pendulum_accel.nodes.scene_overrides import apply_overrides
@@ -117,14 +119,15 @@ def describe_exit(code: int | None) -> str:
 class Chain:
     """The running chain; ``run()`` blocks until the scene ends, a signal arrives or a node dies."""
 
-    def __init__(self, config: ChainConfig, *, log: bool = True) -> None:
-        """Check the configuration (no process is started yet)."""
+    def __init__(self, config: ChainConfig, *, log: bool = True, output: Path | None = None) -> None:
+        """Check the configuration (no process is started yet); ``output``: file for the nodes' logs."""
         if config.record is not None and config.record.exists() and not config.overwrite:
             raise ParameterError(f"{config.record} exists already; pass --overwrite to replace it")
         self.config = config
         self.children: list[Child] = []
         self.log = log
         self._signalled = 0
+        self.output = output
 
     def _say(self, text: str) -> None:
         """One launcher line on stderr (the nodes' own logs interleave there too)."""
@@ -165,7 +168,17 @@ class Chain:
 
     def _start(self, role: str, command: list[str]) -> None:
         """Start one node in its own process group (a terminal's Ctrl-C reaches only the launcher)."""
-        proc = subprocess.Popen(command, preexec_fn=_die_with_parent, start_new_session=True)
+        if self.output is None:
+            proc = subprocess.Popen(command, preexec_fn=_die_with_parent, start_new_session=True)
+        else:
+            with self.output.open("ab") as sink:
+                proc = subprocess.Popen(
+                    command,
+                    stdout=sink,
+                    stderr=subprocess.STDOUT,
+                    preexec_fn=_die_with_parent,
+                    start_new_session=True,
+                )
         self.children.append(Child(role, command, proc))
         self._say(f"started {role} (pid {proc.pid})")
 
@@ -237,7 +250,9 @@ class Chain:
             for child in self.children:
                 code = child.process.poll()
                 if code is not None and not child.expected_exit:
-                    self._say(f"{child.role} (pid {child.pid}) died with {describe_exit(code)}: stopping the chain")
+                    self._say(
+                        f"{child.role} (pid {child.pid}) died with {describe_exit(code)}: stopping the chain"
+                    )
                     child.expected_exit = True
                     self.stop()
                     return 1

@@ -62,12 +62,14 @@ def elastic_rhs(p: Pendulum, accel: ArrayAccel) -> Callable[[float, np.ndarray],
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         """[r', θ', r θ'² + g cos θ + a sin θ − (k/m)(r−l) − c r', (a cos θ − g sin θ − 2r'θ')/r − cθ']."""
-        r, th, rd, w = y[0], y[1], y[2], y[3]
+        # A single state runs on Python floats: numpy scalars would cost more than the arithmetic.
+        single = y.ndim == 1
+        r, th, rd, w = y.tolist() if single else y
         a = accel(t)
-        s, co = np.sin(th), np.cos(th)
+        s, co = (math.sin(th), math.cos(th)) if single else (np.sin(th), np.cos(th))
         r_dd = r * w * w + g * co + a * s - k_m * (r - length) - c * rd
         th_dd = (-g * s + a * co - 2.0 * rd * w) / r - c * w
-        return np.stack((rd, w, r_dd, th_dd))
+        return np.array((rd, w, r_dd, th_dd)) if single else np.stack((rd, w, r_dd, th_dd))
 
     return rhs
 

@@ -58,7 +58,8 @@ def multiplier_rhs(p: Pendulum, accel: ArrayAccel) -> Callable[[float, np.ndarra
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         """Cartesian equations of motion with μ̃ from f'' + 2α f' + β² f = 0."""
-        x, z, xd, zd = y[0], y[1], y[2], y[3]
+        # A single state runs on Python floats: numpy scalars would cost more than the arithmetic.
+        x, z, xd, zd = y.tolist() if y.ndim == 1 else y
         a = accel(t)
         r2 = x * x + z * z
         f = 0.5 * (r2 - length * length)
@@ -66,7 +67,8 @@ def multiplier_rhs(p: Pendulum, accel: ArrayAccel) -> Callable[[float, np.ndarra
         mu_over_m = (
             a * x + g * z - (xd * xd + zd * zd) + c * f_dot - 2.0 * alpha * f_dot - beta * beta * f
         ) / r2
-        return np.stack((xd, zd, mu_over_m * x - a - c * xd, mu_over_m * z - g - c * zd))
+        out = (xd, zd, mu_over_m * x - a - c * xd, mu_over_m * z - g - c * zd)
+        return np.array(out) if y.ndim == 1 else np.stack(out)
 
     return rhs
 

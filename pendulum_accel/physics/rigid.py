@@ -35,8 +35,13 @@ def theta_ddot(p: Pendulum, theta: ArrayLike, theta_dot: ArrayLike, accel: Array
 def rigid_rhs(p: Pendulum, accel: ArrayAccel) -> Callable[[float, np.ndarray], np.ndarray]:
     """f(t, [θ, θ']) = [θ', θ''(θ, θ', a(t))]; the state may be a batch of shape (2, n)."""
 
+    g_l, inv_l, c = p.gravity / p.length, 1.0 / p.length, p.damping
+
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
         """[θ', −(g/l) sin θ + (a(t)/l) cos θ − c θ']."""
+        if y.ndim == 1:  # Python floats: numpy scalars would cost more than the arithmetic
+            th, w = y.tolist()
+            return np.array((w, -g_l * math.sin(th) + accel(t) * inv_l * math.cos(th) - c * w))
         return np.stack((y[1], theta_ddot(p, y[0], y[1], accel(t))))
 
     return rhs

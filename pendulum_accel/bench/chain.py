@@ -1,0 +1,272 @@
+"""Chain benchmark: the live ROS 2 chain at several sensor rates, and as fast as possible.
+
+    python -m pendulum_accel.bench.chain [--rates 100 1000 5000 10000] [--duration S] [--fast-duration S]
+
+For each rate, the launcher runs simulator, estimator and recorder (separate processes, real-time
+pacing, recording on) on ``lecture_constant`` while a listener in this process time-stamps every
+angle and every estimate on arrival with one monotonic clock. Reported per rate:
+
+* lost: angles and estimates the recorder did not write, against the scene's sample count;
+* latency: estimate arrival − arrival of the angle it was computed from (median, p99), i.e. the
+  estimator's turnaround including one DDS hop each way, as seen by a fourth process;
+* simulator pacing jitter (p99 of publish − due) and real-time factor, from its log;
+* CPU of each node (% of one core, from /proc/<pid>/stat) while data flows.
+
+Then the same chain as fast as possible at 1 kHz with recording: its real-time factor and losses.
+Benchmarks measure; tests never assert on time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import tempfile
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+SCENE = "lecture_constant"
+RATES = (100, 1000, 5000, 10000)
+_CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+@dataclass
+class Result:
+    """One chain run: counts, latencies (s), jitter/factor from the simulator's log, CPU % per node."""
+
+    mode: str
+    rate_hz: float
+    duration: float
+    expected: int
+    angles_written: int
+    estimates_written: int
+    latency: np.ndarray
+    jitter_p99_us: float | None
+    real_time_factor: float | None
+    cpu: dict[str, float] = field(default_factory=dict)
+    exit_code: int = 0
+
+    @property
+    def lost(self) -> int:
+        """Angles plus estimates the bag lacks: 2 · expected − written."""
+        return 2 * self.expected - self.angles_written - self.estimates_written
+
+    def row(self) -> list[str]:
+        """Table cells."""
+        lat = self.latency * 1e3
+        med, p99 = (f"{np.median(lat):.2f}", f"{np.percentile(lat, 99):.2f}") if lat.size else ("-", "-")
+        cpu = " / ".join(
+            f"{self.cpu.get(role, float('nan')):.0f}" for role in ("simulator", "estimator", "recorder")
+        )
+        jitter = f"{self.jitter_p99_us:.0f}" if self.jitter_p99_us is not None else "-"
+        factor = f"{self.real_time_factor:.1f}" if self.real_time_factor is not None else "-"
+        return [
+            self.mode,
+            f"{self.rate_hz:g}",
+            f"{self.duration:g}",
+            str(self.expected),
+            str(self.lost),
+            med,
+            p99,
+            jitter,
+            factor,
+            cpu,
+        ]
+
+
+HEADER = [
+    "mode",
+    "rate Hz",
+    "scene s",
+    "samples",
+    "lost",
+    "latency median ms",
+    "latency p99 ms",
+    "jitter p99 µs",
+    "real-time factor",
+    "CPU % sim / est / rec",
+]
+
+
+def markdown(rows: Sequence[Sequence[str]]) -> str:
+    """A markdown table with HEADER."""
+    lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def cpu_seconds(pid: int) -> float | None:
+    """utime + stime of a process in seconds (fields 14 and 15 of /proc/<pid>/stat); None once it is gone."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    return (int(fields[11]) + int(fields[12])) / _CLK_TCK
+
+
+class CpuSampler:
+    """Per-child CPU use between the first data and the child's last sample before it stops."""
+
+    def __init__(self) -> None:
+        """No child sampled yet."""
+        self.first: dict[str, tuple[float, float]] = {}
+        self.last: dict[str, tuple[float, float]] = {}
+        self.active = threading.Event()
+        self.stop = threading.Event()
+
+    def run(self, chain: object) -> None:
+        """Thread body: every 0.1 s, read each running child's CPU time once data flows."""
+        while not self.stop.wait(0.1):
+            if not self.active.is_set():
+                continue
+            for child in list(getattr(chain, "children", [])):
+                if child.expected_exit or child.process.poll() is not None:
+                    continue
+                used = cpu_seconds(child.pid)
+                if used is None:
+                    continue
+                now = time.monotonic()
+                self.first.setdefault(child.role, (now, used))
+                self.last[child.role] = (now, used)
+
+    def percent(self) -> dict[str, float]:
+        """{role: 100 · ΔCPU / Δwall}."""
+        out = {}
+        for role, (t0, c0) in self.first.items():
+            t1, c1 = self.last[role]
+            if t1 > t0:
+                out[role] = 100.0 * (c1 - c0) / (t1 - t0)
+        return out
+
+
+def _log_figures(text: str) -> tuple[float | None, float | None]:
+    """(jitter p99 µs, real-time factor) from the simulator's log lines."""
+    jitter = re.search(r"jitter \(publish − due\): median \d+ µs, p99 (\d+) µs", text)
+    factor = re.search(r"real-time factor ([0-9.]+|inf)", text)
+    return (
+        float(jitter.group(1)) if jitter else None,
+        float(factor.group(1)) if factor and factor.group(1) != "inf" else None,
+    )
+
+
+def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Result:
+    """Run the chain once with a listener and a CPU sampler; the figures of that run."""
+    import rclpy
+    from builtin_interfaces.msg import Time
+    from geometry_msgs.msg import AccelWithCovarianceStamped
+    from rclpy.experimental import EventsExecutor
+    from rclpy.node import Node
+    from sensor_msgs.msg import JointState
+
+    from pendulum_accel.bag.reader import read_bag
+    from pendulum_accel.nodes.launcher import Chain, ChainConfig
+    from pendulum_accel.nodes.qos import DATA_QOS
+    from pendulum_accel.nodes.scene_overrides import apply_overrides
+    from pendulum_accel.scene import load_scene
+
+    overrides = {"rate_hz": float(rate), "duration": float(duration)}
+    expected = apply_overrides(load_scene(SCENE), overrides).sensor.sample_count(duration)
+    angle_arrival: dict[int, int] = {}
+    latency: list[int] = []
+    sampler = CpuSampler()
+
+    def key(stamp: Time) -> int:
+        """Stamp as integer ns."""
+        return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+    def on_angle(msg: JointState) -> None:
+        """Arrival time of an angle, by stamp."""
+        angle_arrival[key(msg.header.stamp)] = time.monotonic_ns()
+        sampler.active.set()
+
+    def on_estimate(msg: AccelWithCovarianceStamped) -> None:
+        """Estimate arrival − its angle's arrival."""
+        arrived = angle_arrival.get(key(msg.header.stamp))
+        if arrived is not None:
+            latency.append(time.monotonic_ns() - arrived)
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = Node("chain_bench_listener", context=context)
+    node.create_subscription(JointState, "/pendulum/joint_states", on_angle, DATA_QOS)
+    node.create_subscription(AccelWithCovarianceStamped, "/car/accel/estimate", on_estimate, DATA_QOS)
+    executor = EventsExecutor(context=context)
+    executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    mode = "real time" if realtime else "as fast as possible"
+    bag = folder / f"{'rt' if realtime else 'fast'}_{int(rate)}"
+    log = folder / f"{bag.name}.log"
+    config = ChainConfig(
+        scene=SCENE,
+        record=bag,
+        realtime=realtime,
+        overrides=overrides,
+        simulator_params={"wait_for_subscribers": 3},  # estimator, recorder and this listener
+    )
+    chain = Chain(config, log=False, output=log)
+    sampler_thread = threading.Thread(target=sampler.run, args=(chain,), daemon=True)
+    sampler_thread.start()
+    try:
+        code = chain.run()
+    finally:
+        sampler.stop.set()
+        sampler_thread.join()
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+    counts = {name: info.count for name, info in read_bag(bag).topics.items()}
+    jitter, factor = _log_figures(log.read_text(errors="replace"))
+    return Result(
+        mode=mode,
+        rate_hz=rate,
+        duration=duration,
+        expected=expected,
+        angles_written=counts.get("/pendulum/joint_states", 0),
+        estimates_written=counts.get("/car/accel/estimate", 0),
+        latency=np.asarray(latency, dtype=np.float64) * 1e-9,
+        jitter_p99_us=jitter if realtime else None,
+        real_time_factor=factor,
+        cpu=sampler.percent(),
+        exit_code=code,
+    )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the live chain at each rate, then as fast as possible at 1 kHz; print a markdown table."""
+    parser = argparse.ArgumentParser(
+        prog="python -m pendulum_accel.bench.chain", description=__doc__.split("\n\n")[0]
+    )
+    parser.add_argument("--rates", type=float, nargs="+", default=list(RATES), help="sensor rates, Hz")
+    parser.add_argument("--duration", type=float, default=5.0, help="scene seconds per live run")
+    parser.add_argument(
+        "--fast-duration", type=float, default=30.0, help="scene seconds of the as-fast-as-possible run"
+    )
+    parser.add_argument("--out", type=Path, help="also write the markdown table here")
+    args = parser.parse_args(argv)
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_chain_") as tmp:
+        runs = [(rate, args.duration, True) for rate in args.rates] + [(1000.0, args.fast_duration, False)]
+        for rate, duration, realtime in runs:
+            result = run_once(rate, duration, realtime, Path(tmp))
+            rows.append(result.row())
+            print(
+                " | ".join(rows[-1])
+                + ("" if result.exit_code == 0 else f"  (chain exit {result.exit_code})"),
+                flush=True,
+            )
+    table = markdown(rows)
+    print()
+    print(table)
+    if args.out is not None:
+        args.out.write_text(table + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

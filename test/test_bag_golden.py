@@ -1,0 +1,83 @@
+"""Golden bags in bags/: one per bundled scene, small, complete, and replayed offline within tolerances.
+
+Offline replay = ``analyze_bag``: the default estimator re-run on the recorded angles. Stated
+tolerances for it on every bundled scene (noise σ = 1 mrad or less at 100-200 Hz):
+  - settles (|â − a| ≤ 0.1 m/s² for good) within 1 s of the truth's last change;
+  - after settling: |bias| ≤ 0.01 m/s², RMS ≤ 0.03 m/s²;
+  - the re-run reproduces the /car/accel/estimate stored in the bag to 1e-9 m/s².
+A failure of the last check after a change to a scene or an estimator means: run ``make bags``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import Reader
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.analyze import analyze_bag
+from pendulum_accel.bag.reader import read_bag, scene_name
+from pendulum_accel.scene import list_scenes, scene_from_yaml
+
+BAGS = Path(__file__).resolve().parent.parent / "bags"
+SCENES = {scene.name: scene for scene in list_scenes()}
+MAX_TOTAL_BYTES = 5_000_000
+SETTLE_S = 1.0
+BIAS = 0.01
+RMS = 0.03
+REPLAY_ATOL = 1e-9
+STALE = "golden bag out of date with the scenes/estimators: regenerate with `make bags`"
+
+
+def test_one_small_complete_bag_per_bundled_scene() -> None:
+    """Every bundled scene has bags/<scene>/ (metadata.yaml + .mcap); a few MB in all."""
+    total = 0
+    for name in SCENES:
+        folder = BAGS / name
+        assert (folder / "metadata.yaml").is_file(), f"missing golden bag {folder}: run `make bags`"
+        assert (folder / f"{name}.mcap").is_file()
+        total += sum(p.stat().st_size for p in folder.iterdir())
+    assert total <= MAX_TOTAL_BYTES
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_golden_bag_content(name: str) -> None:
+    """Complete; the contract's topics (string only where the scene computes it); scene and plan stored."""
+    bag = read_bag(BAGS / name, salvage=False)
+    scene = SCENES[name]
+    expected = {t for t in bm.TOPIC_TYPES if t != bm.TOPIC_STRING}
+    if scene.wants_tension or scene.wants_stretch:
+        expected.add(bm.TOPIC_STRING)
+    assert set(bag.topics) == expected
+    for topic, info in bag.topics.items():
+        assert info.msgtype == bm.TOPIC_TYPES[topic] and info.count > 0
+    stored = scene_from_yaml(bag.custom_data["pendulum_accel.scene"])
+    assert scene_name(bag) == name == stored.name
+    assert stored.pendulum == scene.pendulum and stored.sensor == scene.sensor
+    assert bag.custom_data["pendulum_accel.plan"].startswith("plan:")
+    n = bag.topics[bm.TOPIC_JOINT_STATES].count
+    assert n == pytest.approx(min(stored.duration, scene.duration) * scene.sensor.rate_hz + 1, abs=1)
+    with Reader(BAGS / name) as reader:  # rosbag2's own view agrees
+        assert {c.topic: c.msgcount for c in reader.connections} == {
+            t: i.count for t, i in bag.topics.items()
+        }
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_golden_bag_replays_offline_within_tolerance(name: str) -> None:
+    """analyze (default estimator) against the recorded truth: settling, bias and RMS as stated above."""
+    result = analyze_bag(BAGS / name)
+    assert result.settling_time is not None and result.settling_time <= SETTLE_S
+    settled = result.settled_stats
+    assert settled.n >= 100
+    assert abs(settled.bias) <= BIAS
+    assert settled.rms <= RMS
+    # The offline re-run is the estimate the bag recorded, sample for sample.
+    est = read_bag(BAGS / name).decode(bm.TOPIC_ACCEL_ESTIMATE, bm.ACCEL_WITH_COVARIANCE_STAMPED)
+    at = np.searchsorted(result.t, est.stamp)
+    np.testing.assert_allclose(result.t[at], est.stamp, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        est["accel.accel.linear.x"], result.accel_est[at], rtol=0, atol=REPLAY_ATOL, err_msg=STALE
+    )
