@@ -53,5 +53,13 @@ test: lint typecheck pytest
 bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags
 
+# Every benchmark, each the way the README quotes it; figures print and land in out/bench.
+BENCHES := work_precision estimators chain bags sweep_bench
+bench: $(STAMP)
+	@for b in $(BENCHES); do \
+	  echo "== python -m pendulum_accel.bench.$$b"; \
+	  $(BIN)/python -m pendulum_accel.bench.$$b --out out/bench || exit 1; \
+	done
+
 clean:
 	rm -rf build install log out .pytest_cache .mypy_cache .ruff_cache

@@ -27,7 +27,22 @@ setup(
     ],
     # ROS 2 (rclpy and message packages) is deliberately absent: it comes from
     # a system install or from requirements-ros.txt.
-    install_requires=["numpy", "scipy", "PyYAML", "rosbags", "mcap"],
+    install_requires=[
+        "numpy",
+        "scipy",
+        "PyYAML",
+        "rosbags",
+        "mcap",
+        "matplotlib",
+        "tqdm",
+        "zstandard",
+        "lz4",
+    ],
+    # The work-precision benchmark's 30-digit reference, and the test tools.
+    extras_require={
+        "bench": ["mpmath"],
+        "test": ["pytest", "pytest-timeout", "hypothesis", "mpmath", "mcap-ros2-support"],
+    },
     python_requires=">=3.10",
     zip_safe=True,
     maintainer="pendulum_accel developers",

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import functools
 import os
 import random
 import signal
@@ -51,6 +52,7 @@ os.environ["MPLBACKEND"] = "Agg"
 os.environ["PYTHONUNBUFFERED"] = "1"
 
 
+@functools.cache
 def rclpy_available() -> bool:
     """True when rclpy and its message packages import (PyPI wheels or a system ROS 2)."""
     try:
@@ -59,6 +61,17 @@ def rclpy_available() -> bool:
     except ImportError:
         return False
     return True
+
+
+@pytest.fixture(autouse=True)
+def _ros_is_installed(request: pytest.FixtureRequest) -> None:
+    """A ``ros`` test fails, never skips, without rclpy: ``make test`` installs it, so absence is a bug."""
+    if request.node.get_closest_marker("ros") is not None and not rclpy_available():
+        pytest.fail(
+            "rclpy or its message packages do not import: run the tests through `make test`, which "
+            "installs ROS 2 from requirements-ros.txt (or source a ROS 2 install first)",
+            pytrace=False,
+        )
 
 
 Spawn = Callable[..., subprocess.Popen[str]]

@@ -17,11 +17,10 @@ import pytest
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.nodes.launcher import pids_alive
 from test.chain_helpers import Output, child_pids, start_chain
-from test.conftest import PYTHON, Spawn, rclpy_available
+from test.conftest import PYTHON, Spawn
 
 pytestmark = [
     pytest.mark.ros,
-    pytest.mark.skipif(not rclpy_available(), reason="rclpy is not installed (make setup installs it)"),
 ]
 
 RATE = 1000  # Hz

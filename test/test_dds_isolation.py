@@ -6,11 +6,10 @@ import os
 
 import pytest
 
-from test.conftest import PYTHON, REPO, Spawn, rclpy_available
+from test.conftest import PYTHON, REPO, Spawn
 
 pytestmark = [
     pytest.mark.ros,
-    pytest.mark.skipif(not rclpy_available(), reason="rclpy is not installed (make setup installs it)"),
 ]
 
 

@@ -8,11 +8,10 @@ import signal
 import pytest
 
 from test.chain_helpers import run_probe, start_node
-from test.conftest import Spawn, rclpy_available
+from test.conftest import Spawn
 
 pytestmark = [
     pytest.mark.ros,
-    pytest.mark.skipif(not rclpy_available(), reason="rclpy is not installed (make setup installs it)"),
 ]
 
 G = 9.80665

@@ -15,11 +15,10 @@ from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.estimators import estimate_batch
 from pendulum_accel.scene import load_scene
 from test.chain_helpers import PROBE, Output, start_node
-from test.conftest import PYTHON, REPO, Spawn, rclpy_available
+from test.conftest import PYTHON, REPO, Spawn
 
 pytestmark = [
     pytest.mark.ros,
-    pytest.mark.skipif(not rclpy_available(), reason="rclpy is not installed (make setup installs it)"),
 ]
 
 GOLDEN = REPO / "bags" / "step_start"
@@ -31,9 +30,6 @@ def _stop(node: Output) -> None:
     assert node.finish(timeout=30) == 0, node.text
 
 
-@pytest.mark.skipif(
-    not (GOLDEN / "metadata.yaml").exists(), reason="golden bags not generated (make golden-bags)"
-)
 def test_golden_bag_through_live_estimator_matches_offline_estimates(spawn: Spawn, tmp_path: Path) -> None:
     out = tmp_path / "replayed"
     recorder = start_node(
@@ -79,9 +75,6 @@ def test_golden_bag_through_live_estimator_matches_offline_estimates(spawn: Spaw
     assert abs(len(clock) - 1001) <= 2
 
 
-@pytest.mark.skipif(
-    not (GOLDEN / "metadata.yaml").exists(), reason="golden bags not generated (make golden-bags)"
-)
 def test_looping_player_resets_the_estimator(spawn: Spawn) -> None:
     estimator = start_node(spawn, "estimator_node", {"scene": "step_start", "diagnostics_period": 0.2})
     estimator.wait_for("estimating with", timeout=60)

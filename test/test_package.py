@@ -43,7 +43,36 @@ def test_package_xml_is_format_3_ament_python() -> None:
     exec_deps = {e.text for e in root.findall("exec_depend")}
     expected = {"rclpy", "std_msgs", "sensor_msgs", "geometry_msgs", "diagnostic_msgs", "rosgraph_msgs"}
     assert expected | {"python3-numpy", "python3-scipy", "python3-yaml"} <= exec_deps
-    assert {e.text for e in root.findall("test_depend")} == {"python3-pytest"}
+    assert {"python3-matplotlib", "python3-tqdm"} <= exec_deps
+    assert {"python3-pytest", "python3-hypothesis", "python3-mpmath"} <= {
+        e.text for e in root.findall("test_depend")
+    }
+
+
+# Import name → distribution name, where they differ; ROS 2 comes from the system or the wheels.
+_DISTRIBUTION = {"yaml": "pyyaml"}
+_ROS_MODULES = {"rclpy", "builtin_interfaces", "rcl_interfaces", "rosidl_runtime_py"}
+
+
+def test_every_third_party_import_is_declared() -> None:
+    """Each non-stdlib, non-ROS module the package imports is in install_requires, or in the bench extra."""
+    requires = importlib.metadata.requires("pendulum_accel") or []
+    declared = {r.split(";")[0].strip().lower() for r in requires if "extra ==" not in r}
+    bench = {r.split(";")[0].strip().lower() for r in requires if 'extra == "bench"' in r}
+    for path in (REPO / "pendulum_accel").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            for name in names:
+                top = name.split(".")[0]
+                if top in sys.stdlib_module_names or top in _ROS_MODULES or top.endswith("_msgs"):
+                    continue
+                if top == "pendulum_accel":
+                    continue
+                dist = _DISTRIBUTION.get(top, top)
+                allowed = declared | (bench if "/bench/" in str(path) else set())
+                assert dist in allowed, f"{path.relative_to(REPO)} imports {top}, not declared in setup.py"
 
 
 def test_one_version_everywhere() -> None:

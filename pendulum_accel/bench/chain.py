@@ -1,6 +1,6 @@
 """Chain benchmark: the live ROS 2 chain at several sensor rates, and as fast as possible.
 
-    python -m pendulum_accel.bench.chain [--rates 100 1000 5000 10000] [--duration S] [--fast-duration S]
+    python -m pendulum_accel.bench.chain [--rates HZ ...] [--duration S] [--fast-duration S] [--out DIR]
 
 For each rate, the launcher runs simulator, estimator and recorder (separate processes, real-time
 pacing, recording on) on ``lecture_constant`` while a listener in this process time-stamps every
@@ -247,7 +247,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--fast-duration", type=float, default=30.0, help="scene seconds of the as-fast-as-possible run"
     )
-    parser.add_argument("--out", type=Path, help="also write the markdown table here")
+    parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
     args = parser.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_chain_") as tmp:
@@ -263,8 +263,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     table = markdown(rows)
     print()
     print(table)
-    if args.out is not None:
-        args.out.write_text(table + "\n")
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "chain.md").write_text(table + "\n")
     return 0
 
 
