@@ -32,7 +32,7 @@ def info_lines(path: str) -> tuple[list[str], str | None]:
         f"duration:  {bag.duration_s:.3f} s  (log time {bag.start_ns * 1e-9:.3f}-{bag.end_ns * 1e-9:.3f} s)",
         f"messages:  {bag.message_count}",
         f"scene:     {scene_name(bag) or '(not stored)'}",
-        f"plan:      {bag.custom_data.get(CUSTOM_PLAN, '(not stored)')}",
+        f"plan:      {bag.custom_data.get(CUSTOM_PLAN, '(not stored)').removeprefix('plan: ')}",
         f"written by pendulum_accel {bag.custom_data.get(CUSTOM_VERSION, '?')}",
         "topics:",
     ]
