@@ -104,3 +104,36 @@ def test_looping_player_resets_the_estimator(spawn: Spawn) -> None:
     assert "RESET" in states
     _stop(estimator)
     assert "resets" in estimator.text and "0 resets" not in estimator.text
+
+
+def test_rate_factor_and_topic_filter(spawn: Spawn, tmp_path: Path) -> None:
+    """rate 5 plays the 10 s bag in about 2 s of wall time; a filtered-out topic is never published."""
+    out = tmp_path / "filtered"
+    recorder = start_node(
+        spawn,
+        "recorder_node",
+        {
+            "path": str(out),
+            "topics": ["/pendulum/joint_states", "/car/accel/truth"],
+            "log_time": "receive",  # the recorder's wall clock: shows the player's pacing
+        },
+    )
+    recorder.wait_for("recording 2 topics", timeout=60)
+    player = start_node(
+        spawn,
+        "player_node",
+        {"path": str(GOLDEN), "topics": ["/pendulum/joint_states"], "rate": 5.0, "wait_for_subscribers": 1},
+    )
+    assert player.finish(timeout=120) == 0, player.text
+    _stop(recorder)
+    bag = read_bag(out)
+    # The recorder subscribed to both; the filtered-out topic had no publisher, so nothing came.
+    assert {name: info.count for name, info in bag.topics.items()} == {"/pendulum/joint_states": 1001}
+    angles = bag.decode("/pendulum/joint_states")
+    golden = read_bag(GOLDEN).decode("/pendulum/joint_states")
+    np.testing.assert_array_equal(angles.stamp, golden.stamp)  # every message, in order
+    np.testing.assert_array_equal(angles["position[0]"], golden["position[0]"])
+    bag_span = float(golden.stamp[-1] - golden.stamp[0])
+    wall_span = float(angles.log_time_ns[-1] - angles.log_time_ns[0]) * 1e-9
+    # Pacing never runs ahead of the requested rate; the upper bound only says it is not real time (×1).
+    assert 0.98 * bag_span / 5.0 <= wall_span < bag_span, wall_span
