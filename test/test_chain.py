@@ -14,8 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pendulum_accel.bag.generate import generate_bag
 from pendulum_accel.bag.reader import Bag, read_bag
+from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE
 from pendulum_accel.nodes.launcher import pids_alive
+from pendulum_accel.nodes.scene_overrides import apply_overrides
+from pendulum_accel.scene import load_scene
 from test.chain_helpers import Output, child_pids, start_chain
 from test.conftest import PYTHON, Spawn
 
@@ -99,6 +103,37 @@ def test_chain_converges_loses_nothing_at_1khz_and_is_deterministic(spawn: Spawn
     assert theta_fast.tobytes() == theta_live.tobytes()  # bit for bit
     est_live = live.decode("/car/accel/estimate")
     assert est_live["accel.accel.linear.x"].tobytes() == a.tobytes()
+    _generated_matches_live(fast, tmp_path / "generated")
+
+
+def _generated_matches_live(live: Bag, out: Path) -> None:
+    """``generate`` (no DDS) writes what the live chain recorded: topics, counts, data, scene and plan.
+
+    Only /diagnostics differs in count: the node reports on a wall-clock period.
+    """
+    scene = apply_overrides(load_scene("lecture_constant"), {"rate_hz": RATE, "duration": DURATION})
+    generated = read_bag(generate_bag(scene, out).path)
+    counts = {name: info.count for name, info in generated.topics.items()}
+    live_counts = {name: info.count for name, info in live.topics.items()}
+    assert counts.pop("/diagnostics") >= 1 and live_counts.pop("/diagnostics") >= 1
+    assert counts == live_counts
+    for topic, fields in (
+        ("/pendulum/joint_states", ("position[0]", "velocity[0]")),
+        ("/car/accel/truth", ("accel.linear.x",)),
+        ("/pendulum/string", ("effort[0]",)),
+    ):
+        ours, theirs = generated.decode(topic), live.decode(topic)
+        assert np.array_equal(ours.stamp, theirs.stamp), topic
+        for name in fields:
+            assert ours[name].tobytes() == theirs[name].tobytes(), (topic, name)
+    ours, theirs = generated.decode("/car/accel/estimate"), live.decode("/car/accel/estimate")
+    assert np.array_equal(ours.stamp, theirs.stamp)
+    # Batch (generate) and streaming (node) estimators: the same numbers up to rounding.
+    np.testing.assert_allclose(
+        ours["accel.accel.linear.x"], theirs["accel.accel.linear.x"], rtol=0, atol=1e-9
+    )
+    for key in (CUSTOM_SCENE, CUSTOM_PLAN):
+        assert generated.custom_data[key] == live.custom_data[key], key
 
 
 def _start_long_chain(spawn: Spawn, bag: Path) -> tuple[Output, dict[str, int]]:
