@@ -26,21 +26,30 @@ def read_csv(text: str) -> tuple[list[str], np.ndarray]:
     return rows[0], np.array(rows[1:], dtype=float)
 
 
-def test_scene_to_csv_file_matches_run_scene(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """simulate lecture_constant --out: t, theta, theta_dot, tension; θ equals run_scene's true θ exactly."""
-    out = tmp_path / "lecture.csv"
-    assert main(["simulate", "lecture_constant", "--out", str(out)]) == 0
+@pytest.mark.parametrize("name", SCENE_NAMES)
+def test_scene_to_csv_file_matches_run_scene(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """simulate SCENE --out, every bundled scene: t, θ, θ', then what the model has; equal to run_scene."""
+    out = tmp_path / f"{name}.csv"
+    assert main(["simulate", name, "--out", str(out)]) == 0
     captured = capsys.readouterr()
     assert captured.out == ""
-    lines = captured.err.strip().splitlines()
-    assert lines[0].startswith("plan: exact model, closed-form")
+    assert captured.err.strip().splitlines()[0].startswith("plan: ")
     header, data = read_csv(out.read_text(encoding="utf-8"))
-    assert header == ["t", "theta", "theta_dot", "tension"]
-    run = run_scene(load_scene("lecture_constant"))
-    assert data.shape == (run.t.size, 4)
+    run = run_scene(load_scene(name))
+    # The CSV has every column the model computes; the run keeps only what the scene publishes.
+    assert header[:3] == ["t", "theta", "theta_dot"] and header[3:] in (["tension"], ["tension", "stretch"])
+    extra = [column for column in ("tension", "stretch") if getattr(run, column) is not None]
+    assert set(extra) <= set(header[3:])
+    assert data.shape == (run.t.size, len(header))
     assert np.array_equal(data[:, 0], run.t)
     assert np.array_equal(data[:, 1], run.theta_true)  # 17 significant digits round-trip a double
     assert np.array_equal(data[:, 2], run.theta_dot)
+    for column in extra:
+        assert np.array_equal(data[:, header.index(column)], getattr(run, column)), column
+    if name == "lecture_constant":
+        assert captured.err.startswith("plan: exact model, closed-form")
 
 
 def test_stdout_carries_only_the_csv(capsys: pytest.CaptureFixture[str]) -> None:
