@@ -2,7 +2,7 @@
 
 Cost order (cheapest first, measured CPU per sample on this machine): linear closed form (≈0.2 µs/sample)
 < exact closed form (≈0.6 µs/sample, Jacobi elliptic functions) < rigid, stepped (fixed-step RK4 at
-≈14 µs/step or DOP853 at ≈24 µs per right-hand-side call, whichever the cost model below makes cheaper)
+≈2–4 µs/step or DOP853 at ≈24 µs per right-hand-side call, whichever the cost model below makes cheaper)
 < elastic string (stiff, LSODA). The Lagrange-multiplier model is used only when a scene forces it.
 
 Rules, in order:
@@ -24,7 +24,7 @@ Rules, in order:
 6. Adaptive (DOP853 for rigid/multiplier, LSODA for elastic): global error ≈ K rtol (1 + ωT). K is
    measured for the scene by a pilot pair (rtol 1e-6 against 1e-9 on a coarse grid) and multiplied by 20
    for safety (K grew up to 8× from rtol 1e-6 to rtol 6e-13 in those measurements); floor 0.05.
-   RK4 and DOP853 are costed (steps × 14 µs, or 2 µs when a(t) is a table lookup of constant pieces,
+   RK4 and DOP853 are costed (steps × 4 µs, or 2 µs when a(t) is a table lookup of constant pieces,
    vs 3.5 (1 + ωT) rtol^(−1/8) calls × 24 µs, all measured)
    and the cheaper one wins.
 
@@ -68,7 +68,7 @@ RTOL_RANGE = (1e-13, 1e-3)
 EXACT_ROUNDOFF = 1e-13  # rad per unit (1 + ωT) per piece, before the separatrix factor
 LINEAR_CARRY = math.sqrt(2.0)
 # Measured CPU on this machine (see module docstring); only their ratio matters for the choice.
-RK4_STEP_S = 14e-6  # a(t) evaluated through numpy at every stage
+RK4_STEP_S = 4e-6  # a(t) from AccelProfile.scalar (bisect and lerp for tables, math.sin for sinusoids)
 RK4_STEP_CONSTANT_S = 2e-6  # a(t) from the piecewise-constant lookup (physics.profiles.scalar_accel)
 ADAPTIVE_CALL_S = 24e-6
 ADAPTIVE_CALLS = 3.5  # calls ≈ 3.5 (1 + ωT) rtol^(-1/8) for DOP853 (fit over rtol 1e-4 … 1e-12)

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics.profiles import (
@@ -186,3 +188,21 @@ def test_constructor_rejects_non_finite():
         Sinusoid(float("nan"), 1.0)
     with pytest.raises(ParameterError, match=r"accels\[1\]"):
         Table((0.0, 1.0), (0.0, float("nan")))
+
+
+_SCALAR_CASES = (
+    Constant(2.0),
+    Step(1.0, 0.0, 3.0),
+    Ramp(1.0, 3.0, -2.0, 5.0),
+    Sinusoid(1.5, 0.3, offset=0.2, phase=0.7),
+    Table((0.0, 1.0, 2.5, 4.0), (1.0, -3.0, 2.0, 2.0)),
+    Braking(14.0, 4.0, t_start=2.0),
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.sampled_from(_SCALAR_CASES), st.floats(-10.0, 50.0, allow_nan=False))
+def test_scalar_is_the_array_value_bit_for_bit(profile: AccelProfile, t: float) -> None:
+    """profile.scalar(t), the integrators' fast path, equals profile(t) exactly: any t, every breakpoint."""
+    for time in (t, *profile.breakpoints()):
+        assert profile.scalar(time) == float(profile(np.array([time]))[0])

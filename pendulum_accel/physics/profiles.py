@@ -66,6 +66,10 @@ class AccelProfile(ABC):
     def __call__(self, t: ArrayLike) -> np.ndarray:
         """a(t), element-wise over ``t``."""
 
+    def scalar(self, t: float) -> float:
+        """a(t) for one float t; the same value as ``__call__``, without numpy's per-call overhead."""
+        return float(self(t))
+
     def breakpoints(self) -> tuple[float, ...]:
         """Times where a(t) or a'(t) is discontinuous, ascending (none by default)."""
         return ()
@@ -171,6 +175,10 @@ class Ramp(AccelProfile):
             np.interp(times, [self.t_start, self.t_end], [self.a_start, self.a_end]), dtype=float
         )
 
+    def scalar(self, t: float) -> float:
+        """a(t) = interp(t, [t_start, t_end], [a_start, a_end]), flat outside, for one float t."""
+        return _interp((self.t_start, self.t_end), (self.a_start, self.a_end), t)
+
     def breakpoints(self) -> tuple[float, ...]:
         """(t_start, t_end): a' jumps at both."""
         return (self.t_start, self.t_end)
@@ -213,6 +221,10 @@ class Sinusoid(AccelProfile):
         """a(t) = offset + A sin(2π f t + φ)."""
         times = _as_times(t)
         return self.offset + self.amplitude * np.sin(2.0 * math.pi * self.frequency_hz * times + self.phase)
+
+    def scalar(self, t: float) -> float:
+        """a(t) = offset + A sin(2π f t + φ) for one float t."""
+        return self.offset + self.amplitude * math.sin(2.0 * math.pi * self.frequency_hz * t + self.phase)
 
     def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
         """[(t0, t1, a)] when A = 0 or f = 0, else None."""
@@ -313,6 +325,10 @@ class Table(AccelProfile):
         """a(t) = linear interpolation of the table, flat beyond its ends."""
         times = _as_times(t)
         return np.asarray(np.interp(times, self._t, self._a), dtype=float)
+
+    def scalar(self, t: float) -> float:
+        """a(t) = linear interpolation of the table, flat beyond its ends, for one float t."""
+        return _interp(self.times, self.accels, t)
 
     def breakpoints(self) -> tuple[float, ...]:
         """Every table time where the slope changes."""
@@ -433,11 +449,25 @@ def profile_from_dict(d: Mapping[str, object], base_dir: Path | None = None) -> 
     return cls(**kwargs)
 
 
+def _interp(xp: Sequence[float], fp: Sequence[float], x: float) -> float:
+    """np.interp(x, xp, fp) for one float x: fp[j] + s (x − xp[j]), s the slope of xp[j] ≤ x < xp[j+1].
+
+    The same operations in the same order as numpy's, so the same bits; flat beyond the ends.
+    """
+    if x <= xp[0]:
+        return float(fp[0])
+    if x >= xp[-1]:
+        return float(fp[-1])
+    j = bisect.bisect_right(xp, x) - 1
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return float(slope * (x - xp[j]) + fp[j])
+
+
 def scalar_accel(profile: AccelProfile, t0: float, t1: float) -> Callable[[float], float]:
-    """t ↦ float a(t) on [t0, t1], by table lookup when piecewise constant there (fast in tight loops)."""
+    """t ↦ float a(t) on [t0, t1]: a table lookup when piecewise constant there, else profile.scalar."""
     pieces = profile.constant_pieces(t0, t1)
     if pieces is None:
-        return lambda t: float(profile(t))
+        return profile.scalar
     if len(pieces) == 1:
         value = pieces[0][2]
         return lambda t: value
