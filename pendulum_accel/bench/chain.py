@@ -197,7 +197,15 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
     node.create_subscription(AccelWithCovarianceStamped, "/car/accel/estimate", on_estimate, DATA_QOS)
     executor = EventsExecutor(context=context)
     executor.add_node(node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
+    listening = threading.Event()
+    listening.set()
+
+    def spin() -> None:
+        """Short spins until told to stop: shutting down an EventsExecutor inside spin() hangs it."""
+        while listening.is_set():
+            executor.spin_once(timeout_sec=0.05)
+
+    spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()
     mode = "real time" if realtime else "as fast as possible"
     bag = folder / f"{'rt' if realtime else 'fast'}_{int(rate)}"
@@ -217,6 +225,8 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
     finally:
         sampler.stop.set()
         sampler_thread.join()
+        listening.clear()
+        spinner.join()
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown(context=context)
