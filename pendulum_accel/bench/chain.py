@@ -158,6 +158,7 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
     """Run the chain once with a listener and a CPU sampler; the figures of that run."""
     import rclpy
     from builtin_interfaces.msg import Time
+    from diagnostic_msgs.msg import DiagnosticArray
     from geometry_msgs.msg import AccelWithCovarianceStamped
     from rclpy.experimental import EventsExecutor
     from rclpy.node import Node
@@ -165,7 +166,7 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
 
     from pendulum_accel.bag.reader import read_bag
     from pendulum_accel.nodes.launcher import Chain, ChainConfig
-    from pendulum_accel.nodes.qos import DATA_QOS
+    from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
     from pendulum_accel.nodes.scene_overrides import apply_overrides
     from pendulum_accel.scene import load_scene
 
@@ -195,6 +196,8 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
     node = Node("chain_bench_listener", context=context)
     node.create_subscription(JointState, "/pendulum/joint_states", on_angle, DATA_QOS)
     node.create_subscription(AccelWithCovarianceStamped, "/car/accel/estimate", on_estimate, DATA_QOS)
+    # Only so the estimator, which waits for readers of both its outputs, counts this listener.
+    node.create_subscription(DiagnosticArray, "/diagnostics", lambda _msg: None, DIAGNOSTICS_QOS)
     executor = EventsExecutor(context=context)
     executor.add_node(node)
     listening = threading.Event()
@@ -216,6 +219,9 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
         realtime=realtime,
         overrides=overrides,
         simulator_params={"wait_for_subscribers": 3},  # estimator, recorder and this listener
+        # Recorder and this listener: an estimate sent before a reader has matched arrives only on a
+        # DDS resend (~100 ms later), which would show as start-up latency, not the chain's.
+        estimator_params={"wait_for_subscribers": 2},
     )
     chain = Chain(config, log=False, output=log)
     sampler_thread = threading.Thread(target=sampler.run, args=(chain,), daemon=True)
