@@ -15,7 +15,7 @@ setup(
     name=PACKAGE,
     version=VERSION,
     packages=find_packages(exclude=["test", "test.*"]),
-    package_data={PACKAGE: ["scenes/*.yaml", "scenes/*.csv", "py.typed"]},
+    package_data={PACKAGE: ["scenes/*.yaml", "scenes/*.csv", "nodes/*.xml", "py.typed"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),

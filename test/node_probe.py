@@ -6,6 +6,7 @@ SPEC keys (all optional):
   "listen": [topic, ...]          record /car/accel/estimate and /diagnostics messages
   "wait_subscribers": n           before feeding, wait until /pendulum/joint_states has n subscribers
   "feed": [[t, theta] | ["pause", seconds], ...]  joint states at 100 Hz wall pace; theta null = NaN
+  "joints": [name, ...]           publish these joints (θ on the last, 0.5 on the others), no velocity
   "set": {"node": name, "params": {name: value}}  call SetParameters, then GetParameters
   "linger": seconds               keep listening after feeding
 Prints one JSON object: {"estimates": [[t, a, var], ...], "diagnostics": [[level, message, values]],
@@ -85,7 +86,12 @@ def main() -> None:
             spin_for(node, float(item[1]))
             continue
         t, theta = float(item[0]), math.nan if item[1] is None else float(item[1])
-        publisher.publish(joint_state(time_from_ns(round(t * 1e9)), theta, 0.0))
+        msg = joint_state(time_from_ns(round(t * 1e9)), theta, 0.0)
+        if "joints" in spec:  # another publisher's shape: several joints, ours among them
+            msg.name = list(spec["joints"])
+            msg.position = [theta if name == msg.name[-1] else 0.5 for name in msg.name]
+            msg.velocity = []
+        publisher.publish(msg)
         spin_for(node, 0.01)
     if "set" in spec:
         target = spec["set"]["node"]

@@ -289,3 +289,28 @@ def test_damaged_payload_is_skipped_not_fatal(tmp_path: Path) -> None:
     assert len(js) == counts[bm.TOPIC_JOINT_STATES] - 1
     assert bag.problem is not None and "skipped 1 damaged" in bag.problem
     np.testing.assert_allclose(np.delete(np.arange(500) * 1e-3, 2), js.stamp, atol=1e-9)
+
+
+def test_layout_reader_and_writer_per_message() -> None:
+    """reader: our shape's fields by struct, None for any other shape; writer: the serializer's bytes."""
+    joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+    read = joint.reader(["header.stamp.sec", "header.stamp.nanosec", "position[0]"])
+    ours = bm.serialize(bm.joint_state(2_000_000_007, [bm.PENDULUM_JOINT], [-0.25], [1.5]), bm.JOINT_STATE)
+    assert read(ours) == (2, 7, -0.25)
+    nan = read(bm.serialize(bm.joint_state(0, [bm.PENDULUM_JOINT], [float("nan")], [0.0]), bm.JOINT_STATE))
+    assert nan is not None and np.isnan(nan[2])
+    others = [
+        bm.joint_state(0, ["other", bm.PENDULUM_JOINT], [0.1, 0.2], [0.0, 0.0]),  # two joints
+        bm.joint_state(0, ["pendulum_jnt"], [0.1], [0.0]),  # another name, same length
+        bm.joint_state(0, [bm.PENDULUM_JOINT], [0.1], []),  # no velocity
+    ]
+    for msg in others:
+        assert read(bm.serialize(msg, bm.JOINT_STATE)) is None
+    estimate = bm.Layout.of(bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED)
+    write = estimate.writer(
+        ["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x", "accel.covariance[0]"]
+    )
+    expected = bm.accel_with_covariance_stamped(3_000_000_009, 2.5, 0.04)
+    assert write(3, 9, 2.5, 0.04) == bm.serialize(expected, bm.ACCEL_WITH_COVARIANCE_STAMPED)
+    with pytest.raises(BagError, match=r"no numeric field 'accel\.linear\.y'"):
+        estimate.writer(["accel.linear.y"])

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendulum_accel.bag.generate import generate_bag
+from pendulum_accel.bag.generate import DEFAULT_CLOCK_RATE_HZ, generate_bag
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE
 from pendulum_accel.nodes.launcher import pids_alive
@@ -30,6 +30,7 @@ pytestmark = [
 RATE = 1000  # Hz
 DURATION = 3.0  # s
 SAMPLES = int(RATE * DURATION) + 1
+CLOCK_TICKS = int(DEFAULT_CLOCK_RATE_HZ * DURATION) + 1  # /clock at 100 Hz, from t = 0
 SCENE_ARGS = ["lecture_constant", "--set", f"rate_hz={RATE}", "--set", f"duration={DURATION}"]
 
 
@@ -47,14 +48,9 @@ def _recorder_counts(output: Output) -> dict[str, tuple[int, int]]:
 def _check_lossless(bag: Bag, output: Output) -> None:
     """Every sample on every topic of the simulator, and one estimate per angle, recorded and written."""
     counts = {name: info.count for name, info in bag.topics.items()}
-    for topic in (
-        "/pendulum/joint_states",
-        "/car/accel/truth",
-        "/pendulum/string",
-        "/clock",
-        "/car/accel/estimate",
-    ):
+    for topic in ("/pendulum/joint_states", "/car/accel/truth", "/pendulum/string", "/car/accel/estimate"):
         assert counts[topic] == SAMPLES, (topic, counts)
+    assert counts["/clock"] == CLOCK_TICKS, counts
     assert counts["/diagnostics"] >= 1
     for topic, (received, written) in _recorder_counts(output).items():
         assert received == written == counts.get(topic, 0), (topic, received, written)

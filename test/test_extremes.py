@@ -184,3 +184,14 @@ def test_non_finite_and_non_physical_inputs(build, needle):
     with pytest.raises(ParameterError, match=needle) as info:
         build()
     assert "\n" not in str(info.value)
+
+
+def test_bob_at_rest_with_a_1e_160_rate_integrates() -> None:
+    """Found by hypothesis: from θ ≈ 1.5e-161, θ' ≈ −1e-160 (at rest, for any purpose) scipy's DOP853
+    first-step guess made its error norm NaN and the run failed; it must run and stay at rest."""
+    p = Pendulum(6.0)
+    t = np.linspace(0.0, 2 * math.pi / p.omega(0.0), 11)
+    out = simulate(p, Constant(0.0), t, theta0=1.5262158051386013e-161, theta_dot0=-1.0419250829162285e-160)
+    assert out.method == "DOP853"
+    assert np.all(np.isfinite(out.theta)) and np.max(np.abs(out.theta)) < 1e-159
+    assert np.max(np.abs(out.theta_dot)) < 1e-159

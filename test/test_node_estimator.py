@@ -95,3 +95,26 @@ def test_invalid_parameters_are_rejected_with_a_reason(spawn: Spawn) -> None:
     assert not length_ok and "length" in length_reason
     assert noise_ok, noise_reason
     assert result["get"] == {"method": "kalman", "length": 1.0, "noise_std": 0.002}
+
+
+def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
+    """Several joints, ours second and no velocity: not our fixed layout, so rclpy deserializes it,
+    and pendulum_joint's angle (not the other joint's) gives â = g tan θ."""
+    estimator = start_node(spawn, "estimator_node", {"scene": "lecture_constant", "method": "instant"})
+    estimator.wait_for(r"estimating with", timeout=60)
+    theta = math.atan2(2.0, G)
+    feed = [[0.01 * i, theta] for i in range(50)]
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/car/accel/estimate"],
+            "wait_subscribers": 1,
+            "joints": ["wheel", "pendulum_joint"],
+            "feed": feed,
+            "linger": 1.0,
+        },
+    )
+    stamps = [t for t, _, _ in result["estimates"]]
+    assert stamps == pytest.approx([t for t, _ in feed], abs=1e-9)  # one estimate per input, in order
+    for _, accel, _ in result["estimates"]:
+        assert accel == pytest.approx(2.0, rel=1e-12)  # g tan(atan(2/g)); the other joint reads 0.5 rad

@@ -4,6 +4,7 @@ looping makes the estimator reset; start offset, topic filter and /clock publish
 from __future__ import annotations
 
 import json
+import re
 import signal
 from pathlib import Path
 
@@ -103,7 +104,8 @@ def test_looping_player_resets_the_estimator(spawn: Spawn) -> None:
     states = {values["state"] for _, _, values in result["diagnostics"]}
     assert "RESET" in states
     _stop(estimator)
-    assert "resets" in estimator.text and "0 resets" not in estimator.text
+    resets = re.search(r"(\d+) resets", estimator.text)
+    assert resets is not None and int(resets.group(1)) >= 1, estimator.text
 
 
 def test_rate_factor_and_topic_filter(spawn: Spawn, tmp_path: Path) -> None:

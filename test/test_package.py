@@ -127,3 +127,8 @@ def test_colcon_build_installs_ros2_run_layout(tmp_path: Path) -> None:
     assert (prefix / "share" / "ament_index" / "resource_index" / "packages" / "pendulum_accel").is_file()
     assert (prefix / "share" / "pendulum_accel" / "package.xml").is_file()
     assert list((prefix / "share" / "pendulum_accel" / "scenes").glob("*.yaml"))
+    # Package data travels with the installed module: scenes and the Fast DDS profile.
+    installed = list(prefix.glob("lib/python3*/site-packages/pendulum_accel"))
+    assert len(installed) == 1, installed
+    assert (installed[0] / "nodes" / "fastdds_profile.xml").is_file()
+    assert len(list((installed[0] / "scenes").glob("*.yaml"))) == 8

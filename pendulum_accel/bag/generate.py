@@ -56,6 +56,83 @@ def _stamp_columns(ns: NDArray[np.int64], prefix: str = "header.stamp") -> dict[
     return {f"{prefix}.sec": sec, f"{prefix}.nanosec": nanosec}
 
 
+DEFAULT_CLOCK_RATE_HZ = 100.0
+"""/clock messages per simulated second. Nodes on sim time need only a tick (rosbag2's player ticks at
+40 Hz by default); every data message carries its exact stamp, so a clock per 1 kHz sample would only
+cost messages: in the as-fast-as-possible chain it was a third of the work."""
+
+StringColumns = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+
+def clock_mask(t: NDArray[np.float64], clock_rate_hz: float) -> NDArray[np.bool_]:
+    """Samples that also publish /clock: all when clock_rate_hz ≤ 0, else the first in each 1/rate tick."""
+    if clock_rate_hz <= 0.0 or t.size == 0:
+        return np.ones(t.size, dtype=bool)
+    ticks = np.floor((t - t[0]) * clock_rate_hz + 1e-9).astype(np.int64)
+    mask = np.ones(t.size, dtype=bool)
+    mask[1:] = ticks[1:] != ticks[:-1]
+    return mask
+
+
+def string_columns(run: Any) -> StringColumns | None:
+    """(stretch, stretch rate, tension) of a scene run that computed tension or stretch, else None.
+
+    A run with only one of them gets zeros for the other, as /pendulum/string always carries all three.
+    """
+    if run.tension is None and run.stretch is None:
+        return None
+    zeros = np.zeros(np.shape(run.t))
+
+    def column(values: Any) -> NDArray[np.float64]:
+        """values as float64, zeros when the run did not compute them."""
+        return zeros if values is None else np.asarray(values, dtype=np.float64)
+
+    return column(run.stretch), column(run.stretch_rate), column(run.tension)
+
+
+@dataclass(frozen=True)
+class SimulatorRows:
+    """The simulator node's topics for one run, serialised: one CDR row per sample and topic
+    (joint states, truth, string if any, in publishing order), and /clock rows on its ticks."""
+
+    ns: NDArray[np.int64]
+    rows: dict[str, NDArray[np.uint8]]
+    clock_mask: NDArray[np.bool_]
+    clock_rows: NDArray[np.uint8]
+
+
+def simulator_rows(
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    theta_dot: NDArray[np.float64],
+    accel_true: NDArray[np.float64],
+    *,
+    string: StringColumns | None = None,
+    clock_rate_hz: float = DEFAULT_CLOCK_RATE_HZ,
+) -> SimulatorRows:
+    """What the simulator publishes for samples at times t (s): measured θ, θ', true a, (r − l, ṙ, T)."""
+    ns = bm.seconds_to_ns(t)
+    if ns.size > 1 and np.any(np.diff(ns) <= 0):
+        raise BagError("sample times must be strictly increasing after rounding to ns")
+    n = ns.size
+    stamp = _stamp_columns(ns)
+    joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+    truth = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+    rows = {
+        bm.TOPIC_JOINT_STATES: joint.encode(n, {**stamp, "position[0]": theta, "velocity[0]": theta_dot}),
+        bm.TOPIC_ACCEL_TRUTH: truth.encode(n, {**stamp, "accel.linear.x": accel_true}),
+    }
+    if string is not None:
+        layout = bm.Layout.of(bm.joint_state(0, [bm.STRING_JOINT], [0.0], [0.0], [0.0]), bm.JOINT_STATE)
+        stretch, rate, tension = string
+        cols = {**stamp, "position[0]": stretch, "velocity[0]": rate, "effort[0]": tension}
+        rows[bm.TOPIC_STRING] = layout.encode(n, cols)
+    mask = clock_mask(np.asarray(t, dtype=np.float64), clock_rate_hz)
+    clock = bm.Layout.of(bm.clock(0), bm.CLOCK)
+    clock_rows = clock.encode(int(mask.sum()), _stamp_columns(ns[mask], "clock"))
+    return SimulatorRows(ns, rows, mask, clock_rows)
+
+
 def chain_streams(
     t: NDArray[np.float64],
     theta: NDArray[np.float64],
@@ -66,36 +143,19 @@ def chain_streams(
     *,
     estimator: str,
     rate_hz: float,
-    string: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None,
+    string: StringColumns | None = None,
+    clock_rate_hz: float = DEFAULT_CLOCK_RATE_HZ,
 ) -> list[Stream]:
     """Bulk-serialised streams of the chain's topics for samples at times t (s).
 
     ``string`` = (stretch, stretch rate, tension) adds /pendulum/string. Estimates are written where
     they are finite (the live estimator publishes nothing while it warms up).
     """
-    ns = bm.seconds_to_ns(t)
-    if ns.size > 1 and np.any(np.diff(ns) <= 0):
-        raise BagError("sample times must be strictly increasing after rounding to ns")
-    n = ns.size
-    stamp = _stamp_columns(ns)
-    joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
-    truth = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+    sim = simulator_rows(t, theta, theta_dot, accel_true, string=string, clock_rate_hz=clock_rate_hz)
+    ns = sim.ns
+    streams = [Stream(bm.TOPIC_CLOCK, ns[sim.clock_mask], sim.clock_rows)]
+    streams += [Stream(topic, ns, rows) for topic, rows in sim.rows.items()]
     est = bm.Layout.of(bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED)
-    clock = bm.Layout.of(bm.clock(0), bm.CLOCK)
-    streams = [
-        Stream(bm.TOPIC_CLOCK, ns, clock.encode(n, _stamp_columns(ns, "clock"))),
-        Stream(
-            bm.TOPIC_JOINT_STATES,
-            ns,
-            joint.encode(n, {**stamp, "position[0]": theta, "velocity[0]": theta_dot}),
-        ),
-        Stream(bm.TOPIC_ACCEL_TRUTH, ns, truth.encode(n, {**stamp, "accel.linear.x": accel_true})),
-    ]
-    if string is not None:
-        layout = bm.Layout.of(bm.joint_state(0, [bm.STRING_JOINT], [0.0], [0.0], [0.0]), bm.JOINT_STATE)
-        stretch, rate, tension = string
-        cols = {**stamp, "position[0]": stretch, "velocity[0]": rate, "effort[0]": tension}
-        streams.append(Stream(bm.TOPIC_STRING, ns, layout.encode(n, cols)))
     ok = np.isfinite(accel_est) & np.isfinite(variance)
     est_ns = ns[ok]
     est_cols = {
@@ -183,14 +243,6 @@ def generate_bag(
     theta = np.asarray(run.theta_measured, dtype=np.float64)
     a_est, variance = estimate_batch(method, t, theta, **estimator_settings(scene))
     t2 = time.perf_counter()
-    string = None
-    if run.tension is not None or run.stretch is not None:
-        zeros = np.zeros_like(t)
-        string = (
-            zeros if run.stretch is None else np.asarray(run.stretch, dtype=np.float64),
-            zeros if run.stretch_rate is None else np.asarray(run.stretch_rate, dtype=np.float64),
-            zeros if run.tension is None else np.asarray(run.tension, dtype=np.float64),
-        )
     streams = chain_streams(
         t,
         theta,
@@ -200,7 +252,7 @@ def generate_bag(
         np.asarray(variance, dtype=np.float64),
         estimator=method,
         rate_hz=float(scene.sensor.rate_hz),
-        string=string,
+        string=string_columns(run),
     )
     custom = {
         CUSTOM_SCENE: scene_to_yaml(scene),

@@ -13,7 +13,8 @@ from __future__ import annotations
 import copy
 import dataclasses
 import re
-from collections.abc import Mapping, Sequence
+import struct
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -256,6 +257,11 @@ def _numeric_leaves(msgtype: str, msg: Any, prefix: str = "") -> list[tuple[str,
     return leaves
 
 
+def _struct_of(dtype: str) -> struct.Struct:
+    """Little-endian struct codec of one numpy scalar dtype (CDR payloads here are little-endian)."""
+    return struct.Struct("<" + np.dtype(dtype).char)
+
+
 @dataclass(frozen=True)
 class Layout:
     """Byte layout of one message shape: a serialized template plus the offset of each numeric field.
@@ -339,6 +345,47 @@ class Layout:
             return np.zeros(rows.shape[0] if rows.ndim else 0, dtype=bool)
         result: NDArray[np.bool_] = np.all(rows[:, self.mask] == self.template[self.mask], axis=1)
         return result
+
+    def reader(self, paths: Sequence[str]) -> Callable[[bytes], tuple[Any, ...] | None]:
+        """For one message at a time: bytes ↦ the values at ``paths`` if the bytes have this shape, else None.
+
+        The same shape test as ``matches`` (size and every non-field byte), with struct instead of numpy:
+        a node calls it per message, where numpy's per-call cost would dominate.
+        """
+        template = self.template.tobytes()
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], self.mask.astype(np.int8), [0]))))
+        fixed = [(int(a), int(b), template[a:b]) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+        unpack = [(offset, _struct_of(dtype)) for offset, dtype in self._fields_at(paths)]
+        size = self.size
+
+        def read(data: bytes) -> tuple[Any, ...] | None:
+            """Field values, or None when ``data`` is another shape."""
+            if len(data) != size or any(data[a:b] != expected for a, b, expected in fixed):
+                return None
+            return tuple(codec.unpack_from(data, offset)[0] for offset, codec in unpack)
+
+        return read
+
+    def writer(self, paths: Sequence[str]) -> Callable[..., bytes]:
+        """For one message at a time: values for ``paths`` ↦ the template's bytes with those fields set."""
+        template = self.template.tobytes()
+        pack = [(offset, _struct_of(dtype)) for offset, dtype in self._fields_at(paths)]
+
+        def write(*values: float) -> bytes:
+            """Serialized message of this shape holding ``values``."""
+            buffer = bytearray(template)
+            for (offset, codec), value in zip(pack, values, strict=True):
+                codec.pack_into(buffer, offset, value)
+            return bytes(buffer)
+
+        return write
+
+    def _fields_at(self, paths: Sequence[str]) -> list[tuple[int, str]]:
+        """(offset, dtype) of each path; BagError naming the first unknown one."""
+        missing = [p for p in paths if p not in self.fields]
+        if missing:
+            raise BagError(f"{self.msgtype} has no numeric field {missing[0]!r} in this layout")
+        return [self.fields[p] for p in paths]
 
     def decode(self, rows: NDArray[np.uint8], paths: Sequence[str] | None = None) -> dict[str, NDArray[Any]]:
         """{path: column} read from (n, size) rows of this shape (all fields, or just ``paths``)."""

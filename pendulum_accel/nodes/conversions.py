@@ -7,7 +7,6 @@ import math
 from typing import Any
 
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import AccelWithCovarianceStamped
 from rclpy.qos import QoSProfile
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from sensor_msgs.msg import JointState
@@ -24,9 +23,15 @@ def time_from_ns(ns: int) -> Time:
     return Time(sec=sec, nanosec=nanosec)
 
 
+def stamp_seconds(sec: int, nanosec: int) -> float:
+    """t = sec + nanosec · 1e-9 (s): the scalar twin of bag.messages.stamp_seconds, same float64 steps,
+    so a live estimate and the offline one of the same stamp agree bit for bit."""
+    return float(sec) + float(nanosec) * 1e-9
+
+
 def time_to_seconds(stamp: Any) -> float:
     """t = sec + nanosec · 1e-9 for a builtin_interfaces/Time."""
-    return float(stamp.sec) + float(stamp.nanosec) * 1e-9
+    return stamp_seconds(stamp.sec, stamp.nanosec)
 
 
 def joint_state(stamp: Time, theta: float, theta_dot: float) -> JointState:
@@ -37,18 +42,6 @@ def joint_state(stamp: Time, theta: float, theta_dot: float) -> JointState:
     msg.name = [PENDULUM_JOINT]
     msg.position = [float(theta)]
     msg.velocity = [float(theta_dot)]
-    return msg
-
-
-def accel_estimate(stamp: Time, accel: float, variance: float) -> AccelWithCovarianceStamped:
-    """AccelWithCovarianceStamped: linear.x = â, covariance[0] = var(â), the other entries 0."""
-    msg = AccelWithCovarianceStamped()
-    msg.header.stamp = stamp
-    msg.header.frame_id = FRAME_ID
-    msg.accel.accel.linear.x = float(accel)
-    covariance = [0.0] * 36
-    covariance[0] = float(variance)
-    msg.accel.covariance = covariance
     return msg
 
 

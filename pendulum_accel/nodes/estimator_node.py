@@ -12,12 +12,14 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelWithCovarianceStamped
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
+from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 from sensor_msgs.msg import JointState
 
@@ -25,7 +27,7 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, make_estimator
 from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, InputGuard
-from pendulum_accel.nodes.conversions import accel_estimate, pendulum_angle, time_to_seconds
+from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
 from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
 from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
 
@@ -156,7 +158,15 @@ class EstimatorNode(ChainNode):
         )
         self.inputs = 0
         self.estimates = 0
-        self._last_stamp: Any = None
+        self._last_stamp: tuple[int, int] | None = None  # (sec, nanosec) of the latest input
+        # Per message: our own JointState shape read at fixed offsets, the estimate written into a
+        # template (Layout.reader/writer); anything else goes through rclpy's deserializer.
+        self._read_input = bm.Layout.of(
+            bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE
+        ).reader(("header.stamp.sec", "header.stamp.nanosec", "position[0]"))
+        self._write_estimate = bm.Layout.of(
+            bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED
+        ).writer(("header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x", "accel.covariance[0]"))
         self._last_input = time.monotonic()
         self._stopping_since: float | None = None
         self._subscription: Subscription | None = None
@@ -219,25 +229,33 @@ class EstimatorNode(ChainNode):
         )
         if ready:
             self._subscription = self.create_subscription(
-                JointState, bm.TOPIC_JOINT_STATES, self._on_joint_state, DATA_QOS
+                JointState, bm.TOPIC_JOINT_STATES, self._on_joint_state, DATA_QOS, raw=True
             )
             self.get_logger().info(f"estimating with {self.guarded.estimator.describe()}")
+            # Status from the start, not one diagnostics period later: a short or fast run still
+            # records how its estimator was doing.
+            self._publish_diagnostics()
 
     def _stopping(self) -> bool:
         """True once a second stop request made the node finish."""
         return self.finished.done()
 
-    def _on_joint_state(self, msg: JointState) -> None:
-        """â for one angle sample, stamped like it; nothing when the guard drops it or the method warms up."""
+    def _on_joint_state(self, data: bytes) -> None:
+        """â for one angle sample (CDR), stamped like it; nothing when the guard drops it or it warms up."""
         now = time.monotonic()
         self._last_input = now
         self.inputs += 1
-        stamp = msg.header.stamp
-        self._last_stamp = stamp
-        estimate = self.guarded.update(time_to_seconds(stamp), pendulum_angle(msg), now)
+        fields = self._read_input(data)
+        if fields is None:  # another publisher's JointState shape (more joints, no velocity, ...)
+            msg = deserialize_message(data, JointState)
+            sec, nanosec, theta = msg.header.stamp.sec, msg.header.stamp.nanosec, pendulum_angle(msg)
+        else:
+            sec, nanosec, theta = fields
+        self._last_stamp = (sec, nanosec)
+        estimate = self.guarded.update(stamp_seconds(sec, nanosec), theta, now)
         if estimate is None:
             return
-        out = accel_estimate(stamp, estimate.a, estimate.variance)
+        out = self._write_estimate(sec, nanosec, estimate.a, estimate.variance)
         if publish_blocking(self.estimate_publisher, out, self._stopping):
             self.estimates += 1
 
@@ -245,7 +263,10 @@ class EstimatorNode(ChainNode):
         """One DiagnosticArray with the worst input state since the previous one (STALE checked first)."""
         guard = self.guarded.guard
         guard.check_stale(time.monotonic())
-        stamp = self._last_stamp if self._last_stamp is not None else self.get_clock().now().to_msg()
+        if self._last_stamp is None:
+            stamp = self.get_clock().now().to_msg()
+        else:
+            stamp = Time(sec=self._last_stamp[0], nanosec=self._last_stamp[1])
         self.diagnostics_publisher.publish(diagnostic_array(guard.report(), self.method, stamp))
 
     def _tick(self) -> None:

@@ -8,11 +8,11 @@ the pacing of the recording was. The first SIGINT/SIGTERM drains the queues, the
 
 from __future__ import annotations
 
+import struct
 import time
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 
@@ -28,6 +28,7 @@ NODE_NAME = "bag_recorder"
 _DRAIN_IDLE = 0.3  # s without any message after a stop request: the queues are empty
 _DRAIN_LIMIT = 10.0  # s: close the bag even if messages keep coming
 _LOG_TIMES = ("stamp", "receive")
+_STAMP = struct.Struct("<iI")  # builtin_interfaces/Time: int32 sec, uint32 nanosec (little-endian CDR)
 
 
 def _stamp_offset(msgtype: str) -> int:
@@ -50,9 +51,9 @@ def _stamp_offset(msgtype: str) -> int:
 
 def stamp_ns(data: bytes, offset: int) -> int:
     """ns = sec · 1e9 + nanosec read from the int32/uint32 pair at ``offset`` of a CDR payload."""
-    sec = int(np.frombuffer(data, dtype="<i4", count=1, offset=offset)[0])
-    nanosec = int(np.frombuffer(data, dtype="<u4", count=1, offset=offset + 4)[0])
-    return sec * 1_000_000_000 + nanosec
+    # struct, not numpy: this runs for every recorded message, and numpy costs ~7x more per call.
+    sec, nanosec = _STAMP.unpack_from(data, offset)
+    return int(sec) * 1_000_000_000 + int(nanosec)
 
 
 def custom_data_for(scene_name: str) -> dict[str, str]:

@@ -19,6 +19,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
 from pendulum_accel.errors import PendulumAccelError
+from pendulum_accel.nodes.dds_profile import use_package_profile
 
 # How often the main thread wakes to run pending signal handlers.
 _SIGNAL_POLL_PERIOD = 0.05  # s
@@ -86,6 +87,7 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
         else:
             raise KeyboardInterrupt
 
+    use_package_profile()
     try:
         rclpy.init(
             args=list(args) if args is not None else None, signal_handler_options=SignalHandlerOptions.NO

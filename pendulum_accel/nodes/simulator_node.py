@@ -33,6 +33,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.generate import DEFAULT_CLOCK_RATE_HZ, simulator_rows, string_columns
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.nodes.qos import DATA_QOS
 from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
@@ -58,56 +59,19 @@ class Frames:
         return int(self.t.size)
 
 
-def _stamp_columns(t: NDArray[np.float64], prefix: str) -> dict[str, NDArray[Any]]:
-    """{prefix.sec, prefix.nanosec} for times t (s), rounded to ns as the bags round them."""
-    sec, nanosec = bm.split_stamp(bm.seconds_to_ns(t))
-    return {f"{prefix}.sec": sec, f"{prefix}.nanosec": nanosec}
-
-
-def clock_mask(t: NDArray[np.float64], clock_rate_hz: float) -> NDArray[np.bool_]:
-    """Samples that also publish /clock: all when clock_rate_hz ≤ 0, else the first in each 1/rate tick."""
-    if clock_rate_hz <= 0.0 or t.size == 0:
-        return np.ones(t.size, dtype=bool)
-    ticks = np.floor((t - t[0]) * clock_rate_hz + 1e-9).astype(np.int64)
-    mask = np.ones(t.size, dtype=bool)
-    mask[1:] = ticks[1:] != ticks[:-1]
-    return mask
-
-
 def serialise_run(run: Any, clock_rate_hz: float) -> Frames:
     """Frames of a SceneRun: joint_states (measured θ, θ'), truth (a), string (r − l, ṙ, T) if any, clock."""
-    t = np.asarray(run.t, dtype=np.float64)
-    n = t.size
-    stamp = _stamp_columns(t, "header.stamp")
-    joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
-    truth = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
-    rows = {
-        bm.TOPIC_JOINT_STATES: joint.encode(
-            n,
-            {
-                **stamp,
-                "position[0]": np.asarray(run.theta_measured),
-                "velocity[0]": np.asarray(run.theta_dot),
-            },
-        ),
-        bm.TOPIC_ACCEL_TRUTH: truth.encode(n, {**stamp, "accel.linear.x": np.asarray(run.accel_true)}),
-    }
-    if run.tension is not None or run.stretch is not None:
-        zeros = np.zeros(n)
-        string = bm.Layout.of(bm.joint_state(0, [bm.STRING_JOINT], [0.0], [0.0], [0.0]), bm.JOINT_STATE)
-        rows[bm.TOPIC_STRING] = string.encode(
-            n,
-            {
-                **stamp,
-                "position[0]": zeros if run.stretch is None else np.asarray(run.stretch),
-                "velocity[0]": zeros if run.stretch_rate is None else np.asarray(run.stretch_rate),
-                "effort[0]": zeros if run.tension is None else np.asarray(run.tension),
-            },
-        )
-    mask = clock_mask(t, clock_rate_hz)
-    clock = bm.Layout.of(bm.clock(0), bm.CLOCK)
-    clock_rows = clock.encode(int(mask.sum()), _stamp_columns(t[mask], "clock"))
-    return Frames(t, rows, clock_rows, mask, run.plan.explain())
+    sim = simulator_rows(
+        np.asarray(run.t, dtype=np.float64),
+        np.asarray(run.theta_measured, dtype=np.float64),
+        np.asarray(run.theta_dot, dtype=np.float64),
+        np.asarray(run.accel_true, dtype=np.float64),
+        string=string_columns(run),
+        clock_rate_hz=clock_rate_hz,
+    )
+    return Frames(
+        np.asarray(run.t, dtype=np.float64), sim.rows, sim.clock_rows, sim.clock_mask, run.plan.explain()
+    )
 
 
 def jitter_summary(lateness: NDArray[np.float64]) -> str:
@@ -216,7 +180,7 @@ class SimulatorNode(ChainNode):
         self.clock_rate_hz = float(
             self.declare_parameter(
                 "clock_rate_hz",
-                1000.0,
+                DEFAULT_CLOCK_RATE_HZ,
                 ParameterDescriptor(
                     description="/clock messages per simulated second (0: one per sample)",
                     floating_point_range=_float_range(0.0, 100_000.0),
@@ -369,6 +333,13 @@ class SimulatorNode(ChainNode):
             for topic, rows in others:
                 self._publish(topic, rows[i].tobytes())
             sent += 1
+            if i == 0:
+                # Handshake: readers acknowledge only once their side of discovery has matched this
+                # writer. Until then a keep-all writer fills up and blocks, which stalled the first
+                # seconds of fast runs; one acknowledged sample proves every reader is ready.
+                for publisher in self._outputs.values():
+                    publisher.wait_for_all_acked(_ACK_TIMEOUT)
+                start = time.perf_counter() - float(t_rel[0])
         self.published += sent
         wall = time.perf_counter() - start
         span = float(t_rel[sent - 1]) if sent else 0.0

@@ -31,6 +31,7 @@ import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -347,17 +348,20 @@ def _adaptive(
         def fun(t: float, flat: np.ndarray, clamp: Callable[[float], float] = clamp) -> np.ndarray:
             return np.asarray(rhs(clamp(t), flat.reshape(shape))).ravel()
 
-        sol = solve_ivp(
-            fun,
-            (lo, hi),
-            y,
-            method=method,
-            t_eval=nodes[i_lo + 1 : i_hi + 1],
-            rtol=rel,
-            atol=abs_tol,
-            max_step=max_step,
+        options: dict[str, Any] = {
+            "method": method,
+            "t_eval": nodes[i_lo + 1 : i_hi + 1],
+            "rtol": rel,
+            "atol": abs_tol,
+            "max_step": max_step,
             **({} if jac is None else {"jac": _clamped_jac(jac, clamp)}),
-        )
+        }
+        sol = solve_ivp(fun, (lo, hi), y, **options)
+        if sol.status != 0 and "step size" in sol.message:
+            # scipy's own first-step guess can turn its error norm into NaN on a state of ~1e-160 (a bob
+            # at rest at equilibrium, found by hypothesis), reported as a step-size failure: retry the
+            # stretch once from an explicit first step. Runs that succeed never get here.
+            sol = solve_ivp(fun, (lo, hi), y, first_step=min(max_step, (hi - lo) * 1e-3), **options)
         if sol.status != 0 or not np.all(np.isfinite(sol.y)):
             raise StabilityError(f"{method} failed between t={lo:.6g} s and t={hi:.6g} s: {sol.message}")
         nfev += int(sol.nfev)
