@@ -50,6 +50,7 @@ def test_golden_bag_through_live_estimator_matches_offline_estimates(spawn: Spaw
             "rate": 5.0,
             "clock": True,
             "wait_for_subscribers": 1,
+            "wait_for_recorder": True,  # its /clock too has its reader before the first message
         },
     )
     assert player.finish(timeout=120) == 0, player.text

@@ -107,6 +107,15 @@ class PlayerNode(ChainNode):
                 ),
             ).value
         )
+        self.wait_for_recorder = bool(
+            self.declare_parameter(
+                "wait_for_recorder",
+                False,
+                ParameterDescriptor(
+                    description="start only once every published topic has a subscriber", **fixed
+                ),
+            ).value
+        )
         if not path:
             raise ParameterError("parameter path (the bag to play) is required")
         bag = read_bag(path)
@@ -143,9 +152,19 @@ class PlayerNode(ChainNode):
         )
 
     def _wait(self) -> bool:
-        """True once /pendulum/joint_states has wait_for_subscribers subscribers (or none are asked for)."""
+        """True once /pendulum/joint_states has wait_for_subscribers subscribers and, with
+        wait_for_recorder, every published topic has one (False if stopped while waiting)."""
         joint = self._outputs.get(bm.TOPIC_JOINT_STATES)
-        while joint is not None and joint.get_subscription_count() < self.wait_for_subscribers:
+
+        def ready() -> bool:
+            """The subscriber counts asked for are there."""
+            if joint is not None and joint.get_subscription_count() < self.wait_for_subscribers:
+                return False
+            return not self.wait_for_recorder or all(
+                publisher.get_subscription_count() >= 1 for publisher in self._outputs.values()
+            )
+
+        while not ready():
             if self._stop.wait(0.01):
                 return False
         return True
