@@ -252,7 +252,7 @@ def test_rotation_fourier_and_doubling_agree(rate_scale: float) -> None:
 def test_energy_invariant_and_start_state(
     length: float, accel: float, phi0: float, rate_scale: float
 ) -> None:
-    """E = ½l²θ'² - gl cos θ - al sin θ constant to 1e-11 l g_eff; θ(0), θ'(0) = start to 1e-15 relative."""
+    """E = ½l²θ'² - gl cos θ - al sin θ constant to 1e-11 l g_eff; θ(0), θ'(0) = start to 1e-14 relative."""
     pendulum = Pendulum(length)
     omega = pendulum.omega(accel)
     theta0 = pendulum.equilibrium_angle(accel) + phi0
@@ -262,8 +262,10 @@ def test_energy_invariant_and_start_state(
     energy = 0.5 * length**2 * rate**2 - G * length * np.cos(theta) - accel * length * np.sin(theta)
     scale = length * pendulum.effective_gravity(accel)
     assert np.ptp(energy) <= 1e-11 * scale
-    assert theta[0] == pytest.approx(theta0, rel=1e-15, abs=1e-15)
-    assert rate[0] == pytest.approx(rate0, rel=1e-15, abs=1e-15 * omega)
+    # θ(0), θ'(0) come back through the Jacobi functions and their inverses: a few ulp, not exact
+    # (8 ulp seen at θ0 = -1.75 under CI's derandomized examples).
+    assert theta[0] == pytest.approx(theta0, rel=1e-14, abs=1e-15)
+    assert rate[0] == pytest.approx(rate0, rel=1e-14, abs=1e-15 * omega)
 
 
 @settings(max_examples=25, deadline=None)
