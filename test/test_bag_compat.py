@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -130,19 +131,24 @@ def _mcap_core_dir() -> Path:
     return folder
 
 
-def test_foxglove_mcap_core_reads_the_bag(chain_bag: tuple[Path, dict[str, int]]) -> None:
-    """@mcap/core: ros2 profile, ros2msg schemas, cdr, QoS metadata, all messages via index and stream."""
-    path, counts = chain_bag
-    folder = _mcap_core_dir()
+def _mcap_core_report(mcap: Path) -> dict[str, Any]:
+    """What Foxglove's @mcap/core (count.js) reports of one MCAP file: profile, channels, counts."""
     out = subprocess.run(
-        ["node", "count.js", str(path / "chain.mcap")],
-        cwd=folder,
+        ["node", "count.js", str(mcap)],
+        cwd=_mcap_core_dir(),
         check=True,
         timeout=120,
         capture_output=True,
         text=True,
     )
-    report = json.loads(out.stdout)
+    report: dict[str, Any] = json.loads(out.stdout)
+    return report
+
+
+def test_foxglove_mcap_core_reads_the_bag(chain_bag: tuple[Path, dict[str, int]]) -> None:
+    """@mcap/core: ros2 profile, ros2msg schemas, cdr, QoS metadata, all messages via index and stream."""
+    path, counts = chain_bag
+    report = _mcap_core_report(path / "chain.mcap")
     assert report["profile"] == "ros2"
     assert report["counts"] == counts
     assert report["streamed"] == sum(counts.values()) and report["done"]
@@ -158,15 +164,6 @@ def test_foxglove_mcap_core_reads_a_golden_bag() -> None:
     path = Path(__file__).resolve().parent.parent / "bags" / "elastic_string"
     counts = {name: topic.count for name, topic in read_bag(path, salvage=False).topics.items()}
     assert len(counts) == 6
-    folder = _mcap_core_dir()
-    out = subprocess.run(
-        ["node", "count.js", str(path / "elastic_string.mcap")],
-        cwd=folder,
-        check=True,
-        timeout=120,
-        capture_output=True,
-        text=True,
-    )
-    report = json.loads(out.stdout)
+    report = _mcap_core_report(path / "elastic_string.mcap")
     assert report["profile"] == "ros2" and report["counts"] == counts
     assert report["streamed"] == sum(counts.values())

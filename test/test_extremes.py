@@ -14,16 +14,9 @@ from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import Constant, Step
 from pendulum_accel.physics.rigid import energy, rigid_rhs, rigid_rhs_scalar
 from pendulum_accel.physics.simulate import simulate
+from test.swing import omega_of_swing
 
 G = STANDARD_GRAVITY
-
-
-def omega_from_crossings(t: np.ndarray, theta: np.ndarray, theta_dot: np.ndarray, center: float) -> float:
-    """2π/period from upward crossings of θ = center, refined by one Newton step with θ'."""
-    phi = theta - center
-    idx = np.flatnonzero((phi[:-1] < 0.0) & (phi[1:] >= 0.0))
-    crossings = t[idx] - phi[idx] / theta_dot[idx]
-    return 2.0 * math.pi * (crossings.size - 1) / (crossings[-1] - crossings[0])
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
@@ -92,7 +85,7 @@ def test_zero_and_ten_g(a):
     omega = (math.hypot(G, a) / p.length) ** 0.5
     t = np.linspace(0.0, 20 * 2 * math.pi / omega, 20001)
     tr = simulate(p, Constant(a), t, theta0=theta_eq + 1e-3)
-    assert omega_from_crossings(t, tr.theta, tr.theta_dot, theta_eq) == pytest.approx(omega, rel=1e-6)
+    assert omega_of_swing(t, tr.theta, tr.theta_dot, theta_eq) == pytest.approx(omega, rel=1e-6)
 
 
 @pytest.mark.parametrize("length", [1e-3, 1e-2, 1.0, 10.0, 100.0])
@@ -106,7 +99,7 @@ def test_lengths_from_1_mm_to_100_m(length):
     t = np.linspace(0.0, 10 * 2 * math.pi / omega, 10001)
     for method, dt in (("DOP853", None), ("rk4", 0.05 / omega)):
         tr = simulate(p, Constant(a), t, theta0=theta_eq + 1e-3, method=method, dt=dt)
-        assert omega_from_crossings(t, tr.theta, tr.theta_dot, theta_eq) == pytest.approx(omega, rel=1e-6)
+        assert omega_of_swing(t, tr.theta, tr.theta_dot, theta_eq) == pytest.approx(omega, rel=1e-6)
     with pytest.raises(StabilityError, match="hω=3"):
         simulate(p, Constant(a), t[:3], theta0=0.1, method="rk4", dt=3.0 / omega)
 
