@@ -33,6 +33,8 @@ $(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.x
 	$(BIN)/python -m pip install -q --disable-pip-version-check --upgrade pip
 	$(BIN)/python -m pip install -q --disable-pip-version-check -r requirements-dev.txt $(ROS_REQS)
 	$(BIN)/python -m pip install -q --disable-pip-version-check --no-deps -e .
+	@echo "compiling the stepping kernels into numba's cache (once, about 20 s)"
+	$(BIN)/python -m pendulum_accel.physics.kernels
 	@touch $(STAMP)
 
 demo: $(STAMP)

@@ -30,6 +30,7 @@ setup(
     install_requires=[
         "numpy",
         "scipy",
+        "numba",
         "PyYAML",
         "rosbags",
         "mcap",

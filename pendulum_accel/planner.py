@@ -1,33 +1,36 @@
 """Planner: the cheapest model and solver that meets a scene's angle-accuracy target, explained in one line.
 
-Cost order (cheapest first, measured CPU per sample on this machine): linear closed form (≈0.2 µs/sample)
-< exact closed form (≈0.6 µs/sample, Jacobi elliptic functions) < rigid, stepped (fixed-step RK4 at
-≈2–4 µs/step or DOP853 at ≈24 µs per right-hand-side call, whichever the cost model below makes cheaper)
-< elastic string (stiff, LSODA). The Lagrange-multiplier model is used only when a scene forces it.
+Cost order (cheapest first, measured CPU on this machine): linear closed form (≈0.2 µs/sample)
+< exact closed form (≈0.6 µs/sample, Jacobi elliptic functions) < rigid, stepped by the compiled kernels
+of physics.kernels (RK4 at ≈0.1 µs a step or RK8 at ≈0.4 µs, whichever needs less CPU for the target)
+< elastic string, stepped the same way. The Lagrange-multiplier model is used only when a scene forces it.
 
 Rules, in order:
 
 1. A forced model (scene ``force.model``) is used as is; its method is forced too or chosen by rule 5/6.
 2. Stretch requested, or the string's static stretch makes the rigid model miss the target
    (angle error of ignoring it ≈ (δ/l)(1 + A ωT), δ = g_eff m/k, checked against the elastic model):
-   elastic string with LSODA, a stiff-capable solver (rule 6).
+   the elastic string (rule 5, its step also bounded by the radial mode's stability).
 3. a(t) piecewise constant on [0, T] and no damping: closed form, chained over the pieces.
    Linear when its proven bound (``physics.linear.linear_error_bound`` per piece, A the piece's
    libration amplitude; errors carried across pieces in the energy norm, hence ×√2·ω_max/ω_min)
    meets the target; else exact, whose error is round-off, ≈ 1e-13 (1 + ωT) per piece, amplified near
    the separatrix by 1/m₁ (m₁ = cos²(A/2): the period's sensitivity to the amplitude).
 4. Otherwise the rigid model, stepped.
-5. Fixed step of order p: global error ≤ C (hω)^p (1 + ωT), ω = max(√(√(g²+a_max²)/l), c), so
-   h = (target / (C (1 + ωT)))^(1/p) / ω. RK4 (p = 4): C = 0.1, the largest ratio measured over the lecture
-   case, θ0 = 2.5 and 3.1 rad swings, a rotating bob, damped and sinusoidal/table profiles was 0.06 (at
-   θ0 = 3.1 rad, next to the separatrix); the harmonic-oscillator value is A/120.
-6. Adaptive (DOP853 for rigid/multiplier, LSODA for elastic): global error ≈ K rtol (1 + ωT). K is
+5. Fixed steps of order p (RK4: 4, RK8: 8). A first step from err ≈ C (hω)^p (1 + ωT), ω of the swing
+   (C: RK4 0.1, RK8 0.01, typical of the swings measured; near the separatrix C grows 10-100×, which the
+   pilot below catches), h ≤ the sample interval, hω ≤ MAX_H_OMEGA, and for the elastic string
+   h √(k/m) ≤ ½ the method's stability limit. The cheaper of RK4 and RK8 at that step (steps × the
+   measured µs per step) is then checked by a pilot on the scene itself, step halving: the error of θ_h
+   is ≈ |θ_h − θ_{h/2}| · 2^p/(2^p − 1), which the plan predicts as PILOT_SAFETY_FIXED × that; while the
+   prediction misses the budget the step shrinks, ×(budget/prediction)^(1/p), up to PILOT_ROUNDS times
+   (a halving that no longer helps means round-off: the plan then says the target is out of reach).
+   Other models (multiplier) keep the a-priori prediction with C = 0.1 (RK4), 0.5 (Verlet), 1 (Euler).
+6. Adaptive (DOP853 for the multiplier model, or a forced solve_ivp method; LSODA for an elastic string
+   so stiff that fixed steps would exceed MAX_FIXED_STEPS): global error ≈ K rtol (1 + ωT). K is
    measured for the scene by a pilot pair (rtol 1e-6 against 1e-9 on a coarse grid) and multiplied by 20
    for safety (K grew up to 8× from rtol 1e-6 to rtol 6e-13 in those measurements); floor 0.05. The rtol
    is never looser than the pilot's 1e-6: the model is not extrapolated where it was not measured.
-   RK4 and DOP853 are costed (steps × 4 µs, or 2 µs when a(t) is a table lookup of constant pieces,
-   vs 3.5 (1 + ωT) rtol^(−1/8) calls × 24 µs, all measured)
-   and the cheaper one wins.
 
 Every prediction is an upper estimate; ``test/test_planner.py`` runs a tight reference for every bundled
 scene and checks the chosen plan meets the target.
@@ -53,13 +56,19 @@ COST_ORDER: tuple[str, ...] = ("linear", "exact", "rigid", "elastic")  # multipl
 
 # Fixed-step error model: order p and constant C in  err ≤ C (hω)^p (1 + ωT).
 FIXED_STEP_ORDER: dict[str, tuple[int, float]] = {
+    "rk8": (8, 0.01),
     "rk4": (4, 0.1),
     "verlet": (2, 0.5),
     "symplectic_euler": (1, 1.0),
     "euler": (1, 1.0),
 }
 ROUND_SLACK = 1e-9  # aim a hair inside the budget so the prediction's own rounding stays ≤ target
-MAX_H_OMEGA = 0.5  # beyond this the (hω)^p error model is no longer asymptotic
+MAX_H_OMEGA = {"rk8": 1.0}  # beyond this the (hω)^p error model is no longer asymptotic; others 0.5
+DEFAULT_MAX_H_OMEGA = 0.5
+PILOT_SAFETY_FIXED = 4.0
+PILOT_ROUNDS = 6
+COMPILED_MODELS = ("rigid", "elastic")
+STEPPED_METHODS = ("rk4", "rk8")  # what the planner chooses between for a compiled model
 MAX_FIXED_STEPS = 20_000_000
 K_FLOOR = 0.05
 PILOT_SAFETY = 20.0
@@ -69,8 +78,13 @@ RTOL_RANGE = (1e-13, 1e-3)
 EXACT_ROUNDOFF = 1e-13  # rad per unit (1 + ωT) per piece, before the separatrix factor
 LINEAR_CARRY = math.sqrt(2.0)
 # Measured CPU on this machine (see module docstring); only their ratio matters for the choice.
-RK4_STEP_S = 4e-6  # a(t) from AccelProfile.scalar (bisect and lerp for tables, math.sin for sinusoids)
-RK4_STEP_CONSTANT_S = 2e-6  # a(t) from the piecewise-constant lookup (physics.profiles.scalar_accel)
+KERNEL_STEP_S: dict[tuple[str, str], float] = {  # compiled kernels (physics.kernels), per step
+    ("rigid", "rk4"): 0.1e-6,
+    ("rigid", "rk8"): 0.4e-6,
+    ("elastic", "rk4"): 0.25e-6,
+    ("elastic", "rk8"): 0.6e-6,
+}
+PYTHON_STEP_S = 15e-6  # the numpy loop of physics.integrators (the multiplier model), per RK4 step
 ADAPTIVE_CALL_S = 24e-6
 ADAPTIVE_CALLS = 3.5  # calls ≈ 3.5 (1 + ωT) rtol^(-1/8) for DOP853 (fit over rtol 1e-4 … 1e-12)
 CLOSED_FORM_SAMPLE_S = {"linear": 0.2e-6, "exact": 0.6e-6}
@@ -157,16 +171,14 @@ def _plan(scene: Scene) -> Plan:
     if scene.model is not None:
         return _forced(scene)
     if scene.wants_stretch:
-        return _adaptive(
-            _setup(scene, "elastic"), "elastic", "LSODA", target, "the outputs ask for the stretch"
-        )
+        return _stepped(_setup(scene, "elastic"), "elastic", target, 0.0, "the outputs ask for the stretch")
     string_error = rigid_string_error(scene)
     if string_error > 0.5 * target:
         why = (
             f"ignoring the stretch δ = g_eff m/k would cost ≈ {string_error:.1e} rad, over half the target, "
-            f"so the elastic string with a stiff-capable solver"
+            f"so the elastic string"
         )
-        return _adaptive(_setup(scene, "elastic"), "elastic", "LSODA", target, why)
+        return _stepped(_setup(scene, "elastic"), "elastic", target, 0.0, why)
     budget = target - string_error
     setup = _setup(scene)
     pieces = _closed_form_pieces(scene)
@@ -182,7 +194,7 @@ def _plan(scene: Scene) -> Plan:
         if scene.pendulum.damping != 0.0
         else f"a(t) ({scene.profile.kind}) is not piecewise constant, so no closed form"
     )
-    return _rigid(setup, "rigid", budget, string_error, why)
+    return _stepped(setup, "rigid", budget, string_error, why)
 
 
 def _replace_reason(plan: Plan, reason: str) -> Plan:
@@ -255,33 +267,110 @@ def _closed_form(setup: _Setup, pieces: list[Piece], model: str, extra: float) -
     return Plan(model, CLOSED_FORM_METHOD, None, None, predicted, why, setup.scene.accuracy, cpu)
 
 
+def _first_step(setup: _Setup, model: str, method: str, budget: float) -> float:
+    """A-priori h = (budget / (C (1 + ωT)))^(1/p) / ω, hω ≤ MAX_H_OMEGA, h ω_fast ≤ ½ stability limit."""
+    order, const = FIXED_STEP_ORDER[method]
+    h_omega = (budget * (1.0 - ROUND_SLACK) / (const * setup.omega_t)) ** (1.0 / order)
+    h = min(h_omega, MAX_H_OMEGA.get(method, DEFAULT_MAX_H_OMEGA)) / setup.omega
+    limit = stability_limit(method)
+    if limit is not None and limit > 0.0:
+        h = min(h, 0.5 * limit / setup.omega_fast)
+    return h
+
+
+def _effective_step(setup: _Setup, dt: float) -> tuple[float, int]:
+    """(h, steps): the integrator shortens dt to fill each sample interval with whole steps."""
+    interval = setup.duration / max(setup.samples - 1, 1)
+    per_interval = max(1, math.ceil(interval / dt * (1.0 - 1e-12)))
+    return interval / per_interval, per_interval * max(setup.samples - 1, 1)
+
+
+def _step_cost(setup: _Setup, model: str, method: str, steps: int) -> float:
+    """Estimated CPU seconds: steps × the measured cost of a compiled (or numpy-loop) step."""
+    if model in COMPILED_MODELS:
+        return KERNEL_STEP_S[(model, "rk8" if method == "rk8" else "rk4")] * steps
+    order = FIXED_STEP_ORDER[method][0]
+    return PYTHON_STEP_S * steps * (3.0 if order == 8 else 1.0)
+
+
+def _pilot_fixed(
+    setup: _Setup, model: str, method: str, dt: float, budget: float, adjust: bool
+) -> tuple[float, float]:
+    """(predicted error, dt): error of θ_h ≈ PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1), on the scene.
+
+    With ``adjust`` the step shrinks by (prediction/budget)^(1/p) (at least ½) until the prediction meets
+    the budget, at most PILOT_ROUNDS times, or until shrinking stops paying (round-off).
+    """
+    scene = setup.scene
+    t = scene.sensor.sample_times(setup.duration)
+    order = FIXED_STEP_ORDER[method][0]
+    richardson = PILOT_SAFETY_FIXED * 2.0**order / (2.0**order - 1.0)
+
+    def theta(h: float) -> np.ndarray:
+        """θ at the sample times, stepped with h."""
+        return simulate(setup.pendulum, setup.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
+                        model=model, method=method, dt=h).theta  # fmt: skip
+
+    dt, _ = _effective_step(setup, dt)  # so that dt/2 really halves the step taken
+    coarse = theta(dt)
+    best = (math.inf, dt)
+    for _ in range(PILOT_ROUNDS):
+        predicted = richardson * float(np.max(np.abs(coarse - theta(0.5 * dt))))
+        if predicted > 0.5 * best[0]:
+            return best  # round-off: a smaller step no longer buys accuracy
+        best = (predicted, dt)
+        if not adjust or predicted <= budget:
+            return best
+        dt, _ = _effective_step(setup, dt / max(2.0, 1.1 * (predicted / budget) ** (1.0 / order)))
+        coarse = theta(dt)
+    return best
+
+
 def _fixed_step(
     setup: _Setup, model: str, method: str, budget: float, extra: float, why: str, dt: float | None = None
 ) -> Plan:
-    """Fixed step h = (budget / (C (1 + ωT)))^(1/p) / ω or the given dt, ≤ a sample period (rule 5)."""
-    order, const = FIXED_STEP_ORDER[method]
-    span = setup.duration
+    """Fixed step of ``method``: the first step of rule 5 (or the given dt), piloted for compiled models."""
+    given = dt is not None
     if dt is None:
-        h_omega = min(
-            (budget * (1.0 - ROUND_SLACK) / (const * setup.omega_fast_t)) ** (1.0 / order), MAX_H_OMEGA
-        )
-        limit = stability_limit(method)
-        if limit is not None and limit > 0.0:
-            h_omega = min(h_omega, 0.5 * limit)
-        h_omega = max(h_omega, setup.omega_fast * span / MAX_FIXED_STEPS)
-        dt = h_omega / setup.omega_fast
+        dt = _first_step(setup, model, method, budget)
     elif not (math.isfinite(dt) and dt > 0.0):
         raise SceneError(f"dt must be a finite step > 0 s, got {dt!r}")
-    # The integrator shortens the step to fill each sample interval with whole steps.
-    interval = span / max(setup.samples - 1, 1)
-    per_interval = max(1, math.ceil(interval / dt * (1.0 - 1e-12)))
-    h_eff = interval / per_interval
-    steps = per_interval * max(setup.samples - 1, 1)
-    predicted = const * (h_eff * setup.omega_fast) ** order * setup.omega_fast_t + extra
-    per_step = RK4_STEP_S if setup.profile.constant_pieces(0.0, span) is None else RK4_STEP_CONSTANT_S
-    cpu = per_step * steps * (order / 4.0 if order < 4 else 1.0)
-    detail = f"{method} with hω = {h_eff * setup.omega_fast:.1e} ({steps} steps)"
-    return Plan(model, method, dt, None, predicted, f"{why}; {detail}", setup.scene.accuracy, cpu)
+    if model in COMPILED_MODELS:
+        error, dt = _pilot_fixed(setup, model, method, dt, budget, adjust=not given)
+        h, steps = _effective_step(setup, dt)
+        detail = f"{method} with hω = {h * setup.omega:.1e} ({steps} steps), error from a step-halving pilot"
+    else:
+        order, const = FIXED_STEP_ORDER[method]
+        h, steps = _effective_step(setup, dt)
+        error = const * (h * setup.omega_fast) ** order * setup.omega_fast_t
+        detail = f"{method} with hω = {h * setup.omega_fast:.1e} ({steps} steps)"
+    cpu = _step_cost(setup, model, method, steps)
+    return Plan(model, method, dt, None, error + extra, f"{why}; {detail}", setup.scene.accuracy, cpu)
+
+
+def _stepped(setup: _Setup, model: str, budget: float, extra: float, why: str) -> Plan:
+    """Rule 5: the cheaper of RK4 and RK8 at their first steps, piloted; the other one if it fails the budget.
+
+    An elastic string so stiff that fixed steps would exceed MAX_FIXED_STEPS goes to LSODA (rule 6).
+    """
+    target = setup.scene.accuracy
+    costs = {}
+    for method in STEPPED_METHODS:
+        _, steps = _effective_step(setup, _first_step(setup, model, method, budget))
+        costs[method] = (_step_cost(setup, model, method, steps), steps)
+    if model == "elastic" and min(steps for _, steps in costs.values()) > MAX_FIXED_STEPS:
+        # ω_r so far above the swing that even RK8 would take millions of steps: BDF steps over it.
+        return _adaptive(setup, model, "LSODA", target, f"{why}; too stiff for fixed steps", extra)
+    order = sorted(STEPPED_METHODS, key=lambda m: costs[m][0])
+    first = _fixed_step(setup, model, order[0], budget, extra, why)
+    if first.predicted_error <= target:
+        other = f"{order[1]} est. {costs[order[1]][0]:.2g} s"
+        return _replace_reason(first, f"{first.reason}, cheaper than {other}")
+    second = _fixed_step(setup, model, order[1], budget, extra, why)
+    if second.predicted_error <= target:
+        return _replace_reason(second, f"{second.reason}, {order[0]} cannot promise the target")
+    best = min((first, second), key=lambda p: p.predicted_error)
+    return _replace_reason(best, f"{best.reason}; the target is below what double precision can promise")
 
 
 def pilot_error_constant(setup: _Setup, model: str, method: str) -> float:
@@ -323,26 +412,6 @@ def _adaptive(
     return Plan(model, method, None, rtol, predicted, f"{why}; {detail}", target, cpu)
 
 
-def _rigid(setup: _Setup, model: str, budget: float, extra: float, why: str) -> Plan:
-    """The cheaper of RK4 (rule 5) and DOP853 (rule 6) that meets the budget; else the more accurate."""
-    fixed = _fixed_step(setup, model, "rk4", budget, extra, why)
-    target = setup.scene.accuracy
-    adaptive = _adaptive(setup, model, "DOP853", target, why, extra)
-    ok = [p for p in (fixed, adaptive) if p.predicted_error <= target]
-    if ok:
-        best = min(ok, key=lambda p: p.estimated_cpu_s)
-        other = adaptive if best is fixed else fixed
-        note = (
-            f"cheaper than {other.method} "
-            f"({best.estimated_cpu_s:.2g} s vs {other.estimated_cpu_s:.2g} s estimated)"
-            if other.predicted_error <= target
-            else f"{other.method} cannot promise the target"
-        )
-        return _replace_reason(best, f"{best.reason}, {note}")
-    best = min((fixed, adaptive), key=lambda p: p.predicted_error)
-    return _replace_reason(best, f"{best.reason}; the target is below what double precision can promise")
-
-
 def _forced(scene: Scene) -> Plan:
     """Rule 1: the scene's forced model (and method, or the rule's method for it)."""
     model = scene.model or "rigid"
@@ -358,11 +427,9 @@ def _forced(scene: Scene) -> Plan:
     extra = rigid_string_error(scene) if model in ("rigid", "multiplier") else 0.0
     method = scene.method
     if method is None:
-        if model == "elastic":
-            return _adaptive(setup, model, "LSODA", target, why)
         if model == "multiplier":
             return _adaptive(setup, model, "DOP853", target, why, extra)
-        return _rigid(setup, model, target - extra, extra, why)
+        return _stepped(setup, model, target - extra, extra, why)
     why = f"model {model} and method {method} forced by the scene"
     if method in FIXED_STEP_METHODS:
         return _fixed_step(setup, model, method, target - extra, extra, why)

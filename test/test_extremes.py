@@ -10,9 +10,10 @@ import pytest
 
 from pendulum_accel.errors import ParameterError, StabilityError
 from pendulum_accel.physics.integrators import integrate, stability_limit
+from pendulum_accel.physics.kernels import Kernel
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import Constant, Step
-from pendulum_accel.physics.rigid import energy, rigid_rhs, rigid_rhs_scalar
+from pendulum_accel.physics.rigid import energy, rigid_rhs
 from pendulum_accel.physics.simulate import simulate
 from test.swing import omega_of_swing
 
@@ -115,16 +116,16 @@ def test_million_step_runs():
     h, n = 0.1, 1_000_000
     t = np.linspace(0.0, n * h, 1001)
     rhs = rigid_rhs(p, lambda t: 0.0)
-    fast = rigid_rhs_scalar(p, lambda t: 0.0)
+    fast = Kernel.rigid(p, Constant(0.0))  # the compiled kernel: a million numpy steps would take minutes
     swing = lambda th, w: energy(p, th, w, 0.0) + 1.0  # energy above the bottom, per unit mass  # noqa: E731
     for method, bound in (("symplectic_euler", 0.1), ("verlet", 0.003)):
-        res = integrate(rhs, np.array([1.0, 0.0]), t, method, h, omega=1.0, scalar_rhs=fast)
+        res = integrate(rhs, np.array([1.0, 0.0]), t, method, h, omega=1.0, kernel=fast)
         e = swing(res.y[0], res.y[1])
         rel = np.abs(e - e[0]) / e[0]
         first, last = rel[1:101].max(), rel[-100:].max()
         assert last <= 1.05 * first, (method, first, last)
         assert rel.max() < bound, (method, rel.max())
-    res = integrate(rhs, np.array([0.01, 0.0]), t, "rk4", h, omega=1.0, scalar_rhs=fast)
+    res = integrate(rhs, np.array([0.01, 0.0]), t, "rk4", h, omega=1.0, kernel=fast)
     e = swing(res.y[0], res.y[1])
     z = 0.1j
     predicted = abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24) ** (2 * n)

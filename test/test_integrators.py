@@ -14,9 +14,10 @@ from pendulum_accel.physics.integrators import (
     integrate,
     stability_limit,
 )
+from pendulum_accel.physics.kernels import RK8_A, RK8_B
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Step, scalar_accel
-from pendulum_accel.physics.rigid import rigid_rhs, rigid_rhs_scalar
+from pendulum_accel.physics.rigid import rigid_rhs
 
 
 def oscillator(t: float, y: np.ndarray) -> np.ndarray:
@@ -40,6 +41,27 @@ def test_order_of_accuracy(method, order):
     e2 = oscillator_error(method, 1e-3)
     measured = math.log2(e1 / e2)
     assert abs(measured - order) < 0.15, (method, measured)
+
+
+def test_rk8_is_eighth_order():
+    """RK8 (DOP853's 8th-order weights, fixed step): halving hω = 0.4 divides the error by 2^(8 ± 0.3)."""
+    e1 = oscillator_error("rk8", 0.4, t_end=20.0)
+    e2 = oscillator_error("rk8", 0.2, t_end=20.0)
+    assert abs(math.log2(e1 / e2) - 8.0) < 0.3, math.log2(e1 / e2)
+
+
+def test_rk8_stability_limit_is_where_its_amplification_passes_one():
+    """|R(iy)| ≤ 1 for 0 < y ≤ 5.96 and > 1 just past it, R(z) = 1 + z bᵀ (I − zA)⁻¹ 1 from the tableau."""
+    a, b = np.asarray(RK8_A), np.asarray(RK8_B)
+
+    def gain(y: float) -> float:
+        z = 1j * y
+        return float(abs(1.0 + z * b @ np.linalg.solve(np.eye(b.size) - z * a, np.ones(b.size))))
+
+    limit = stability_limit("rk8")
+    assert limit == 5.96
+    assert max(gain(y) for y in np.linspace(0.01, limit, 600)) <= 1.0 + 1e-14
+    assert gain(limit + 0.01) > 1.0
 
 
 @pytest.mark.parametrize("method", ADAPTIVE_METHODS)
@@ -95,7 +117,8 @@ def test_stability_limits():
 
 
 @pytest.mark.parametrize(
-    ("method", "limit"), [("rk4", 2.8284271247461903), ("verlet", 2.0), ("symplectic_euler", 2.0)]
+    ("method", "limit"),
+    [("rk4", 2.8284271247461903), ("rk8", 5.96), ("verlet", 2.0), ("symplectic_euler", 2.0)],
 )
 def test_refuses_past_limit_and_is_bounded_below(method, limit):
     """hω = 1.01·limit is refused naming h, ω and limit; hω = 0.98·limit runs 2000 steps, bounded."""
@@ -149,21 +172,6 @@ def test_batch_adaptive_matches_single():
     for j in range(3):
         single = integrate(rhs, y0[:, j], t, "DOP853")
         np.testing.assert_allclose(batch.y[:, j, :], single.y, rtol=0, atol=1e-9)
-
-
-@pytest.mark.parametrize("method", FIXED_STEP_METHODS)
-def test_scalar_path_matches_array_path(method):
-    """The Python-float fast path agrees with the numpy path to 1e-13 (same scheme, same steps)."""
-    p = Pendulum(1.3, damping=0.2)
-    profile = Step(0.33, 1.0, -2.0)
-    a = scalar_accel(profile, 0.0, 1.0)
-    t = np.linspace(0.0, 1.0, 5)
-    y0 = np.array([1.0, -0.5])
-    fast = integrate(
-        rigid_rhs(p, a), y0, t, method, 1e-3, breakpoints=(0.33,), scalar_rhs=rigid_rhs_scalar(p, a)
-    )
-    slow = integrate(rigid_rhs(p, a), y0, t, method, 1e-3, breakpoints=(0.33,))
-    np.testing.assert_allclose(fast.y, slow.y, rtol=0, atol=1e-13)
 
 
 def test_damped_verlet_is_second_order():

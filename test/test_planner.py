@@ -9,12 +9,20 @@ import math
 import numpy as np
 import pytest
 
+from pendulum_accel import planner
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.physics.integrators import STIFF_METHODS
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Sinusoid
 from pendulum_accel.physics.simulate import simulate
-from pendulum_accel.planner import COST_ORDER, Plan, plan_scene, plan_with, rigid_string_error
+from pendulum_accel.planner import (
+    COST_ORDER,
+    STEPPED_METHODS,
+    Plan,
+    plan_scene,
+    plan_with,
+    rigid_string_error,
+)
 from pendulum_accel.scene import SCENE_NAMES, Scene, load_scene
 from pendulum_accel.scene_run import simulate_plan
 
@@ -76,15 +84,25 @@ def _sinusoid_scene() -> Scene:
 
 
 @pytest.mark.parametrize("target", [1e-3, 1e-6, 1e-9])
-@pytest.mark.parametrize("which", ["stop_and_go", "sinusoid", "multiplier", "large_swing_rigid"])
+@pytest.mark.parametrize(
+    "which", ["stop_and_go", "sinusoid", "multiplier", "large_swing_rigid", "near_separatrix"]
+)
 def test_stepped_plans_are_honest_across_targets(which: str, target: float) -> None:
-    """Rigid and multiplier plans (RK4 or DOP853, whichever is chosen) meet targets 1e-3 … 1e-9."""
+    """Rigid and multiplier plans (RK4, RK8 or DOP853, whichever is chosen) meet targets 1e-3 … 1e-9.
+
+    ``near_separatrix`` (θ0 = 3.1 rad, lightly damped) is where RK4's error constant is 10-100× the
+    a-priori C: the step-halving pilot must catch it.
+    """
     if which == "sinusoid":
         scene = _sinusoid_scene()
     elif which == "multiplier":
         scene = load_scene("multiplier_lecture")
     elif which == "large_swing_rigid":
         scene = dataclasses.replace(load_scene("large_swing"), model="rigid")
+    elif which == "near_separatrix":
+        base = load_scene("large_swing")
+        damped = dataclasses.replace(base.pendulum, damping=0.01)
+        scene = dataclasses.replace(base, pendulum=damped, theta0=3.1, duration=10.0)
     else:
         scene = dataclasses.replace(load_scene(which), duration=15.0)
     scene = dataclasses.replace(scene, accuracy=target)
@@ -138,7 +156,7 @@ def test_intended_choices_for_the_bundled_scenes() -> None:
     for name in ("lecture_constant", "step_start", "braking", "large_swing"):
         assert plans[name].model == "exact" and plans[name].dt is None and plans[name].rtol is None
     assert plans["stop_and_go"].model == "rigid"
-    assert plans["elastic_string"].model == "elastic" and plans["elastic_string"].method in STIFF_METHODS
+    assert plans["elastic_string"].model == "elastic" and plans["elastic_string"].method in STEPPED_METHODS
     assert plans["multiplier_lecture"].model == "multiplier"
     assert [n for n, p in plans.items() if p.model == "multiplier"] == ["multiplier_lecture"]
 
@@ -174,17 +192,26 @@ def test_stretch_rule_and_its_error_estimate() -> None:
 
 
 def test_elastic_plan_is_honest_against_a_tight_elastic_reference() -> None:
-    """Soft string, target 1e-6: the LSODA plan meets it against DOP853 at rtol 1e-12."""
+    """Stiff string, target 1e-8: the fixed-step plan (compiled RK4/RK8) meets it against tight DOP853."""
     base = dataclasses.replace(load_scene("elastic_string"), accuracy=1e-8)
     plan = plan_scene(base)
-    assert plan.model == "elastic" and plan.method in STIFF_METHODS
+    assert plan.model == "elastic" and plan.method in STEPPED_METHODS
     assert measured_error(base, plan) <= 1e-8
+
+
+def test_a_string_too_stiff_for_fixed_steps_goes_to_lsoda(monkeypatch: pytest.MonkeyPatch) -> None:
+    """When fixed steps would exceed MAX_FIXED_STEPS (here lowered to 100), the plan is LSODA, and honest."""
+    monkeypatch.setattr(planner, "MAX_FIXED_STEPS", 100)
+    scene = dataclasses.replace(load_scene("elastic_string"), accuracy=1e-6)
+    plan = plan_scene(scene)
+    assert plan.method in STIFF_METHODS and "too stiff for fixed steps" in plan.reason
+    assert measured_error(scene, plan) <= 1e-6
 
 
 @pytest.mark.parametrize("target", [1e-3, 1e-4, 1e-5])
 def test_elastic_plan_is_honest_at_loose_targets(target: float) -> None:
-    """Loose targets: LSODA's error grows faster than linearly above the pilot's rtol 1e-6 (the work-
-    precision benchmark measured 1.2e-4 at rtol 3e-4), so the plan must not extrapolate there."""
+    """Loose targets: the first step is far from asymptotic there (hω_r near the stability limit); the
+    step-halving pilot must still hold the plan to its target."""
     scene = dataclasses.replace(load_scene("elastic_string"), accuracy=target)
     plan = plan_scene(scene)
     assert plan.model == "elastic" and plan.meets_target
@@ -203,14 +230,17 @@ def test_explanation_is_one_line_with_model_solver_error_and_reason() -> None:
 
 
 def test_user_settings_are_followed_and_flagged() -> None:
-    """plan_with: --dt forces RK4 on the rigid model and predicts its error; a missed target is flagged."""
-    scene = load_scene("lecture_constant")
-    coarse = plan_with(scene, dt=0.01)
+    """plan_with: --dt forces the rigid model's fixed-step method and predicts its error; a missed target is
+    flagged."""
+    scene = dataclasses.replace(load_scene("lecture_constant"), accuracy=1e-9)
+    given = plan_with(scene, dt=0.01)
+    assert (given.model, given.dt) == ("rigid", 0.01) and given.method in STEPPED_METHODS
+    coarse = plan_with(scene, method="rk4", dt=0.01)
     assert (coarse.model, coarse.method, coarse.dt) == ("rigid", "rk4", 0.01)
     assert not coarse.meets_target and "TARGET NOT MET" in coarse.explain()
     assert measured_error(scene, coarse) <= coarse.predicted_error
-    tol = plan_with(scene, method="DOP853", rtol=1e-10)
-    assert (tol.method, tol.rtol) == ("DOP853", 1e-10) and tol.meets_target
+    tol = plan_with(scene, method="DOP853", rtol=1e-12)
+    assert (tol.method, tol.rtol) == ("DOP853", 1e-12) and tol.meets_target
     with pytest.raises(SceneError, match="--dt"):
         plan_with(scene, method="DOP853", dt=0.01)
     with pytest.raises(SceneError, match="closed form"):

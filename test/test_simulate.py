@@ -33,6 +33,7 @@ def exact_reference():
         ("Radau", None, 1e-5),
         ("LSODA", None, 1e-5),
         ("rk4", 1e-3, 1e-9),
+        ("rk8", 2e-2, 1e-10),
         ("verlet", 1e-3, 1e-5),
         ("symplectic_euler", 1e-4, 1e-3),
         ("euler", 1e-5, 1e-3),
@@ -48,7 +49,9 @@ def test_rigid_methods_match_chained_exact(exact_reference, method, dt, tol):
 
 def test_all_methods_are_covered():
     """The parametrisation above lists every method in the registry."""
-    assert set(METHODS) == {"DOP853", "RK45", "Radau", "LSODA", "rk4", "verlet", "symplectic_euler", "euler"}
+    assert set(METHODS) == {
+        "DOP853", "RK45", "Radau", "LSODA", "rk4", "rk8", "verlet", "symplectic_euler", "euler"
+    }  # fmt: skip
 
 
 def test_exact_chain_is_continuous_across_pieces():

@@ -10,6 +10,12 @@ Fixed-step methods (written here, vectorised: a state may be ``(n_state,)`` or a
   step's a₀. The explicit correction v* keeps second order when the force depends on velocity
   (damping); without such a force it is the textbook scheme (at two evaluations per step).
 - ``rk4``: classic 4-stage Runge-Kutta.
+- ``rk8``: the 8th-order solution of Dormand-Prince 8(5,3) (DOP853's 12-stage tableau) with a fixed step:
+  for tight targets, where RK4 would need ~10× more steps.
+
+A single rigid or elastic-string state (``kernel`` given) is stepped by the compiled kernels of
+physics.kernels, the same schemes at ≈ 0.1 µs a step; batches, projected states (the multiplier
+model) and other right-hand sides run the numpy loop here.
 
 The two symplectic methods need a second-order system: the state is ``[q, v]`` split in equal
 halves with q' = v, and f returns ``[v, a]``.
@@ -37,23 +43,25 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from pendulum_accel.errors import ParameterError, StabilityError
+from pendulum_accel.physics.kernels import RK8_A, RK8_B, RK8_C, Kernel, run_kernel
 
 Rhs = Callable[[float, np.ndarray], np.ndarray]
-ScalarRhs = Callable[[float, float, float], tuple[float, float]]
 Projection = Callable[[np.ndarray], np.ndarray]
 Jacobian = Callable[[float, np.ndarray], np.ndarray]
 
-FIXED_STEP_METHODS: tuple[str, ...] = ("euler", "symplectic_euler", "verlet", "rk4")
+FIXED_STEP_METHODS: tuple[str, ...] = ("euler", "symplectic_euler", "verlet", "rk4", "rk8")
 ADAPTIVE_METHODS: tuple[str, ...] = ("RK45", "DOP853", "Radau", "LSODA")
 METHODS: tuple[str, ...] = FIXED_STEP_METHODS + ADAPTIVE_METHODS
 STIFF_METHODS: tuple[str, ...] = ("Radau", "LSODA")
 
-# Max hω on the imaginary axis: RK4's stability region reaches 2√2; leapfrog-type schemes reach 2.
+# Max hω on the imaginary axis: RK4's stability region reaches 2√2, DOP853's 8th-order solution 5.96
+# (|R(iy)| ≤ 1 below it, checked in test_integrators); leapfrog-type schemes reach 2.
 _STABILITY_LIMITS: dict[str, float | None] = {
     "euler": 0.0,
     "symplectic_euler": 2.0,
     "verlet": 2.0,
     "rk4": 2.0 * math.sqrt(2.0),
+    "rk8": 5.96,
     "RK45": None,
     "DOP853": None,
     "Radau": None,
@@ -110,13 +118,17 @@ def check_stability(method: str, dt: float, omega: float, n_steps: int = 1) -> N
         )
 
 
-def _nodes(t_eval: np.ndarray, breakpoints: Sequence[float]) -> tuple[np.ndarray, np.ndarray, set[float]]:
-    """All stop times (samples ∪ inner breakpoints), a mask of which are samples, and the breakpoints."""
+def _nodes(t_eval: np.ndarray, breakpoints: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """All stop times (samples ∪ inner breakpoints), ascending, and a mask of which are samples."""
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
-    inner = sorted({float(b) for b in breakpoints if t0 < b < t1} - {float(s) for s in t_eval})
-    nodes = np.union1d(t_eval, np.array(inner, dtype=float))
-    is_sample = np.isin(nodes, t_eval)
-    return nodes, is_sample, {float(b) for b in breakpoints}
+    inner = np.array(sorted({float(b) for b in breakpoints if t0 < b < t1}), dtype=float)
+    at = np.minimum(np.searchsorted(t_eval, inner), t_eval.size - 1)
+    inner = inner[t_eval[at] != inner]  # a breakpoint that is also a sample is stopped at once
+    if inner.size == 0:
+        return t_eval, np.ones(t_eval.size, dtype=bool)
+    merged = np.concatenate((t_eval, inner))
+    order = np.argsort(merged, kind="stable")
+    return merged[order], order < t_eval.size
 
 
 def _segment_clamp(lo: float, hi: float) -> Callable[[float], float]:
@@ -155,7 +167,7 @@ def integrate(
     breakpoints: Sequence[float] = (),
     omega: float | None = None,
     project: Projection | None = None,
-    scalar_rhs: ScalarRhs | None = None,
+    kernel: Kernel | None = None,
     jac: Jacobian | None = None,
     max_step: float = math.inf,
 ) -> IntegrationResult:
@@ -163,8 +175,8 @@ def integrate(
 
     ``dt`` is the largest fixed step (fixed-step methods only); ``omega`` (rad/s) enables the stability
     check; ``project`` maps a state back onto a constraint manifold after every fixed step and at every
-    adaptive stop; ``scalar_rhs(t, q, v) -> (q', v')`` is an optional Python-float version of ``rhs`` for a
-    single [q, v] pair, used by unbatched fixed-step runs, where floats beat small numpy arrays;
+    adaptive stop; ``kernel`` is the compiled form of ``rhs`` (physics.kernels), used by fixed-step runs of a
+    single unprojected state;
     ``jac`` is ∂f/∂y for an unbatched state (used by Radau and LSODA); ``rtol``/``atol`` go to solve_ivp.
     """
     check_method(method)
@@ -172,7 +184,7 @@ def integrate(
     state = np.array(y0, dtype=float)
     if state.ndim not in (1, 2) or not np.all(np.isfinite(state)):
         raise ParameterError(f"initial state must be a finite 1-D or 2-D array, got {state!r}")
-    nodes, is_sample, _ = _nodes(times, breakpoints)
+    nodes, is_sample = _nodes(times, breakpoints)
     if method in FIXED_STEP_METHODS:
         if dt is None:
             raise ParameterError(f"fixed-step method {method} needs dt")
@@ -184,11 +196,12 @@ def integrate(
             check_stability(method, step, omega, max(n_total, 1))
         if method in ("symplectic_euler", "verlet") and state.shape[0] % 2:
             raise ParameterError(f"{method} needs a state [q, v] of even size, got {state.shape[0]}")
-        if scalar_rhs is not None and state.shape == (2,) and project is None:
-            ys, nfev = _fixed_scalar(scalar_rhs, [float(v) for v in state], nodes, method, step)
-            y_nodes = np.array(ys).T
-        else:
-            y_nodes, nfev = _fixed_array(rhs, state, nodes, method, step, project)
+        compiled = None
+        if kernel is not None and state.ndim == 1 and project is None:
+            compiled = run_kernel(kernel, state, nodes, method, step)
+        if compiled is None:
+            compiled = _fixed_array(rhs, state, nodes, method, step, project)
+        y_nodes, nfev = compiled
     else:
         jacobian = jac if state.ndim == 1 and method in STIFF_METHODS else None
         y_nodes, nfev = _adaptive(
@@ -230,6 +243,13 @@ def _fixed_array(
                 k4 = f(t + h, y + h * k3)
                 y = y + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
                 nfev += 4
+            elif method == "rk8":
+                stages: list[np.ndarray] = []
+                for c_s, a_row in zip(RK8_C, RK8_A, strict=True):
+                    y_s = y + h * sum((a * k for a, k in zip(a_row, stages, strict=False)), np.zeros_like(y))
+                    stages.append(f(t + c_s * h, y_s))
+                y = y + h * sum((b * k for b, k in zip(RK8_B, stages, strict=True)), np.zeros_like(y))
+                nfev += len(stages)
             elif method == "euler":
                 y = y + h * f(t, y)
                 nfev += 1
@@ -251,56 +271,6 @@ def _fixed_array(
                 y = project(y)
                 acc = None
         out[..., i + 1] = y
-    return out, nfev
-
-
-def _fixed_scalar(
-    rhs: ScalarRhs, y0: list[float], nodes: np.ndarray, method: str, dt: float
-) -> tuple[list[list[float]], int]:
-    """Fixed-step integration of one [q, v] pair held in Python floats (no per-step numpy overhead)."""
-    q, v = y0
-    out = [[q, v]]
-    nfev = 0
-    for i in range(nodes.size - 1):
-        lo, hi = float(nodes[i]), float(nodes[i + 1])
-        n = _n_substeps(hi - lo, dt)
-        h = (hi - lo) / n
-        half_h = 0.5 * h
-        # Only the first and last substep touch the segment's ends, where a(t) must be read inside.
-        lo_in = min(math.nextafter(lo, math.inf), hi)
-        hi_in = max(math.nextafter(hi, -math.inf), lo)
-        t_next = lo_in
-        if method == "verlet":
-            _, acc = rhs(t_next, q, v)
-            nfev += 1
-        for k in range(n):
-            t = t_next
-            t_next = hi_in if k == n - 1 else lo + (k + 1) * h
-            if method == "rk4":
-                t_mid = lo + (k + 0.5) * h
-                dq1, dv1 = rhs(t, q, v)
-                dq2, dv2 = rhs(t_mid, q + half_h * dq1, v + half_h * dv1)
-                dq3, dv3 = rhs(t_mid, q + half_h * dq2, v + half_h * dv2)
-                dq4, dv4 = rhs(t_next, q + h * dq3, v + h * dv3)
-                q += h / 6.0 * (dq1 + 2.0 * (dq2 + dq3) + dq4)
-                v += h / 6.0 * (dv1 + 2.0 * (dv2 + dv3) + dv4)
-                nfev += 4
-            elif method == "euler":
-                dq, dv = rhs(t, q, v)
-                q, v = q + h * dq, v + h * dv
-                nfev += 1
-            elif method == "symplectic_euler":
-                v += h * rhs(t, q, v)[1]
-                q += h * v
-                nfev += 1
-            else:  # verlet; acc is a(t, q, v) carried over from the previous step's closing kick
-                v_half = v + half_h * acc
-                q += h * v_half
-                v_star = v_half + half_h * rhs(t_next, q, v_half)[1]
-                _, acc = rhs(t_next, q, v_star)
-                v = v_half + half_h * acc
-                nfev += 2
-        out.append([q, v])
     return out, nfev
 
 

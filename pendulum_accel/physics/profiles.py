@@ -266,6 +266,7 @@ class Table(AccelProfile):
     kind: ClassVar[str] = "table"
     _t: np.ndarray = field(init=False, repr=False, compare=False)
     _a: np.ndarray = field(init=False, repr=False, compare=False)
+    _breaks: tuple[float, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         times = tuple(require_finite(f"times[{i}]", v) for i, v in enumerate(self.times))
@@ -283,6 +284,10 @@ class Table(AccelProfile):
         object.__setattr__(self, "accels", accels)
         object.__setattr__(self, "_t", np.array(times))
         object.__setattr__(self, "_a", np.array(accels))
+        # Flat extrapolation means slope 0 before the first point and after the last.
+        slopes = np.concatenate(([0.0], np.diff(self._a) / np.diff(self._t), [0.0]))
+        breaks = tuple(t for i, t in enumerate(times) if slopes[i] != slopes[i + 1])
+        object.__setattr__(self, "_breaks", breaks)
 
     @classmethod
     def from_csv(cls, path: str | Path) -> Table:
@@ -331,10 +336,8 @@ class Table(AccelProfile):
         return _interp(self.times, self.accels, t)
 
     def breakpoints(self) -> tuple[float, ...]:
-        """Every table time where the slope changes."""
-        # Flat extrapolation means slope 0 before the first point and after the last.
-        slopes = np.concatenate(([0.0], np.diff(self._a) / np.diff(self._t), [0.0]))
-        return tuple(t for i, t in enumerate(self.times) if slopes[i] != slopes[i + 1])
+        """Every table time where the slope changes (computed once, at construction)."""
+        return self._breaks
 
     def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
         """Pieces when every segment meeting [t0, t1] is flat, else None."""

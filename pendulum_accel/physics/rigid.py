@@ -20,7 +20,6 @@ from numpy.typing import ArrayLike
 
 from pendulum_accel.physics.params import Pendulum
 
-ScalarAccel = Callable[[float], float]
 ArrayAccel = Callable[[float], "float | np.ndarray"]
 
 
@@ -43,20 +42,6 @@ def rigid_rhs(p: Pendulum, accel: ArrayAccel) -> Callable[[float, np.ndarray], n
             th, w = y.tolist()
             return np.array((w, -g_l * math.sin(th) + accel(t) * inv_l * math.cos(th) - c * w))
         return np.stack((y[1], theta_ddot(p, y[0], y[1], accel(t))))
-
-    return rhs
-
-
-def rigid_rhs_scalar(p: Pendulum, accel: ScalarAccel) -> Callable[[float, float, float], tuple[float, float]]:
-    """(θ', θ'') from (t, θ, θ') in Python floats: the fast path for long fixed-step runs."""
-    g_l = p.gravity / p.length
-    inv_l = 1.0 / p.length
-    c = p.damping
-    sin, cos = math.sin, math.cos
-
-    def rhs(t: float, th: float, w: float) -> tuple[float, float]:
-        """(θ', −(g/l) sin θ + (a(t)/l) cos θ − c θ')."""
-        return w, -g_l * sin(th) + accel(t) * inv_l * cos(th) - c * w
 
     return rhs
 

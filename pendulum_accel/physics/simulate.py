@@ -26,10 +26,11 @@ from pendulum_accel.physics import elastic as elastic_model
 from pendulum_accel.physics import multiplier as multiplier_model
 from pendulum_accel.physics.exact import exact_solution
 from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, METHODS, check_method, integrate
+from pendulum_accel.physics.kernels import Kernel
 from pendulum_accel.physics.linear import linear_solution
 from pendulum_accel.physics.params import Pendulum, require_finite
 from pendulum_accel.physics.profiles import AccelProfile, Piece, scalar_accel
-from pendulum_accel.physics.rigid import rigid_rhs, rigid_rhs_scalar, tension
+from pendulum_accel.physics.rigid import rigid_rhs, tension
 from pendulum_accel.physics.trajectory import Trajectory
 
 MODELS: tuple[str, ...] = ("exact", "linear", "rigid", "multiplier", "elastic")
@@ -40,9 +41,16 @@ STIFF_RATIO = 30.0
 DEFAULT_STEPS_PER_RADIAN = 20.0  # default fixed step: dt = 1/(20 ω)
 
 
-def stability_omega(pendulum: Pendulum, profile: AccelProfile, t0: float, t1: float, model: str) -> float:
-    """ω = max(√(√(g² + a_max²)/l), c), and also √(k/m) for the elastic string (rad/s)."""
-    omega = max(pendulum.omega(profile.max_abs(t0, t1)), pendulum.damping)
+def stability_omega(
+    pendulum: Pendulum, profile: AccelProfile, t0: float, t1: float, model: str, a_max: float | None = None
+) -> float:
+    """ω = max(√(√(g² + a_max²)/l), c), and also √(k/m) for the elastic string (rad/s).
+
+    ``a_max`` = max |a| on [t0, t1] when the caller already has it.
+    """
+    if a_max is None:
+        a_max = profile.max_abs(t0, t1)
+    omega = max(pendulum.omega(a_max), pendulum.damping)
     if model == "elastic":
         omega = max(omega, elastic_model.radial_omega(pendulum))
     return omega
@@ -118,12 +126,13 @@ def simulate(
             nfev=0,
         )
     t0, t1 = float(times[0]), float(times[-1])
-    omega = stability_omega(pendulum, profile, t0, t1, model)
+    a_max = profile.max_abs(t0, t1)
+    omega = stability_omega(pendulum, profile, t0, t1, model, a_max)
     if chosen in FIXED_STEP_METHODS and dt is None:
         dt = 1.0 / (DEFAULT_STEPS_PER_RADIAN * omega)
     breaks = profile.breakpoints()
     a_of_t: Callable[[float], float] = scalar_accel(profile, t0, t1)
-    w_scale = pendulum.omega(profile.max_abs(t0, t1))
+    w_scale = pendulum.omega(a_max)
 
     if model == "rigid":
         scales = np.array([1.0, w_scale])
@@ -137,7 +146,7 @@ def simulate(
             None if atol is None else atol * scales,
             breakpoints=breaks,
             omega=omega,
-            scalar_rhs=rigid_rhs_scalar(pendulum, a_of_t),
+            kernel=Kernel.rigid(pendulum, profile),
         )
         theta, theta_dot = result.y[0], result.y[1]
         return Trajectory(
@@ -200,6 +209,7 @@ def simulate(
         breakpoints=breaks,
         omega=omega,
         jac=elastic_model.elastic_jacobian(pendulum, a_of_t),
+        kernel=Kernel.elastic(pendulum, profile, elastic_model.stiffness_of(pendulum)),
     )
     r, theta, r_dot, theta_dot = result.y
     return Trajectory(

@@ -1,0 +1,106 @@
+"""Compiled kernels: the same schemes and equations as the numpy loop, a(t) read from each interval's side."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pendulum_accel.physics.elastic import elastic_rhs
+from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, integrate
+from pendulum_accel.physics.kernels import ACCEL_LINEAR, Kernel, accel_coefficients, run_kernel
+from pendulum_accel.physics.params import Pendulum
+from pendulum_accel.physics.profiles import (
+    AccelProfile,
+    Braking,
+    Constant,
+    Ramp,
+    Sinusoid,
+    Step,
+    Table,
+    scalar_accel,
+)
+from pendulum_accel.physics.rigid import rigid_rhs
+
+PROFILES: dict[str, AccelProfile] = {
+    "constant": Constant(2.0),
+    "step": Step(0.33, 1.0, -2.0),
+    "ramp": Ramp(0.2, 0.7, -1.0, 3.0),
+    "table": Table((0.0, 0.25, 0.5, 0.8), (0.0, 2.5, 2.5, -1.0)),
+    "braking": Braking(v0=1.0, decel=2.5, t_start=0.1),
+    "sinusoid": Sinusoid(2.0, 1.5, offset=0.5, phase=0.3),
+}
+T = np.array([0.0, 0.1, 0.37, 0.5, 0.61, 1.0])
+
+
+def _both(kernel: Kernel, rhs: object, y0: np.ndarray, method: str, dt: float, breaks: tuple[float, ...]):
+    """(compiled, numpy) results of the same integrate() call."""
+    fast = integrate(rhs, y0, T, method, dt, breakpoints=breaks, kernel=kernel)  # type: ignore[arg-type]
+    slow = integrate(rhs, y0, T, method, dt, breakpoints=breaks)  # type: ignore[arg-type]
+    return fast, slow
+
+
+@pytest.mark.parametrize("profile_name", sorted(PROFILES))
+@pytest.mark.parametrize("method", FIXED_STEP_METHODS)
+def test_rigid_kernel_matches_the_numpy_loop(method: str, profile_name: str) -> None:
+    """Damped rigid pendulum, every profile kind: compiled and numpy runs agree to 1e-12 rad, same f count."""
+    p = Pendulum(1.3, damping=0.2)
+    profile = PROFILES[profile_name]
+    rhs = rigid_rhs(p, scalar_accel(profile, 0.0, 1.0))
+    fast, slow = _both(
+        Kernel.rigid(p, profile), rhs, np.array([1.0, -0.5]), method, 1e-3, profile.breakpoints()
+    )
+    np.testing.assert_allclose(fast.y, slow.y, rtol=0, atol=1e-12)
+    assert fast.nfev == slow.nfev
+
+
+@pytest.mark.parametrize("method", ["rk4", "rk8", "verlet"])
+def test_elastic_kernel_matches_the_numpy_loop(method: str) -> None:
+    """Elastic string (k = 1e4 N/m, damped) through a step in a(t): compiled and numpy agree to 1e-11."""
+    p = Pendulum(1.0, damping=0.1, stiffness=1e4)
+    profile = PROFILES["step"]
+    rhs = elastic_rhs(p, scalar_accel(profile, 0.0, 1.0))
+    y0 = np.array([1.001, 0.4, 0.0, 0.2])
+    kernel = Kernel.elastic(p, profile, 1e4)
+    fast, slow = _both(kernel, rhs, y0, method, 2e-4, profile.breakpoints())
+    np.testing.assert_allclose(fast.y, slow.y, rtol=0, atol=1e-11)
+
+
+def test_a_jump_never_leaks_across_a_breakpoint() -> None:
+    """Step at 0.33: the interval before reads a_before at both ends, the one after a_after (slope 0)."""
+    profile = PROFILES["step"]
+    nodes = np.array([0.0, 0.33, 0.5])
+    kind, coef = accel_coefficients(profile, nodes) or (None, None)
+    assert kind == ACCEL_LINEAR
+    np.testing.assert_array_equal(coef, [[1.0, 0.0], [-2.0, 0.0]])
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=6, unique=True))
+def test_linear_coefficients_reproduce_the_profile_inside_each_interval(cuts: list[float]) -> None:
+    """For a table split at its knots and random extra cuts, coef reproduces a(t) at interval midpoints."""
+    profile = Table((0.0, 0.25, 0.5, 0.8), (0.0, 2.5, 2.5, -1.0))
+    nodes: np.ndarray = np.unique(np.array([0.0, 1.0, *profile.times, *cuts]))
+    _, coef = accel_coefficients(profile, nodes) or (None, np.empty((0, 2)))
+    mid = 0.5 * (nodes[:-1] + nodes[1:])
+    np.testing.assert_allclose(coef[:, 0] + coef[:, 1] * (mid - nodes[:-1]), profile(mid), rtol=0, atol=1e-12)
+
+
+def test_unknown_profile_kinds_fall_back_to_the_numpy_loop() -> None:
+    """A profile class the kernels do not know gets no compiled form; integrate() still runs it."""
+
+    class Doubled(Constant):
+        """a = 2·a₀, through a __call__ the kernels cannot see."""
+
+        def __call__(self, t: object) -> np.ndarray:
+            return 2.0 * super().__call__(t)  # type: ignore[arg-type]
+
+    profile = Doubled(1.0)
+    assert isinstance(profile, Constant)  # so the fallback must come from exact type checks, not isinstance
+    p = Pendulum(1.0)
+    kernel = Kernel.rigid(p, profile)
+    assert run_kernel(kernel, np.zeros(2), T, "rk4", 1e-2) is None
+    result = integrate(rigid_rhs(p, profile.scalar), np.zeros(2), T, "rk4", 1e-2, kernel=kernel)
+    reference = integrate(rigid_rhs(p, lambda t: 2.0), np.zeros(2), T, "rk4", 1e-2)
+    np.testing.assert_allclose(result.y, reference.y, rtol=0, atol=1e-15)
