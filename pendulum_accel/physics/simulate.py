@@ -25,7 +25,13 @@ from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics import elastic as elastic_model
 from pendulum_accel.physics import multiplier as multiplier_model
 from pendulum_accel.physics.exact import exact_solution
-from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, METHODS, check_method, integrate
+from pendulum_accel.physics.integrators import (
+    FIXED_STEP_METHODS,
+    METHODS,
+    check_method,
+    check_samples,
+    integrate,
+)
 from pendulum_accel.physics.kernels import Kernel
 from pendulum_accel.physics.linear import linear_solution
 from pendulum_accel.physics.params import Pendulum, require_finite
@@ -69,20 +75,6 @@ def choose_method(pendulum: Pendulum, model: str, method: str) -> str:
     return "DOP853"
 
 
-def _check_times(t: np.ndarray) -> np.ndarray:
-    """t as a finite, strictly increasing 1-D float array, else ParameterError naming the problem."""
-    times = np.asarray(t, dtype=float)
-    if times.ndim != 1 or times.size == 0:
-        raise ParameterError(f"sample times t must be a non-empty 1-D array, got shape {times.shape}")
-    if not np.all(np.isfinite(times)):
-        raise ParameterError("sample times t must be finite, got NaN or inf")
-    steps = np.diff(times)
-    if np.any(steps <= 0.0):
-        i = int(np.flatnonzero(steps <= 0.0)[0])
-        raise ParameterError(f"sample times t must be strictly increasing: t[{i + 1}]={times[i + 1]!r}")
-    return times
-
-
 def simulate(
     pendulum: Pendulum,
     profile: AccelProfile,
@@ -97,7 +89,7 @@ def simulate(
     atol: float | None = None,
 ) -> Trajectory:
     """θ(t), θ'(t), a(t) (+ tension, stretch, multiplier per model) from θ(t[0]) = θ0, θ'(t[0]) = θ'0."""
-    times = _check_times(t)
+    times = check_samples(t)
     th0 = require_finite("theta0", theta0)
     w0 = require_finite("theta_dot0", theta_dot0)
     if model not in MODELS:
