@@ -182,10 +182,9 @@ class BagWriter:
         if self.flush_interval is not None and time.monotonic() - self._last_flush >= self.flush_interval:
             self.flush()
 
-    def flush_if_due(self) -> None:
-        """flush() when the last one is older than ``flush_interval`` (call from an idle timer)."""
-        if self.flush_interval is not None and time.monotonic() - self._last_flush >= self.flush_interval:
-            self.flush()
+    def flush_due(self) -> bool:
+        """True when the last flush is older than ``flush_interval`` (never without an interval)."""
+        return self.flush_interval is not None and time.monotonic() - self._last_flush >= self.flush_interval
 
     def flush(self) -> None:
         """Close the open MCAP chunk (if it holds messages) and push the file to the OS: SIGKILL-safe."""

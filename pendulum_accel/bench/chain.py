@@ -12,7 +12,8 @@ angle and every estimate on arrival with one monotonic clock. Reported per rate:
 * simulator pacing jitter (p99 of publish − due) and real-time factor, from its log;
 * CPU of each node (% of one core, from /proc/<pid>/stat) while data flows.
 
-Then the same chain as fast as possible at 1 kHz with recording: its real-time factor and losses.
+Then the same chain as fast as possible at 1 kHz with recording, as ``pendulum-accel run --fast`` runs
+it (no listener: latency means nothing there): its real-time factor, losses and CPU.
 Benchmarks measure; tests never assert on time.
 """
 
@@ -155,63 +156,101 @@ def _log_figures(text: str) -> tuple[float | None, float | None]:
     )
 
 
-def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Result:
-    """Run the chain once with a listener and a CPU sampler; the figures of that run."""
-    import rclpy
-    from builtin_interfaces.msg import Time
-    from diagnostic_msgs.msg import DiagnosticArray
-    from geometry_msgs.msg import AccelWithCovarianceStamped
-    from rclpy.experimental import EventsExecutor
-    from rclpy.node import Node
-    from sensor_msgs.msg import JointState
+class Listener:
+    """A fourth process's view of the live chain: arrival times of angles and of the estimates made from them.
 
+    Raw CDR subscriptions: the header stamp sits right after the 4-byte encapsulation header, and reading
+    it with struct keeps this listener (a fourth Python process on two cores) from being the chain's
+    slowest reliable reader, which would throttle the chain and inflate its own figures.
+    """
+
+    def __init__(self, sampler: CpuSampler) -> None:
+        """Subscribe and start spinning in a thread; the sampler starts when the first angle arrives."""
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from geometry_msgs.msg import AccelWithCovarianceStamped
+        from rclpy.experimental import EventsExecutor
+        from rclpy.node import Node
+        from sensor_msgs.msg import JointState
+
+        from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
+        from pendulum_accel.nodes.recorder_node import stamp_ns
+
+        self._stamp_ns = stamp_ns
+        self._sampler = sampler
+        self._angle_arrival: dict[int, int] = {}
+        self.latency: list[int] = []
+        self._context = rclpy.Context()
+        rclpy.init(context=self._context)
+        self._node = Node("chain_bench_listener", context=self._context)
+        self._node.create_subscription(
+            JointState, "/pendulum/joint_states", self._on_angle, DATA_QOS, raw=True
+        )
+        self._node.create_subscription(
+            AccelWithCovarianceStamped, "/car/accel/estimate", self._on_estimate, DATA_QOS, raw=True
+        )
+        # Only so the estimator, which waits for readers of all its outputs, counts this listener.
+        self._node.create_subscription(DiagnosticArray, "/diagnostics", lambda _msg: None, DIAGNOSTICS_QOS)
+        self._executor = EventsExecutor(context=self._context)
+        self._executor.add_node(self._node)
+        self._listening = threading.Event()
+        self._listening.set()
+        gc.freeze()  # as the nodes do (nodes.runtime): no collector pauses walking start-up objects
+        self._spinner = threading.Thread(target=self._spin, daemon=True)
+        self._spinner.start()
+
+    def _on_angle(self, data: bytes) -> None:
+        """Arrival time of an angle, by stamp."""
+        self._angle_arrival[self._stamp_ns(data, 4)] = time.monotonic_ns()
+        self._sampler.active.set()
+
+    def _on_estimate(self, data: bytes) -> None:
+        """latency += estimate arrival − its angle's arrival (ns)."""
+        arrived = self._angle_arrival.get(self._stamp_ns(data, 4))
+        if arrived is not None:
+            self.latency.append(time.monotonic_ns() - arrived)
+
+    def _spin(self) -> None:
+        """Short spins until told to stop: shutting down an EventsExecutor inside spin() hangs it."""
+        while self._listening.is_set():
+            self._executor.spin_once(timeout_sec=0.05)
+
+    def close(self) -> None:
+        """Stop spinning, destroy the node, shut the context down."""
+        import rclpy
+
+        self._listening.clear()
+        self._spinner.join()
+        self._executor.shutdown()
+        self._node.destroy_node()
+        rclpy.try_shutdown(context=self._context)
+
+
+def _start_on_log_line(sampler: CpuSampler, log: Path, marker: str) -> None:
+    """Thread body: set sampler.active once ``marker`` appears in ``log`` (or the sampler stops)."""
+    while not sampler.stop.wait(0.02):
+        if log.exists() and marker in log.read_text(errors="replace"):
+            sampler.active.set()
+            return
+
+
+def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Result:
+    """Run the chain once with a CPU sampler, and in real time with a latency listener; the figures.
+
+    As fast as possible there is no listener: latency has no meaning when the simulator runs ahead of
+    real time, and a fourth reader on two cores would slow the chain it measures. CPU is then sampled
+    from the simulator's "publishing" log line on.
+    """
     from pendulum_accel.bag.reader import read_bag
     from pendulum_accel.nodes.launcher import Chain, ChainConfig
-    from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
     from pendulum_accel.nodes.scene_overrides import apply_overrides
     from pendulum_accel.scene import load_scene
 
     overrides = {"rate_hz": float(rate), "duration": float(duration)}
     expected = apply_overrides(load_scene(SCENE), overrides).sensor.sample_count(duration)
-    angle_arrival: dict[int, int] = {}
-    latency: list[int] = []
     sampler = CpuSampler()
-
-    def key(stamp: Time) -> int:
-        """Stamp as integer ns."""
-        return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-
-    def on_angle(msg: JointState) -> None:
-        """Arrival time of an angle, by stamp."""
-        angle_arrival[key(msg.header.stamp)] = time.monotonic_ns()
-        sampler.active.set()
-
-    def on_estimate(msg: AccelWithCovarianceStamped) -> None:
-        """Estimate arrival − its angle's arrival."""
-        arrived = angle_arrival.get(key(msg.header.stamp))
-        if arrived is not None:
-            latency.append(time.monotonic_ns() - arrived)
-
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    node = Node("chain_bench_listener", context=context)
-    node.create_subscription(JointState, "/pendulum/joint_states", on_angle, DATA_QOS)
-    node.create_subscription(AccelWithCovarianceStamped, "/car/accel/estimate", on_estimate, DATA_QOS)
-    # Only so the estimator, which waits for readers of both its outputs, counts this listener.
-    node.create_subscription(DiagnosticArray, "/diagnostics", lambda _msg: None, DIAGNOSTICS_QOS)
-    executor = EventsExecutor(context=context)
-    executor.add_node(node)
-    listening = threading.Event()
-    listening.set()
-
-    def spin() -> None:
-        """Short spins until told to stop: shutting down an EventsExecutor inside spin() hangs it."""
-        while listening.is_set():
-            executor.spin_once(timeout_sec=0.05)
-
-    gc.freeze()  # as the nodes do (nodes.runtime): no collector pauses walking start-up objects
-    spinner = threading.Thread(target=spin, daemon=True)
-    spinner.start()
+    listener = Listener(sampler) if realtime else None
+    readers = 1 if listener is None else 2  # recorder (+ listener) for each estimator output
     mode = "real time" if realtime else "as fast as possible"
     bag = folder / f"{'rt' if realtime else 'fast'}_{int(rate)}"
     log = folder / f"{bag.name}.log"
@@ -220,24 +259,26 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
         record=bag,
         realtime=realtime,
         overrides=overrides,
-        simulator_params={"wait_for_subscribers": 3},  # estimator, recorder and this listener
-        # Recorder and this listener: an estimate sent before a reader has matched arrives only on a
-        # DDS resend (~100 ms later), which would show as start-up latency, not the chain's.
-        estimator_params={"wait_for_subscribers": 2},
+        simulator_params={"wait_for_subscribers": readers + 1},  # + the estimator
+        # An estimate sent before a reader has matched arrives only on a DDS resend (~100 ms later),
+        # which would show as start-up latency, not the chain's.
+        estimator_params={"wait_for_subscribers": readers},
     )
     chain = Chain(config, log=False, output=log)
-    sampler_thread = threading.Thread(target=sampler.run, args=(chain,), daemon=True)
-    sampler_thread.start()
+    threads = [threading.Thread(target=sampler.run, args=(chain,), daemon=True)]
+    if listener is None:
+        marker = "subscribers matched: publishing"
+        threads.append(threading.Thread(target=_start_on_log_line, args=(sampler, log, marker), daemon=True))
+    for thread in threads:
+        thread.start()
     try:
         code = chain.run()
     finally:
         sampler.stop.set()
-        sampler_thread.join()
-        listening.clear()
-        spinner.join()
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
+        for thread in threads:
+            thread.join()
+        if listener is not None:
+            listener.close()
     counts = {name: info.count for name, info in read_bag(bag).topics.items()}
     jitter, factor = _log_figures(log.read_text(errors="replace"))
     return Result(
@@ -247,12 +288,30 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
         expected=expected,
         angles_written=counts.get("/pendulum/joint_states", 0),
         estimates_written=counts.get("/car/accel/estimate", 0),
-        latency=np.asarray(latency, dtype=np.float64) * 1e-9,
+        latency=np.asarray([] if listener is None else listener.latency, dtype=np.float64) * 1e-9,
         jitter_p99_us=jitter if realtime else None,
         real_time_factor=factor,
         cpu=sampler.percent(),
         exit_code=code,
     )
+
+
+def sleep_loop_floor(rate: float = 1000.0, seconds: float = 2.0) -> tuple[float, float]:
+    """(p99, max) lateness in ms of a bare Python loop sleeping to a ``rate`` schedule: this machine's floor.
+
+    Nothing of the chain runs meanwhile; whatever this loop shows (VM steal, wake-up latency of an idle
+    vCPU), every process of the chain suffers too, so the chain's p99 cannot be read below it.
+    """
+    n = int(rate * seconds)
+    lateness = np.empty(n)
+    start = time.perf_counter()
+    for i in range(n):
+        due = start + i / rate
+        now = time.perf_counter()
+        if due > now:
+            time.sleep(due - now)
+        lateness[i] = time.perf_counter() - due
+    return float(np.percentile(lateness, 99) * 1e3), float(lateness.max() * 1e3)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -268,6 +327,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
     args = parser.parse_args(argv)
     rows = []
+    p99, worst = sleep_loop_floor()
+    floor = (
+        f"Machine floor: a bare 1 kHz Python sleep loop, nothing else running: "
+        f"p99 lateness {p99:.2f} ms, max {worst:.2f} ms."
+    )
+    print(floor, flush=True)
     with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_chain_") as tmp:
         runs = [(rate, args.duration, True) for rate in args.rates] + [(1000.0, args.fast_duration, False)]
         for rate, duration, realtime in runs:
@@ -282,7 +347,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     print()
     print(table)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "chain.md").write_text(table + "\n")
+    (args.out / "chain.md").write_text(table + "\n\n" + floor + "\n")
     return 0
 
 
