@@ -1,6 +1,7 @@
 """Chain benchmark: the live ROS 2 chain at several sensor rates, and as fast as possible.
 
-    python -m pendulum_accel.bench.chain [--rates HZ ...] [--duration S] [--fast-duration S] [--out DIR]
+    python -m pendulum_accel.bench.chain [--rates HZ ...] [--duration S] [--fast-duration S]
+                                         [--rt-priority N] [--out DIR]
 
 For each rate, the launcher runs simulator, estimator and recorder (separate processes, real-time
 pacing, recording on) on ``lecture_constant`` while a listener in this process time-stamps every
@@ -12,8 +13,10 @@ angle and every estimate on arrival with one monotonic clock. Reported per rate:
 * simulator pacing jitter (p99 of publish − due) and real-time factor, from its log;
 * CPU of each node (% of one core, from /proc/<pid>/stat) while data flows.
 
-Then the same chain as fast as possible at 1 kHz with recording, as ``pendulum-accel run --fast`` runs
-it (no listener: latency means nothing there): its real-time factor, losses and CPU.
+Then 1 kHz once more with every node at SCHED_FIFO priority N (``pendulum-accel run --rt-priority N``,
+default 20), and the same chain as fast as possible at 1 kHz with recording, as ``pendulum-accel run
+--fast`` runs it (no listener: latency means nothing there): its real-time factor, losses and CPU.
+First, the machine's own floor: the lateness of a bare 1 kHz sleep loop.
 Benchmarks measure; tests never assert on time.
 """
 
@@ -234,7 +237,7 @@ def _start_on_log_line(sampler: CpuSampler, log: Path, marker: str) -> None:
             return
 
 
-def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Result:
+def run_once(rate: float, duration: float, realtime: bool, folder: Path, rt_priority: int = 0) -> Result:
     """Run the chain once with a CPU sampler, and in real time with a latency listener; the figures.
 
     As fast as possible there is no listener: latency has no meaning when the simulator runs ahead of
@@ -252,7 +255,9 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
     listener = Listener(sampler) if realtime else None
     readers = 1 if listener is None else 2  # recorder (+ listener) for each estimator output
     mode = "real time" if realtime else "as fast as possible"
-    bag = folder / f"{'rt' if realtime else 'fast'}_{int(rate)}"
+    if realtime and rt_priority:
+        mode += f", SCHED_FIFO {rt_priority}"
+    bag = folder / f"{'rt' if realtime else 'fast'}_{int(rate)}_{rt_priority}"
     log = folder / f"{bag.name}.log"
     config = ChainConfig(
         scene=SCENE,
@@ -263,6 +268,7 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
         # An estimate sent before a reader has matched arrives only on a DDS resend (~100 ms later),
         # which would show as start-up latency, not the chain's.
         estimator_params={"wait_for_subscribers": readers},
+        rt_priority=rt_priority,
     )
     chain = Chain(config, log=False, output=log)
     threads = [threading.Thread(target=sampler.run, args=(chain,), daemon=True)]
@@ -280,7 +286,10 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path) -> Resu
         if listener is not None:
             listener.close()
     counts = {name: info.count for name, info in read_bag(bag).topics.items()}
-    jitter, factor = _log_figures(log.read_text(errors="replace"))
+    text = log.read_text(errors="replace")
+    jitter, factor = _log_figures(text)
+    if "cannot take real-time priority" in text:
+        mode += " (refused: normal priority)"
     return Result(
         mode=mode,
         rate_hz=rate,
@@ -324,6 +333,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--fast-duration", type=float, default=30.0, help="scene seconds of the as-fast-as-possible run"
     )
+    parser.add_argument(
+        "--rt-priority",
+        type=int,
+        default=20,
+        help="SCHED_FIFO priority of the extra real-time 1 kHz run (0: no extra run)",
+    )
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
     args = parser.parse_args(argv)
     rows = []
@@ -334,9 +349,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     print(floor, flush=True)
     with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_chain_") as tmp:
-        runs = [(rate, args.duration, True) for rate in args.rates] + [(1000.0, args.fast_duration, False)]
-        for rate, duration, realtime in runs:
-            result = run_once(rate, duration, realtime, Path(tmp))
+        runs = [(rate, args.duration, True, 0) for rate in args.rates]
+        if args.rt_priority:
+            runs.append((1000.0, args.duration, True, args.rt_priority))
+        runs.append((1000.0, args.fast_duration, False, 0))
+        for rate, duration, realtime, priority in runs:
+            result = run_once(rate, duration, realtime, Path(tmp), priority)
             rows.append(result.row())
             print(
                 " | ".join(rows[-1])

@@ -39,6 +39,14 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--estimator", metavar="M", help="estimation method (default: the package default)")
     parser.add_argument(
+        "--rt-priority",
+        type=_priority,
+        default=0,
+        metavar="N",
+        help="real-time runs: SCHED_FIFO priority 1-99 for every node (needs root or CAP_SYS_NICE); "
+        "0, the default, keeps normal scheduling",
+    )
+    parser.add_argument(
         "--set",
         dest="overrides",
         action="append",
@@ -60,7 +68,19 @@ def chain_config(args: argparse.Namespace) -> ChainConfig:
         realtime=args.realtime,
         estimator=args.estimator,
         overrides=dict(parse_override(text) for text in args.overrides),
+        rt_priority=args.rt_priority,
     )
+
+
+def _priority(text: str) -> int:
+    """An int from 0 to 99, else argparse's one-line error."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= 99:
+        raise argparse.ArgumentTypeError(f"must be an integer from 0 to 99, got {text!r}")
+    return value
 
 
 def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:

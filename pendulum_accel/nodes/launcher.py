@@ -25,6 +25,7 @@ from pathlib import Path
 from types import FrameType
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.nodes.scheduling import RT_PRIORITY_ENV
 
 _PR_SET_PDEATHSIG = 1
 _STOP_TIMEOUT = 15.0  # s a node gets to exit after SIGINT before SIGKILL
@@ -74,6 +75,7 @@ class ChainConfig:
     overrides: dict[str, float] = field(default_factory=dict)
     estimator_params: dict[str, ParamValue] = field(default_factory=dict)
     simulator_params: dict[str, ParamValue] = field(default_factory=dict)
+    rt_priority: int = 0  # SCHED_FIFO priority of every node in a real-time run (0: normal scheduling)
 
 
 @dataclass
@@ -168,8 +170,13 @@ class Chain:
 
     def _start(self, role: str, command: list[str]) -> None:
         """Start one node in its own process group (a terminal's Ctrl-C reaches only the launcher)."""
+        env = dict(os.environ)
+        env.pop(RT_PRIORITY_ENV, None)
+        if self.config.rt_priority and self.config.realtime:
+            # Only paced runs: as fast as possible, FIFO nodes that never block would starve the machine.
+            env[RT_PRIORITY_ENV] = str(self.config.rt_priority)
         if self.output is None:
-            proc = subprocess.Popen(command, preexec_fn=_die_with_parent, start_new_session=True)
+            proc = subprocess.Popen(command, preexec_fn=_die_with_parent, start_new_session=True, env=env)
         else:
             with self.output.open("ab") as sink:
                 proc = subprocess.Popen(
@@ -178,6 +185,7 @@ class Chain:
                     stderr=subprocess.STDOUT,
                     preexec_fn=_die_with_parent,
                     start_new_session=True,
+                    env=env,
                 )
         self.children.append(Child(role, command, proc))
         self._say(f"started {role} (pid {proc.pid})")
