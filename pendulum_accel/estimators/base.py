@@ -188,10 +188,12 @@ class Estimator(ABC):
         """Group delay at zero frequency (s) of the linearised method about θ_eq(a)."""
 
     def describe(self) -> str:
-        """One line: method name, its settings, N and delay at a = 0."""
+        """One line: method name, its settings, N and the steady-state group delay at a = 0."""
+        # "steady-state": for the adaptive Kalman filter this is its quiet-mode memory, far longer than
+        # the time it takes to follow a change in a (0.67 s for a 0 → 3 m/s² step), which "delay" hid.
         return (
             f"{self.name}: {self.summary}; N_eff={self.noise_equivalent_samples(0.0):.1f}, "
-            f"delay={self.nominal_delay(0.0):.3f} s"
+            f"steady-state group delay {self.nominal_delay(0.0):.3f} s"
         )
 
     def _accepts(self, t: float, theta: float, last_t: float | None) -> bool:
