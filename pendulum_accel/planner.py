@@ -367,7 +367,7 @@ def _stepped(setup: _Setup, model: str, budget: float, extra: float, why: str) -
     order = sorted(STEPPED_METHODS, key=lambda m: costs[m][0])
     first = _fixed_step(setup, model, order[0], budget, extra, why)
     if first.predicted_error <= target:
-        other = f"{order[1]} est. {costs[order[1]][0]:.2g} s"
+        other = f"{order[1]} (est. {costs[order[1]][0]:.2g} s)"
         return _replace_reason(first, f"{first.reason}, cheaper than {other}")
     second = _fixed_step(setup, model, order[1], budget, extra, why)
     if second.predicted_error <= target:
