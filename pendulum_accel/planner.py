@@ -318,14 +318,16 @@ def _pilot_fixed(
     coarse = theta(dt)
     best = (math.inf, dt)
     for _ in range(PILOT_ROUNDS):
-        predicted = richardson * float(np.max(np.abs(coarse - theta(0.5 * dt))))
+        fine = theta(0.5 * dt)
+        predicted = richardson * float(np.max(np.abs(coarse - fine)))
         if predicted > 0.5 * best[0]:
             return best  # round-off: a smaller step no longer buys accuracy
         best = (predicted, dt)
         if not adjust or predicted <= budget:
             return best
-        dt, _ = _effective_step(setup, dt / max(2.0, 1.1 * (predicted / budget) ** (1.0 / order)))
-        coarse = theta(dt)
+        _, half_steps = _effective_step(setup, 0.5 * dt)
+        dt, steps = _effective_step(setup, dt / max(2.0, 1.1 * (predicted / budget) ** (1.0 / order)))
+        coarse = fine if steps == half_steps else theta(dt)  # a plain halving: that run is done already
     return best
 
 
@@ -338,6 +340,11 @@ def _fixed_step(
         dt = _first_step(setup, model, method, budget)
     elif not (math.isfinite(dt) and dt > 0.0):
         raise SceneError(f"dt must be a finite step > 0 s, got {dt!r}")
+    elif (steps := _effective_step(setup, dt)[1]) > MAX_FIXED_STEPS:
+        raise SceneError(
+            f"dt = {dt:g} s needs {steps:.2g} steps over {setup.duration:g} s, more than "
+            f"{MAX_FIXED_STEPS:.0e}; use a larger dt"
+        )
     if model in COMPILED_MODELS:
         error, dt = _pilot_fixed(setup, model, method, dt, budget, adjust=not given)
         h, steps = _effective_step(setup, dt)

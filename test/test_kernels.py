@@ -62,7 +62,7 @@ def test_elastic_kernel_matches_the_numpy_loop(method: str) -> None:
     profile = PROFILES["step"]
     rhs = elastic_rhs(p, scalar_accel(profile, 0.0, 1.0))
     y0 = np.array([1.001, 0.4, 0.0, 0.2])
-    kernel = Kernel.elastic(p, profile, 1e4)
+    kernel = Kernel.elastic(p, profile)
     fast, slow = _both(kernel, rhs, y0, method, 2e-4, profile.breakpoints())
     np.testing.assert_allclose(fast.y, slow.y, rtol=0, atol=1e-11)
 

@@ -241,6 +241,8 @@ def test_user_settings_are_followed_and_flagged() -> None:
     assert measured_error(scene, coarse) <= coarse.predicted_error
     tol = plan_with(scene, method="DOP853", rtol=1e-12)
     assert (tol.method, tol.rtol) == ("DOP853", 1e-12) and tol.meets_target
+    with pytest.raises(SceneError, match="use a larger dt"):  # 2e10 steps: refused before any run
+        plan_with(scene, method="rk4", dt=1e-9)
     with pytest.raises(SceneError, match="--dt"):
         plan_with(scene, method="DOP853", dt=0.01)
     with pytest.raises(SceneError, match="closed form"):

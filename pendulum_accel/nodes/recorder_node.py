@@ -164,14 +164,12 @@ class RecorderNode(ChainNode):
 
     def _write_pending(self) -> None:
         """Write every buffered message, merged by log time, and flush the file (BagWriter.write_sorted)."""
+        pending, self._pending = self._pending, {topic: ([], []) for topic in self._pending}
         streams = [
-            Stream(topic, np.array(times, dtype=np.int64), list(payloads))
-            for topic, (times, payloads) in self._pending.items()
+            Stream(topic, np.array(times, dtype=np.int64), payloads)
+            for topic, (times, payloads) in pending.items()
             if times
         ]
-        for times, payloads in self._pending.values():
-            times.clear()
-            payloads.clear()
         if streams:
             self.writer.write_sorted(streams)
         else:

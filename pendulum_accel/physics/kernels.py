@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 
+from pendulum_accel.physics.elastic import stiffness_of
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, Braking, Constant, Ramp, Sinusoid, Step, Table
 
@@ -211,9 +212,10 @@ class Kernel:
         return cls("rigid", np.array([p.gravity / p.length, 1.0 / p.length, p.damping]), profile)
 
     @classmethod
-    def elastic(cls, p: Pendulum, profile: AccelProfile, stiffness: float) -> Kernel:
-        """par = (k/m, g, c, l)."""
-        return cls("elastic", np.array([stiffness / p.mass, p.gravity, p.damping, p.length]), profile)
+    def elastic(cls, p: Pendulum, profile: AccelProfile) -> Kernel:
+        """par = (k/m, g, c, l), k from the pendulum (ParameterError when it has none)."""
+        k_m = stiffness_of(p) / p.mass
+        return cls("elastic", np.array([k_m, p.gravity, p.damping, p.length]), profile)
 
 
 def accel_coefficients(profile: AccelProfile, nodes: np.ndarray) -> tuple[int, np.ndarray] | None:
@@ -266,7 +268,7 @@ def warm() -> None:
     nodes = np.array([0.0, 0.01])
     for kernel, y0 in (
         (Kernel.rigid(p, Constant(0.0)), np.zeros(2)),
-        (Kernel.elastic(p, Constant(0.0), 1e3), np.array([1.0, 0.0, 0.0, 0.0])),
+        (Kernel.elastic(p, Constant(0.0)), np.array([1.0, 0.0, 0.0, 0.0])),
     ):
         run_kernel(kernel, y0, nodes, "rk4", 0.01)
 

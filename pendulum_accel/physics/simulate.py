@@ -201,7 +201,7 @@ def simulate(
         breakpoints=breaks,
         omega=omega,
         jac=elastic_model.elastic_jacobian(pendulum, a_of_t),
-        kernel=Kernel.elastic(pendulum, profile, elastic_model.stiffness_of(pendulum)),
+        kernel=Kernel.elastic(pendulum, profile),
     )
     r, theta, r_dot, theta_dot = result.y
     return Trajectory(
