@@ -59,8 +59,8 @@ bags: $(STAMP)
 BENCHES := work_precision estimators chain bags sweep_bench
 bench: $(STAMP)
 	@for b in $(BENCHES); do \
-	  echo "== python -m pendulum_accel.bench.$$b"; \
-	  $(BIN)/python -m pendulum_accel.bench.$$b --out out/bench || exit 1; \
+	  echo "== python -m benchmarks.$$b"; \
+	  $(BIN)/python -m benchmarks.$$b --out out/bench || exit 1; \
 	done
 
 clean:

@@ -14,7 +14,7 @@ VERSION = re.search(r"<version>([^<]+)</version>", (HERE / "package.xml").read_t
 setup(
     name=PACKAGE,
     version=VERSION,
-    packages=find_packages(exclude=["test", "test.*"]),
+    packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
     package_data={PACKAGE: ["scenes/*.yaml", "scenes/*.csv", "nodes/*.xml", "py.typed"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from pendulum_accel.bench.estimators import BenchConfig, Row, main, run_benchmark
+from benchmarks.estimators import BenchConfig, Row, main, run_benchmark
 
 
 @pytest.fixture(scope="module")

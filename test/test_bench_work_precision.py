@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendulum_accel.bench import work_precision as wp
+from benchmarks import work_precision as wp
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Step
 

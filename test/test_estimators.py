@@ -122,7 +122,7 @@ def _tangent_and_angle_means(amplitude: float, accel: float = 3.0) -> tuple[floa
 
 
 def test_averaging_tan_is_biased_but_averaging_angle_is_not() -> None:
-    """Issue #5: mean g tan θ is +0.5 % high at 0.1 rad, +16 % at 0.5 rad (a = 3 m/s²); mean θ is exact."""
+    """Mean g tan θ is +0.5 % high at 0.1 rad, +16 % at 0.5 rad (a = 3 m/s²); mean θ is exact."""
     tan_small, angle_small = _tangent_and_angle_means(0.1)
     tan_large, angle_large = _tangent_and_angle_means(0.5)
     assert tan_small == pytest.approx(0.005, abs=0.001)  # measured +0.55 %
@@ -144,7 +144,7 @@ def test_period_mean_is_unbiased_on_a_large_swing(amplitude: float) -> None:
     assert tan_bias > 0.8 * (1.0 + (3.0 / G) ** 2) * amplitude**2 / 2.0  # naive: ≈ sec²θ_eq A²/2 high
 
 
-def test_default_is_a_known_method_and_meets_the_issue_targets() -> None:
+def test_default_is_a_known_method_and_meets_its_targets() -> None:
     """The default settles to 2 % of a 0 → 3 m/s² step within 2 s; steady RMS within 1.5× of its bound."""
     assert DEFAULT_ESTIMATOR in ESTIMATORS
     t, theta, truth = step_record(14.0)

@@ -33,9 +33,9 @@ from pendulum_accel.physics.exact import (
 from pendulum_accel.physics.params import STANDARD_GRAVITY as G
 from pendulum_accel.physics.params import Pendulum
 
-HORIZON = 20.0  # s, the horizon
+HORIZON = 20.0  # s, the accuracy horizon
 CHECK_TIMES = np.linspace(2.0, HORIZON, 10)
-TOLERANCE = 1e-10  # rad, the bound for θ against the reference
+TOLERANCE = 1e-10  # rad, the bound for θ against the reference
 TAYLOR_ORDER = 36
 TAYLOR_STEP = 0.22  # × 1/Ω; the nearest complex singularity is ≥ (π/2)/Ω away, so terms shrink ≥ 7× each
 FIXED_BITS = 124  # fixed-point fraction bits, ≈ 37 digits

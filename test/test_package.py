@@ -55,10 +55,9 @@ _ROS_MODULES = {"rclpy", "builtin_interfaces", "rcl_interfaces", "rosidl_runtime
 
 
 def test_every_third_party_import_is_declared() -> None:
-    """Each non-stdlib, non-ROS module the package imports is in install_requires, or in the bench extra."""
+    """Each non-stdlib, non-ROS module the package imports is in install_requires."""
     requires = importlib.metadata.requires("pendulum_accel") or []
     declared = {r.split(";")[0].strip().lower() for r in requires if "extra ==" not in r}
-    bench = {r.split(";")[0].strip().lower() for r in requires if 'extra == "bench"' in r}
     for path in (REPO / "pendulum_accel").rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
             names = [a.name for a in node.names] if isinstance(node, ast.Import) else []
@@ -71,8 +70,7 @@ def test_every_third_party_import_is_declared() -> None:
                 if top == "pendulum_accel":
                     continue
                 dist = _DISTRIBUTION.get(top, top)
-                allowed = declared | (bench if "/bench/" in str(path) else set())
-                assert dist in allowed, f"{path.relative_to(REPO)} imports {top}, not declared in setup.py"
+                assert dist in declared, f"{path.relative_to(REPO)} imports {top}, not declared in setup.py"
 
 
 def test_one_version_everywhere() -> None:

@@ -150,7 +150,7 @@ def test_no_cheaper_model_would_have_met_the_target(name: str) -> None:
 
 
 def test_intended_choices_for_the_bundled_scenes() -> None:
-    """The issue's examples: closed forms, linear at rest, rigid if damped, elastic if stretched."""
+    """Examples: closed forms, linear at rest, rigid if damped, elastic if stretched."""
     plans = {name: planned(name) for name in SCENE_NAMES}
     assert plans["at_rest"].model == "linear"
     for name in ("lecture_constant", "step_start", "braking", "large_swing"):

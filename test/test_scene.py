@@ -54,8 +54,8 @@ def test_every_bundled_scene_loads_and_is_listed() -> None:
         assert load_scene(scene.name) == scene
 
 
-def test_bundled_scenes_cover_the_issue() -> None:
-    """The issue's list: at rest, lecture a, step, braking, stop-and-go, past 90°, elastic, multiplier."""
+def test_bundled_scenes_cover_the_lecture_cases() -> None:
+    """The bundled list: at rest, lecture a, step, braking, stop-and-go, past 90°, elastic, multiplier."""
     s = {scene.name: scene for scene in list_scenes()}
     assert s["at_rest"].profile == Constant(0.0)
     assert isinstance(s["lecture_constant"].profile, Constant) and s["lecture_constant"].theta0 == 0.0

@@ -25,7 +25,7 @@ ESTIMATORS: Mapping[str, type[Estimator]] = {
     cls.name: cls
     for cls in (InstantEstimator, PeriodMeanEstimator, LowpassEstimator, DynamicEstimator, KalmanEstimator)
 }
-# Best accuracy/latency trade in ``python -m pendulum_accel.bench.estimators`` (see the README).
+# Best accuracy/latency trade in ``python -m benchmarks.estimators`` (see the README).
 DEFAULT_ESTIMATOR = "kalman"
 
 _CONFIG_FIELDS = ("damping", "clamp_angle", "max_gap")

@@ -10,7 +10,7 @@ small ``q_accel`` (long memory, low noise) while the innovations are white, ``q_
 normalised innovation squared ν²/S, averaged over ``boost_tau``, exceeds ``boost_nis`` (E = 1 when
 the model fits; a change of a makes the innovations grow). With the defaults a 0 → 3 m/s² step
 settles to 2 % in ~0.65 s and the steady RMS is ~6e-4 m/s² at σ = 1e-3 rad, 200 Hz, l = 0.5 m
-(``python -m pendulum_accel.bench.estimators``); ``q_boost=0`` gives the plain fixed-q_a filter.
+(``python -m benchmarks.estimators``); ``q_boost=0`` gives the plain fixed-q_a filter.
 The small q_ω ((rad/s)²/s) absorbs unmodelled damping. Written with scalar arithmetic: a 3×3
 filter costs less in floats than in numpy calls.
 """

@@ -1,6 +1,6 @@
 """Estimator benchmark: accuracy, settling and delay of every method against the Cramér-Rao bound.
 
-    python -m pendulum_accel.bench.estimators [--out DIR] [--seeds N] [--duration S] [--quick]
+    python -m benchmarks.estimators [--out DIR] [--seeds N] [--duration S] [--quick]
 
 Scenes (l = 0.5 m, undamped, σ = 1e-3 rad white noise at 200 Hz by default; true θ(t) from
 pendulum_accel.physics.simulate, noise added with numpy): ``step`` (0 → 3 m/s² at t = 2 s),
@@ -53,7 +53,7 @@ class BenchScene:
 
 
 def bench_scenes() -> tuple[BenchScene, ...]:
-    """The three scenes of issue #7 §2: step, ramp, stop-and-go."""
+    """The three benchmark scenes: step, ramp, stop-and-go."""
     stop_go = Table(
         times=(0.0, 2.0, 2.5, 6.0, 6.5, 10.0, 10.5, 13.0, 13.5),
         accels=(0.0, 0.0, 2.5, 2.5, 0.0, 0.0, -3.0, -3.0, 0.0),
@@ -320,7 +320,7 @@ def plot(traces: dict[str, dict[str, np.ndarray]], path: Path) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the benchmark, print the table and write the files."""
     parser = argparse.ArgumentParser(
-        prog="python -m pendulum_accel.bench.estimators", description=__doc__.split("\n")[0]
+        prog="python -m benchmarks.estimators", description=__doc__.split("\n")[0]
     )
     parser.add_argument(
         "--out", type=Path, default=Path("out/bench"), help="output directory (default out/bench)"

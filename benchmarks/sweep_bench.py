@@ -1,8 +1,8 @@
 """Sweep throughput: trajectory-steps per CPU second for the rigid model with vectorised RK4.
 
-``python -m pendulum_accel.bench.sweep_bench [--variants 1000] [--steps 10000] [--out DIR]`` integrates
+``python -m benchmarks.sweep_bench [--variants 1000] [--steps 10000] [--out DIR]`` integrates
 a length sweep (l from 0.5 to 2 m, the lecture's a = 2 m/s²) of ``variants`` pendulums for ``steps``
-RK4 steps, best of ``--repeats`` runs, and prints the rate against the issue's target of 10 M
+RK4 steps, best of ``--repeats`` runs, and prints the rate against the target of 10 M
 trajectory-steps/s. For context it also times: the same batch under a 0 → 3 m/s² step profile (a(t)
 looked up per stage), an accel sweep, the right-hand side alone (its share of the time), and the
 single-trajectory path (simulate() per variant) the sweep replaces. Writes sweep_bench.md.
@@ -18,13 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
-from pendulum_accel.bench.work_precision import cpu_time
+from benchmarks.work_precision import cpu_time
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, Constant, Step
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.sweep import SweepSetup, batch_rigid_rhs, run_batch
 
-TARGET_RATE = 10e6  # trajectory-steps per second (issue #7 §5)
+TARGET_RATE = 10e6  # trajectory-steps per second
 DT = 1e-3
 SAMPLE_EVERY = 10  # steps per output sample (100 Hz samples at dt = 1 ms)
 
@@ -47,7 +47,7 @@ def _rate(
 
 def main(argv: list[str] | None = None) -> int:
     """Run the throughput benchmark and print the target check."""
-    parser = argparse.ArgumentParser(prog="python -m pendulum_accel.bench.sweep_bench", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.sweep_bench", description=__doc__)
     parser.add_argument("--variants", type=int, default=1000, help="trajectories in the batch (1000)")
     parser.add_argument("--steps", type=int, default=10_000, help="RK4 steps per trajectory (10000)")
     parser.add_argument("--repeats", type=int, default=3, help="best of this many runs (3)")
@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
 
     met = rate >= TARGET_RATE
     lines = [
-        f"# Sweep throughput (`python -m pendulum_accel.bench.sweep_bench --variants {n} --steps {steps}`)",
+        f"# Sweep throughput (`python -m benchmarks.sweep_bench --variants {n} --steps {steps}`)",
         "",
         "Trajectory-steps per CPU second (`time.process_time`, best of "
         f"{args.repeats}); RK4, dt = {DT:g} s, samples every {SAMPLE_EVERY} steps.",

@@ -1,11 +1,11 @@
 """Work-precision benchmark: max angle error against CPU time for every model and integrator.
 
-``python -m pendulum_accel.bench.work_precision [--out DIR] [--quick]`` (default out/bench) runs every
+``python -m benchmarks.work_precision [--out DIR] [--quick]`` (default out/bench) runs every
 fixed-step method (euler, symplectic_euler, verlet, rk4) over four decades of step size hω, every
 ``solve_ivp`` method (RK45, DOP853, Radau, LSODA) over ten decades of rtol, and the closed forms
 (exact, linear), on four scenes: the lecture's constant acceleration, a swing past 90°, a 0 → 3 m/s²
 step and a stiff elastic string. Then it runs the planner at accuracy targets 1e-3 … 1e-12 rad and
-checks the issue's targets:
+checks its targets:
 
 - at every target, the planner's choice costs ≤ 1/5 of the CPU of the cheapest ``solve_ivp`` run that
   reaches the same accuracy;
@@ -650,7 +650,7 @@ class CaseSpec:
 
 
 def case_specs() -> tuple[CaseSpec, ...]:
-    """Issue #7 §1's four scenes plus stop-and-go (where the planner must step); fixed steps span
+    """The four lecture scenes plus stop-and-go (where the planner must step); fixed steps span
     hω 0.32 … 3.2e-5 (stiff string: 5.6 … 5.6e-3, up to RK8's stability limit).
     """
     from pendulum_accel.physics.profiles import Constant, Step
@@ -777,8 +777,8 @@ def scene_for(spec: CaseSpec, duration: float) -> Any:
 
 
 def summary_lines(checks: Sequence[PlannerCheck], closed: Sequence[ClosedFormCheck]) -> list[str]:
-    """The issue's targets, one line per scene, with MET / MISSED and the numbers behind it."""
-    lines = ["TARGETS (issue #7 §1)"]
+    """The targets, one line per scene, with MET / MISSED and the numbers behind it."""
+    lines = ["TARGETS"]
     for case in dict.fromkeys(c.case for c in checks):
         mine = [c for c in checks if c.case == case]
         bad = [c for c in mine if not (c.accurate and c.cheap)]
@@ -807,7 +807,7 @@ def summary_lines(checks: Sequence[PlannerCheck], closed: Sequence[ClosedFormChe
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the benchmark, write CSV/markdown/PNG under --out and print the target check."""
     parser = argparse.ArgumentParser(
-        prog="python -m pendulum_accel.bench.work_precision",
+        prog="python -m benchmarks.work_precision",
         description="Work-precision benchmark: max angle error vs CPU time for every model and integrator.",
     )
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
@@ -849,7 +849,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             p_rows, p_checks = run_planner(case, theta_ref, case_rows, targets, quick=args.quick)
             plan_rows += p_rows
             checks += p_checks
-    command = "python -m pendulum_accel.bench.work_precision" + (" --quick" if args.quick else "")
+    command = "python -m benchmarks.work_precision" + (" --quick" if args.quick else "")
     write_csv(rows + plan_rows, out / "work_precision.csv")
     write_markdown(cases, rows, checks, closed, floors, out / "work_precision.md", command)
     plot(cases, rows, plan_rows, out / "work_precision.png")

@@ -1,6 +1,6 @@
 """Chain benchmark: the live ROS 2 chain at several sensor rates, and as fast as possible.
 
-    python -m pendulum_accel.bench.chain [--rates HZ ...] [--duration S] [--fast-duration S]
+    python -m benchmarks.chain [--rates HZ ...] [--duration S] [--fast-duration S]
                                          [--rt-priority N] [--out DIR]
 
 For each rate, the launcher runs simulator, estimator and recorder (separate processes, real-time
@@ -326,7 +326,7 @@ def sleep_loop_floor(rate: float = 1000.0, seconds: float = 2.0) -> tuple[float,
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the live chain at each rate, then as fast as possible at 1 kHz; print a markdown table."""
     parser = argparse.ArgumentParser(
-        prog="python -m pendulum_accel.bench.chain", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.chain", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--rates", type=float, nargs="+", default=list(RATES), help="sensor rates, Hz")
     parser.add_argument("--duration", type=float, default=5.0, help="scene seconds per live run")

@@ -1,6 +1,6 @@
 """Bag benchmark: ``generate`` and ``analyze`` throughput against a plain rosbags loop, in one run.
 
-    python -m pendulum_accel.bench.bags [--out DIR] [--scene NAME] [--rate HZ] [--duration S] [--repeat N]
+    python -m benchmarks.bags [--out DIR] [--scene NAME] [--rate HZ] [--duration S] [--repeat N]
 
 1. generate: a scene at ``--rate`` (default 1 kHz) with every topic of the chain, simulated,
    estimated and written; messages/s and × real time, per phase.
@@ -178,7 +178,7 @@ def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the benchmark, print the table, write bags.csv and bags.md."""
     parser = argparse.ArgumentParser(
-        prog="python -m pendulum_accel.bench.bags", description=__doc__.split("\n")[0]
+        prog="python -m benchmarks.bags", description=__doc__.split("\n")[0]
     )
     parser.add_argument(
         "--out", type=Path, default=Path("out/bench"), help="output directory (default out/bench)"

@@ -1,1 +1,0 @@
-"""Benchmarks: each module runs as ``python -m pendulum_accel.bench.<name>`` and prints its figures."""
