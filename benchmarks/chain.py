@@ -246,7 +246,7 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path, rt_prio
     """
     from pendulum_accel.bag.reader import read_bag
     from pendulum_accel.nodes.launcher import Chain, ChainConfig
-    from pendulum_accel.nodes.scene_overrides import apply_overrides
+    from pendulum_accel.overrides import apply_overrides
     from pendulum_accel.scene import load_scene
 
     overrides = {"rate_hz": float(rate), "duration": float(duration)}

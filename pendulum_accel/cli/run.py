@@ -25,7 +25,7 @@ def parse_override(text: str) -> tuple[str, float]:
 
 def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
     """The chain's options, shared by ``pendulum-accel run`` and ``launch_scripts/chain.py``."""
-    from pendulum_accel.nodes.scene_overrides import OVERRIDES
+    from pendulum_accel.overrides import OVERRIDES
 
     parser.add_argument("scene", nargs="?", default=None, help="bundled scene name or scene YAML path")
     parser.add_argument("--record", type=Path, metavar="DIR", help="record the chain to this bag directory")

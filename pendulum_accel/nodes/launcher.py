@@ -97,7 +97,7 @@ def effective_scene_file(config: ChainConfig, directory: Path) -> str:
     """Scene argument for the nodes: the name, or (with overrides) a YAML file of the overridden scene."""
     if not config.overrides:
         return config.scene
-    from pendulum_accel.nodes.scene_overrides import apply_overrides
+    from pendulum_accel.overrides import apply_overrides
     from pendulum_accel.scene import load_scene, scene_to_yaml
 
     scene = apply_overrides(load_scene(config.scene), config.overrides)

@@ -37,7 +37,7 @@ from pendulum_accel.bag.generate import DEFAULT_CLOCK_RATE_HZ, simulator_rows, s
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.nodes.qos import DATA_QOS
 from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
-from pendulum_accel.nodes.scene_overrides import OVERRIDES, apply_overrides
+from pendulum_accel.overrides import OVERRIDES, apply_overrides
 
 NODE_NAME = "pendulum_sim"
 _ACK_TIMEOUT = Duration(seconds=10)

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, replace
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.scene import Scene
 
 
 @dataclass(frozen=True)
@@ -21,8 +20,8 @@ class Override:
     high: float
     unit: str
     description: str
-    get: Callable[[Any], float]
-    set: Callable[[Any, float], Any]
+    get: Callable[[Scene], float]
+    set: Callable[[Scene, float], Scene]
 
     def check(self, value: float) -> float:
         """value itself when low ≤ value ≤ high (and finite); ParameterError naming the field otherwise."""
@@ -33,50 +32,30 @@ class Override:
         return value
 
 
-def _replace_in(field: str, attr: str) -> Callable[[Any, float], Any]:
-    """Setter: scene with scene.<field>.<attr> = v (both frozen dataclasses, so rebuilt and re-validated)."""
-
-    def setter(scene: Any, value: float) -> Any:
-        """dataclasses.replace on the nested field, then on the scene."""
-        inner = dataclasses.replace(getattr(scene, field), **{attr: value})
-        return dataclasses.replace(scene, **{field: inner})
-
-    return setter
-
-
-def _replace_top(attr: str) -> Callable[[Any, float], Any]:
-    """Setter: scene with scene.<attr> = v."""
-
-    def setter(scene: Any, value: float) -> Any:
-        """dataclasses.replace on the scene."""
-        return dataclasses.replace(scene, **{attr: value})
-
-    return setter
-
-
 OVERRIDES: tuple[Override, ...] = (
     Override("length", float, 1e-3, 1e3, "m", "pendulum length l", lambda s: s.pendulum.length,
-             _replace_in("pendulum", "length")),
+             lambda s, v: replace(s, pendulum=replace(s.pendulum, length=v))),
     Override("gravity", float, 0.1, 100.0, "m/s²", "gravity g", lambda s: s.pendulum.gravity,
-             _replace_in("pendulum", "gravity")),
+             lambda s, v: replace(s, pendulum=replace(s.pendulum, gravity=v))),
     Override("damping", float, 0.0, 100.0, "1/s", "linear damping c", lambda s: s.pendulum.damping,
-             _replace_in("pendulum", "damping")),
+             lambda s, v: replace(s, pendulum=replace(s.pendulum, damping=v))),
     Override("noise_std", float, 0.0, 1.0, "rad", "angle sensor noise σ", lambda s: s.sensor.noise_std,
-             _replace_in("sensor", "noise_std")),
+             lambda s, v: replace(s, sensor=replace(s.sensor, noise_std=v))),
     Override("rate_hz", float, 1.0, 100_000.0, "Hz", "angle sensor rate", lambda s: s.sensor.rate_hz,
-             _replace_in("sensor", "rate_hz")),
+             lambda s, v: replace(s, sensor=replace(s.sensor, rate_hz=v))),
     Override("seed", int, 0, 2**31 - 1, "", "sensor noise seed", lambda s: s.sensor.seed,
-             _replace_in("sensor", "seed")),
+             lambda s, v: replace(s, sensor=replace(s.sensor, seed=int(v)))),
     Override("theta0", float, -math.pi, math.pi, "rad", "initial angle θ(0)", lambda s: s.theta0,
-             _replace_top("theta0")),
+             lambda s, v: replace(s, theta0=v)),
     Override("duration", float, 1e-3, 86_400.0, "s", "scene duration", lambda s: s.duration,
-             _replace_top("duration")),
+             lambda s, v: replace(s, duration=v)),
 )  # fmt: skip
+"""Each setter rebuilds the frozen dataclasses with dataclasses.replace, so the scene re-validates."""
 
 OVERRIDE_BY_NAME: dict[str, Override] = {o.name: o for o in OVERRIDES}
 
 
-def apply_overrides(scene: Any, values: Mapping[str, float]) -> Any:
+def apply_overrides(scene: Scene, values: Mapping[str, float]) -> Scene:
     """The scene with every field named in ``values`` replaced (range-checked; the scene re-validates)."""
     for name, value in values.items():
         spec = OVERRIDE_BY_NAME.get(name)
