@@ -9,7 +9,16 @@ class PendulumAccelError(Exception):
 
 
 class ParameterError(PendulumAccelError, ValueError):
-    """An impossible physical or numerical parameter (NaN, inf, length <= 0, ...)."""
+    """An impossible physical or numerical parameter (NaN, inf, length <= 0, ...).
+
+    ``path`` is the offending field's name relative to what was being read (e.g. ``'a'`` of an
+    acceleration profile), when the raiser knows it; a caller nests it into its own path.
+    """
+
+    def __init__(self, message: str, *, path: str | None = None) -> None:
+        """The one-line message, plus the field path as data (None: not tied to one field)."""
+        super().__init__(message)
+        self.path = path
 
 
 class StabilityError(PendulumAccelError, ValueError):

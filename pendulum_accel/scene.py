@@ -295,9 +295,7 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
     try:
         profile = profile_from_dict(accel, base_dir)  # type: ignore[arg-type]
     except ParameterError as err:
-        # physics.profiles names the field as "... field 'x' ..."; lift it into the path.
-        named = re.search(r"field '([A-Za-z_]\w*)", str(err))
-        where = f"acceleration.{named.group(1)}" if named else "acceleration"
+        where = f"acceleration.{err.path}" if err.path else "acceleration"
         raise SceneError(f"{where}: {err}") from None
 
     sens = _Fields(top.raw("sensor", "a mapping with rate_hz, ..."), "sensor", _SENSOR)

@@ -239,6 +239,29 @@ def test_bad_scene_is_one_line_naming_file_and_field(
     assert expected in message
 
 
+@pytest.mark.parametrize(
+    ("mutate", "field"),
+    [
+        (_set("acceleration.type", "jerk"), "acceleration.type"),
+        (_set("acceleration.b", 1.0), "acceleration.b"),
+        (_set("acceleration.a", "fast"), "acceleration.a"),
+        (_drop("acceleration.a"), "acceleration.a"),
+        (_set("acceleration", {"type": "table", "times": [0, "x"], "accels": [0, 1]}), "acceleration.times"),
+        (_set("acceleration", {"type": "table", "times": [0], "accels": [0, 1]}), "acceleration"),
+    ],
+)
+def test_profile_error_path_is_carried_as_data(
+    tmp_path: Path, mutate: Callable[[Doc], None], field: str
+) -> None:
+    """The profile's ParameterError.path, not its wording, gives the field path after 'acceleration'."""
+    doc = base_doc()
+    mutate(doc)
+    path = write(tmp_path, doc, "bad.yaml")
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert str(info.value).startswith(f"{path}: {field}: ")
+
+
 def test_malformed_yaml_names_file_and_line(tmp_path: Path) -> None:
     """Broken YAML: '<file>:<line>: malformed YAML: …' on one line."""
     path = tmp_path / "broken.yaml"

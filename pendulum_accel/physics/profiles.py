@@ -408,15 +408,23 @@ PROFILE_TYPES: tuple[str, ...] = tuple(_FIELDS)
 def _number(kind: str, name: str, value: object) -> float:
     """float(value) for profile field ``name``, else ParameterError naming it."""
     if isinstance(value, bool) or not isinstance(value, int | float | str):
-        raise ParameterError(f"{kind} profile field '{name}' must be a number, got {value!r}")
-    return require_finite(f"{kind} profile field '{name}'", value)  # type: ignore[arg-type]
+        raise ParameterError(f"{kind} profile field '{name}' must be a number, got {value!r}", path=name)
+    try:
+        return require_finite(f"{kind} profile field '{name}'", value)  # type: ignore[arg-type]
+    except ParameterError as err:
+        raise ParameterError(str(err), path=name) from None
 
 
 def _numbers(kind: str, name: str, value: object) -> tuple[float, ...]:
     """Tuple of floats for list field ``name``, else ParameterError naming it."""
     if isinstance(value, str | bytes) or not isinstance(value, Sequence):
-        raise ParameterError(f"{kind} profile field '{name}' must be a list of numbers, got {value!r}")
-    return tuple(_number(kind, f"{name}[{i}]", v) for i, v in enumerate(value))
+        raise ParameterError(
+            f"{kind} profile field '{name}' must be a list of numbers, got {value!r}", path=name
+        )
+    try:
+        return tuple(_number(kind, f"{name}[{i}]", v) for i, v in enumerate(value))
+    except ParameterError as err:
+        raise ParameterError(str(err), path=name) from None
 
 
 def profile_from_dict(d: Mapping[str, object], base_dir: Path | None = None) -> AccelProfile:
@@ -426,22 +434,24 @@ def profile_from_dict(d: Mapping[str, object], base_dir: Path | None = None) -> 
     kind = d.get("type")
     if kind not in _FIELDS:
         raise ParameterError(
-            f"acceleration profile field 'type' must be one of {', '.join(_FIELDS)}, got {kind!r}"
+            f"acceleration profile field 'type' must be one of {', '.join(_FIELDS)}, got {kind!r}",
+            path="type",
         )
     assert isinstance(kind, str)
     cls, required, optional = _FIELDS[kind]
     for name in d:
         if name != "type" and name not in required and name not in optional:
             raise ParameterError(
-                f"{kind} profile has unknown field '{name}' (allowed: {', '.join(required + optional)})"
+                f"{kind} profile has unknown field '{name}' (allowed: {', '.join(required + optional)})",
+                path=name,
             )
     for name in required:
         if name not in d:
-            raise ParameterError(f"{kind} profile is missing field '{name}'")
+            raise ParameterError(f"{kind} profile is missing field '{name}'", path=name)
     if kind == "csv":
         raw = d["path"]
         if not isinstance(raw, str | Path):
-            raise ParameterError(f"csv profile field 'path' must be a file path, got {raw!r}")
+            raise ParameterError(f"csv profile field 'path' must be a file path, got {raw!r}", path="path")
         path = Path(raw)
         if not path.is_absolute() and base_dir is not None:
             path = Path(base_dir) / path
