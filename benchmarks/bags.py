@@ -24,8 +24,6 @@ from typing import Any
 
 from rosbags.rosbag2 import Reader
 
-from pendulum_accel.bag.analyze import analyze_bag
-from pendulum_accel.bag.generate import generate_bag
 from pendulum_accel.bag.messages import (
     ACCEL_STAMPED,
     JOINT_STATE,
@@ -35,6 +33,9 @@ from pendulum_accel.bag.messages import (
 )
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
+from pendulum_accel.recording.analyze import analyze_bag
+from pendulum_accel.recording.generate import generate_bag
+from pendulum_accel.scene import Scene, load_scene
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,10 +93,8 @@ def our_read_decode(path: Path) -> int:
     return bag.message_count
 
 
-def scene_at_rate(name: str, rate_hz: float, duration: float) -> Any:
+def scene_at_rate(name: str, rate_hz: float, duration: float) -> Scene:
     """Bundled scene ``name`` with its sensor at ``rate_hz`` and its length set to ``duration`` s."""
-    from pendulum_accel.scene import load_scene
-
     scene = load_scene(name)
     sensor = dataclasses.replace(scene.sensor, rate_hz=float(rate_hz))
     return dataclasses.replace(scene, sensor=sensor, duration=float(duration))
@@ -177,9 +176,7 @@ def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the benchmark, print the table, write bags.csv and bags.md."""
-    parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.bags", description=__doc__.split("\n")[0]
-    )
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.bags", description=__doc__.split("\n")[0])
     parser.add_argument(
         "--out", type=Path, default=Path("out/bench"), help="output directory (default out/bench)"
     )

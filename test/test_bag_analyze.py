@@ -9,8 +9,6 @@ import numpy as np
 import pytest
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.analyze import analyze_bag, plot_analysis, settling
-from pendulum_accel.bag.generate import chain_streams, write_chain_bag
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.cli.main import main
@@ -19,6 +17,8 @@ from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Step
 from pendulum_accel.physics.simulate import simulate
+from pendulum_accel.recording.analyze import analyze_bag, plot_analysis, settling
+from pendulum_accel.recording.generate import chain_streams, write_chain_bag
 
 LENGTH = 0.5
 RATE = 200.0

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.generate import generate_bag
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.cli.main import main
+from pendulum_accel.recording.generate import generate_bag
 from pendulum_accel.scene import load_scene
 from pendulum_accel.scene_run import run_scene
 

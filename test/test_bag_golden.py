@@ -17,9 +17,9 @@ import pytest
 from rosbags.rosbag2 import Reader
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.analyze import analyze_bag
 from pendulum_accel.bag.reader import read_bag, scene_name
 from pendulum_accel.planner import plan_scene
+from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.scene import list_scenes, scene_from_yaml
 
 BAGS = Path(__file__).resolve().parent.parent / "bags"

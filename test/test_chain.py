@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendulum_accel.bag.generate import DEFAULT_CLOCK_RATE_HZ, generate_bag
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE
 from pendulum_accel.nodes.launcher import pids_alive
 from pendulum_accel.overrides import apply_overrides
+from pendulum_accel.recording.generate import DEFAULT_CLOCK_RATE_HZ, generate_bag
 from pendulum_accel.scene import load_scene
 from test.chain_helpers import Output, child_pids, start_chain
 from test.conftest import PYTHON, Spawn

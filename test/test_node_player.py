@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendulum_accel.bag.generate import estimator_settings
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.estimators import estimate_batch
+from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
 from test.chain_helpers import PROBE, Output, start_node
 from test.conftest import PYTHON, REPO, Spawn

@@ -7,8 +7,8 @@ import json
 import sys
 from typing import Any
 
-from pendulum_accel.bag.analyze import analysis_dict, analyze_bag, plot_analysis
 from pendulum_accel.bag.reader import read_bag, salvage_note
+from pendulum_accel.recording.analyze import analysis_dict, analyze_bag, plot_analysis
 
 
 def register(subparsers: Any) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pendulum_accel.bag.generate import generate_bag
+from pendulum_accel.recording.generate import generate_bag
 
 
 def register(subparsers: Any) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pendulum_accel.bag.golden import GOLDEN_MAX_DURATION, write_golden_bags
+from pendulum_accel.recording.golden import GOLDEN_MAX_DURATION, write_golden_bags
 
 
 def register(subparsers: Any) -> None:

@@ -85,9 +85,9 @@ def _priority(text: str) -> int:
 
 def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
     """Messages per topic, live-estimator error vs truth (bias, RMS, max), plan line and bag path."""
-    from pendulum_accel.bag.analyze import analyze_bag
     from pendulum_accel.bag.reader import read_bag
     from pendulum_accel.bag.writer import CUSTOM_PLAN
+    from pendulum_accel.recording.analyze import analyze_bag
 
     bag = read_bag(bag_path)
     lines = ["messages:"] + [f"  {name:<22} {info.count:>8}" for name, info in bag.topics.items()]

@@ -73,7 +73,7 @@ class EstimatorNode(ChainNode):
     def __init__(self) -> None:
         """Declare parameters, build the guarded estimator, subscribe (after waiting for subscribers)."""
         super().__init__(NODE_NAME)
-        from pendulum_accel.bag.generate import estimator_settings
+        from pendulum_accel.recording.settings import estimator_settings
         from pendulum_accel.scene import DEFAULT_SCENE, load_scene
 
         scene = str(

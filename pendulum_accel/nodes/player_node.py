@@ -17,12 +17,12 @@ from rclpy.duration import Duration
 from rclpy.publisher import Publisher
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.generate import DEFAULT_CLOCK_RATE_HZ, clock_mask
 from pendulum_accel.bag.reader import read_bag, salvage_note
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.nodes.conversions import message_class
 from pendulum_accel.nodes.qos import qos_for
 from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
+from pendulum_accel.recording.generate import DEFAULT_CLOCK_RATE_HZ, clock_mask
 
 NODE_NAME = "bag_player"
 _ACK_TIMEOUT = Duration(seconds=10)

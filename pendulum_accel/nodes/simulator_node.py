@@ -13,7 +13,6 @@ import math
 import threading
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -33,45 +32,14 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.generate import DEFAULT_CLOCK_RATE_HZ, simulator_rows, string_columns
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.nodes.qos import DATA_QOS
 from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
 from pendulum_accel.overrides import OVERRIDES, apply_overrides
+from pendulum_accel.recording.generate import DEFAULT_CLOCK_RATE_HZ, Frames, serialise_run
 
 NODE_NAME = "pendulum_sim"
 _ACK_TIMEOUT = Duration(seconds=10)
-
-
-@dataclass(frozen=True)
-class Frames:
-    """One scene run, serialised: sample times (s) and one CDR row per sample for each topic."""
-
-    t: NDArray[np.float64]
-    rows: dict[str, NDArray[np.uint8]]
-    clock_rows: NDArray[np.uint8]
-    clock_mask: NDArray[np.bool_]
-    plan: str
-
-    @property
-    def size(self) -> int:
-        """Number of samples."""
-        return int(self.t.size)
-
-
-def serialise_run(run: Any, clock_rate_hz: float) -> Frames:
-    """Frames of a SceneRun: joint_states (measured θ, θ'), truth (a), string (r − l, ṙ, T) if any, clock."""
-    sim = simulator_rows(
-        np.asarray(run.t, dtype=np.float64),
-        np.asarray(run.theta_measured, dtype=np.float64),
-        np.asarray(run.theta_dot, dtype=np.float64),
-        np.asarray(run.accel_true, dtype=np.float64),
-        string=string_columns(run),
-        clock_rate_hz=clock_rate_hz,
-    )
-    return Frames(
-        np.asarray(run.t, dtype=np.float64), sim.rows, sim.clock_rows, sim.clock_mask, run.plan.explain()
-    )
 
 
 def jitter_summary(lateness: NDArray[np.float64]) -> str:

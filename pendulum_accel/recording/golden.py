@@ -10,8 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from pendulum_accel.bag.analyze import Analysis, analyze_bag
-from pendulum_accel.bag.generate import GenerateResult, generate_bag
+from pendulum_accel.recording.analyze import Analysis, analyze_bag
+from pendulum_accel.recording.generate import GenerateResult, generate_bag
+from pendulum_accel.scene import list_scenes
 
 GOLDEN_MAX_DURATION = 30.0  # s: every bundled scene in full; zstd chunks keep the set small
 GOLDEN_COMPRESSION = "zstd"
@@ -29,9 +30,7 @@ class GoldenBag:
 
 def golden_scene_names() -> list[str]:
     """Names of the bundled scenes (one golden bag each)."""
-    from pendulum_accel.scene import list_scenes
-
-    return [str(getattr(s, "name", s)) for s in list_scenes()]
+    return [s.name for s in list_scenes()]
 
 
 def write_golden_bags(folder: Path | str, *, max_duration: float = GOLDEN_MAX_DURATION) -> list[GoldenBag]:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,7 +24,11 @@ from pendulum_accel.bag.messages import (
     TOPIC_JOINT_STATES,
 )
 from pendulum_accel.bag.reader import Bag, read_bag, scene_name
+from pendulum_accel.bag.writer import CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
+from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.scene import scene_from_yaml
 
 DEFAULT_REL_TOLERANCE = 0.02
 DEFAULT_ABS_TOLERANCE = 0.1  # m/s², about 1 % of g: below it sensor noise, not the method, dominates
@@ -142,8 +145,6 @@ def analyze_bag(
     ``config`` overrides the estimator configuration taken from the bag's scene (length, gravity,
     noise_std, rate_hz); without a stored scene, ``length`` must be given.
     """
-    from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
-
     if not skip >= 0.0:
         raise BagError(f"skip must be >= 0 s, got {skip!r}")
     if tolerance is not None and not tolerance > 0.0:
@@ -226,7 +227,7 @@ def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
     dt = dt[dt > 0]
     if dt.size:
         cfg["rate_hz"] = float(1.0 / np.median(dt))
-    text = bag.custom_data.get("pendulum_accel.scene")
+    text = bag.custom_data.get(CUSTOM_SCENE)
     if text:
         cfg.update(_scene_config(text))
     return cfg
@@ -234,9 +235,6 @@ def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
 
 def _scene_config(text: str) -> dict[str, float]:
     """Estimator settings of a scene stored as YAML text; BagError when it no longer loads."""
-    from pendulum_accel.bag.generate import estimator_settings
-    from pendulum_accel.scene import scene_from_yaml
-
     try:
         scene = scene_from_yaml(text, label="the scene stored in the bag")
     except PendulumAccelError as err:
@@ -281,7 +279,7 @@ def plot_analysis(result: Analysis, out: Path | str) -> Path:
     return path
 
 
-def analysis_dict(result: Analysis) -> dict[str, Any]:
+def analysis_dict(result: Analysis) -> dict[str, str | float | int | None]:
     """Figures of an analysis as a flat dict (for tables and JSON)."""
     return {
         "bag": str(result.path),

@@ -14,7 +14,6 @@ import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +22,11 @@ from pendulum_accel import __version__
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE, CUSTOM_VERSION, BagWriter, Stream
 from pendulum_accel.errors import BagError
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
+from pendulum_accel.estimators.guard import InputGuard
+from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.scene import Scene, load_scene, scene_to_yaml
+from pendulum_accel.scene_run import SceneRun, run_scene
 
 DIAGNOSTIC_NAME = "accel_estimator"
 _STAMP = ("header.stamp.sec", "header.stamp.nanosec")
@@ -50,7 +54,7 @@ class GenerateResult:
         return self.simulate_s + self.estimate_s + self.write_s
 
 
-def _stamp_columns(ns: NDArray[np.int64], prefix: str = "header.stamp") -> dict[str, NDArray[Any]]:
+def _stamp_columns(ns: NDArray[np.int64], prefix: str = "header.stamp") -> dict[str, NDArray[np.generic]]:
     """{prefix.sec, prefix.nanosec} columns for integer-ns stamps."""
     sec, nanosec = bm.split_stamp(ns)
     return {f"{prefix}.sec": sec, f"{prefix}.nanosec": nanosec}
@@ -74,7 +78,7 @@ def clock_mask(t: NDArray[np.float64], clock_rate_hz: float) -> NDArray[np.bool_
     return mask
 
 
-def string_columns(run: Any) -> StringColumns | None:
+def string_columns(run: SceneRun) -> StringColumns | None:
     """(stretch, stretch rate, tension) of a scene run that computed tension or stretch, else None.
 
     A run with only one of them gets zeros for the other, as /pendulum/string always carries all three.
@@ -83,7 +87,7 @@ def string_columns(run: Any) -> StringColumns | None:
         return None
     zeros = np.zeros(np.shape(run.t))
 
-    def column(values: Any) -> NDArray[np.float64]:
+    def column(values: NDArray[np.float64] | None) -> NDArray[np.float64]:
         """values as float64, zeros when the run did not compute them."""
         return zeros if values is None else np.asarray(values, dtype=np.float64)
 
@@ -133,6 +137,36 @@ def simulator_rows(
     return SimulatorRows(ns, rows, mask, clock_rows)
 
 
+@dataclass(frozen=True)
+class Frames:
+    """One scene run, serialised: sample times (s) and one CDR row per sample for each topic."""
+
+    t: NDArray[np.float64]
+    rows: dict[str, NDArray[np.uint8]]
+    clock_rows: NDArray[np.uint8]
+    clock_mask: NDArray[np.bool_]
+    plan: str
+
+    @property
+    def size(self) -> int:
+        """Number of samples."""
+        return int(self.t.size)
+
+
+def serialise_run(run: SceneRun, clock_rate_hz: float) -> Frames:
+    """Frames of a SceneRun: joint_states (measured θ, θ'), truth (a), string (r − l, ṙ, T) if any, clock."""
+    t = np.asarray(run.t, dtype=np.float64)
+    sim = simulator_rows(
+        t,
+        np.asarray(run.theta_measured, dtype=np.float64),
+        np.asarray(run.theta_dot, dtype=np.float64),
+        np.asarray(run.accel_true, dtype=np.float64),
+        string=string_columns(run),
+        clock_rate_hz=clock_rate_hz,
+    )
+    return Frames(t, sim.rows, sim.clock_rows, sim.clock_mask, run.plan.explain())
+
+
 def chain_streams(
     t: NDArray[np.float64],
     theta: NDArray[np.float64],
@@ -174,8 +208,6 @@ def diagnostics(
 ) -> tuple[NDArray[np.int64], list[bytes]]:
     """(stamps, CDR) of the estimator node's /diagnostics: its InputGuard fed every sample, one report
     per second of sim time (at the first sample at or after each whole second), same fields as live."""
-    from pendulum_accel.estimators.guard import InputGuard
-
     guard = InputGuard(rate_hz=rate_hz)
     stamps: list[int] = []
     out: list[bytes] = []
@@ -212,7 +244,7 @@ def write_chain_bag(
 
 
 def generate_bag(
-    scene: Any,
+    scene: Scene | str | Path,
     out: Path | str,
     *,
     overwrite: bool = False,
@@ -221,10 +253,6 @@ def generate_bag(
     compression: str | None = None,
 ) -> GenerateResult:
     """Simulate ``scene`` (a Scene or a scene name/path) and write its bag to ``out``."""
-    from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
-    from pendulum_accel.scene import load_scene, scene_to_yaml
-    from pendulum_accel.scene_run import run_scene
-
     if isinstance(scene, (str, Path)):
         scene = load_scene(scene)
     if duration is not None:
@@ -263,16 +291,3 @@ def generate_bag(
     t3 = time.perf_counter()
     sim_duration = float(t[-1] - t[0]) if t.size > 1 else 0.0
     return GenerateResult(out, counts, sim_duration, t1 - t0, t2 - t1, t3 - t2)
-
-
-def estimator_settings(scene: Any) -> dict[str, float]:
-    """length, gravity, damping, noise_std, rate_hz of a scene's pendulum and sensor (estimator config)."""
-    pendulum = scene.pendulum
-    sensor = scene.sensor
-    return {
-        "length": float(pendulum.length),
-        "gravity": float(pendulum.gravity),
-        "damping": float(pendulum.damping),
-        "noise_std": float(sensor.noise_std),
-        "rate_hz": float(sensor.rate_hz),
-    }
