@@ -144,6 +144,13 @@ def cpu_time(fn: Callable[[], T], *, budget: float = 0.05, rounds: int = 3) -> t
             gc.enable()
 
 
+def mp_theta_ddot(theta: Any, theta_dot: Any, accel: Any, gravity: Any, length: Any, damping: Any) -> Any:
+    """θ'' = −(g/l) sin θ + (a/l) cos θ − c θ' in mpmath numbers (physics.rigid.theta_ddot, any precision)."""
+    import mpmath
+
+    return (-gravity * mpmath.sin(theta) + accel * mpmath.cos(theta)) / length - damping * theta_dot
+
+
 def mpmath_reference(
     pendulum: Pendulum,
     profile: AccelProfile,
@@ -176,9 +183,8 @@ def mpmath_reference(
             def rhs(
                 x: Any, y: Sequence[Any], lo: Any = lo, a_lo: Any = a_lo, slope: Any = slope
             ) -> list[Any]:
-                """[θ', −(g/l) sin θ + (a(x)/l) cos θ − c θ'], a(x) = a_lo + slope (x − lo)."""
-                a_mp = a_lo + slope * (x - lo)
-                return [y[1], (-g * mpmath.sin(y[0]) + a_mp * mpmath.cos(y[0])) / length - c * y[1]]
+                """[θ', θ''(θ, θ', a(x))], a(x) = a_lo + slope (x − lo)."""
+                return [y[1], mp_theta_ddot(y[0], y[1], a_lo + slope * (x - lo), g, length, c)]
 
             solution = mpmath.odefun(rhs, lo, state)
             last = k == edges.size - 2

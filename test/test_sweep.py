@@ -13,6 +13,7 @@ from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Constant, Sinusoid, Step
+from pendulum_accel.physics.rigid import theta_ddot
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.sweep import SweepSetup, batch_rigid_rhs, parse_values, run_batch
 
@@ -103,13 +104,18 @@ def test_accel_sweep_matches_simulate_with_constant_profiles() -> None:
 
 
 def test_batch_rhs_is_the_equation_of_motion() -> None:
-    """(g_eff/l) sin(θ_eq − θ) − c θ' equals −(g/l) sin θ + (a/l) cos θ − c θ' to rounding."""
+    """(g_eff/l) sin(θ_eq − θ) − c θ' equals physics.rigid.theta_ddot to rounding, per variant."""
     rng = np.random.default_rng(7)
     lengths = rng.uniform(0.1, 5.0, 50)
     y = np.vstack((rng.uniform(-7, 7, 50), rng.uniform(-3, 3, 50)))
     g, c, a = 9.80665, 0.3, rng.uniform(-20, 20, 50)
     f = batch_rigid_rhs(lengths, g, c, a)(0.0, y)
-    expected = (-g * np.sin(y[0]) + a * np.cos(y[0])) / lengths - c * y[1]
+    expected = np.array(
+        [
+            float(theta_ddot(Pendulum(length, gravity=g, damping=c), th, w, a_i))
+            for length, th, w, a_i in zip(lengths, y[0], y[1], a, strict=True)
+        ]
+    )
     np.testing.assert_array_equal(f[0], y[1])
     np.testing.assert_allclose(f[1], expected, rtol=0, atol=1e-12 * np.max(np.abs(expected)))
 

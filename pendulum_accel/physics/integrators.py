@@ -72,6 +72,8 @@ EULER_MAX_GROWTH = 2.0
 # force them to resolve the fast radial ringing they are meant to step over.
 DEFAULT_RTOL: dict[str, float] = {"RK45": 1e-9, "DOP853": 1e-11, "Radau": 1e-7, "LSODA": 1e-8}
 DEFAULT_ATOL_FACTOR = 1e-3  # atol = factor · rtol unless given
+# Default fixed step h = 1/(20 ω): hω = 0.05, far inside every fixed-step method's stability limit.
+DEFAULT_STEPS_PER_RADIAN = 20.0
 
 
 @dataclass(frozen=True)
@@ -94,6 +96,11 @@ def check_method(method: str) -> str:
 def stability_limit(method: str) -> float | None:
     """Max stable hω for ``method`` on an undamped oscillator (None: adaptive, no fixed step)."""
     return _STABILITY_LIMITS[check_method(method)]
+
+
+def default_step(omega: float, steps_per_radian: float = DEFAULT_STEPS_PER_RADIAN) -> float:
+    """h = 1/(steps_per_radian · ω): the fixed step that turns the fastest mode by 1/steps_per_radian rad."""
+    return 1.0 / (steps_per_radian * omega)
 
 
 def check_stability(method: str, dt: float, omega: float, n_steps: int = 1) -> None:

@@ -14,8 +14,8 @@ a(t) reaches the kernel in one of two forms:
 - ``ACCEL_SINUSOID``: a(t) = offset + A sin(ω t + φ), ``coef`` = [[offset, A, ω, φ]].
 
 Methods: explicit Euler, symplectic Euler, velocity Verlet and RK4 as in physics.integrators, and
-``rk8``: the 8th-order solution of Dormand-Prince 8(5,3) (scipy's DOP853 tableau, 12 stages) taken with
-a fixed step, for tight targets where RK4 would need too many steps.
+``rk8``: the 8th-order solution of Dormand-Prince 8(5,3) (DOP853's 12-stage tableau, physics.dop853_tableau)
+taken with a fixed step, for tight targets where RK4 would need too many steps.
 
 The first call of each model compiles it (≈ 10 s) into numba's on-disk cache beside this file; later
 processes load it in ≈ 0.3 s. ``make setup`` warms the cache (``python -m pendulum_accel.physics.kernels``).
@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 from numba import njit
-from scipy.integrate._ivp import dop853_coefficients as _dop853
 
+from pendulum_accel.physics import dop853_tableau
 from pendulum_accel.physics.elastic import stiffness_of
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, Braking, Constant, Ramp, Sinusoid, Step, Table
@@ -46,10 +46,10 @@ METHOD_CODES: dict[str, int] = {
     "rk8": _RK8,
 }
 
-_RK8_STAGES = _dop853.N_STAGES
-RK8_A = np.ascontiguousarray(_dop853.A[:_RK8_STAGES, :_RK8_STAGES], dtype=float)
-RK8_B = np.ascontiguousarray(_dop853.B, dtype=float)
-RK8_C = np.ascontiguousarray(_dop853.C[:_RK8_STAGES], dtype=float)
+_RK8_STAGES = dop853_tableau.STAGES
+RK8_A = np.ascontiguousarray(dop853_tableau.A, dtype=float)
+RK8_B = np.ascontiguousarray(dop853_tableau.B, dtype=float)
+RK8_C = np.ascontiguousarray(dop853_tableau.C, dtype=float)
 
 
 @njit(cache=True, inline="always")

@@ -12,24 +12,33 @@ Integration always stops at the profile's breakpoints. ``method="auto"`` picks D
 the elastic string when √(k/m) ≥ ``STIFF_RATIO``·ω (stiff). ``atol`` is per unit of each state
 component's natural scale (rad, rad·ω, l, l·ω). Fixed-step methods refuse a dt past their stability
 limit, computed from ω = max(√(√(g² + a_max²)/l), c) (and √(k/m) for the elastic string).
+
+Each model is one runner in ``MODEL_RUNNERS`` (name → function of a checked ``Problem`` returning the
+model's ``ModelRun``), and simulate() wraps whichever ran in one Trajectory.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics import elastic as elastic_model
 from pendulum_accel.physics import multiplier as multiplier_model
-from pendulum_accel.physics.exact import exact_solution
+from pendulum_accel.physics.exact import FloatArray, exact_solution
 from pendulum_accel.physics.integrators import (
     FIXED_STEP_METHODS,
     METHODS,
+    IntegrationResult,
+    Jacobian,
+    Projection,
+    Rhs,
     check_method,
     check_samples,
+    default_step,
     integrate,
 )
 from pendulum_accel.physics.kernels import Kernel
@@ -39,12 +48,13 @@ from pendulum_accel.physics.profiles import AccelProfile, Piece, scalar_accel
 from pendulum_accel.physics.rigid import rigid_rhs, tension
 from pendulum_accel.physics.trajectory import Trajectory
 
-MODELS: tuple[str, ...] = ("exact", "linear", "rigid", "multiplier", "elastic")
-CLOSED_FORM_MODELS: tuple[str, ...] = ("exact", "linear")
 AUTO_METHOD = "auto"
 CLOSED_FORM_METHOD = "closed-form"
 STIFF_RATIO = 30.0
-DEFAULT_STEPS_PER_RADIAN = 20.0  # default fixed step: dt = 1/(20 ω)
+
+ClosedForm = Callable[[Pendulum, float, float, float, np.ndarray], tuple[FloatArray, FloatArray]]
+CLOSED_FORMS: dict[str, ClosedForm] = {"exact": exact_solution, "linear": linear_solution}
+CLOSED_FORM_MODELS: tuple[str, ...] = tuple(CLOSED_FORMS)
 
 
 def stability_omega(
@@ -75,6 +85,175 @@ def choose_method(pendulum: Pendulum, model: str, method: str) -> str:
     return "DOP853"
 
 
+@dataclass(frozen=True)
+class Problem:
+    """One checked simulate() call: pendulum, a(t) and its samples, initial state, model and solver settings.
+
+    ``method`` is the chosen one (never 'auto'); ``dt`` the caller's (None: the default step rule).
+    """
+
+    pendulum: Pendulum
+    profile: AccelProfile
+    times: np.ndarray
+    accel: np.ndarray
+    theta0: float
+    theta_dot0: float
+    model: str
+    method: str
+    dt: float | None
+    rtol: float | None
+    atol: float | None
+
+
+@dataclass(frozen=True)
+class ModelRun:
+    """What a model computed at the sample times; simulate() wraps it in a Trajectory."""
+
+    theta: np.ndarray
+    theta_dot: np.ndarray
+    tension: np.ndarray
+    stretch: np.ndarray | None = None
+    stretch_rate: np.ndarray | None = None
+    multiplier: np.ndarray | None = None
+    nfev: int = 0
+
+
+@dataclass(frozen=True)
+class _Stepping:
+    """What the integrated models share: scalar a(t), stability ω, rate scale ω(|a|max), step, breaks."""
+
+    a_of_t: Callable[[float], float]
+    omega: float
+    w_scale: float
+    dt: float | None
+    breaks: Sequence[float]
+
+
+def _stepping(problem: Problem) -> _Stepping:
+    """_Stepping of ``problem``: dt defaults to integrators.default_step(ω) for a fixed-step method."""
+    pendulum, profile, times = problem.pendulum, problem.profile, problem.times
+    t0, t1 = float(times[0]), float(times[-1])
+    a_max = profile.max_abs(t0, t1)
+    omega = stability_omega(pendulum, profile, t0, t1, problem.model, a_max)
+    dt = problem.dt
+    if problem.method in FIXED_STEP_METHODS and dt is None:
+        dt = default_step(omega)
+    breaks = profile.breakpoints()
+    a_of_t: Callable[[float], float] = scalar_accel(profile, t0, t1)
+    return _Stepping(a_of_t, omega, pendulum.omega(a_max), dt, breaks)
+
+
+def _integrate(
+    problem: Problem,
+    stepping: _Stepping,
+    rhs: Rhs,
+    y0: np.ndarray,
+    scales: np.ndarray,
+    *,
+    project: Projection | None = None,
+    kernel: Kernel | None = None,
+    jac: Jacobian | None = None,
+) -> IntegrationResult:
+    """integrate() over the sample times with ``stepping``; atol per unit of each component's ``scales``."""
+    return integrate(
+        rhs,
+        y0,
+        problem.times,
+        problem.method,
+        stepping.dt,
+        problem.rtol,
+        None if problem.atol is None else problem.atol * scales,
+        breakpoints=stepping.breaks,
+        omega=stepping.omega,
+        project=project,
+        kernel=kernel,
+        jac=jac,
+    )
+
+
+def _run_closed_form(problem: Problem) -> ModelRun:
+    """The exact or linear closed form chained over the constant pieces; T from the reduced tension."""
+    p = problem.pendulum
+    theta, theta_dot = _closed_form(
+        p, problem.profile, problem.times, problem.theta0, problem.theta_dot0, problem.model
+    )
+    return ModelRun(theta, theta_dot, tension(p, theta, theta_dot, problem.accel))
+
+
+def _run_rigid(problem: Problem) -> ModelRun:
+    """State [θ, θ'] (atol scales 1, ω), compiled kernel for fixed steps; T from the reduced tension."""
+    stepping = _stepping(problem)
+    p = problem.pendulum
+    result = _integrate(
+        problem,
+        stepping,
+        rigid_rhs(p, stepping.a_of_t),
+        np.array([problem.theta0, problem.theta_dot0]),
+        np.array([1.0, stepping.w_scale]),
+        kernel=Kernel.rigid(p, problem.profile),
+    )
+    theta, theta_dot = result.y[0], result.y[1]
+    return ModelRun(theta, theta_dot, tension(p, theta, theta_dot, problem.accel), nfev=result.nfev)
+
+
+def _run_multiplier(problem: Problem) -> ModelRun:
+    """State [x, z, x', z'] projected onto the circle; θ unwrapped onto θ0's branch, T = −μ l."""
+    stepping = _stepping(problem)
+    p = problem.pendulum
+    length, w_scale = p.length, stepping.w_scale
+    result = _integrate(
+        problem,
+        stepping,
+        multiplier_model.multiplier_rhs(p, stepping.a_of_t),
+        multiplier_model.cartesian_state(p, problem.theta0, problem.theta_dot0),
+        np.array([length, length, length * w_scale, length * w_scale]),
+        project=multiplier_model.project_to_circle(p),
+    )
+    theta, theta_dot = multiplier_model.angle_state(result.y)
+    theta = np.unwrap(theta)
+    theta = theta + 2.0 * math.pi * round((problem.theta0 - theta[0]) / (2.0 * math.pi))
+    mu = multiplier_model.multiplier(p, result.y, problem.accel)
+    return ModelRun(theta, theta_dot, -mu * length, multiplier=mu, nfev=result.nfev)
+
+
+def _run_elastic(problem: Problem) -> ModelRun:
+    """State [r, θ, r', θ'] from the quasi-static radius, with its Jacobian; T = k (r − l)."""
+    stepping = _stepping(problem)
+    p = problem.pendulum
+    length, w_scale = p.length, stepping.w_scale
+    th0, w0 = problem.theta0, problem.theta_dot0
+    r0 = elastic_model.quasi_static_radius(p, th0, w0, float(problem.accel[0]))
+    result = _integrate(
+        problem,
+        stepping,
+        elastic_model.elastic_rhs(p, stepping.a_of_t),
+        np.array([r0, th0, 0.0, w0]),
+        np.array([length, 1.0, length * w_scale, w_scale]),
+        jac=elastic_model.elastic_jacobian(p, stepping.a_of_t),
+        kernel=Kernel.elastic(p, problem.profile),
+    )
+    r, theta, r_dot, theta_dot = result.y
+    return ModelRun(
+        theta,
+        theta_dot,
+        elastic_model.string_tension(p, r),
+        stretch=r - length,
+        stretch_rate=r_dot,
+        nfev=result.nfev,
+    )
+
+
+ModelRunner = Callable[[Problem], ModelRun]
+MODEL_RUNNERS: dict[str, ModelRunner] = {
+    "exact": _run_closed_form,
+    "linear": _run_closed_form,
+    "rigid": _run_rigid,
+    "multiplier": _run_multiplier,
+    "elastic": _run_elastic,
+}
+MODELS: tuple[str, ...] = tuple(MODEL_RUNNERS)
+
+
 def simulate(
     pendulum: Pendulum,
     profile: AccelProfile,
@@ -102,120 +281,20 @@ def simulate(
             raise ParameterError(f"dt must be > 0, got {dt!r}")
     chosen = choose_method(pendulum, model, method)
     accel = profile(times)
-    if model in CLOSED_FORM_MODELS:
-        theta, theta_dot = _closed_form(pendulum, profile, times, th0, w0, model)
-        return Trajectory(
-            t=times,
-            theta=theta,
-            theta_dot=theta_dot,
-            accel=accel,
-            tension=tension(pendulum, theta, theta_dot, accel),
-            stretch=None,
-            stretch_rate=None,
-            multiplier=None,
-            model=model,
-            method=chosen,
-            nfev=0,
-        )
-    t0, t1 = float(times[0]), float(times[-1])
-    a_max = profile.max_abs(t0, t1)
-    omega = stability_omega(pendulum, profile, t0, t1, model, a_max)
-    if chosen in FIXED_STEP_METHODS and dt is None:
-        dt = 1.0 / (DEFAULT_STEPS_PER_RADIAN * omega)
-    breaks = profile.breakpoints()
-    a_of_t: Callable[[float], float] = scalar_accel(profile, t0, t1)
-    w_scale = pendulum.omega(a_max)
-
-    if model == "rigid":
-        scales = np.array([1.0, w_scale])
-        result = integrate(
-            rigid_rhs(pendulum, a_of_t),
-            np.array([th0, w0]),
-            times,
-            chosen,
-            dt,
-            rtol,
-            None if atol is None else atol * scales,
-            breakpoints=breaks,
-            omega=omega,
-            kernel=Kernel.rigid(pendulum, profile),
-        )
-        theta, theta_dot = result.y[0], result.y[1]
-        return Trajectory(
-            t=times,
-            theta=theta,
-            theta_dot=theta_dot,
-            accel=accel,
-            tension=tension(pendulum, theta, theta_dot, accel),
-            stretch=None,
-            stretch_rate=None,
-            multiplier=None,
-            model=model,
-            method=chosen,
-            nfev=result.nfev,
-        )
-
-    length = pendulum.length
-    if model == "multiplier":
-        scales = np.array([length, length, length * w_scale, length * w_scale])
-        result = integrate(
-            multiplier_model.multiplier_rhs(pendulum, a_of_t),
-            multiplier_model.cartesian_state(pendulum, th0, w0),
-            times,
-            chosen,
-            dt,
-            rtol,
-            None if atol is None else atol * scales,
-            breakpoints=breaks,
-            omega=omega,
-            project=multiplier_model.project_to_circle(pendulum),
-        )
-        theta, theta_dot = multiplier_model.angle_state(result.y)
-        theta = np.unwrap(theta)
-        theta = theta + 2.0 * math.pi * round((th0 - theta[0]) / (2.0 * math.pi))
-        mu = multiplier_model.multiplier(pendulum, result.y, accel)
-        return Trajectory(
-            t=times,
-            theta=theta,
-            theta_dot=theta_dot,
-            accel=accel,
-            tension=-mu * length,
-            stretch=None,
-            stretch_rate=None,
-            multiplier=mu,
-            model=model,
-            method=chosen,
-            nfev=result.nfev,
-        )
-
-    r0 = elastic_model.quasi_static_radius(pendulum, th0, w0, float(accel[0]))
-    scales = np.array([length, 1.0, length * w_scale, w_scale])
-    result = integrate(
-        elastic_model.elastic_rhs(pendulum, a_of_t),
-        np.array([r0, th0, 0.0, w0]),
-        times,
-        chosen,
-        dt,
-        rtol,
-        None if atol is None else atol * scales,
-        breakpoints=breaks,
-        omega=omega,
-        jac=elastic_model.elastic_jacobian(pendulum, a_of_t),
-        kernel=Kernel.elastic(pendulum, profile),
-    )
-    r, theta, r_dot, theta_dot = result.y
+    problem = Problem(pendulum, profile, times, accel, th0, w0, model, chosen, dt, rtol, atol)
+    run = MODEL_RUNNERS[model](problem)
     return Trajectory(
         t=times,
-        theta=theta,
-        theta_dot=theta_dot,
+        theta=run.theta,
+        theta_dot=run.theta_dot,
         accel=accel,
-        tension=elastic_model.string_tension(pendulum, r),
-        stretch=r - length,
-        stretch_rate=r_dot,
-        multiplier=None,
+        tension=run.tension,
+        stretch=run.stretch,
+        stretch_rate=run.stretch_rate,
+        multiplier=run.multiplier,
         model=model,
         method=chosen,
-        nfev=result.nfev,
+        nfev=run.nfev,
     )
 
 
@@ -233,7 +312,7 @@ def _closed_form(
             f"model {model!r} needs a piecewise-constant acceleration, got a {type(profile).__name__} "
             f"profile that varies continuously; use model='rigid'"
         )
-    solution = exact_solution if model == "exact" else linear_solution
+    solution = CLOSED_FORMS[model]
     theta = np.empty_like(times)
     theta_dot = np.empty_like(times)
     th, w = theta0, theta_dot0
