@@ -15,7 +15,7 @@ from typing import Any
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelWithCovarianceStamped
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
@@ -25,11 +25,14 @@ from sensor_msgs.msg import JointState
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.errors import PendulumAccelError
-from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, make_estimator
+from pendulum_accel.estimators import Estimator, make_estimator
 from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, InputGuard
 from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
+from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG
 from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
-from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
+from pendulum_accel.nodes.runtime import ChainNode, declare_parameters, publish_blocking, run_node
+from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.scene import load_scene
 
 NODE_NAME = "accel_estimator"
 DIAGNOSTIC_NAME = "accel_estimator"
@@ -37,22 +40,8 @@ HARDWARE_ID = "pendulum_accel"
 _DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
 _DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
 
-# Parameters that configure the method; a change rebuilds it (and resets its state).
-_CONFIG = {
-    "length": (1e-3, 1e3, "pendulum length l, m"),
-    "gravity": (0.1, 100.0, "gravitational acceleration g, m/s²"),
-    "damping": (0.0, 100.0, "linear damping c, 1/s"),
-    "noise_std": (0.0, 1.0, "angle noise σ, rad"),
-    "rate_hz": (1.0, 100_000.0, "nominal input rate, Hz"),
-}
 
-
-def _range(low: float, high: float) -> list[FloatingPointRange]:
-    """[FloatingPointRange(low, high)] for a descriptor."""
-    return [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
-
-
-def diagnostic_array(report: GuardReport, method: str, stamp: Any) -> DiagnosticArray:
+def diagnostic_array(report: GuardReport, method: str, stamp: Time) -> DiagnosticArray:
     """DiagnosticArray with one status: level and message from the guard, counters + method as values."""
     status = DiagnosticStatus(
         level=bytes([report.level]),
@@ -73,80 +62,12 @@ class EstimatorNode(ChainNode):
     def __init__(self) -> None:
         """Declare parameters, build the guarded estimator, subscribe (after waiting for subscribers)."""
         super().__init__(NODE_NAME)
-        from pendulum_accel.recording.settings import estimator_settings
-        from pendulum_accel.scene import DEFAULT_SCENE, load_scene
-
-        scene = str(
-            self.declare_parameter(
-                "scene",
-                DEFAULT_SCENE,
-                ParameterDescriptor(
-                    description="scene whose pendulum and sensor configure the method", read_only=True
-                ),
-            ).value
-        )
-        settings = estimator_settings(load_scene(scene))
-        self.method = str(
-            self.declare_parameter(
-                "method",
-                DEFAULT_ESTIMATOR,
-                ParameterDescriptor(
-                    description="estimation method", additional_constraints=" | ".join(ESTIMATORS)
-                ),
-            ).value
-        )
-        for name, (low, high, text) in _CONFIG.items():
-            self.declare_parameter(
-                name,
-                float(settings[name]),
-                ParameterDescriptor(
-                    description=f"{text} (default: the scene's)", floating_point_range=_range(low, high)
-                ),
-            )
-        self.warn_angle_deg = float(
-            self.declare_parameter(
-                "warn_angle_deg",
-                80.0,
-                ParameterDescriptor(
-                    description="|θ| from which the input is flagged ill-conditioned (WARN), degrees",
-                    floating_point_range=_range(1.0, 89.9),
-                    read_only=True,
-                ),
-            ).value
-        )
-        self.stale_after = float(
-            self.declare_parameter(
-                "stale_after",
-                0.0,
-                ParameterDescriptor(
-                    description="STALE after this long without input, s (0: 20 periods, at least 0.5 s)",
-                    floating_point_range=_range(0.0, 3600.0),
-                    read_only=True,
-                ),
-            ).value
-        )
-        period = float(
-            self.declare_parameter(
-                "diagnostics_period",
-                1.0,
-                ParameterDescriptor(
-                    description="seconds between /diagnostics messages (wall clock)",
-                    floating_point_range=_range(0.01, 60.0),
-                    read_only=True,
-                ),
-            ).value
-        )
-        self.wait_for_subscribers = int(
-            self.declare_parameter(
-                "wait_for_subscribers",
-                0,
-                ParameterDescriptor(
-                    description="subscribe to the input only once the outputs have this many subscribers",
-                    integer_range=[IntegerRange(from_value=0, to_value=64, step=1)],
-                    read_only=True,
-                ),
-            ).value
-        )
+        values = declare_parameters(self, ESTIMATOR, lambda name: estimator_settings(load_scene(name)))
+        self.method = str(values["method"])
+        self.warn_angle_deg = float(values["warn_angle_deg"])
+        self.stale_after = float(values["stale_after"])
+        period = float(values["diagnostics_period"])
+        self.wait_for_subscribers = int(values["wait_for_subscribers"])
         self.guarded = GuardedEstimator(self._build(self._config_values()), self._new_guard())
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
@@ -178,14 +99,15 @@ class EstimatorNode(ChainNode):
     # -- configuration --------------------------------------------------------------------------
 
     def _config_values(self, changes: Sequence[Parameter] = ()) -> dict[str, Any]:
-        """method and the _CONFIG values, with ``changes`` applied on top."""
-        values: dict[str, Any] = {name: self.get_parameter(name).value for name in ("method", *_CONFIG)}
+        """method and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
+        names = ("method", *(spec.name for spec in ESTIMATOR_CONFIG))
+        values: dict[str, Any] = {name: self.get_parameter(name).value for name in names}
         for param in changes:
             if param.name in values:
                 values[param.name] = param.value
         return values
 
-    def _build(self, values: dict[str, Any]) -> Any:
+    def _build(self, values: dict[str, Any]) -> Estimator:
         """make_estimator(method, length, gravity, noise_std, rate_hz, damping) (ParameterError if bad)."""
         cfg = {k: float(v) for k, v in values.items() if k != "method"}
         if not all(math.isfinite(v) for v in cfg.values()):

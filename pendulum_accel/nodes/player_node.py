@@ -7,12 +7,10 @@ bag's log time (the recorded /clock, if any, is then not replayed).
 
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Sequence
 
 import numpy as np
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.duration import Duration
 from rclpy.publisher import Publisher
 
@@ -20,102 +18,32 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag, salvage_note
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.nodes.conversions import message_class
+from pendulum_accel.nodes.parameters import PLAYER
 from pendulum_accel.nodes.qos import qos_for
-from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
-from pendulum_accel.recording.generate import DEFAULT_CLOCK_RATE_HZ, clock_mask
+from pendulum_accel.nodes.runtime import ThreadedNode, declare_parameters, publish_blocking, run_node
+from pendulum_accel.recording.generate import clock_mask
 
 NODE_NAME = "bag_player"
 _ACK_TIMEOUT = Duration(seconds=10)
 
 
-def _range(low: float, high: float) -> list[FloatingPointRange]:
-    """[FloatingPointRange(low, high)] for a descriptor."""
-    return [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
-
-
-class PlayerNode(ChainNode):
+class PlayerNode(ThreadedNode):
     """Replays one bag into the graph from a publishing thread."""
 
     def __init__(self) -> None:
         """Declare parameters, read the bag (BagError when unreadable), create publishers, start playing."""
         super().__init__(NODE_NAME)
-        fixed = {"read_only": True}
-        path = str(
-            self.declare_parameter("path", "", ParameterDescriptor(description="bag to play", **fixed)).value
-        )
-        self.rate = float(
-            self.declare_parameter(
-                "rate",
-                1.0,
-                ParameterDescriptor(
-                    description="speed factor (2: twice as fast)",
-                    floating_point_range=_range(1e-3, 1e3),
-                    **fixed,
-                ),
-            ).value
-        )
-        self.loop = bool(
-            self.declare_parameter(
-                "loop", False, ParameterDescriptor(description="start over at the end", **fixed)
-            ).value
-        )
-        self.start_offset = float(
-            self.declare_parameter(
-                "start_offset",
-                0.0,
-                ParameterDescriptor(
-                    description="skip this many seconds of the bag",
-                    floating_point_range=_range(0.0, 1e6),
-                    **fixed,
-                ),
-            ).value
-        )
-        topics: list[str] = list(
-            self.declare_parameter(
-                "topics", [""], ParameterDescriptor(description="topics to play (empty: all)", **fixed)
-            ).value
-        )
-        self.clock = bool(
-            self.declare_parameter(
-                "clock", False, ParameterDescriptor(description="publish /clock from the bag time", **fixed)
-            ).value
-        )
-        self.clock_rate_hz = float(
-            self.declare_parameter(
-                "clock_rate_hz",
-                DEFAULT_CLOCK_RATE_HZ,
-                ParameterDescriptor(
-                    description="/clock messages per bag second (0: one per message)",
-                    floating_point_range=_range(0.0, 1e5),
-                    **fixed,
-                ),
-            ).value
-        )
-        self.exit_on_end = bool(
-            self.declare_parameter(
-                "exit_on_end", True, ParameterDescriptor(description="exit after the last message", **fixed)
-            ).value
-        )
-        self.wait_for_subscribers = int(
-            self.declare_parameter(
-                "wait_for_subscribers",
-                0,
-                ParameterDescriptor(
-                    description="start once /pendulum/joint_states has this many subscribers",
-                    integer_range=[IntegerRange(from_value=0, to_value=64, step=1)],
-                    **fixed,
-                ),
-            ).value
-        )
-        self.wait_for_recorder = bool(
-            self.declare_parameter(
-                "wait_for_recorder",
-                False,
-                ParameterDescriptor(
-                    description="start only once every published topic has a subscriber", **fixed
-                ),
-            ).value
-        )
+        values = declare_parameters(self, PLAYER)
+        path = str(values["path"])
+        self.rate = float(values["rate"])
+        self.loop = bool(values["loop"])
+        self.start_offset = float(values["start_offset"])
+        topics: list[str] = list(values["topics"])
+        self.clock = bool(values["clock"])
+        self.clock_rate_hz = float(values["clock_rate_hz"])
+        self.exit_on_end = bool(values["exit_on_end"])
+        self.wait_for_subscribers = int(values["wait_for_subscribers"])
+        self.wait_for_recorder = bool(values["wait_for_recorder"])
         if not path:
             raise ParameterError("parameter path (the bag to play) is required")
         bag = read_bag(path)
@@ -141,11 +69,9 @@ class PlayerNode(ChainNode):
         self._messages = [(topic, ns, data) for topic, ns, data in bag.iter_raw(wanted) if ns >= start]
         if not self._messages:
             raise ParameterError(f"bag {path} has no messages after start_offset {self.start_offset:g} s")
-        self._stop = threading.Event()
         self.passes = 0
         self.published = 0
-        self._thread = threading.Thread(target=self._play, name="bag_player", daemon=True)
-        self._thread.start()
+        self.start_thread(self._play, "bag_player")
         self.get_logger().info(
             f"playing {len(self._messages)} messages of {path} ({', '.join(wanted)}) at rate {self.rate:g}"
             + (", looping" if self.loop else "")
@@ -202,17 +128,6 @@ class PlayerNode(ChainNode):
         self.get_logger().info(f"played {self.published} messages in {self.passes} pass(es)")
         if self.exit_on_end:
             self.finish(0)
-
-    def request_stop(self) -> None:
-        """Stop playing and finish."""
-        self._stop.set()
-        self.finish(0)
-
-    def close(self) -> None:
-        """Stop the playing thread and wait for it."""
-        self._stop.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=5.0)
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -14,7 +14,6 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 
 from pendulum_accel import __version__
@@ -22,13 +21,13 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE, CUSTOM_VERSION, BagWriter, Stream
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.nodes.conversions import bag_qos, message_class
+from pendulum_accel.nodes.parameters import LOG_TIMES, RECORDER
 from pendulum_accel.nodes.qos import qos_for
-from pendulum_accel.nodes.runtime import ChainNode, run_node
+from pendulum_accel.nodes.runtime import ChainNode, declare_parameters, run_node
 
 NODE_NAME = "bag_recorder"
 _DRAIN_IDLE = 0.3  # s without any message after a stop request: the queues are empty
 _DRAIN_LIMIT = 10.0  # s: close the bag even if messages keep coming
-_LOG_TIMES = ("stamp", "receive")
 _STAMP = struct.Struct("<iI")  # builtin_interfaces/Time: int32 sec, uint32 nanosec (little-endian CDR)
 
 
@@ -78,44 +77,16 @@ class RecorderNode(ChainNode):
     def __init__(self) -> None:
         """Declare parameters, create the bag (BagError if it exists and overwrite is false), subscribe."""
         super().__init__(NODE_NAME)
-        fixed = {"read_only": True}
-        path = str(
-            self.declare_parameter(
-                "path", "", ParameterDescriptor(description="bag directory to create", **fixed)
-            ).value
-        )
-        overwrite = bool(
-            self.declare_parameter(
-                "overwrite", False, ParameterDescriptor(description="replace an existing bag", **fixed)
-            ).value
-        )
-        topics: list[str] = list(
-            self.declare_parameter(
-                "topics",
-                list(bm.TOPIC_TYPES),
-                ParameterDescriptor(description="topics to record (any of the chain's)", **fixed),
-            ).value
-        )
-        scene = str(
-            self.declare_parameter(
-                "scene", "", ParameterDescriptor(description="scene stored in the bag's custom_data", **fixed)
-            ).value
-        )
-        self.log_time = str(
-            self.declare_parameter(
-                "log_time",
-                "stamp",
-                ParameterDescriptor(
-                    description="log time: the message stamp (sim time) or its receive time (node clock)",
-                    additional_constraints=" | ".join(_LOG_TIMES),
-                    **fixed,
-                ),
-            ).value
-        )
+        values = declare_parameters(self, RECORDER)
+        path = str(values["path"])
+        overwrite = bool(values["overwrite"])
+        topics: list[str] = list(values["topics"])
+        scene = str(values["scene"])
+        self.log_time = str(values["log_time"])
         if not path:
             raise ParameterError("parameter path (the bag directory to create) is required")
-        if self.log_time not in _LOG_TIMES:
-            raise ParameterError(f"log_time must be one of {', '.join(_LOG_TIMES)}, got {self.log_time!r}")
+        if self.log_time not in LOG_TIMES:
+            raise ParameterError(f"log_time must be one of {', '.join(LOG_TIMES)}, got {self.log_time!r}")
         unknown = [t for t in topics if t not in bm.TOPIC_TYPES]
         if unknown:
             raise ParameterError(

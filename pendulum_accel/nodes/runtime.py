@@ -5,12 +5,14 @@ from __future__ import annotations
 import gc
 import signal
 import sys
+import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from types import FrameType
 from typing import Any
 
 import rclpy
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
@@ -21,6 +23,7 @@ from rclpy.task import Future
 
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.nodes.dds_profile import use_package_profile
+from pendulum_accel.nodes.parameters import FROM_SCENE, ParamSpec, ParamValue
 from pendulum_accel.nodes.scheduling import apply_rt_priority
 
 # How often the main thread wakes to run pending signal handlers.
@@ -47,6 +50,89 @@ class ChainNode(Node):
 
     def close(self) -> None:
         """Release files and threads; called once by ``run_node`` whatever ended the spin."""
+
+
+class ThreadedNode(ChainNode):
+    """A ChainNode whose work runs in one daemon thread; a stop request ends the thread, then the spin."""
+
+    def __init__(self, node_name: str, **kwargs: Any) -> None:
+        """ChainNode(node_name, **kwargs) with the ``_stop`` event its thread watches; no thread yet."""
+        super().__init__(node_name, **kwargs)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start_thread(self, target: Callable[[], None], name: str) -> None:
+        """Start ``target`` in a daemon thread; it should return soon after ``self._stop`` is set."""
+        self._thread = threading.Thread(target=target, name=name, daemon=True)
+        self._thread.start()
+
+    def request_stop(self) -> None:
+        """Stop the thread's work and finish."""
+        self._stop.set()
+        self.finish(0)
+
+    def close(self) -> None:
+        """Stop the thread and wait for it (5 s at most)."""
+        self._stop.set()
+        if self._thread is not None and self._thread.is_alive():
+            self._thread.join(timeout=5.0)
+
+
+def parameter_descriptor(spec: ParamSpec) -> ParameterDescriptor:
+    """ParameterDescriptor of a spec: description, read_only, range (step 0; 1 for integers), choices."""
+    limits: dict[str, Any] = {}
+    if spec.low is not None and spec.high is not None:
+        if spec.type == "integer":
+            limits["integer_range"] = [
+                IntegerRange(from_value=int(spec.low), to_value=int(spec.high), step=1)
+            ]
+        else:
+            limits["floating_point_range"] = [
+                FloatingPointRange(from_value=float(spec.low), to_value=float(spec.high), step=0.0)
+            ]
+    if spec.choices:
+        limits["additional_constraints"] = " | ".join(spec.choices)
+    return ParameterDescriptor(description=spec.description, read_only=spec.read_only, **limits)
+
+
+def _typed(spec: ParamSpec, value: ParamValue) -> bool | int | float | str | list[str]:
+    """``value`` as the Python type ROS infers ``spec.type`` from (a string array as a list)."""
+    if isinstance(value, tuple):
+        return list(value)
+    if spec.type == "integer":
+        return int(value)
+    if spec.type == "double":
+        return float(value)
+    return value
+
+
+def declare_parameters(
+    node: Node,
+    specs: Sequence[ParamSpec],
+    scene_defaults: Callable[[str], Mapping[str, ParamValue]] | None = None,
+) -> dict[str, Any]:
+    """Declare every spec on ``node`` in order; {name: value} (a launch override or the default).
+
+    A FROM_SCENE default comes from ``scene_defaults(scene)``, called once with the value of the
+    ``scene`` parameter, which the table declares before them.
+    """
+    values: dict[str, Any] = {}
+    defaults: Mapping[str, ParamValue] | None = None
+    for spec in specs:
+        default = spec.default
+        if default is FROM_SCENE:
+            if scene_defaults is None:
+                raise ValueError(
+                    f"parameter {spec.name} takes its default from the scene: pass scene_defaults"
+                )
+            if defaults is None:
+                defaults = scene_defaults(str(values["scene"]))
+            default = defaults[spec.name]
+        assert default is not None
+        values[spec.name] = node.declare_parameter(
+            spec.name, _typed(spec, default), parameter_descriptor(spec)
+        ).value
+    return values
 
 
 def publish_blocking(publisher: Publisher, msg: Any, stopping: Callable[[], bool]) -> bool:

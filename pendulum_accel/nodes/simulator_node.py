@@ -13,18 +13,11 @@ import math
 import threading
 import time
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import AccelStamped
 from numpy.typing import NDArray
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    ParameterType,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
@@ -33,10 +26,13 @@ from sensor_msgs.msg import JointState
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.errors import PendulumAccelError
+from pendulum_accel.nodes.parameters import SIMULATOR
 from pendulum_accel.nodes.qos import DATA_QOS
-from pendulum_accel.nodes.runtime import ChainNode, publish_blocking, run_node
+from pendulum_accel.nodes.runtime import ThreadedNode, declare_parameters, publish_blocking, run_node
 from pendulum_accel.overrides import OVERRIDES, apply_overrides
-from pendulum_accel.recording.generate import DEFAULT_CLOCK_RATE_HZ, Frames, serialise_run
+from pendulum_accel.recording.generate import Frames, serialise_run
+from pendulum_accel.scene import Scene, load_scene
+from pendulum_accel.scene_run import run_scene
 
 NODE_NAME = "pendulum_sim"
 _ACK_TIMEOUT = Duration(seconds=10)
@@ -54,108 +50,22 @@ def jitter_summary(lateness: NDArray[np.float64]) -> str:
     )
 
 
-def _float_range(low: float, high: float) -> list[FloatingPointRange]:
-    """[FloatingPointRange(low, high, step 0)] for a descriptor."""
-    return [FloatingPointRange(from_value=float(low), to_value=float(high), step=0.0)]
-
-
-def _int_range(low: int, high: int) -> list[IntegerRange]:
-    """[IntegerRange(low, high, step 1)] for a descriptor."""
-    return [IntegerRange(from_value=int(low), to_value=int(high), step=1)]
-
-
-class SimulatorNode(ChainNode):
+class SimulatorNode(ThreadedNode):
     """Publishes one scene: parameters pick the scene, override its physics and choose the pacing."""
 
     def __init__(self) -> None:
         """Declare parameters, build the scene (PendulumAccelError on a bad one) and start publishing."""
         super().__init__(NODE_NAME)
-        from pendulum_accel.scene import DEFAULT_SCENE, load_scene
-
-        scene_name = str(
-            self.declare_parameter(
-                "scene",
-                DEFAULT_SCENE,
-                ParameterDescriptor(
-                    description="bundled scene name or path of a scene YAML (fixed for the node's life)",
-                    read_only=True,
-                ),
-            ).value
+        values = declare_parameters(
+            self, SIMULATOR, lambda name: {spec.name: spec.get(load_scene(name)) for spec in OVERRIDES}
         )
-        self._base_scene = load_scene(scene_name)
-        for spec in OVERRIDES:
-            default = spec.get(self._base_scene)
-            if spec.kind is int:
-                descriptor = ParameterDescriptor(
-                    description=f"{spec.description} (overrides the scene's)",
-                    type=ParameterType.PARAMETER_INTEGER,
-                    integer_range=_int_range(int(spec.low), int(spec.high)),
-                )
-                self.declare_parameter(spec.name, int(default if default is not None else 0), descriptor)
-            else:
-                descriptor = ParameterDescriptor(
-                    description=f"{spec.description}, {spec.unit} (overrides the scene's)",
-                    type=ParameterType.PARAMETER_DOUBLE,
-                    floating_point_range=_float_range(spec.low, spec.high),
-                )
-                self.declare_parameter(spec.name, float(default), descriptor)
-        fixed = {"read_only": True}
-        self.realtime = bool(
-            self.declare_parameter(
-                "realtime",
-                True,
-                ParameterDescriptor(description="pace by the wall clock (else as fast as possible)", **fixed),
-            ).value
-        )
-        self.exit_on_end = bool(
-            self.declare_parameter(
-                "exit_on_end",
-                True,
-                ParameterDescriptor(description="exit when the scene ends (else stay idle)"),
-            ).value
-        )
-        self.wait_for_subscribers = int(
-            self.declare_parameter(
-                "wait_for_subscribers",
-                0,
-                ParameterDescriptor(
-                    description="start only once /pendulum/joint_states has this many subscribers",
-                    integer_range=_int_range(0, 64),
-                    **fixed,
-                ),
-            ).value
-        )
-        self.wait_for_recorder = bool(
-            self.declare_parameter(
-                "wait_for_recorder",
-                False,
-                ParameterDescriptor(
-                    description="start only once every published topic has a subscriber", **fixed
-                ),
-            ).value
-        )
-        self.wait_timeout = float(
-            self.declare_parameter(
-                "wait_timeout",
-                30.0,
-                ParameterDescriptor(
-                    description="give up waiting for subscribers after this many seconds (s)",
-                    floating_point_range=_float_range(0.0, 3600.0),
-                    **fixed,
-                ),
-            ).value
-        )
-        self.clock_rate_hz = float(
-            self.declare_parameter(
-                "clock_rate_hz",
-                DEFAULT_CLOCK_RATE_HZ,
-                ParameterDescriptor(
-                    description="/clock messages per simulated second (0: one per sample)",
-                    floating_point_range=_float_range(0.0, 100_000.0),
-                    **fixed,
-                ),
-            ).value
-        )
+        self._base_scene = load_scene(str(values["scene"]))
+        self.realtime = bool(values["realtime"])
+        self.exit_on_end = bool(values["exit_on_end"])
+        self.wait_for_subscribers = int(values["wait_for_subscribers"])
+        self.wait_for_recorder = bool(values["wait_for_recorder"])
+        self.wait_timeout = float(values["wait_timeout"])
+        self.clock_rate_hz = float(values["clock_rate_hz"])
         self.scene = self._scene_from(self._override_values())
         self._outputs: dict[str, Publisher] = {
             bm.TOPIC_CLOCK: self.create_publisher(Clock, bm.TOPIC_CLOCK, DATA_QOS),
@@ -165,11 +75,9 @@ class SimulatorNode(ChainNode):
         self._string_publisher: Publisher | None = None
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
-        self._stop = threading.Event()
         self._restart = threading.Event()
         self.published = 0
-        self._thread = threading.Thread(target=self._publish_loop, name="pendulum_sim_publisher", daemon=True)
-        self._thread.start()
+        self.start_thread(self._publish_loop, "pendulum_sim_publisher")
 
     # -- parameters ---------------------------------------------------------------------------
 
@@ -181,7 +89,7 @@ class SimulatorNode(ChainNode):
                 values[param.name] = param.value
         return values
 
-    def _scene_from(self, values: dict[str, float]) -> Any:
+    def _scene_from(self, values: dict[str, float]) -> Scene:
         """The base scene with the override values (PendulumAccelError naming a bad value)."""
         return apply_overrides(self._base_scene, values)
 
@@ -237,7 +145,6 @@ class SimulatorNode(ChainNode):
 
     def _publish_loop(self) -> None:
         """Thread body: simulate, wait for subscribers, publish every sample, then exit or idle."""
-        from pendulum_accel.scene_run import run_scene
 
         try:
             while not self._stop.is_set():
@@ -246,7 +153,7 @@ class SimulatorNode(ChainNode):
                 wall0 = time.perf_counter()
                 frames = serialise_run(run_scene(scene), self.clock_rate_hz)
                 self.get_logger().info(
-                    f"scene {getattr(scene, 'name', '?')}: {frames.size} samples over "
+                    f"scene {scene.name}: {frames.size} samples over "
                     f"{frames.t[-1] - frames.t[0]:.3f} s simulated in {time.perf_counter() - wall0:.2f} s; "
                     f"{frames.plan}"
                 )
@@ -321,17 +228,6 @@ class SimulatorNode(ChainNode):
             line += "; " + jitter_summary(lateness[:sent])
         self.get_logger().info(line)
         return sent == frames.size
-
-    def request_stop(self) -> None:
-        """Stop publishing and finish."""
-        self._stop.set()
-        self.finish(0)
-
-    def close(self) -> None:
-        """Stop the publishing thread and wait for it."""
-        self._stop.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=5.0)
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -1,0 +1,148 @@
+"""Every node's ROS parameters as data: name, type, default, range, description, read-only (no rclpy).
+
+``nodes.runtime.declare_parameters`` declares one of these tables on a node. The tables import
+nothing from ROS, so a node's parameters (say, for ``--help``) can be listed without rclpy.
+Scene fields a node overrides come from the one override table, ``pendulum_accel.overrides``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
+from pendulum_accel.overrides import OVERRIDE_BY_NAME, OVERRIDES, Override
+from pendulum_accel.recording.generate import DEFAULT_CLOCK_RATE_HZ
+from pendulum_accel.scene import DEFAULT_SCENE
+
+ParamType = Literal["bool", "integer", "double", "string", "string_array"]
+ParamValue = bool | int | float | str | tuple[str, ...]
+
+FROM_SCENE = None
+"""A default of None: the value the node's scene has (known only once the scene is loaded)."""
+
+LOG_TIMES: tuple[str, ...] = ("stamp", "receive")
+"""The recorder's log_time choices: the message stamp (sim time) or its receive time."""
+
+ESTIMATOR_CONFIG: tuple[Override, ...] = tuple(
+    OVERRIDE_BY_NAME[name] for name in ("length", "gravity", "damping", "noise_std", "rate_hz")
+)
+"""The scene fields an estimator is configured with; a change rebuilds the estimator."""
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One node parameter: ROS type, default (FROM_SCENE: the scene's), closed range, choices, text."""
+
+    name: str
+    type: ParamType
+    default: ParamValue | None
+    description: str
+    low: float | None = None
+    high: float | None = None
+    read_only: bool = False
+    choices: tuple[str, ...] = ()
+
+    def help_line(self) -> str:
+        """'name (type[, low..high][, read-only]; default D): description[; one of a | b]'."""
+        facts: list[str] = [self.type]
+        if self.low is not None and self.high is not None:
+            facts.append(f"{self.low:g}..{self.high:g}")
+        if self.read_only:
+            facts.append("read-only")
+        default = "the scene's" if self.default is FROM_SCENE else repr(self.default)
+        choices = f"; one of {' | '.join(self.choices)}" if self.choices else ""
+        return f"{self.name} ({', '.join(facts)}; default {default}): {self.description}{choices}"
+
+
+def override_param(spec: Override, note: str) -> ParamSpec:
+    """The node parameter of one scene override: its type and range, default the scene's, text + note."""
+    unit = f", {spec.unit}" if spec.unit else ""
+    return ParamSpec(
+        spec.name,
+        "integer" if spec.kind is int else "double",
+        FROM_SCENE,
+        f"{spec.description}{unit} ({note})",
+        low=spec.low,
+        high=spec.high,
+    )
+
+
+def _fixed(
+    name: str,
+    type_: ParamType,
+    default: ParamValue,
+    description: str,
+    low: float | None = None,
+    high: float | None = None,
+) -> ParamSpec:
+    """A read-only ParamSpec (fixed for the node's life), with optional low/high."""
+    return ParamSpec(name, type_, default, description, low=low, high=high, read_only=True)
+
+
+_WAIT_FOR_RECORDER = "start only once every published topic has a subscriber"
+
+SIMULATOR: tuple[ParamSpec, ...] = (
+    _fixed("scene", "string", DEFAULT_SCENE,
+           "bundled scene name or path of a scene YAML (fixed for the node's life)"),
+    *(override_param(spec, "overrides the scene's") for spec in OVERRIDES),
+    _fixed("realtime", "bool", True, "pace by the wall clock (else as fast as possible)"),
+    ParamSpec("exit_on_end", "bool", True, "exit when the scene ends (else stay idle)"),
+    _fixed("wait_for_subscribers", "integer", 0,
+           "start only once /pendulum/joint_states has this many subscribers", low=0, high=64),
+    _fixed("wait_for_recorder", "bool", False, _WAIT_FOR_RECORDER),
+    _fixed("wait_timeout", "double", 30.0, "give up waiting for subscribers after this many seconds (s)",
+           low=0.0, high=3600.0),
+    _fixed("clock_rate_hz", "double", DEFAULT_CLOCK_RATE_HZ,
+           "/clock messages per simulated second (0: one per sample)", low=0.0, high=100_000.0),
+)  # fmt: skip
+
+ESTIMATOR: tuple[ParamSpec, ...] = (
+    _fixed("scene", "string", DEFAULT_SCENE, "scene whose pendulum and sensor configure the method"),
+    ParamSpec("method", "string", DEFAULT_ESTIMATOR, "estimation method", choices=tuple(ESTIMATORS)),
+    *(override_param(spec, "default: the scene's") for spec in ESTIMATOR_CONFIG),
+    _fixed("warn_angle_deg", "double", 80.0,
+           "|θ| from which the input is flagged ill-conditioned (WARN), degrees", low=1.0, high=89.9),
+    _fixed("stale_after", "double", 0.0,
+           "STALE after this long without input, s (0: 20 periods, at least 0.5 s)", low=0.0, high=3600.0),
+    _fixed("diagnostics_period", "double", 1.0, "seconds between /diagnostics messages (wall clock)",
+           low=0.01, high=60.0),
+    _fixed("wait_for_subscribers", "integer", 0,
+           "subscribe to the input only once the outputs have this many subscribers", low=0, high=64),
+)  # fmt: skip
+
+PLAYER: tuple[ParamSpec, ...] = (
+    _fixed("path", "string", "", "bag to play"),
+    _fixed("rate", "double", 1.0, "speed factor (2: twice as fast)", low=1e-3, high=1e3),
+    _fixed("loop", "bool", False, "start over at the end"),
+    _fixed("start_offset", "double", 0.0, "skip this many seconds of the bag", low=0.0, high=1e6),
+    # [""], not []: ROS infers a parameter's type from its default, and an empty list has none.
+    _fixed("topics", "string_array", ("",), "topics to play (empty: all)"),
+    _fixed("clock", "bool", False, "publish /clock from the bag time"),
+    _fixed("clock_rate_hz", "double", DEFAULT_CLOCK_RATE_HZ,
+           "/clock messages per bag second (0: one per message)", low=0.0, high=1e5),
+    _fixed("exit_on_end", "bool", True, "exit after the last message"),
+    _fixed("wait_for_subscribers", "integer", 0,
+           "start once /pendulum/joint_states has this many subscribers", low=0, high=64),
+    _fixed("wait_for_recorder", "bool", False, _WAIT_FOR_RECORDER),
+)  # fmt: skip
+
+RECORDER: tuple[ParamSpec, ...] = (
+    _fixed("path", "string", "", "bag directory to create"),
+    _fixed("overwrite", "bool", False, "replace an existing bag"),
+    _fixed("topics", "string_array", tuple(bm.TOPIC_TYPES), "topics to record (any of the chain's)"),
+    _fixed("scene", "string", "", "scene stored in the bag's custom_data"),
+    ParamSpec("log_time", "string", "stamp",
+              "log time: the message stamp (sim time) or its receive time (node clock)",
+              read_only=True, choices=LOG_TIMES),
+)  # fmt: skip
+
+NODE_PARAMETERS: Mapping[str, Sequence[ParamSpec]] = {
+    "pendulum_sim": SIMULATOR,
+    "accel_estimator": ESTIMATOR,
+    "bag_player": PLAYER,
+    "bag_recorder": RECORDER,
+}
+"""Each node's parameter table, by node name (the name its node module declares)."""
