@@ -8,6 +8,8 @@ a sine and a cosine:
     θ'' = −(g/l) sin θ + (a/l) cos θ − c θ' = (g_eff/l) sin(θ_eq − θ) − c θ',
     g_eff = √(g² + a²),  θ_eq = atan2(a, g).
 
+(physics.rigid.theta_ddot in another form; the tests hold the two to rounding.)
+
 A noise sweep leaves the dynamics unchanged, so its single trajectory is integrated once and measured
 by one sensor per noise level. Per-variant results (equilibrium angle, mean and max angle, period,
 estimated acceleration) are written as one CSV table.

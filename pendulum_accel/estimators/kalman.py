@@ -95,7 +95,8 @@ class KalmanEstimator(Estimator):
     def _predict(self, dt: float) -> None:
         """x ← RK4(x, dt); P ← F P Fᵀ + Q with F = I + J dt + J² dt²/2, Q = diag(0, q_ω dt, q_a dt).
 
-        θ'' = (a cos θ − g sin θ)/l − c θ', written out inline: this runs once per sample.
+        θ'' = (a cos θ − g sin θ)/l − c θ' (physics.rigid.theta_ddot), written out inline: this runs
+        once per sample; ``test/test_equation_of_motion.py`` holds the step and J to theta_ddot.
         """
         th, om, ac = self._x
         g, l_inv, c = self._g, self._l_inv, self._c

@@ -1,10 +1,11 @@
 """Compiled fixed-step stepping (numba) for one rigid or elastic-string state: the hot path of simulate().
 
-The equations are those of physics.rigid and physics.elastic, written once more in scalar form because
-numba compiles scalar code, not the numpy closures there; ``test/test_kernels.py`` holds the two to the
-same values. A whole run (every sample interval, every substep) is one compiled call, so a step costs
-≈ 0.1 µs (rigid RK4) instead of the microseconds of a Python-level step. Each model has its own compiled
-function: one function branching on the model ran 3× slower, its loops no longer optimised.
+The equations are those of physics.rigid and physics.elastic, written once more in scalar form because numba
+compiles scalar code, not the numpy closures there; ``test/test_kernels.py`` holds whole runs to the numpy
+loop's, and ``test/test_equation_of_motion.py`` the rigid rhs to ``rigid.theta_ddot``. A whole run (every
+sample interval, every substep) is one compiled call, so a step costs ≈ 0.1 µs (rigid RK4) instead of the
+microseconds of a Python-level step. Each model has its own compiled function: one function branching on the
+model ran 3× slower, its loops no longer optimised.
 
 a(t) reaches the kernel in one of two forms:
 
