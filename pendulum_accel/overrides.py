@@ -65,3 +65,22 @@ def apply_overrides(scene: Scene, values: Mapping[str, float]) -> Scene:
             continue
         scene = spec.set(scene, spec.kind(spec.check(value)))
     return scene
+
+
+def parse_override(text: str) -> tuple[str, float]:
+    """'name=value' → (name, float(value)), else ParameterError naming the text (names: apply_overrides)."""
+    name, sep, value = text.partition("=")
+    try:
+        if not sep or not name:
+            raise ValueError
+        return name.strip(), float(value)
+    except ValueError:
+        raise ParameterError(f"--set expects NAME=NUMBER (e.g. duration=5), got {text!r}") from None
+
+
+SET_HELP = "override a scene field (repeatable): " + ", ".join(
+    f"{o.name} [{o.kind(o.low):.6g}, {o.kind(o.high):{'.6g' if o.kind is float else 'd'}}]"
+    + (f" {o.unit}" if o.unit else "")
+    for o in OVERRIDES
+)
+"""Help text of the CLI's ``--set NAME=VALUE``: every overridable field with its range and unit."""

@@ -104,11 +104,23 @@ def test_model_method_and_step_options(capsys: pytest.CaptureFixture[str]) -> No
     assert "DOP853 (rtol = 1.0e-10)" in capsys.readouterr().err
 
 
+def test_set_goes_through_the_override_table(capsys: pytest.CaptureFixture[str]) -> None:
+    """--set NAME=VALUE equals the matching flag; both are range-checked by the one override table."""
+    assert main(["simulate", "braking", "--duration", "0.5", "--rate", "50"]) == 0
+    flags = capsys.readouterr().out
+    assert main(["simulate", "braking", "--set", "duration=0.5", "--set", "rate_hz=50"]) == 0
+    assert capsys.readouterr().out == flags
+    assert main(["simulate", "braking", "--set", "length=2000"]) == 2
+    assert "length must be in [0.001, 1000] m" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
         (["simulate", "nosuch"], "no bundled scene named 'nosuch'"),
         (["simulate", "--length", "-1"], "length"),
+        (["simulate", "--set", "bogus=1"], "not an overridable scene field"),
+        (["simulate", "--set", "length"], "NAME=NUMBER"),
         (["simulate", "lecture_constant", "--model", "exact", "--dt", "0.01"], "closed form"),
         (["simulate", "stop_and_go", "--model", "linear"], "undamped"),
         (["simulate", "lecture_constant", "--method", "RK45", "--dt", "0.01"], "--dt"),

@@ -6,27 +6,14 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pendulum_accel.errors import ParameterError
+from pendulum_accel.overrides import SET_HELP, parse_override
 
 if TYPE_CHECKING:
     from pendulum_accel.nodes.launcher import ChainConfig
 
 
-def parse_override(text: str) -> tuple[str, float]:
-    """'name=value' → (name, float(value)); ParameterError naming the text otherwise."""
-    name, sep, value = text.partition("=")
-    try:
-        if not sep or not name:
-            raise ValueError
-        return name.strip(), float(value)
-    except ValueError:
-        raise ParameterError(f"--set expects NAME=NUMBER (e.g. duration=5), got {text!r}") from None
-
-
 def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
     """The chain's options, shared by ``pendulum-accel run`` and ``launch_scripts/chain.py``."""
-    from pendulum_accel.overrides import OVERRIDES
-
     parser.add_argument("scene", nargs="?", default=None, help="bundled scene name or scene YAML path")
     parser.add_argument("--record", type=Path, metavar="DIR", help="record the chain to this bag directory")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing bag")
@@ -52,7 +39,7 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="override a scene field: " + ", ".join(o.name for o in OVERRIDES),
+        help=SET_HELP,
     )
 
 

@@ -15,6 +15,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from pendulum_accel.errors import ParameterError, SceneError
+from pendulum_accel.overrides import OVERRIDE_BY_NAME, SET_HELP, apply_overrides, parse_override
 from pendulum_accel.physics.integrators import METHODS
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import Constant
@@ -25,6 +26,14 @@ from pendulum_accel.sensor import SensorModel
 
 CSV_COLUMNS: tuple[str, ...] = ("t", "theta", "theta_dot", "tension", "stretch")
 PLAIN_DEFAULTS = {"length": 1.0, "duration": 10.0, "rate": 100.0, "target": 1e-6}
+TABLE_FLAGS: dict[str, str] = {
+    "length": "length",
+    "gravity": "gravity",
+    "theta0": "theta0",
+    "duration": "duration",
+    "rate": "rate_hz",
+}
+"""Flags that set an override-table field (flag → field): the same range check as --set and the nodes."""
 
 
 def register(subparsers: Any) -> None:
@@ -42,14 +51,17 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("scene", nargs="?", metavar="SCENE", help="bundled scene name or scene YAML path")
     phys = parser.add_argument_group("physics (override the scene)")
-    phys.add_argument("--length", type=float, metavar="M", help="pendulum length l (m)")
-    phys.add_argument("--gravity", type=float, metavar="M/S2", help="gravity g (m/s²)")
+    for flag, name in TABLE_FLAGS.items():
+        spec = OVERRIDE_BY_NAME[name]
+        phys.add_argument(
+            f"--{flag}", type=float, metavar=spec.unit.upper(), help=f"{spec.description} ({spec.unit})"
+        )
     phys.add_argument("--accel", type=float, metavar="M/S2", help="constant car acceleration a (m/s²)")
-    phys.add_argument("--theta0", type=float, metavar="RAD", help="initial angle θ0 (rad)")
     phys.add_argument("--theta-dot0", type=float, metavar="RAD/S", help="initial rate θ'0 (rad/s)")
-    phys.add_argument("--duration", type=float, metavar="S", help="run length (s)")
-    phys.add_argument("--rate", type=float, metavar="HZ", help="output sample rate (Hz)")
     phys.add_argument("--target", type=float, metavar="RAD", help="accuracy target: max angle error (rad)")
+    phys.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE", help=SET_HELP
+    )
     solver = parser.add_argument_group("solver (override the planner)")
     solver.add_argument("--model", choices=MODELS, help="force the model")
     solver.add_argument("--method", choices=(CLOSED_FORM_METHOD, *METHODS), help="force the integrator")
@@ -61,49 +73,40 @@ def register(subparsers: Any) -> None:
 
 
 def _plain_scene(args: argparse.Namespace) -> Scene:
-    """A scene from flags alone: no sensor noise, constant a, defaults from PLAIN_DEFAULTS."""
-    try:
-        pendulum = Pendulum(
-            args.length if args.length is not None else PLAIN_DEFAULTS["length"],
-            gravity=args.gravity if args.gravity is not None else STANDARD_GRAVITY,
-        )
-        return Scene(
-            name="cli",
-            description="pendulum given by command-line flags",
-            duration=args.duration if args.duration is not None else PLAIN_DEFAULTS["duration"],
-            pendulum=pendulum,
-            profile=Constant(args.accel if args.accel is not None else 0.0),
-            sensor=SensorModel(args.rate if args.rate is not None else PLAIN_DEFAULTS["rate"]),
-            theta0=args.theta0 if args.theta0 is not None else 0.0,
-            theta_dot0=args.theta_dot0 if args.theta_dot0 is not None else 0.0,
-            accuracy=args.target if args.target is not None else PLAIN_DEFAULTS["target"],
-        )
-    except ParameterError as err:
-        raise SceneError(f"command-line scene: {err}") from None
+    """A scene from flags alone, before the table's fields: no sensor noise, constant a, PLAIN_DEFAULTS."""
+    return Scene(
+        name="cli",
+        description="pendulum given by command-line flags",
+        duration=PLAIN_DEFAULTS["duration"],
+        pendulum=Pendulum(PLAIN_DEFAULTS["length"], gravity=STANDARD_GRAVITY),
+        profile=Constant(args.accel if args.accel is not None else 0.0),
+        sensor=SensorModel(PLAIN_DEFAULTS["rate"]),
+        theta_dot0=args.theta_dot0 if args.theta_dot0 is not None else 0.0,
+        accuracy=args.target if args.target is not None else PLAIN_DEFAULTS["target"],
+    )
 
 
 def scene_from_args(args: argparse.Namespace) -> Scene:
-    """The scene named by SCENE with every given flag applied, or the plain-flags scene."""
+    """The scene named by SCENE (or the plain-flags scene) with every given flag and --set applied."""
+    values = {
+        name: getattr(args, flag) for flag, name in TABLE_FLAGS.items() if getattr(args, flag) is not None
+    }
+    values.update(parse_override(text) for text in args.overrides)
     if args.scene is None:
-        return _plain_scene(args)
+        try:
+            return apply_overrides(_plain_scene(args), values)
+        except ParameterError as err:
+            raise SceneError(f"command-line scene: {err}") from None
     scene = load_scene(args.scene)
     try:
-        p = scene.pendulum
-        if args.length is not None or args.gravity is not None:
-            p = replace(
-                p,
-                length=args.length if args.length is not None else p.length,
-                gravity=args.gravity if args.gravity is not None else p.gravity,
-            )
-        changes: dict[str, Any] = {"pendulum": p}
+        scene = apply_overrides(scene, values)
+        changes: dict[str, Any] = {}
         if args.accel is not None:
             changes["profile"] = Constant(args.accel)
-        if args.rate is not None:
-            changes["sensor"] = replace(scene.sensor, rate_hz=args.rate)
-        for flag, name in (("theta0", "theta0"), ("theta_dot0", "theta_dot0"), ("duration", "duration"),
-                           ("target", "accuracy")):  # fmt: skip
-            if getattr(args, flag) is not None:
-                changes[name] = getattr(args, flag)
+        if args.theta_dot0 is not None:
+            changes["theta_dot0"] = args.theta_dot0
+        if args.target is not None:
+            changes["accuracy"] = args.target
         return replace(scene, **changes)
     except ParameterError as err:
         raise SceneError(f"{scene.source or scene.name}: {err}") from None
