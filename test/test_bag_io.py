@@ -11,6 +11,7 @@ import yaml
 from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 
+from pendulum_accel import __version__
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.repair import repair_bag
@@ -110,7 +111,8 @@ def _merged(streams: list[Stream]) -> list[tuple[int, int, str, bytes]]:
 
 
 def test_bulk_write_equals_plain_rosbags_writer(tmp_path: Path) -> None:
-    """write_sorted produces the same .mcap bytes as a plain rosbags Writer fed message by message."""
+    """write_sorted produces the same .mcap bytes as a plain rosbags Writer fed message by message
+    (the header aside: it names the writing library)."""
     streams, types = _chain_streams(12_000)  # > 1 MiB: several chunks
     custom = {"pendulum_accel.scene": "name: x\n", "pendulum_accel.plan": "rigid/DOP853"}
     with BagWriter(tmp_path / "a" / "bag", custom_data=custom, flush_interval=None) as w:
@@ -129,8 +131,10 @@ def test_bulk_write_equals_plain_rosbags_writer(tmp_path: Path) -> None:
         plain.write(conns[topic], t, payload)
     plain.close()
     ours, theirs = (_mcap_parts(tmp_path / w / "bag" / "bag.mcap") for w in "ab")
-    assert ours[0] == theirs[0]  # header, schemas, channels, chunks and message indexes: same bytes
+    # Schemas, channels, chunks and message indexes: same bytes after the header, which names the library.
+    assert ours[0] == theirs[0]
     assert len(ours[0]) > 2 * 2**20
+    assert ours[3] == f"pendulum_accel-{__version__}" and theirs[3].startswith("rosbags-")
     # The rosbag2 metadata record holds the same YAML document (dumped by libyaml, not ruamel)...
     assert yaml.safe_load(ours[1]) == yaml.safe_load(theirs[1])
     # ...and the summary indexes the same chunks, channels and counts.
@@ -140,21 +144,27 @@ def test_bulk_write_equals_plain_rosbags_writer(tmp_path: Path) -> None:
     )
 
 
-def _mcap_parts(path: Path) -> tuple[bytes, str, tuple[object, ...]]:
-    """(bytes before the metadata record, its serialized_metadata, summary statistics and indexes)."""
+def _mcap_parts(path: Path) -> tuple[bytes, str, tuple[object, ...], str]:
+    """(bytes between the header and the metadata record, its serialized_metadata, summary statistics
+    and indexes with offsets counted from the header's end, the header's library field)."""
     with path.open("rb") as handle:
-        summary = make_reader(handle).get_summary()
+        reader = make_reader(handle)
+        summary = reader.get_summary()
+        library = reader.get_header().library
     assert summary is not None and summary.statistics is not None
     start = summary.metadata_indexes[0].offset
     data = path.read_bytes()
+    header_end = 8 + 9 + int.from_bytes(data[9:17], "little")  # magic, then opcode + length + body
     with path.open("rb") as handle:
         meta = next(make_reader(handle).iter_metadata())
     stats = summary.statistics
     chunks = tuple(
-        (c.chunk_start_offset, c.chunk_length, c.message_start_time) for c in summary.chunk_indexes
+        (c.chunk_start_offset - header_end, c.chunk_length, c.message_start_time)
+        for c in summary.chunk_indexes
     )
     counts = tuple(sorted(stats.channel_message_counts.items()))
-    return data[:start], meta.metadata["serialized_metadata"], (stats.message_count, counts, chunks)
+    parts = (stats.message_count, counts, chunks)
+    return data[header_end:start], meta.metadata["serialized_metadata"], parts, library
 
 
 def test_reader_matches_rosbags_deserializer(tmp_path: Path) -> None:

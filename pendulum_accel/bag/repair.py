@@ -11,9 +11,8 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from rosbags.rosbag2.metadata import parse_qos
-
 from pendulum_accel.bag.messages import TYPESTORE
+from pendulum_accel.bag.metadata import parse_qos
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.errors import BagError

@@ -1,0 +1,176 @@
+"""rosbag2 metadata: offered QoS profiles as rosbag2 stores them, and the metadata.yaml document (v9).
+
+The QoS form is rosbag2's version 9 one (enum names in lower case, times as sec/nsec), the same text
+in metadata.yaml and in each MCAP channel's ``offered_qos_profiles`` entry; parsing also takes the
+version 8 form (enum values as integers).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from enum import Enum
+from pathlib import Path
+from typing import TypeVar
+
+import yaml
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+from pendulum_accel.errors import BagError
+
+QosDict = dict[str, str | int | bool | dict[str, int]]
+"""One offered QoS profile as rosbag2 v9 writes it in YAML."""
+
+MetadataDocument = dict[str, dict[str, object]]
+"""metadata.yaml: {"rosbag2_bagfile_information": {...}}."""
+
+
+@dataclass(frozen=True)
+class TopicRecord:
+    """One topic as metadata.yaml lists it: name, type, type hash (RIHS01), offered QoS, count."""
+
+    name: str
+    msgtype: str
+    type_hash: str
+    qos: list[Qos]
+    count: int
+
+
+def _time(value: QosTime) -> dict[str, int]:
+    """{sec, nsec} of a QoS duration."""
+    return {"sec": int(value.sec), "nsec": int(value.nsec)}
+
+
+def qos_dicts(qos: Sequence[Qos]) -> list[QosDict]:
+    """Offered QoS profiles in rosbag2's v9 form (keys as rosbag2 writes them)."""
+    return [
+        {
+            "history": q.history.name.lower(),
+            "depth": int(q.depth),
+            "reliability": q.reliability.name.lower(),
+            "durability": q.durability.name.lower(),
+            "deadline": _time(q.deadline),
+            "lifespan": _time(q.lifespan),
+            "liveliness": q.liveliness.name.lower(),
+            "liveliness_lease_duration": _time(q.liveliness_lease_duration),
+            "avoid_ros_namespace_conventions": bool(q.avoid_ros_namespace_conventions),
+        }
+        for q in qos
+    ]
+
+
+def qos_text(qos: Sequence[Qos]) -> str:
+    """The profiles as the YAML text of an MCAP channel's ``offered_qos_profiles`` entry (keys sorted)."""
+    dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+    text: str = yaml.dump(qos_dicts(qos), Dumper=dumper, default_flow_style=False)
+    return text.strip()
+
+
+_E = TypeVar("_E", bound=Enum)
+
+
+def _enum(kind: type[_E], value: object) -> _E:
+    """Enum member from its v9 name or v8 integer value; the UNKNOWN member for anything else."""
+    try:
+        if isinstance(value, int):
+            return kind(value)
+        return kind[str(value).upper()]
+    except (KeyError, ValueError):
+        return kind["UNKNOWN"]
+
+
+def _qos_time(item: Mapping[str, object], key: str) -> QosTime:
+    """QosTime from the {sec, nsec} entry ``key``; zero when absent."""
+    value = item.get(key)
+    if not isinstance(value, Mapping):
+        return QosTime(0, 0)
+    return QosTime(int(value.get("sec", 0)), int(value.get("nsec", 0)))
+
+
+def parse_qos(text: str | Sequence[Mapping[str, object]]) -> list[Qos]:
+    """Offered QoS profiles from rosbag2's YAML text (or its parsed list); BagError when unreadable."""
+    if not text:
+        return []
+    try:
+        items = yaml.safe_load(text) if isinstance(text, str) else list(text)
+        if not isinstance(items, list):
+            raise TypeError(f"expected a list of profiles, got {type(items).__name__}")
+        return [
+            Qos(
+                _enum(QosHistory, item.get("history")),
+                int(item.get("depth", 0)),
+                _enum(QosReliability, item.get("reliability")),
+                _enum(QosDurability, item.get("durability")),
+                _qos_time(item, "deadline"),
+                _qos_time(item, "lifespan"),
+                _enum(QosLiveliness, item.get("liveliness")),
+                _qos_time(item, "liveliness_lease_duration"),
+                bool(item.get("avoid_ros_namespace_conventions", False)),
+            )
+            for item in items
+        ]
+    except (yaml.YAMLError, TypeError, ValueError, AttributeError) as err:
+        raise BagError(f"unreadable offered_qos_profiles: {err}") from None
+
+
+def metadata_document(
+    *,
+    mcap_name: str,
+    topics: Sequence[TopicRecord],
+    start_ns: int,
+    end_ns: int,
+    custom_data: Mapping[str, str],
+) -> MetadataDocument:
+    """rosbag2 metadata.yaml (version 9, mcap storage) for one file, laid out as rosbags writes it."""
+    duration = max(0, end_ns - start_ns)
+    count = sum(t.count for t in topics)
+    return {
+        "rosbag2_bagfile_information": {
+            "version": 9,
+            "storage_identifier": "mcap",
+            "relative_file_paths": [mcap_name],
+            "duration": {"nanoseconds": duration},
+            "starting_time": {"nanoseconds_since_epoch": start_ns},
+            "message_count": count,
+            "topics_with_message_count": [
+                {
+                    "topic_metadata": {
+                        "name": t.name,
+                        "type": t.msgtype,
+                        "serialization_format": "cdr",
+                        "offered_qos_profiles": qos_dicts(t.qos),
+                        "type_description_hash": t.type_hash,
+                    },
+                    "message_count": t.count,
+                }
+                for t in topics
+            ],
+            # rosbags/rosbag2 leave both empty for chunk-level (storage) compression.
+            "compression_format": "",
+            "compression_mode": "",
+            "files": [
+                {
+                    "path": mcap_name,
+                    "starting_time": {"nanoseconds_since_epoch": start_ns},
+                    "duration": {"nanoseconds": duration},
+                    "message_count": count,
+                }
+            ],
+            "custom_data": dict(custom_data) or None,
+            "ros_distro": "rosbags",
+        }
+    }
+
+
+def write_metadata(bag_dir: Path, document: MetadataDocument) -> None:
+    """Atomically replace bag_dir/metadata.yaml with ``document`` (write to .tmp, rename)."""
+    tmp = bag_dir / "metadata.yaml.tmp"
+    tmp.write_text(dump_yaml(document), encoding="utf8")
+    tmp.replace(bag_dir / "metadata.yaml")
+
+
+def dump_yaml(document: Mapping[str, object]) -> str:
+    """Block-style YAML in insertion order (libyaml's safe dumper when available)."""
+    dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+    text: str = yaml.dump(dict(document), Dumper=dumper, default_flow_style=False, sort_keys=False)
+    return text
