@@ -30,7 +30,14 @@ from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, Input
 from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
 from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG
 from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
-from pendulum_accel.nodes.runtime import ChainNode, declare_parameters, publish_blocking, run_node
+from pendulum_accel.nodes.runtime import (
+    ChainNode,
+    change_result,
+    declare_parameters,
+    parameter_values,
+    publish_blocking,
+    run_node,
+)
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
 
@@ -100,12 +107,7 @@ class EstimatorNode(ChainNode):
 
     def _config_values(self, changes: Sequence[Parameter] = ()) -> dict[str, Any]:
         """method and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
-        names = ("method", *(spec.name for spec in ESTIMATOR_CONFIG))
-        values: dict[str, Any] = {name: self.get_parameter(name).value for name in names}
-        for param in changes:
-            if param.name in values:
-                values[param.name] = param.value
-        return values
+        return parameter_values(self, ("method", *(spec.name for spec in ESTIMATOR_CONFIG)), changes)
 
     def _build(self, values: dict[str, Any]) -> Estimator:
         """make_estimator(method, length, gravity, noise_std, rate_hz, damping) (ParameterError if bad)."""
@@ -124,13 +126,7 @@ class EstimatorNode(ChainNode):
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Accept a change only if the estimator it makes is valid; else keep the old value and say why."""
-        try:
-            self._build(self._config_values(params))
-        except PendulumAccelError as err:
-            return SetParametersResult(successful=False, reason=str(err))
-        except (TypeError, ValueError) as err:
-            return SetParametersResult(successful=False, reason=f"invalid value: {err}")
-        return SetParametersResult(successful=True)
+        return change_result(lambda: self._build(self._config_values(params)))
 
     def _parameters_applied(self, params: list[Parameter]) -> None:
         """Rebuild the estimator from the new values; it starts over from the next sample."""

@@ -12,11 +12,12 @@ from types import FrameType
 from typing import Any
 
 import rclpy
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
@@ -133,6 +134,26 @@ def declare_parameters(
             spec.name, _typed(spec, default), parameter_descriptor(spec)
         ).value
     return values
+
+
+def parameter_values(node: Node, names: Sequence[str], changes: Sequence[Parameter] = ()) -> dict[str, Any]:
+    """{name: current value} of ``names`` on ``node``, with ``changes`` (a pending set) on top."""
+    values: dict[str, Any] = {name: node.get_parameter(name).value for name in names}
+    for param in changes:
+        if param.name in values:
+            values[param.name] = param.value
+    return values
+
+
+def change_result(build: Callable[[], object]) -> SetParametersResult:
+    """Accept a parameter change when ``build()`` (what it would make) raises nothing; else say why."""
+    try:
+        build()
+    except PendulumAccelError as err:
+        return SetParametersResult(successful=False, reason=str(err))
+    except (TypeError, ValueError) as err:
+        return SetParametersResult(successful=False, reason=f"invalid value: {err}")
+    return SetParametersResult(successful=True)
 
 
 def publish_blocking(publisher: Publisher, msg: Any, stopping: Callable[[], bool]) -> bool:

@@ -28,7 +28,14 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.nodes.parameters import SIMULATOR
 from pendulum_accel.nodes.qos import DATA_QOS
-from pendulum_accel.nodes.runtime import ThreadedNode, declare_parameters, publish_blocking, run_node
+from pendulum_accel.nodes.runtime import (
+    ThreadedNode,
+    change_result,
+    declare_parameters,
+    parameter_values,
+    publish_blocking,
+    run_node,
+)
 from pendulum_accel.overrides import OVERRIDES, apply_overrides
 from pendulum_accel.recording.generate import Frames, serialise_run
 from pendulum_accel.scene import Scene, load_scene
@@ -83,11 +90,7 @@ class SimulatorNode(ThreadedNode):
 
     def _override_values(self, changes: Sequence[Parameter] = ()) -> dict[str, float]:
         """Current override parameter values, with ``changes`` applied on top."""
-        values: dict[str, float] = {spec.name: self.get_parameter(spec.name).value for spec in OVERRIDES}
-        for param in changes:
-            if param.name in values:
-                values[param.name] = param.value
-        return values
+        return parameter_values(self, [spec.name for spec in OVERRIDES], changes)
 
     def _scene_from(self, values: dict[str, float]) -> Scene:
         """The base scene with the override values (PendulumAccelError naming a bad value)."""
@@ -100,13 +103,7 @@ class SimulatorNode(ThreadedNode):
                 return SetParametersResult(
                     successful=False, reason=f"{param.name} must be finite, got {param.value}"
                 )
-        try:
-            self._scene_from(self._override_values(params))
-        except PendulumAccelError as err:
-            return SetParametersResult(successful=False, reason=str(err))
-        except (TypeError, ValueError) as err:
-            return SetParametersResult(successful=False, reason=f"invalid value: {err}")
-        return SetParametersResult(successful=True)
+        return change_result(lambda: self._scene_from(self._override_values(params)))
 
     def _parameters_applied(self, params: list[Parameter]) -> None:
         """A physics change restarts the scene at t = 0 with the new values (receivers see time jump back)."""
