@@ -27,22 +27,31 @@ setup(
     ],
     # ROS 2 (rclpy and message packages) is deliberately absent: it comes from
     # a system install or from requirements-ros.txt.
+    # Floors are the versions the tests run with (requirements-dev.txt; zstandard and lz4 as installed
+    # with them): rosbags for its typestore (message definitions, RIHS01 hashes, CDR), mcap for its
+    # record reader; bags are written by pendulum_accel.bag.mcap_file, not by either library.
     install_requires=[
-        "numpy",
-        "scipy",
-        "numba",
-        "PyYAML",
-        "rosbags",
-        "mcap",
-        "matplotlib",
-        "tqdm",
-        "zstandard",
-        "lz4",
+        "numpy>=2.4.6",
+        "scipy>=1.17.1",
+        "numba>=0.68.1",
+        "PyYAML>=6.0.3",
+        "rosbags>=0.11.9",
+        "mcap>=1.6.0",
+        "matplotlib>=3.11.2",
+        "tqdm>=4.70.1",
+        "zstandard>=0.25.0",
+        "lz4>=4.4.5",
     ],
     # The work-precision benchmark's 30-digit reference, and the test tools.
     extras_require={
-        "bench": ["mpmath"],
-        "test": ["pytest", "pytest-timeout", "hypothesis", "mpmath", "mcap-ros2-support"],
+        "bench": ["mpmath>=1.4.1"],
+        "test": [
+            "pytest>=9.2.0",
+            "pytest-timeout>=2.4.0",
+            "hypothesis>=6.170.15",
+            "mpmath>=1.4.1",
+            "mcap-ros2-support>=0.6.0",
+        ],
     },
     python_requires=">=3.10",
     zip_safe=True,
