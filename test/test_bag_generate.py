@@ -46,7 +46,9 @@ def test_generated_bag_holds_the_scene_run(tmp_path: Path) -> None:
     est = bag.decode(bm.TOPIC_ACCEL_ESTIMATE, bm.ACCEL_WITH_COVARIANCE_STAMPED)
     assert 0 < len(est) <= n and np.all(np.isfinite(est["accel.accel.linear.x"]))
     assert np.all(est["accel.covariance[0]"] > 0)
-    names = {bm.deserialize(p, bm.DIAGNOSTIC_ARRAY).status[0].name for p in bag.raw(bm.TOPIC_DIAGNOSTICS)[1]}
+    reports = [bm.deserialize(p, bm.DIAGNOSTIC_ARRAY) for p in bag.raw(bm.TOPIC_DIAGNOSTICS)[1]]
+    assert all(isinstance(r, bm.DiagnosticArrayMsg) for r in reports)
+    names = {r.status[0].name for r in reports if isinstance(r, bm.DiagnosticArrayMsg)}
     assert names == {"accel_estimator"} and bag.topics[bm.TOPIC_DIAGNOSTICS].count == 2  # t = 0 s and 1 s
 
 

@@ -31,6 +31,22 @@ from rosbags.interfaces import (
 )
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
+from rosbags.typesys.stores.ros2_kilted import builtin_interfaces__msg__Time as TimeMsg
+from rosbags.typesys.stores.ros2_kilted import diagnostic_msgs__msg__DiagnosticArray as DiagnosticArrayMsg
+from rosbags.typesys.stores.ros2_kilted import diagnostic_msgs__msg__DiagnosticStatus as DiagnosticStatusMsg
+from rosbags.typesys.stores.ros2_kilted import diagnostic_msgs__msg__KeyValue as KeyValueMsg
+from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Accel as AccelMsg
+from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__AccelStamped as AccelStampedMsg
+from rosbags.typesys.stores.ros2_kilted import (
+    geometry_msgs__msg__AccelWithCovariance as AccelWithCovarianceMsg,
+)
+from rosbags.typesys.stores.ros2_kilted import (
+    geometry_msgs__msg__AccelWithCovarianceStamped as AccelWithCovarianceStampedMsg,
+)
+from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Vector3 as Vector3Msg
+from rosbags.typesys.stores.ros2_kilted import rosgraph_msgs__msg__Clock as ClockMsg
+from rosbags.typesys.stores.ros2_kilted import sensor_msgs__msg__JointState as JointStateMsg
+from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as HeaderMsg
 
 from pendulum_accel.errors import BagError
 
@@ -118,20 +134,20 @@ def stamp_seconds(sec: ArrayLike, nanosec: ArrayLike) -> NDArray[np.float64]:
     return np.asarray(sec, dtype=np.float64) + np.asarray(nanosec, dtype=np.float64) * 1e-9
 
 
-def _time(ns: int) -> Any:
+def _time(ns: int) -> TimeMsg:
     """builtin_interfaces/Time for integer nanoseconds."""
     sec, nanosec = divmod(int(ns), _NS_PER_S)
-    return TYPESTORE.types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec)
+    return TimeMsg(sec=sec, nanosec=nanosec)
 
 
-def _header(ns: int, frame_id: str = FRAME_ID) -> Any:
+def _header(ns: int, frame_id: str = FRAME_ID) -> HeaderMsg:
     """std_msgs/Header with stamp = ns and the given frame."""
-    return TYPESTORE.types["std_msgs/msg/Header"](stamp=_time(ns), frame_id=frame_id)
+    return HeaderMsg(stamp=_time(ns), frame_id=frame_id)
 
 
-def _vector3(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Any:
+def _vector3(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Vector3Msg:
     """geometry_msgs/Vector3 (x, y, z)."""
-    return TYPESTORE.types["geometry_msgs/msg/Vector3"](x=float(x), y=float(y), z=float(z))
+    return Vector3Msg(x=float(x), y=float(y), z=float(z))
 
 
 def _floats(values: Sequence[float]) -> NDArray[np.float64]:
@@ -146,9 +162,9 @@ def joint_state(
     velocity: Sequence[float] = (),
     effort: Sequence[float] = (),
     frame_id: str = FRAME_ID,
-) -> Any:
+) -> JointStateMsg:
     """sensor_msgs/JointState(header(stamp, frame_id), name, position, velocity, effort)."""
-    return TYPESTORE.types[JOINT_STATE](
+    return JointStateMsg(
         header=_header(stamp_ns, frame_id),
         name=list(names),
         position=_floats(position),
@@ -157,39 +173,40 @@ def joint_state(
     )
 
 
-def accel_stamped(stamp_ns: int, ax: float, frame_id: str = FRAME_ID) -> Any:
+def accel_stamped(stamp_ns: int, ax: float, frame_id: str = FRAME_ID) -> AccelStampedMsg:
     """geometry_msgs/AccelStamped with accel.linear.x = ax, all else 0."""
-    accel = TYPESTORE.types["geometry_msgs/msg/Accel"](linear=_vector3(ax), angular=_vector3())
-    return TYPESTORE.types[ACCEL_STAMPED](header=_header(stamp_ns, frame_id), accel=accel)
+    accel = AccelMsg(linear=_vector3(ax), angular=_vector3())
+    return AccelStampedMsg(header=_header(stamp_ns, frame_id), accel=accel)
 
 
-def accel_with_covariance_stamped(stamp_ns: int, ax: float, variance: float, frame_id: str = FRAME_ID) -> Any:
+def accel_with_covariance_stamped(
+    stamp_ns: int, ax: float, variance: float, frame_id: str = FRAME_ID
+) -> AccelWithCovarianceStampedMsg:
     """geometry_msgs/AccelWithCovarianceStamped: accel.accel.linear.x = ax, covariance[0] = variance."""
-    accel = TYPESTORE.types["geometry_msgs/msg/Accel"](linear=_vector3(ax), angular=_vector3())
+    accel = AccelMsg(linear=_vector3(ax), angular=_vector3())
     cov = np.zeros(36, dtype=np.float64)
     cov[0] = variance
-    wrapped = TYPESTORE.types["geometry_msgs/msg/AccelWithCovariance"](accel=accel, covariance=cov)
-    return TYPESTORE.types[ACCEL_WITH_COVARIANCE_STAMPED](header=_header(stamp_ns, frame_id), accel=wrapped)
+    wrapped = AccelWithCovarianceMsg(accel=accel, covariance=cov)
+    return AccelWithCovarianceStampedMsg(header=_header(stamp_ns, frame_id), accel=wrapped)
 
 
-def clock(stamp_ns: int) -> Any:
+def clock(stamp_ns: int) -> ClockMsg:
     """rosgraph_msgs/Clock(clock = stamp)."""
-    return TYPESTORE.types[CLOCK](clock=_time(stamp_ns))
+    return ClockMsg(clock=_time(stamp_ns))
 
 
 def diagnostic_array(
     stamp_ns: int, level: int, name: str, message: str, values: Mapping[str, str] | None = None
-) -> Any:
+) -> DiagnosticArrayMsg:
     """diagnostic_msgs/DiagnosticArray holding one DiagnosticStatus(level, name, message, values)."""
-    kv = TYPESTORE.types["diagnostic_msgs/msg/KeyValue"]
-    status = TYPESTORE.types["diagnostic_msgs/msg/DiagnosticStatus"](
+    status = DiagnosticStatusMsg(
         level=int(level),
         name=name,
         message=message,
         hardware_id="pendulum_accel",
-        values=[kv(key=k, value=v) for k, v in (values or {}).items()],
+        values=[KeyValueMsg(key=k, value=v) for k, v in (values or {}).items()],
     )
-    return TYPESTORE.types[DIAGNOSTIC_ARRAY](header=_header(stamp_ns, ""), status=[status])
+    return DiagnosticArrayMsg(header=_header(stamp_ns, ""), status=[status])
 
 
 def serialize(msg: object, msgtype: str) -> bytes:
@@ -197,7 +214,7 @@ def serialize(msg: object, msgtype: str) -> bytes:
     return bytes(TYPESTORE.serialize_cdr(msg, msgtype))
 
 
-def deserialize(raw: bytes | memoryview, msgtype: str) -> Any:
+def deserialize(raw: bytes | memoryview, msgtype: str) -> object:
     """One message from its CDR bytes via the rosbags typestore; BagError when they do not parse."""
     try:
         return TYPESTORE.deserialize_cdr(raw, msgtype)
@@ -208,7 +225,7 @@ def deserialize(raw: bytes | memoryview, msgtype: str) -> Any:
 _PATH_TOKEN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?")
 
 
-def _resolve(msg: Any, path: str) -> tuple[Any, str, int | None]:
+def _resolve(msg: object, path: str) -> tuple[object, str, int | None]:
     """(parent object, attribute, index or None) that ``path`` (e.g. ``accel.covariance[0]``) names."""
     obj = msg
     parts = path.split(".")
@@ -223,7 +240,7 @@ def _resolve(msg: Any, path: str) -> tuple[Any, str, int | None]:
     return obj, m.group(1), None if m.group(2) is None else int(m.group(2))
 
 
-def _set_leaf(msg: Any, path: str, value: Any) -> None:
+def _set_leaf(msg: object, path: str, value: float) -> None:
     """msg.<path> = value, in place (numeric scalar or one element of a numeric array)."""
     parent, attr, index = _resolve(msg, path)
     if index is None:
@@ -235,9 +252,10 @@ def _set_leaf(msg: Any, path: str, value: Any) -> None:
         setattr(parent, attr, array)
 
 
-def _numeric_leaves(msgtype: str, msg: Any, prefix: str = "") -> list[tuple[str, str]]:
+def _numeric_leaves(msgtype: str, msg: object, prefix: str = "") -> list[tuple[str, str]]:
     """(path, numpy dtype) of every numeric field of ``msg``, array elements one by one, in field order."""
     leaves: list[tuple[str, str]] = []
+    # rosbags types field definitions as a union by node kind; the kind tag below narrows it.
     fielddefs: list[tuple[str, tuple[Any, Any]]] = TYPESTORE.fielddefs[msgtype][1]
     for name, (kind, detail) in fielddefs:
         path = prefix + name
@@ -281,7 +299,7 @@ class Layout:
         return int(self.template.size)
 
     @classmethod
-    def of(cls, msg: Any, msgtype: str) -> Layout:
+    def of(cls, msg: object, msgtype: str) -> Layout:
         """Layout of ``msg``'s shape, learnt from the typestore serializer (two values per field, diff).
 
         Cached per shape (the message with every numeric field zeroed); the template is ``msg``'s bytes.
@@ -300,7 +318,7 @@ class Layout:
         return dataclasses.replace(cached, template=template)
 
     @classmethod
-    def _learn(cls, msg: Any, msgtype: str) -> Layout:
+    def _learn(cls, msg: object, msgtype: str) -> Layout:
         """Uncached Layout.of: one pair of serializations per numeric field."""
         template = np.frombuffer(serialize(msg, msgtype), dtype=np.uint8).copy()
         mask = np.ones(template.size, dtype=bool)
@@ -346,7 +364,7 @@ class Layout:
         result: NDArray[np.bool_] = np.all(rows[:, self.mask] == self.template[self.mask], axis=1)
         return result
 
-    def reader(self, paths: Sequence[str]) -> Callable[[bytes], tuple[Any, ...] | None]:
+    def reader(self, paths: Sequence[str]) -> Callable[[bytes], tuple[float, ...] | None]:
         """For one message at a time: bytes ↦ the values at ``paths`` if the bytes have this shape, else None.
 
         The same shape test as ``matches`` (size and every non-field byte), with struct instead of numpy:
@@ -358,7 +376,7 @@ class Layout:
         unpack = [(offset, _struct_of(dtype)) for offset, dtype in self._fields_at(paths)]
         size = self.size
 
-        def read(data: bytes) -> tuple[Any, ...] | None:
+        def read(data: bytes) -> tuple[float, ...] | None:
             """Field values, or None when ``data`` is another shape."""
             if len(data) != size or any(data[a:b] != expected for a, b, expected in fixed):
                 return None
