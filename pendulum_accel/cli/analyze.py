@@ -8,7 +8,11 @@ import sys
 from typing import Any
 
 from pendulum_accel.bag.reader import read_bag, salvage_note
+from pendulum_accel.overrides import OVERRIDE_BY_NAME
 from pendulum_accel.recording.analyze import analysis_dict, analyze_bag, plot_analysis
+
+ESTIMATOR_OVERRIDES = ("length", "noise_std")
+"""Scene fields ``analyze`` lets the user replace in the estimator's settings (ranges: overrides.py)."""
 
 
 def register(subparsers: Any) -> None:
@@ -28,8 +32,14 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--plot", default=None, metavar="PNG", help="save angle / acceleration / error plot")
     parser.add_argument("--skip", type=float, default=0.0, metavar="S", help="ignore the first S seconds")
     parser.add_argument("--tolerance", type=float, default=None, metavar="A", help="settling band, m/s²")
-    parser.add_argument("--length", type=float, default=None, help="pendulum length (m), overrides the scene")
-    parser.add_argument("--noise-std", type=float, default=None, help="angle noise σ (rad), overrides")
+    for name in ESTIMATOR_OVERRIDES:
+        spec = OVERRIDE_BY_NAME[name]
+        parser.add_argument(
+            "--" + name.replace("_", "-"),
+            type=float,
+            default=None,
+            help=f"{spec.description} ({spec.unit}), overrides the stored scene's",
+        )
     parser.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     parser.set_defaults(func=run)
 
@@ -37,11 +47,11 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the report (and plot); a damaged bag is analysed up to the damage, with a warning, exit 1."""
     bag = read_bag(args.bag)
-    config = {}
-    if args.length is not None:
-        config["length"] = args.length
-    if args.noise_std is not None:
-        config["noise_std"] = args.noise_std
+    config = {
+        name: OVERRIDE_BY_NAME[name].check(getattr(args, name))
+        for name in ESTIMATOR_OVERRIDES
+        if getattr(args, name) is not None
+    }
     result = analyze_bag(
         bag, estimator=args.estimator, config=config, skip=args.skip, tolerance=args.tolerance
     )
