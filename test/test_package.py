@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ast
 import importlib
+import re
 import shutil
 import subprocess
 import sys
@@ -57,7 +58,7 @@ _ROS_MODULES = {"rclpy", "builtin_interfaces", "rcl_interfaces", "rosidl_runtime
 def test_every_third_party_import_is_declared() -> None:
     """Each non-stdlib, non-ROS module the package imports is in install_requires."""
     requires = importlib.metadata.requires("pendulum_accel") or []
-    declared = {r.split(";")[0].strip().lower() for r in requires if "extra ==" not in r}
+    declared = {re.split(r"[<>=!~;\[ ]", r, maxsplit=1)[0].lower() for r in requires if "extra ==" not in r}
     for path in (REPO / "pendulum_accel").rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
             names = [a.name for a in node.names] if isinstance(node, ast.Import) else []
