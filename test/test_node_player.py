@@ -39,7 +39,7 @@ def test_golden_bag_through_live_estimator_matches_offline_estimates(spawn: Spaw
         {"path": str(out), "topics": ["/car/accel/estimate", "/diagnostics", "/clock"]},
     )
     recorder.wait_for("recording 3 topics", timeout=60)
-    estimator = start_node(spawn, "estimator_node", {"scene": "step_start", "wait_for_subscribers": 1})
+    estimator = start_node(spawn, "estimator_node", {"scene": "step_start", "recorder_node": "bag_recorder"})
     estimator.wait_for("estimating with", timeout=60)
     player = start_node(
         spawn,

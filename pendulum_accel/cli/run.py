@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import importlib.util
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -113,12 +112,14 @@ class RosMissingError(PendulumAccelError):
 
 
 def require_rclpy() -> None:
-    """RosMissingError, saying how to install it, when rclpy cannot be found."""
-    if importlib.util.find_spec("rclpy") is None:
+    """RosMissingError, saying how to install it, when rclpy does not import."""
+    try:
+        import rclpy  # noqa: F401
+    except ImportError:
         raise RosMissingError(
             "rclpy is not installed: run `make setup` (it runs `pip install -r requirements-ros.txt` "
             "into .venv) or source a ROS 2 install (source /opt/ros/<distro>/setup.bash)"
-        )
+        ) from None
 
 
 def run(args: argparse.Namespace) -> int:
