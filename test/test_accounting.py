@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,7 @@ from pendulum_accel.recording.generate import chain_streams, write_chain_bag
 N = 200
 
 
-def _bag(path: Path, estimated: np.ndarray, accounting: dict[str, object] | None) -> Path:
+def _bag(path: Path, estimated: np.ndarray, accounting: Mapping[str, object] | None) -> Path:
     """A chain bag of N angles at 100 Hz with estimates only where ``estimated``."""
     t = np.arange(N) / 100.0
     theta = np.full(N, 0.1)

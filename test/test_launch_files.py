@@ -49,7 +49,7 @@ def check_value(node: str, name: str, value: Any) -> None:
     if isinstance(value, list):
         assert all(isinstance(v, str) for v in value), (node, name, value)
     if spec.low is not None and spec.high is not None:
-        assert spec.low <= value <= spec.high, (node, name, value)
+        assert isinstance(value, int | float) and spec.low <= value <= spec.high, (node, name, value)
     if spec.choices:
         assert value in spec.choices, (node, name, value)
 
