@@ -20,6 +20,9 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/launch_scripts", sorted(glob("launch_scripts/*.py"))),
+        # ros2 launch looks in share/<package>/launch (the repo keeps launch files in launch_scripts).
+        (f"share/{PACKAGE}/launch", sorted(glob("launch_scripts/*.launch.py"))),
+        (f"share/{PACKAGE}/config", sorted(glob("config/*.yaml"))),
         (
             f"share/{PACKAGE}/scenes",
             sorted(glob(f"{PACKAGE}/scenes/*.yaml") + glob(f"{PACKAGE}/scenes/*.csv")),
@@ -62,10 +65,10 @@ setup(
     entry_points={
         "console_scripts": [
             "pendulum-accel = pendulum_accel.cli.main:main",
-            "pendulum_sim = pendulum_accel.nodes.simulator_node:main",
-            "accel_estimator = pendulum_accel.nodes.estimator_node:main",
-            "bag_recorder = pendulum_accel.nodes.recorder_node:main",
-            "bag_player = pendulum_accel.nodes.player_node:main",
+            "pendulum_sim = pendulum_accel.nodes.node_help:pendulum_sim",
+            "accel_estimator = pendulum_accel.nodes.node_help:accel_estimator",
+            "bag_recorder = pendulum_accel.nodes.node_help:bag_recorder",
+            "bag_player = pendulum_accel.nodes.node_help:bag_player",
         ],
     },
 )

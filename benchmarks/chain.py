@@ -7,7 +7,7 @@ For each rate, the launcher runs simulator, estimator and recorder (separate pro
 pacing, recording on) on ``lecture_constant`` while a listener in this process time-stamps every
 angle and every estimate on arrival with one monotonic clock. Reported per rate:
 
-* lost: angles and estimates the recorder did not write, against the scene's sample count;
+* lost: angles, estimates and Imu messages the recorder did not write, against the scene's sample count;
 * latency: estimate arrival − arrival of the angle it was computed from (median, p99), i.e. the
   estimator's turnaround including one DDS hop each way, as seen by a fourth process;
 * simulator pacing jitter (p99 of publish − due) and real-time factor, from its log;
@@ -37,6 +37,7 @@ import numpy as np
 
 SCENE = "lecture_constant"
 RATES = (100, 1000, 5000, 10000)
+LISTENER_NODE = "chain_bench_listener"
 _CLK_TCK = os.sysconf("SC_CLK_TCK")
 
 
@@ -50,6 +51,7 @@ class Result:
     expected: int
     angles_written: int
     estimates_written: int
+    imu_written: int
     latency: np.ndarray
     jitter_p99_us: float | None
     real_time_factor: float | None
@@ -58,8 +60,8 @@ class Result:
 
     @property
     def lost(self) -> int:
-        """Angles plus estimates the bag lacks: 2 · expected − written."""
-        return 2 * self.expected - self.angles_written - self.estimates_written
+        """Angles, estimates and Imu messages the bag lacks: 3 · expected − written."""
+        return 3 * self.expected - self.angles_written - self.estimates_written - self.imu_written
 
     def row(self) -> list[str]:
         """Table cells."""
@@ -170,13 +172,12 @@ class Listener:
     def __init__(self, sampler: CpuSampler) -> None:
         """Subscribe and start spinning in a thread; the sampler starts when the first angle arrives."""
         import rclpy
-        from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import AccelWithCovarianceStamped
         from rclpy.experimental import EventsExecutor
         from rclpy.node import Node
         from sensor_msgs.msg import JointState
 
-        from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
+        from pendulum_accel.nodes.qos import DATA_QOS
         from pendulum_accel.nodes.recorder_node import stamp_ns
 
         self._stamp_ns = stamp_ns
@@ -185,15 +186,13 @@ class Listener:
         self.latency: list[int] = []
         self._context = rclpy.Context()
         rclpy.init(context=self._context)
-        self._node = Node("chain_bench_listener", context=self._context)
+        self._node = Node(LISTENER_NODE, context=self._context)
         self._node.create_subscription(
             JointState, "/pendulum/joint_states", self._on_angle, DATA_QOS, raw=True
         )
         self._node.create_subscription(
             AccelWithCovarianceStamped, "/car/accel/estimate", self._on_estimate, DATA_QOS, raw=True
         )
-        # Only so the estimator, which waits for readers of all its outputs, counts this listener.
-        self._node.create_subscription(DiagnosticArray, "/diagnostics", lambda _msg: None, DIAGNOSTICS_QOS)
         self._executor = EventsExecutor(context=self._context)
         self._executor.add_node(self._node)
         self._listening = threading.Event()
@@ -253,7 +252,9 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path, rt_prio
     expected = apply_overrides(load_scene(SCENE), overrides).sensor.sample_count(duration)
     sampler = CpuSampler()
     listener = Listener(sampler) if realtime else None
-    readers = 1 if listener is None else 2  # recorder (+ listener) for each estimator output
+    # The chain waits for the listener by name too: an estimate sent before a reader has matched
+    # arrives only on a DDS resend (~100 ms later), which would show as start-up latency, not the chain's.
+    listeners = [] if listener is None else [LISTENER_NODE]
     mode = "real time" if realtime else "as fast as possible"
     if realtime and rt_priority:
         mode += f", SCHED_FIFO {rt_priority}"
@@ -264,10 +265,8 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path, rt_prio
         record=bag,
         realtime=realtime,
         overrides=overrides,
-        simulator_params={"wait_for_subscribers": readers + 1},  # + the estimator
-        # An estimate sent before a reader has matched arrives only on a DDS resend (~100 ms later),
-        # which would show as start-up latency, not the chain's.
-        estimator_params={"wait_for_subscribers": readers},
+        simulator_params={"reader_nodes": ["accel_estimator", *listeners]},
+        estimator_params={"reader_nodes": listeners or [""]},
         rt_priority=rt_priority,
     )
     chain = Chain(config, log=False, output=log)
@@ -297,6 +296,7 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path, rt_prio
         expected=expected,
         angles_written=counts.get("/pendulum/joint_states", 0),
         estimates_written=counts.get("/car/accel/estimate", 0),
+        imu_written=counts.get("/imu/data_raw", 0),
         latency=np.asarray([] if listener is None else listener.latency, dtype=np.float64) * 1e-9,
         jitter_p99_us=jitter if realtime else None,
         real_time_factor=factor,

@@ -14,7 +14,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from pendulum_accel.cli.run import add_chain_arguments, chain_config
+from pendulum_accel.cli.run import add_chain_arguments, chain_config, require_rclpy
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.nodes.launcher import run_chain
 
@@ -25,6 +25,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_chain_arguments(parser)
     args = parser.parse_args(argv)
     try:
+        require_rclpy()
         return run_chain(chain_config(args))
     except PendulumAccelError as err:
         print(f"chain.py: error: {err}", file=sys.stderr)

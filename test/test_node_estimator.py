@@ -44,7 +44,9 @@ def test_every_diagnostic_state_and_no_nonfinite_output(spawn: Spawn) -> None:
     )
     states = [values["state"] for _, _, values in result["diagnostics"]]
     messages = [message for _, message, _ in result["diagnostics"]]
-    # Each state shows up, in the order it was provoked (STALE may also precede the first input).
+    # Before the first sample: STALE, waiting for input (never OK with 0 samples).
+    assert messages[0] == "STALE: waiting for input", messages[:3]
+    # Each state shows up, in the order it was provoked.
     order = []
     position = 0
     for wanted in ("OK", "ERROR", "WARN near 90°", "RESET", "STALE"):

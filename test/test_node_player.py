@@ -39,7 +39,8 @@ def test_golden_bag_through_live_estimator_matches_offline_estimates(spawn: Spaw
         {"path": str(out), "topics": ["/car/accel/estimate", "/diagnostics", "/clock"]},
     )
     recorder.wait_for("recording 3 topics", timeout=60)
-    estimator = start_node(spawn, "estimator_node", {"scene": "step_start", "wait_for_subscribers": 1})
+    # The recorder reads the estimate (not the Imu): wait for it by name on the estimate.
+    estimator = start_node(spawn, "estimator_node", {"scene": "step_start", "reader_nodes": ["bag_recorder"]})
     estimator.wait_for("estimating with", timeout=60)
     player = start_node(
         spawn,
@@ -119,6 +120,7 @@ def test_rate_factor_and_topic_filter(spawn: Spawn, tmp_path: Path) -> None:
             "path": str(out),
             "topics": ["/pendulum/joint_states", "/car/accel/truth"],
             "log_time": "receive",  # the recorder's wall clock: shows the player's pacing
+            "time_source": "wall",  # its clock is the system clock (sim time would stand at 0: no /clock)
         },
     )
     recorder.wait_for("recording 2 topics", timeout=60)

@@ -126,6 +126,9 @@ def test_colcon_build_installs_ros2_run_layout(tmp_path: Path) -> None:
     assert (prefix / "share" / "ament_index" / "resource_index" / "packages" / "pendulum_accel").is_file()
     assert (prefix / "share" / "pendulum_accel" / "package.xml").is_file()
     assert list((prefix / "share" / "pendulum_accel" / "scenes").glob("*.yaml"))
+    # Where `ros2 launch pendulum_accel chain.launch.py` and --params-file look.
+    assert (prefix / "share" / "pendulum_accel" / "launch" / "chain.launch.py").is_file()
+    assert (prefix / "share" / "pendulum_accel" / "config" / "pendulum_accel.params.yaml").is_file()
     # Package data travels with the installed module: scenes and the Fast DDS profile.
     installed = list(prefix.glob("lib/python3*/site-packages/pendulum_accel"))
     assert len(installed) == 1, installed

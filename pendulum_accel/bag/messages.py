@@ -43,8 +43,10 @@ from rosbags.typesys.stores.ros2_kilted import (
 from rosbags.typesys.stores.ros2_kilted import (
     geometry_msgs__msg__AccelWithCovarianceStamped as AccelWithCovarianceStampedMsg,
 )
+from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Quaternion as QuaternionMsg
 from rosbags.typesys.stores.ros2_kilted import geometry_msgs__msg__Vector3 as Vector3Msg
 from rosbags.typesys.stores.ros2_kilted import rosgraph_msgs__msg__Clock as ClockMsg
+from rosbags.typesys.stores.ros2_kilted import sensor_msgs__msg__Imu as ImuMsg
 from rosbags.typesys.stores.ros2_kilted import sensor_msgs__msg__JointState as JointStateMsg
 from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as HeaderMsg
 
@@ -57,6 +59,7 @@ ACCEL_STAMPED = "geometry_msgs/msg/AccelStamped"
 ACCEL_WITH_COVARIANCE_STAMPED = "geometry_msgs/msg/AccelWithCovarianceStamped"
 CLOCK = "rosgraph_msgs/msg/Clock"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
+IMU = "sensor_msgs/msg/Imu"
 
 TOPIC_JOINT_STATES = "/pendulum/joint_states"
 TOPIC_ACCEL_TRUTH = "/car/accel/truth"
@@ -74,6 +77,20 @@ TOPIC_TYPES: dict[str, str] = {
     TOPIC_CLOCK: CLOCK,
     TOPIC_DIAGNOSTICS: DIAGNOSTIC_ARRAY,
 }
+
+TOPIC_IMU = "/imu/data_raw"
+"""The estimator's Imu (REP-145 ``imu/data_raw``) as recorded from the root namespace. Live only:
+``generate`` and the golden bags hold the contract above."""
+
+
+def topic_type(name: str) -> str | None:
+    """Message type of a chain topic; the Imu under any namespace ('imu/data_raw', '/ns/imu/data_raw')."""
+    if name in TOPIC_TYPES:
+        return TOPIC_TYPES[name]
+    if name.strip("/") == "imu/data_raw" or name.endswith(TOPIC_IMU):
+        return IMU
+    return None
+
 
 FRAME_ID = "base_link"
 PENDULUM_JOINT = "pendulum_joint"
@@ -188,6 +205,26 @@ def accel_with_covariance_stamped(
     cov[0] = variance
     wrapped = AccelWithCovarianceMsg(accel=accel, covariance=cov)
     return AccelWithCovarianceStampedMsg(header=_header(stamp_ns, frame_id), accel=wrapped)
+
+
+def imu(
+    stamp_ns: int, ax: float, az: float, var_x: float, var_unmeasured: float, frame_id: str = FRAME_ID
+) -> ImuMsg:
+    """sensor_msgs/Imu of a pendulum (REP-145 data_raw): specific force (ax, 0, az), its covariance
+    diag(var_x, var_unmeasured, var_unmeasured); orientation and angular velocity not measured
+    (zeros, covariance[0] = -1, as the message definition asks)."""
+    not_measured = np.zeros(9, dtype=np.float64)
+    not_measured[0] = -1.0
+    accel_cov = np.diag([var_x, var_unmeasured, var_unmeasured]).astype(np.float64).reshape(9)
+    return ImuMsg(
+        header=_header(stamp_ns, frame_id),
+        orientation=QuaternionMsg(x=0.0, y=0.0, z=0.0, w=0.0),
+        orientation_covariance=not_measured,
+        angular_velocity=_vector3(),
+        angular_velocity_covariance=not_measured.copy(),
+        linear_acceleration=_vector3(ax, 0.0, az),
+        linear_acceleration_covariance=accel_cov,
+    )
 
 
 def clock(stamp_ns: int) -> ClockMsg:

@@ -6,8 +6,12 @@ import argparse
 import sys
 from typing import Any
 
-from pendulum_accel.bag.reader import read_bag, salvage_note, scene_name
+import numpy as np
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import Bag, read_bag, salvage_note, scene_name
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_VERSION
+from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting, unexplained_missing
 
 
 def register(subparsers: Any) -> None:
@@ -21,11 +25,31 @@ def register(subparsers: Any) -> None:
     parser.set_defaults(func=run)
 
 
+_STAMP_FIELDS = ("header.stamp.sec", "header.stamp.nanosec")
+
+
+def missing_estimates(bag: Bag) -> int:
+    """Angles in ``bag`` without an estimate that neither warm-up nor a dropped input explains."""
+    topics = bag.topics
+    if bm.TOPIC_JOINT_STATES not in topics or bm.TOPIC_ACCEL_ESTIMATE not in topics:
+        return 0
+    angles = bag.decode(bm.TOPIC_JOINT_STATES, fields=_STAMP_FIELDS).stamp
+    estimates = bag.decode(bm.TOPIC_ACCEL_ESTIMATE, fields=_STAMP_FIELDS).stamp
+    after_first = angles[angles >= estimates.min()] if estimates.size else angles
+    holes = int(np.count_nonzero(~np.isin(after_first, estimates)))
+    text = bag.custom_data.get(CUSTOM_ACCOUNTING)
+    accounting = Accounting.from_json(text) if text else None
+    return unexplained_missing(angles.size, estimates.size, accounting, holes)
+
+
 def info_lines(path: str) -> tuple[list[str], str | None]:
     """(report lines, damage note or None) for the bag at ``path``."""
     bag = read_bag(path)
     size = bag.mcap_path.stat().st_size
+    missing = missing_estimates(bag) if bag.problem is None else 0
     state = "complete" if bag.problem is None else "DAMAGED (see the warning)"
+    if missing:
+        state = f"INCOMPLETE: {missing} angles without an estimate"
     lines = [
         f"bag:       {bag.path}  [{state}]",
         f"file:      {bag.mcap_path.name}  {size / 1e6:.2f} MB",
@@ -44,7 +68,13 @@ def info_lines(path: str) -> tuple[list[str], str | None]:
         lines.append(
             f"  {name:<{width}}  {topic.msgtype:<{type_width}}  {topic.count:>8} msgs  {rate:9.1f} Hz"
         )
-    return lines, salvage_note(bag)
+    note = salvage_note(bag)
+    if missing and note is None:
+        note = (
+            f"{missing} angles have no estimate, and the estimator's counters explain none of them "
+            "(the estimator started late or estimates were lost)"
+        )
+    return lines, note
 
 
 def run(args: argparse.Namespace) -> int:

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.overrides import SET_HELP, parse_override
 
 if TYPE_CHECKING:
@@ -25,6 +26,14 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
         "--fast", dest="realtime", action="store_false", help="as fast as possible, graph on /clock"
     )
     parser.add_argument("--estimator", metavar="M", help="estimation method (default: the package default)")
+    parser.add_argument(
+        "--time-source",
+        choices=("sim", "wall"),
+        default=None,
+        help="time base of every stamp: sim (scene time from 0, /clock published, every node on "
+        "use_sim_time) or wall (the ROS system clock at each sample's due time, no /clock); "
+        "default sim with --fast or --record, else wall",
+    )
     parser.add_argument(
         "--rt-priority",
         type=_priority,
@@ -56,6 +65,7 @@ def chain_config(args: argparse.Namespace) -> ChainConfig:
         estimator=args.estimator,
         overrides=dict(parse_override(text) for text in args.overrides),
         rt_priority=args.rt_priority,
+        time_source=args.time_source,
     )
 
 
@@ -97,10 +107,26 @@ def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
     return lines
 
 
+class RosMissingError(PendulumAccelError):
+    """rclpy is not importable: the live chain cannot start."""
+
+
+def require_rclpy() -> None:
+    """RosMissingError, saying how to install it, when rclpy does not import."""
+    try:
+        import rclpy  # noqa: F401
+    except ImportError:
+        raise RosMissingError(
+            "rclpy is not installed: run `make setup` (it runs `pip install -r requirements-ros.txt` "
+            "into .venv) or source a ROS 2 install (source /opt/ros/<distro>/setup.bash)"
+        ) from None
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the chain until the scene ends (or Ctrl-C), then print the summary from the recorded bag."""
     from pendulum_accel.nodes.launcher import run_chain
 
+    require_rclpy()
     config = chain_config(args)
     code = run_chain(config)
     if config.record is not None and (config.record / "metadata.yaml").exists():

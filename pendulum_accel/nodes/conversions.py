@@ -6,11 +6,14 @@ import importlib
 import math
 from typing import Any
 
+import numpy as np
 from builtin_interfaces.msg import Time
+from numpy.typing import NDArray
 from rclpy.qos import QoSProfile
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from sensor_msgs.msg import JointState
 
+from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.messages import FRAME_ID, PENDULUM_JOINT
 from pendulum_accel.errors import ParameterError
 
@@ -27,6 +30,32 @@ def stamp_seconds(sec: int, nanosec: int) -> float:
     """t = sec + nanosec · 1e-9 (s): the scalar twin of bag.messages.stamp_seconds, same float64 steps,
     so a live estimate and the offline one of the same stamp agree bit for bit."""
     return float(sec) + float(nanosec) * 1e-9
+
+
+def stamp_offset(msgtype: str) -> int:
+    """Offset of the leading stamp's ``sec`` in the CDR of ``msgtype`` (learnt by bm.Layout)."""
+    templates = {
+        bm.JOINT_STATE: lambda: bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]),
+        bm.ACCEL_STAMPED: lambda: bm.accel_stamped(0, 0.0),
+        bm.ACCEL_WITH_COVARIANCE_STAMPED: lambda: bm.accel_with_covariance_stamped(0, 0.0, 0.0),
+        bm.CLOCK: lambda: bm.clock(0),
+        bm.DIAGNOSTIC_ARRAY: lambda: bm.diagnostic_array(0, 0, "n", "m"),
+        bm.IMU: lambda: bm.imu(0, 0.0, 0.0, 0.0, 0.0),
+    }
+    layout = bm.Layout.of(templates[msgtype](), msgtype)
+    key = "clock.sec" if msgtype == bm.CLOCK else "header.stamp.sec"
+    offset, _ = layout.fields[key]
+    nano, _ = layout.fields[key.replace(".sec", ".nanosec")]
+    if nano != offset + 4:
+        raise ParameterError(f"{msgtype}: stamp fields are not adjacent in CDR")
+    return offset
+
+
+def restamp(rows: NDArray[np.uint8], offset: int, ns: NDArray[np.int64]) -> None:
+    """Set the stamp (int32 sec, uint32 nanosec at ``offset``) of every CDR row to ``ns`` in place."""
+    sec, nanosec = bm.split_stamp(ns)
+    rows[:, offset : offset + 4] = sec.astype("<i4").view(np.uint8).reshape(-1, 4)
+    rows[:, offset + 4 : offset + 8] = nanosec.astype("<u4").view(np.uint8).reshape(-1, 4)
 
 
 def time_to_seconds(stamp: Any) -> float:

@@ -3,6 +3,13 @@
 Each angle goes through ``estimators.guard.GuardedEstimator`` (drops NaN/inf, resets on a time jump
 back, flags |θ| near 90°), then the chosen method; the estimate carries the input's stamp and its
 variance in covariance[0]. Nothing non-finite is ever published.
+
+Beside it, a ``sensor_msgs/Imu`` on ``imu/data_raw`` (REP-145): linear_acceleration is the specific
+force in the car frame (REP-103), as an accelerometer at rest on a level road reads it: x = â (on
+a level road the specific force along x is the car's acceleration), y = 0, z = +g (the pendulum
+senses the specific force's direction in the x-z plane; its z component there is g). Covariance:
+var(â) on x, ``unmeasured_accel_variance`` on y and z (not measured); orientation and angular
+velocity are not measured: zeros, with covariance[0] = -1 as sensor_msgs/Imu asks.
 """
 
 from __future__ import annotations
@@ -21,14 +28,15 @@ from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import Imu, JointState
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.estimators import Estimator, make_estimator
-from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, InputGuard
+from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, GuardState, InputGuard
 from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
-from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG
+from pendulum_accel.nodes.graph import missing_readers, node_names
+from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOPIC
 from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
 from pendulum_accel.nodes.runtime import (
     ChainNode,
@@ -37,6 +45,7 @@ from pendulum_accel.nodes.runtime import (
     parameter_values,
     publish_blocking,
     run_node,
+    write_summary,
 )
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
@@ -74,7 +83,13 @@ class EstimatorNode(ChainNode):
         self.warn_angle_deg = float(values["warn_angle_deg"])
         self.stale_after = float(values["stale_after"])
         period = float(values["diagnostics_period"])
-        self.wait_for_subscribers = int(values["wait_for_subscribers"])
+        self.time_source = str(values["time_source"])
+        self.frame_id = str(values["frame_id"])
+        self.unmeasured_accel_variance = float(values["unmeasured_accel_variance"])
+        namespace = self.get_namespace()
+        self.reader_nodes = node_names(values["reader_nodes"], namespace)
+        self.recorder_node = node_names([str(values["recorder_node"])], namespace)
+        self.summary_file = str(values["summary_file"])
         self.guarded = GuardedEstimator(self._build(self._config_values()), self._new_guard())
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
@@ -84,17 +99,17 @@ class EstimatorNode(ChainNode):
         self.diagnostics_publisher = self.create_publisher(
             DiagnosticArray, bm.TOPIC_DIAGNOSTICS, DIAGNOSTICS_QOS
         )
+        self.imu_publisher = self.create_publisher(Imu, IMU_TOPIC, DATA_QOS)
         self.inputs = 0
         self.estimates = 0
+        self.unpublished = 0  # estimates computed but not sent (a second stop request while blocked)
         self._last_stamp: tuple[int, int] | None = None  # (sec, nanosec) of the latest input
         # Per message: our own JointState shape read at fixed offsets, the estimate written into a
         # template (Layout.reader/writer); anything else goes through rclpy's deserializer.
         self._read_input = bm.Layout.of(
             bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE
         ).reader(("header.stamp.sec", "header.stamp.nanosec", "position[0]"))
-        self._write_estimate = bm.Layout.of(
-            bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED
-        ).writer(("header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x", "accel.covariance[0]"))
+        self._build_writers()
         self._last_input = time.monotonic()
         self._stopping_since: float | None = None
         self._subscription: Subscription | None = None
@@ -124,6 +139,18 @@ class EstimatorNode(ChainNode):
             stale_after=self.stale_after if self.stale_after > 0.0 else None,
         )
 
+    def _build_writers(self) -> None:
+        """CDR writers of the estimate and the Imu: stamp, â and var(â) per message; frame, g fixed."""
+        stamp = ("header.stamp.sec", "header.stamp.nanosec")
+        self._write_estimate = bm.Layout.of(
+            bm.accel_with_covariance_stamped(0, 0.0, 0.0, self.frame_id), bm.ACCEL_WITH_COVARIANCE_STAMPED
+        ).writer((*stamp, "accel.accel.linear.x", "accel.covariance[0]"))
+        gravity = float(self.get_parameter("gravity").value)
+        template = bm.imu(0, 0.0, gravity, 0.0, self.unmeasured_accel_variance, self.frame_id)
+        self._write_imu = bm.Layout.of(template, bm.IMU).writer(
+            (*stamp, "linear_acceleration.x", "linear_acceleration_covariance[0]")
+        )
+
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Accept a change only if the estimator it makes is valid; else keep the old value and say why."""
         return change_result(lambda: self._build(self._config_values(params)))
@@ -133,19 +160,30 @@ class EstimatorNode(ChainNode):
         values = self._config_values()
         self.method = str(values["method"])
         self.guarded.estimator = self._build(values)
+        self._build_writers()
         self.get_logger().info(f"estimator rebuilt: {self.guarded.estimator.describe()}")
 
     # -- data flow ------------------------------------------------------------------------------
 
+    def _missing_readers(self) -> list[str]:
+        """Named readers not yet on the outputs: reader_nodes on the estimate, the recorder on all three."""
+        outputs = (
+            (bm.TOPIC_ACCEL_ESTIMATE, self.estimate_publisher, [*self.recorder_node, *self.reader_nodes]),
+            (bm.TOPIC_DIAGNOSTICS, self.diagnostics_publisher, self.recorder_node),
+            (IMU_TOPIC, self.imu_publisher, self.recorder_node),
+        )
+        missing: list[str] = []
+        for topic, publisher, wanted in outputs:
+            if wanted:
+                resolved = self.resolve_topic_name(topic)
+                missing += missing_readers(self, publisher, resolved, wanted)
+        return missing
+
     def _subscribe_when_ready(self) -> None:
-        """Subscribe once the estimate and diagnostics publishers both have wait_for_subscribers readers."""
+        """Subscribe to the angles once every named reader of the outputs is subscribed and matched."""
         if self._subscription is not None:
             return
-        ready = (
-            self.estimate_publisher.get_subscription_count() >= self.wait_for_subscribers
-            and self.diagnostics_publisher.get_subscription_count() >= self.wait_for_subscribers
-        )
-        if ready:
+        if not self._missing_readers():
             self._subscription = self.create_subscription(
                 JointState, bm.TOPIC_JOINT_STATES, self._on_joint_state, DATA_QOS, raw=True
             )
@@ -174,18 +212,26 @@ class EstimatorNode(ChainNode):
         if estimate is None:
             return
         out = self._write_estimate(sec, nanosec, estimate.a, estimate.variance)
-        if publish_blocking(self.estimate_publisher, out, self._stopping):
+        imu = self._write_imu(sec, nanosec, estimate.a, estimate.variance)
+        if publish_blocking(self.estimate_publisher, out, self._stopping) and publish_blocking(
+            self.imu_publisher, imu, self._stopping
+        ):
             self.estimates += 1
+        else:
+            self.unpublished += 1
 
     def _publish_diagnostics(self) -> None:
         """One DiagnosticArray with the worst input state since the previous one (STALE checked first)."""
         guard = self.guarded.guard
-        guard.check_stale(time.monotonic())
         if self._last_stamp is None:
+            # Before the first sample: STALE, stamped by this node's clock (sim or wall, as the run's).
+            report = GuardReport(GuardState.STALE, "waiting for input", guard.values())
             stamp = self.get_clock().now().to_msg()
         else:
+            guard.check_stale(time.monotonic())
+            report = guard.report()
             stamp = Time(sec=self._last_stamp[0], nanosec=self._last_stamp[1])
-        self.diagnostics_publisher.publish(diagnostic_array(guard.report(), self.method, stamp))
+        self.diagnostics_publisher.publish(diagnostic_array(report, self.method, stamp))
 
     def _tick(self) -> None:
         """Subscribe when ready; during a stop, finish once the input has been idle (queue drained)."""
@@ -200,14 +246,30 @@ class EstimatorNode(ChainNode):
         """Drain: keep estimating until the input has been idle for a moment, then finish."""
         self._stopping_since = time.monotonic()
 
+    def counters(self) -> dict[str, int]:
+        """inputs, estimates and every reason an input got none: warm-up, dropped, unpublished."""
+        guard = self.guarded.guard
+        dropped = guard.dropped_nonfinite + guard.dropped_out_of_order
+        return {
+            "inputs": self.inputs,
+            "estimates": self.estimates,
+            "warmup": self.inputs - self.estimates - dropped - self.unpublished,
+            "dropped_nonfinite": guard.dropped_nonfinite,
+            "dropped_out_of_order": guard.dropped_out_of_order,
+            "unpublished": self.unpublished,
+            "resets": guard.resets,
+        }
+
     def close(self) -> None:
-        """Deliver what was published, then log the counts."""
-        self.estimate_publisher.wait_for_all_acked(Duration(seconds=2))
+        """Deliver what was published, then log the counts and write them to summary_file."""
+        for publisher in (self.estimate_publisher, self.imu_publisher):
+            publisher.wait_for_all_acked(Duration(seconds=2))
         guard = self.guarded.guard
         self.get_logger().info(
             f"{self.inputs} inputs, {self.estimates} estimates published; dropped {guard.dropped_nonfinite} "
             f"non-finite and {guard.dropped_out_of_order} out-of-order, {guard.resets} resets"
         )
+        write_summary(self.summary_file, {**self.counters(), "time_source": self.time_source})
 
 
 def main(args: Sequence[str] | None = None) -> int:

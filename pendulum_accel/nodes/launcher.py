@@ -2,8 +2,11 @@
 
 Plain ``subprocess`` (the PyPI ROS wheels have no ``ros2 launch``); no rclpy import here. Start order
 and the nodes' wait parameters make sure nothing published is missed: the recorder subscribes first,
-the estimator subscribes to the angles once the recorder listens to its outputs, and the simulator
-publishes once both listen. Stop order is the data-flow order (simulator, estimator, recorder), each
+the estimator subscribes to the angles once the recorder (by name) listens to its outputs, and the
+simulator publishes once both (by name) listen; other subscribers on the graph change nothing.
+One time base per run (``time_source``): sim for --fast and for recordings, else wall. Each node
+writes its counters at exit; the launcher prints them per topic and fails a run that lost data.
+Stop order is the data-flow order (simulator, estimator, recorder), each
 asked with one SIGINT (the estimator and recorder drain their queues, the recorder closes the bag),
 then SIGKILL after a timeout. Each child also gets SIGTERM from the kernel if the launcher itself
 dies (PR_SET_PDEATHSIG), so nothing is ever left running.
@@ -25,11 +28,14 @@ from pathlib import Path
 from types import FrameType
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.nodes.accounting import Accounting
 from pendulum_accel.nodes.scheduling import RT_PRIORITY_ENV
 
 _PR_SET_PDEATHSIG = 1
 _STOP_TIMEOUT = 15.0  # s a node gets to exit after SIGINT before SIGKILL
 _POLL = 0.05  # s
+ESTIMATOR_NODE = "accel_estimator"
+RECORDER_NODE = "bag_recorder"
 
 ParamValue = bool | int | float | str | list[str]
 
@@ -76,6 +82,14 @@ class ChainConfig:
     estimator_params: dict[str, ParamValue] = field(default_factory=dict)
     simulator_params: dict[str, ParamValue] = field(default_factory=dict)
     rt_priority: int = 0  # SCHED_FIFO priority of every node in a real-time run (0: normal scheduling)
+    time_source: str | None = None  # sim or wall; None: sim for --fast and recordings, else wall
+
+    @property
+    def effective_time_source(self) -> str:
+        """The run's time base: the one asked for, else sim when fast or recording, wall otherwise."""
+        if self.time_source is not None:
+            return self.time_source
+        return "sim" if (not self.realtime or self.record is not None) else "wall"
 
 
 @dataclass
@@ -125,6 +139,11 @@ class Chain:
         """Check the configuration (no process is started yet); ``output``: file for the nodes' logs."""
         if config.record is not None and config.record.exists() and not config.overwrite:
             raise ParameterError(f"{config.record} exists already; pass --overwrite to replace it")
+        if config.effective_time_source not in ("sim", "wall"):
+            raise ParameterError(f"time source must be sim or wall, got {config.time_source!r}")
+        if config.effective_time_source == "wall" and not config.realtime:
+            raise ParameterError("--time-source wall needs real-time pacing: --fast runs on sim time")
+        self.accounting: Accounting | None = None
         self.config = config
         self.children: list[Child] = []
         self.log = log
@@ -136,23 +155,31 @@ class Chain:
         if self.log:
             print(f"chain: {text}", file=sys.stderr, flush=True)
 
-    def commands(self, scene_arg: str) -> list[tuple[str, list[str]]]:
-        """(role, command) of each node, in start order: recorder (if recording), estimator, simulator."""
+    def commands(self, scene_arg: str, summaries: Path) -> list[tuple[str, list[str]]]:
+        """(role, command) of each node, in start order: recorder (if recording), estimator, simulator.
+
+        Each node writes its counters to ``summaries``/<role>.json; the recorder stores the others' in
+        its bag. The waits name the chain's own nodes, so no other subscriber can satisfy them.
+        """
         cfg = self.config
-        sim_time = not cfg.realtime
+        time_source = cfg.effective_time_source
+        recorder = RECORDER_NODE if cfg.record is not None else ""
         out: list[tuple[str, list[str]]] = []
         if cfg.record is not None:
             rec: dict[str, ParamValue] = {
                 "path": str(cfg.record),
                 "overwrite": cfg.overwrite,
                 "scene": scene_arg,
-                "use_sim_time": sim_time,
+                "time_source": time_source,
+                "chain_summaries": [str(summaries / f"{role}.json") for role in ("simulator", "estimator")],
+                "summary_file": str(summaries / "recorder.json"),
             }
             out.append(("recorder", node_command("recorder_node", rec)))
         est: dict[str, ParamValue] = {
             "scene": scene_arg,
-            "wait_for_subscribers": 1 if cfg.record is not None else 0,
-            "use_sim_time": sim_time,
+            "time_source": time_source,
+            "recorder_node": recorder,
+            "summary_file": str(summaries / "estimator.json"),
         }
         if cfg.estimator:
             est["method"] = cfg.estimator
@@ -161,8 +188,10 @@ class Chain:
         sim: dict[str, ParamValue] = {
             "scene": scene_arg,
             "realtime": cfg.realtime,
-            "wait_for_subscribers": 2 if cfg.record is not None else 1,
-            "wait_for_recorder": cfg.record is not None,
+            "time_source": time_source,
+            "reader_nodes": [ESTIMATOR_NODE],
+            "recorder_node": recorder,
+            "summary_file": str(summaries / "simulator.json"),
         }
         sim.update(cfg.simulator_params)
         out.append(("simulator", node_command("simulator_node", sim)))
@@ -225,13 +254,38 @@ class Chain:
         try:
             with tempfile.TemporaryDirectory(prefix="pendulum_accel_chain_") as tmp:
                 scene_arg = effective_scene_file(self.config, Path(tmp))
-                for role, command in self.commands(scene_arg):
+                self._say(f"time source: {self.config.effective_time_source}")
+                for role, command in self.commands(scene_arg, Path(tmp)):
                     self._start(role, command)
-                return self._supervise()
+                code = self._supervise()
+                self.stop()
+                return self._account(Path(tmp), code)
         finally:
             self.stop()
             for s, handler in previous.items():
                 signal.signal(s, handler)
+
+    def _account(self, summaries: Path, code: int) -> int:
+        """Print the per-topic accounting; a finished run that lost or missed data: one WARNING, exit 1."""
+        roles: dict[str, dict[str, object]] = {}
+        for role in ("simulator", "estimator", "recorder"):
+            path = summaries / f"{role}.json"
+            if path.exists():
+                roles[role] = json.loads(path.read_text())
+        self.accounting = Accounting(
+            roles.get("simulator", {}), roles.get("estimator", {}), roles.get("recorder", {})
+        )
+        if self.log:
+            print("samples (published / received by the estimator / estimated / recorded):", flush=True)
+            for line in self.accounting.table():
+                print(line, flush=True)
+        if code != 0:
+            return code
+        losses = self.accounting.losses(self.config.record is not None)
+        if losses:
+            print(f"WARNING: data lost or missed: {'; '.join(losses)}", file=sys.stderr, flush=True)
+            return 1
+        return 0
 
     def _supervise(self) -> int:
         """Watch the children until the simulator ends, a signal arrives or another child dies."""

@@ -26,6 +26,18 @@ FROM_SCENE = None
 LOG_TIMES: tuple[str, ...] = ("stamp", "receive")
 """The recorder's log_time choices: the message stamp (sim time) or its receive time."""
 
+TIME_SOURCES: tuple[str, ...] = ("sim", "wall")
+"""One time base per run. sim: stamps from the scene's t = 0, /clock published, use_sim_time on every
+node (Gazebo's convention). wall: stamps are the ROS (system) clock at each sample's due time, no
+/clock, use_sim_time off (what a hardware driver does)."""
+
+IMU_TOPIC = "imu/data_raw"
+"""The estimator's sensor_msgs/Imu output: a relative name, so a namespace or a remap applies."""
+
+UNMEASURED_ACCEL_VARIANCE = 1.0e3
+"""(m/s²)² on the Imu's y and z acceleration: a pendulum does not measure them; far above any real
+signal's variance, so a consumer that forgets to mask them learns nothing from them."""
+
 ESTIMATOR_CONFIG: tuple[Override, ...] = tuple(
     OVERRIDE_BY_NAME[name] for name in ("length", "gravity", "damping", "noise_std", "rate_hz")
 )
@@ -84,19 +96,62 @@ def _fixed(
 
 _WAIT_FOR_RECORDER = "start only once every published topic has a subscriber"
 
+
+def time_source_param(default: str = "sim") -> ParamSpec:
+    """The ``time_source`` parameter every node declares (it also sets use_sim_time: true for sim)."""
+    return ParamSpec(
+        "time_source",
+        "string",
+        default,
+        "time base of every stamp: sim (scene time from 0, on /clock, use_sim_time true) or wall "
+        "(the ROS system clock, use_sim_time false)",
+        read_only=True,
+        choices=TIME_SOURCES,
+    )
+
+
+def summary_file_param() -> ParamSpec:
+    """The ``summary_file`` parameter: where the node writes its counters (JSON) at exit."""
+    return _fixed(
+        "summary_file", "string", "", "write this node's counters here as JSON at exit (empty: none)"
+    )
+
+
+def _readers(topics: str) -> ParamSpec:
+    """``reader_nodes``: nodes (by name) that must subscribe to ``topics`` before data flows."""
+    return _fixed(
+        "reader_nodes",
+        "string_array",
+        ("",),
+        f"wait until these nodes (name, or /namespace/name; a bare name is in this node's namespace) "
+        f"subscribe to {topics}: by name, so other subscribers neither satisfy nor delay the wait",
+    )
+
+
+def _recorder(topics: str) -> ParamSpec:
+    """``recorder_node``: the recorder (by name) that must subscribe to ``topics`` before data flows."""
+    return _fixed(
+        "recorder_node",
+        "string",
+        "",
+        f"wait until this recorder node (name, or /namespace/name) subscribes to {topics} (empty: none)",
+    )
+
+
 SIMULATOR: tuple[ParamSpec, ...] = (
     _fixed("scene", "string", DEFAULT_SCENE,
            "bundled scene name or path of a scene YAML (fixed for the node's life)"),
     *(override_param(spec, "overrides the scene's") for spec in OVERRIDES),
     _fixed("realtime", "bool", True, "pace by the wall clock (else as fast as possible)"),
+    time_source_param(),
     ParamSpec("exit_on_end", "bool", True, "exit when the scene ends (else stay idle)"),
-    _fixed("wait_for_subscribers", "integer", 0,
-           "start only once /pendulum/joint_states has this many subscribers", low=0, high=64),
-    _fixed("wait_for_recorder", "bool", False, _WAIT_FOR_RECORDER),
+    _readers("/pendulum/joint_states"),
+    _recorder("every topic this node publishes"),
     _fixed("wait_timeout", "double", 30.0, "give up waiting for subscribers after this many seconds (s)",
            low=0.0, high=3600.0),
     _fixed("clock_rate_hz", "double", DEFAULT_CLOCK_RATE_HZ,
            "/clock messages per simulated second (0: one per sample)", low=0.0, high=100_000.0),
+    summary_file_param(),
 )  # fmt: skip
 
 ESTIMATOR: tuple[ParamSpec, ...] = (
@@ -109,8 +164,14 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
            "STALE after this long without input, s (0: 20 periods, at least 0.5 s)", low=0.0, high=3600.0),
     _fixed("diagnostics_period", "double", 1.0, "seconds between /diagnostics messages (wall clock)",
            low=0.01, high=60.0),
-    _fixed("wait_for_subscribers", "integer", 0,
-           "subscribe to the input only once the outputs have this many subscribers", low=0, high=64),
+    time_source_param(),
+    _fixed("frame_id", "string", bm.FRAME_ID, "frame_id of the estimate and the Imu (the car, REP-103)"),
+    _fixed("unmeasured_accel_variance", "double", UNMEASURED_ACCEL_VARIANCE,
+           "Imu linear_acceleration_covariance of y and z, (m/s²)²: not measured by a pendulum",
+           low=1e-6, high=1e12),
+    _readers("/car/accel/estimate (before subscribing to the input)"),
+    _recorder(f"/car/accel/estimate, /diagnostics and {IMU_TOPIC} (before subscribing to the input)"),
+    summary_file_param(),
 )  # fmt: skip
 
 PLAYER: tuple[ParamSpec, ...] = (
@@ -127,16 +188,22 @@ PLAYER: tuple[ParamSpec, ...] = (
     _fixed("wait_for_subscribers", "integer", 0,
            "start once /pendulum/joint_states has this many subscribers", low=0, high=64),
     _fixed("wait_for_recorder", "bool", False, _WAIT_FOR_RECORDER),
+    time_source_param(),
 )  # fmt: skip
 
 RECORDER: tuple[ParamSpec, ...] = (
     _fixed("path", "string", "", "bag directory to create"),
     _fixed("overwrite", "bool", False, "replace an existing bag"),
-    _fixed("topics", "string_array", tuple(bm.TOPIC_TYPES), "topics to record (any of the chain's)"),
+    _fixed("topics", "string_array", (*bm.TOPIC_TYPES, IMU_TOPIC),
+           "topics to record (any of the chain's; relative names resolve in this node's namespace)"),
     _fixed("scene", "string", "", "scene stored in the bag's custom_data"),
     ParamSpec("log_time", "string", "stamp",
-              "log time: the message stamp (sim time) or its receive time (node clock)",
+              "log time: the message stamp (on the run's time base) or its receive time (node clock)",
               read_only=True, choices=LOG_TIMES),
+    time_source_param(),
+    _fixed("chain_summaries", "string_array", ("",),
+           "the other nodes' summary files: read at close and stored in the bag as the chain's accounting"),
+    summary_file_param(),
 )  # fmt: skip
 
 NODE_PARAMETERS: Mapping[str, Sequence[ParamSpec]] = {

@@ -8,6 +8,7 @@ the pacing of the recording was. The first SIGINT/SIGTERM drains the queues, the
 
 from __future__ import annotations
 
+import json
 import struct
 import time
 from collections.abc import Sequence
@@ -20,33 +21,16 @@ from pendulum_accel import __version__
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE, CUSTOM_VERSION, BagWriter, Stream
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.nodes.conversions import bag_qos, message_class
+from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING
+from pendulum_accel.nodes.conversions import bag_qos, message_class, stamp_offset
 from pendulum_accel.nodes.parameters import LOG_TIMES, RECORDER
 from pendulum_accel.nodes.qos import qos_for
-from pendulum_accel.nodes.runtime import ChainNode, declare_parameters, run_node
+from pendulum_accel.nodes.runtime import ChainNode, declare_parameters, run_node, write_summary
 
 NODE_NAME = "bag_recorder"
 _DRAIN_IDLE = 0.3  # s without any message after a stop request: the queues are empty
 _DRAIN_LIMIT = 10.0  # s: close the bag even if messages keep coming
 _STAMP = struct.Struct("<iI")  # builtin_interfaces/Time: int32 sec, uint32 nanosec (little-endian CDR)
-
-
-def _stamp_offset(msgtype: str) -> int:
-    """Offset of the leading stamp's ``sec`` in the CDR of ``msgtype`` (learnt by bm.Layout)."""
-    templates = {
-        bm.JOINT_STATE: lambda: bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]),
-        bm.ACCEL_STAMPED: lambda: bm.accel_stamped(0, 0.0),
-        bm.ACCEL_WITH_COVARIANCE_STAMPED: lambda: bm.accel_with_covariance_stamped(0, 0.0, 0.0),
-        bm.CLOCK: lambda: bm.clock(0),
-        bm.DIAGNOSTIC_ARRAY: lambda: bm.diagnostic_array(0, 0, "n", "m"),
-    }
-    layout = bm.Layout.of(templates[msgtype](), msgtype)
-    key = "clock.sec" if msgtype == bm.CLOCK else "header.stamp.sec"
-    offset, _ = layout.fields[key]
-    nano, _ = layout.fields[key.replace(".sec", ".nanosec")]
-    if nano != offset + 4:
-        raise ParameterError(f"{msgtype}: stamp fields are not adjacent in CDR")
-    return offset
 
 
 def stamp_ns(data: bytes, offset: int) -> int:
@@ -80,21 +64,26 @@ class RecorderNode(ChainNode):
         values = declare_parameters(self, RECORDER)
         path = str(values["path"])
         overwrite = bool(values["overwrite"])
-        topics: list[str] = list(values["topics"])
+        # Relative names (the Imu's imu/data_raw) resolve in this node's namespace, as its publisher's do.
+        topics = [self.resolve_topic_name(t) for t in values["topics"] if t]
         scene = str(values["scene"])
+        self.chain_summaries = [str(f) for f in values["chain_summaries"] if f]
+        self.summary_file = str(values["summary_file"])
         self.log_time = str(values["log_time"])
         if not path:
             raise ParameterError("parameter path (the bag directory to create) is required")
         if self.log_time not in LOG_TIMES:
             raise ParameterError(f"log_time must be one of {', '.join(LOG_TIMES)}, got {self.log_time!r}")
-        unknown = [t for t in topics if t not in bm.TOPIC_TYPES]
+        types = {topic: bm.topic_type(topic) for topic in topics}
+        unknown = [t for t, msgtype in types.items() if msgtype is None]
         if unknown:
             raise ParameterError(
-                f"cannot record {unknown[0]}: not a chain topic ({', '.join(bm.TOPIC_TYPES)})"
+                f"cannot record {unknown[0]}: not a chain topic ({', '.join(bm.TOPIC_TYPES)}, imu/data_raw)"
             )
+        self.types: dict[str, str] = {t: str(msgtype) for t, msgtype in types.items()}
         self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data_for(scene))
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
-        self._offsets = {topic: _stamp_offset(bm.TOPIC_TYPES[topic]) for topic in topics}
+        self._offsets = {topic: stamp_offset(self.types[topic]) for topic in topics}
         # Messages wait here (log times, CDR payloads) until the next flush writes them in one bulk call:
         # a per-message write through rosbags cost more CPU than the rest of the recorder.
         self._pending: dict[str, tuple[list[int], list[bytes]]] = {topic: ([], []) for topic in topics}
@@ -103,7 +92,7 @@ class RecorderNode(ChainNode):
         self._closed = False
         for topic in topics:
             self.create_subscription(
-                message_class(bm.TOPIC_TYPES[topic]),
+                message_class(self.types[topic]),
                 topic,
                 lambda data, topic=topic: self._on_message(topic, data),
                 qos_for(topic),
@@ -115,7 +104,7 @@ class RecorderNode(ChainNode):
     def _add_topic(self, topic: str) -> None:
         """Register ``topic`` in the bag with the QoS its publishers offer (reliable keep-all if unknown)."""
         offered = [bag_qos(info.qos_profile) for info in self.get_publishers_info_by_topic(topic)]
-        self.writer.add_topic(topic, bm.TOPIC_TYPES[topic], offered or [bag_qos(qos_for(topic))])
+        self.writer.add_topic(topic, self.types[topic], offered or [bag_qos(qos_for(topic))])
 
     def _on_message(self, topic: str, data: bytes) -> None:
         """Write one raw message at its stamp (or receive time)."""
@@ -158,6 +147,17 @@ class RecorderNode(ChainNode):
         if now - self._last_message > _DRAIN_IDLE or now - self._stopping_since > _DRAIN_LIMIT:
             self.finish(0)
 
+    def _chain_accounting(self) -> dict[str, object]:
+        """{role: counters} from the other nodes' summary files (role = the file's stem); missing: absent."""
+        out: dict[str, object] = {}
+        for name in self.chain_summaries:
+            path = Path(name)
+            try:
+                out[path.stem] = json.loads(path.read_text())
+            except (OSError, ValueError) as err:
+                self.get_logger().warning(f"no accounting from {path}: {err}")
+        return out
+
     def request_stop(self) -> None:
         """Drain: keep recording until no message came for a moment, then finish."""
         self._stopping_since = time.monotonic()
@@ -168,7 +168,11 @@ class RecorderNode(ChainNode):
             return
         self._closed = True
         self._write_pending()
+        own = {"received": self.received, "written": dict(self.writer.counts)}
+        accounting = {**self._chain_accounting(), "recorder": own}
+        self.writer.custom_data[CUSTOM_ACCOUNTING] = json.dumps(accounting, sort_keys=True)
         written = self.writer.close()
+        write_summary(self.summary_file, own)
         for topic, count in self.received.items():
             print(
                 f"{NODE_NAME}: {topic}: received {count}, written {written.get(topic, 0)}",

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import gc
+import json
 import signal
 import sys
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from types import FrameType
 from typing import Any
 
@@ -22,9 +24,9 @@ from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
-from pendulum_accel.errors import PendulumAccelError
+from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.dds_profile import use_package_profile
-from pendulum_accel.nodes.parameters import FROM_SCENE, ParamSpec, ParamValue
+from pendulum_accel.nodes.parameters import FROM_SCENE, TIME_SOURCES, ParamSpec, ParamValue
 from pendulum_accel.nodes.scheduling import apply_rt_priority
 
 # How often the main thread wakes to run pending signal handlers.
@@ -133,7 +135,22 @@ def declare_parameters(
         values[spec.name] = node.declare_parameter(
             spec.name, _typed(spec, default), parameter_descriptor(spec)
         ).value
+    if "time_source" in values:
+        apply_time_source(node, str(values["time_source"]))
     return values
+
+
+def apply_time_source(node: Node, time_source: str) -> None:
+    """use_sim_time = (time_source == 'sim'): every node of a run on the one time base it names."""
+    if time_source not in TIME_SOURCES:
+        raise ParameterError(f"time_source must be one of {', '.join(TIME_SOURCES)}, got {time_source!r}")
+    node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, time_source == "sim")])
+
+
+def write_summary(path: str, counters: Mapping[str, Any]) -> None:
+    """Write a node's counters as JSON to ``path`` (nothing when empty): the launcher's accounting."""
+    if path:
+        Path(path).write_text(json.dumps(dict(counters), indent=1, sort_keys=True))
 
 
 def parameter_values(node: Node, names: Sequence[str], changes: Sequence[Parameter] = ()) -> dict[str, Any]:

@@ -5,6 +5,11 @@ in bulk (``bag.messages.Layout``), so publishing is a loop over ready CDR rows: 
 seed always give the same bytes. ``realtime`` paces the loop by the wall clock and logs its jitter;
 otherwise it runs as fast as the subscribers take the messages (reliable keep-all QoS blocks the
 publisher when a reader lags, so nothing is lost) and the graph follows /clock.
+
+``time_source``: ``sim`` stamps from the scene's t = 0 and publishes /clock; ``wall`` (real time
+only) stamps each sample with the ROS clock at its due time and publishes no /clock. Publishing
+starts once the nodes named in ``reader_nodes`` and ``recorder_node`` subscribe (by name: other
+subscribers change nothing), and the first sample is acknowledged by every matched reader.
 """
 
 from __future__ import annotations
@@ -25,7 +30,9 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.errors import PendulumAccelError
+from pendulum_accel.errors import ParameterError, PendulumAccelError
+from pendulum_accel.nodes.conversions import restamp, stamp_offset
+from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import SIMULATOR
 from pendulum_accel.nodes.qos import DATA_QOS
 from pendulum_accel.nodes.runtime import (
@@ -35,6 +42,7 @@ from pendulum_accel.nodes.runtime import (
     parameter_values,
     publish_blocking,
     run_node,
+    write_summary,
 )
 from pendulum_accel.overrides import OVERRIDES, apply_overrides
 from pendulum_accel.recording.generate import Frames, serialise_run
@@ -69,16 +77,27 @@ class SimulatorNode(ThreadedNode):
         self._base_scene = load_scene(str(values["scene"]))
         self.realtime = bool(values["realtime"])
         self.exit_on_end = bool(values["exit_on_end"])
-        self.wait_for_subscribers = int(values["wait_for_subscribers"])
-        self.wait_for_recorder = bool(values["wait_for_recorder"])
+        self.time_source = str(values["time_source"])
+        if self.time_source == "wall" and not self.realtime:
+            raise ParameterError(
+                "time_source wall needs realtime true: a sample's wall stamp is its due time on the "
+                "wall clock, which only a paced run has"
+            )
+        namespace = self.get_namespace()
+        self.reader_nodes = node_names(values["reader_nodes"], namespace)
+        self.recorder_node = node_names([str(values["recorder_node"])], namespace)
         self.wait_timeout = float(values["wait_timeout"])
         self.clock_rate_hz = float(values["clock_rate_hz"])
+        self.summary_file = str(values["summary_file"])
         self.scene = self._scene_from(self._override_values())
         self._outputs: dict[str, Publisher] = {
-            bm.TOPIC_CLOCK: self.create_publisher(Clock, bm.TOPIC_CLOCK, DATA_QOS),
             bm.TOPIC_JOINT_STATES: self.create_publisher(JointState, bm.TOPIC_JOINT_STATES, DATA_QOS),
             bm.TOPIC_ACCEL_TRUTH: self.create_publisher(AccelStamped, bm.TOPIC_ACCEL_TRUTH, DATA_QOS),
         }
+        if self.time_source == "sim":
+            self._outputs[bm.TOPIC_CLOCK] = self.create_publisher(Clock, bm.TOPIC_CLOCK, DATA_QOS)
+        self.counts: dict[str, int] = dict.fromkeys(self._outputs, 0)
+        self.unacknowledged: list[str] = []
         self._string_publisher: Publisher | None = None
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
@@ -118,23 +137,53 @@ class SimulatorNode(ThreadedNode):
 
     # -- publishing -----------------------------------------------------------------------------
 
-    def _wait_for_subscribers(self, topics: Sequence[str]) -> bool:
-        """True once the subscriber counts reach what the wait_* parameters ask; False on timeout or stop."""
+    def _missing(self) -> dict[str, list[str]]:
+        """{topic: named readers not yet matched}: reader_nodes on the angles, the recorder on every topic."""
+        missing: dict[str, list[str]] = {}
+        for topic, publisher in self._outputs.items():
+            wanted = list(self.recorder_node)
+            if topic == bm.TOPIC_JOINT_STATES:
+                wanted += self.reader_nodes
+            names = missing_readers(self, publisher, topic, wanted) if wanted else []
+            if names:
+                missing[topic] = names
+        return missing
+
+    def _wait_for_subscribers(self) -> bool:
+        """True once every named reader is matched (steady for 0.1 s); False on timeout or stop."""
         deadline = time.monotonic() + self.wait_timeout
+        ready_since: float | None = None
         while not self._stop.is_set():
-            counts = {topic: self._outputs[topic].get_subscription_count() for topic in topics}
-            ok = counts[bm.TOPIC_JOINT_STATES] >= self.wait_for_subscribers
-            if self.wait_for_recorder:
-                ok = ok and all(c >= 1 for c in counts.values())
-            if ok:
-                return True
-            if time.monotonic() > deadline:
-                self.get_logger().error(
-                    f"gave up after {self.wait_timeout:g} s waiting for subscribers: {counts}"
-                )
-                return False
+            missing = self._missing()
+            now = time.monotonic()
+            if not missing:
+                ready_since = now if ready_since is None else ready_since
+                if now - ready_since >= 0.1:
+                    return True
+            else:
+                ready_since = None
+                if now > deadline:
+                    self.get_logger().error(
+                        f"gave up after {self.wait_timeout:g} s waiting for the chain's readers: "
+                        + "; ".join(f"{topic}: {', '.join(names)}" for topic, names in missing.items())
+                    )
+                    return False
             time.sleep(0.01)
         return False
+
+    def _acknowledged(self) -> bool:
+        """Wait until every matched reader acknowledged all published (warn every 10 s); False if stopped."""
+        for topic, publisher in self._outputs.items():
+            while not publisher.wait_for_all_acked(_ACK_TIMEOUT):
+                self.get_logger().warning(
+                    f"{topic}: a reader has not acknowledged for {_ACK_TIMEOUT.nanoseconds * 1e-9:g} s "
+                    "(a subscriber that does not take its messages holds a keep-all writer back); waiting"
+                )
+                if topic not in self.unacknowledged:
+                    self.unacknowledged.append(topic)
+                if self._stop.is_set():
+                    return False
+        return True
 
     def _publish(self, topic: str, data: bytes) -> None:
         """Publish CDR bytes on ``topic``, waiting out a full keep-all history unless stopping."""
@@ -158,14 +207,14 @@ class SimulatorNode(ThreadedNode):
                     self._outputs[bm.TOPIC_STRING] = self.create_publisher(
                         JointState, bm.TOPIC_STRING, DATA_QOS
                     )
-                if not self._wait_for_subscribers([*frames.rows, bm.TOPIC_CLOCK]):
+                    self.counts[bm.TOPIC_STRING] = 0
+                if not self._wait_for_subscribers():
                     self.finish(1)
                     return
-                self.get_logger().info("subscribers matched: publishing")
+                self.get_logger().info(f"subscribers matched: publishing ({self.time_source} time)")
                 completed = self._publish_frames(frames)
                 if completed:
-                    for publisher in self._outputs.values():
-                        publisher.wait_for_all_acked(_ACK_TIMEOUT)
+                    self._acknowledged()
                 if self._restart.is_set():
                     continue
                 if self.exit_on_end or self._stop.is_set():
@@ -180,14 +229,24 @@ class SimulatorNode(ThreadedNode):
             self.get_logger().error(str(err))
             self.finish(2)
 
+    def _stamp_wall(self, frames: Frames, start: float, first: int) -> None:
+        """Stamp samples first.. with the ROS clock at their due time start + t − t0 (perf_counter)."""
+        wall0_ns = self.get_clock().now().nanoseconds - round((time.perf_counter() - start) * 1e9)
+        due_ns = wall0_ns + bm.seconds_to_ns(frames.t[first:] - frames.t[0])
+        for topic, rows in frames.rows.items():
+            restamp(rows[first:], stamp_offset(bm.TOPIC_TYPES[topic]), due_ns)
+
     def _publish_frames(self, frames: Frames) -> bool:
         """Publish every sample in order, paced by the wall clock in real-time mode; True when all went."""
         joint = frames.rows[bm.TOPIC_JOINT_STATES]
         others = [(topic, rows) for topic, rows in frames.rows.items() if topic != bm.TOPIC_JOINT_STATES]
         clock_index = np.cumsum(frames.clock_mask) - 1
+        with_clock = bm.TOPIC_CLOCK in self._outputs
         lateness = np.empty(frames.size)
         t_rel = frames.t - frames.t[0]
         start = time.perf_counter()
+        if self.time_source == "wall":
+            self._stamp_wall(frames, start, 0)
         sent = 0
         for i in range(frames.size):
             if self._stop.is_set() or self._restart.is_set():
@@ -199,8 +258,9 @@ class SimulatorNode(ThreadedNode):
                     time.sleep(due - now)
                     now = time.perf_counter()
                 lateness[i] = now - due
-            if frames.clock_mask[i]:
+            if with_clock and frames.clock_mask[i]:
                 self._publish(bm.TOPIC_CLOCK, frames.clock_rows[clock_index[i]].tobytes())
+                self.counts[bm.TOPIC_CLOCK] += 1
             self._publish(bm.TOPIC_JOINT_STATES, joint[i].tobytes())
             for topic, rows in others:
                 self._publish(topic, rows[i].tobytes())
@@ -209,9 +269,13 @@ class SimulatorNode(ThreadedNode):
                 # Handshake: readers acknowledge only once their side of discovery has matched this
                 # writer. Until then a keep-all writer fills up and blocks, which stalled the first
                 # seconds of fast runs; one acknowledged sample proves every reader is ready.
-                for publisher in self._outputs.values():
-                    publisher.wait_for_all_acked(_ACK_TIMEOUT)
+                if not self._acknowledged():
+                    break
                 start = time.perf_counter() - float(t_rel[0])
+                if self.time_source == "wall":
+                    self._stamp_wall(frames, start, 1)
+        for topic in frames.rows:
+            self.counts[topic] += sent
         self.published += sent
         wall = time.perf_counter() - start
         span = float(t_rel[sent - 1]) if sent else 0.0
@@ -225,6 +289,18 @@ class SimulatorNode(ThreadedNode):
             line += "; " + jitter_summary(lateness[:sent])
         self.get_logger().info(line)
         return sent == frames.size
+
+    def close(self) -> None:
+        """Stop publishing, then write the counters (published per topic) to summary_file."""
+        super().close()
+        write_summary(
+            self.summary_file,
+            {
+                "published": self.counts,
+                "time_source": self.time_source,
+                "unacknowledged": self.unacknowledged,
+            },
+        )
 
 
 def main(args: Sequence[str] | None = None) -> int:

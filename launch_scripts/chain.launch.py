@@ -1,0 +1,115 @@
+"""ROS 2 launch description of the chain: ``ros2 launch pendulum_accel chain.launch.py scene:=step_start``.
+
+Launch arguments: scene, record (a bag directory; empty: no recorder), estimator (method), fast,
+time_source (sim or wall; empty: sim with fast or record, else wall, as ``pendulum-accel run``)
+and namespace. Every node reads ``config/pendulum_accel.params.yaml`` first; the arguments then
+override it. The same start-up rules as the launcher: the simulator publishes once
+accel_estimator (and bag_recorder, when recording) subscribe, by name.
+
+Only the standard library is imported at module level; ``launch``, ``launch_ros`` and
+``ament_index_python`` inside ``generate_launch_description``, so ``chain_nodes`` (what runs, with
+which parameters) can be read without ROS.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+PACKAGE = "pendulum_accel"
+ARGUMENTS: dict[str, tuple[str, str]] = {
+    "scene": ("lecture_constant", "bundled scene name or scene YAML path"),
+    "record": ("", "record the chain to this bag directory (empty: no recording)"),
+    "estimator": ("kalman", "estimation method"),
+    "fast": ("false", "true: as fast as possible, on sim time"),
+    "time_source": ("", "sim or wall (empty: sim when fast or recording, else wall)"),
+    "namespace": ("", "namespace of every node (and of the relative imu/data_raw topic)"),
+}
+
+
+def _true(text: str) -> bool:
+    """A launch argument's boolean: true/1/yes (any case)."""
+    return text.strip().lower() in ("true", "1", "yes")
+
+
+def chain_nodes(scene: str, record: str, estimator: str, fast: str, time_source: str) -> list[dict[str, Any]]:
+    """What to run: one {executable, name, parameters} per node, recorder first (if recording)."""
+    realtime = not _true(fast)
+    source = time_source or ("sim" if (not realtime or record) else "wall")
+    if source not in ("sim", "wall"):
+        raise ValueError(f"time_source must be sim or wall, got {time_source!r}")
+    if source == "wall" and not realtime:
+        raise ValueError("time_source wall needs real-time pacing (fast:=false)")
+    recorder = "bag_recorder" if record else ""
+    nodes: list[dict[str, Any]] = []
+    if record:
+        nodes.append(
+            {
+                "executable": "bag_recorder",
+                "name": "bag_recorder",
+                "parameters": {"path": record, "scene": scene, "time_source": source},
+            }
+        )
+    nodes.append(
+        {
+            "executable": "accel_estimator",
+            "name": "accel_estimator",
+            "parameters": {
+                "scene": scene,
+                "method": estimator,
+                "time_source": source,
+                "recorder_node": recorder,
+            },
+        }
+    )
+    nodes.append(
+        {
+            "executable": "pendulum_sim",
+            "name": "pendulum_sim",
+            "parameters": {
+                "scene": scene,
+                "realtime": realtime,
+                "time_source": source,
+                "reader_nodes": ["accel_estimator"],
+                "recorder_node": recorder,
+            },
+            "ends_launch": True,  # its exit (the scene's end) shuts the launch down: the bag closes
+        }
+    )
+    return nodes
+
+
+def generate_launch_description() -> Any:
+    """LaunchDescription: the arguments above, then the nodes ``chain_nodes`` picks for their values."""
+    from ament_index_python.packages import get_package_share_directory
+    from launch import LaunchDescription
+    from launch.actions import DeclareLaunchArgument, OpaqueFunction, Shutdown
+    from launch.substitutions import LaunchConfiguration
+    from launch_ros.actions import Node
+
+    params_file = os.path.join(get_package_share_directory(PACKAGE), "config", f"{PACKAGE}.params.yaml")
+
+    def nodes(context: Any) -> list[Any]:
+        """The Node actions for the arguments' values in ``context``."""
+        values = {name: LaunchConfiguration(name).perform(context) for name in ARGUMENTS}
+        namespace = values.pop("namespace")
+        return [
+            Node(
+                package=PACKAGE,
+                executable=spec["executable"],
+                name=spec["name"],
+                namespace=namespace,
+                parameters=[params_file, spec["parameters"]],
+                output="screen",
+                on_exit=[Shutdown(reason="scene finished")] if spec.get("ends_launch") else None,
+            )
+            for spec in chain_nodes(**values)
+        ]
+
+    return LaunchDescription(
+        [
+            DeclareLaunchArgument(name, default_value=default, description=text)
+            for name, (default, text) in ARGUMENTS.items()
+        ]
+        + [OpaqueFunction(function=nodes)]
+    )

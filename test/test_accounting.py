@@ -1,0 +1,77 @@
+"""Every sample accounted for: the launcher's losses and ``info``'s check of a bag's estimate stream."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from pendulum_accel.cli.main import main
+from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting
+from pendulum_accel.recording.generate import chain_streams, write_chain_bag
+
+N = 200
+
+
+def _bag(path: Path, estimated: np.ndarray, accounting: Mapping[str, object] | None) -> Path:
+    """A chain bag of N angles at 100 Hz with estimates only where ``estimated``."""
+    t = np.arange(N) / 100.0
+    theta = np.full(N, 0.1)
+    a = np.where(estimated, 1.0, np.nan)
+    streams = chain_streams(
+        t, theta, np.zeros(N), np.ones(N), a, np.full(N, 0.01), estimator="kalman", rate_hz=100.0
+    )
+    custom = {} if accounting is None else {CUSTOM_ACCOUNTING: json.dumps(accounting)}
+    write_chain_bag(path, streams, custom_data=custom)
+    return path
+
+
+def _estimator(inputs: int, estimates: int, warmup: int, nonfinite: int = 0) -> dict[str, int]:
+    """The estimator's counters."""
+    return {
+        "inputs": inputs,
+        "estimates": estimates,
+        "warmup": warmup,
+        "dropped_nonfinite": nonfinite,
+        "dropped_out_of_order": 0,
+        "unpublished": 0,
+    }
+
+
+def test_info_reports_a_hole_without_accounting(tmp_path: Path, capsys: object) -> None:
+    estimated = np.ones(N, dtype=bool)
+    estimated[50:60] = False
+    assert main(["info", str(_bag(tmp_path / "b", estimated, None))]) == 1
+    out = capsys.readouterr()  # type: ignore[attr-defined]
+    assert "[INCOMPLETE: 10 angles without an estimate]" in out.out
+    assert "[complete]" not in out.out
+
+
+def test_info_tells_a_late_start_from_warm_up_with_the_accounting(tmp_path: Path, capsys: object) -> None:
+    estimated = np.ones(N, dtype=bool)
+    estimated[:30] = False  # the first 30 angles have no estimate
+    # The estimator warmed up on 5 of them; it never received the other 25 (it subscribed late).
+    late = {"estimator": _estimator(N - 25, N - 30, 5)}
+    assert main(["info", str(_bag(tmp_path / "late", estimated, late))]) == 1
+    assert "[INCOMPLETE: 25 angles without an estimate]" in capsys.readouterr().out  # type: ignore[attr-defined]
+    # The same bag where the estimator received all and says 30 were warm-up: complete.
+    warm = {"estimator": _estimator(N, N - 30, 30)}
+    assert main(["info", str(_bag(tmp_path / "warm", estimated, warm))]) == 0
+    assert "[complete]" in capsys.readouterr().out  # type: ignore[attr-defined]
+
+
+def test_losses_name_each_missing_sample() -> None:
+    published = {"/pendulum/joint_states": 100, "/car/accel/truth": 100, "/clock": 100}
+    recorded = {**published, "/car/accel/estimate": 97, "/imu/data_raw": 97}
+    whole = Accounting({"published": published}, _estimator(100, 97, 2, 1), {"written": recorded})
+    assert whole.losses(recording=True) == []
+    assert "estimator warm-up 2, dropped non-finite 1" in "\n".join(whole.table())
+    late = Accounting({"published": published}, _estimator(80, 78, 2), {"written": recorded})
+    assert "the estimator missed 20 of 100 angles" in late.losses(recording=True)
+    lost = Accounting(
+        {"published": published}, _estimator(100, 97, 3), {"written": {**recorded, "/car/accel/truth": 90}}
+    )
+    assert lost.losses(recording=True) == ["/car/accel/truth: 10 of 100 not recorded"]
+    assert lost.losses(recording=False) == []

@@ -1,0 +1,152 @@
+"""The live chain as a robot meets it: one time base per run, strangers on the graph, the Imu output.
+
+Each run records step_start through ``pendulum-accel run`` while plain subscribers (what
+``ros2 topic echo`` is) come and go: one before the chain starts, one during its start-up, one after
+publishing began. Every angle must have its estimate and its Imu, every message must be recorded,
+the bag's duration must be the scene's and every stamp on the run's one time base.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import Bag, read_bag
+from pendulum_accel.cli.info import info_lines
+from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting
+from pendulum_accel.nodes.parameters import UNMEASURED_ACCEL_VARIANCE
+from pendulum_accel.scene import load_scene
+from test.chain_helpers import Output
+from test.conftest import PYTHON, REPO, Spawn
+
+pytestmark = [pytest.mark.ros]
+
+DURATION = 3.0  # s of step_start (its step 0 -> 3 m/s² is at t = 1 s)
+RATE = 100.0  # Hz, the scene's
+SAMPLES = int(DURATION * RATE) + 1
+STRANGER = str(REPO / "test" / "stranger.py")
+
+
+def _stranger(spawn: Spawn, name: str) -> Output:
+    """A plain subscriber to /pendulum/joint_states, once it is up."""
+    out = Output(spawn([PYTHON, STRANGER, name]))
+    out.wait_for(f"stranger {name}: subscribed", timeout=60)
+    return out
+
+
+def _run(spawn: Spawn, bag: Path, *flags: str) -> Output:
+    """``pendulum-accel run step_start --set duration=3 --record BAG FLAGS`` with strangers around it."""
+    _stranger(spawn, "stranger_before")
+    cmd = [PYTHON, "-m", "pendulum_accel.cli.main", "run", "step_start", "--set", f"duration={DURATION}"]
+    run = Output(spawn([*cmd, "--record", str(bag), *flags]))
+    Output(spawn([PYTHON, STRANGER, "stranger_during"]))  # joins while the chain starts up
+    run.wait_for(r"subscribers matched: publishing", timeout=90)
+    Output(spawn([PYTHON, STRANGER, "stranger_after"]))
+    assert run.finish(timeout=120) == 0, run.text
+    assert "WARNING" not in run.text, run.text
+    return run
+
+
+def _stamps(bag: Bag, topic: str) -> tuple[np.ndarray, np.ndarray]:
+    """(header stamps, log times) of every message on ``topic``, in integer ns (one message at a time)."""
+    stamps, logs = [], []
+    for _, ns, data in bag.iter_raw([topic]):
+        msg = bm.deserialize(data, bag.topics[topic].msgtype)
+        stamp = msg.clock if topic == bm.TOPIC_CLOCK else msg.header.stamp  # type: ignore[attr-defined]
+        stamps.append(stamp.sec * 1_000_000_000 + stamp.nanosec)
+        logs.append(ns)
+    return np.array(stamps), np.array(logs)
+
+
+def _check_every_sample(bag: Bag) -> None:
+    """Each angle has its estimate and its Imu (same stamps); every published message was recorded."""
+    assert bag.problem is None
+    angles = bag.decode(bm.TOPIC_JOINT_STATES).stamp
+    estimates = bag.decode(bm.TOPIC_ACCEL_ESTIMATE).stamp
+    imu = bag.decode(bm.TOPIC_IMU).stamp
+    assert angles.size == SAMPLES
+    assert np.array_equal(estimates, angles) and np.array_equal(imu, angles)
+    accounting = Accounting.from_json(bag.custom_data[CUSTOM_ACCOUNTING])
+    for topic in (bm.TOPIC_JOINT_STATES, bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_IMU):
+        assert accounting.published(topic) == accounting.recorded(topic) == bag.topics[topic].count, topic
+    assert accounting.estimator["inputs"] == SAMPLES
+    lines, note = info_lines(str(bag.path))
+    assert note is None and "[complete]" in lines[0], lines
+
+
+def _check_sim_time_base(bag: Bag) -> None:
+    """Sim time: the bag spans the scene (duration, rates), every stamp and log time inside [0, 3] s."""
+    assert abs(bag.duration_s - DURATION) < 1e-6, bag.duration_s
+    assert bag.start_ns == 0 and bag.end_ns == round(DURATION * 1e9)
+    for topic in (bm.TOPIC_JOINT_STATES, bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_IMU):
+        rate = (bag.topics[topic].count - 1) / bag.duration_s
+        assert abs(rate - RATE) < 1e-6, (topic, rate)
+    assert bag.topics[bm.TOPIC_CLOCK].count == SAMPLES  # /clock at 100 Hz: one per sample here
+    for topic in bag.topics:  # /diagnostics included
+        stamps, logs = _stamps(bag, topic)
+        assert stamps.size == bag.topics[topic].count > 0, topic
+        assert stamps.min() >= 0 and stamps.max() <= round(DURATION * 1e9), topic
+        assert np.array_equal(stamps, logs), topic  # log time = stamp: one time base in the bag
+    lines, _ = info_lines(str(bag.path))
+    assert f"duration:  {DURATION:.3f} s" in "\n".join(lines)
+
+
+def _check_imu(bag: Bag) -> None:
+    """REP-145 data_raw conventions: frame, stamps, specific force (â, 0, +g), covariances, -1 markers."""
+    imu = bag.decode(bm.TOPIC_IMU)
+    est = bag.decode(bm.TOPIC_ACCEL_ESTIMATE)
+    g = load_scene("step_start").pendulum.gravity
+    msg = bm.deserialize(next(data for topic, _, data in bag.iter_raw([bm.TOPIC_IMU])), bm.IMU)
+    assert msg.header.frame_id == bm.FRAME_ID  # type: ignore[attr-defined]
+    assert np.array_equal(imu.stamp, bag.decode(bm.TOPIC_JOINT_STATES).stamp)
+    assert np.array_equal(imu["linear_acceleration.x"], est["accel.accel.linear.x"])
+    assert np.all(imu["linear_acceleration.y"] == 0.0)
+    assert np.all(imu["linear_acceleration.z"] == g)
+    cov = np.stack([imu[f"linear_acceleration_covariance[{i}]"] for i in range(9)], axis=1)
+    assert np.array_equal(cov[:, 0], est["accel.covariance[0]"]) and np.all(cov[:, 0] > 0)
+    assert np.all(cov[:, 4] == UNMEASURED_ACCEL_VARIANCE) and np.all(cov[:, 8] == UNMEASURED_ACCEL_VARIANCE)
+    assert np.all(cov[:, [1, 2, 3, 5, 6, 7]] == 0.0)
+    assert np.all(imu["orientation_covariance[0]"] == -1.0)
+    assert np.all(imu["angular_velocity_covariance[0]"] == -1.0)
+    for name in ("orientation.x", "orientation.y", "orientation.z", "orientation.w", "angular_velocity.x"):
+        assert np.all(imu[name] == 0.0), name
+
+
+def test_real_time_recording_with_strangers_is_whole_and_on_sim_time(spawn: Spawn, tmp_path: Path) -> None:
+    run = _run(spawn, tmp_path / "live")
+    assert "time source: sim" in run.text
+    bag = read_bag(tmp_path / "live")
+    _check_every_sample(bag)
+    _check_sim_time_base(bag)
+    _check_imu(bag)
+
+
+def test_fast_recording_with_strangers_is_whole_and_on_sim_time(spawn: Spawn, tmp_path: Path) -> None:
+    _run(spawn, tmp_path / "fast", "--fast")
+    bag = read_bag(tmp_path / "fast")
+    _check_every_sample(bag)
+    _check_sim_time_base(bag)
+
+
+def test_wall_time_run_stamps_with_the_system_clock_and_publishes_no_clock(
+    spawn: Spawn, tmp_path: Path
+) -> None:
+    before = time.time()
+    _run(spawn, tmp_path / "wall", "--time-source", "wall")
+    after = time.time()
+    bag = read_bag(tmp_path / "wall")
+    _check_every_sample(bag)
+    assert bm.TOPIC_CLOCK not in bag.topics
+    angles = bag.decode(bm.TOPIC_JOINT_STATES).stamp
+    assert before < angles[0] and angles[-1] < after
+    # The due times: 10 ms apart after the first sample (whose acknowledgement may take a moment).
+    np.testing.assert_allclose(np.diff(angles[1:]), 1.0 / RATE, atol=1e-6)
+    for topic in bag.topics:  # diagnostics included: every stamp on the wall clock, inside the run
+        stamps, logs = _stamps(bag, topic)
+        assert before < stamps.min() * 1e-9 and stamps.max() * 1e-9 < after, topic
+        assert np.array_equal(stamps, logs), topic
+    assert bag.duration_s < DURATION + 2.0  # the first STALE report precedes the data by start-up only
