@@ -14,9 +14,9 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from pendulum_accel.cli.run import add_chain_arguments, chain_config, require_rclpy
+from pendulum_accel.cli.run import add_chain_arguments, chain_config
 from pendulum_accel.errors import PendulumAccelError
-from pendulum_accel.nodes.launcher import run_chain
+from pendulum_accel.nodes.launcher import require_rclpy, run_chain
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -31,3 +31,7 @@ class SceneError(PendulumAccelError, ValueError):
 
 class BagError(PendulumAccelError):
     """A bag that cannot be read, written or repaired."""
+
+
+class RosMissingError(PendulumAccelError):
+    """rclpy is not importable: the live chain cannot start."""

@@ -6,7 +6,6 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.overrides import SET_HELP, parse_override
 
 if TYPE_CHECKING:
@@ -107,24 +106,9 @@ def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
     return lines
 
 
-class RosMissingError(PendulumAccelError):
-    """rclpy is not importable: the live chain cannot start."""
-
-
-def require_rclpy() -> None:
-    """RosMissingError, saying how to install it, when rclpy does not import."""
-    try:
-        import rclpy  # noqa: F401
-    except ImportError:
-        raise RosMissingError(
-            "rclpy is not installed: run `make setup` (it runs `pip install -r requirements-ros.txt` "
-            "into .venv) or source a ROS 2 install (source /opt/ros/<distro>/setup.bash)"
-        ) from None
-
-
 def run(args: argparse.Namespace) -> int:
     """Run the chain until the scene ends (or Ctrl-C), then print the summary from the recorded bag."""
-    from pendulum_accel.nodes.launcher import run_chain
+    from pendulum_accel.nodes.launcher import require_rclpy, run_chain
 
     require_rclpy()
     config = chain_config(args)

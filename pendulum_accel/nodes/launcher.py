@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
 
-from pendulum_accel.errors import ParameterError
+from pendulum_accel.errors import ParameterError, RosMissingError
 from pendulum_accel.nodes.accounting import Accounting
 from pendulum_accel.nodes.scheduling import RT_PRIORITY_ENV
 
@@ -44,6 +44,17 @@ def _die_with_parent() -> None:
     """In the child, before exec: SIGTERM me when the launcher dies (Linux prctl)."""
     libc = ctypes.CDLL(None, use_errno=True)
     libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def require_rclpy() -> None:
+    """RosMissingError, saying how to install it, when rclpy does not import."""
+    try:
+        import rclpy  # noqa: F401
+    except ImportError:
+        raise RosMissingError(
+            "rclpy is not installed: run `make setup` (it runs `pip install -r requirements-ros.txt` "
+            "into .venv) or source a ROS 2 install (source /opt/ros/<distro>/setup.bash)"
+        ) from None
 
 
 def ros_param(name: str, value: ParamValue) -> list[str]:
