@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_rgb
 from PIL import Image
 
@@ -60,8 +61,10 @@ def test_frames_have_the_size_and_the_bob_is_where_theta_puts_it(grade: float) -
         # no grade: θ > 0 puts the bob to the rear, left of the pivot on the screen (forward is right)
         if grade == 0.0:
             assert np.sign(float(x)) == -np.sign(theta)
-        anim.figure.canvas.draw()
-        rgba = np.asarray(anim.figure.canvas.buffer_rgba())
+        canvas = anim.figure.canvas
+        assert isinstance(canvas, FigureCanvasAgg)
+        canvas.draw()
+        rgba = np.asarray(canvas.buffer_rgba())
         assert rgba.shape == (HEIGHT, WIDTH, 4)
         px, py = anim.scene_axes.transData.transform((float(x), float(z)))
         cx, cy = bob_pixel_centre(rgba)
@@ -77,7 +80,7 @@ def test_gif_is_written_with_the_requested_frames(tmp_path: Path) -> None:
     out = anim.save(tmp_path / "swing.gif")
     with Image.open(out) as img:
         assert img.size == (WIDTH, HEIGHT)
-        assert img.n_frames == 6
+        assert getattr(img, "n_frames", 1) == 6
     assert out.stat().st_size < 1_000_000
 
 
