@@ -141,7 +141,7 @@ class SwingAnimation:
         ax.plot(road_x, road_z, color="0.35", lw=3)
         ax.plot([0.0], [0.0], "ko", ms=4)
         reach = half + 0.2 * length
-        ax.set(xlim=(-reach, reach), ylim=(-1.9 * length - half * abs(math.sin(beta)), 0.6 * length))
+        ax.set(xlim=(-reach, reach), ylim=(-1.9 * length - half * abs(math.sin(beta)), 1.0 * length))
         ax.set_aspect("equal")
         ax.set_axis_off()
         title = f"{self.data.label}: " if self.data.label else ""
