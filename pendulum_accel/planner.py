@@ -163,7 +163,7 @@ def _setup(scene: Scene, model: str = "rigid") -> _Setup:
 def plan_scene(scene: Scene) -> Plan:
     """The cheapest (model, method, dt | rtol) whose predicted max angle error meets scene.accuracy."""
     try:
-        return _plan(scene)
+        return _plan(scene.on_level())  # a road grade is planned as its level equivalent
     except ParameterError as err:
         raise SceneError(f"scene {scene.name}: cannot plan: {err}") from None
 
@@ -461,6 +461,7 @@ def plan_with(
     """
     if dt is not None and rtol is not None:
         raise SceneError("give --dt (fixed-step methods) or --rtol (adaptive methods), not both")
+    scene = scene.on_level()
     stepping = method is not None or dt is not None or rtol is not None
     if model is not None or stepping:
         if model is None and scene.model is None and method != CLOSED_FORM_METHOD:

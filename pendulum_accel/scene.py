@@ -6,6 +6,8 @@ File layout (every key is checked; unknown keys are errors so a typo never passe
     description: one line of text
     duration: 20.0                  # s, > 0
     gravity: 9.80665                # m/s², > 0 (optional, default standard gravity)
+    grade: 0.0                      # rad, |β| < π/2 (optional, 0): the road's constant pitch, nose-up
+                                    # (climbing) > 0; a 10 % grade is atan(0.10) = 0.0997 rad
     pendulum:
       length: 1.0                   # m, > 0
       mass: 1.0                     # kg, > 0 (optional, 1)
@@ -30,10 +32,14 @@ File layout (every key is checked; unknown keys are errors so a typo never passe
 
 Files are read with a safe loader (no object construction). Every problem is one line naming the file,
 the field path and what was expected, raised as SceneError.
+
+A copied bundled scene that keeps its bundled ``name`` is named after its file instead (``my.yaml`` →
+``my``, said in one log line), so a student's runs are never logged under the bundled name.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import re
 from collections.abc import Callable, Mapping
@@ -47,6 +53,7 @@ from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.physics.integrators import METHODS
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, profile_from_dict
+from pendulum_accel.physics.rigid import level_equivalent
 from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, MODELS
 from pendulum_accel.sensor import SensorModel
 
@@ -60,10 +67,12 @@ SCENE_NAMES: tuple[str, ...] = (
     "large_swing",
     "elastic_string",
     "multiplier_lecture",
+    "hill",
 )
 DEFAULT_SCENE = "lecture_constant"
 OUTPUTS: tuple[str, ...] = ("angle", "tension", "stretch")
 _NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
+_LOG = logging.getLogger(__name__)
 
 
 class _SceneLoader(yaml.SafeLoader):
@@ -88,6 +97,8 @@ _SceneLoader.add_implicit_resolver(
 class Scene:
     """One run: pendulum (with g), θ(0), θ'(0), a(t), sensor, duration, outputs, accuracy, forced model.
 
+    ``grade`` is the road's constant pitch β (rad, nose-up > 0); the motion on it is that of
+    ``on_level()``, while ``pendulum`` and ``profile`` stay the physical g and the car's own a(t).
     ``accuracy`` is the max |θ_simulated − θ_true| allowed, rad. ``model``/``method`` force the planner's
     choice (None: the planner decides). ``source`` is the file it came from (None when built in code).
     Construction re-checks the fields that depend on each other (SceneError naming the field).
@@ -105,11 +116,22 @@ class Scene:
     accuracy: float = 1e-6
     model: str | None = None
     method: str | None = None
+    grade: float = 0.0
     source: Path | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         """Check every field and the cross-field rules; raise SceneError('<field>: <expected>')."""
         _check_scene(self)
+
+    def on_level(self) -> Scene:
+        """The level-road scene with this one's motion: g → g cos β, a(t) → a(t) + g sin β, grade 0.
+
+        A level scene returns itself, so its runs are bit for bit those of a scene without the field.
+        """
+        if self.grade == 0.0:
+            return self
+        pendulum, profile = level_equivalent(self.pendulum, self.profile, self.grade)
+        return replace(self, pendulum=pendulum, profile=profile, grade=0.0)
 
     @property
     def wants_tension(self) -> bool:
@@ -135,6 +157,8 @@ def _check_scene(scene: Scene) -> None:
         raise SceneError(f"description: expected text, got {scene.description!r}")
     if not _finite(scene.duration) or scene.duration <= 0.0:
         raise SceneError(f"duration: expected a number of seconds > 0, got {scene.duration!r}")
+    if not _finite(scene.grade) or not abs(scene.grade) < 0.5 * math.pi:
+        raise SceneError(f"grade: expected a number of rad with |grade| < pi/2, got {scene.grade!r}")
     for name in ("theta0", "theta_dot0"):
         if not _finite(getattr(scene, name)):
             raise SceneError(f"pendulum.{name}: expected a finite number, got {getattr(scene, name)!r}")
@@ -253,8 +277,8 @@ def _show(value: object) -> str:
     return f"{text} ({type(value).__name__})"
 
 
-_TOP = ("name", "description", "duration", "gravity", "pendulum", "acceleration", "sensor", "outputs",
-        "accuracy", "force")  # fmt: skip
+_TOP = ("name", "description", "duration", "gravity", "grade", "pendulum", "acceleration", "sensor",
+        "outputs", "accuracy", "force")  # fmt: skip
 _PENDULUM = ("length", "mass", "damping", "theta0", "theta_dot0", "stiffness")
 _SENSOR = ("rate_hz", "noise_std", "bias", "bias_random_walk", "quantization", "seed")
 
@@ -281,6 +305,7 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
     description = top.text("description")
     duration = top.number("duration", low=0.0, strict=True)
     gravity = top.number("gravity", STANDARD_GRAVITY, low=0.0, strict=True)
+    grade = top.number("grade", 0.0)
 
     pend = _Fields(top.raw("pendulum", "a mapping with length, ..."), "pendulum", _PENDULUM)
     length = pend.number("length", low=0.0, strict=True)
@@ -330,6 +355,7 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
         accuracy=accuracy,
         model=model,
         method=method,
+        grade=grade,
     )
 
 
@@ -380,7 +406,21 @@ def load_scene(name_or_path: str | Path) -> Scene:
     except (OSError, UnicodeDecodeError) as err:
         raise SceneError(f"{path}: cannot read scene file ({err})") from None
     scene = scene_from_yaml(text, label=str(path), base_dir=path.parent)
-    return _with_source(scene, path)
+    return _with_source(_named_after_copy(scene, path), path)
+
+
+def _named_after_copy(scene: Scene, path: Path) -> Scene:
+    """``scene`` renamed after its file's stem when it keeps a bundled name but is not that bundled file."""
+    bundled = SCENES_DIR / f"{scene.name}.yaml"
+    if scene.name not in SCENE_NAMES or path.resolve() == bundled.resolve():
+        return scene
+    stem = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem) or "scene"
+    if stem == scene.name:
+        return scene
+    _LOG.warning(
+        "%s keeps the bundled scene name %r; naming its runs %r after the file", path, scene.name, stem
+    )
+    return replace(scene, name=stem)
 
 
 def _with_source(scene: Scene, path: Path) -> Scene:
@@ -411,6 +451,7 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
         "description": scene.description,
         "duration": float(scene.duration),
         "gravity": p.gravity,
+        **({"grade": float(scene.grade)} if scene.grade != 0.0 else {}),
         "pendulum": pendulum,
         "acceleration": _plain(scene.profile.to_dict()),
         "sensor": {

@@ -6,7 +6,7 @@ solver; θ_measured = sensor.measure(t, θ_true). Deterministic bit for bit for 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,12 +51,16 @@ class SceneRun:
 
 
 def simulate_plan(scene: Scene, plan: Plan, t: FloatArray) -> Trajectory:
-    """θ(t) etc. of ``scene`` with ``plan``'s model and method (dt or rtol) at the times ``t``."""
+    """θ(t) etc. of ``scene`` with ``plan``'s model and method (dt or rtol) at the times ``t``.
+
+    A graded scene is simulated as its level equivalent (Scene.on_level); ``accel`` is the car's own a(t).
+    """
     method = AUTO_METHOD if plan.method == CLOSED_FORM_METHOD else plan.method
+    level = scene.on_level()
     try:
-        return simulate(
-            scene.pendulum,
-            scene.profile,
+        traj = simulate(
+            level.pendulum,
+            level.profile,
             t,
             theta0=scene.theta0,
             theta_dot0=scene.theta_dot0,
@@ -67,6 +71,7 @@ def simulate_plan(scene: Scene, plan: Plan, t: FloatArray) -> Trajectory:
         )
     except ParameterError as err:
         raise SceneError(f"scene {scene.name}: {err}") from None
+    return traj if level is scene else replace(traj, accel=np.asarray(scene.profile(t), dtype=float))
 
 
 def run_scene(scene: Scene, plan: Plan | None = None) -> SceneRun:

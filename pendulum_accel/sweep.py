@@ -209,9 +209,10 @@ def setup_from_scene(scene: Scene, *, duration: float | None = None) -> SweepSet
     a sweep always steps the rigid model (see ``run_sweep``).
     """
     span = scene.duration if duration is None else require_positive("duration", duration)
+    level = scene.on_level()  # a road grade is swept as its level equivalent
     return SweepSetup(
-        pendulum=scene.pendulum,
-        profile=scene.profile,
+        pendulum=level.pendulum,
+        profile=level.profile,
         theta0=scene.theta0,
         theta_dot0=scene.theta_dot0,
         t=scene.sensor.sample_times(span),

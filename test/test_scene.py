@@ -76,7 +76,7 @@ def test_yaml_round_trip(name: str, tmp_path: Path) -> None:
     """scene_to_yaml → file → load_scene gives an equal scene (a CSV profile becomes an inline table)."""
     scene = load_scene(name)
     text = scene_to_yaml(scene)
-    path = tmp_path / "copy.yaml"
+    path = tmp_path / f"{name}.yaml"  # same stem: a copy named after a differently named file is renamed
     path.write_text(text, encoding="utf-8")
     assert load_scene(path) == scene
     assert scene_from_yaml(text) == scene

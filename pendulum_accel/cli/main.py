@@ -20,6 +20,7 @@ COMMANDS: tuple[str, ...] = (
     "scenes",
     "sweep",
     "lecture",
+    "animate",
     "info",
     "analyze",
     "generate",

@@ -67,6 +67,11 @@ RESULTS: dict[str, LectureResult] = {
             "a = g tan θ off a swinging bob: the raw reading's bias, and how each estimator removes it",
             "pendulum_accel.lecture.accelerometer",
         ),
+        LectureResult(
+            "equivalence",
+            "grade β and acceleration g tan β give one angle; the period and the tension tell them apart",
+            "pendulum_accel.lecture.equivalence",
+        ),
     )
 }
 

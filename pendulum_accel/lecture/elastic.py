@@ -12,6 +12,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from pendulum_accel.lecture import formulas
+from pendulum_accel.lecture.progress import progress
 from pendulum_accel.lecture.report import Comparison, LectureReport
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Constant
@@ -53,7 +54,7 @@ def run(quick: bool = False) -> LectureReport:
     err_tension = np.empty_like(stiffnesses)
     err_stretch = np.empty_like(stiffnesses)
     runs = []
-    for i, k in enumerate(stiffnesses):
+    for i, k in enumerate(progress(stiffnesses, f"{NAME}: k sweep")):
         p = Pendulum(length=LENGTH, mass=MASS, stiffness=float(k))
         el = simulate(p, profile, t, theta0=theta0, model="elastic", method=METHOD, rtol=RTOL, atol=ATOL)
         if el.stretch is None or el.tension is None:

@@ -10,6 +10,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from pendulum_accel.lecture import formulas
+from pendulum_accel.lecture.progress import progress
 from pendulum_accel.lecture.report import SIGN_NOTE, Comparison, LectureReport
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Constant
@@ -44,7 +45,7 @@ def run(quick: bool = False) -> LectureReport:
     accels = np.linspace(-A_MAX, A_MAX, 5 if quick else 41)
     theta_sim = np.empty_like(accels)
     tension_sim = np.empty_like(accels)
-    for i, a in enumerate(accels):
+    for i, a in enumerate(progress(accels, f"{NAME}: a sweep")):
         theta, tension = settled_state(p, float(a), np.array([0.0, SETTLE]))
         theta_sim[i], tension_sim[i] = theta[-1], tension[-1]
     theta_lec = formulas.equilibrium_angle(p, accels)

@@ -15,6 +15,7 @@ from scipy.optimize import brentq
 
 from pendulum_accel.lecture import formulas
 from pendulum_accel.lecture.measure import mean_period
+from pendulum_accel.lecture.progress import progress
 from pendulum_accel.lecture.report import SIGN_NOTE, Comparison, LectureReport
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Constant
@@ -62,13 +63,21 @@ def run(quick: bool = False) -> LectureReport:
     accels = np.linspace(-A_MAX, A_MAX, 4 if quick else 31)
     accels = np.union1d(accels, [0.0])  # the a → 0 limit is always measured
     omega2_sim = np.array(
-        [(2.0 * math.pi / timed_period(p, a, SMALL_AMPLITUDE, periods)) ** 2 for a in accels]
+        [
+            (2.0 * math.pi / timed_period(p, a, SMALL_AMPLITUDE, periods)) ** 2
+            for a in progress(accels, f"{NAME}: ω² against a")
+        ]
     )
     omega2_lec = formulas.omega_squared(p, accels)
     i0 = int(np.nonzero(accels == 0.0)[0][0])
 
     amplitudes = np.linspace(0.05, AMPLITUDE_MAX, 5 if quick else 40)
-    period_sim = np.array([timed_period(p, AMPLITUDE_ACCEL, amp, periods) for amp in amplitudes])
+    period_sim = np.array(
+        [
+            timed_period(p, AMPLITUDE_ACCEL, amp, periods)
+            for amp in progress(amplitudes, f"{NAME}: period against A")
+        ]
+    )
     period_exact = formulas.exact_period(p, AMPLITUDE_ACCEL, amplitudes)
     period_small = float(formulas.small_angle_period(p, AMPLITUDE_ACCEL))
     amp_break = breakdown_amplitude(p, AMPLITUDE_ACCEL)

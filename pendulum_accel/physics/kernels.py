@@ -34,7 +34,16 @@ from numba import njit
 from pendulum_accel.physics import dop853_tableau
 from pendulum_accel.physics.elastic import stiffness_of
 from pendulum_accel.physics.params import Pendulum
-from pendulum_accel.physics.profiles import AccelProfile, Braking, Constant, Ramp, Sinusoid, Step, Table
+from pendulum_accel.physics.profiles import (
+    AccelProfile,
+    Braking,
+    Constant,
+    Offset,
+    Ramp,
+    Sinusoid,
+    Step,
+    Table,
+)
 
 ACCEL_LINEAR = 0
 ACCEL_SINUSOID = 1
@@ -226,6 +235,11 @@ def accel_coefficients(profile: AccelProfile, nodes: np.ndarray) -> tuple[int, n
     lo⁺, hi⁻ one ulp inside it, so each interval reads a from its own side of a jump at a breakpoint.
     """
     # Exact types: a subclass may bend a(t) between the breakpoints, which only its __call__ knows.
+    if type(profile) is Offset:  # a road grade: column 0 is the constant term of both kinds
+        inner = accel_coefficients(profile.base, nodes)
+        if inner is not None:
+            inner[1][:, 0] += profile.offset
+        return inner
     if type(profile) is Sinusoid:
         omega = 2.0 * math.pi * profile.frequency_hz
         return ACCEL_SINUSOID, np.array([[profile.offset, profile.amplitude, omega, profile.phase]])

@@ -392,6 +392,49 @@ class Braking(AccelProfile):
         return {"type": self.kind, "v0": self.v0, "decel": self.decel, "t_start": self.t_start}
 
 
+@dataclass(frozen=True)
+class Offset(AccelProfile):
+    """a(t) = base(t) + offset: a road grade's g sin β on top of the car's a(t) (rigid.level_equivalent).
+
+    Built in code only (never read from a scene file); the compiled kernels take it as its base's form.
+    """
+
+    base: AccelProfile
+    offset: float
+    kind: ClassVar[str] = "offset"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "offset", require_finite("offset", self.offset))
+
+    def __call__(self, t: ArrayLike) -> np.ndarray:
+        """a(t) = base(t) + offset."""
+        return self.base(t) + self.offset
+
+    def scalar(self, t: float) -> float:
+        """a(t) = base(t) + offset for one float t."""
+        return self.base.scalar(t) + self.offset
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """The base's breakpoints."""
+        return self.base.breakpoints()
+
+    def constant_pieces(self, t0: float, t1: float) -> list[Piece] | None:
+        """The base's pieces, each a + offset."""
+        pieces = self.base.constant_pieces(t0, t1)
+        return None if pieces is None else [(lo, hi, a + self.offset) for lo, hi, a in pieces]
+
+    def max_abs(self, t0: float, t1: float) -> float:
+        """max |a| over the pieces when piecewise constant, else the bound base.max_abs + |offset|."""
+        pieces = self.constant_pieces(t0, t1)
+        if pieces is not None:
+            return max(abs(a) for _, _, a in pieces)
+        return self.base.max_abs(t0, t1) + abs(self.offset)
+
+    def to_dict(self) -> dict[str, Any]:
+        """{'type': 'offset', 'base': base.to_dict(), 'offset'} (for display; scene files never hold one)."""
+        return {"type": self.kind, "base": self.base.to_dict(), "offset": self.offset}
+
+
 _FIELDS: dict[str, tuple[type[AccelProfile], tuple[str, ...], tuple[str, ...]]] = {
     # kind: (class, required fields, optional fields)
     "constant": (Constant, ("a",), ()),

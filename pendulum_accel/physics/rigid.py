@@ -8,17 +8,31 @@ car velocity v(t) with v' = a):
 Euler–Lagrange:  θ'' = −(g/l) sin θ + (a/l) cos θ − c θ'   (c: linear damping, acts tangentially)
 Tension:         T = m (l θ'² + g cos θ + a sin θ)          (radial balance, unchanged by damping)
 Invariant (constant a, c = 0), per unit mass:  E = ½ l² θ'² − g l cos θ − a l sin θ.
+
+On a road of constant grade β (the car pitched nose-up by β, climbing for β > 0) the car's x axis is
+(cos β, sin β) in the world's (horizontal, up) plane and its z axis (−sin β, cos β), so gravity reads
+(−g sin β, −g cos β) in the car frame, and the bob feels the specific force (−a − g sin β, −g cos β):
+
+    θ'' = −(g cos β / l) sin θ + ((a + g sin β) / l) cos θ − c θ'
+    T   = m (l θ'² + g cos β cos θ + (a + g sin β) sin θ)
+
+which is the level-road pendulum with g → g cos β and a → a + g sin β (``level_equivalent``). At rest
+tan θ = (a + g sin β)/(g cos β): at a = 0 that is tan θ = tan β, the steady angle a level car reaches at
+a = g tan β. Only a scene with a grade goes through this substitution; a level one runs unchanged.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pendulum_accel.physics.params import Pendulum
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.physics.params import Pendulum, require_finite
+from pendulum_accel.physics.profiles import AccelProfile, Offset
 
 ArrayAccel = Callable[[float], "float | np.ndarray"]
 
@@ -79,3 +93,17 @@ def car_frame_lagrangian(
     if total_derivative_term:
         lagrangian = lagrangian + 0.5 * m * v * v
     return np.asarray(lagrangian)
+
+
+def level_equivalent(p: Pendulum, profile: AccelProfile, grade: float) -> tuple[Pendulum, AccelProfile]:
+    """(p with g cos β, a(t) + g sin β): the level-road problem with the motion of grade β (rad, nose-up > 0).
+
+    β = 0 returns ``p`` and ``profile`` themselves; |β| must be < π/2 (the car on a road, not a wall).
+    """
+    beta = require_finite("grade", grade)
+    if beta == 0.0:
+        return p, profile
+    if not abs(beta) < 0.5 * math.pi:
+        raise ParameterError(f"grade must be between -pi/2 and pi/2 rad, got {beta!r}")
+    tilted = replace(p, gravity=p.gravity * math.cos(beta))
+    return tilted, Offset(profile, p.gravity * math.sin(beta))

@@ -1,0 +1,260 @@
+"""The swinging bob drawn from a run: the car, the pendulum, true and estimated acceleration, θ(t) below.
+
+Drawn in the world's (forward, up) plane: the car pitched nose-up by the road's grade β, the pivot on its
+roof, the bob at pivot + R(β) (−l sin θ, −l cos θ) (θ > 0 to the rear, as everywhere in the package). The
+arrows start at the pivot along the car's x axis, ARROW_M_PER_MS2 metres per m/s². Frames are taken at
+``fps`` from the run's samples (linear interpolation), so a 100 Hz or 1 kHz run animates at the same cost.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from matplotlib.animation import FFMpegWriter, PillowWriter
+from matplotlib.artist import Artist
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Polygon
+from matplotlib.quiver import Quiver
+from numpy.typing import NDArray
+
+from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.errors import ParameterError, SceneError
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
+from pendulum_accel.recording.analyze import analyze_bag
+from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.scene import Scene, scene_from_yaml
+from pendulum_accel.scene_run import run_scene
+
+FloatArray = NDArray[np.float64]
+
+BOB_COLOR = "#d62728"  # the bob's pure colour, which the tests look for in the rendered frame
+TRUE_COLOR = "#2ca02c"
+EST_COLOR = "#ff7f0e"
+FIGSIZE = (6.4, 4.8)  # inches
+DPI = 80  # 512 × 384 pixels: a 10 s GIF at 20 fps stays well under 1 MB
+CAR_LENGTH = 2.4  # in pendulum lengths
+ARROW_M_PER_MS2 = 0.25  # arrow length per m/s², in pendulum lengths
+FORMATS = (".gif", ".mp4")
+
+
+@dataclass(frozen=True)
+class SwingData:
+    """What is drawn: times t (s), bob angle θ (rad), true and estimated a (m/s², NaN: none yet), l, β."""
+
+    t: FloatArray
+    theta: FloatArray
+    accel_true: FloatArray
+    accel_est: FloatArray
+    length: float
+    grade: float = 0.0
+    label: str = ""
+
+    def frame_times(self, fps: float, duration: float | None = None) -> FloatArray:
+        """t₀ + k/fps for k = 0, 1, … up to the end of the run (or t₀ + duration, whichever is first)."""
+        if not (math.isfinite(fps) and fps > 0.0):
+            raise ParameterError(f"fps must be a number > 0, got {fps!r}")
+        end = float(self.t[-1])
+        if duration is not None:
+            if not (math.isfinite(duration) and duration > 0.0):
+                raise ParameterError(f"duration must be a number of seconds > 0, got {duration!r}")
+            end = min(end, float(self.t[0]) + duration)
+        return float(self.t[0]) + np.arange(math.floor((end - float(self.t[0])) * fps + 1e-9) + 1) / fps
+
+    def at(self, times: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(θ, a_true, a_est) interpolated linearly at ``times``."""
+        return (
+            np.interp(times, self.t, self.theta),
+            np.interp(times, self.t, self.accel_true),
+            np.interp(times, self.t, self.accel_est),
+        )
+
+
+def _rotate(x: FloatArray, z: FloatArray, beta: float) -> tuple[FloatArray, FloatArray]:
+    """Car-frame (x, z) to world (forward, up) for a car pitched nose-up by β: R(β) (x, z)."""
+    c, s = math.cos(beta), math.sin(beta)
+    return c * x - s * z, s * x + c * z
+
+
+def bob_position(length: float, theta: float | FloatArray, grade: float) -> tuple[FloatArray, FloatArray]:
+    """World position of the bob relative to the pivot: R(β) (−l sin θ, −l cos θ)."""
+    th = np.asarray(theta, dtype=float)
+    return _rotate(-length * np.sin(th), -length * np.cos(th), grade)
+
+
+class SwingAnimation:
+    """A figure with the car and bob on top and the θ(t) strip chart below; ``draw_frame(k)`` sets frame k.
+
+    Frames go straight to matplotlib's animation writers (PillowWriter, FFMpegWriter), one draw each.
+    """
+
+    def __init__(self, data: SwingData, fps: int = 20, duration: float | None = None) -> None:
+        """Lay out the figure for ``data`` and precompute the frames at ``fps`` (up to ``duration`` s)."""
+        self.data = data
+        self.fps = fps
+        self.times = data.frame_times(fps, duration)
+        self.theta, self.a_true, self.a_est = data.at(self.times)
+        self.figure = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
+        FigureCanvasAgg(self.figure)
+        top, bottom = self.figure.subplots(2, 1, height_ratios=(2.2, 1.0))
+        self.scene_axes: Axes = top
+        self.chart_axes: Axes = bottom
+        self._draw_car(top)
+        self.rod = Line2D([0.0, 0.0], [0.0, -data.length], color="0.2", lw=2)
+        self.bob = Line2D([0.0], [-data.length], marker="o", ms=14, color=BOB_COLOR, mec=BOB_COLOR, ls="")
+        top.add_line(self.rod)
+        top.add_line(self.bob)
+        self.arrows: Quiver = top.quiver(
+            [0.0, 0.0],
+            [0.08 * data.length, 0.22 * data.length],
+            [0.0, 0.0],
+            [0.0, 0.0],
+            color=[TRUE_COLOR, EST_COLOR],
+            angles="xy",
+            scale_units="xy",
+            scale=1.0,
+            width=0.012,
+        )
+        self.text = top.text(
+            0.01, 0.98, "", transform=top.transAxes, va="top", fontsize=9, family="monospace"
+        )
+        self._draw_chart(bottom)
+        self.figure.canvas.draw()  # lay out once; frames then keep these positions
+        self.figure.set_layout_engine("none")
+
+    def _draw_car(self, ax: Axes) -> None:
+        """The road and the car body (pivot at the origin on its roof), pitched by the grade."""
+        length, beta = self.data.length, self.data.grade
+        half = 0.5 * CAR_LENGTH * length
+        body_x = np.array([-half, half, half, -half])
+        body_z = np.array([-1.5 * length, -1.5 * length, 0.05 * length, 0.05 * length])
+        bx, bz = _rotate(body_x, body_z, beta)
+        ax.add_patch(Polygon(np.column_stack((bx, bz)), closed=True, fc="#dde6f0", ec="#5a6b7d", lw=1.5))
+        road_x, road_z = _rotate(np.array([-2 * half, 2 * half]), np.array([-1.7, -1.7]) * length, beta)
+        ax.plot(road_x, road_z, color="0.35", lw=3)
+        ax.plot([0.0], [0.0], "ko", ms=4)
+        reach = half + 0.2 * length
+        ax.set(xlim=(-reach, reach), ylim=(-1.9 * length - half * abs(math.sin(beta)), 1.0 * length))
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+        title = f"{self.data.label}: " if self.data.label else ""
+        grade = f", grade β = {beta:.4f} rad" if beta else ""
+        ax.set_title(f"{title}l = {length:g} m{grade}   → forward", fontsize=10)
+        ax.legend(
+            handles=[
+                Line2D([], [], color=TRUE_COLOR, lw=3, label="true a"),
+                Line2D([], [], color=EST_COLOR, lw=3, label="estimated â"),
+            ],
+            loc="upper right",
+            fontsize=8,
+        )
+
+    def _draw_chart(self, ax: Axes) -> None:
+        """θ(t) in degrees over the animated span, with a cursor that follows the frame."""
+        span = (self.data.t >= self.times[0]) & (self.data.t <= self.times[-1])
+        ax.plot(self.data.t[span], np.degrees(self.data.theta[span]), color="0.6", lw=1)
+        (self.trace,) = ax.plot([], [], color=BOB_COLOR, lw=1.5)
+        self.cursor = ax.axvline(float(self.times[0]), color="k", lw=1)
+        ax.set(
+            xlabel="time t [s]", ylabel="θ [deg]", xlim=(float(self.times[0]), float(self.times[-1]) + 1e-9)
+        )
+        ax.grid(True, alpha=0.3)
+
+    def draw_frame(self, k: int) -> list[Artist]:
+        """Move the bob, rod, arrows, cursor and readout to frame ``k``; returns the changed artists."""
+        length, beta = self.data.length, self.data.grade
+        bx, bz = bob_position(length, float(self.theta[k]), beta)
+        self.rod.set_data([0.0, float(bx)], [0.0, float(bz)])
+        self.bob.set_data([float(bx)], [float(bz)])
+        a_est = float(self.a_est[k]) if math.isfinite(self.a_est[k]) else 0.0
+        scale = ARROW_M_PER_MS2 * length
+        u, v = _rotate(np.array([self.a_true[k], a_est]) * scale, np.zeros(2), beta)
+        self.arrows.set_UVC(u, v)
+        t = float(self.times[k])
+        self.cursor.set_xdata([t, t])
+        shown = self.data.t <= t
+        self.trace.set_data(self.data.t[shown], np.degrees(self.data.theta[shown]))
+        self.text.set_text(
+            f"t = {t:6.2f} s   θ = {math.degrees(self.theta[k]):+6.2f}°\n"
+            f"a = {self.a_true[k]:+6.3f}   â = {a_est:+6.3f} m/s²"
+        )
+        return [self.rod, self.bob, self.arrows, self.cursor, self.trace, self.text]
+
+    def save(self, path: Path, on_frame: Callable[[], object] | None = None) -> Path:
+        """Write the animation: GIF with Pillow, MP4 with ffmpeg (ParameterError when it is not installed).
+
+        ``on_frame`` is called after each frame is written (a progress bar).
+        """
+        out = check_output_path(path)
+        writer: PillowWriter | FFMpegWriter
+        if out.suffix.lower() == ".gif":
+            writer = PillowWriter(fps=self.fps)
+        else:
+            writer = FFMpegWriter(fps=self.fps, codec="h264", extra_args=["-pix_fmt", "yuv420p"])
+        # Each frame is drawn once, by the writer's savefig (FuncAnimation would draw it twice).
+        with writer.saving(self.figure, str(out), DPI):
+            for k in range(self.times.size):
+                self.draw_frame(k)
+                writer.grab_frame()
+                if on_frame is not None:
+                    on_frame()
+        return out
+
+
+def check_output_path(path: Path | str) -> Path:
+    """``path`` as a Path when it ends in .gif or .mp4 (with ffmpeg on PATH) in an existing directory."""
+    out = Path(path)
+    suffix = out.suffix.lower()
+    if suffix not in FORMATS:
+        raise ParameterError(f"animation output must end in .gif or .mp4, got {str(out)!r}")
+    if suffix == ".mp4" and shutil.which("ffmpeg") is None:
+        raise ParameterError("writing .mp4 needs ffmpeg on PATH (apt-get install ffmpeg); use a .gif instead")
+    if not out.parent.is_dir():
+        raise ParameterError(f"output directory does not exist: {str(out.parent)!r}")
+    return out
+
+
+def swing_from_scene(scene: Scene, estimator: str | None = None) -> SwingData:
+    """SwingData of a simulated scene: its true θ and a, and ``estimator`` (default: the package's) on the
+    measured θ with the scene's estimator settings."""
+    run = run_scene(scene)
+    name = estimator or DEFAULT_ESTIMATOR
+    a_est, _ = estimate_batch(name, run.t, run.theta_measured, **estimator_settings(scene))
+    return SwingData(
+        t=run.t,
+        theta=run.theta_true,
+        accel_true=run.accel_true,
+        accel_est=np.asarray(a_est, dtype=np.float64),
+        length=scene.pendulum.length,
+        grade=scene.grade,
+        label=f"{scene.name} ({name})",
+    )
+
+
+def swing_from_bag(path: Path | str, estimator: str | None = None) -> SwingData:
+    """SwingData of a bag: its recorded θ and truth, ``estimator`` re-run offline (recording.analyze)."""
+    bag = read_bag(path)
+    result = analyze_bag(bag, estimator=estimator)
+    text = bag.custom_data.get("pendulum_accel.scene")
+    grade = 0.0
+    if text:
+        try:
+            grade = scene_from_yaml(text, label=str(path)).grade
+        except SceneError:
+            grade = 0.0  # an older or foreign scene text: draw the car level
+    return SwingData(
+        t=result.t,
+        theta=result.theta,
+        accel_true=result.accel_true,
+        accel_est=result.accel_est,
+        length=float(result.config["length"]),
+        grade=grade,
+        label=f"{result.scene or Path(path).name} ({result.estimator})",
+    )

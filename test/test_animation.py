@@ -1,0 +1,98 @@
+"""animate: frames have the promised size, the bob is drawn where θ puts it, and a GIF is written."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import to_rgb
+from PIL import Image
+
+from pendulum_accel.animation import (
+    BOB_COLOR,
+    DPI,
+    FIGSIZE,
+    SwingAnimation,
+    SwingData,
+    bob_position,
+    swing_from_scene,
+)
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.scene import load_scene
+
+WIDTH, HEIGHT = round(FIGSIZE[0] * DPI), round(FIGSIZE[1] * DPI)
+
+
+def swing(grade: float = 0.0) -> SwingData:
+    """A made-up swing: θ = 0.3 sin(2π t/2) + 0.2 over 3 s at 100 Hz, a = 2, â = 1.9."""
+    t = np.linspace(0.0, 3.0, 301)
+    theta = 0.2 + 0.3 * np.sin(np.pi * t)
+    return SwingData(t, theta, np.full_like(t, 2.0), np.full_like(t, 1.9), length=0.8, grade=grade)
+
+
+def bob_pixel_centre(rgba: np.ndarray) -> tuple[float, float]:
+    """Centroid (x, y from the top) of the pixels in the bob's exact colour."""
+    target = np.array(to_rgb(BOB_COLOR)) * 255.0
+    mask = np.all(np.abs(rgba[:, :, :3].astype(float) - target) < 2.0, axis=2)
+    # the strip chart's trace shares the colour: keep only the upper (car) panel
+    mask[int(0.6 * rgba.shape[0]) :, :] = False
+    ys, xs = np.nonzero(mask)
+    assert xs.size > 50, "the bob is not visible in the frame"
+    return float(xs.mean()), float(ys.mean())
+
+
+@pytest.mark.parametrize("grade", [0.0, 0.15])
+def test_frames_have_the_size_and_the_bob_is_where_theta_puts_it(grade: float) -> None:
+    """For a few frames: the bob artist sits at R(β)(−l sin θ, −l cos θ), and so does its drawn colour."""
+    anim = SwingAnimation(swing(grade), fps=10)
+    assert anim.times.size == 31  # 0, 0.1, …, 3.0 s
+    for k in (0, 7, 15, 26):
+        anim.draw_frame(k)
+        theta = 0.2 + 0.3 * math.sin(math.pi * anim.times[k])
+        x, z = bob_position(0.8, theta, grade)
+        bx, bz = anim.bob.get_data()
+        assert float(np.asarray(bx)[0]) == pytest.approx(float(x), abs=1e-6)
+        assert float(np.asarray(bz)[0]) == pytest.approx(float(z), abs=1e-6)
+        # no grade: θ > 0 puts the bob to the rear, left of the pivot on the screen (forward is right)
+        if grade == 0.0:
+            assert np.sign(float(x)) == -np.sign(theta)
+        canvas = anim.figure.canvas
+        assert isinstance(canvas, FigureCanvasAgg)
+        canvas.draw()
+        rgba = np.asarray(canvas.buffer_rgba())
+        assert rgba.shape == (HEIGHT, WIDTH, 4)
+        px, py = anim.scene_axes.transData.transform((float(x), float(z)))
+        cx, cy = bob_pixel_centre(rgba)
+        assert cx == pytest.approx(px, abs=2.0)
+        assert cy == pytest.approx(HEIGHT - py, abs=2.0)
+
+
+def test_gif_is_written_with_the_requested_frames(tmp_path: Path) -> None:
+    """A 0.5 s animation at 10 fps of a bundled scene: 6 frames of the figure's size, under 1 MB."""
+    data = swing_from_scene(load_scene("lecture_constant"))
+    assert np.all(np.isfinite(data.accel_est))
+    anim = SwingAnimation(data, fps=10, duration=0.5)
+    out = anim.save(tmp_path / "swing.gif")
+    with Image.open(out) as img:
+        assert img.size == (WIDTH, HEIGHT)
+        assert getattr(img, "n_frames", 1) == 6
+    assert out.stat().st_size < 1_000_000
+
+
+def test_bad_outputs_are_one_line_errors(tmp_path: Path) -> None:
+    """A wrong suffix, a missing directory or a bad fps is a ParameterError before any work."""
+    anim_data = swing()
+    with pytest.raises(ParameterError, match="fps"):
+        anim_data.frame_times(0.0)
+    cli = [sys.executable, "-m", "pendulum_accel.cli.main", "animate", "at_rest"]
+    for out, message in (("x.png", "must end in .gif or .mp4"), ("nodir/x.gif", "does not exist")):
+        done = subprocess.run(
+            [*cli, "--out", str(tmp_path / out)], capture_output=True, text=True, check=False
+        )
+        assert done.returncode == 2
+        assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1
