@@ -19,8 +19,9 @@ LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"estimators", "sensor"}),
     frozenset({"scene"}),
     frozenset({"overrides", "planner"}),
-    frozenset({"scene_run", "sweep", "lecture"}),
+    frozenset({"scene_run", "sweep"}),
     frozenset({"recording"}),
+    frozenset({"lecture", "animation"}),
     frozenset({"nodes"}),
     frozenset({"cli"}),
 )
