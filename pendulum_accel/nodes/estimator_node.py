@@ -122,7 +122,15 @@ class EstimatorNode(ChainNode):
             rate_hz=float(self.get_parameter("rate_hz").value),
             warn_angle=math.radians(self.warn_angle_deg),
             stale_after=self.stale_after if self.stale_after > 0.0 else None,
+            saturation_range=self._sensor_range(),
         )
+
+    def _sensor_range(self) -> float:
+        """The scene's sensor range R (rad; 0 = none), so readings clipped at ±R are flagged saturated."""
+        try:
+            return float(load_scene(str(self.get_parameter("scene").value)).sensor.range)
+        except PendulumAccelError:
+            return 0.0
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Accept a change only if the estimator it makes is valid; else keep the old value and say why."""
