@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -57,7 +59,9 @@ def test_too_few_samples_is_a_clear_error() -> None:
         allan_deviation(np.zeros(10), 10.0)
 
 
-def test_cli_on_a_scene_prints_both_figures_and_plots(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+def test_cli_on_a_scene_prints_both_figures_and_plots(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """``allan SCENE --duration`` prints N and K for the angle and the estimate and writes the plot."""
     path = tmp_path / "static.yaml"
     path.write_text(SCENE.replace("SEED", "4"), encoding="utf-8")
@@ -69,7 +73,7 @@ def test_cli_on_a_scene_prints_both_figures_and_plots(tmp_path, capsys) -> None:
     assert out.stat().st_size > 10_000
 
 
-def test_plot_marks_the_slopes(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_plot_marks_the_slopes(tmp_path: Path) -> None:
     """plot_allan writes a PNG for a fitted result."""
     rng = np.random.default_rng(1)
     result = allan_deviation(
