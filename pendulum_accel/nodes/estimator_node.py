@@ -38,7 +38,7 @@ from pendulum_accel.nodes.runtime import (
     publish_blocking,
     run_node,
 )
-from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.recording.settings import estimator_settings, sensor_bias_settings
 from pendulum_accel.scene import load_scene
 
 NODE_NAME = "accel_estimator"
@@ -114,7 +114,14 @@ class EstimatorNode(ChainNode):
         cfg = {k: float(v) for k, v in values.items() if k != "method"}
         if not all(math.isfinite(v) for v in cfg.values()):
             raise PendulumAccelError("estimator parameters must be finite")
-        return make_estimator(str(values["method"]), **cfg)
+        return make_estimator(str(values["method"]), **cfg, **self._sensor_bias())
+
+    def _sensor_bias(self) -> dict[str, float]:
+        """The scene's sensor bias fields, which widen the published variance (none without a scene)."""
+        try:
+            return sensor_bias_settings(load_scene(str(self.get_parameter("scene").value)))
+        except PendulumAccelError:
+            return {}
 
     def _new_guard(self) -> InputGuard:
         """InputGuard at the configured rate, warn angle and stale limit."""
