@@ -9,6 +9,7 @@ import pytest
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.estimators import EstimatorConfig, estimate_batch
+from pendulum_accel.recording.analyze import calibration
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
 from pendulum_accel.scene_run import run_scene
@@ -60,3 +61,13 @@ def test_unmeasured_covariance_entries_are_large_not_zero() -> None:
     assert cov[0, 0] == 0.25
     assert np.all(np.diag(cov)[1:] == bm.UNMEASURED_VARIANCE)
     assert np.all(cov[~np.eye(6, dtype=bool)] == 0.0)
+
+
+def test_calibration_splits_steady_and_after_change() -> None:
+    """NEES = e²/var; samples within 2 s after a change of a go to after_change, the rest to steady."""
+    t = np.arange(0.0, 10.0, 0.5)
+    truth = np.where(t < 4.0, 0.0, 1.0)
+    error = np.where((t >= 4.0) & (t <= 6.0), 3.0, 1.0)
+    cal = calibration(t, error, np.ones(t.size), t, truth, t_from=1.0)
+    assert cal.after_change.n == 5 and cal.after_change.mean == 9.0 and cal.after_change.share_2sigma == 1.0
+    assert cal.steady.n == t.size - 2 - 5 and cal.steady.mean == 1.0 and cal.steady.share_2sigma == 0.0
