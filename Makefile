@@ -56,7 +56,7 @@ bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags
 
 # Every benchmark, each the way the README quotes it; figures print and land in out/bench.
-BENCHES := work_precision estimators chain bags sweep_bench
+BENCHES := work_precision estimators calibration chain bags sweep_bench
 bench: $(STAMP)
 	@for b in $(BENCHES); do \
 	  echo "== python -m benchmarks.$$b"; \

@@ -44,6 +44,7 @@ setup(
         "tqdm>=4.70.1",
         "zstandard>=0.25.0",
         "lz4>=4.4.5",
+        "allantools>=2024.6",
     ],
     # The work-precision benchmark's 30-digit reference, and the test tools.
     extras_require={

@@ -18,10 +18,16 @@ File layout (every key is checked; unknown keys are errors so a typo never passe
     acceleration: {type: constant, a: 2.0}   # any physics.profiles type; csv paths are relative to this file
     sensor:
       rate_hz: 100                  # Hz, > 0
-      noise_std: 1.0e-3             # rad, >= 0 (optional, 0)
-      bias: 0.0                     # rad (optional, 0)
-      bias_random_walk: 0.0         # rad/√s, >= 0 (optional, 0)
-      quantization: 0.0             # rad, >= 0 (optional, 0 = none)
+      noise_std: 1.0e-3             # rad per sample, >= 0 (optional, 0; Gazebo stddev)
+      noise_density: 7.1e-5         # rad/√Hz, >= 0: instead of noise_std, σ = noise_density·√rate_hz
+      bias: 0.0                     # rad (optional, 0; Gazebo mean)
+      bias_random_walk: 0.0         # rad/√s, >= 0 (optional, 0; Kalibr random_walk)
+      bias_mean: 0.0                # rad (optional, 0): turn-on bias ±N(bias_mean, bias_stddev) per seed
+      bias_stddev: 0.0              # rad, >= 0 (optional, 0)
+      dynamic_bias_stddev: 0.0      # rad/√s, >= 0 (optional, 0): Gauss-Markov driving density σ_b
+      dynamic_bias_correlation_time: 0.0  # s, >= 0 (> 0 when dynamic_bias_stddev is set)
+      quantization: 0.0             # rad, >= 0 (optional, 0 = none; Gazebo precision)
+      range: 0.0                    # rad, >= 0 (optional, 0 = unlimited): readings saturate at ±range
       seed: 1                       # integer >= 0 (optional, 0)
     outputs: [angle, tension]       # angle always; tension, stretch optional (optional, [angle])
     accuracy:
@@ -55,7 +61,7 @@ from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, profile_from_dict
 from pendulum_accel.physics.rigid import level_equivalent
 from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, MODELS
-from pendulum_accel.sensor import SensorModel
+from pendulum_accel.sensor import SensorModel, noise_std_from_density
 
 SCENES_DIR = Path(__file__).resolve().parent / "scenes"
 SCENE_NAMES: tuple[str, ...] = (
@@ -280,7 +286,17 @@ def _show(value: object) -> str:
 _TOP = ("name", "description", "duration", "gravity", "grade", "pendulum", "acceleration", "sensor",
         "outputs", "accuracy", "force")  # fmt: skip
 _PENDULUM = ("length", "mass", "damping", "theta0", "theta_dot0", "stiffness")
-_SENSOR = ("rate_hz", "noise_std", "bias", "bias_random_walk", "quantization", "seed")
+_SENSOR = ("rate_hz", "noise_std", "noise_density", "bias", "bias_random_walk", "quantization", "seed",
+           "bias_mean", "bias_stddev", "dynamic_bias_stddev", "dynamic_bias_correlation_time",
+           "range")  # fmt: skip
+# Written to YAML only when set, so a scene without them reads (and is stored in bags) as before.
+_SENSOR_OPTIONAL = (
+    "bias_mean",
+    "bias_stddev",
+    "dynamic_bias_stddev",
+    "dynamic_bias_correlation_time",
+    "range",
+)
 
 
 def _outputs(top: _Fields) -> tuple[str, ...]:
@@ -296,6 +312,32 @@ def _outputs(top: _Fields) -> tuple[str, ...]:
         if item in value[:i]:
             raise SceneError(f"outputs[{i}]: {item!r} is listed twice")
     return tuple(o for o in OUTPUTS if o == "angle" or o in value)
+
+
+def _sensor(sens: _Fields) -> SensorModel:
+    """SensorModel from the sensor mapping; noise_std or noise_density (σ = N·√rate_hz), never both."""
+    rate_hz = sens.number("rate_hz", low=0.0, strict=True)
+    if sens.has("noise_std") and sens.has("noise_density"):
+        raise SceneError("sensor: give noise_std (rad per sample) or noise_density (rad/√Hz), not both")
+    noise_std = sens.number("noise_std", 0.0, low=0.0)
+    if sens.has("noise_density"):
+        noise_std = noise_std_from_density(sens.number("noise_density", low=0.0), rate_hz)
+    try:
+        return SensorModel(
+            rate_hz=rate_hz,
+            noise_std=noise_std,
+            bias=sens.number("bias", 0.0),
+            bias_random_walk=sens.number("bias_random_walk", 0.0, low=0.0),
+            quantization=sens.number("quantization", 0.0, low=0.0),
+            seed=sens.integer("seed", 0),
+            bias_mean=sens.number("bias_mean", 0.0),
+            bias_stddev=sens.number("bias_stddev", 0.0, low=0.0),
+            dynamic_bias_stddev=sens.number("dynamic_bias_stddev", 0.0, low=0.0),
+            dynamic_bias_correlation_time=sens.number("dynamic_bias_correlation_time", 0.0, low=0.0),
+            range=sens.number("range", 0.0, low=0.0),
+        )
+    except ParameterError as err:
+        raise SceneError(f"sensor: {err}") from None
 
 
 def _parse(data: object, base_dir: Path | None) -> Scene:
@@ -323,15 +365,7 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
         where = f"acceleration.{err.path}" if err.path else "acceleration"
         raise SceneError(f"{where}: {err}") from None
 
-    sens = _Fields(top.raw("sensor", "a mapping with rate_hz, ..."), "sensor", _SENSOR)
-    sensor = SensorModel(
-        rate_hz=sens.number("rate_hz", low=0.0, strict=True),
-        noise_std=sens.number("noise_std", 0.0, low=0.0),
-        bias=sens.number("bias", 0.0),
-        bias_random_walk=sens.number("bias_random_walk", 0.0, low=0.0),
-        quantization=sens.number("quantization", 0.0, low=0.0),
-        seed=sens.integer("seed", 0),
-    )
+    sensor = _sensor(_Fields(top.raw("sensor", "a mapping with rate_hz, ..."), "sensor", _SENSOR))
     acc = _Fields(top.raw("accuracy", "a mapping with max_angle_error"), "accuracy", ("max_angle_error",))
     accuracy = acc.number("max_angle_error", low=0.0, strict=True)
 
@@ -461,7 +495,8 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
             "bias_random_walk": s.bias_random_walk,
             "quantization": s.quantization,
             "seed": s.seed,
-        },
+        }
+        | {name: getattr(s, name) for name in _SENSOR_OPTIONAL if getattr(s, name) != 0.0},
         "outputs": list(scene.outputs),
         "accuracy": {"max_angle_error": float(scene.accuracy)},
     }

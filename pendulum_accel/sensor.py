@@ -1,15 +1,32 @@
-"""Angle sensor model with the knobs of Gazebo's IMU noise model, deterministic for a seed.
+"""Angle sensor model with the knobs of Gazebo's IMU noise model (gz-sensors), deterministic for a seed.
 
 A sample k taken at t_k of the true angle θ_k reads
 
-    y_k = Q( θ_k + b + β_k + σ n_k ),   β_0 = 0,  β_k = β_{k-1} + σ_b √(t_k − t_{k−1}) w_k,
+    y_k = S( Q( θ_k + b + β_k + d_k + σ n_k ) ),
 
-with n_k, w_k independent standard normals, ``b`` the constant (turn-on) bias, β the bias random walk
-(σ_b in rad/√s, Gazebo's ``dynamic_bias_stddev`` as a Wiener process), σ the white noise (Gazebo's
-``stddev``) and Q(x) = q · round(x/q) the quantisation to the step q (Gazebo's ``precision``; q = 0
-means none). All draws come from one ``numpy.random.Generator(PCG64(seed))`` in a fixed order (the
-walk increments, then the white noise), so the same seed and sample times give the same readings bit
-for bit.
+* σ n_k: white noise, n_k standard normal. σ is the per-sample standard deviation (Gazebo ``stddev``,
+  our ``noise_std``); a datasheet or Kalibr gives it as a density N (rad/√Hz), and σ = N · √f at the
+  sample rate f (the scene's ``noise_density`` is converted this way when it is loaded);
+* b: the constant offset (Gazebo ``mean``, our ``bias``);
+* β: a bias random walk, β_0 = 0, β_k = β_{k−1} + σ_rw √(t_k − t_{k−1}) w_k (σ_rw in rad/√s, Kalibr's
+  ``random_walk``, our ``bias_random_walk``);
+* d: Gazebo's dynamic bias, started at the turn-on bias d_0 = ±N(bias_mean, bias_stddev) (sign drawn
+  with probability ½ each, as gz-sensors' SampleBias) and driven as a first-order Gauss-Markov process
+  exactly as gz-sensors' GaussianNoiseModel::ApplyImpl:
+
+      d_{k+1} = φ d_k + σ_b √(τ/2 · (1 − φ²)) v_k,   φ = e^{−Δt/τ},
+
+  with σ_b = ``dynamic_bias_stddev`` and τ = ``dynamic_bias_correlation_time``. σ_b is a driving
+  density (rad/√s): the stationary standard deviation is σ_b √(τ/2), and τ → ∞ gives a random walk of
+  density σ_b (the same process as β). σ_b > 0 needs τ > 0 (gz-sensors ignores σ_b without τ);
+* Q(x) = q · round(x/q): quantisation to the step q (Gazebo ``precision``, our ``quantization``; 0 = none);
+* S(x) = clip(x, −R, R): the measurement range R (``range``; 0 = unlimited). A saturated sample reads
+  exactly ±R, which ``saturated`` flags.
+
+All draws come from one ``numpy.random.Generator(PCG64(seed))`` in a fixed order (the walk increments,
+the white noise, then the turn-on bias and its sign, then the Gauss-Markov increments), so the same
+seed and sample times give the same readings bit for bit, and a sensor without the later knobs reads
+exactly as it did before they existed.
 """
 
 from __future__ import annotations
@@ -27,10 +44,25 @@ FloatArray = NDArray[np.float64]
 
 MAX_SAMPLES = 50_000_000  # a duration × rate past this is a typo, not a run (400 MB per array)
 
+_NON_NEGATIVE = (
+    "noise_std",
+    "bias_random_walk",
+    "quantization",
+    "bias_stddev",
+    "dynamic_bias_stddev",
+    "dynamic_bias_correlation_time",
+    "range",
+)
+
+
+def noise_std_from_density(density: float, rate_hz: float) -> float:
+    """σ = N · √f: per-sample white-noise std (rad) of a density N (rad/√Hz) sampled at f (Hz)."""
+    return density * math.sqrt(rate_hz)
+
 
 @dataclass(frozen=True)
 class SensorModel:
-    """Angle sensor: rate f (Hz), white noise σ (rad), bias b (rad), bias walk σ_b (rad/√s), step q, seed."""
+    """Angle sensor: rate f, white σ, offset b, walk σ_rw, turn-on and Gauss-Markov bias, step q, range R."""
 
     rate_hz: float
     noise_std: float = 0.0
@@ -38,25 +70,41 @@ class SensorModel:
     bias_random_walk: float = 0.0
     quantization: float = 0.0
     seed: int = 0
+    bias_mean: float = 0.0
+    bias_stddev: float = 0.0
+    dynamic_bias_stddev: float = 0.0
+    dynamic_bias_correlation_time: float = 0.0
+    range: float = 0.0
 
     def __post_init__(self) -> None:
-        """Validate: f > 0, σ, σ_b, q ≥ 0, b finite, seed an integer ≥ 0 (ParameterError naming the field)."""
+        """Validate: f > 0, the spreads, τ and R ≥ 0, b and bias_mean finite, seed an integer ≥ 0."""
         object.__setattr__(self, "rate_hz", require_positive("sensor rate_hz", self.rate_hz))
-        for name in ("noise_std", "bias_random_walk", "quantization"):
+        for name in _NON_NEGATIVE:
             value = require_finite(f"sensor {name}", getattr(self, name))
             if value < 0.0:
                 raise ParameterError(f"sensor {name} must be >= 0, got {value!r}")
             object.__setattr__(self, name, value)
-        object.__setattr__(self, "bias", require_finite("sensor bias", self.bias))
+        for name in ("bias", "bias_mean"):
+            object.__setattr__(self, name, require_finite(f"sensor {name}", getattr(self, name)))
         seed = self.seed
         if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
             raise ParameterError(f"sensor seed must be an integer >= 0, got {seed!r}")
         object.__setattr__(self, "seed", int(seed))
+        if self.dynamic_bias_stddev > 0.0 and self.dynamic_bias_correlation_time == 0.0:
+            raise ParameterError(
+                "sensor dynamic_bias_correlation_time must be > 0 s when dynamic_bias_stddev is set "
+                "(for τ → ∞ use bias_random_walk)"
+            )
 
     @property
     def period(self) -> float:
         """Sample period 1/f (s)."""
         return 1.0 / self.rate_hz
+
+    @property
+    def noise_density(self) -> float:
+        """N = σ/√f: the white noise as a density (rad/√Hz), the form datasheets and Kalibr use."""
+        return self.noise_std / math.sqrt(self.rate_hz)
 
     def sample_count(self, duration: float) -> int:
         """n = ⌊duration · f⌋ + 1 samples cover [0, duration] (a hair of slack for round-off)."""
@@ -74,8 +122,15 @@ class SensorModel:
         """t_k = k / f for k = 0 … ⌊duration · f⌋ (s): every sample in [0, duration]."""
         return np.arange(self.sample_count(duration), dtype=np.float64) / self.rate_hz
 
+    def saturated(self, y: ArrayLike) -> NDArray[np.bool_]:
+        """|y| ≥ R for a limited range (a clipped reading sits exactly on ±R); all False when R = 0."""
+        values = np.asarray(y, dtype=np.float64)
+        if self.range <= 0.0:
+            return np.zeros(values.shape, dtype=bool)
+        return np.abs(values) >= self.range
+
     def measure(self, t: ArrayLike, theta: ArrayLike) -> FloatArray:
-        """y_k = Q(θ_k + b + β_k + σ n_k) at the times t (module docstring); same seed → same output."""
+        """y_k = S(Q(θ_k + b + β_k + d_k + σ n_k)) at the times t (module docstring); same seed, same bits."""
         times = np.asarray(t, dtype=np.float64)
         angles = np.asarray(theta, dtype=np.float64)
         if times.ndim != 1 or angles.shape != times.shape:
@@ -95,6 +150,44 @@ class SensorModel:
             out[1:] += np.cumsum(self.bias_random_walk * np.sqrt(np.diff(times)) * walk)
         if self.noise_std > 0.0:
             out += self.noise_std * white
+        if self.bias_stddev > 0.0 or self.bias_mean != 0.0 or self.dynamic_bias_stddev > 0.0:
+            # Drawn only when used, after the older streams: scenes without these knobs keep their bits.
+            out += self._dynamic_bias(times, rng)
         if self.quantization > 0.0:
             out = self.quantization * np.round(out / self.quantization)
+        if self.range > 0.0:
+            out = np.clip(out, -self.range, self.range)
         return out
+
+    def _dynamic_bias(self, times: FloatArray, rng: np.random.Generator) -> FloatArray:
+        """d_k: turn-on bias ±N(bias_mean, bias_stddev), then the gz-sensors Gauss-Markov recursion."""
+        start = rng.normal(self.bias_mean, self.bias_stddev) if self.bias_stddev > 0.0 else self.bias_mean
+        if rng.uniform() < 0.5:
+            start = -start
+        steps = rng.standard_normal(max(times.size - 1, 0))
+        bias = np.full(times.size, float(start))
+        sigma_b, tau = self.dynamic_bias_stddev, self.dynamic_bias_correlation_time
+        if sigma_b <= 0.0 or times.size < 2:
+            return bias
+        dt = np.diff(times)
+        phi = np.exp(-dt / tau)
+        drive = sigma_b * np.sqrt(-0.5 * tau * np.expm1(-2.0 * dt / tau)) * steps
+        # d_{k+1} = φ_k d_k + u_k as a first-order IIR filter (exact, no Python loop per sample).
+        return _first_order_recursion(float(start), phi, drive, bias)
+
+
+def _first_order_recursion(start: float, phi: FloatArray, drive: FloatArray, out: FloatArray) -> FloatArray:
+    """out_0 = start, out_{k+1} = φ_k out_k + u_k; scipy.signal.lfilter when φ is constant, else a loop."""
+    # Uniform sampling (t_k = k/f) differs from a constant Δt only by rounding: one φ serves.
+    if phi.size and float(np.ptp(phi)) <= 1e-12:
+        from scipy.signal import lfilter
+
+        p = float(np.mean(phi))
+        values, _ = lfilter([1.0], [1.0, -p], drive, zi=[p * start])
+        out[1:] = values
+        return out
+    value = start
+    for k in range(phi.size):
+        value = phi[k] * value + drive[k]
+        out[k + 1] = value
+    return out

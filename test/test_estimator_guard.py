@@ -132,3 +132,17 @@ def test_guarded_estimator_replays_a_looping_bag_identically_and_never_emits_non
     guard = wrapped.guard
     assert guard.resets == 1 and guard.dropped_nonfinite == 6
     assert guard.report().state is GuardState.ERROR  # worst since the last report
+
+
+def test_saturated_readings_warn_and_are_counted() -> None:
+    """With the sensor's range R, a reading at ±R is WARN 'saturated' and counted; inside it, OK."""
+    guard = InputGuard(rate_hz=100.0, saturation_range=0.5)
+    assert guard.check(0.00, 0.2) is Decision.ACCEPT
+    assert guard.report().state is GuardState.OK
+    guard.check(0.01, 0.5)
+    guard.check(0.02, -0.5)
+    report = guard.report()
+    assert report.state is GuardState.WARN and "saturated" in report.message
+    assert dict(report.values)["saturated"] == "2"
+    with pytest.raises(ParameterError, match="saturation_range must be >= 0"):
+        InputGuard(saturation_range=-1.0)

@@ -326,3 +326,19 @@ def test_any_unknown_key_is_refused(tmp_path: Path, section: str, key: str) -> N
     field = f"{section}.{key}" if section else key
     with pytest.raises(SceneError, match=f"{path}: {field}: unknown key"):
         load_scene(path)
+
+
+def test_sensor_density_form_converts_and_excludes_noise_std() -> None:
+    """noise_density N gives σ = N·√rate; giving noise_std too is a one-line error naming both."""
+    base = (
+        "name: s\ndescription: d\nduration: 1.0\npendulum: {length: 1.0}\n"
+        "acceleration: {type: constant, a: 0.0}\naccuracy: {max_angle_error: 1.0e-6}\n"
+    )
+    scene = scene_from_yaml(
+        base + "sensor: {rate_hz: 400.0, noise_density: 5.0e-5, range: 1.2, bias_mean: 0.01}"
+    )
+    assert scene.sensor.noise_std == pytest.approx(5.0e-5 * 20.0)
+    assert scene.sensor.range == 1.2 and scene.sensor.bias_mean == 0.01
+    assert scene_from_yaml(scene_to_yaml(scene)) == scene
+    with pytest.raises(SceneError, match=r"noise_std .* or noise_density .* not both"):
+        scene_from_yaml(base + "sensor: {rate_hz: 100.0, noise_std: 1.0e-3, noise_density: 1.0e-4}")

@@ -113,3 +113,55 @@ def test_non_finite_angle_is_refused() -> None:
         SensorModel(10.0).measure(np.array([0.0, 0.1]), np.array([0.0]))
     with pytest.raises(ParameterError, match="samples"):
         SensorModel(1e6).sample_times(1e6)
+
+
+def test_new_knobs_absent_leave_the_old_readings_bit_for_bit() -> None:
+    """Turn-on, Gauss-Markov and range at their defaults: the readings equal the older model's formula."""
+    sensor = SensorModel(200.0, noise_std=1e-3, bias_random_walk=1e-4, quantization=1e-4, seed=5)
+    t = sensor.sample_times(3.0)
+    theta = 0.05 * np.sin(2.0 * t)
+    rng = np.random.Generator(np.random.PCG64(5))
+    walk = rng.standard_normal(t.size - 1)
+    white = rng.standard_normal(t.size)
+    expected = theta.copy()
+    expected[1:] += np.cumsum(1e-4 * np.sqrt(np.diff(t)) * walk)
+    expected = 1e-4 * np.round((expected + 1e-3 * white) / 1e-4)
+    assert np.array_equal(sensor.measure(t, theta), expected)
+
+
+def test_gauss_markov_bias_has_gz_stationary_std_and_correlation() -> None:
+    """d_{k+1} = φ d_k + σ_b √(τ/2 (1 − φ²)) v: std σ_b √(τ/2) (within 5 %), lag-τ autocorrelation e^{-1}."""
+    tau, sigma_b = 2.0, 1e-3
+    sensor = SensorModel(50.0, dynamic_bias_stddev=sigma_b, dynamic_bias_correlation_time=tau, seed=9)
+    t = sensor.sample_times(4000.0)
+    d = sensor.measure(t, np.zeros_like(t))
+    assert np.std(d) == pytest.approx(sigma_b * math.sqrt(tau / 2.0), rel=0.05)
+    lag = int(tau * 50.0)
+    rho = np.corrcoef(d[:-lag], d[lag:])[0, 1]
+    assert rho == pytest.approx(math.exp(-1.0), abs=0.05)
+
+
+def test_turn_on_bias_is_drawn_per_seed_with_either_sign() -> None:
+    """bias_mean 0.01, bias_stddev 0: each seed starts at ±0.01 rad, and both signs occur over seeds."""
+    starts = set()
+    for seed in range(12):
+        y = SensorModel(100.0, bias_mean=0.01, seed=seed).measure(np.array([0.0, 0.01]), np.zeros(2))
+        assert abs(y[0]) == pytest.approx(0.01) and y[0] == y[1]
+        starts.add(math.copysign(1.0, y[0]))
+    assert starts == {1.0, -1.0}
+
+
+def test_range_saturates_and_is_flagged() -> None:
+    """Readings beyond ±R read exactly ±R and ``saturated`` marks them; R = 0 never saturates."""
+    sensor = SensorModel(100.0, range=0.5)
+    theta = np.array([-0.7, -0.5, 0.2, 0.49, 0.9])
+    y = sensor.measure(np.arange(5) * 0.01, theta)
+    assert list(y) == [-0.5, -0.5, 0.2, 0.49, 0.5]
+    assert list(sensor.saturated(y)) == [True, True, False, False, True]
+    assert not SensorModel(100.0).saturated(np.array([10.0])).any()
+
+
+def test_gauss_markov_without_correlation_time_is_refused() -> None:
+    """dynamic_bias_stddev without a correlation time: one-line ParameterError pointing at the walk."""
+    with pytest.raises(ParameterError, match="dynamic_bias_correlation_time must be > 0"):
+        SensorModel(100.0, dynamic_bias_stddev=1e-3)

@@ -196,12 +196,24 @@ def accel_stamped(stamp_ns: int, ax: float, frame_id: str = FRAME_ID) -> AccelSt
     return AccelStampedMsg(header=_header(stamp_ns, frame_id), accel=accel)
 
 
+# geometry_msgs/AccelWithCovariance has no "unknown" flag (sensor_msgs/Imu's −1 is for Imu only);
+# robot_localization copies the matrix as given and ignores axes whose update vector is false, so
+# a variance far beyond any real one says "no information" (its diagnostics flag > 1e3 on axes it fuses).
+UNMEASURED_VARIANCE = 1.0e6
+
+
 def accel_with_covariance_stamped(
     stamp_ns: int, ax: float, variance: float, frame_id: str = FRAME_ID
 ) -> AccelWithCovarianceStampedMsg:
-    """geometry_msgs/AccelWithCovarianceStamped: accel.accel.linear.x = ax, covariance[0] = variance."""
+    """geometry_msgs/AccelWithCovarianceStamped: linear.x = ax, covariance[0] = variance, rest unmeasured.
+
+    Row-major 6×6 over (linear x, y, z, angular x, y, z): [0] = var(a_x) in (m/s²)²; the other
+    diagonal entries [7], [14] (linear y, z, (m/s²)²) and [21], [28], [35] (angular, (rad/s²)²) are
+    UNMEASURED_VARIANCE, "not measured" (a zero would read "known exactly"); off-diagonals 0.
+    """
     accel = AccelMsg(linear=_vector3(ax), angular=_vector3())
     cov = np.zeros(36, dtype=np.float64)
+    cov[7::7] = UNMEASURED_VARIANCE
     cov[0] = variance
     wrapped = AccelWithCovarianceMsg(accel=accel, covariance=cov)
     return AccelWithCovarianceStampedMsg(header=_header(stamp_ns, frame_id), accel=wrapped)

@@ -23,6 +23,7 @@ COMMANDS: tuple[str, ...] = (
     "animate",
     "info",
     "analyze",
+    "allan",
     "generate",
     "repair",
     "golden_bags",

@@ -13,7 +13,13 @@ from collections.abc import Mapping
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.estimators.base import Estimate, Estimator, EstimatorConfig, cramer_rao_std
+from pendulum_accel.estimators.base import (
+    BIAS_FIELDS,
+    Estimate,
+    Estimator,
+    EstimatorConfig,
+    cramer_rao_std,
+)
 from pendulum_accel.estimators.dynamic import DynamicEstimator
 from pendulum_accel.estimators.instant import InstantEstimator
 from pendulum_accel.estimators.kalman import KalmanEstimator
@@ -28,7 +34,7 @@ ESTIMATORS: Mapping[str, type[Estimator]] = {
 # Best accuracy/latency trade in ``python -m benchmarks.estimators`` (see the README).
 DEFAULT_ESTIMATOR = "kalman"
 
-_CONFIG_FIELDS = ("damping", "clamp_angle", "max_gap")
+_CONFIG_FIELDS = ("damping", "clamp_angle", "max_gap", *BIAS_FIELDS)
 
 
 def method_options(name: str) -> tuple[str, ...]:
@@ -57,7 +63,8 @@ def make_estimator(
 ) -> Estimator:
     """Build method ``name`` for a pendulum of length l (m) and angle noise σ (rad) sampled at rate_hz.
 
-    ``opts`` may hold EstimatorConfig fields (damping, clamp_angle, max_gap) and the method's own
+    ``opts`` may hold EstimatorConfig fields (damping, clamp_angle, max_gap, the sensor's bias fields)
+    and the method's own
     options (``method_options(name)``); anything else raises ParameterError naming it.
     """
     cls = _lookup(name)
@@ -86,6 +93,7 @@ def estimate_batch(
 
 
 __all__ = [
+    "BIAS_FIELDS",
     "DEFAULT_ESTIMATOR",
     "ESTIMATORS",
     "Estimate",

@@ -20,6 +20,15 @@ from pendulum_accel.physics.params import STANDARD_GRAVITY, require_finite, requ
 
 # A sensor is never perfect; a floor keeps variances and the Kalman gain finite when a scene says σ = 0.
 MIN_NOISE_STD = 1e-6  # rad
+# The sensor bias fields an estimator is told about (EstimatorConfig, recording.settings).
+BIAS_FIELDS = (
+    "bias",
+    "bias_mean",
+    "bias_stddev",
+    "bias_random_walk",
+    "dynamic_bias_stddev",
+    "dynamic_bias_correlation_time",
+)
 # tan θ is undefined at 90°; beyond this the angle is clamped and the estimate flagged.
 DEFAULT_CLAMP_ANGLE = math.radians(89.0)
 
@@ -39,6 +48,8 @@ class EstimatorConfig:
 
     ``max_gap`` (s): a forward gap in the input longer than this restarts the window-based methods,
     whose filters assume the nominal rate (default: 10 nominal sample periods).
+    The sensor's bias fields (rad, rad/√s, s; as in ``sensor.SensorModel``) are not corrected for:
+    they only enter the published variance through :meth:`bias_second_moment`.
     """
 
     length: float
@@ -48,6 +59,12 @@ class EstimatorConfig:
     damping: float = 0.0
     clamp_angle: float = DEFAULT_CLAMP_ANGLE
     max_gap: float | None = None
+    bias: float = 0.0
+    bias_mean: float = 0.0
+    bias_stddev: float = 0.0
+    bias_random_walk: float = 0.0
+    dynamic_bias_stddev: float = 0.0
+    dynamic_bias_correlation_time: float = 0.0
 
     def __post_init__(self) -> None:
         """Validate every field once; raise ParameterError naming the bad one."""
@@ -68,6 +85,27 @@ class EstimatorConfig:
         object.__setattr__(self, "clamp_angle", clamp)
         gap = 10.0 / self.rate_hz if self.max_gap is None else require_positive("max_gap", self.max_gap)
         object.__setattr__(self, "max_gap", gap)
+        for name in BIAS_FIELDS:
+            value = require_finite(name, getattr(self, name))
+            if value < 0.0 and name not in ("bias", "bias_mean"):
+                raise ParameterError(f"{name} must be >= 0, got {value!r}")
+            object.__setattr__(self, name, value)
+
+    def bias_second_moment(self, elapsed: float) -> float:
+        """E[b(t)²] (rad²) of the sensor's total bias t = ``elapsed`` s after turn-on.
+
+        b² + σ_rw² t + e^{−2t/τ}(μ² + s²) + σ_b² τ/2 (1 − e^{−2t/τ}): the offset, the random walk, the
+        turn-on bias ±N(μ, s) decaying through the Gauss-Markov process and that process's own spread
+        (τ = 0: no Gauss-Markov process, the turn-on bias stays).
+        """
+        t = max(elapsed, 0.0)
+        turn_on = self.bias_mean**2 + self.bias_stddev**2
+        total = self.bias**2 + self.bias_random_walk**2 * t
+        tau = self.dynamic_bias_correlation_time
+        if tau <= 0.0:
+            return total + turn_on
+        decay = math.exp(-2.0 * t / tau)
+        return total + decay * turn_on + 0.5 * tau * self.dynamic_bias_stddev**2 * (1.0 - decay)
 
     @property
     def sigma(self) -> float:

@@ -9,6 +9,8 @@ Each input sample gets a decision:
   (state RESET), then the sample is used.
 
 |θ| ≥ ``warn_angle`` is accepted but ill-conditioned (da/dθ = g sec²θ explodes near 90°): state WARN.
+|θ| ≥ ``saturation_range`` (the sensor's measurement range, when it has one) is accepted but the
+reading is clipped, not measured: state WARN "saturated", counted in ``saturated``.
 ``check_stale(now)`` (called by the node on a timer) turns the state STALE when no input arrived
 for ``stale_after`` seconds. ``report()`` returns the worst state since the previous report, so a
 single dropped NaN between two diagnostics publications is still seen.
@@ -20,8 +22,9 @@ import enum
 import math
 from dataclasses import dataclass
 
+from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators.base import Estimate, Estimator
-from pendulum_accel.physics.params import require_positive
+from pendulum_accel.physics.params import require_finite, require_positive
 
 
 class GuardState(enum.Enum):
@@ -82,11 +85,16 @@ class InputGuard:
         warn_angle: float = math.radians(80.0),
         reset_jump: float = 1.0,
         stale_after: float | None = None,
+        saturation_range: float = 0.0,
     ) -> None:
-        """Validate the thresholds; start with no input seen."""
+        """Validate the thresholds (saturation_range 0: the sensor has no range); start with no input seen."""
         rate = require_positive("rate_hz", rate_hz)
         self.warn_angle = require_positive("warn_angle", warn_angle)
         self.reset_jump = require_positive("reset_jump", reset_jump)
+        self.saturation_range = require_finite("saturation_range", saturation_range)
+        if self.saturation_range < 0.0:
+            raise ParameterError(f"saturation_range must be >= 0 rad, got {saturation_range!r}")
+        self.saturated = 0
         self.stale_after = (
             max(0.5, 20.0 / rate) if stale_after is None else require_positive("stale_after", stale_after)
         )
@@ -133,6 +141,13 @@ class InputGuard:
             deg = math.degrees(abs(theta))
             why = "tan θ undefined, angle clamped" if abs(theta) >= math.pi / 2 else "ill-conditioned"
             self.note(GuardState.WARN, f"|θ| = {deg:.1f}° near 90°: {why}")
+        if 0.0 < self.saturation_range <= abs(theta):
+            self.saturated += 1
+            self.note(
+                GuardState.WARN,
+                f"saturated: θ = {theta:+.4f} rad at the sensor's range ±{self.saturation_range:g} rad "
+                f"({self.saturated} samples so far)",
+            )
         self.accepted += 1
         self.last_t, self.last_theta = t, theta
         return decision
@@ -161,6 +176,7 @@ class InputGuard:
             ("dropped_out_of_order", str(self.dropped_out_of_order)),
             ("resets", str(self.resets)),
             ("ill_conditioned", str(self.ill_conditioned)),
+            ("saturated", str(self.saturated)),
             ("last_t", fmt(self.last_t)),
             ("last_theta", fmt(self.last_theta)),
             ("stale_for_s", fmt(self._stale_for)),

@@ -13,6 +13,16 @@ settles to 2 % in ~0.65 s and the steady RMS is ~6e-4 m/s² at σ = 1e-3 rad, 20
 (``python -m benchmarks.estimators``); ``q_boost=0`` gives the plain fixed-q_a filter.
 The small q_ω ((rad/s)²/s) absorbs unmodelled damping. Written with scalar arithmetic: a 3×3
 filter costs less in floats than in numpy calls.
+
+The published variance is not the filter's P₃₃, which describes its q_a model (a random walk a
+car does not follow: 60× too large at rest, far too small in a manoeuvre). It is the sum of
+* the angle noise carried through the gains actually applied (a second covariance P_n propagated
+  with the same F and the Joseph form (I − KH) P_n (I − KH)ᵀ + K σ² Kᵀ, no process noise);
+* the sensor bias the filter cannot tell from a tilt, (g sec²θ)² E[b²](t) (EstimatorConfig);
+* a motion term for the lag while a changes: (L ŝ)², ŝ the filter's own rate of correcting â
+  (k₃ν/Δt averaged over 50 ms, counted only beyond 3σ of its noise-only spread), L = 0.3 s, held
+  with a 0.2 s decay. A change of a only enters once the angle reveals it: the first samples after
+  a step or the start of a ramp are beyond 2σ whatever the variance (README, "Calibration").
 """
 
 from __future__ import annotations
@@ -35,10 +45,53 @@ from pendulum_accel.estimators.base import (
 from pendulum_accel.physics.params import require_finite, require_positive
 
 _MAX_STEP = 0.01  # s; longer gaps are propagated in sub-steps so RK4 stays accurate
+# The published variance's motion term (see ``_lag_term``): tuned on the bundled scenes with
+# ``python -m benchmarks.calibration``.
+_LAG_SPAN = 0.3  # s: error ≈ this × the rate at which the filter is still moving â
+_SLOPE_TAU = 0.05  # s: averaging time of that rate
+_SLOPE_THRESHOLD = 9.0  # rate² must exceed this × its noise-only expectation (a 3σ test)
+_HOLD_TAU = 0.2  # s: the term decays no faster than this once the rate drops
+
+
+def _propagate(
+    p: list[float], f: tuple[float, float, float, float, float, float], q_rate_dt: float, q_accel_dt: float
+) -> list[float]:
+    """F P Fᵀ + diag(0, q_ω dt, q_a dt); P = [P00 P01 P02 P11 P12 P22], F rows 0-1 given, row 2 = e₃."""
+    f00, f01, f02, f10, f11, f12 = f
+    p00, p01, p02, p11, p12, p22 = p
+    # Rows of F P (third row of F is [0, 0, 1]).
+    a00 = f00 * p00 + f01 * p01 + f02 * p02
+    a01 = f00 * p01 + f01 * p11 + f02 * p12
+    a02 = f00 * p02 + f01 * p12 + f02 * p22
+    a10 = f10 * p00 + f11 * p01 + f12 * p02
+    a11 = f10 * p01 + f11 * p11 + f12 * p12
+    a12 = f10 * p02 + f11 * p12 + f12 * p22
+    return [
+        a00 * f00 + a01 * f01 + a02 * f02,
+        a00 * f10 + a01 * f11 + a02 * f12,
+        a02,
+        a10 * f10 + a11 * f11 + a12 * f12 + q_rate_dt,
+        a12,
+        p22 + q_accel_dt,
+    ]
+
+
+def _joseph(p: list[float], k0: float, k1: float, k2: float, r: float) -> list[float]:
+    """(I − KH) P (I − KH)ᵀ + K r Kᵀ with H = [1, 0, 0]: P after a correction with any gain K."""
+    p00, p01, p02, p11, p12, p22 = p
+    m0 = 1.0 - k0
+    return [
+        m0 * m0 * p00 + k0 * k0 * r,
+        m0 * (p01 - k1 * p00) + k0 * k1 * r,
+        m0 * (p02 - k2 * p00) + k0 * k2 * r,
+        p11 - 2.0 * k1 * p01 + k1 * k1 * (p00 + r),
+        p12 - k2 * p01 - k1 * p02 + k1 * k2 * (p00 + r),
+        p22 - 2.0 * k2 * p02 + k2 * k2 * (p00 + r),
+    ]
 
 
 class KalmanEstimator(Estimator):
-    """EKF on [θ, θ', a]; â = x₃ and var_a = P₃₃. RK4 state propagation, 2nd-order Jacobian exponential."""
+    """EKF on [θ, θ', a]; â = x₃, var_a = noise + bias + motion terms (module doc); RK4 propagation."""
 
     name: ClassVar[str] = "kalman"
     summary: ClassVar[str] = "EKF on [θ, θ', a] with the pendulum equation as process model"
@@ -78,6 +131,11 @@ class KalmanEstimator(Estimator):
         self._last_t: float | None = None
         self._x = [0.0, 0.0, 0.0]
         self._p = [0.0] * 6  # P00 P01 P02 P11 P12 P22
+        self._pn = [0.0] * 6  # the same entries, angle noise only, propagated with the gains applied
+        self._first_t: float | None = None  # sensor turn-on, for the bias variance
+        self._slope = 0.0  # running mean of k₃ν/Δt
+        self._slope_noise = 0.0  # running mean of k₃²S/Δt², its noise-only expectation per sample
+        self._hold = 0.0  # the held motion term
         self._nis = 1.0  # running mean of ν²/S
         self._q_now = self.q_accel
 
@@ -90,6 +148,9 @@ class KalmanEstimator(Estimator):
         w0 = cfg.omega(0.0)
         ga = accel_gain(th, cfg.gravity)
         self._p = [cfg.sigma**2, 0.0, 0.0, (w0 * amp) ** 2, 0.0, (ga * amp) ** 2]
+        # The start-up uncertainty (an unknown swing) is real error, so P_n starts from P too.
+        self._pn = list(self._p)
+        self._slope = self._slope_noise = self._hold = 0.0
         self._nis, self._q_now = 1.0, self.q_accel
 
     def _predict(self, dt: float) -> None:
@@ -122,22 +183,9 @@ class KalmanEstimator(Estimator):
             om + sixth * (w1 + 2.0 * w2 + 2.0 * w3 + w4),
             ac,
         ]
-        p00, p01, p02, p11, p12, p22 = self._p
-        # Rows of F P (third row of F is [0, 0, 1]).
-        a00 = f00 * p00 + f01 * p01 + f02 * p02
-        a01 = f00 * p01 + f01 * p11 + f02 * p12
-        a02 = f00 * p02 + f01 * p12 + f02 * p22
-        a10 = f10 * p00 + f11 * p01 + f12 * p02
-        a11 = f10 * p01 + f11 * p11 + f12 * p12
-        a12 = f10 * p02 + f11 * p12 + f12 * p22
-        self._p = [
-            a00 * f00 + a01 * f01 + a02 * f02,
-            a00 * f10 + a01 * f11 + a02 * f12,
-            a02,
-            a10 * f10 + a11 * f11 + a12 * f12 + self.q_rate * dt,
-            a12,
-            p22 + self._q_now * dt,
-        ]
+        f = (f00, f01, f02, f10, f11, f12)
+        self._p = _propagate(self._p, f, self.q_rate * dt, self._q_now * dt)
+        self._pn = _propagate(self._pn, f, 0.0, 0.0)
 
     def _correct(self, theta: float, dt: float) -> None:
         """K = P Hᵀ/S, x ← x + K ν, P ← P − K Kᵀ S (H = [1, 0, 0], S = P₀₀ + σ²); then pick the next q_a."""
@@ -159,11 +207,33 @@ class KalmanEstimator(Estimator):
             p12 - k1 * p02,
             p22 - k2 * p02,
         ]
+        self._pn = _joseph(self._pn, k0, k1, k2, self._r)
+        self._lag_term(k2 * innovation, k2 * k2 * s, dt)
+
+    def _lag_term(self, correction: float, correction_var: float, dt: float) -> None:
+        """Hold ← max(L² (ŝ² − 9 E_noise[ŝ²])⁺, hold·e^{−Δt/τ_h}); ŝ = EWMA of k₃ν/Δt over 50 ms."""
+        alpha = min(1.0, dt / _SLOPE_TAU)
+        self._slope += alpha * (correction / dt - self._slope)
+        self._slope_noise += alpha * (correction_var / (dt * dt) - self._slope_noise)
+        # An EWMA of white values of variance v has variance v α/(2 − α).
+        noise = self._slope_noise * alpha / (2.0 - alpha)
+        excess = max(0.0, self._slope * self._slope - _SLOPE_THRESHOLD * noise) * _LAG_SPAN**2
+        self._hold = max(excess, self._hold * math.exp(-dt / _HOLD_TAU))
+
+    def variance(self, t: float) -> float:
+        """Published var(â) at time t: P_n₃₃ + (g sec²θ)² E[b²](t − t₀) + the held motion term."""
+        cfg = self.config
+        th, _ = wrap_clamp(self._x[0], cfg.clamp_angle)
+        elapsed = 0.0 if self._first_t is None else t - self._first_t
+        bias = accel_gain(th, cfg.gravity) ** 2 * cfg.bias_second_moment(elapsed)
+        return self._pn[5] + bias + self._hold
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """Predict to t (sub-steps ≤ 10 ms), correct with θ; â = x₃ clamped to g tan(clamp), var = P₃₃."""
         if not self._accepts(t, theta, self._last_t):
             return None
+        if self._first_t is None:
+            self._first_t = t
         if self._last_t is None or t - self._last_t > self.reset_gap:
             self._initialise(theta)
         else:
@@ -174,14 +244,14 @@ class KalmanEstimator(Estimator):
             self._correct(theta, dt)
         x, p = self._x, self._p
         # NaN and inf propagate through a sum: one test covers all nine numbers.
-        if not math.isfinite(x[0] + x[1] + x[2] + p[0] + p[1] + p[2] + p[3] + p[4] + p[5]):
+        if not math.isfinite(sum(x) + sum(p) + sum(self._pn) + self._hold):
             self._initialise(theta)  # a diverged filter restarts rather than publish inf/NaN
         self._last_t = t
         a = self._x[2]
         clamped = abs(a) > self._a_max
         if clamped:
             a = math.copysign(self._a_max, a)
-        return Estimate(a, self._p[5], clamped)
+        return Estimate(a, self.variance(t), clamped)
 
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Run ``update`` over the samples from a fresh filter (a Kalman filter is sequential by nature)."""

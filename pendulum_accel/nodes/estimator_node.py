@@ -47,7 +47,7 @@ from pendulum_accel.nodes.runtime import (
     run_node,
     write_summary,
 )
-from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.recording.settings import estimator_settings, sensor_bias_settings
 from pendulum_accel.scene import load_scene
 
 NODE_NAME = "accel_estimator"
@@ -129,7 +129,14 @@ class EstimatorNode(ChainNode):
         cfg = {k: float(v) for k, v in values.items() if k != "method"}
         if not all(math.isfinite(v) for v in cfg.values()):
             raise PendulumAccelError("estimator parameters must be finite")
-        return make_estimator(str(values["method"]), **cfg)
+        return make_estimator(str(values["method"]), **cfg, **self._sensor_bias())
+
+    def _sensor_bias(self) -> dict[str, float]:
+        """The scene's sensor bias fields, which widen the published variance (none without a scene)."""
+        try:
+            return sensor_bias_settings(load_scene(str(self.get_parameter("scene").value)))
+        except PendulumAccelError:
+            return {}
 
     def _new_guard(self) -> InputGuard:
         """InputGuard at the configured rate, warn angle and stale limit."""
@@ -137,6 +144,7 @@ class EstimatorNode(ChainNode):
             rate_hz=float(self.get_parameter("rate_hz").value),
             warn_angle=math.radians(self.warn_angle_deg),
             stale_after=self.stale_after if self.stale_after > 0.0 else None,
+            saturation_range=self._sensor_range(),
         )
 
     def _build_writers(self) -> None:
@@ -150,6 +158,13 @@ class EstimatorNode(ChainNode):
         self._write_imu = bm.Layout.of(template, bm.IMU).writer(
             (*stamp, "linear_acceleration.x", "linear_acceleration_covariance[0]")
         )
+
+    def _sensor_range(self) -> float:
+        """The scene's sensor range R (rad; 0 = none), so readings clipped at ±R are flagged saturated."""
+        try:
+            return float(load_scene(str(self.get_parameter("scene").value)).sensor.range)
+        except PendulumAccelError:
+            return 0.0
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Accept a change only if the estimator it makes is valid; else keep the old value and say why."""

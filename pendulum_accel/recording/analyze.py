@@ -52,6 +52,69 @@ class ErrorStats:
         return cls(float(e.mean()), float(np.sqrt(np.mean(e * e))), float(np.abs(e).max()), int(e.size))
 
 
+CHANGE_WINDOW = 2.0  # s after a change of a(t) that counts as "after a change" in the calibration
+
+
+@dataclass(frozen=True)
+class NeesStats:
+    """NEES = e²/var: mean, median and the share with |e| > 2σ (NEES > 4) over n samples (NaN if n = 0)."""
+
+    mean: float
+    median: float
+    share_2sigma: float
+    n: int
+
+    @classmethod
+    def of(cls, nees: NDArray[np.float64]) -> NeesStats:
+        """Statistics of the finite entries of ``nees``."""
+        z = nees[np.isfinite(nees)]
+        if z.size == 0:
+            return cls(math.nan, math.nan, math.nan, 0)
+        return cls(float(z.mean()), float(np.median(z)), float(np.mean(z > 4.0)), int(z.size))
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """NEES figures in steady state and within CHANGE_WINDOW s after a change of a (a calibrated σ:
+    mean NEES ≈ 1, ≈ 5 % beyond 2σ)."""
+
+    steady: NeesStats
+    after_change: NeesStats
+
+    def line(self, label: str) -> str:
+        """'label: steady NEES mean m, median d, x % beyond 2σ (n); after a change: …'."""
+
+        def part(s: NeesStats) -> str:
+            """One window's figures."""
+            if s.n == 0:
+                return "no samples"
+            share = 100 * s.share_2sigma
+            return f"NEES mean {s.mean:.3g}, median {s.median:.3g}, {share:.1f} % beyond 2σ (n={s.n})"
+
+        after = part(self.after_change)
+        return f"{label}: steady {part(self.steady)}; ≤{CHANGE_WINDOW:g} s after a change {after}"
+
+
+def calibration(
+    t: NDArray[np.float64],
+    error: NDArray[np.float64],
+    variance: NDArray[np.float64],
+    t_truth: NDArray[np.float64],
+    a_truth: NDArray[np.float64],
+    t_from: float,
+) -> Calibration:
+    """NEES = e²/var at stamps t ≥ t_from, split at CHANGE_WINDOW s after any change of the truth a(t)."""
+    changes = t_truth[1:][np.abs(np.diff(a_truth)) > 1e-9]
+    after = np.zeros(t.size, dtype=bool)
+    if changes.size:
+        idx = np.searchsorted(changes, t, side="right") - 1
+        after = (idx >= 0) & (t - changes[np.maximum(idx, 0)] <= CHANGE_WINDOW)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nees = np.where(variance > 0.0, error * error / variance, np.nan)
+    keep = t >= t_from
+    return Calibration(NeesStats.of(nees[keep & ~after]), NeesStats.of(nees[keep & after]))
+
+
 @dataclass(frozen=True)
 class Analysis:
     """Result of analyze_bag: the aligned series and the error figures."""
@@ -73,6 +136,8 @@ class Analysis:
     settling_time: float | None
     recorded: ErrorStats | None
     problem: str | None
+    calibration: Calibration | None = None
+    recorded_calibration: Calibration | None = None
 
     @property
     def error(self) -> NDArray[np.float64]:
@@ -107,6 +172,10 @@ class Analysis:
             out.append(
                 f"recorded /car/accel/estimate: bias {r.bias:+.5f}, RMS {r.rms:.5f}, max {r.max_abs:.5f} m/s²"
             )
+        if self.calibration is not None:
+            out.append(self.calibration.line("calibration (re-run)"))
+        if self.recorded_calibration is not None:
+            out.append(self.recorded_calibration.line("calibration (recorded)"))
         return out
 
 
@@ -201,7 +270,29 @@ def analyze_bag(
         settling_time=settling_time,
         recorded=_recorded_stats(data, tt[t_order], truth["accel.linear.x"][t_order], skip + t[0]),
         problem=data.problem,
+        calibration=calibration(
+            t, error, variance, tt[t_order], truth["accel.linear.x"][t_order], t[0] + skip
+        ),
+        recorded_calibration=_recorded_calibration(
+            data, tt[t_order], truth["accel.linear.x"][t_order], skip + t[0]
+        ),
     )
+
+
+def _recorded_calibration(
+    bag: Bag, t_truth: NDArray[np.float64], a_truth: NDArray[np.float64], t_from: float
+) -> Calibration | None:
+    """NEES figures of the recorded estimate and its covariance[0]; None without that topic."""
+    if TOPIC_ACCEL_ESTIMATE not in bag.topics or bag.topics[TOPIC_ACCEL_ESTIMATE].count == 0:
+        return None
+    est = bag.decode(
+        TOPIC_ACCEL_ESTIMATE,
+        ACCEL_WITH_COVARIANCE_STAMPED,
+        fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x", "accel.covariance[0]"],
+    )
+    te = est.stamp
+    error = est["accel.accel.linear.x"] - np.interp(te, t_truth, a_truth)
+    return calibration(te, error, est["accel.covariance[0]"], t_truth, a_truth, t_from)
 
 
 def _recorded_stats(
@@ -291,4 +382,16 @@ def analysis_dict(result: Analysis) -> dict[str, str | float | int | None]:
         "settling_time": result.settling_time,
         "tolerance": result.tolerance,
         "samples": result.stats.n,
+        **_calibration_fields("", result.calibration),
+        **_calibration_fields("recorded_", result.recorded_calibration),
     }
+
+
+def _calibration_fields(prefix: str, cal: Calibration | None) -> dict[str, str | float | int | None]:
+    """{prefix}nees_{steady,after_change}_{mean,median,share_2sigma}; None without a calibration."""
+    out: dict[str, str | float | int | None] = {}
+    for window in ("steady", "after_change"):
+        stats = None if cal is None else getattr(cal, window)
+        for key in ("mean", "median", "share_2sigma"):
+            out[f"{prefix}nees_{window}_{key}"] = None if stats is None else getattr(stats, key)
+    return out

@@ -179,6 +179,7 @@ def chain_streams(
     rate_hz: float,
     string: StringColumns | None = None,
     clock_rate_hz: float = DEFAULT_CLOCK_RATE_HZ,
+    saturation_range: float = 0.0,
 ) -> list[Stream]:
     """Bulk-serialised streams of the chain's topics for samples at times t (s).
 
@@ -198,17 +199,21 @@ def chain_streams(
         "accel.covariance[0]": variance[ok],
     }
     streams.append(Stream(bm.TOPIC_ACCEL_ESTIMATE, est_ns, est.encode(est_ns.size, est_cols)))
-    diag_ns, diag = diagnostics(t, theta, estimator, rate_hz)
+    diag_ns, diag = diagnostics(t, theta, estimator, rate_hz, saturation_range)
     streams.append(Stream(bm.TOPIC_DIAGNOSTICS, diag_ns, diag))
     return streams
 
 
 def diagnostics(
-    t: NDArray[np.float64], theta: NDArray[np.float64], estimator: str, rate_hz: float
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    estimator: str,
+    rate_hz: float,
+    saturation_range: float = 0.0,
 ) -> tuple[NDArray[np.int64], list[bytes]]:
     """(stamps, CDR) of the estimator node's /diagnostics: its InputGuard fed every sample, one report
     per second of sim time (at the first sample at or after each whole second), same fields as live."""
-    guard = InputGuard(rate_hz=rate_hz)
+    guard = InputGuard(rate_hz=rate_hz, saturation_range=saturation_range)
     stamps: list[int] = []
     out: list[bytes] = []
     next_report = 0.0
@@ -281,6 +286,7 @@ def generate_bag(
         estimator=method,
         rate_hz=float(scene.sensor.rate_hz),
         string=string_columns(run),
+        saturation_range=float(scene.sensor.range),
     )
     custom = {
         CUSTOM_SCENE: scene_to_yaml(scene),

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from pendulum_accel.estimators.base import BIAS_FIELDS
 from pendulum_accel.scene import Scene
 
 
 def estimator_settings(scene: Scene) -> dict[str, float]:
-    """length, gravity, damping, noise_std, rate_hz of a scene's pendulum and sensor (estimator config)."""
+    """length, gravity, damping, noise_std, rate_hz and the bias fields of a scene's pendulum and sensor.
+
+    The bias fields only widen the published variance (EstimatorConfig.bias_second_moment).
+    """
     pendulum = scene.pendulum
     sensor = scene.sensor
     return {
@@ -15,4 +19,10 @@ def estimator_settings(scene: Scene) -> dict[str, float]:
         "damping": float(pendulum.damping),
         "noise_std": float(sensor.noise_std),
         "rate_hz": float(sensor.rate_hz),
+        **sensor_bias_settings(scene),
     }
+
+
+def sensor_bias_settings(scene: Scene) -> dict[str, float]:
+    """The sensor's bias fields (bias, bias_mean, bias_stddev, bias_random_walk, dynamic_bias_*)."""
+    return {name: float(getattr(scene.sensor, name)) for name in BIAS_FIELDS}

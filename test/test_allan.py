@@ -1,0 +1,82 @@
+"""Allan deviation: a long static run recovers the configured white-noise density and random walk."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pendulum_accel.allan import allan_deviation, plot_allan
+from pendulum_accel.cli.main import main
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.scene import scene_from_yaml
+
+DENSITY = 1.0e-3  # rad/√Hz
+WALK = 1.0e-3  # rad/√s
+RATE = 50.0
+
+SCENE = f"""
+name: allan_static
+description: still car, noisy drifting angle sensor
+duration: 2000.0
+pendulum: {{length: 1.0}}
+acceleration: {{type: constant, a: 0.0}}
+sensor: {{rate_hz: {RATE}, noise_density: {DENSITY}, bias_random_walk: {WALK}, seed: SEED}}
+accuracy: {{max_angle_error: 1.0e-6}}
+"""
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_static_run_recovers_density_and_random_walk_within_ten_percent(seed: int) -> None:
+    """2000 s at 50 Hz: fitted N and K within ±10 % of the scene's noise_density and bias_random_walk."""
+    scene = scene_from_yaml(SCENE.replace("SEED", str(seed)))
+    assert scene.sensor.noise_std == pytest.approx(DENSITY * np.sqrt(RATE))  # σ = N·√f
+    t = scene.sensor.sample_times(scene.duration)
+    theta = scene.sensor.measure(t, np.zeros_like(t))
+    result = allan_deviation(theta, RATE, unit="rad")
+    assert result.white_density == pytest.approx(DENSITY, rel=0.10)
+    assert result.random_walk == pytest.approx(WALK, rel=0.10)
+    # The −½ and +½ lines cross at τ = √3 N/K; the curve's minimum sits near there, above both lines.
+    assert result.instability * 0.664 >= result.model(np.array([np.sqrt(3.0)]))[0] * 0.9
+
+
+def test_white_noise_alone_gives_no_walk_and_a_minus_half_slope() -> None:
+    """Pure white noise: K ≈ 0 (below 5 % of N in these units) and σ(τ)·√τ constant within 10 %."""
+    rng = np.random.default_rng(5)
+    values = 2e-3 * rng.standard_normal(200_000)
+    result = allan_deviation(values, 100.0)
+    assert result.white_density == pytest.approx(2e-3 / np.sqrt(100.0), rel=0.05)
+    assert result.random_walk < 0.05 * result.white_density
+    usable = result.taus <= 2000.0 / 100  # at least 100 independent averages (2000 s of data)
+    scaled = result.adev[usable] * np.sqrt(result.taus[usable])
+    assert np.ptp(scaled) / scaled.mean() < 0.1
+
+
+def test_too_few_samples_is_a_clear_error() -> None:
+    """Fewer than 100 samples: ParameterError naming the count."""
+    with pytest.raises(ParameterError, match="at least 100 samples"):
+        allan_deviation(np.zeros(10), 10.0)
+
+
+def test_cli_on_a_scene_prints_both_figures_and_plots(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``allan SCENE --duration`` prints N and K for the angle and the estimate and writes the plot."""
+    path = tmp_path / "static.yaml"
+    path.write_text(SCENE.replace("SEED", "4"), encoding="utf-8")
+    out = tmp_path / "allan.png"
+    assert main(["allan", str(path), "--duration", "300", "--plot", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "white noise density N" in text and "bias random walk" in text
+    assert "estimate â (kalman)" in text
+    assert out.stat().st_size > 10_000
+
+
+def test_plot_marks_the_slopes(tmp_path: Path) -> None:
+    """plot_allan writes a PNG for a fitted result."""
+    rng = np.random.default_rng(1)
+    result = allan_deviation(
+        np.cumsum(rng.standard_normal(20_000)) * 1e-4 + rng.standard_normal(20_000), 10.0
+    )
+    assert plot_allan([result], tmp_path / "a.png").stat().st_size > 10_000

@@ -1,0 +1,73 @@
+"""The published variance tells the truth: NEES and the 2σ share of the kalman estimate, bias moments."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.estimators import EstimatorConfig, estimate_batch
+from pendulum_accel.recording.analyze import calibration
+from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.scene import load_scene
+from pendulum_accel.scene_run import run_scene
+
+
+@pytest.mark.parametrize("name", ["at_rest", "lecture_constant", "multiplier_lecture"])
+def test_kalman_steady_nees_is_calibrated(name: str) -> None:
+    """Static scenes, t ≥ 2 s: mean NEES in [0.5, 2] and at most 8 % of errors beyond 2σ."""
+    scene = load_scene(name)
+    run = run_scene(scene)
+    a, var = estimate_batch("kalman", run.t, run.theta_measured, **estimator_settings(scene))
+    keep = run.t >= 2.0
+    nees = (a[keep] - run.accel_true[keep]) ** 2 / var[keep]
+    assert 0.5 <= float(nees.mean()) <= 2.0
+    assert float(np.mean(nees > 4.0)) <= 0.08
+
+
+def test_kalman_variance_follows_a_manoeuvre() -> None:
+    """step_start: σ while a changes (1.1–1.6 s) is over 10× its steady value before the step."""
+    scene = load_scene("step_start")
+    run = run_scene(scene)
+    _, var = estimate_batch("kalman", run.t, run.theta_measured, **estimator_settings(scene))
+    before = float(np.median(var[(run.t > 0.7) & (run.t < 1.0)]))
+    during = float(np.max(var[(run.t > 1.1) & (run.t < 1.6)]))
+    assert during > 100.0 * before
+
+
+def test_bias_second_moment() -> None:
+    """E[b²] = b² + σ_rw² t + e^{−2t/τ}(μ² + s²) + σ_b² τ/2 (1 − e^{−2t/τ})."""
+    cfg = EstimatorConfig(
+        length=1.0,
+        bias=1e-3,
+        bias_mean=2e-3,
+        bias_stddev=1e-3,
+        bias_random_walk=1e-4,
+        dynamic_bias_stddev=1e-4,
+        dynamic_bias_correlation_time=100.0,
+    )
+    t = 50.0
+    decay = math.exp(-1.0)
+    expected = 1e-6 + 1e-8 * t + decay * 5e-6 + 50.0 * 1e-8 * (1.0 - decay)
+    assert cfg.bias_second_moment(t) == pytest.approx(expected, rel=1e-12)
+    assert EstimatorConfig(length=1.0, bias_mean=2e-3).bias_second_moment(1e6) == pytest.approx(4e-6)
+
+
+def test_unmeasured_covariance_entries_are_large_not_zero() -> None:
+    """covariance[0] = var(a_x); the other diagonal entries read UNMEASURED_VARIANCE, off-diagonals 0."""
+    cov = np.asarray(bm.accel_with_covariance_stamped(0, 1.0, 0.25).accel.covariance).reshape(6, 6)
+    assert cov[0, 0] == 0.25
+    assert np.all(np.diag(cov)[1:] == bm.UNMEASURED_VARIANCE)
+    assert np.all(cov[~np.eye(6, dtype=bool)] == 0.0)
+
+
+def test_calibration_splits_steady_and_after_change() -> None:
+    """NEES = e²/var; samples within 2 s after a change of a go to after_change, the rest to steady."""
+    t = np.arange(0.0, 10.0, 0.5)
+    truth = np.where(t < 4.0, 0.0, 1.0)
+    error = np.where((t >= 4.0) & (t <= 6.0), 3.0, 1.0)
+    cal = calibration(t, error, np.ones(t.size), t, truth, t_from=1.0)
+    assert cal.after_change.n == 5 and cal.after_change.mean == 9.0 and cal.after_change.share_2sigma == 1.0
+    assert cal.steady.n == t.size - 2 - 5 and cal.steady.mean == 1.0 and cal.steady.share_2sigma == 0.0
