@@ -34,9 +34,10 @@ node (Gazebo's convention). wall: stamps are the ROS (system) clock at each samp
 IMU_TOPIC = "imu/data_raw"
 """The estimator's sensor_msgs/Imu output: a relative name, so a namespace or a remap applies."""
 
-UNMEASURED_ACCEL_VARIANCE = 1.0e3
-"""(m/s²)² on the Imu's y and z acceleration: a pendulum does not measure them; far above any real
-signal's variance, so a consumer that forgets to mask them learns nothing from them."""
+UNMEASURED_ACCEL_VARIANCE = bm.UNMEASURED_VARIANCE
+"""(m/s²)² on the Imu's y and z acceleration: a pendulum does not measure them. The same figure as the
+estimate's unmeasured covariance entries, far above any real signal's variance, so a consumer that
+forgets to mask them learns nothing from them."""
 
 ESTIMATOR_CONFIG: tuple[Override, ...] = tuple(
     OVERRIDE_BY_NAME[name] for name in ("length", "gravity", "damping", "noise_std", "rate_hz")
