@@ -21,7 +21,7 @@ LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"overrides", "planner"}),
     frozenset({"scene_run", "sweep"}),
     frozenset({"recording"}),
-    frozenset({"lecture", "animation"}),
+    frozenset({"lecture", "animation", "allan"}),
     frozenset({"nodes"}),
     frozenset({"cli"}),
 )
