@@ -45,12 +45,16 @@ setup(
     # The work-precision benchmark's 30-digit reference, and the test tools.
     extras_require={
         "bench": ["mpmath>=1.4.1"],
+        # `pendulum-accel export`: pandas for the tables, pyarrow for Parquet.
+        "export": ["pandas>=3.1.1", "pyarrow>=26.0.1"],
         "test": [
             "pytest>=9.2.0",
             "pytest-timeout>=2.4.0",
             "hypothesis>=6.170.15",
             "mpmath>=1.4.1",
             "mcap-ros2-support>=0.6.0",
+            "pandas>=3.1.1",
+            "pyarrow>=26.0.1",
         ],
     },
     python_requires=">=3.10",
