@@ -4,17 +4,21 @@ looping makes the estimator reset; start offset, topic filter and /clock publish
 from __future__ import annotations
 
 import json
+import os
+import pty
 import re
 import signal
+import termios
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from pendulum_accel.bag.messages import ACCEL_WITH_COVARIANCE_STAMPED, CLOCK, JOINT_STATE
+from pendulum_accel.bag.messages import ACCEL_STAMPED, ACCEL_WITH_COVARIANCE_STAMPED, CLOCK, JOINT_STATE
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.estimators import estimate_batch
+from pendulum_accel.nodes.launcher import ParamValue, node_command
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
 from test.chain_helpers import PROBE, Output, start_node
@@ -288,3 +292,73 @@ def test_seek_forwards_and_backwards_with_clock_and_estimator_reset(spawn: Spawn
     after = estimates[-(golden.size - 200) :]
     np.testing.assert_array_equal(after[:, 0], golden[200:])
     np.testing.assert_allclose(after[:, 1], _offline(200), rtol=0, atol=1e-9)
+
+
+def test_topic_filters_remap_window_delay_and_default_clock(spawn: Spawn) -> None:
+    """Include/exclude regexes and lists pick /car/accel/truth only, `-r` remaps it, start_offset 1 s with
+    playback_duration 2 s plays [1, 3] s, /clock ticks 40 times per bag second, and the delay holds the
+    first message back by 1 s."""
+    params: dict[str, ParamValue] = {
+        "path": str(GOLDEN),
+        "topics_regex": "^/(pendulum|car)/",  # not /clock nor /diagnostics
+        "exclude_regex": "estimate$",
+        "exclude_topics": [JOINT],
+        "start_offset": 1.0,
+        "playback_duration": 2.0,
+        "delay": 1.0,
+        "clock": True,
+        "wait_for_recorder": True,
+    }
+    player = Output(spawn([*node_command("player_node", params), "-r", "/car/accel/truth:=/replay/truth"]))
+    started = player.wait_for(r"\[INFO\] \[(\d+\.\d+)\] \[bag_player\]: playing 201 messages", timeout=60)
+    listen = {
+        "/replay/truth": ACCEL_STAMPED,
+        "/car/accel/truth": ACCEL_STAMPED,
+        ESTIMATE: ACCEL_WITH_COVARIANCE_STAMPED,
+        JOINT: JOINT_STATE,
+        "/clock": CLOCK,
+    }
+    steps = [["wait_count", "/replay/truth", 201]]
+    result = _control(spawn, {"listen": listen, "steps": steps, "linger": 1.0})
+    assert player.finish(timeout=60) == 0, player.text
+    got = result["messages"]
+    assert not got["/car/accel/truth"] and not got[ESTIMATE] and not got[JOINT]
+    truth = read_bag(GOLDEN).decode("/car/accel/truth").stamp
+    stamps = np.array([m[1] for m in got["/replay/truth"]])
+    np.testing.assert_array_equal(stamps, truth[(truth >= 1.0 - 1e-9) & (truth <= 3.0 + 1e-9)])
+    clock = np.array([m[1] for m in got["/clock"]])
+    assert clock.size == 81 and clock[0] == stamps[0] and np.all(np.diff(clock) > 0)  # 1 + 2 s x 40 Hz
+    assert got["/replay/truth"][0][0] - float(started.group(1)) >= 1.0  # the delay
+
+
+def test_keyboard_controls_on_a_terminal(spawn: Spawn) -> None:
+    """With stdin a terminal: space pauses, ↑/↓ step the rate by 0.1, → plays one message while paused,
+    space resumes; the services see the same state, and the terminal gets its mode back at exit."""
+    master, slave = pty.openpty()
+    try:
+        params: dict[str, ParamValue] = {
+            "path": str(GOLDEN),
+            "topics": [JOINT],
+            "loop": True,
+            "progress_period": 0.0,
+        }
+        player = Output(spawn(node_command("player_node", params), stdin=slave))
+        player.wait_for("keys: space pause/resume", timeout=60)
+        for key, answer in (
+            (b" ", r"key: paused$"),
+            (b"\x1b[A", r"key: rate 1\.1$"),
+            (b"\x1b[B", r"key: rate 1$"),
+            (b"\x1b[B", r"key: rate 0\.9$"),
+            (b"\x1b[C", r"key: played next$"),
+        ):
+            os.write(master, key)
+            player.wait_for(f"(?m){answer}", timeout=30)
+        result = _control(spawn, {"steps": [["call", "is_paused"], ["get", ["rate"]]]})
+        assert result["results"] == [[True, "true"], {"rate": 0.9}]
+        os.write(master, b" ")
+        player.wait_for("key: playing", timeout=30)
+        _stop(player)
+        assert termios.tcgetattr(slave)[3] & termios.ICANON  # canonical mode is back
+    finally:
+        os.close(master)
+        os.close(slave)
