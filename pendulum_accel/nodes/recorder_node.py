@@ -8,6 +8,7 @@ the pacing of the recording was. The first SIGINT/SIGTERM drains the queues, the
 
 from __future__ import annotations
 
+import json
 import struct
 import time
 from collections.abc import Sequence
@@ -18,7 +19,15 @@ from rclpy.clock import Clock, ClockType
 
 from pendulum_accel import __version__
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE, CUSTOM_VERSION, BagWriter, Stream
+from pendulum_accel.bag.metadata import complete_qos
+from pendulum_accel.bag.writer import (
+    CUSTOM_PLAN,
+    CUSTOM_RECORDER_COUNTS,
+    CUSTOM_SCENE,
+    CUSTOM_VERSION,
+    BagWriter,
+    Stream,
+)
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.nodes.conversions import bag_qos, message_class
 from pendulum_accel.nodes.parameters import LOG_TIMES, RECORDER
@@ -113,9 +122,13 @@ class RecorderNode(ChainNode):
         self.get_logger().info(f"recording {len(topics)} topics to {path}")
 
     def _add_topic(self, topic: str) -> None:
-        """Register ``topic`` in the bag with the QoS its publishers offer (reliable keep-all if unknown)."""
-        offered = [bag_qos(info.qos_profile) for info in self.get_publishers_info_by_topic(topic)]
-        self.writer.add_topic(topic, bm.TOPIC_TYPES[topic], offered or [bag_qos(qos_for(topic))])
+        """Register ``topic`` in the bag with the QoS its publishers offer (the chain's if unknown); history
+        and depth, which discovery does not carry, are the chain's when the rest matches."""
+        chain = bag_qos(qos_for(topic))
+        offered = [
+            complete_qos(bag_qos(i.qos_profile), chain) for i in self.get_publishers_info_by_topic(topic)
+        ]
+        self.writer.add_topic(topic, bm.TOPIC_TYPES[topic], offered or [chain])
 
     def _on_message(self, topic: str, data: bytes) -> None:
         """Write one raw message at its stamp (or receive time)."""
@@ -168,6 +181,12 @@ class RecorderNode(ChainNode):
             return
         self._closed = True
         self._write_pending()
+        self.writer.custom_data[CUSTOM_RECORDER_COUNTS] = json.dumps(
+            {
+                topic: {"received": n, "written": self.writer.counts.get(topic, 0)}
+                for topic, n in self.received.items()
+            }
+        )
         written = self.writer.close()
         for topic, count in self.received.items():
             print(
