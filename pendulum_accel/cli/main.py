@@ -22,6 +22,7 @@ COMMANDS: tuple[str, ...] = (
     "lecture",
     "info",
     "analyze",
+    "export",
     "generate",
     "repair",
     "golden_bags",
