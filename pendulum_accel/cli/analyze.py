@@ -1,4 +1,4 @@
-"""``pendulum-accel analyze BAG``: the bag's recorded estimate and an offline re-run, side by side, vs its truth."""
+"""``pendulum-accel analyze BAG``: recorded estimate and offline re-run side by side, against the truth."""
 
 from __future__ import annotations
 
