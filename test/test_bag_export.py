@@ -18,6 +18,8 @@ from pendulum_accel.cli.main import main
 from test.conftest import REPO
 
 GOLDEN = REPO / "bags" / "step_start"
+JOINT_NAMES = {"position[0]": "pendulum_joint/position", "velocity[0]": "pendulum_joint/velocity"}
+"""PlotJuggler's JointState series: <joint name>/<field>, not <field>[i]."""
 
 
 def _read(path: Path) -> pd.DataFrame:
@@ -38,16 +40,20 @@ def test_every_topic_round_trips_to_the_reader_values(tmp_path: Path, fmt: str) 
             np.testing.assert_array_equal(table["t"], arrays.stamp)
             np.testing.assert_array_equal(table["log_time"], arrays.log_time_ns * 1e-9)
             for path, column in arrays.fields.items():
-                np.testing.assert_array_equal(table[column_name(topic, path)], column)
-        else:  # /diagnostics: strings and all, as the deserialiser gives them
+                name = column_name(
+                    topic, JOINT_NAMES.get(path, path) if topic == bm.TOPIC_JOINT_STATES else path
+                )
+                np.testing.assert_array_equal(table[name], column)
+        else:  # /diagnostics, named as PlotJuggler names it: <hardware_id>/<name>/<key>
             _, payloads = bag.raw(topic)
             messages: list[Any] = [bm.deserialize(p, info.msgtype) for p in payloads]
-            status = f"{topic}/status[0]"
-            assert table[f"{status}/message"].tolist() == [m.status[0].message for m in messages]
-            assert table[f"{status}/level"].tolist() == [int(m.status[0].level) for m in messages]
-            values = [m.status[0].values[0].value for m in messages]
-            assert table[f"{status}/values[0]/value"].tolist() == values
-            assert not any(c.endswith(("/OK", "/WARN")) for c in table.columns)  # constants are not fields
+            prefix = f"{topic}/pendulum_accel/accel_estimator"
+            assert table[f"{prefix}/message"].tolist() == [m.status[0].message for m in messages]
+            assert table[f"{prefix}/level"].tolist() == [int(m.status[0].level) for m in messages]
+            pairs = [{kv.key: kv.value for kv in m.status[0].values} for m in messages]
+            for key in ("method", "state", "accepted", "resets"):
+                expected = [p[key] if key in ("method", "state") else float(p[key]) for p in pairs]
+                assert table[f"{prefix}/{key}"].tolist() == expected
     estimate = _read(tmp_path / f"car__accel__estimate.{fmt}")
     assert "/car/accel/estimate/accel/accel/linear/x" in estimate.columns  # PlotJuggler's name
 
@@ -66,7 +72,7 @@ def test_merged_table_sits_on_the_angle_stamps(tmp_path: Path) -> None:
         table["/car/accel/truth/accel/linear/x"], bag.decode("/car/accel/truth")["accel.linear.x"]
     )
     # /diagnostics (1 Hz): the latest report at or before each angle.
-    message = table["/diagnostics/status[0]/message"]
+    message = table["/diagnostics/pendulum_accel/accel_estimator/message"]
     assert message.notna().all() and message.iloc[150] == message.iloc[100] != message.iloc[99]
 
 

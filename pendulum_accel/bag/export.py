@@ -1,16 +1,18 @@
 """A bag as tables (pandas): one per topic, or one merged on the angle's stamps; CSV or Parquet files.
 
-Column names are PlotJuggler's: topic, then the field path with "/" between names and "[i]" for array
-elements (``/car/accel/estimate/accel/accel/linear/x``, ``/pendulum/joint_states/position[0]``).
-Every table starts with ``t`` (the message stamp, s) and ``log_time`` (s). Fixed-layout topics are
-decoded in bulk by the package's reader; the others (``/diagnostics``: strings, variable lengths) are
-deserialised message by message and flattened, strings included. pandas (and pyarrow for Parquet) are
+Column names are PlotJuggler's (its ROS parser, plotjuggler-ros / ParserROS): topic, then the field
+path with "/" between names and "[i]" for array elements (``/car/accel/estimate/accel/accel/linear/x``,
+``/car/accel/estimate/accel/covariance[0]``), with its two special cases for our types: a JointState
+joint's values are ``topic/<joint name>/position`` (``velocity``, ``effort``), and a DiagnosticArray
+status's key/value pairs are ``topic/<hardware_id>/<name>/<key>`` (numbers where every value of the
+key parses as one), to which ``level`` and ``message`` are added under the same prefix. Every table
+starts with ``t`` (the message stamp, s) and ``log_time`` (s). Fixed-layout topics are decoded in
+bulk by the package's reader; /diagnostics is deserialised message by message. pandas (and pyarrow for Parquet) are
 the optional ``export`` extra, imported only here.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
@@ -50,20 +52,43 @@ def column_name(topic: str, path: str) -> str:
     return f"{topic}/{path.replace('.', '/')}"
 
 
-def _flatten(value: object, path: str, out: dict[str, object]) -> None:
-    """out[path.sub.field[i]...] = every leaf (numbers and strings) of a deserialised message."""
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        for field in dataclasses.fields(value):
-            if field.name == "__msgtype__" or field.name.isupper():
-                continue  # ROS constants are upper case, fields lower case
-            _flatten(getattr(value, field.name), f"{path}.{field.name}" if path else field.name, out)
-    elif isinstance(value, (list, tuple, np.ndarray)):
-        for i, item in enumerate(value):
-            _flatten(item, f"{path}[{i}]", out)
-    elif isinstance(value, np.generic):
-        out[path] = value.item()
-    else:
-        out[path] = value
+def _joint_renames(bag: Bag, topic: str, paths: Sequence[str]) -> dict[str, str]:
+    """{reader path: PlotJuggler series suffix} of a JointState topic: position[i] → <name i>/position."""
+    _, payloads = bag.raw(topic)
+    msg: Any = bm.deserialize(payloads[0], bm.JOINT_STATE) if payloads else None
+    names = list(msg.name) if msg is not None else []
+    renames = {}
+    for path in paths:
+        head, _, index = path.partition("[")
+        if head in ("position", "velocity", "effort") and index and int(index[:-1]) < len(names):
+            renames[path] = f"{names[int(index[:-1])]}/{head}"
+    return renames
+
+
+def _diagnostic_columns(topic: str, payloads: Sequence[bytes], pd: ModuleType) -> dict[str, Any]:
+    """PlotJuggler's DiagnosticArray series (hardware_id/name/key) plus level and message, one row each."""
+    rows: list[dict[str, object]] = []
+    for data in payloads:
+        msg: Any = bm.deserialize(data, bm.DIAGNOSTIC_ARRAY)
+        row: dict[str, object] = {}
+        for status in msg.status:
+            prefix = "/".join(p for p in (topic, status.hardware_id, status.name) if p)
+            row[f"{prefix}/level"] = int(status.level)
+            row[f"{prefix}/message"] = status.message
+            for kv in status.values:
+                row[f"{prefix}/{kv.key}"] = kv.value
+        rows.append(row)
+    table = pd.DataFrame.from_records(rows)
+    columns = {}
+    for name in table.columns:
+        if str(name).endswith("/message"):
+            columns[str(name)] = table[name].to_numpy()
+            continue
+        try:  # numbers when every value of the key is one (PlotJuggler: per value), else strings
+            columns[str(name)] = pd.to_numeric(table[name]).to_numpy()
+        except (ValueError, TypeError):
+            columns[str(name)] = table[name].to_numpy()
+    return columns
 
 
 def topic_table(bag: Bag, topic: str) -> Any:
@@ -74,22 +99,17 @@ def topic_table(bag: Bag, topic: str) -> Any:
         arrays = bag.decode(topic)
         t = arrays.stamp
         log_time = arrays.log_time_ns
-        columns: dict[str, Any] = {column_name(topic, p): col for p, col in arrays.fields.items()}
+        renames = _joint_renames(bag, topic, list(arrays.fields)) if msgtype == bm.JOINT_STATE else {}
+        columns: dict[str, Any] = {
+            column_name(topic, renames.get(p, p)): col for p, col in arrays.fields.items()
+        }
+    elif msgtype == bm.DIAGNOSTIC_ARRAY:
+        log_time, payloads = bag.raw(topic)
+        stamps = bag.decode(topic, fields=["header.stamp.sec", "header.stamp.nanosec"])
+        t = stamps.stamp
+        columns = _diagnostic_columns(topic, payloads, pd)
     else:
-        times, payloads = bag.raw(topic)
-        rows: list[dict[str, object]] = []
-        for data in payloads:
-            row: dict[str, object] = {}
-            _flatten(bm.deserialize(data, str(msgtype)), "", row)
-            rows.append(row)
-        flat = pd.DataFrame.from_records(rows)
-        log_time = times
-        stamp = ("header.stamp.sec", "header.stamp.nanosec")
-        if len(flat) and all(k in flat.columns for k in stamp):
-            t = bm.stamp_seconds(flat[stamp[0]].to_numpy(), flat[stamp[1]].to_numpy())
-        else:
-            t = times.astype(np.float64) * 1e-9
-        columns = {column_name(topic, str(p)): flat[p].to_numpy() for p in flat.columns}
+        raise ExportError(f"topic {topic} has type {msgtype}, which export does not flatten")
     head = {"t": np.asarray(t, dtype=np.float64), "log_time": np.asarray(log_time) * 1e-9}
     return pd.DataFrame({**head, **columns})
 
