@@ -7,8 +7,8 @@ joint's values are ``topic/<joint name>/position`` (``velocity``, ``effort``), a
 status's key/value pairs are ``topic/<hardware_id>/<name>/<key>`` (numbers where every value of the
 key parses as one), to which ``level`` and ``message`` are added under the same prefix. Every table
 starts with ``t`` (the message stamp, s) and ``log_time`` (s). Fixed-layout topics are decoded in
-bulk by the package's reader; /diagnostics is deserialised message by message. pandas (and pyarrow for Parquet) are
-the optional ``export`` extra, imported only here.
+bulk by the package's reader; /diagnostics is deserialised message by message. pandas (and pyarrow
+for Parquet) are the optional ``export`` extra, imported only here.
 """
 
 from __future__ import annotations
