@@ -20,6 +20,8 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/launch_scripts", sorted(glob("launch_scripts/*.py"))),
+        # Foxglove and PlotJuggler layouts for recorded bags.
+        (f"share/{PACKAGE}/layouts", sorted(glob("layouts/*.json") + glob("layouts/*.xml"))),
         (
             f"share/{PACKAGE}/scenes",
             sorted(glob(f"{PACKAGE}/scenes/*.yaml") + glob(f"{PACKAGE}/scenes/*.csv")),
