@@ -429,7 +429,7 @@ def plot_analysis(result: Analysis, out: Path | str) -> Path:
     rec = result.recorded_figures
     axes[1].plot(t, result.accel_true, lw=1.5, color="black", label="truth a(t)")
     if rec is not None:
-        axes[1].plot(rec.t, rec.accel, lw=1.6, color="tab:orange", label=f"recorded ({rec.estimator}, live)")
+        axes[1].plot(rec.t, rec.accel, lw=1.6, color="tab:orange", label=f"recorded ({rec.estimator})")
         for hole in rec.holes:
             axes[1].axvspan(hole.start, hole.end, color="tab:red", alpha=0.12)
     axes[1].plot(t, result.accel_est, lw=0.9, color="tab:blue", label=f"offline re-run ({result.estimator})")
