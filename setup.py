@@ -23,6 +23,8 @@ setup(
         # ros2 launch looks in share/<package>/launch (the repo keeps launch files in launch_scripts).
         (f"share/{PACKAGE}/launch", sorted(glob("launch_scripts/*.launch.py"))),
         (f"share/{PACKAGE}/config", sorted(glob("config/*.yaml"))),
+        # Foxglove and PlotJuggler layouts for recorded bags.
+        (f"share/{PACKAGE}/layouts", sorted(glob("layouts/*.json") + glob("layouts/*.xml"))),
         (
             f"share/{PACKAGE}/scenes",
             sorted(glob(f"{PACKAGE}/scenes/*.yaml") + glob(f"{PACKAGE}/scenes/*.csv")),
@@ -49,12 +51,16 @@ setup(
     # The work-precision benchmark's 30-digit reference, and the test tools.
     extras_require={
         "bench": ["mpmath>=1.4.1"],
+        # `pendulum-accel export`: pandas for the tables, pyarrow for Parquet.
+        "export": ["pandas>=3.1.1", "pyarrow>=26.0.1"],
         "test": [
             "pytest>=9.2.0",
             "pytest-timeout>=2.4.0",
             "hypothesis>=6.170.15",
             "mpmath>=1.4.1",
             "mcap-ros2-support>=0.6.0",
+            "pandas>=3.1.1",
+            "pyarrow>=26.0.1",
         ],
     },
     python_requires=">=3.10",

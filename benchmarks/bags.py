@@ -1,4 +1,4 @@
-"""Bag benchmark: ``generate`` and ``analyze`` throughput against a plain rosbags loop, in one run.
+"""Bag benchmark: ``generate``, ``analyze`` and ``export`` throughput against plain rosbags loops, in one run.
 
     python -m benchmarks.bags [--out DIR] [--scene NAME] [--rate HZ] [--duration S] [--repeat N]
 
@@ -7,6 +7,9 @@
 2. analyze: ``analyze_bag`` on that bag (read, bulk decode, re-run the estimator, metrics) with each
    estimator, and our reader alone, against a plain rosbags ``Reader.messages()`` +
    ``deserialize_cdr`` loop over the same bag. Best of ``--repeat`` runs each.
+3. export: ``export_bag`` to Parquet (one table per topic, and merged) against the loop an analyst
+   writes today: rosbags ``Reader.messages()`` + ``deserialize_cdr``, each message flattened into a
+   dict, one pandas DataFrame per topic, written to Parquet.
 
 Writes bags.csv and bags.md into the output directory (default out/bench) and prints the table.
 """
@@ -24,6 +27,7 @@ from typing import Any
 
 from rosbags.rosbag2 import Reader
 
+from pendulum_accel.bag.export import export_bag
 from pendulum_accel.bag.messages import (
     ACCEL_STAMPED,
     JOINT_STATE,
@@ -85,6 +89,35 @@ def plain_rosbags_loop(path: Path) -> int:
     return count
 
 
+def _flat(value: Any, path: str, out: dict[str, Any]) -> None:
+    """out[a.b[i]] = every numeric or string leaf of a rosbags message (the loop's hand-written flattener)."""
+    if hasattr(value, "__dataclass_fields__"):
+        for name in value.__dataclass_fields__:
+            if name != "__msgtype__" and not name.isupper():
+                _flat(getattr(value, name), f"{path}.{name}" if path else name, out)
+    elif isinstance(value, (list, tuple)) or getattr(value, "ndim", 0) == 1:
+        for i, item in enumerate(value):
+            _flat(item, f"{path}[{i}]", out)
+    else:
+        out[path] = value
+
+
+def plain_rosbags_to_pandas(path: Path, out: Path) -> int:
+    """Baseline for export: rosbags read + deserialize, flatten each message, DataFrame per topic, Parquet."""
+    import pandas as pd
+
+    rows: dict[str, list[dict[str, Any]]] = {}
+    with Reader(path) as reader:
+        for conn, log_time, raw in reader.messages():
+            row: dict[str, Any] = {"log_time": log_time * 1e-9}
+            _flat(TYPESTORE.deserialize_cdr(raw, conn.msgtype), "", row)
+            rows.setdefault(conn.topic, []).append(row)
+    out.mkdir(parents=True, exist_ok=True)
+    for topic, records in rows.items():
+        pd.DataFrame.from_records(records).to_parquet(out / f"{topic.strip('/').replace('/', '__')}.parquet")
+    return sum(len(r) for r in rows.values())
+
+
 def our_read_decode(path: Path) -> int:
     """Our reader: scan the file and bulk-decode the two topics analyze needs; returns messages read."""
     bag = read_bag(path)
@@ -124,6 +157,17 @@ def run_benchmark(scene_name: str, rate_hz: float, duration: float, repeat: int,
         label = f"analyze --estimator {name}" + (" (default)" if name == DEFAULT_ESTIMATOR else "")
         an_s, _ = best_of(repeat, lambda name=name: analyze_bag(bag_path, estimator=name))  # type: ignore[misc]
         rows.append(Row(label, n, an_s, sim, base_s))
+    pandas_s, pandas_n = best_of(repeat, lambda: plain_rosbags_to_pandas(bag_path, folder / "plain_tables"))
+    rows.append(Row("plain rosbags loop -> pandas -> Parquet", pandas_n, pandas_s, sim, pandas_s))
+    for merged in (False, True):
+        label = "export --format parquet" + (" --merged" if merged else " (one table per topic)")
+        ex_s, _ = best_of(
+            repeat,
+            lambda merged=merged: export_bag(  # type: ignore[misc]
+                read_bag(bag_path), folder / "tables", fmt="parquet", merged=merged
+            ),
+        )
+        rows.append(Row(label, n, ex_s, sim, pandas_s))
     return rows
 
 
@@ -134,7 +178,7 @@ def _fmt(value: float | None, spec: str) -> str:
 
 def table(rows: Sequence[Row]) -> list[list[str]]:
     """Header + formatted rows."""
-    out = [["task", "messages", "wall s", "msg/s", "x real time", "x plain rosbags loop"]]
+    out = [["task", "messages", "wall s", "msg/s", "x real time", "x its plain rosbags loop"]]
     for r in rows:
         out.append(
             [

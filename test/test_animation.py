@@ -99,7 +99,7 @@ def test_bad_outputs_are_one_line_errors(tmp_path: Path) -> None:
 
 
 def test_a_bag_animates_from_its_recorded_angles(tmp_path: Path) -> None:
-    """animate BAG: the frames follow the bag's own θ, the stored scene's length and grade, and a GIF comes out."""
+    """animate BAG: frames follow the bag's own θ and its stored scene's length and grade; a GIF comes out."""
     from pendulum_accel.animation import swing_from_bag
     from pendulum_accel.bag.messages import JOINT_STATE, TOPIC_JOINT_STATES
     from pendulum_accel.bag.reader import read_bag

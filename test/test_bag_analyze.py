@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -134,3 +135,50 @@ def test_cli_wrong_type_topic(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert err.count("\n") == 1 and "Traceback" not in err
     assert "/pendulum/joint_states" in err and "geometry_msgs/msg/AccelStamped" in err
     assert "expected sensor_msgs/msg/JointState" in err
+
+
+@pytest.fixture(scope="module")
+def holed_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The step scene recorded with the lowpass estimator whose stream misses 1.9 s (t in [3, 4.9))."""
+    pendulum = Pendulum(LENGTH, damping=DAMPING)
+    t = np.arange(0.0, 12.0, 1.0 / RATE)
+    traj = simulate(pendulum, Step(T_STEP, 0.0, A_STEP), t, theta0=0.0)
+    theta = traj.theta + np.random.default_rng(7).normal(0.0, NOISE, t.size)
+    a_est, var = estimate_batch("lowpass", t, theta, rate_hz=RATE, **CONFIG)
+    a_est = np.where((t >= 3.0) & (t < 4.9 - 1e-9), np.nan, a_est)  # nothing published in the hole
+    streams = chain_streams(
+        t, theta, traj.theta_dot, traj.accel, a_est, var, estimator="lowpass", rate_hz=RATE
+    )
+    path = tmp_path_factory.mktemp("analyze") / "holed"
+    write_chain_bag(path, streams, custom_data={})
+    return path
+
+
+def test_recorded_and_rerun_side_by_side_with_the_hole(holed_bag: Path) -> None:
+    """The re-run defaults to the recorded estimator (from /diagnostics); the recorded stream's hole is
+    found to the sample; another --estimator gives other offline figures while the recorded ones stay."""
+    result = analyze_bag(holed_bag, config=CONFIG)
+    rec, off = result.recorded_figures, result.offline_figures
+    assert rec is not None and rec.estimator == "lowpass" and result.estimator == "lowpass"
+    assert off.count == rec.angles == 2400 and rec.count == 2400 - 380
+    (hole,) = rec.holes
+    assert hole.start == pytest.approx(3.0) and hole.end == pytest.approx(4.9) and hole.missing == 380
+    assert off.holes == () and rec.stats.n == off.stats.n - 380
+    kalman = analyze_bag(holed_bag, estimator="kalman", config=CONFIG)
+    assert kalman.recorded_figures is not None and kalman.recorded_figures.stats == rec.stats
+    assert kalman.offline_figures.settled_stats.rms < off.settled_stats.rms  # kalman beats lowpass
+    report = "\n".join(result.lines())
+    assert "recorded (lowpass)" in report and "offline re-run (lowpass)" in report
+    assert "1 (380 angles), longest 1.900 s at t=3.000" in report
+
+
+def test_analyze_json_carries_both_streams(holed_bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["analyze", str(holed_bag), "--length", str(LENGTH), "--json"]) == 0
+    figures = json.loads(capsys.readouterr().out)
+    rec, off = figures["recorded"], figures["offline"]
+    assert rec["estimator"] == off["estimator"] == figures["estimator"] == "lowpass"
+    assert rec["missing"] == 380 and rec["longest_hole"] == pytest.approx(1.9) and off["missing"] == 0
+    for stream in (rec, off):
+        for key in ("bias", "rms", "max_error", "settled_bias", "settled_rms", "settled_max_error"):
+            assert math.isfinite(stream[key])
+    assert off["rms"] == figures["rms"] and off["settling_time"] == figures["settling_time"]

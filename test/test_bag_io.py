@@ -112,10 +112,13 @@ def _merged(streams: list[Stream]) -> list[tuple[int, int, str, bytes]]:
 
 def test_bulk_write_equals_plain_rosbags_writer(tmp_path: Path) -> None:
     """write_sorted produces the same .mcap bytes as a plain rosbags Writer fed message by message
-    (the header aside: it names the writing library)."""
+    (the header aside: it names the writing library; rosbags writes no topic_type_hash in its channels)."""
     streams, types = _chain_streams(12_000)  # > 1 MiB: several chunks
     custom = {"pendulum_accel.scene": "name: x\n", "pendulum_accel.plan": "rigid/DOP853"}
-    with BagWriter(tmp_path / "a" / "bag", custom_data=custom, flush_interval=None) as w:
+    writer = BagWriter(
+        tmp_path / "a" / "bag", custom_data=custom, flush_interval=None, type_hash_in_channels=False
+    )
+    with writer as w:
         for topic, msgtype in types.items():
             w.add_topic(topic, msgtype)
         w.write_sorted(streams)

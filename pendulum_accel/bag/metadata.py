@@ -59,6 +59,18 @@ def qos_dicts(qos: Sequence[Qos]) -> list[QosDict]:
     ]
 
 
+def complete_qos(offered: Qos, published: Qos) -> Qos:
+    """``offered`` with history and depth from ``published`` when discovery left them UNKNOWN/0 and the
+    reliability and durability agree (DDS discovery carries neither history nor depth, so rosbag2's
+    recorder stores "unknown, 0"; a chain publisher's own profile is known)."""
+    if offered.history != QosHistory.UNKNOWN or (offered.reliability, offered.durability) != (
+        published.reliability,
+        published.durability,
+    ):
+        return offered
+    return offered._replace(history=published.history, depth=published.depth)
+
+
 def qos_text(qos: Sequence[Qos]) -> str:
     """The profiles as the YAML text of an MCAP channel's ``offered_qos_profiles`` entry (keys sorted)."""
     dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)

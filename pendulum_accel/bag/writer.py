@@ -32,6 +32,8 @@ from pendulum_accel.errors import BagError
 CUSTOM_SCENE = "pendulum_accel.scene"
 CUSTOM_PLAN = "pendulum_accel.plan"
 CUSTOM_VERSION = "pendulum_accel.version"
+CUSTOM_ESTIMATOR = "pendulum_accel.estimator"
+"""custom_data key: the estimator method that produced /car/accel/estimate."""
 LIBRARY = f"pendulum_accel-{__version__}"
 """The MCAP header's library field."""
 
@@ -94,8 +96,13 @@ class BagWriter:
         custom_data: Mapping[str, str] | None = None,
         flush_interval: float | None = 0.5,
         compression: str | None = None,
+        type_hash_in_channels: bool = True,
     ) -> None:
-        """Create the bag directory ``path``; BagError if it exists and ``overwrite`` is false."""
+        """Create the bag directory ``path``; BagError if it exists and ``overwrite`` is false.
+
+        ``type_hash_in_channels`` puts each topic's RIHS01 hash in its MCAP channel's metadata
+        (``topic_type_hash``, as rosbag2's MCAP storage writes it); False gives rosbags' channel layout.
+        """
         self.path = Path(path)
         if flush_interval is not None and not flush_interval > 0.0:
             raise BagError(f"flush_interval must be > 0 s, got {flush_interval!r}")
@@ -103,6 +110,7 @@ class BagWriter:
             raise BagError(f"unknown compression {compression!r}; use 'zstd' or none")
         prepare_output(self.path, overwrite)
         self.flush_interval = flush_interval
+        self.type_hash_in_channels = type_hash_in_channels
         self.custom_data = {
             CUSTOM_VERSION: __version__,
             **{k: str(v) for k, v in (custom_data or {}).items()},
@@ -151,9 +159,11 @@ class BagWriter:
             msgdef, _ = TYPESTORE.generate_msgdef(msgtype, ros_version=2)
             encoding = "ros2idl" if msgdef.startswith("=" * 80 + "\nIDL: ") else "ros2msg"
             self._schemas[msgtype] = mcap.add_schema(msgtype, encoding, msgdef)
-        metadata = {"offered_qos_profiles": qos_text(profiles)}
-        channel_id = mcap.add_channel(self._schemas[msgtype], name, "cdr", metadata)
         type_hash = TYPESTORE.hash_rihs01(msgtype)
+        metadata = {"offered_qos_profiles": qos_text(profiles)}
+        if self.type_hash_in_channels:
+            metadata["topic_type_hash"] = type_hash
+        channel_id = mcap.add_channel(self._schemas[msgtype], name, "cdr", metadata)
         self._topics[name] = _Topic(channel_id, name, msgtype, type_hash, profiles)
         self._metadata_stale = True
 

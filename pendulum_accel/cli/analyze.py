@@ -1,4 +1,4 @@
-"""``pendulum-accel analyze BAG``: re-run an estimator on a bag's angles and compare with its truth."""
+"""``pendulum-accel analyze BAG``: recorded estimate and offline re-run side by side, against the truth."""
 
 from __future__ import annotations
 
@@ -19,17 +19,27 @@ def register(subparsers: Any) -> None:
     """Add the ``analyze`` subcommand."""
     parser = subparsers.add_parser(
         "analyze",
-        help="re-run an estimator on a bag offline and report bias, RMS, max error, settling time",
+        help="compare a bag's recorded estimate and an offline re-run with its truth",
         description=(
-            "Re-run an estimator on the recorded angles of BAG (no ROS needed) and compare with the "
-            "recorded truth. The estimator settings come from the scene stored in the bag."
+            "Compare the estimate recorded in BAG (the live estimator's) and an offline re-run of an "
+            "estimator on its recorded angles (no ROS needed) with the recorded truth, side by side: "
+            "counts and holes, bias, RMS, max error, settling time, settled figures. The estimator "
+            "settings come from the scene stored in the bag."
         ),
     )
     parser.add_argument("bag", help="bag directory (or .mcap file)")
     parser.add_argument(
-        "--estimator", "-e", default=None, help="estimator method (default: the package default)"
+        "--estimator",
+        "-e",
+        default=None,
+        help="estimator to re-run (default: the one the bag was recorded with)",
     )
-    parser.add_argument("--plot", default=None, metavar="PNG", help="save angle / acceleration / error plot")
+    parser.add_argument(
+        "--plot",
+        default=None,
+        metavar="PNG",
+        help="save angle / recorded and re-run acceleration / error plot",
+    )
     parser.add_argument("--skip", type=float, default=0.0, metavar="S", help="ignore the first S seconds")
     parser.add_argument("--tolerance", type=float, default=None, metavar="A", help="settling band, m/s²")
     for name in ESTIMATOR_OVERRIDES:

@@ -24,6 +24,7 @@ COMMANDS: tuple[str, ...] = (
     "info",
     "analyze",
     "allan",
+    "export",
     "generate",
     "repair",
     "golden_bags",

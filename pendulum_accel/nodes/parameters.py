@@ -175,16 +175,38 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
     summary_file_param(),
 )  # fmt: skip
 
+PLAYER_CLOCK_RATE_HZ = 40.0
+"""The player's default /clock rate, rosbag2's (``ros2 bag play --clock`` without a value: 40 Hz)."""
+
 PLAYER: tuple[ParamSpec, ...] = (
     _fixed("path", "string", "", "bag to play"),
-    _fixed("rate", "double", 1.0, "speed factor (2: twice as fast)", low=1e-3, high=1e3),
+    ParamSpec("rate", "double", 1.0, "speed factor (2: twice as fast); settable while playing (~/set_rate)",
+              low=1e-3, high=1e3),
+    _fixed("start_paused", "bool", False, "start paused (~/resume, ~/play_next, space key to go on)"),
     _fixed("loop", "bool", False, "start over at the end"),
     _fixed("start_offset", "double", 0.0, "skip this many seconds of the bag", low=0.0, high=1e6),
+    _fixed("playback_duration", "double", -1.0,
+           "play only this many bag seconds from the start offset, s (negative: no limit)",
+           low=-1.0, high=1e9),
+    _fixed("playback_until", "double", -1.0,
+           "play only messages up to this bag time (log time), s (negative: no limit)",
+           low=-1.0, high=1e12),
+    _fixed("delay", "double", 0.0, "wait this many seconds before each pass (s)", low=0.0, high=3600.0),
     # [""], not []: ROS infers a parameter's type from its default, and an empty list has none.
     _fixed("topics", "string_array", ("",), "topics to play (empty: all)"),
+    _fixed("topics_regex", "string", "", "play only topics matching this regular expression (empty: all)"),
+    _fixed("exclude_topics", "string_array", ("",), "topics not to play"),
+    _fixed("exclude_regex", "string", "", "do not play topics matching this regular expression"),
     _fixed("clock", "bool", False, "publish /clock from the bag time"),
-    _fixed("clock_rate_hz", "double", DEFAULT_CLOCK_RATE_HZ,
+    _fixed("clock_rate_hz", "double", PLAYER_CLOCK_RATE_HZ,
            "/clock messages per bag second (0: one per message)", low=0.0, high=1e5),
+    ParamSpec("burst_size", "integer", 0, "messages ~/burst plays (0: the rest of the bag)",
+              low=0, high=10**9),
+    ParamSpec("seek_time", "double", 0.0, "bag time (log time, s) ~/seek goes to", low=-1e12, high=1e12),
+    _fixed("keyboard", "bool", True,
+           "keyboard control when stdin is a terminal: space pause/resume, → play next, ↑/↓ rate ±0.1"),
+    _fixed("progress_period", "double", 0.5, "seconds between progress lines on stderr (0: none)",
+           low=0.0, high=3600.0),
     _fixed("exit_on_end", "bool", True, "exit after the last message"),
     _fixed("wait_for_subscribers", "integer", 0,
            "start once /pendulum/joint_states has this many subscribers", low=0, high=64),

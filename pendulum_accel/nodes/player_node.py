@@ -1,44 +1,112 @@
-"""``bag_player``: publishes a bag's messages (raw CDR) with their original timing.
+"""``bag_player``: publishes a bag's messages (raw CDR) with their original timing, under ros2 bag play's
+controls.
 
-Options: ``rate`` factor, ``loop`` (the stamps jump back at each pass, which the estimator sees as a
-reset), ``start_offset`` into the bag, a ``topics`` filter, and ``clock``: publish /clock from the
-bag's log time (the recorded /clock, if any, is then not replayed).
+Options: ``rate`` factor (settable while playing), ``start_paused``, ``loop`` (the stamps jump back at
+each pass, which the estimator sees as a reset), ``start_offset``, ``playback_duration`` and
+``playback_until``, ``delay`` before each pass, topic include/exclude lists and regular expressions,
+and ``clock``: publish /clock from the bag's log time (the recorded /clock, if any, is then not
+replayed). Topics are remapped the ROS way, ``--ros-args -r /old:=/new`` (what ``ros2 bag play
+--remap`` passes on). Controls, named as rosbag2's player names them but with standard types
+(rosbag2_interfaces is not available everywhere):
+
+* ``~/pause``, ``~/resume``, ``~/toggle_paused``, ``~/play_next`` (std_srvs/Trigger);
+* ``~/is_paused`` (Trigger: message "true" or "false");
+* ``~/set_rate`` / ``~/get_rate``: the ``rate`` parameter (rcl_interfaces SetParameters/GetParameters);
+* ``~/burst`` (Trigger) plays ``burst_size`` messages (a parameter; 0: the rest of the bag);
+* ``~/seek`` (Trigger) goes to the bag time in the ``seek_time`` parameter, forwards or backwards;
+* keys when stdin is a terminal: space pause/resume, → play next, ↑/↓ rate ±0.1 (rosbag2's steps).
 """
 
 from __future__ import annotations
 
-import time
-from collections.abc import Sequence
+import contextlib
+import os
+import re
+import select
+import sys
+import termios
+import threading
+import tty
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
+from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
+from std_srvs.srv import Trigger
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.reader import read_bag, salvage_note
-from pendulum_accel.errors import ParameterError
+from pendulum_accel.bag.playback import Playback, Taken
+from pendulum_accel.bag.reader import Bag, read_bag, salvage_note
+from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import message_class
 from pendulum_accel.nodes.parameters import PLAYER
 from pendulum_accel.nodes.qos import qos_for
 from pendulum_accel.nodes.runtime import ThreadedNode, declare_parameters, publish_blocking, run_node
-from pendulum_accel.recording.generate import clock_mask
 
 NODE_NAME = "bag_player"
 _ACK_TIMEOUT = Duration(seconds=10)
+RATE_STEP = 0.1
+"""↑/↓ change the rate by this much, as rosbag2's keyboard controls do (get_rate() ± 0.1)."""
+KEY_PAUSE = b" "
+KEY_NEXT = b"\x1b[C"
+KEY_FASTER = b"\x1b[A"
+KEY_SLOWER = b"\x1b[B"
+
+
+def select_topics(
+    available: Sequence[str],
+    topics: Sequence[str],
+    include_regex: str,
+    exclude_topics: Sequence[str],
+    exclude_regex: str,
+) -> list[str]:
+    """Topics to play, in bag order: in ``topics`` (all when empty) and matching ``include_regex``, not
+    in ``exclude_topics`` nor matching ``exclude_regex``; ParameterError for an unknown topic or bad regex."""
+    missing = [t for t in topics if t not in available]
+    if missing:
+        raise ParameterError(f"the bag has no topic {missing[0]} (it has {', '.join(available)})")
+    try:
+        include = re.compile(include_regex) if include_regex else None
+        exclude = re.compile(exclude_regex) if exclude_regex else None
+    except re.error as err:
+        raise ParameterError(f"bad topic regular expression: {err}") from None
+    return [
+        t
+        for t in available
+        if (not topics or t in topics)
+        and (include is None or include.search(t))
+        and t not in exclude_topics
+        and (exclude is None or not exclude.search(t))
+    ]
+
+
+def play_window(bag: Bag, start_offset: float, duration: float, until: float) -> tuple[int, int]:
+    """(first, last) log time (ns) to play: from start + offset, for ``duration`` s and up to ``until`` s
+    of bag time (either negative: no limit)."""
+    first = bag.start_ns + round(start_offset * 1e9)
+    last = bag.end_ns
+    if duration >= 0.0:
+        last = min(last, first + round(duration * 1e9))
+    if until >= 0.0:
+        last = min(last, round(until * 1e9))
+    return first, last
 
 
 class PlayerNode(ThreadedNode):
-    """Replays one bag into the graph from a publishing thread."""
+    """Replays one bag into the graph from a publishing thread; services, parameters and keys control it."""
 
     def __init__(self) -> None:
-        """Declare parameters, read the bag (BagError when unreadable), create publishers, start playing."""
+        """Declare parameters, read the bag (BagError when unreadable), create publishers and services,
+        start playing (or wait, paused)."""
         super().__init__(NODE_NAME)
         values = declare_parameters(self, PLAYER)
         path = str(values["path"])
-        self.rate = float(values["rate"])
         self.loop = bool(values["loop"])
-        self.start_offset = float(values["start_offset"])
-        topics: list[str] = list(values["topics"])
+        self.delay = float(values["delay"])
         self.clock = bool(values["clock"])
         self.clock_rate_hz = float(values["clock_rate_hz"])
         self.exit_on_end = bool(values["exit_on_end"])
@@ -51,10 +119,15 @@ class PlayerNode(ThreadedNode):
         if note:
             self.get_logger().warning(note)
         available = bag.topics
-        wanted = [t for t in topics if t] or list(available)
-        missing = [t for t in wanted if t not in available]
-        if missing:
-            raise ParameterError(f"bag {path} has no topic {missing[0]} (it has {', '.join(available)})")
+        wanted = select_topics(
+            list(available),
+            [t for t in values["topics"] if t],
+            str(values["topics_regex"]),
+            [t for t in values["exclude_topics"] if t],
+            str(values["exclude_regex"]),
+        )
+        if not wanted:
+            raise ParameterError(f"no topic of bag {path} is left to play after the topic filters")
         if self.clock:
             wanted = [t for t in wanted if t != bm.TOPIC_CLOCK]
         self._outputs: dict[str, Publisher] = {
@@ -65,17 +138,180 @@ class PlayerNode(ThreadedNode):
             self._outputs[bm.TOPIC_CLOCK] = self.create_publisher(
                 message_class(bm.CLOCK), bm.TOPIC_CLOCK, qos_for(bm.TOPIC_CLOCK)
             )
-        start = bag.start_ns + round(self.start_offset * 1e9)
-        self._messages = [(topic, ns, data) for topic, ns, data in bag.iter_raw(wanted) if ns >= start]
+        first, last = play_window(
+            bag,
+            float(values["start_offset"]),
+            float(values["playback_duration"]),
+            float(values["playback_until"]),
+        )
+        self._messages = [
+            (topic, ns, data) for topic, ns, data in bag.iter_raw(wanted) if first <= ns <= last
+        ]
         if not self._messages:
-            raise ParameterError(f"bag {path} has no messages after start_offset {self.start_offset:g} s")
+            raise ParameterError(f"bag {path} has no messages in the chosen time range")
+        times = np.array([ns for _, ns, _ in self._messages], dtype=np.int64)
+        self.playback = Playback(times, rate=float(values["rate"]), paused=bool(values["start_paused"]))
+        self._clock_origin = int(times[0])
+        self._last_tick: int | None = None
+        self._publish_lock = threading.Lock()
         self.passes = 0
         self.published = 0
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._control_services = [
+            self.create_service(Trigger, f"~/{name}", handler)
+            for name, handler in (
+                ("pause", self._srv_pause),
+                ("resume", self._srv_resume),
+                ("toggle_paused", self._srv_toggle_paused),
+                ("is_paused", self._srv_is_paused),
+                ("play_next", self._srv_play_next),
+                ("burst", self._srv_burst),
+                ("seek", self._srv_seek),
+            )
+        ]
+        self._stdin_mode: list[Any] | None = None
+        if bool(values["keyboard"]) and sys.stdin is not None and sys.stdin.isatty():
+            self._start_keyboard()
+        self._progress_tty = sys.stderr.isatty()
+        period = float(values["progress_period"])
+        if period > 0.0:
+            self.create_timer(period, self._progress, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.start_thread(self._play, "bag_player")
         self.get_logger().info(
-            f"playing {len(self._messages)} messages of {path} ({', '.join(wanted)}) at rate {self.rate:g}"
+            f"playing {len(self._messages)} messages of {path} ({', '.join(wanted)}) at rate "
+            f"{self.playback.rate:g}"
             + (", looping" if self.loop else "")
+            + (", paused" if self.playback.paused else "")
         )
+
+    # -- parameters and services ------------------------------------------------------------------
+
+    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        """Apply a new ``rate`` at once (~/set_rate); other settable parameters are read when used."""
+        for param in params:
+            if param.name == "rate":
+                try:
+                    self.playback.set_rate(float(param.value))
+                except PendulumAccelError as err:
+                    return SetParametersResult(successful=False, reason=str(err))
+                self.get_logger().info(f"rate {self.playback.rate:g}")
+        return SetParametersResult(successful=True)
+
+    @staticmethod
+    def _reply(response: Any, success: bool, message: str) -> Any:
+        """Fill a Trigger response."""
+        response.success = success
+        response.message = message
+        return response
+
+    def _srv_pause(self, request: Any, response: Any) -> Any:
+        """~/pause: stop the clock."""
+        self.playback.pause()
+        return self._reply(response, True, "paused")
+
+    def _srv_resume(self, request: Any, response: Any) -> Any:
+        """~/resume: restart the clock where it stopped."""
+        self.playback.resume()
+        return self._reply(response, True, "playing")
+
+    def _srv_toggle_paused(self, request: Any, response: Any) -> Any:
+        """~/toggle_paused: pause if playing, else resume; message: the new state."""
+        return self._reply(response, True, "paused" if self.playback.toggle() else "playing")
+
+    def _srv_is_paused(self, request: Any, response: Any) -> Any:
+        """~/is_paused: message "true" or "false"."""
+        return self._reply(response, True, "true" if self.playback.paused else "false")
+
+    def play_next(self) -> bool:
+        """Publish the next message now (only while paused, as rosbag2); True if one was published."""
+        taken = self.playback.step()
+        return taken is not None and self._publish(taken)
+
+    def _srv_play_next(self, request: Any, response: Any) -> Any:
+        """~/play_next: success when a message was published."""
+        ok = self.play_next()
+        return self._reply(response, ok, "played 1 message" if ok else "not paused, or at the end")
+
+    def _srv_burst(self, request: Any, response: Any) -> Any:
+        """~/burst: play ``burst_size`` messages (0: to the end) while paused; message: how many."""
+        size = int(self.get_parameter("burst_size").value)
+        if not self.playback.paused:
+            return self._reply(response, False, "burst 0 messages: burst needs the paused state")
+        played = 0
+        while (size == 0 or played < size) and not self._stop.is_set() and self.play_next():
+            played += 1
+        self.get_logger().info(f"burst {played} messages")
+        return self._reply(response, played > 0, f"burst {played} messages")
+
+    def _srv_seek(self, request: Any, response: Any) -> Any:
+        """~/seek: go to bag time ``seek_time`` (s); fails past the last message."""
+        seconds = float(self.get_parameter("seek_time").value)
+        ok = self.playback.seek(round(seconds * 1e9))
+        if ok:
+            self.get_logger().info(f"seek to t={seconds:.3f} s")
+        return self._reply(response, ok, f"seek to t={seconds:.3f} s" if ok else "past the end of the bag")
+
+    # -- keyboard and progress --------------------------------------------------------------------
+
+    def _start_keyboard(self) -> None:
+        """Put the terminal in cbreak mode (restored in close) and read keys in a thread."""
+        fd = sys.stdin.fileno()
+        self._stdin_mode = termios.tcgetattr(fd)
+        tty.setcbreak(fd)
+        threading.Thread(target=self._read_keys, args=(fd,), name="bag_player_keys", daemon=True).start()
+        self.get_logger().info("keys: space pause/resume, → play next, ↑ rate +0.1, ↓ rate −0.1")
+
+    def _read_keys(self, fd: int) -> None:
+        """Thread body: act on each key pressed until stopped."""
+        actions: dict[bytes, Callable[[], str]] = {
+            KEY_PAUSE: lambda: "paused" if self.playback.toggle() else "playing",
+            KEY_NEXT: lambda: "played next" if self.play_next() else "play next: not paused",
+            KEY_FASTER: lambda: self._step_rate(+RATE_STEP),
+            KEY_SLOWER: lambda: self._step_rate(-RATE_STEP),
+        }
+        pending = b""
+        while not self._stop.is_set():
+            ready, _, _ = select.select([fd], [], [], 0.1)
+            if not ready:
+                continue
+            chunk = os.read(fd, 16)
+            if not chunk:
+                return
+            pending += chunk
+            while pending:
+                key = next((k for k in actions if pending.startswith(k)), None)
+                if key is None:
+                    if any(k.startswith(pending) for k in actions):
+                        break  # the rest of an arrow key's escape sequence is still to come
+                    pending = pending[1:]
+                    continue
+                pending = pending[len(key) :]
+                self.get_logger().info(f"key: {actions[key]()}")
+
+    def _step_rate(self, step: float) -> str:
+        """Set the ``rate`` parameter to rate + step (refused below its range, as a service call would be)."""
+        rate = round(self.playback.rate + step, 6)
+        result = self.set_parameters([Parameter("rate", value=rate)])[0]
+        return f"rate {self.playback.rate:g}" if result.successful else f"rate unchanged: {result.reason}"
+
+    def progress_line(self) -> str:
+        """'[state] bag time t s (i/n messages), rate r'."""
+        playback = self.playback
+        state = "paused" if playback.paused else "playing"
+        t = playback.bag_now_ns() * 1e-9
+        end = float(playback.times[-1]) * 1e-9
+        return (
+            f"bag_player [{state}] bag time {t:.3f} s of {end:.3f} s "
+            f"({playback.index}/{playback.size} messages), rate {playback.rate:g}"
+        )
+
+    def _progress(self) -> None:
+        """Timer: the progress line on stderr, rewritten in place on a terminal."""
+        end = "\r" if self._progress_tty else "\n"
+        sys.stderr.write(self.progress_line() + end)
+        sys.stderr.flush()
+
+    # -- playing ------------------------------------------------------------------------------------
 
     def _wait(self) -> bool:
         """True once /pendulum/joint_states has wait_for_subscribers subscribers and, with
@@ -95,31 +331,46 @@ class PlayerNode(ThreadedNode):
                 return False
         return True
 
+    def _publish(self, taken: Taken) -> bool:
+        """Publish message ``taken.index``, preceded by /clock on each new tick (1/clock_rate_hz of bag
+        time) and after every jump; False if stopped while the readers held it back."""
+        topic, ns, data = self._messages[taken.index]
+        stopping = self._stop.is_set
+        with self._publish_lock:
+            if self.clock:
+                tick = (
+                    int((ns - self._clock_origin) * 1e-9 * self.clock_rate_hz + 1e-9)
+                    if self.clock_rate_hz > 0.0
+                    else taken.index
+                )
+                if taken.jumped or tick != self._last_tick:
+                    self._last_tick = tick
+                    clock = bm.serialize(bm.clock(int(ns)), bm.CLOCK)
+                    if not publish_blocking(self._outputs[bm.TOPIC_CLOCK], clock, stopping):
+                        return False
+            if not publish_blocking(self._outputs[topic], data, stopping):
+                return False
+            self.published += 1
+        return True
+
     def _play(self) -> None:
-        """Thread body: publish every message at (log time − first)/rate after the start, pass after pass."""
+        """Thread body: publish each message when due, pass after pass, under the controls."""
         if not self._wait():
             return
-        times = np.array([ns for _, ns, _ in self._messages], dtype=np.int64)
-        ticks = (
-            clock_mask(times.astype(np.float64) * 1e-9, self.clock_rate_hz)
-            if self.clock
-            else np.zeros(times.size, dtype=bool)
-        )
-        stopping = self._stop.is_set
-        while not stopping():
-            start = time.perf_counter()
-            for i, (topic, ns, data) in enumerate(self._messages):
-                due = start + (ns - times[0]) * 1e-9 / self.rate
-                delay = due - time.perf_counter()
-                if delay > 0 and self._stop.wait(delay):
+        first_pass = True
+        while not self._stop.is_set():
+            if self.delay > 0.0 and self._stop.wait(self.delay):
+                return
+            if first_pass:
+                self.playback.reanchor()  # the clock starts now, not when the node was built
+            else:
+                self.playback.restart()
+            first_pass = False
+            while (taken := self.playback.take_due(self._stop)) is not None:
+                if not self._publish(taken):
                     return
-                if ticks[i]:
-                    publish_blocking(
-                        self._outputs[bm.TOPIC_CLOCK], bm.serialize(bm.clock(int(ns)), bm.CLOCK), stopping
-                    )
-                if not publish_blocking(self._outputs[topic], data, stopping):
-                    return
-                self.published += 1
+            if self._stop.is_set():
+                return
             self.passes += 1
             if not self.loop:
                 break
@@ -128,6 +379,16 @@ class PlayerNode(ThreadedNode):
         self.get_logger().info(f"played {self.published} messages in {self.passes} pass(es)")
         if self.exit_on_end:
             self.finish(0)
+
+    def close(self) -> None:
+        """Stop the threads and give the terminal its mode back."""
+        self._stop.set()
+        self.playback.wake()
+        super().close()
+        if self._stdin_mode is not None:
+            with contextlib.suppress(termios.error, OSError):
+                termios.tcsetattr(sys.stdin.fileno(), termios.TCSADRAIN, self._stdin_mode)
+            self._stdin_mode = None
 
 
 def main(args: Sequence[str] | None = None) -> int:

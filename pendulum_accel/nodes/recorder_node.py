@@ -19,7 +19,14 @@ from rclpy.clock import Clock, ClockType
 
 from pendulum_accel import __version__
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE, CUSTOM_VERSION, BagWriter, Stream
+from pendulum_accel.bag.metadata import complete_qos
+from pendulum_accel.bag.writer import (
+    CUSTOM_PLAN,
+    CUSTOM_SCENE,
+    CUSTOM_VERSION,
+    BagWriter,
+    Stream,
+)
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING
 from pendulum_accel.nodes.conversions import bag_qos, message_class, stamp_offset
@@ -102,9 +109,13 @@ class RecorderNode(ChainNode):
         self.get_logger().info(f"recording {len(topics)} topics to {path}")
 
     def _add_topic(self, topic: str) -> None:
-        """Register ``topic`` in the bag with the QoS its publishers offer (reliable keep-all if unknown)."""
-        offered = [bag_qos(info.qos_profile) for info in self.get_publishers_info_by_topic(topic)]
-        self.writer.add_topic(topic, self.types[topic], offered or [bag_qos(qos_for(topic))])
+        """Register ``topic`` in the bag with the QoS its publishers offer (the chain's if unknown); history
+        and depth, which discovery does not carry, are the chain's when the rest matches."""
+        chain = bag_qos(qos_for(topic))
+        offered = [
+            complete_qos(bag_qos(i.qos_profile), chain) for i in self.get_publishers_info_by_topic(topic)
+        ]
+        self.writer.add_topic(topic, self.types[topic], offered or [chain])
 
     def _on_message(self, topic: str, data: bytes) -> None:
         """Write one raw message at its stamp (or receive time)."""

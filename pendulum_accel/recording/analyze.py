@@ -1,9 +1,11 @@
-"""Offline analysis of a bag: re-run an estimator on the recorded angles, compare with the recorded truth.
+"""Analysis of a bag: the estimate it recorded (live) and an offline re-run, each against the recorded truth.
 
-Error e(t) = â(t) − a(t) at the joint-state stamps (truth interpolated onto them). Reported:
-bias = mean e, RMS = √(mean e²), max |e| (over the samples after ``skip`` seconds that have an
-estimate), and the settling time: from the truth's own last change (step or end of ramp), the time
-after which |e| stays within the tolerance to the end of the bag.
+Error e(t) = â(t) − a(t) at the estimate's stamps (truth interpolated onto them). For each of the two
+estimate streams (:class:`EstimateFigures`): how many angles got an estimate and where the stream has
+holes (runs of angles without one), bias = mean e, RMS = √(mean e²), max |e| (over the samples after
+``skip`` seconds that have an estimate), the settling time (from the truth's own last change, step or
+end of ramp, to the time after which |e| stays within the tolerance to the end of the bag) and the same
+figures over the settled samples. The re-run uses the estimator the bag was recorded with unless told.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,15 +21,18 @@ from numpy.typing import NDArray
 from pendulum_accel.bag.messages import (
     ACCEL_STAMPED,
     ACCEL_WITH_COVARIANCE_STAMPED,
+    DIAGNOSTIC_ARRAY,
     JOINT_STATE,
     TOPIC_ACCEL_ESTIMATE,
     TOPIC_ACCEL_TRUTH,
+    TOPIC_DIAGNOSTICS,
     TOPIC_JOINT_STATES,
+    deserialize,
 )
 from pendulum_accel.bag.reader import Bag, read_bag, scene_name
-from pendulum_accel.bag.writer import CUSTOM_SCENE
+from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
-from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import scene_from_yaml
 
@@ -116,6 +122,116 @@ def calibration(
 
 
 @dataclass(frozen=True)
+class Hole:
+    """A run of angles without an estimate: from the first such angle's stamp to the next estimate's (s)."""
+
+    start: float
+    end: float
+    missing: int
+
+    @property
+    def duration(self) -> float:
+        """end − start (s)."""
+        return self.end - self.start
+
+
+@dataclass(frozen=True)
+class EstimateFigures:
+    """One estimate stream against the truth: counts, holes, all-sample and settled error figures."""
+
+    source: str
+    estimator: str
+    angles: int
+    t: NDArray[np.float64]
+    accel: NDArray[np.float64]
+    holes: tuple[Hole, ...]
+    stats: ErrorStats
+    settled_stats: ErrorStats
+    settle_from: float
+    settling_time: float | None
+
+    @property
+    def count(self) -> int:
+        """Number of finite estimates."""
+        return int(np.isfinite(self.accel).sum())
+
+    def as_dict(self) -> dict[str, object]:
+        """The figures as JSON-ready values (NaN as None)."""
+
+        def num(x: float) -> float | None:
+            """x, or None when not finite."""
+            return x if math.isfinite(x) else None
+
+        s, ss = self.stats, self.settled_stats
+        longest = max(self.holes, key=lambda h: h.duration) if self.holes else None
+        return {
+            "source": self.source,
+            "estimator": self.estimator,
+            "estimates": self.count,
+            "angles": self.angles,
+            "missing": sum(h.missing for h in self.holes),
+            "holes": [[h.start, h.end, h.missing] for h in self.holes],
+            "longest_hole": longest.duration if longest is not None else 0.0,
+            "bias": num(s.bias),
+            "rms": num(s.rms),
+            "max_error": num(s.max_abs),
+            "samples": s.n,
+            "settling_time": self.settling_time,
+            "settled_bias": num(ss.bias),
+            "settled_rms": num(ss.rms),
+            "settled_max_error": num(ss.max_abs),
+            "settled_samples": ss.n,
+        }
+
+
+def estimate_holes(angle_t: NDArray[np.float64], est_t: NDArray[np.float64]) -> tuple[Hole, ...]:
+    """Runs of angle stamps with no estimate of that stamp (the estimator stamps each estimate with its
+    input's stamp); a run ends at the next angle that has one, or at the last angle."""
+    has = np.isin(angle_t, est_t)
+    missing = ~has
+    if not missing.any():
+        return ()
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], missing.astype(np.int8), [0]))))
+    holes = []
+    for first, stop in zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True):
+        end = angle_t[stop] if stop < angle_t.size else angle_t[-1]
+        holes.append(Hole(float(angle_t[first]), float(end), stop - first))
+    return tuple(holes)
+
+
+def estimate_figures(
+    source: str,
+    estimator: str,
+    angle_t: NDArray[np.float64],
+    t: NDArray[np.float64],
+    accel: NDArray[np.float64],
+    truth: NDArray[np.float64],
+    tolerance: float,
+    skip_until: float,
+) -> EstimateFigures:
+    """Figures of estimates ``accel`` at stamps ``t`` (NaN: none) against ``truth`` at the same stamps."""
+    finite = np.isfinite(accel)
+    error = accel - truth
+    window = t >= skip_until
+    settle_from, settling_time = settling(t, error, truth, tolerance)
+    settled = np.zeros(t.size, dtype=bool)
+    if settling_time is not None:
+        settled = t >= settle_from + settling_time
+    return EstimateFigures(
+        source=source,
+        estimator=estimator,
+        angles=int(angle_t.size),
+        t=t,
+        accel=accel,
+        holes=estimate_holes(angle_t, t[finite]),
+        stats=ErrorStats.of(error[window]),
+        settled_stats=ErrorStats.of(error[settled & window]),
+        settle_from=settle_from,
+        settling_time=settling_time,
+    )
+
+
+@dataclass(frozen=True)
 class Analysis:
     """Result of analyze_bag: the aligned series and the error figures."""
 
@@ -136,6 +252,8 @@ class Analysis:
     settling_time: float | None
     recorded: ErrorStats | None
     problem: str | None
+    offline_figures: EstimateFigures
+    recorded_figures: EstimateFigures | None
     calibration: Calibration | None = None
     recorded_calibration: Calibration | None = None
 
@@ -145,38 +263,61 @@ class Analysis:
         return self.accel_est - self.accel_true
 
     def lines(self) -> list[str]:
-        """Human-readable report, one figure per line."""
-        s, ss = self.stats, self.settled_stats
-        settle = (
-            f"{self.settling_time:.3f} s after the truth's last change at t={self.settle_from:.3f} s"
-            if self.settling_time is not None
-            else "never (|error| still above the tolerance at the end)"
-        )
+        """Human-readable report: the bag, then the recorded and the re-run estimate side by side."""
         cfg = ", ".join(f"{k}={v:g}" for k, v in self.config.items())
         out = [
             f"bag:        {self.path}" + (f"  (scene {self.scene})" if self.scene else ""),
-            f"estimator:  {self.estimator}  ({cfg})",
-            f"samples:    {self.t.size} angles over {self.t[-1] - self.t[0]:.3f} s, {s.n} estimates compared"
-            + (f" after skipping {self.skip:g} s" if self.skip > 0 else ""),
-            f"bias:       {s.bias:+.5f} m/s²",
-            f"RMS:        {s.rms:.5f} m/s²",
-            f"max error:  {s.max_abs:.5f} m/s²",
-            f"settling:   {settle}  (tolerance ±{self.tolerance:.4f} m/s²)",
+            f"angles:     {self.t.size} over {self.t[-1] - self.t[0]:.3f} s"
+            + (f", figures after skipping {self.skip:g} s" if self.skip > 0 else "")
+            + f"; settling band ±{self.tolerance:.4f} m/s²",
+            f"re-run:     {self.estimator}  ({cfg})",
         ]
-        if ss.n:
-            out.append(
-                f"settled:    bias {ss.bias:+.5f}, RMS {ss.rms:.5f}, max {ss.max_abs:.5f} m/s² (n={ss.n})"
-            )
-        if self.recorded is not None:
-            r = self.recorded
-            out.append(
-                f"recorded /car/accel/estimate: bias {r.bias:+.5f}, RMS {r.rms:.5f}, max {r.max_abs:.5f} m/s²"
-            )
+        columns = [f for f in (self.recorded_figures, self.offline_figures) if f is not None]
+        if self.recorded_figures is None:
+            out.append("recorded:   the bag holds no /car/accel/estimate")
+        out += figure_table(columns)
         if self.calibration is not None:
             out.append(self.calibration.line("calibration (re-run)"))
         if self.recorded_calibration is not None:
             out.append(self.recorded_calibration.line("calibration (recorded)"))
         return out
+
+
+def _hole_text(f: EstimateFigures) -> str:
+    """'none' or 'K (M angles), longest D s at t=T'."""
+    if not f.holes:
+        return "none"
+    longest = max(f.holes, key=lambda h: h.duration)
+    return (
+        f"{len(f.holes)} ({sum(h.missing for h in f.holes)} angles), "
+        f"longest {longest.duration:.3f} s at t={longest.start:.3f}"
+    )
+
+
+def figure_table(columns: list[EstimateFigures]) -> list[str]:
+    """Rows 'name  value  value' of the figures of each estimate stream, one column per stream."""
+
+    def settle(f: EstimateFigures) -> str:
+        """Settling time after the truth's last change, or 'never'."""
+        if f.settling_time is None:
+            return "never"
+        return f"{f.settling_time:.3f} s (from t={f.settle_from:.3f})"
+
+    rows: list[tuple[str, list[str]]] = [
+        ("", [f"{f.source} ({f.estimator})" for f in columns]),
+        ("estimates", [f"{f.count} of {f.angles} angles" for f in columns]),
+        ("holes", [_hole_text(f) for f in columns]),
+        ("bias", [f"{f.stats.bias:+.5f} m/s²" for f in columns]),
+        ("RMS", [f"{f.stats.rms:.5f} m/s²" for f in columns]),
+        ("max error", [f"{f.stats.max_abs:.5f} m/s²" for f in columns]),
+        ("settling", [settle(f) for f in columns]),
+        ("settled bias", [f"{f.settled_stats.bias:+.5f} m/s²" for f in columns]),
+        ("settled RMS", [f"{f.settled_stats.rms:.5f} m/s²" for f in columns]),
+        ("settled max", [f"{f.settled_stats.max_abs:.5f} m/s² (n={f.settled_stats.n})" for f in columns]),
+    ]
+    width = max(len(v) for _, values in rows for v in values) + 2
+    return [f"{name + ':' if name else '':<14}" + "".join(f"{v:<{width}}" for v in values).rstrip()
+            for name, values in rows]  # fmt: skip
 
 
 def settling(
@@ -209,7 +350,8 @@ def analyze_bag(
     skip: float = 0.0,
     tolerance: float | None = None,
 ) -> Analysis:
-    """Re-run ``estimator`` (default: the package default) on the bag's angles and compare with its truth.
+    """Re-run ``estimator`` (default: the one the bag was recorded with, else the package default) on the
+    bag's angles; compare it and the recorded estimate with the truth.
 
     ``config`` overrides the estimator configuration taken from the bag's scene (length, gravity,
     noise_std, rate_hz); without a stored scene, ``length`` must be given.
@@ -241,17 +383,14 @@ def analyze_bag(
     cfg.update(config or {})
     if "length" not in cfg:
         raise BagError(f"bag {data.path} stores no scene: give the pendulum length (--length)")
-    name = estimator or DEFAULT_ESTIMATOR
+    name = estimator or recorded_estimator(data) or DEFAULT_ESTIMATOR
     a_est, variance = estimate_batch(name, t, theta, **cfg)
     a_est = np.asarray(a_est, dtype=np.float64)
     variance = np.asarray(variance, dtype=np.float64)
     tol = default_tolerance(a_true) if tolerance is None else float(tolerance)
-    error = a_est - a_true
-    window = t >= t[0] + skip
-    settle_from, settling_time = settling(t, error, a_true, tol)
-    settled = np.zeros(t.size, dtype=bool)
-    if settling_time is not None:
-        settled = t >= settle_from + settling_time
+    truth_t, truth_a = tt[t_order], truth["accel.linear.x"][t_order]
+    offline = estimate_figures("offline re-run", name, t, t, a_est, a_true, tol, t[0] + skip)
+    recorded = _recorded_figures(data, t, truth_t, truth_a, tol, t[0] + skip)
     return Analysis(
         path=data.path,
         scene=scene_name(data),
@@ -264,18 +403,16 @@ def analyze_bag(
         variance=variance,
         skip=skip,
         tolerance=tol,
-        stats=ErrorStats.of(error[window]),
-        settled_stats=ErrorStats.of(error[settled & window]),
-        settle_from=settle_from,
-        settling_time=settling_time,
-        recorded=_recorded_stats(data, tt[t_order], truth["accel.linear.x"][t_order], skip + t[0]),
+        stats=offline.stats,
+        settled_stats=offline.settled_stats,
+        settle_from=offline.settle_from,
+        settling_time=offline.settling_time,
+        recorded=recorded.stats if recorded is not None else None,
         problem=data.problem,
-        calibration=calibration(
-            t, error, variance, tt[t_order], truth["accel.linear.x"][t_order], t[0] + skip
-        ),
-        recorded_calibration=_recorded_calibration(
-            data, tt[t_order], truth["accel.linear.x"][t_order], skip + t[0]
-        ),
+        offline_figures=offline,
+        recorded_figures=recorded,
+        calibration=calibration(t, a_est - a_true, variance, truth_t, truth_a, t[0] + skip),
+        recorded_calibration=_recorded_calibration(data, truth_t, truth_a, t[0] + skip),
     )
 
 
@@ -295,10 +432,36 @@ def _recorded_calibration(
     return calibration(te, error, est["accel.covariance[0]"], t_truth, a_truth, t_from)
 
 
-def _recorded_stats(
-    bag: Bag, t_truth: NDArray[np.float64], a_truth: NDArray[np.float64], t_from: float
-) -> ErrorStats | None:
-    """Error figures of the estimate recorded in the bag (live estimator), None without that topic."""
+def recorded_estimator(bag: Bag) -> str | None:
+    """The method that produced the bag's estimates: custom_data's, else the first /diagnostics report's
+    ``method`` value (the estimator node reports it), None when neither says."""
+    stored = bag.custom_data.get(CUSTOM_ESTIMATOR)
+    if stored in ESTIMATORS:
+        return stored
+    if TOPIC_DIAGNOSTICS not in bag.topics:
+        return None
+    _, payloads = bag.raw(TOPIC_DIAGNOSTICS)
+    for data in payloads[:10]:
+        try:
+            msg: Any = deserialize(data, DIAGNOSTIC_ARRAY)
+        except BagError:
+            continue
+        for status in msg.status:
+            for kv in status.values:
+                if kv.key == "method" and kv.value in ESTIMATORS:
+                    return str(kv.value)
+    return None
+
+
+def _recorded_figures(
+    bag: Bag,
+    angle_t: NDArray[np.float64],
+    t_truth: NDArray[np.float64],
+    a_truth: NDArray[np.float64],
+    tolerance: float,
+    skip_until: float,
+) -> EstimateFigures | None:
+    """Figures of the estimate recorded in the bag (the live estimator), None without that topic."""
     if TOPIC_ACCEL_ESTIMATE not in bag.topics or bag.topics[TOPIC_ACCEL_ESTIMATE].count == 0:
         return None
     est = bag.decode(
@@ -306,9 +469,12 @@ def _recorded_stats(
         ACCEL_WITH_COVARIANCE_STAMPED,
         fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x"],
     )
-    te = est.stamp
-    keep = te >= t_from
-    return ErrorStats.of(est["accel.accel.linear.x"][keep] - np.interp(te[keep], t_truth, a_truth))
+    order = np.argsort(est.stamp, kind="stable")
+    te = est.stamp[order]
+    ae = est["accel.accel.linear.x"][order]
+    method = recorded_estimator(bag) or "unknown"
+    truth = np.interp(te, t_truth, a_truth)
+    return estimate_figures("recorded", method, angle_t, te, ae, truth, tolerance, skip_until)
 
 
 def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
@@ -334,7 +500,8 @@ def _scene_config(text: str) -> dict[str, float]:
 
 
 def plot_analysis(result: Analysis, out: Path | str) -> Path:
-    """Three panels, shared time axis: θ (deg); true vs estimated a; error with the ±tolerance band."""
+    """Three panels, shared time axis: θ (deg); truth, recorded estimate (holes shaded) and re-run; both
+    errors with the ±tolerance band."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -344,23 +511,36 @@ def plot_analysis(result: Analysis, out: Path | str) -> Path:
     t = result.t
     axes[0].plot(t, np.degrees(result.theta), lw=0.8, color="tab:gray")
     axes[0].set_ylabel("θ (deg)")
-    title = f"{result.scene or result.path.name}: {result.estimator}"
+    title = f"{result.scene or result.path.name}: recorded estimate and {result.estimator} re-run"
     axes[0].set_title(title)
+    rec = result.recorded_figures
     axes[1].plot(t, result.accel_true, lw=1.5, color="black", label="truth a(t)")
-    axes[1].plot(t, result.accel_est, lw=0.9, color="tab:blue", label=f"estimate ({result.estimator})")
+    if rec is not None:
+        axes[1].plot(rec.t, rec.accel, lw=1.6, color="tab:orange", label=f"recorded ({rec.estimator})")
+        for hole in rec.holes:
+            axes[1].axvspan(hole.start, hole.end, color="tab:red", alpha=0.12)
+    axes[1].plot(t, result.accel_est, lw=0.9, color="tab:blue", label=f"offline re-run ({result.estimator})")
     axes[1].set_ylabel("a (m/s²)")
     axes[1].legend(loc="best")
-    axes[2].plot(t, result.error, lw=0.8, color="tab:red", label="â − a")
+    if rec is not None:
+        rec_error = rec.accel - np.interp(rec.t, t, result.accel_true)
+        axes[2].plot(rec.t, rec_error, lw=1.2, color="tab:orange", label="recorded â − a")
+    axes[2].plot(t, result.error, lw=0.8, color="tab:blue", label="re-run â − a")
     axes[2].axhspan(-result.tolerance, result.tolerance, color="tab:green", alpha=0.15, label="± tolerance")
     if result.settling_time is not None:
         axes[2].axvline(
-            result.settle_from + result.settling_time, color="tab:green", ls="--", lw=1, label="settled"
+            result.settle_from + result.settling_time,
+            color="tab:green",
+            ls="--",
+            lw=1,
+            label="re-run settled",
         )
     axes[2].set_ylabel("error (m/s²)")
     axes[2].set_xlabel("t (s)")
     axes[2].legend(loc="best")
-    s = result.stats
-    axes[2].set_title(f"bias {s.bias:+.4f}, RMS {s.rms:.4f}, max {s.max_abs:.4f} m/s²", fontsize=9)
+    titles = [f"{f.source}: RMS {f.stats.rms:.4f}, max {f.stats.max_abs:.4f} m/s²"
+              for f in (rec, result.offline_figures) if f is not None]  # fmt: skip
+    axes[2].set_title("; ".join(titles), fontsize=9)
     for ax in axes:
         ax.grid(True, alpha=0.3)
     path = Path(out)
@@ -370,8 +550,9 @@ def plot_analysis(result: Analysis, out: Path | str) -> Path:
     return path
 
 
-def analysis_dict(result: Analysis) -> dict[str, str | float | int | None]:
-    """Figures of an analysis as a flat dict (for tables and JSON)."""
+def analysis_dict(result: Analysis) -> dict[str, object]:
+    """Figures of an analysis for tables and JSON: the re-run's main figures at the top level (as before),
+    then "recorded" and "offline" with every figure of each stream (recorded: None without estimates)."""
     return {
         "bag": str(result.path),
         "scene": result.scene,
@@ -382,6 +563,8 @@ def analysis_dict(result: Analysis) -> dict[str, str | float | int | None]:
         "settling_time": result.settling_time,
         "tolerance": result.tolerance,
         "samples": result.stats.n,
+        "recorded": result.recorded_figures.as_dict() if result.recorded_figures is not None else None,
+        "offline": result.offline_figures.as_dict(),
         **_calibration_fields("", result.calibration),
         **_calibration_fields("recorded_", result.recorded_calibration),
     }

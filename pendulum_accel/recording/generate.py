@@ -20,7 +20,14 @@ from numpy.typing import NDArray
 
 from pendulum_accel import __version__
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_SCENE, CUSTOM_VERSION, BagWriter, Stream
+from pendulum_accel.bag.writer import (
+    CUSTOM_ESTIMATOR,
+    CUSTOM_PLAN,
+    CUSTOM_SCENE,
+    CUSTOM_VERSION,
+    BagWriter,
+    Stream,
+)
 from pendulum_accel.errors import BagError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.estimators.guard import InputGuard
@@ -292,6 +299,7 @@ def generate_bag(
         CUSTOM_SCENE: scene_to_yaml(scene),
         CUSTOM_PLAN: run.plan.explain(),
         CUSTOM_VERSION: __version__,
+        CUSTOM_ESTIMATOR: method,
     }
     counts = write_chain_bag(out, streams, custom_data=custom, overwrite=overwrite, compression=compression)
     t3 = time.perf_counter()

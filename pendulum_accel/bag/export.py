@@ -1,0 +1,174 @@
+"""A bag as tables (pandas): one per topic, or one merged on the angle's stamps; CSV or Parquet files.
+
+Column names are PlotJuggler's (its ROS parser, plotjuggler-ros / ParserROS): topic, then the field
+path with "/" between names and "[i]" for array elements (``/car/accel/estimate/accel/accel/linear/x``,
+``/car/accel/estimate/accel/covariance[0]``), with its two special cases for our types: a JointState
+joint's values are ``topic/<joint name>/position`` (``velocity``, ``effort``), and a DiagnosticArray
+status's key/value pairs are ``topic/<hardware_id>/<name>/<key>`` (numbers where every value of the
+key parses as one), to which ``level`` and ``message`` are added under the same prefix. Every table
+starts with ``t`` (the message stamp, s) and ``log_time`` (s). Fixed-layout topics are decoded in
+bulk by the package's reader; /diagnostics is deserialised message by message. pandas (and pyarrow
+for Parquet) are the optional ``export`` extra, imported only here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import Bag
+from pendulum_accel.errors import PendulumAccelError
+
+FORMATS = ("csv", "parquet")
+BULK_TYPES = frozenset({bm.JOINT_STATE, bm.ACCEL_STAMPED, bm.ACCEL_WITH_COVARIANCE_STAMPED, bm.CLOCK})
+"""Message types whose fields sit at fixed offsets in every message the chain writes: decoded in bulk."""
+MERGED_NAME = "merged"
+PER_SAMPLE_TOPICS = frozenset({bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_STRING})
+"""Topics stamped with the angle's stamp: merged on equal stamps (a missing estimate stays missing)."""
+
+
+class ExportError(PendulumAccelError):
+    """Export impossible: a missing optional dependency, an unknown format or topic."""
+
+
+def _pandas() -> ModuleType:
+    """The pandas module; ExportError with the install line when the extra is missing."""
+    try:
+        import pandas
+    except ImportError:
+        raise ExportError(
+            "export needs pandas (and pyarrow for Parquet): pip install 'pendulum_accel[export]'"
+        ) from None
+    return pandas
+
+
+def column_name(topic: str, path: str) -> str:
+    """PlotJuggler's name of field ``path`` of ``topic``: topic + "/" + path with "." → "/"."""
+    return f"{topic}/{path.replace('.', '/')}"
+
+
+def _joint_renames(bag: Bag, topic: str, paths: Sequence[str]) -> dict[str, str]:
+    """{reader path: PlotJuggler series suffix} of a JointState topic: position[i] → <name i>/position."""
+    _, payloads = bag.raw(topic)
+    msg: Any = bm.deserialize(payloads[0], bm.JOINT_STATE) if payloads else None
+    names = list(msg.name) if msg is not None else []
+    renames = {}
+    for path in paths:
+        head, _, index = path.partition("[")
+        if head in ("position", "velocity", "effort") and index and int(index[:-1]) < len(names):
+            renames[path] = f"{names[int(index[:-1])]}/{head}"
+    return renames
+
+
+def _diagnostic_columns(topic: str, payloads: Sequence[bytes], pd: ModuleType) -> dict[str, Any]:
+    """PlotJuggler's DiagnosticArray series (hardware_id/name/key) plus level and message, one row each."""
+    rows: list[dict[str, object]] = []
+    for data in payloads:
+        msg: Any = bm.deserialize(data, bm.DIAGNOSTIC_ARRAY)
+        row: dict[str, object] = {}
+        for status in msg.status:
+            prefix = "/".join(p for p in (topic, status.hardware_id, status.name) if p)
+            row[f"{prefix}/level"] = int(status.level)
+            row[f"{prefix}/message"] = status.message
+            for kv in status.values:
+                row[f"{prefix}/{kv.key}"] = kv.value
+        rows.append(row)
+    table = pd.DataFrame.from_records(rows)
+    columns = {}
+    for name in table.columns:
+        if str(name).endswith("/message"):
+            columns[str(name)] = table[name].to_numpy()
+            continue
+        try:  # numbers when every value of the key is one (PlotJuggler: per value), else strings
+            columns[str(name)] = pd.to_numeric(table[name]).to_numpy()
+        except (ValueError, TypeError):
+            columns[str(name)] = table[name].to_numpy()
+    return columns
+
+
+def topic_table(bag: Bag, topic: str) -> Any:
+    """DataFrame of one topic: t, log_time, then every field as PlotJuggler names it, one row per message."""
+    pd = _pandas()
+    msgtype = bag.topics[topic].msgtype if topic in bag.topics else None
+    if msgtype in BULK_TYPES:
+        arrays = bag.decode(topic)
+        t = arrays.stamp
+        log_time = arrays.log_time_ns
+        renames = _joint_renames(bag, topic, list(arrays.fields)) if msgtype == bm.JOINT_STATE else {}
+        columns: dict[str, Any] = {
+            column_name(topic, renames.get(p, p)): col for p, col in arrays.fields.items()
+        }
+    elif msgtype == bm.DIAGNOSTIC_ARRAY:
+        log_time, payloads = bag.raw(topic)
+        stamps = bag.decode(topic, fields=["header.stamp.sec", "header.stamp.nanosec"])
+        t = stamps.stamp
+        columns = _diagnostic_columns(topic, payloads, pd)
+    else:
+        raise ExportError(f"topic {topic} has type {msgtype}, which export does not flatten")
+    head = {"t": np.asarray(t, dtype=np.float64), "log_time": np.asarray(log_time) * 1e-9}
+    return pd.DataFrame({**head, **columns})
+
+
+def merged_table(bag: Bag, topics: Sequence[str]) -> Any:
+    """One DataFrame on the angle's stamps: a per-sample topic's row with the same stamp (truth, estimate,
+    string), any other topic's (/clock, /diagnostics) latest row at or before the stamp."""
+    pd = _pandas()
+    base = topic_table(bag, bm.TOPIC_JOINT_STATES).drop(columns=["log_time"]).sort_values("t", kind="stable")
+    for topic in topics:
+        if topic == bm.TOPIC_JOINT_STATES:
+            continue
+        other = topic_table(bag, topic).drop(columns=["log_time"]).sort_values("t", kind="stable")
+        if topic in PER_SAMPLE_TOPICS:
+            base = base.merge(other.drop_duplicates("t", keep="last"), on="t", how="left")
+        else:
+            base = pd.merge_asof(base, other, on="t", direction="backward")
+    return base.reset_index(drop=True)
+
+
+def file_stem(topic: str) -> str:
+    """File name of a topic's table: the topic without its leading "/", "/" → "__"."""
+    return topic.strip("/").replace("/", "__")
+
+
+def export_bag(
+    bag: Bag, out: Path | str, *, fmt: str = "csv", merged: bool = False, topics: Sequence[str] = ()
+) -> list[Path]:
+    """Write ``topics`` (default: all) of ``bag`` under directory ``out`` as CSV or Parquet; the paths."""
+    if fmt not in FORMATS:
+        raise ExportError(f"unknown format {fmt!r}; use {' or '.join(FORMATS)}")
+    _pandas()
+    if fmt == "parquet":
+        try:
+            import pyarrow  # noqa: F401
+        except ImportError:
+            raise ExportError("Parquet export needs pyarrow: pip install 'pendulum_accel[export]'") from None
+    chosen = list(topics) or list(bag.topics)
+    unknown = [t for t in chosen if t not in bag.topics]
+    if unknown:
+        raise ExportError(f"bag {bag.path} has no topic {unknown[0]} (it has {', '.join(bag.topics)})")
+    if merged and bm.TOPIC_JOINT_STATES not in bag.topics:
+        raise ExportError(f"bag {bag.path} has no {bm.TOPIC_JOINT_STATES} to merge on")
+    tables = (
+        {MERGED_NAME: merged_table(bag, chosen)}
+        if merged
+        else {file_stem(t): topic_table(bag, t) for t in chosen}
+    )
+    directory = Path(out)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ExportError(f"cannot create {directory}: {err.strerror}") from None
+    paths = []
+    for stem, table in tables.items():
+        path = directory / f"{stem}.{fmt}"
+        if fmt == "csv":
+            table.to_csv(path, index=False, float_format="%.17g")
+        else:
+            table.to_parquet(path, index=False)
+        paths.append(path)
+    return paths

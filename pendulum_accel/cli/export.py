@@ -1,0 +1,41 @@
+"""``pendulum-accel export BAG``: a bag as CSV or Parquet tables (one per topic, or one merged)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from pendulum_accel.bag.export import FORMATS, export_bag
+from pendulum_accel.bag.reader import read_bag, salvage_note
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``export`` subcommand."""
+    parser = subparsers.add_parser(
+        "export",
+        help="write a bag's topics as CSV or Parquet tables (pandas)",
+        description=(
+            "Write every topic of BAG (or --topics) as a table, one file per topic, or one table merged "
+            "on the angle's stamps (--merged). Columns are named as PlotJuggler names them "
+            "(/car/accel/estimate/accel/accel/linear/x). Needs the export extra (pandas, pyarrow)."
+        ),
+    )
+    parser.add_argument("bag", help="bag directory (or .mcap file)")
+    parser.add_argument("--out", required=True, metavar="DIR", help="directory for the tables")
+    parser.add_argument("--format", choices=FORMATS, default="csv", help="file format (default csv)")
+    parser.add_argument("--merged", action="store_true", help="one table on the angle's stamps")
+    parser.add_argument("--topics", nargs="+", default=[], metavar="TOPIC", help="only these topics")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Write the tables and list them; a damaged bag is exported up to the damage, with a warning, exit 1."""
+    bag = read_bag(args.bag)
+    for path in export_bag(bag, args.out, fmt=args.format, merged=args.merged, topics=args.topics):
+        print(path)
+    note = salvage_note(bag)
+    if note is not None:
+        print(f"pendulum-accel export: warning: {note}", file=sys.stderr)
+        return 1
+    return 0
