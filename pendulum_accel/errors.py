@@ -31,3 +31,7 @@ class SceneError(PendulumAccelError, ValueError):
 
 class BagError(PendulumAccelError):
     """A bag that cannot be read, written or repaired."""
+
+
+class OutputError(PendulumAccelError):
+    """An output that cannot be written (disk full, read-only, a directory where a file goes)."""

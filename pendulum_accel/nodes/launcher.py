@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
 
-from pendulum_accel.errors import ParameterError
+from pendulum_accel.nodes.preflight import check_chain
 from pendulum_accel.nodes.scheduling import RT_PRIORITY_ENV
 
 _PR_SET_PDEATHSIG = 1
@@ -123,8 +123,7 @@ class Chain:
 
     def __init__(self, config: ChainConfig, *, log: bool = True, output: Path | None = None) -> None:
         """Check the configuration (no process is started yet); ``output``: file for the nodes' logs."""
-        if config.record is not None and config.record.exists() and not config.overwrite:
-            raise ParameterError(f"{config.record} exists already; pass --overwrite to replace it")
+        check_chain(config)
         self.config = config
         self.children: list[Child] = []
         self.log = log
