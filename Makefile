@@ -30,6 +30,15 @@ $(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.x
 	    apt-get update -qq && apt-get install -y -qq python3-venv >/dev/null && \
 	    $(PYTHON) -m venv $(VENV_FLAGS) $(VENV); }; \
 	fi
+	@# The network tests read bound sockets with ss and build two "hosts" with ip netns and iptables.
+	@missing=""; for t in ss:iproute2 ip:iproute2 iptables:iptables; do \
+	  command -v $${t%%:*} >/dev/null 2>&1 || PATH="$$PATH:/usr/sbin:/sbin" command -v $${t%%:*} >/dev/null 2>&1 || \
+	    missing="$$missing $${t##*:}"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian's$$missing (network tests)"; \
+	  apt-get update -qq && apt-get install -y -qq $$(echo $$missing | tr ' ' '\n' | sort -u) >/dev/null; \
+	fi
 	$(BIN)/python -m pip install -q --disable-pip-version-check --upgrade pip
 	$(BIN)/python -m pip install -q --disable-pip-version-check -r requirements-dev.txt $(ROS_REQS)
 	$(BIN)/python -m pip install -q --disable-pip-version-check --no-deps -e .
@@ -56,7 +65,7 @@ bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags
 
 # Every benchmark, each the way the README quotes it; figures print and land in out/bench.
-BENCHES := work_precision estimators chain bags sweep_bench
+BENCHES := work_precision estimators chain bags sweep_bench soak
 bench: $(STAMP)
 	@for b in $(BENCHES); do \
 	  echo "== python -m benchmarks.$$b"; \
