@@ -27,7 +27,7 @@ from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.nodes.launcher import node_command
 from pendulum_accel.overrides import apply_overrides
 from pendulum_accel.scene import load_scene
-from test.chain_helpers import Output
+from test.chain_helpers import Output, run_probe, start_node
 from test.conftest import Spawn
 
 pytestmark = pytest.mark.ros
@@ -232,3 +232,23 @@ def test_chain_across_two_hosts_with_loss_and_a_link_cut(
     stale = [i for i, (_, level) in enumerate(during) if level == 3]
     assert stale, f"no STALE diagnostic during the {cut_s:.1f} s cut: {levels}"
     assert any(level == 0 for _, level in during[stale[0] + 1 :]), f"no recovery to OK: {levels}"
+
+
+def test_the_estimator_node_drops_a_foreign_joint_and_says_so(spawn: Spawn) -> None:
+    """JointStates naming only elbow_joint: no estimate, ERROR on /diagnostics with the count."""
+    estimator = start_node(spawn, "estimator_node", {"scene": SCENE, "diagnostics_period": 0.2})
+    estimator.wait_for(r"estimating with", timeout=60)
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/car/accel/estimate", "/diagnostics"],
+            "wait_subscribers": 1,
+            "joints": ["elbow_joint"],
+            "feed": [[0.01 * i, 0.2] for i in range(1, 51)],
+            "linger": 1.0,
+        },
+    )
+    assert result["estimates"] == []
+    errors = [values for level, _, values in result["diagnostics"] if level == 2]
+    assert errors, result["diagnostics"]
+    assert int(errors[-1]["dropped_wrong_joint"]) == 50
