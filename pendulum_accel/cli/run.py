@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pendulum_accel.errors import ParameterError
 from pendulum_accel.overrides import SET_HELP, parse_override
 
 if TYPE_CHECKING:
@@ -58,6 +59,12 @@ def chain_config(args: argparse.Namespace) -> ChainConfig:
     from pendulum_accel.nodes.launcher import ChainConfig
     from pendulum_accel.scene import DEFAULT_SCENE
 
+    if args.rt_priority and not args.realtime:
+        # The launcher would quietly run it at normal priority: say so instead.
+        raise ParameterError(
+            "--rt-priority applies to real-time runs only (as fast as possible, FIFO nodes that never "
+            "block would starve the machine); drop --fast or --rt-priority"
+        )
     if getattr(args, "network", False):
         os.environ[NETWORK_ENV] = "1"  # inherited by every node the launcher starts
     return ChainConfig(
