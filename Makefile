@@ -22,13 +22,24 @@ endif
 
 setup: $(STAMP)
 
-$(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.xml
+$(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.xml Makefile
 	@if [ ! -x $(BIN)/python ]; then \
 	  $(PYTHON) -m venv $(VENV_FLAGS) $(VENV) 2>/dev/null || { \
 	    echo "python3 -m venv failed; installing Debian's python3-venv"; \
 	    rm -rf $(VENV); \
 	    apt-get update -qq && apt-get install -y -qq python3-venv >/dev/null && \
 	    $(PYTHON) -m venv $(VENV_FLAGS) $(VENV); }; \
+	fi
+	@# The network tests read bound sockets with ss and build two "hosts" with ip netns and iptables;
+	@# the animation test writes an .mp4 through ffmpeg and reads it back with ffprobe.
+	@missing=""; for t in ss:iproute2 ip:iproute2 iptables:iptables ffmpeg:ffmpeg ffprobe:ffmpeg; do \
+	  command -v $${t%%:*} >/dev/null 2>&1 || PATH="$$PATH:/usr/sbin:/sbin" command -v $${t%%:*} >/dev/null 2>&1 || \
+	    missing="$$missing $${t##*:}"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian's$$missing (network and animation tests)"; \
+	  apt-get update -qq && apt-get install -y -qq --no-install-recommends \
+	    $$(echo $$missing | tr ' ' '\n' | sort -u) >/dev/null; \
 	fi
 	$(BIN)/python -m pip install -q --disable-pip-version-check --upgrade pip
 	$(BIN)/python -m pip install -q --disable-pip-version-check -r requirements-dev.txt $(ROS_REQS)
@@ -56,7 +67,7 @@ bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags
 
 # Every benchmark, each the way the README quotes it; figures print and land in out/bench.
-BENCHES := work_precision estimators calibration chain bags sweep_bench
+BENCHES := work_precision estimators calibration chain bags sweep_bench soak
 bench: $(STAMP)
 	@for b in $(BENCHES); do \
 	  echo "== python -m benchmarks.$$b"; \

@@ -35,3 +35,7 @@ class BagError(PendulumAccelError):
 
 class RosMissingError(PendulumAccelError):
     """rclpy is not importable: the live chain cannot start."""
+
+
+class OutputError(PendulumAccelError):
+    """An output that cannot be written (disk full, read-only, a directory where a file goes)."""

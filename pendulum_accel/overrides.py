@@ -24,7 +24,10 @@ class Override:
     set: Callable[[Scene, float], Scene]
 
     def check(self, value: float) -> float:
-        """value itself when low ≤ value ≤ high (and finite); ParameterError naming the field otherwise."""
+        """value itself when low ≤ value ≤ high (finite, whole for an int field); else ParameterError."""
+        if self.kind is int and math.isfinite(value) and value != int(value):
+            # As the scene file refuses it: int(1.5) would silently run another seed than asked for.
+            raise ParameterError(f"{self.name} must be an integer, got {value!r}")
         if not (self.low <= value <= self.high):
             raise ParameterError(
                 f"{self.name} must be in [{self.low:g}, {self.high:g}] {self.unit}, got {value!r}"

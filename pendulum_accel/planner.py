@@ -442,6 +442,13 @@ def _forced(scene: Scene) -> Plan:
         return _stepped(setup, model, target - extra, extra, why)
     why = f"model {model} and method {method} forced by the scene"
     if method in FIXED_STEP_METHODS:
+        dt = _first_step(setup, model, method, target - extra)
+        if (steps := _effective_step(setup, dt)[1]) > MAX_FIXED_STEPS:
+            # Checked before any stepping: a low-order method at a tight target would run for hours.
+            raise SceneError(
+                f"method {method} at a {target:g} rad target needs {steps:.2g} steps over "
+                f"{setup.duration:g} s, more than {MAX_FIXED_STEPS:.0e}; loosen accuracy or use rk4/rk8"
+            )
         return _fixed_step(setup, model, method, target - extra, extra, why)
     return _adaptive(setup, model, method, target, why, extra)
 

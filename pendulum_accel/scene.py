@@ -62,6 +62,7 @@ from pendulum_accel.physics.profiles import AccelProfile, profile_from_dict
 from pendulum_accel.physics.rigid import level_equivalent
 from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, MODELS
 from pendulum_accel.sensor import SensorModel, noise_std_from_density
+from pendulum_accel.textfile import read_text_file
 
 SCENES_DIR = Path(__file__).resolve().parent / "scenes"
 SCENE_NAMES: tuple[str, ...] = (
@@ -434,10 +435,12 @@ def load_scene(name_or_path: str | Path) -> Scene:
     """Scene from a bundled name (see SCENE_NAMES) or a YAML file path; SceneError naming file and field."""
     path = scene_path(name_or_path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_text_file(path)
     except FileNotFoundError:
         raise SceneError(f"{path}: scene file not found") from None
-    except (OSError, UnicodeDecodeError) as err:
+    except OSError as err:
+        raise SceneError(f"{path}: cannot read scene file ({err.strerror or err})") from None
+    except ValueError as err:
         raise SceneError(f"{path}: cannot read scene file ({err})") from None
     scene = scene_from_yaml(text, label=str(path), base_dir=path.parent)
     return _with_source(_named_after_copy(scene, path), path)

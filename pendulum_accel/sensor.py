@@ -111,10 +111,12 @@ class SensorModel:
         span = require_finite("duration", duration)
         if span < 0.0:
             raise ParameterError(f"duration must be >= 0 s, got {span!r}")
-        count = math.floor(span * self.rate_hz * (1.0 + 1e-12) + 1e-9) + 1
+        product = span * self.rate_hz * (1.0 + 1e-12) + 1e-9
+        # Compared as a float first: a huge duration (1e308 s) makes it inf, which floor cannot take.
+        count = math.floor(product) + 1 if product < MAX_SAMPLES else MAX_SAMPLES + 1
         if count > MAX_SAMPLES:
             raise ParameterError(
-                f"duration {span:g} s at {self.rate_hz:g} Hz gives {count} samples, more than {MAX_SAMPLES}"
+                f"duration {span:g} s at {self.rate_hz:g} Hz gives more than {MAX_SAMPLES} samples"
             )
         return count
 

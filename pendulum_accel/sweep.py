@@ -44,6 +44,14 @@ SWEEP_STEPS_PER_RADIAN = 50.0
 # Enough progress-bar updates to be live, few enough that the chunking costs nothing measurable.
 PROGRESS_CHUNKS = 50
 MAX_VARIANTS = 1_000_000
+# Cost limits checked before integrating: a sweep is a Python loop over steps (≈ 10 µs each) with numpy
+# over the variants (≈ 12 M trajectory-steps/s, benchmarks.sweep_bench), so these are minutes of work.
+MAX_SWEEP_STEPS = 20_000_000
+MAX_SWEEP_WORK = 2_000_000_000  # trajectory-steps: steps × variants
+MAX_SWEEP_BYTES = 2 * 1024**3
+# float64 arrays of (variants × samples) alive at once: θ and θ' of the batch, the copy handed back,
+# one measured row per variant in turn and numpy's temporaries in the steady-state figures.
+_ARRAYS_PER_CELL = 4
 
 Rhs = Callable[[float, np.ndarray], np.ndarray]
 
@@ -323,6 +331,7 @@ def run_batch(
         if step <= 0.0:
             raise ParameterError(f"dt must be > 0, got {step!r}")
         steps = int(np.sum(np.maximum(1, np.ceil(np.diff(t) / step * (1.0 - 1e-12))))) if t.size > 1 else 0
+        check_sweep_work(steps, n, step)
     rhs = batch_rigid_rhs(lengths, p.gravity, p.damping, accel)
     y0 = np.empty((2, n))
     y0[0] = setup.theta0
@@ -331,6 +340,26 @@ def run_batch(
         rhs, y0, t, method=method, dt=step, breakpoints=breaks, omega=omega, progress=progress
     )
     return y[0], y[1], step, steps
+
+
+def check_sweep_work(steps: int, variants: int, step: float) -> None:
+    """ParameterError, before stepping, when steps > MAX_SWEEP_STEPS or steps·variants > MAX_SWEEP_WORK."""
+    if steps > MAX_SWEEP_STEPS or steps * variants > MAX_SWEEP_WORK:
+        raise ParameterError(
+            f"dt = {step:g} s needs {steps:.3g} steps × {variants} variants = {steps * variants:.3g} "
+            f"trajectory-steps, more than {MAX_SWEEP_STEPS:.0e} steps or {MAX_SWEEP_WORK:.0e} "
+            "trajectory-steps; use a larger --dt, fewer variants or a shorter --duration"
+        )
+
+
+def check_sweep_memory(variants: int, samples: int) -> None:
+    """ParameterError when variants × samples × 8 B × _ARRAYS_PER_CELL exceeds MAX_SWEEP_BYTES."""
+    need = variants * samples * 8 * _ARRAYS_PER_CELL
+    if need > MAX_SWEEP_BYTES:
+        raise ParameterError(
+            f"{variants} variants × {samples} samples need about {need / 1024**3:.1f} GiB, more than "
+            f"{MAX_SWEEP_BYTES / 1024**3:g} GiB; use fewer variants or a shorter --duration"
+        )
 
 
 def run_sweep(
@@ -359,6 +388,7 @@ def run_sweep(
     n = vals.size
     p = setup.pendulum
     t = setup.t
+    check_sweep_memory(n, t.size)
     lengths = vals if field == "length" else np.full(n, p.length)
     accels = vals if field == "accel" else None
     noises = vals if field == "noise" else np.full(n, setup.noise_std)

@@ -3,16 +3,18 @@
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import pytest
 
-from pendulum_accel.nodes.dds_profile import PROFILE, use_package_profile
+from pendulum_accel.nodes.dds_profile import LOOPBACK_PROFILE, PROFILE, use_package_profile
 
 NS = {"dds": "http://www.eprosima.com"}
 
 
-def test_profile_sets_a_10_ms_writer_heartbeat_as_default_profile() -> None:
-    root = ET.parse(PROFILE).getroot()
+@pytest.mark.parametrize("profile", [PROFILE, LOOPBACK_PROFILE])
+def test_profile_sets_a_10_ms_writer_heartbeat_as_default_profile(profile: Path) -> None:
+    root = ET.parse(profile).getroot()
     writer = root.find("dds:profiles/dds:data_writer", NS)
     assert writer is not None and writer.get("is_default_profile") == "true"
     period = writer.find("dds:times/dds:heartbeat_period", NS)
@@ -24,10 +26,31 @@ def test_profile_sets_a_10_ms_writer_heartbeat_as_default_profile() -> None:
 
 
 @pytest.mark.parametrize("rmw", [None, "rmw_fastrtps_cpp"])
-def test_applied_for_fast_dds(rmw: str | None) -> None:
+@pytest.mark.parametrize("discovery", [None, "LOCALHOST"])
+def test_loopback_by_default_for_fast_dds(rmw: str | None, discovery: str | None) -> None:
     env = {} if rmw is None else {"RMW_IMPLEMENTATION": rmw}
+    if discovery is not None:
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = discovery
+    assert use_package_profile(env)
+    assert env["FASTDDS_DEFAULT_PROFILES_FILE"] == str(LOOPBACK_PROFILE)
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SUBNET"  # multicast, on the loopback interface only
+
+
+@pytest.mark.parametrize(
+    "env", [{"PENDULUM_ACCEL_NETWORK": "1"}, {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"}]
+)
+def test_network_profile_by_choice(env: dict[str, str]) -> None:
     assert use_package_profile(env)
     assert env["FASTDDS_DEFAULT_PROFILES_FILE"] == str(PROFILE)
+
+
+def test_loopback_profile_allows_only_the_loopback_interface() -> None:
+    root = ET.parse(LOOPBACK_PROFILE).getroot()
+    names = [i.get("name") for i in root.iterfind(".//dds:allowlist/dds:interface", NS)]
+    assert names == ["lo"]
+    participant = root.find("dds:profiles/dds:participant", NS)
+    assert participant is not None and participant.get("is_default_profile") == "true"
+    assert participant.findtext("dds:rtps/dds:useBuiltinTransports", namespaces=NS) == "false"
 
 
 @pytest.mark.parametrize(

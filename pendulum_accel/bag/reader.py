@@ -3,16 +3,24 @@
 The file is scanned front to back, without the summary or index: every top-level record is
 framed (opcode, length) and checked against the file size; Header, Schema, Channel, Chunk and
 Metadata records are parsed by the ``mcap`` library; inside a chunk, each message record's
-channel, log time and payload slice are taken with one ``struct.unpack_from``. The scan stops at
-the first record that is cut off or malformed and keeps everything before it, so a bag whose
-recorder was killed reads up to its last flushed chunk. Fixed-layout topics are then decoded
-column-wise with :class:`pendulum_accel.bag.messages.Layout` (numpy over all messages at once).
+channel, log time and payload slice are taken with one ``struct.unpack_from``. A chunk whose data
+is damaged (CRC mismatch, does not inflate, malformed records) is skipped and the scan goes on with
+the next record, since its framing still holds. When the framing itself breaks (a record cut off or
+with a damaged opcode or length), the scan stops there, and the chunks after the damage are read
+through the chunk index of the MCAP summary when the file still has its footer. A bag whose
+recorder was killed (no summary) reads up to its last flushed chunk. Fixed-layout topics are then
+decoded column-wise with :class:`pendulum_accel.bag.messages.Layout` (numpy over all messages at once).
+
+A metadata.yaml naming its file outside the bag directory (absolute, ``..``, a symlink leading
+out) is refused: nothing outside the bag is ever read, renamed or deleted through it.
 """
 
 from __future__ import annotations
 
 import heapq
+import os
 import struct
+import zlib
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from io import BytesIO
@@ -24,7 +32,7 @@ import yaml
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import Channel, Chunk, Metadata, Schema
+from mcap.records import Channel, Chunk, ChunkIndex, Footer, Metadata, Schema
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
@@ -316,20 +324,44 @@ def _find_mcap(path: Path) -> tuple[Path, Path]:
     meta = path / "metadata.yaml"
     if meta.is_file():
         doc = _load_yaml(meta)
-        info = doc.get("rosbag2_bagfile_information", {}) if isinstance(doc, dict) else {}
-        files = info.get("relative_file_paths") or []
+        info = doc.get("rosbag2_bagfile_information") if isinstance(doc, dict) else None
+        files = info.get("relative_file_paths") if isinstance(info, dict) else None
+        # A metadata.yaml of another shape names nothing usable: look for the MCAP file instead.
+        files = [str(f) for f in files] if isinstance(files, list) else []
         if len(files) > 1:
             raise BagError(
                 f"bag {path} is split into {len(files)} files; only single-file bags are supported"
             )
-        if files and (path / files[0]).is_file():
-            if not str(files[0]).endswith(".mcap"):
-                raise BagError(f"bag {path} uses storage {files[0]!r}; only MCAP bags are supported")
-            return path, path / files[0]
-    found = sorted(path.glob("*.mcap"))
+        if files:
+            inside = inside_bag(path, files[0])
+            if inside.is_file():
+                if not files[0].endswith(".mcap"):
+                    raise BagError(f"bag {path} uses storage {files[0]!r}; only MCAP bags are supported")
+                return path, inside
+    found = sorted(f for f in path.glob("*.mcap") if not f.is_symlink() or _within(path, f))
     if len(found) != 1:
         raise BagError(f"bag {path} has {len(found)} .mcap files, expected 1")
     return path, found[0]
+
+
+def inside_bag(root: Path, name: str) -> Path:
+    """root / name for a file name from a bag's metadata; BagError when it would lead out of ``root``.
+
+    Refused: an absolute path, a ``..`` component, and a name (or symlink) resolving outside ``root``.
+    """
+    parts = Path(name).parts
+    if not name or Path(name).is_absolute() or ".." in parts or "\0" in name:
+        raise BagError(f"bag {root}: metadata.yaml names {name!r}, outside the bag directory; refused")
+    target = root / name
+    if not _within(root, target):
+        raise BagError(f"bag {root}: metadata.yaml names {name!r}, which leads outside the bag; refused")
+    return target
+
+
+def _within(root: Path, target: Path) -> bool:
+    """True when ``target`` (symlinks resolved) lies inside ``root`` (symlinks resolved)."""
+    base = os.path.realpath(root)
+    return os.path.commonpath([base, os.path.realpath(target)]) == base
 
 
 def _load_yaml(path: Path) -> Any:
@@ -366,6 +398,9 @@ class _Scanner:
         self.bag = bag
         self.schemas: dict[int, Schema] = {}
         self.pending: tuple[bytes, list[tuple[int, NDArray[np.uint64]]]] | None = None
+        self.pending_at = 0  # file offset of the pending chunk
+        self.damaged: list[str] = []  # one note per skipped chunk, in file order
+        self.read_chunks: set[int] = set()  # file offsets of chunks read (or skipped as damaged)
 
     def schema(self, body: memoryview) -> None:
         """Register a Schema record."""
@@ -466,27 +501,54 @@ class _Scanner:
                 )
 
     def scan(self, data: bytes) -> None:
-        """Read all top-level records; sets bag.problem and stops at the first bad one."""
+        """Read every top-level record, skipping damaged chunks; then indexed chunks past broken framing."""
         bag = self.bag
         try:
-            self._scan(data)
+            stop = self._scan(data)
         finally:
-            try:
-                self._flush_chunk()
-            except _RECORD_ERRORS as err:
-                bag.problem = bag.problem or f"{bag.mcap_path} is corrupt: last chunk: {err}"
+            self._flush_chunk()
             for ch in bag._channels.values():
                 ch.seal()
+        if stop is not None:
+            recovered = self._indexed_chunks(data, stop)
+            if recovered:
+                bag.problem = f"{bag.problem}; read {recovered} chunk(s) after it through the chunk index"
+        if self.damaged:
+            first = self.damaged[0]
+            note = f"{len(self.damaged)} damaged chunk(s) skipped (first: {first})"
+            bag.problem = note if bag.problem is None else f"{bag.problem}; {note}"
+        for ch in bag._channels.values():
+            ch.seal()
 
     def _flush_chunk(self) -> None:
-        """Read the pending chunk with the message indexes that followed it."""
+        """Read the pending chunk with the message indexes that followed it; a damaged one is noted."""
         if self.pending is not None:
             data, indexes = self.pending
             self.pending = None
-            self.chunk(data, indexes)
+            try:
+                self.chunk(data, indexes)
+            except _RECORD_ERRORS as err:
+                self.damaged.append(f"chunk at byte {self.pending_at}: {err}")
 
-    def _scan(self, data: bytes) -> None:
-        """The record loop of scan()."""
+    def _open_chunk(self, body: memoryview | bytes, at: int) -> bytes | None:
+        """Uncompressed data of the Chunk record ``body`` at file offset ``at``; None (noted) when damaged."""
+        self.read_chunks.add(at)
+        try:
+            chunk = Chunk.read(ReadDataStream(BytesIO(body)))
+            if chunk.compression == "" and len(chunk.data) != chunk.uncompressed_size:
+                raise ValueError("chunk data is shorter than its declared size")
+            data = _decompress(chunk)
+            if len(data) != chunk.uncompressed_size:
+                raise ValueError(f"inflates to {len(data)} bytes, declared {chunk.uncompressed_size}")
+            if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
+                raise ValueError("CRC mismatch")
+        except _RECORD_ERRORS as err:
+            self.damaged.append(f"chunk at byte {at}: {err}")
+            return None
+        return data
+
+    def _scan(self, data: bytes) -> int | None:
+        """The record loop of scan(); the offset where the framing broke, None when it held to the end."""
         bag = self.bag
         size = len(data)
         if size < len(_MAGIC) or data[: len(_MAGIC)] != _MAGIC:
@@ -496,21 +558,21 @@ class _Scanner:
         while True:
             if pos >= size:
                 bag.problem = f"{bag.mcap_path} ends at byte {size} without its MCAP footer (interrupted?)"
-                return
+                return pos
             if pos + 9 > size:
                 bag.problem = f"{bag.mcap_path} is truncated: record header cut off at byte {pos} of {size}"
-                return
+                return pos
             op, length = _RECORD_HEAD.unpack_from(data, pos)
             stop = pos + 9 + length
             if op not in _OPCODES or op == 0:
                 bag.problem = f"{bag.mcap_path} is corrupt: unknown record opcode 0x{op:02x} at byte {pos}"
-                return
+                return pos
             if stop > size:
                 bag.problem = (
                     f"{bag.mcap_path} is truncated: {Opcode(op).name} record at byte {pos} needs "
                     f"{length} bytes, only {size - pos - 9} remain"
                 )
-                return
+                return pos
             body = view[pos + 9 : stop]
             try:
                 if op == Opcode.MESSAGE_INDEX and self.pending is not None:
@@ -521,21 +583,86 @@ class _Scanner:
                     self._flush_chunk()
                     if op == Opcode.FOOTER:
                         bag.complete = True
-                        return
-                    self._top_level(op, body)
+                        return None
+                    if op == Opcode.CHUNK:
+                        chunk_data = self._open_chunk(body, pos)
+                        if chunk_data is not None:
+                            self.pending, self.pending_at = (chunk_data, []), pos
+                    else:
+                        self._top_level(op, body)
             except _RECORD_ERRORS as err:
                 bag.problem = f"{bag.mcap_path} is corrupt at byte {pos} ({Opcode(op).name} record): {err}"
-                return
+                return pos
             pos = stop
 
+    def _indexed_chunks(self, data: bytes, broken_at: int) -> int:
+        """Read the chunks the summary's chunk index places past ``broken_at``; how many were read.
+
+        Needs the footer (last 37 bytes) and a summary section; the schemas and channels it repeats are
+        registered first. Each chunk and its message indexes are read as in the scan; a damaged one is
+        skipped and noted. Nothing happens without a usable summary (a killed recorder writes none).
+        """
+        size = len(data)
+        tail = size - len(_MAGIC) - 9 - 20
+        if tail <= broken_at or data[-len(_MAGIC) :] != _MAGIC or data[tail] != Opcode.FOOTER:
+            return 0
+        try:
+            footer = Footer.read(ReadDataStream(BytesIO(data[tail + 9 : tail + 29])))
+            start = int(footer.summary_start)
+            if not broken_at < start <= tail:
+                return 0
+            indexes = self._summary(data, start, tail)
+        except _RECORD_ERRORS:
+            return 0
+        read = 0
+        for entry in sorted(indexes, key=lambda e: e.chunk_start_offset):
+            at = int(entry.chunk_start_offset)
+            if at < broken_at or at in self.read_chunks or at + entry.chunk_length > start:
+                continue
+            try:
+                op, length = _RECORD_HEAD.unpack_from(data, at)
+                if op != Opcode.CHUNK or at + 9 + length > start:
+                    raise ValueError("the chunk index points at no chunk record")
+                chunk_data = self._open_chunk(memoryview(data)[at + 9 : at + 9 + length], at)
+                if chunk_data is None:
+                    continue
+                message_indexes = []
+                for off in entry.message_index_offsets.values():
+                    mop, mlen = _RECORD_HEAD.unpack_from(data, off)
+                    found = _message_index(memoryview(data)[off + 9 : off + 9 + mlen])
+                    if mop == Opcode.MESSAGE_INDEX and found is not None:
+                        message_indexes.append(found)
+            except _RECORD_ERRORS as err:
+                self.damaged.append(f"chunk at byte {at}: {err}")
+                continue
+            self.pending, self.pending_at = (chunk_data, message_indexes), at
+            self._flush_chunk()
+            read += 1
+        return read
+
+    def _summary(self, data: bytes, start: int, stop: int) -> list[ChunkIndex]:
+        """Chunk indexes of the summary section data[start:stop]; registers its schemas and channels."""
+        view = memoryview(data)
+        found: list[ChunkIndex] = []
+        pos = start
+        while pos + 9 <= stop:
+            op, length = _RECORD_HEAD.unpack_from(data, pos)
+            end = pos + 9 + length
+            if end > stop:
+                raise ValueError(f"summary record at byte {pos} overruns the summary")
+            body = view[pos + 9 : end]
+            if op == Opcode.SCHEMA:
+                self.schema(body)
+            elif op == Opcode.CHANNEL:
+                self.channel(body)
+            elif op == Opcode.CHUNK_INDEX:
+                found.append(ChunkIndex.read(ReadDataStream(BytesIO(body))))
+            pos = end
+        return found
+
     def _top_level(self, op: int, body: memoryview) -> None:
-        """Handle one top-level record (a chunk waits for its message indexes)."""
-        if op == Opcode.CHUNK:
-            chunk = Chunk.read(ReadDataStream(BytesIO(body)))
-            if chunk.compression == "" and len(chunk.data) != chunk.uncompressed_size:
-                raise ValueError("chunk data is shorter than its declared size")
-            self.pending = (_decompress(chunk), [])
-        elif op == Opcode.SCHEMA:
+        """Handle one top-level record other than a chunk."""
+        if op == Opcode.SCHEMA:
             self.schema(body)
         elif op == Opcode.CHANNEL:
             self.channel(body)
@@ -595,7 +722,7 @@ def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
         doc = _load_yaml(meta_path)
         if isinstance(doc, dict):
             bag.metadata = doc
-            info = doc.get("rosbag2_bagfile_information") or {}
+            info = doc.get("rosbag2_bagfile_information")
             custom = info.get("custom_data") if isinstance(info, dict) else None
             if isinstance(custom, dict):
                 bag.custom_data.update({str(k): str(v) for k, v in custom.items()})
@@ -610,7 +737,7 @@ def salvage_note(bag: Bag) -> str | None:
     if bag.problem is None:
         return None
     return (
-        f"{bag.problem}; read the {bag.message_count} messages before it "
+        f"{bag.problem}; read the {bag.message_count} messages that are intact "
         f"(`pendulum-accel repair {bag.path}` rewrites the bag from them)"
     )
 

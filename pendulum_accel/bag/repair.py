@@ -3,6 +3,8 @@
 Every message that reads before the damage is rewritten, with its channel's type, QoS and the
 bag's custom_data, into a fresh file through :class:`BagWriter`, which writes the MCAP summary,
 index and metadata.yaml anew. The damaged file is kept next to it as ``<name>.mcap.damaged``.
+Only files inside the bag directory are ever touched (the reader refuses a metadata.yaml that names
+one outside), and a write failure leaves the damaged bag as it was.
 """
 
 from __future__ import annotations
@@ -66,6 +68,19 @@ def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:
         if topic.serialization_format != "cdr":
             raise BagError(f"cannot repair {root}: topic {name} is {topic.serialization_format!r}-encoded")
     staging = root.parent / f".{root.name}.repair"
+    try:
+        return _rewrite(root, bag, staging, keep_backup)
+    except OSError as err:
+        # Disk full, read-only or unwritable directory: nothing of the original bag has been moved yet
+        # when the new one fails to write, and the staging copy is gone (finally below).
+        raise BagError(
+            f"cannot write the repaired bag next to {root} ({err.strerror or err}); "
+            f"the damaged bag is left as it was"
+        ) from None
+
+
+def _rewrite(root: Path, bag: Bag, staging: Path, keep_backup: bool) -> RepairResult:
+    """Write the readable messages to ``staging``, then swap them into ``root`` (see repair_bag)."""
     if staging.exists():
         shutil.rmtree(staging)
     new_dir = staging / root.name

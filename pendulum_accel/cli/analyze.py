@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 from pendulum_accel.bag.reader import read_bag, salvage_note
+from pendulum_accel.errors import BagError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME
 from pendulum_accel.recording.analyze import analysis_dict, analyze_bag, plot_analysis
 
@@ -57,6 +58,9 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the report (and plot); a damaged bag is analysed up to the damage, with a warning, exit 1."""
     bag = read_bag(args.bag)
+    if args.skip > 0 and not args.skip < bag.duration_s:
+        # Nothing would be left to average: the report would be NaN figures.
+        raise BagError(f"--skip {args.skip:g} s leaves no samples: {bag.path} spans {bag.duration_s:.3f} s")
     config = {
         name: OVERRIDE_BY_NAME[name].check(getattr(args, name))
         for name in ESTIMATOR_OVERRIDES

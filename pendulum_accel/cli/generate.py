@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import shutil
+from pathlib import Path
 from typing import Any
 
+from pendulum_accel.errors import OutputError
 from pendulum_accel.recording.generate import generate_bag
 
 
@@ -28,15 +31,25 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Generate and print counts and speed."""
-    result = generate_bag(
-        args.scene,
-        args.out,
-        overwrite=args.overwrite,
-        estimator=args.estimator,
-        duration=args.duration,
-        compression="zstd" if args.compress else None,
-    )
+    """Generate and print counts and speed; a write failure is one line and leaves no partial bag."""
+    out = Path(args.out)
+    existed = out.exists()
+    try:
+        result = generate_bag(
+            args.scene,
+            out,
+            overwrite=args.overwrite,
+            estimator=args.estimator,
+            duration=args.duration,
+            compression="zstd" if args.compress else None,
+        )
+    except OSError as err:
+        # A generated bag is cheap to make again: a partial one is removed rather than kept for repair.
+        removed = out.is_dir() and not out.is_symlink() and (args.overwrite or not existed)
+        if removed:
+            shutil.rmtree(out, ignore_errors=True)
+        kept = "the partial bag was removed" if removed else "nothing was written"
+        raise OutputError(f"cannot write bag {out}: {err.strerror or err}; {kept}") from None
     speed = result.sim_duration / result.wall_s if result.wall_s > 0 else float("inf")
     print(
         f"{result.path}: {result.messages} messages, {result.sim_duration:.3f} s of sim time "

@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import os
+import shutil
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from pendulum_accel.errors import ParameterError
 from pendulum_accel.overrides import SET_HELP, parse_override
 
 if TYPE_CHECKING:
@@ -42,6 +46,12 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
         "0, the default, keeps normal scheduling",
     )
     parser.add_argument(
+        "--network",
+        action="store_true",
+        help="let the nodes use every network interface (multi-host; sets PENDULUM_ACCEL_NETWORK=1); "
+        "by default they bind the loopback interface only",
+    )
+    parser.add_argument(
         "--set",
         dest="overrides",
         action="append",
@@ -53,9 +63,18 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
 
 def chain_config(args: argparse.Namespace) -> ChainConfig:
     """ChainConfig from parsed chain arguments."""
+    from pendulum_accel.nodes.dds_profile import NETWORK_ENV
     from pendulum_accel.nodes.launcher import ChainConfig
     from pendulum_accel.scene import DEFAULT_SCENE
 
+    if args.rt_priority and not args.realtime:
+        # The launcher would quietly run it at normal priority: say so instead.
+        raise ParameterError(
+            "--rt-priority applies to real-time runs only (as fast as possible, FIFO nodes that never "
+            "block would starve the machine); drop --fast or --rt-priority"
+        )
+    if getattr(args, "network", False):
+        os.environ[NETWORK_ENV] = "1"  # inherited by every node the launcher starts
     return ChainConfig(
         scene=args.scene or DEFAULT_SCENE,
         record=args.record,
@@ -112,11 +131,31 @@ def run(args: argparse.Namespace) -> int:
 
     require_rclpy()
     config = chain_config(args)
+    existed = config.record is not None and config.record.exists()
     code = run_chain(config)
+    if config.record is not None and not existed and _empty_bag(config.record):
+        # A chain that failed before its first message leaves no bag to block the next run.
+        shutil.rmtree(config.record, ignore_errors=True)
+        print(
+            f"pendulum-accel run: no message was recorded; removed the empty {config.record}", file=sys.stderr
+        )
     if config.record is not None and (config.record / "metadata.yaml").exists():
         for line in summary_lines(config.record, config.estimator):
             print(line)
     return code
+
+
+def _empty_bag(path: Path) -> bool:
+    """True when ``path`` is a directory whose bag holds no message (or nothing readable at all)."""
+    from pendulum_accel.bag.reader import read_bag
+    from pendulum_accel.errors import BagError
+
+    if not path.is_dir() or path.is_symlink():
+        return False
+    try:
+        return read_bag(path).message_count == 0
+    except BagError:
+        return not any(f.stat().st_size > 64 for f in path.iterdir() if f.is_file())
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

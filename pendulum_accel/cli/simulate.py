@@ -14,6 +14,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from pendulum_accel.cli.output import write_text_output
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME, SET_HELP, apply_overrides, parse_override
 from pendulum_accel.physics.integrators import METHODS
@@ -130,6 +131,13 @@ def run(args: argparse.Namespace) -> int:
     from pendulum_accel.scene_run import simulate_plan
 
     scene = scene_from_args(args)
+    interval = scene.sensor.period
+    if args.dt is not None and args.dt > interval:
+        # The integrator would silently shorten it to fill each sample interval with whole steps.
+        raise ParameterError(
+            f"--dt {args.dt:g} s is longer than the sample interval {interval:g} s "
+            f"({scene.sensor.rate_hz:g} Hz); give at most {interval:g} s"
+        )
     plan = plan_with(scene, model=args.model, method=args.method, dt=args.dt, rtol=args.rtol)
     print(plan.explain(), file=sys.stderr)
     t = scene.sensor.sample_times(scene.duration)
@@ -140,8 +148,6 @@ def run(args: argparse.Namespace) -> int:
     if args.out is None:
         write_csv(sys.stdout, columns)
         return 0
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with args.out.open("w", encoding="utf-8", newline="") as handle:
-        write_csv(handle, columns)
+    write_text_output(args.out, lambda handle: write_csv(handle, columns))
     print(f"wrote {t.size} rows ({', '.join(columns)}) to {args.out}", file=sys.stderr)
     return 0

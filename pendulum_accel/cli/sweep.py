@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import io
+import re
 import sys
 import time
 from pathlib import Path
@@ -15,6 +16,9 @@ from pendulum_accel.errors import ParameterError
 
 if TYPE_CHECKING:
     from pendulum_accel.sweep import SweepResult
+
+
+_NEGATIVE_VALUES = re.compile(r"^-(\d|\.\d)[\d.eE+\-,:]*$")
 
 
 def register(subparsers: Any) -> None:
@@ -29,6 +33,8 @@ def register(subparsers: Any) -> None:
             "(0.5,1,2) or start:stop:count. --accel replaces the scene's profile by a constant a."
         ),
     )
+    # A value list may start with a minus (braking: --accel -2,0,2): read it as a value, not an option.
+    parser._negative_number_matcher = _NEGATIVE_VALUES
     parser.add_argument("scene", help="bundled scene name or path to a scene YAML file")
     which = parser.add_mutually_exclusive_group(required=True)
     which.add_argument("--length", metavar="VALUES", help="string lengths in m")

@@ -3,8 +3,9 @@
 Each input sample gets a decision:
 
 * ACCEPT — finite θ, t later than the last accepted t;
-* DROP   — NaN/inf θ or t (state ERROR), or t ≤ last t by less than ``reset_jump`` (a small reorder
-  or a duplicate, state WARN);
+* DROP   — NaN/inf θ or t (state ERROR), a sample naming joints but not the pendulum's (another
+  robot's JointState on the topic, state ERROR), or t ≤ last t by less than ``reset_jump`` (a small
+  reorder or a duplicate, state WARN);
 * RESET  — t jumped back by more than ``reset_jump`` (a looping bag): the estimator must restart
   (state RESET), then the sample is used.
 
@@ -20,8 +21,10 @@ from __future__ import annotations
 
 import enum
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
+from pendulum_accel.bag.messages import PENDULUM_JOINT
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators.base import Estimate, Estimator
 from pendulum_accel.physics.params import require_finite, require_positive
@@ -86,8 +89,10 @@ class InputGuard:
         reset_jump: float = 1.0,
         stale_after: float | None = None,
         saturation_range: float = 0.0,
+        joint: str = PENDULUM_JOINT,
     ) -> None:
-        """Validate the thresholds (saturation_range 0: the sensor has no range); start with no input seen."""
+        """Validate the thresholds (saturation_range 0: the sensor has no range); start with no input seen.
+        ``joint``: the name a sample must carry."""
         rate = require_positive("rate_hz", rate_hz)
         self.warn_angle = require_positive("warn_angle", warn_angle)
         self.reset_jump = require_positive("reset_jump", reset_jump)
@@ -101,6 +106,8 @@ class InputGuard:
         self.accepted = 0
         self.dropped_nonfinite = 0
         self.dropped_out_of_order = 0
+        self.dropped_wrong_joint = 0
+        self.joint = joint
         self.resets = 0
         self.ill_conditioned = 0
         self.last_t: float | None = None
@@ -116,12 +123,23 @@ class InputGuard:
         if state.rank >= self._worst.rank:
             self._worst, self._worst_message = state, message
 
-    def check(self, t: float, theta: float, now: float | None = None) -> Decision:
-        """ACCEPT, DROP (non-finite, small reorder, duplicate) or RESET (t back by more than reset_jump)."""
+    def check(
+        self, t: float, theta: float, now: float | None = None, names: Sequence[str] | None = None
+    ) -> Decision:
+        """ACCEPT, DROP (non-finite, wrong joint, small reorder, duplicate) or RESET (t back > reset_jump).
+
+        ``names``: the sample's joint names; None or empty (a bare angle) is taken as the pendulum's,
+        a list without ``joint`` is dropped.
+        """
         arrival = now if now is not None else t
         if math.isfinite(arrival):
             self._last_arrival = arrival
             self._stale_for = None
+        if names and self.joint not in names:
+            self.dropped_wrong_joint += 1
+            shown = ", ".join(repr(str(n)[:40]) for n in list(names)[:3])
+            self.note(GuardState.ERROR, f"dropped input naming joint(s) {shown}, not {self.joint!r}")
+            return Decision.DROP
         if not (math.isfinite(t) and math.isfinite(theta)):
             self.dropped_nonfinite += 1
             self.note(GuardState.ERROR, f"dropped non-finite input t={t!r}, θ={theta!r}")
@@ -174,6 +192,7 @@ class InputGuard:
             ("accepted", str(self.accepted)),
             ("dropped_nonfinite", str(self.dropped_nonfinite)),
             ("dropped_out_of_order", str(self.dropped_out_of_order)),
+            ("dropped_wrong_joint", str(self.dropped_wrong_joint)),
             ("resets", str(self.resets)),
             ("ill_conditioned", str(self.ill_conditioned)),
             ("saturated", str(self.saturated)),
@@ -200,9 +219,11 @@ class GuardedEstimator:
         self.estimator = estimator
         self.guard = guard if guard is not None else InputGuard(rate_hz=estimator.config.rate_hz)
 
-    def update(self, t: float, theta: float, now: float | None = None) -> Estimate | None:
-        """Guard the sample, then estimator.update; None when the sample was dropped."""
-        decision = self.guard.check(t, theta, now)
+    def update(
+        self, t: float, theta: float, now: float | None = None, names: Sequence[str] | None = None
+    ) -> Estimate | None:
+        """Guard the sample (``names``: its joint names, see InputGuard.check), then estimator.update."""
+        decision = self.guard.check(t, theta, now, names)
         if decision is Decision.DROP:
             return None
         if decision is Decision.RESET:

@@ -217,13 +217,15 @@ class EstimatorNode(ChainNode):
         self._last_input = now
         self.inputs += 1
         fields = self._read_input(data)
+        names: list[str] | None = None  # the fast path's shape names pendulum_joint already
         if fields is None:  # another publisher's JointState shape (more joints, no velocity, ...)
             msg = deserialize_message(data, JointState)
             sec, nanosec, theta = msg.header.stamp.sec, msg.header.stamp.nanosec, pendulum_angle(msg)
+            names = list(msg.name)
         else:
             sec, nanosec, theta = fields
         self._last_stamp = (sec, nanosec)
-        estimate = self.guarded.update(stamp_seconds(sec, nanosec), theta, now)
+        estimate = self.guarded.update(stamp_seconds(sec, nanosec), theta, now, names)
         if estimate is None:
             return
         out = self._write_estimate(sec, nanosec, estimate.a, estimate.variance)

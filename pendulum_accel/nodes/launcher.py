@@ -29,6 +29,7 @@ from types import FrameType
 
 from pendulum_accel.errors import ParameterError, RosMissingError
 from pendulum_accel.nodes.accounting import Accounting
+from pendulum_accel.nodes.preflight import check_chain
 from pendulum_accel.nodes.scheduling import RT_PRIORITY_ENV
 
 _PR_SET_PDEATHSIG = 1
@@ -148,8 +149,7 @@ class Chain:
 
     def __init__(self, config: ChainConfig, *, log: bool = True, output: Path | None = None) -> None:
         """Check the configuration (no process is started yet); ``output``: file for the nodes' logs."""
-        if config.record is not None and config.record.exists() and not config.overwrite:
-            raise ParameterError(f"{config.record} exists already; pass --overwrite to replace it")
+        check_chain(config)
         if config.effective_time_source not in ("sim", "wall"):
             raise ParameterError(f"time source must be sim or wall, got {config.time_source!r}")
         if config.effective_time_source == "wall" and not config.realtime:

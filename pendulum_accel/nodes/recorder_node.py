@@ -151,7 +151,11 @@ class RecorderNode(ChainNode):
         if self._closed:
             return
         if self.writer.flush_due():
-            self._write_pending()
+            try:
+                self._write_pending()
+            except OSError as err:
+                self._write_failed(err)
+                return
         if self._stopping_since is None:
             return
         now = time.monotonic()
@@ -173,16 +177,31 @@ class RecorderNode(ChainNode):
         """Drain: keep recording until no message came for a moment, then finish."""
         self._stopping_since = time.monotonic()
 
+    def _write_failed(self, err: OSError) -> None:
+        """Disk full or unwritable: one error line, stop, exit 1; what was flushed stays salvageable."""
+        self._closed = True
+        self.get_logger().error(
+            f"cannot write the bag {self.writer.path} ({err.strerror or err}): recording stopped; the bag "
+            f"keeps what was flushed before and `pendulum-accel repair {self.writer.path}` makes it readable"
+        )
+        self.finish(1)
+
     def close(self) -> None:
         """Close the bag (final metadata.yaml) and report received/written counts per topic."""
         if self._closed:
             return
         self._closed = True
-        self._write_pending()
         own = {"received": self.received, "written": dict(self.writer.counts)}
-        accounting = {**self._chain_accounting(), "recorder": own}
-        self.writer.custom_data[CUSTOM_ACCOUNTING] = json.dumps(accounting, sort_keys=True)
-        written = self.writer.close()
+        try:
+            self._write_pending()
+            own["written"] = dict(self.writer.counts)
+            accounting = {**self._chain_accounting(), "recorder": own}
+            self.writer.custom_data[CUSTOM_ACCOUNTING] = json.dumps(accounting, sort_keys=True)
+            written = self.writer.close()
+        except OSError as err:
+            self._closed = False
+            self._write_failed(err)
+            return
         write_summary(self.summary_file, own)
         for topic, count in self.received.items():
             print(

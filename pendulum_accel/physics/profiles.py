@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics.params import require_finite, require_positive
+from pendulum_accel.textfile import read_text_file
 
 Piece = tuple[float, float, float]
 
@@ -294,9 +295,11 @@ class Table(AccelProfile):
         """Table from CSV rows ``t, a`` (s, m/s²); a header row and ``#`` comments are skipped."""
         source = Path(path)
         try:
-            text = source.read_text(encoding="utf-8")
+            text = read_text_file(source)
         except OSError as exc:
             raise ParameterError(f"cannot read acceleration CSV {source}: {exc.strerror}") from None
+        except ValueError as exc:
+            raise ParameterError(f"cannot read acceleration CSV {source}: {exc}") from None
         times: list[float] = []
         accels: list[float] = []
         for line_no, row in enumerate(csv.reader(text.splitlines()), start=1):

@@ -1,0 +1,59 @@
+"""Checks of a chain configuration before any node starts: scene, overrides, estimator, output, pacing.
+
+ROS-free and quick. The launcher calls :func:`check_chain` first, so a mistake is one line from the
+launcher, not three nodes starting, failing each in its own words and leaving an empty bag behind.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING
+
+from pendulum_accel.errors import ParameterError
+
+if TYPE_CHECKING:
+    from pendulum_accel.nodes.launcher import ChainConfig
+
+
+def check_chain(config: ChainConfig) -> None:
+    """ParameterError/SceneError (one line) for anything the nodes would refuse, checked in that order.
+
+    Scene loads and validates with its overrides applied (ranges, whole seeds); the estimator is a
+    known method; the bag directory does not exist (or ``overwrite``), and its parent exists and is
+    writable. (``--rt-priority`` with ``--fast`` is refused by the command line, cli.run.chain_config.)
+    """
+    from pendulum_accel.estimators import ESTIMATORS
+    from pendulum_accel.overrides import apply_overrides
+    from pendulum_accel.scene import load_scene
+
+    apply_overrides(load_scene(config.scene), config.overrides)
+    if config.estimator is not None and config.estimator not in ESTIMATORS:
+        raise ParameterError(f"unknown estimator {config.estimator!r}; choose one of {', '.join(ESTIMATORS)}")
+    if config.record is not None:
+        check_output_dir(config.record, overwrite=config.overwrite)
+
+
+def check_output_dir(path: os.PathLike[str] | str, *, overwrite: bool) -> None:
+    """ParameterError unless a bag directory can be created at ``path`` (parent a writable directory)."""
+    from pathlib import Path
+
+    bag = Path(path)
+    if bag.exists() and not overwrite:
+        raise ParameterError(f"{bag} exists already; pass --overwrite to replace it")
+    if bag.exists() and not bag.is_dir():
+        raise ParameterError(f"{bag} is a file, not a bag directory; choose another path")
+    parent = bag.absolute().parent
+    if not parent.is_dir():
+        raise ParameterError(f"cannot record to {bag}: directory {parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK) or (bag.is_dir() and not os.access(bag, os.W_OK | os.X_OK)):
+        raise ParameterError(f"cannot record to {bag}: {parent} is not writable (read-only or permissions)")
+    if _read_only_mount(parent):
+        raise ParameterError(f"cannot record to {bag}: {parent} is on a read-only file system")
+
+
+def _read_only_mount(directory: os.PathLike[str]) -> bool:
+    """True when ``directory`` lies on a file system mounted read-only (statvfs ST_RDONLY)."""
+    try:
+        return bool(os.statvfs(directory).f_flag & os.ST_RDONLY)
+    except OSError:
+        return False

@@ -1,0 +1,389 @@
+"""Hostile battery, ROS-free part: bag paths, salvage, cost checks, Ctrl-C, write failures, odd inputs.
+
+Each case is one found by a hostile pass over the CLI (issue 13); each must end in one line (exit 2, no
+traceback), lose nothing recoverable and touch nothing outside what the command was pointed at.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mcap.reader import make_reader
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag.repair import repair_bag
+from pendulum_accel.errors import BagError, ParameterError, SceneError
+from pendulum_accel.estimators.guard import Decision, GuardState, InputGuard
+from pendulum_accel.physics import kernels
+from pendulum_accel.physics.params import Pendulum
+from pendulum_accel.physics.profiles import Sinusoid
+from test.conftest import PYTHON, REPO
+from test.test_bag_io import _write_chain_bag
+
+
+def cli(*args: str, timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
+    """``pendulum-accel ARGS`` in a subprocess (captured)."""
+    return subprocess.run(
+        [PYTHON, "-m", "pendulum_accel.cli.main", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=REPO,
+    )
+
+
+def one_line_error(result: subprocess.CompletedProcess[str], *words: str) -> str:
+    """The single error line of a refused command (exit 2, no traceback), checked to contain ``words``."""
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr, result.stderr
+    lines = [line for line in result.stderr.splitlines() if "error:" in line]
+    assert len(lines) == 1, result.stderr
+    for word in words:
+        assert word in lines[0], lines[0]
+    return lines[0]
+
+
+# --- 1. paths named inside a bag never leave its directory ---------------------------------------
+
+
+@pytest.mark.parametrize("name", ["../external.mcap", "ABSOLUTE", "link.mcap"])
+@pytest.mark.parametrize("backup", [True, False])
+def test_metadata_naming_a_file_outside_the_bag_is_refused(tmp_path: Path, name: str, backup: bool) -> None:
+    _write_chain_bag(tmp_path / "bag", n=200)
+    outside = tmp_path / "external.mcap"
+    outside.write_bytes((tmp_path / "bag" / "bag.mcap").read_bytes()[:-100])  # damaged: repair would act
+    if name == "ABSOLUTE":
+        name = str(outside)
+    elif name == "link.mcap":
+        (tmp_path / "bag" / "link.mcap").symlink_to(outside)
+    (tmp_path / "bag" / "bag.mcap").unlink()
+    meta = tmp_path / "bag" / "metadata.yaml"
+    meta.write_text(meta.read_text().replace("- bag.mcap", f"- {name}", 1))
+    before = outside.read_bytes()
+    with pytest.raises(BagError, match="outside"):
+        repair_bag(tmp_path / "bag", keep_backup=backup)
+    with pytest.raises(BagError, match="outside"):
+        read_bag(tmp_path / "bag")
+    assert outside.read_bytes() == before  # not renamed, not deleted, not rewritten
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag", "external.mcap"]
+    one_line_error(cli("repair", str(tmp_path / "bag")), "outside")
+    one_line_error(cli("info", str(tmp_path / "bag")), "outside")
+
+
+# --- 2. salvage keeps every intact chunk, before and after the damage ----------------------------
+
+
+def _chunk_messages(mcap: Path) -> list[tuple[int, int, int]]:
+    """(chunk start offset, chunk length, messages in it) of every chunk, from the mcap library's index."""
+    with mcap.open("rb") as handle:
+        reader = make_reader(handle)
+        summary = reader.get_summary()
+        assert summary is not None
+        out = []
+        for index in summary.chunk_indexes:
+            count = sum(
+                1
+                for _ in reader.iter_messages(
+                    starting_at=index.message_start_time, ending_at=index.message_end_time
+                )
+            )
+            out.append((index.chunk_start_offset, index.chunk_length, count))
+    return out
+
+
+@pytest.mark.parametrize("where", ["payload", "framing"])
+def test_damage_at_40_percent_keeps_the_chunks_after_it(tmp_path: Path, where: str) -> None:
+    counts = _write_chain_bag(tmp_path / "bag", n=20_000)
+    mcap = tmp_path / "bag" / "bag.mcap"
+    chunks = _chunk_messages(mcap)
+    assert len(chunks) >= 5
+    data = bytearray(mcap.read_bytes())
+    start, _, in_chunk = next(c for c in chunks if c[0] + c[1] > 0.4 * len(data))
+    if where == "payload":
+        # 10 flipped bytes over the chunk's header (sizes, CRC, compression): its records no longer read.
+        at = start + 9 + 20
+        data[at : at + 10] = bytes(b ^ 0xFF for b in data[at : at + 10])
+    else:
+        data[start] = 0x00  # the chunk's opcode: the record framing itself is broken there
+    mcap.write_bytes(bytes(data))
+    total = sum(counts.values())
+    bag = read_bag(tmp_path / "bag")
+    assert bag.problem is not None
+    assert bag.message_count == total - in_chunk  # every other chunk, before and after the damage
+    assert ("chunk index" if where == "framing" else "damaged chunk") in bag.problem
+    js = bag.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)
+    ms = np.round(js.stamp * 1e3)
+    assert ms[-1] == counts[bm.TOPIC_JOINT_STATES] - 1  # the last sample, long after the damage
+    assert np.all(np.diff(ms) > 0)
+    result = repair_bag(tmp_path / "bag")
+    assert result.rewritten and sum(result.counts.values()) == bag.message_count
+    assert read_bag(tmp_path / "bag", salvage=False).message_count == bag.message_count
+
+
+@pytest.mark.parametrize("shape", ["rosbag2_bagfile_information: [1, 2, 3]\n", "[]\n", "7\n"])
+def test_metadata_of_the_wrong_shape_still_reads_the_intact_mcap(tmp_path: Path, shape: str) -> None:
+    counts = _write_chain_bag(tmp_path / "bag", n=300)
+    (tmp_path / "bag" / "metadata.yaml").write_text(shape)
+    assert read_bag(tmp_path / "bag").message_count == sum(counts.values())
+    assert cli("info", str(tmp_path / "bag")).returncode == 0
+    result = cli("repair", str(tmp_path / "bag"))
+    assert result.returncode == 0 and "Traceback" not in result.stderr
+    assert read_bag(tmp_path / "bag", salvage=False).message_count == sum(counts.values())
+
+
+# --- 3. long computations: cost checked first, Ctrl-C within a second -----------------------------
+
+
+def test_forced_euler_at_a_tight_target_is_refused_with_its_cost(tmp_path: Path) -> None:
+    text = cli("scenes", "step_start").stdout.replace("max_angle_error: 1.0e-06", "max_angle_error: 1.0e-12")
+    scene = tmp_path / "euler.yaml"
+    scene.write_text(text + "force:\n  model: rigid\n  method: euler\n")
+    one_line_error(cli("simulate", str(scene), timeout=60), "needs", "steps", "euler")
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (("simulate", "--dt", "1e-12"), ("needs", "steps")),
+        (("sweep", "lecture_constant", "--length", "1,2", "--dt", "1e-9"), ("trajectory-steps",)),
+        (("sweep", "lecture_constant", "--length", "0.5:1:1000000"), ("GiB",)),
+    ],
+)
+def test_huge_work_is_refused_before_it_starts(args: tuple[str, ...], words: tuple[str, ...]) -> None:
+    one_line_error(cli(*args, timeout=60), *words)
+
+
+def test_sliced_kernel_runs_are_bit_identical(monkeypatch: pytest.MonkeyPatch) -> None:
+    kernel = kernels.Kernel.rigid(Pendulum(0.7, damping=0.1), Sinusoid(amplitude=2.0, frequency_hz=0.3))
+    nodes = np.linspace(0.0, 5.0, 501)
+    y0 = np.array([0.3, 0.0])
+    for method in kernels.METHOD_CODES:
+        whole = kernels.run_kernel(kernel, y0, nodes, method, 1.3e-3)
+        monkeypatch.setitem(kernels.SLICE_STEPS, method, 37)  # many slices, some splitting nothing
+        sliced = kernels.run_kernel(kernel, y0, nodes, method, 1.3e-3)
+        monkeypatch.undo()
+        assert whole is not None and sliced is not None
+        assert sliced[1] == whole[1]
+        np.testing.assert_array_equal(sliced[0], whole[0])
+
+
+def test_step_slices_cover_every_interval_once() -> None:
+    nodes = np.array([0.0, 1.0, 1.5, 4.0, 4.1, 9.0])
+    slices = kernels.step_slices(nodes, 0.1, 20)
+    assert slices[0][0] == 0 and slices[-1][1] == nodes.size - 1
+    assert all(a[1] == b[0] for a, b in itertools.pairwise(slices))
+
+
+_LONG_KERNEL = """
+import numpy as np
+from pendulum_accel.physics import kernels
+from pendulum_accel.physics.params import Pendulum
+from pendulum_accel.physics.profiles import Sinusoid
+kernel = kernels.Kernel.rigid(Pendulum(1.0), Sinusoid(amplitude=1.0, frequency_hz=0.5))
+kernels.run_kernel(kernel, np.zeros(2), np.array([0.0, 0.001]), "rk4", 1e-9)  # compiled, cached
+print("stepping", flush=True)
+kernels.run_kernel(kernel, np.zeros(2), np.linspace(0.0, 100.0, 10001), "rk4", 1e-7)  # 1e9 steps
+"""
+
+
+def test_ctrl_c_stops_a_compiled_run_within_a_second() -> None:
+    """1e9 RK4 steps (minutes) in the compiled kernel: SIGINT ends it after at most one slice."""
+    proc = subprocess.Popen(
+        [PYTHON, "-c", _LONG_KERNEL], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO
+    )
+    try:
+        assert proc.stdout is not None and proc.stdout.readline().strip() == "stepping"
+        time.sleep(1.0)
+        assert proc.poll() is None
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=30)
+        waited = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode != 0 and "KeyboardInterrupt" in (proc.stderr.read() if proc.stderr else "")
+    # One slice is ~0.1-0.2 s of work; on a loaded 2-core machine allow a few times that, far below the run.
+    assert waited < 3.0, f"took {waited:.1f} s to stop"
+
+
+# --- 4. write failures: one line, no partial output ---------------------------------------------
+
+
+@contextlib.contextmanager
+def _tiny_filesystem(where: Path, size: str, options: str = "") -> Iterator[Path]:
+    """A tmpfs of ``size`` mounted at ``where`` (root only: CI runs as root) and unmounted afterwards."""
+    if os.geteuid() != 0:
+        pytest.fail(
+            "this test mounts a small tmpfs to fill the disk: run it as root (CI does)", pytrace=False
+        )
+    where.mkdir()
+    opts = f"size={size}" + (f",{options}" if options else "")
+    subprocess.run(["mount", "-t", "tmpfs", "-o", opts, "tmpfs", str(where)], check=True)
+    try:
+        yield where
+    finally:
+        subprocess.run(["umount", "-l", str(where)], check=False)
+
+
+def test_simulate_to_a_full_device_or_a_directory_is_one_line(tmp_path: Path) -> None:
+    one_line_error(cli("simulate", "--out", "/dev/full"), "No space left", "nothing")
+    one_line_error(cli("simulate", "--out", str(tmp_path)), "directory", "nothing written")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_simulate_on_a_full_disk_leaves_no_partial_csv(tmp_path: Path) -> None:
+    with _tiny_filesystem(tmp_path / "fs", "64k") as fs:
+        one_line_error(
+            cli("simulate", "lecture_constant", "--out", str(fs / "run.csv")), "partial file was removed"
+        )
+        assert list(fs.iterdir()) == []
+
+
+def test_generate_on_a_full_disk_leaves_no_partial_bag(tmp_path: Path) -> None:
+    with _tiny_filesystem(tmp_path / "fs", "512k") as fs:
+        one_line_error(
+            cli("generate", "lecture_constant", "--out", str(fs / "bag")), "partial bag was removed"
+        )
+        assert list(fs.iterdir()) == []
+
+
+def test_repair_on_a_full_disk_leaves_the_damaged_bag_as_it_was(tmp_path: Path) -> None:
+    with _tiny_filesystem(tmp_path / "fs", "8m") as fs:
+        _write_chain_bag(fs / "bag", n=3000)
+        mcap = fs / "bag" / "bag.mcap"
+        mcap.write_bytes(mcap.read_bytes()[: mcap.stat().st_size // 2])
+        before = {p.name: p.read_bytes() for p in (fs / "bag").iterdir()}
+        with contextlib.suppress(OSError), (fs / "filler").open("wb") as filler:
+            while True:
+                filler.write(b"\0" * 4096)
+                filler.flush()
+        one_line_error(cli("repair", str(fs / "bag")), "cannot write", "left as it was")
+        assert {p.name: p.read_bytes() for p in (fs / "bag").iterdir()} == before
+        assert sorted(p.name for p in fs.iterdir()) == ["bag", "filler"]
+
+
+# --- 5. the estimator's guard trusts only the pendulum's joint ----------------------------------
+
+
+def test_a_foreign_joint_is_dropped_counted_and_reported() -> None:
+    guard = InputGuard(rate_hz=100.0)
+    assert guard.check(0.0, 0.1, names=["elbow_joint"]) is Decision.DROP
+    assert guard.check(0.01, 0.1, names=[bm.PENDULUM_JOINT]) is Decision.ACCEPT
+    assert guard.check(0.02, 0.1, names=["wheel", bm.PENDULUM_JOINT]) is Decision.ACCEPT
+    assert guard.check(0.03, 0.1) is Decision.ACCEPT  # a bare angle, no names
+    report = guard.report()
+    assert report.state is GuardState.ERROR and "elbow_joint" in report.message
+    assert dict(report.values)["dropped_wrong_joint"] == "1"
+    assert guard.accepted == 3
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.text(max_size=30).filter(lambda s: s != bm.PENDULUM_JOINT), min_size=1, max_size=5))
+def test_any_name_list_without_the_pendulum_joint_is_dropped(names: list[str]) -> None:
+    guard = InputGuard(rate_hz=100.0)
+    assert guard.check(0.0, 0.1, names=names) is Decision.DROP
+    assert guard.dropped_wrong_joint == 1 and guard.accepted == 0
+
+
+# --- 6. odd inputs: one line each -----------------------------------------------------------------
+
+
+def _scene_with(tmp_path: Path, old: str, new: str, scene: str = "lecture_constant") -> Path:
+    """A copy of a bundled scene with one text replacement, in tmp_path."""
+    text = cli("scenes", scene).stdout
+    assert old in text
+    path = tmp_path / "scene.yaml"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+def test_odd_files_are_one_line(tmp_path: Path) -> None:
+    (tmp_path / "binary.csv").write_bytes(b"\x89\xff\xfe\x00 not text")
+    profile = "acceleration:\n  type: csv\n  path: {}\n"
+    text = cli("scenes", "lecture_constant").stdout
+    start = text.index("acceleration:")
+    end = text.index("sensor:")
+    for source, words in (("binary.csv", ("not UTF-8",)), ("/dev/zero", ("MiB",))):
+        scene = tmp_path / "csv_scene.yaml"
+        scene.write_text(text[:start] + profile.format(source) + text[end:])
+        one_line_error(cli("simulate", str(scene)), *words)
+    one_line_error(cli("simulate", "/dev/zero"), "MiB")
+
+
+def test_a_huge_duration_is_one_line(tmp_path: Path) -> None:
+    scene = _scene_with(tmp_path, "duration: 20.0", "duration: 1.0e+308")
+    one_line_error(cli("simulate", str(scene)), "samples")
+    one_line_error(cli("sweep", "at_rest", "--length", "1", "--duration", "1e308"), "samples")
+
+
+# --- 7/8. silent acceptance is gone -----------------------------------------------------------------
+
+
+def test_silently_accepted_values_are_refused_or_taken_as_meant(tmp_path: Path) -> None:
+    one_line_error(cli("simulate", "lecture_constant", "--set", "seed=1.5"), "integer")
+    one_line_error(cli("run", "--fast", "--rt-priority", "5"), "real-time runs only")
+    one_line_error(cli("simulate", "--dt", "5"), "sample interval", "at most")
+    _write_chain_bag(tmp_path / "bag", n=500)
+    one_line_error(cli("analyze", str(tmp_path / "bag"), "--skip", "1e9"), "no samples")
+    braking = cli("sweep", "at_rest", "--accel", "-2,0,2", "--duration", "2", "--no-progress")
+    assert braking.returncode == 0, braking.stderr
+    rows = braking.stdout.strip().splitlines()[1:]
+    assert [float(r.split(",")[2]) for r in rows] == [-2.0, 0.0, 2.0]
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (("--estimator", "nope"), ("unknown estimator",)),
+        (("no_such_scene",), ("no bundled scene",)),
+        (("--set", "length=-1"), ("length must be in",)),
+        (("--set", "seed=1.5"), ("integer",)),
+    ],
+)
+def test_the_launcher_refuses_before_starting_anything(
+    tmp_path: Path, args: tuple[str, ...], words: tuple[str, ...]
+) -> None:
+    result = cli("run", *args, "--record", str(tmp_path / "bag"))
+    one_line_error(result, *words)
+    assert "started" not in result.stderr  # no node was started
+    assert not (tmp_path / "bag").exists()  # and no empty bag blocks the next run
+
+
+def test_the_launcher_refuses_a_read_only_output_directory(tmp_path: Path) -> None:
+    with _tiny_filesystem(tmp_path / "ro", "64k", "ro") as ro:
+        result = cli("run", "--record", str(ro / "bag"))
+        one_line_error(result, "not writable")
+        assert "started" not in result.stderr
+
+
+def test_preflight_is_a_function_of_the_config(tmp_path: Path) -> None:
+    from pendulum_accel.nodes.launcher import ChainConfig
+    from pendulum_accel.nodes.preflight import check_chain
+
+    check_chain(ChainConfig(scene="lecture_constant", record=tmp_path / "new"))
+    (tmp_path / "old").mkdir()
+    with pytest.raises(ParameterError, match="exists already"):
+        check_chain(ChainConfig(scene="lecture_constant", record=tmp_path / "old"))
+    with pytest.raises(SceneError):
+        check_chain(ChainConfig(scene=str(tmp_path / "missing.yaml")))
+    with pytest.raises(ParameterError, match="does not exist"):
+        check_chain(ChainConfig(scene="lecture_constant", record=tmp_path / "a" / "b"))
+
+
+if __name__ == "__main__":
+    sys.exit(pytest.main([__file__]))
