@@ -198,12 +198,12 @@ def test_chain_across_two_hosts_with_loss_and_a_link_cut(
     recorder = node("b", "recorder_node", {"path": str(bag), "scene": str(scene_file)})
     recorder.wait_for(r"recording \d+ topics", timeout=60)
     estimator = node(
-        "b", "estimator_node", {"scene": str(scene_file), "wait_for_subscribers": 1, "stale_after": 0.5}
+        "b", "estimator_node", {"scene": str(scene_file), "recorder_node": "bag_recorder", "stale_after": 0.5}
     )
     simulator = node(
         "a",
         "simulator_node",
-        {"scene": str(scene_file), "wait_for_subscribers": 2, "wait_for_recorder": True},
+        {"scene": str(scene_file), "reader_nodes": ["accel_estimator"], "recorder_node": "bag_recorder"},
     )
     simulator.wait_for(r"subscribers matched: publishing", timeout=60)
     time.sleep(4.0)

@@ -184,7 +184,7 @@ def test_pause_resume_play_next_burst_and_rate_services(spawn: Spawn, tmp_path: 
     out = tmp_path / "controlled"
     recorder = start_node(spawn, "recorder_node", {"path": str(out), "topics": [ESTIMATE, "/diagnostics"]})
     recorder.wait_for("recording 2 topics", timeout=60)
-    estimator = start_node(spawn, "estimator_node", {"scene": "step_start", "wait_for_subscribers": 1})
+    estimator = start_node(spawn, "estimator_node", {"scene": "step_start", "reader_nodes": ["bag_recorder"]})
     estimator.wait_for("estimating with", timeout=60)
     player = start_node(
         spawn,
