@@ -12,6 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from pendulum_accel import __version__
+from pendulum_accel.cli.sweep import attach_negative_values
 from pendulum_accel.errors import PendulumAccelError
 
 # Order is the order of ``pendulum-accel --help``.
@@ -48,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one subcommand; a PendulumAccelError becomes a one-line message and exit code 2."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(attach_negative_values(sys.argv[1:] if argv is None else argv))
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

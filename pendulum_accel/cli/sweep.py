@@ -7,6 +7,7 @@ import io
 import re
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -19,6 +20,19 @@ if TYPE_CHECKING:
 
 
 _NEGATIVE_VALUES = re.compile(r"^-(\d|\.\d)[\d.eE+\-,:]*$")
+VALUE_OPTIONS = ("--length", "--accel", "--noise")
+
+
+def attach_negative_values(argv: Sequence[str]) -> list[str]:
+    """argv with ``--accel -2,0,2`` written ``--accel=-2,0,2``: argparse reads a token that starts with a
+    minus and is not a plain number as an option, and braking accelerations are negative."""
+    out: list[str] = []
+    for token in argv:
+        if out and out[-1] in VALUE_OPTIONS and _NEGATIVE_VALUES.match(token):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
 
 
 def register(subparsers: Any) -> None:
@@ -33,8 +47,6 @@ def register(subparsers: Any) -> None:
             "(0.5,1,2) or start:stop:count. --accel replaces the scene's profile by a constant a."
         ),
     )
-    # A value list may start with a minus (braking: --accel -2,0,2): read it as a value, not an option.
-    parser._negative_number_matcher = _NEGATIVE_VALUES
     parser.add_argument("scene", help="bundled scene name or path to a scene YAML file")
     which = parser.add_mutually_exclusive_group(required=True)
     which.add_argument("--length", metavar="VALUES", help="string lengths in m")
