@@ -31,3 +31,7 @@ class SceneError(PendulumAccelError, ValueError):
 
 class BagError(PendulumAccelError):
     """A bag that cannot be read, written or repaired."""
+
+
+class IllConditionedError(PendulumAccelError):
+    """Inputs so ill-conditioned that one ulp of them moves θ by more than the accuracy target."""

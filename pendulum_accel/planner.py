@@ -43,8 +43,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from pendulum_accel.conditioning import Sensitivity, input_sensitivity
 from pendulum_accel.errors import ParameterError, SceneError
-from pendulum_accel.physics.exact import exact_solution, libration_amplitude
+from pendulum_accel.physics.exact import (
+    FOURIER_MAX_NOME,
+    OrbitStart,
+    complete_k,
+    exact_solution,
+    libration_amplitude,
+    nome,
+)
 from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, stability_limit
 from pendulum_accel.physics.linear import linear_error_bound
 from pendulum_accel.physics.params import Pendulum
@@ -78,7 +86,8 @@ PILOT_SAFETY = 20.0
 PILOT_RTOLS = (1e-6, 1e-9)
 PILOT_POINTS = 1000
 RTOL_RANGE = (1e-13, 1e-3)
-EXACT_ROUNDOFF = 1e-13  # rad per unit (1 + ωT) per piece, before the separatrix factor
+EXACT_ROUNDOFF = 2.0  # × ε (Θ + 2kω span): closed_form_roundoff, calibrated by benchmarks/error_bounds.py
+DOUBLE_EPS = 2.0**-52
 LINEAR_CARRY = math.sqrt(2.0)
 # Measured CPU on this machine (see module docstring); only their ratio matters for the choice.
 KERNEL_STEP_S: dict[tuple[str, str], float] = {  # compiled kernels (physics.kernels), per step
@@ -91,6 +100,7 @@ PYTHON_STEP_S = 15e-6  # the numpy loop of physics.integrators (the multiplier m
 ADAPTIVE_CALL_S = 24e-6
 ADAPTIVE_CALLS = 3.5  # calls ≈ 3.5 (1 + ωT) rtol^(-1/8) for DOP853 (fit over rtol 1e-4 … 1e-12)
 CLOSED_FORM_SAMPLE_S = {"linear": 0.2e-6, "exact": 0.6e-6}
+CONDITIONING_POINTS = 20_000  # sample times of the paired runs when no fixed step ties them to the sensor
 
 
 @dataclass(frozen=True)
@@ -105,11 +115,19 @@ class Plan:
     reason: str
     target: float = math.nan
     estimated_cpu_s: float = math.nan
+    sensitivity: Sensitivity | None = None
+    method_error: float = math.nan
+    driven: bool = False
 
     @property
     def meets_target(self) -> bool:
         """predicted_error ≤ target."""
         return self.predicted_error <= self.target
+
+    @property
+    def ill_conditioned(self) -> bool:
+        """The inputs' own rounding moves θ by more than the target (conditioning.Sensitivity)."""
+        return self.sensitivity is not None and self.sensitivity.ill_conditioned
 
     def setting(self) -> str:
         """'dt = … s', 'rtol = …' or 'no stepping'."""
@@ -126,6 +144,12 @@ class Plan:
             f"plan: {self.model} model, {self.method} ({self.setting()}), predicted max angle error "
             f"{self.predicted_error:.1e} rad (target {self.target:.1e} rad){verdict}: {self.reason}"
         )
+        if self.sensitivity is not None:
+            text += f"; method error {self.method_error:.1e} rad, {self.sensitivity.describe()}"
+            if self.driven:
+                text += f"; {self.sensitivity.chaos()}"
+            if self.sensitivity.verdict():
+                text += f" — {self.sensitivity.verdict()}"
         return " ".join(text.split())
 
 
@@ -161,11 +185,55 @@ def _setup(scene: Scene, model: str = "rigid") -> _Setup:
 
 
 def plan_scene(scene: Scene) -> Plan:
-    """The cheapest (model, method, dt | rtol) whose predicted max angle error meets scene.accuracy."""
+    """The cheapest (model, method, dt | rtol) whose predicted max angle error meets scene.accuracy.
+
+    The prediction is the method's error plus the input-sensitivity floor (``with_conditioning``).
+    """
+    return with_conditioning(scene, _plan_method(scene))
+
+
+def _plan_method(scene: Scene) -> Plan:
+    """Rules 1-6 (method error only); a ParameterError becomes a SceneError naming the scene."""
     try:
         return _plan(scene)
     except ParameterError as err:
         raise SceneError(f"scene {scene.name}: cannot plan: {err}") from None
+
+
+def _sensitivity_times(scene: Scene, plan: Plan) -> np.ndarray:
+    """The sample times (a fixed step depends on them), or ≤ CONDITIONING_POINTS evenly spread ones."""
+    t = scene.sensor.sample_times(scene.duration)
+    if plan.dt is not None or t.size <= CONDITIONING_POINTS:
+        return t
+    return np.linspace(0.0, float(t[-1]), CONDITIONING_POINTS)
+
+
+def with_conditioning(scene: Scene, plan: Plan) -> Plan:
+    """``plan`` with its input sensitivity measured by paired runs of its own model and solver, and the
+    floor (1 ulp's worth of θ movement) added to the predicted error (pendulum_accel.conditioning)."""
+    from pendulum_accel.physics.simulate import AUTO_METHOD
+
+    times = _sensitivity_times(scene, plan)
+    method = AUTO_METHOD if plan.method == CLOSED_FORM_METHOD else plan.method
+
+    def run(theta0: float, theta_dot0: float) -> np.ndarray:
+        """θ at ``times`` with the plan's model and solver from (θ0, θ'0)."""
+        return simulate(scene.pendulum, scene.profile, times, theta0=theta0, theta_dot0=theta_dot0,
+                        model=plan.model, method=method, dt=plan.dt, rtol=plan.rtol).theta  # fmt: skip
+
+    omega = scene.pendulum.omega(scene.profile.max_abs(0.0, scene.duration))
+    try:
+        sensitivity = input_sensitivity(run, scene.theta0, scene.theta_dot0, omega, times, scene.accuracy)
+    except ParameterError as err:
+        raise SceneError(f"scene {scene.name}: cannot measure the input sensitivity: {err}") from None
+    driven = scene.profile.constant_pieces(0.0, scene.duration) is None
+    return replace(
+        plan,
+        predicted_error=plan.predicted_error + sensitivity.floor,
+        method_error=plan.predicted_error,
+        sensitivity=sensitivity,
+        driven=driven,
+    )
 
 
 def _plan(scene: Scene) -> Plan:
@@ -202,16 +270,7 @@ def _plan(scene: Scene) -> Plan:
 
 def _replace_reason(plan: Plan, reason: str) -> Plan:
     """``plan`` with a new reason."""
-    return Plan(
-        plan.model,
-        plan.method,
-        plan.dt,
-        plan.rtol,
-        plan.predicted_error,
-        reason,
-        plan.target,
-        plan.estimated_cpu_s,
-    )
+    return replace(plan, reason=reason)
 
 
 def rigid_string_error(scene: Scene) -> float:
@@ -238,6 +297,35 @@ def _closed_form_pieces(scene: Scene) -> list[Piece] | None:
     return scene.profile.constant_pieces(0.0, scene.duration)
 
 
+def closed_form_roundoff(
+    pendulum: Pendulum, accel: float, theta0: float, theta_dot0: float, span: float
+) -> float:
+    """Round-off bound of the exact closed form over one piece: EXACT_ROUNDOFF ε (Θ + 2kω span)(1 + n/8).
+
+    From the evaluation path (physics.exact): the elliptic argument u = ωt + u0 (or ζ, its Fourier
+    phase) carries a relative error of a few ε, i.e. ε·2kω·span absolutely, and φ moves by at most
+    |dφ/du| = 2k per unit of u; θ = θ0 + (φ − φ0) adds ε·Θ, Θ = the largest |θ| on the piece (|θ0| + the
+    libration range 2A, or + 2kω·span for a rotation). Near the separatrix the argument is halved n times
+    to |v| ≤ 1e-3 and doubled back (n = log2(K/1e-3), K the quarter period), each doubling adding its own
+    rounding: the factor (1 + n/8). The start's own rounding (m1 from θ0, θ'0) is the input sensitivity,
+    measured separately (pendulum_accel.conditioning).
+    """
+    start = OrbitStart.from_state(pendulum, accel, theta0, theta_dot0)
+    k = math.sqrt(start.m)
+    rate = 2.0 * k * start.omega  # max |φ'| on the orbit (libration and rotation alike)
+    amplitude = libration_amplitude(pendulum, accel, theta0, theta_dot0)
+    swing = 2.0 * amplitude if math.isfinite(amplitude) else rate * span + 2.0 * math.pi
+    big_theta = abs(theta0) + abs(pendulum.equilibrium_angle(accel)) + swing
+    doublings = 0
+    if start.m >= 1e-24 and start.m1 != 0.0:
+        # libration: K(m) from m1, K' from m; rotation: parameter 1/m, complement -m1/m (physics.exact)
+        m1, m = (start.m1, start.m) if start.m1 > 0.0 else (-start.m1 / start.m, 1.0 / start.m)
+        quarter = complete_k(m1)
+        if nome(quarter, complete_k(m)) > FOURIER_MAX_NOME:
+            doublings = max(0, math.ceil(math.log2(0.5 * quarter / 1e-3)))
+    return EXACT_ROUNDOFF * DOUBLE_EPS * (big_theta + rate * span) * (1.0 + doublings / 8.0)
+
+
 def _closed_form(setup: _Setup, pieces: list[Piece], model: str, extra: float) -> Plan:
     """Closed-form plan with its predicted error: linear bound or exact round-off, per piece (rule 3)."""
     p = setup.pendulum
@@ -251,9 +339,7 @@ def _closed_form(setup: _Setup, pieces: list[Piece], model: str, extra: float) -
         omegas.append(omega)
         amplitude = libration_amplitude(p, a, th, w)
         linear_sum += linear_error_bound(p, a, amplitude, span) if math.isfinite(amplitude) else math.inf
-        half_cos = math.cos(0.5 * min(amplitude, math.pi))
-        m1 = max(half_cos * half_cos, 1e-6)
-        exact_sum += EXACT_ROUNDOFF * (1.0 + omega * span) / m1
+        exact_sum += closed_form_roundoff(p, a, th, w, span)
         th_end, w_end = exact_solution(p, a, th, w, np.array([span]))
         th, w = float(th_end[0]), float(w_end[0])
     n = len(pieces)
@@ -466,9 +552,9 @@ def plan_with(
         if model is None and scene.model is None and method != CLOSED_FORM_METHOD:
             model = "elastic" if scene.wants_stretch else "rigid"
         scene = replace(scene, model=model or scene.model, method=method or scene.method)
-    base = plan_scene(scene)
+    base = _plan_method(scene)
     if dt is None and rtol is None:
-        return base
+        return with_conditioning(scene, base)
     if base.model in ("exact", "linear"):
         raise SceneError(f"model {base.model} is a closed form: it takes no --dt or --rtol")
     setup = _setup(scene, base.model)
@@ -480,9 +566,11 @@ def plan_with(
             raise SceneError(
                 f"--dt applies to fixed-step methods ({', '.join(FIXED_STEP_METHODS)}), not {method}"
             )
-        return _fixed_step(setup, base.model, chosen or "rk4", scene.accuracy - extra, extra, why, dt=dt)
+        given = _fixed_step(setup, base.model, chosen or "rk4", scene.accuracy - extra, extra, why, dt=dt)
+        return with_conditioning(scene, given)
     chosen = None if base.method in FIXED_STEP_METHODS else base.method
     if chosen is None and method is not None:
         raise SceneError(f"--rtol applies to adaptive methods, not {method}")
     default = "LSODA" if base.model == "elastic" else "DOP853"
-    return _adaptive(setup, base.model, chosen or default, scene.accuracy, why, extra, rtol=rtol)
+    given = _adaptive(setup, base.model, chosen or default, scene.accuracy, why, extra, rtol=rtol)
+    return with_conditioning(scene, given)

@@ -67,6 +67,11 @@ RESULTS: dict[str, LectureResult] = {
             "a = g tan θ off a swinging bob: the raw reading's bias, and how each estimator removes it",
             "pendulum_accel.lecture.accelerometer",
         ),
+        LectureResult(
+            "butterfly",
+            "two runs one ulp apart diverge in the driven pendulum: when the inputs stop counting",
+            "pendulum_accel.lecture.butterfly",
+        ),
     )
 }
 
