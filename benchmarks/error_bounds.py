@@ -93,25 +93,28 @@ ILL_CONDITIONED = (
 def battery(quick: bool = False) -> list[Case]:
     """The cases: the issue's regimes (quick: a shorter, coarser subset at targets 1e-6 and 1e-12)."""
     if quick:
-        short = {"duration": 8.0, "rate": 20.0}
         targets = (1e-6, 1e-12)
         cases = [
-            Case("libration 1e-6 rad", _scene("lib_tiny", theta0=1e-6, **short), targets),
-            Case("libration 1 rad a=2", _scene("lib1", profile=Constant(2.0), theta0=1.0, **short), targets),
-            Case("libration 3 rad", _scene("lib3", theta0=3.0, **short), targets),
+            Case("libration 1e-6 rad", _scene("lib_tiny", theta0=1e-6, duration=8.0, rate=20.0), targets),
+            Case(
+                "libration 1 rad a=2",
+                _scene("lib1", profile=Constant(2.0), theta0=1.0, duration=8.0, rate=20.0),
+                targets,
+            ),
+            Case("libration 3 rad", _scene("lib3", theta0=3.0, duration=8.0, rate=20.0), targets),
             Case(
                 "below separatrix 1e-9",
-                _scene("below9", theta_dot0=SEPARATRIX_RATE * (1 - 1e-9), **short),
+                _scene("below9", theta_dot0=SEPARATRIX_RATE * (1 - 1e-9), duration=8.0, rate=20.0),
                 targets,
             ),
             Case(
                 "above separatrix 1e-12",
-                _scene("above12", theta_dot0=SEPARATRIX_RATE * (1 + 1e-12), **short),
+                _scene("above12", theta_dot0=SEPARATRIX_RATE * (1 + 1e-12), duration=8.0, rate=20.0),
                 targets,
             ),
             Case(
                 "rotation 50 rad/s a=2",
-                _scene("rot50", profile=Constant(2.0), theta_dot0=50.0, **short),
+                _scene("rot50", profile=Constant(2.0), theta_dot0=50.0, duration=8.0, rate=20.0),
                 targets,
             ),
             Case(
@@ -119,25 +122,42 @@ def battery(quick: bool = False) -> list[Case]:
                 _scene("fast", length=1e-3, profile=Constant(-10 * G), theta0=0.5, duration=1.0, rate=200.0),
                 targets,
             ),
-            Case("steps 2 → -3", _scene("step", profile=Step(3.0, 2.0, -3.0), theta0=0.5, **short), targets),
+            Case(
+                "steps 2 → -3",
+                _scene("step", profile=Step(3.0, 2.0, -3.0), theta0=0.5, duration=8.0, rate=20.0),
+                targets,
+            ),
             Case(
                 "ramp, damped",
-                _scene("ramp", damping=0.2, profile=Ramp(1.0, 4.0, 0.0, 3.0), theta0=1.0, **short),
+                _scene(
+                    "ramp", damping=0.2, profile=Ramp(1.0, 4.0, 0.0, 3.0), theta0=1.0, duration=8.0, rate=20.0
+                ),
                 (1e-6, 1e-9),
             ),
-            Case("sinusoid", _scene("sine", profile=Sinusoid(2.0, 0.3), theta0=0.5, **short), (1e-6, 1e-9)),
+            Case(
+                "sinusoid",
+                _scene("sine", profile=Sinusoid(2.0, 0.3), theta0=0.5, duration=8.0, rate=20.0),
+                (1e-6, 1e-9),
+            ),
         ]
         inverted, grazing, _ = ILL_CONDITIONED
         return [*cases, inverted, grazing]
     cases = [
-        Case(f"libration {amp:g} rad", _scene(f"lib_{amp:.0e}".replace(".", "_").replace("+", ""), theta0=amp))
+        Case(
+            f"libration {amp:g} rad", _scene(f"lib_{amp:.0e}".replace(".", "_").replace("+", ""), theta0=amp)
+        )
         for amp in (1e-6, 1e-3, 0.1, 1.0, 2.0, 3.0)
     ]
     cases.append(Case("libration 1 rad a=2", _scene("lib_a2", profile=Constant(2.0), theta0=1.0)))
     for gap in (1e-3, 1e-6, 1e-9, 1e-12):
         for side, sign in (("below", -1.0), ("above", 1.0)):
             rate = SEPARATRIX_RATE * (1.0 + sign * gap)
-            cases.append(Case(f"{side} separatrix {gap:g}", _scene(f"{side}_{gap:.0e}".replace("+", ""), theta_dot0=rate)))
+            cases.append(
+                Case(
+                    f"{side} separatrix {gap:g}",
+                    _scene(f"{side}_{gap:.0e}".replace("+", ""), theta_dot0=rate),
+                )
+            )
     cases += [
         Case("inverted π - 1e-6", _scene("inv6", theta0=math.pi - 1e-6)),
         Case("rotation 50 rad/s", _scene("rot50", theta_dot0=50.0)),

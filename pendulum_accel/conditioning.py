@@ -25,7 +25,9 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 Runner = Callable[[float, float], FloatArray]  # (θ0, θ'0) → θ at the sample times
 
-NUDGE_ULPS = 64.0  # large enough to rise above the method's rounding noise, small enough to stay linear
+# Nudges tried in turn (ulps): the first whose pair stays within LINEAR_LIMIT gives S = |Δθ| / nudge;
+# 64 rises above the method's rounding noise; 1 is the last resort (an unstable start, chaos).
+NUDGE_LADDER = (64.0, 8.0, 1.0)
 LINEAR_LIMIT = 1e-2  # rad: a nudged pair further apart than this is past the linear regime
 INPUTS = ("θ0", "θ'0")
 
@@ -93,14 +95,16 @@ class Sensitivity:
         )
 
 
-def lyapunov_exponent(times: FloatArray, curve: FloatArray) -> float:
-    """λ = least-squares slope of ln max_{s≤t} S(s) over the second half of the span (1/s), ≥ 0."""
+def lyapunov_exponent(times: FloatArray, curve: FloatArray, saturation: float) -> float:
+    """λ = least-squares slope of ln max_{s≤t} S(s) (1/s, ≥ 0) over the growing stretch: from a quarter of
+    the way to where S first reaches ``saturation`` (past it the nudged pair is no longer linear)."""
     running = np.maximum.accumulate(np.maximum(curve, 1e-300))
-    half = times >= 0.5 * times[-1]
-    if np.count_nonzero(half) < 2 or times[-1] <= 0.0:
+    over = np.flatnonzero(running >= saturation)
+    end = float(times[over[0]]) if over.size else float(times[-1])
+    window = (times >= 0.25 * end) & (times <= end)
+    if np.count_nonzero(window) < 2 or end <= 0.0:
         return 0.0
-    slope = float(np.polyfit(times[half], np.log(running[half]), 1)[0])
-    return max(slope, 0.0)
+    return max(float(np.polyfit(times[window], np.log(running[window]), 1)[0]), 0.0)
 
 
 def _nudged(theta0: float, theta_dot0: float, which: int, size: float) -> tuple[float, float]:
@@ -120,14 +124,20 @@ def input_sensitivity(
     """S(t) from paired runs of ``run`` (module docstring); ``base`` = run(θ0, θ'0) when already at hand."""
     units = input_units(theta0, theta_dot0, omega)
     reference = run(theta0, theta_dot0) if base is None else base
-    deltas = [
-        np.abs(run(*_nudged(theta0, theta_dot0, i, NUDGE_ULPS * u)) - reference) for i, u in enumerate(units)
-    ]
-    linear = max(float(np.max(d)) for d in deltas) <= LINEAR_LIMIT
-    if linear:
-        curves = [d / NUDGE_ULPS for d in deltas]
-    else:  # past the linear regime: the one-ulp pairs themselves
-        curves = [np.abs(run(*_nudged(theta0, theta_dot0, i, u)) - reference) for i, u in enumerate(units)]
+    linear = False
+    curves: list[FloatArray] = []
+    for size in NUDGE_LADDER:  # the largest nudge that keeps the pair in the linear regime
+        deltas = [
+            np.abs(run(*_nudged(theta0, theta_dot0, i, size * u)) - reference) for i, u in enumerate(units)
+        ]
+        # a one-ulp pair can round to the same start (the nudge lost): the 8-ulp response per ulp stays
+        curves = [
+            d / size if not curves else np.maximum(d / size, c)
+            for d, c in zip(deltas, curves or deltas, strict=True)
+        ]
+        if max(float(np.max(d)) for d in deltas) <= LINEAR_LIMIT:
+            linear = True
+            break
     peaks = [float(np.max(c)) for c in curves]
     worst = int(np.argmax(peaks))
     curve = np.maximum(curves[0], curves[1])
@@ -141,7 +151,7 @@ def input_sensitivity(
         at=float(times[index]),
         target=target,
         lost_at=lost_at,
-        lyapunov=lyapunov_exponent(times, curve),
+        lyapunov=lyapunov_exponent(times, curve, LINEAR_LIMIT / NUDGE_LADDER[1]),
         linear=linear,
         times=times,
         curve=curve,

@@ -78,6 +78,7 @@ PILOT_SAFETY_FIXED = 4.0
 # step past the true limit (the radial mode's ω shifts with θ'²) as a blown-up difference and shrink it.
 STABILITY_FRACTION = 0.8
 PILOT_ROUNDS = 6
+PILOT_NO_CONVERGENCE = 1.0  # rad: a halving that moves θ this much means chaos; no smaller step helps
 COMPILED_MODELS = ("rigid", "elastic")
 STEPPED_METHODS = ("rk4", "rk8")  # what the planner chooses between for a compiled model
 MAX_FIXED_STEPS = 20_000_000
@@ -187,7 +188,7 @@ def _setup(scene: Scene, model: str = "rigid") -> _Setup:
 def plan_scene(scene: Scene) -> Plan:
     """The cheapest (model, method, dt | rtol) whose predicted max angle error meets scene.accuracy.
 
-    The prediction is the method's error plus the input-sensitivity floor (``with_conditioning``).
+    The prediction: the larger of the method's error and the input-sensitivity floor (with_conditioning).
     """
     return with_conditioning(scene, _plan_method(scene))
 
@@ -209,8 +210,10 @@ def _sensitivity_times(scene: Scene, plan: Plan) -> np.ndarray:
 
 
 def with_conditioning(scene: Scene, plan: Plan) -> Plan:
-    """``plan`` with its input sensitivity measured by paired runs of its own model and solver, and the
-    floor (1 ulp's worth of θ movement) added to the predicted error (pendulum_accel.conditioning)."""
+    """``plan`` with its input sensitivity measured by paired runs of its own model and solver; the
+    predicted error becomes max(method error, floor), the floor = θ's movement under 1 ulp of the inputs
+    (pendulum_accel.conditioning). The max, not the sum: the method's own start rounding is that same
+    ulp, so the floor is already part of what a method measures; summing double-counts it."""
     from pendulum_accel.physics.simulate import AUTO_METHOD
 
     times = _sensitivity_times(scene, plan)
@@ -229,7 +232,7 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
     driven = scene.profile.constant_pieces(0.0, scene.duration) is None
     return replace(
         plan,
-        predicted_error=plan.predicted_error + sensitivity.floor,
+        predicted_error=max(plan.predicted_error, sensitivity.floor),
         method_error=plan.predicted_error,
         sensitivity=sensitivity,
         driven=driven,
@@ -408,6 +411,8 @@ def _pilot_fixed(
         predicted = richardson * float(np.max(np.abs(coarse - fine)))
         if predicted > 0.5 * best[0]:
             return best  # round-off: a smaller step no longer buys accuracy
+        if predicted > PILOT_NO_CONVERGENCE:
+            return (predicted, dt)  # halving changes θ by radians: chaos, no step will converge
         best = (predicted, dt)
         if not adjust or predicted <= budget:
             return best
