@@ -49,7 +49,15 @@ def assert_png(path: Path) -> None:
 
 
 def test_registry_matches_modules() -> None:
-    assert list(RESULTS) == ["equilibrium", "frequency", "multiplier", "elastic", "gauge", "accelerometer"]
+    assert list(RESULTS) == [
+        "equilibrium",
+        "frequency",
+        "multiplier",
+        "elastic",
+        "gauge",
+        "accelerometer",
+        "butterfly",
+    ]
     for name, result in RESULTS.items():
         module = importlib.import_module(result.module)
         assert name == module.NAME
