@@ -8,9 +8,18 @@ variational solution, sampled), free of the rounding noise a one-ulp pair would 
 pair separates by more than LINEAR_LIMIT the response is no longer linear (an unstable start, chaos): the
 one-ulp pair itself is then run and its difference is the answer.
 
-From S(t): the floor max S (added to the method's predicted error by the planner), the first time S
-reaches the target (from then on θ is not determined by the inputs to within the target), and a
-finite-time Lyapunov exponent λ, the slope of ln max_{s≤t} S(s) over the second half of the span.
+From S(t): the floor max S (a statement about the problem, not about a run: the planner announces it
+and calls the inputs ill-conditioned when it exceeds the target), the first time S reaches the target
+(from then on θ is not determined by the inputs to within the target), and a finite-time Lyapunov
+exponent λ, the slope of ln max_{s≤t} S(s) over the growing stretch.
+
+The same runs also measure the solver's own round-off on this trajectory: the nudges are made in both
+directions, and the second difference θ(x + δ) + θ(x − δ) − 2 θ(x) cancels the response to δ (to first
+and, being symmetric, to second order) and leaves three independent realisations of the rounding,
+r₊ + r₋ − 2 r₀, whose spread is √6 times that of one run's rounding error r₀. ``noise`` =
+max |second difference| / √6, averaged over the two inputs: the typical max round-off error of one run,
+propagated through the problem's own growth (the rounding committed at step s is amplified to t exactly
+as an input perturbation is), with nothing modelled.
 """
 
 from __future__ import annotations
@@ -30,6 +39,7 @@ Runner = Callable[[float, float], FloatArray]  # (θ0, θ'0) → θ at the sampl
 NUDGE_LADDER = (64.0, 8.0, 1.0)
 LINEAR_LIMIT = 1e-2  # rad: a nudged pair further apart than this is past the linear regime
 INPUTS = ("θ0", "θ'0")
+SECOND_DIFFERENCE_SPREAD = math.sqrt(6.0)  # |r₊ + r₋ − 2 r₀| / |r| for independent equal roundings
 
 
 def input_units(theta0: float, theta_dot0: float, omega: float) -> tuple[float, float]:
@@ -46,7 +56,9 @@ class Sensitivity:
 
     ``input`` names that input, ``ulp`` its size; ``floor`` = max S (rad) at ``at`` (s); ``lost_at`` the
     first sample time where S ≥ ``target`` (None if never); ``lyapunov`` λ (1/s); ``linear`` False when
-    the one-ulp pair itself had to be run (S then is that pair's difference, not a linearised response).
+    the one-ulp pair itself had to be run (S then is that pair's difference, not a linearised response);
+    ``noise`` the run's own round-off (rad, module docstring; NaN when not linear); ``peaks`` max S per
+    input (θ0, θ'0) and ``units`` their ulps.
     """
 
     input: str
@@ -57,6 +69,9 @@ class Sensitivity:
     lost_at: float | None
     lyapunov: float
     linear: bool
+    noise: float
+    peaks: tuple[float, float]
+    units: tuple[float, float]
     times: FloatArray = field(repr=False, compare=False)
     curve: FloatArray = field(repr=False, compare=False)
 
@@ -112,6 +127,23 @@ def _nudged(theta0: float, theta_dot0: float, which: int, size: float) -> tuple[
     return (theta0 + size, theta_dot0) if which == 0 else (theta0, theta_dot0 + size)
 
 
+def _rounding_noise(
+    run: Runner,
+    theta0: float,
+    theta_dot0: float,
+    sizes: list[float],
+    plus: list[FloatArray],
+    reference: FloatArray,
+) -> float:
+    """mean over the inputs of max |θ(x + δ) + θ(x − δ) − 2 θ(x)| / √6: one run's round-off (docstring);
+    ``plus`` holds θ(x + δ), already run."""
+    spreads = [
+        float(np.max(np.abs(up + run(*_nudged(theta0, theta_dot0, which, -size)) - 2.0 * reference)))
+        for which, (size, up) in enumerate(zip(sizes, plus, strict=True))
+    ]
+    return float(np.mean(spreads)) / SECOND_DIFFERENCE_SPREAD
+
+
 def input_sensitivity(
     run: Runner,
     theta0: float,
@@ -125,11 +157,11 @@ def input_sensitivity(
     units = input_units(theta0, theta_dot0, omega)
     reference = run(theta0, theta_dot0) if base is None else base
     linear = False
+    noise = math.nan
     curves: list[FloatArray] = []
     for size in NUDGE_LADDER:  # the largest nudge that keeps the pair in the linear regime
-        deltas = [
-            np.abs(run(*_nudged(theta0, theta_dot0, i, size * u)) - reference) for i, u in enumerate(units)
-        ]
+        plus = [run(*_nudged(theta0, theta_dot0, i, size * u)) for i, u in enumerate(units)]
+        deltas = [np.abs(p - reference) for p in plus]
         # a one-ulp pair can round to the same start (the nudge lost): the 8-ulp response per ulp stays
         curves = [
             d / size if not curves else np.maximum(d / size, c)
@@ -137,6 +169,7 @@ def input_sensitivity(
         ]
         if max(float(np.max(d)) for d in deltas) <= LINEAR_LIMIT:
             linear = True
+            noise = _rounding_noise(run, theta0, theta_dot0, [size * u for u in units], plus, reference)
             break
     peaks = [float(np.max(c)) for c in curves]
     worst = int(np.argmax(peaks))
@@ -153,6 +186,9 @@ def input_sensitivity(
         lost_at=lost_at,
         lyapunov=lyapunov_exponent(times, curve, LINEAR_LIMIT / NUDGE_LADDER[1]),
         linear=linear,
+        noise=noise,
+        peaks=(peaks[0], peaks[1]),
+        units=units,
         times=times,
         curve=curve,
     )

@@ -88,6 +88,14 @@ PILOT_RTOLS = (1e-6, 1e-9)
 PILOT_POINTS = 1000
 RTOL_RANGE = (1e-13, 1e-3)
 EXACT_ROUNDOFF = 2.0  # × ε (Θ + 2kω span): closed_form_roundoff, calibrated by benchmarks/error_bounds.py
+DOUBLING_SHARE = 1.0 / 32.0  # each of the n argument doublings adds this share (measured: 1/8 was 4× loose)
+START_SAFETY = 2.0  # × the closed form's start rounding carried through S(t) (closed_form_start_error)
+START_NEAR_SEPARATRIX = 0.5  # |m1| below which K, K' and the nome depend on m1 enough for its rounding
+ROUNDOFF_SAFETY = 2.0  # × the measured round-off of a stepped run (conditioning: max over t of 1 draw)
+# A halving difference within this × the measured round-off of the run at h is rounding, not truncation:
+# the h/2 run takes twice the steps and its own rounding was measured up to 17× that of the h run (RK8 in
+# benchmarks/error_bounds.py), while truncation shrinks 2^p-fold per halving.
+HALVING_NOISE = 10.0
 DOUBLE_EPS = 2.0**-52
 LINEAR_CARRY = math.sqrt(2.0)
 # Measured CPU on this machine (see module docstring); only their ratio matters for the choice.
@@ -119,6 +127,8 @@ class Plan:
     sensitivity: Sensitivity | None = None
     method_error: float = math.nan
     driven: bool = False
+    halving_difference: float = math.nan
+    coarse_difference: float = math.nan
 
     @property
     def meets_target(self) -> bool:
@@ -140,7 +150,7 @@ class Plan:
 
     def explain(self) -> str:
         """'plan: <model> model, <method> (<dt/rtol>), predicted max angle error … rad (target …): <why>'."""
-        verdict = "" if self.meets_target else " — TARGET NOT MET"
+        verdict = "" if self.meets_target or self.ill_conditioned else " — TARGET NOT MET"
         text = (
             f"plan: {self.model} model, {self.method} ({self.setting()}), predicted max angle error "
             f"{self.predicted_error:.1e} rad (target {self.target:.1e} rad){verdict}: {self.reason}"
@@ -209,11 +219,8 @@ def _sensitivity_times(scene: Scene, plan: Plan) -> np.ndarray:
     return np.linspace(0.0, float(t[-1]), CONDITIONING_POINTS)
 
 
-def with_conditioning(scene: Scene, plan: Plan) -> Plan:
-    """``plan`` with its input sensitivity measured by paired runs of its own model and solver; the
-    predicted error becomes max(method error, floor), the floor = θ's movement under 1 ulp of the inputs
-    (pendulum_accel.conditioning). The max, not the sum: the method's own start rounding is that same
-    ulp, so the floor is already part of what a method measures; summing double-counts it."""
+def measure_sensitivity(scene: Scene, plan: Plan) -> Sensitivity:
+    """S(t) of ``scene`` by paired runs of ``plan``'s own model and solver (pendulum_accel.conditioning)."""
     from pendulum_accel.physics.simulate import AUTO_METHOD
 
     times = _sensitivity_times(scene, plan)
@@ -226,17 +233,95 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
 
     omega = scene.pendulum.omega(scene.profile.max_abs(0.0, scene.duration))
     try:
-        sensitivity = input_sensitivity(run, scene.theta0, scene.theta_dot0, omega, times, scene.accuracy)
+        return input_sensitivity(run, scene.theta0, scene.theta_dot0, omega, times, scene.accuracy)
     except ParameterError as err:
         raise SceneError(f"scene {scene.name}: cannot measure the input sensitivity: {err}") from None
+
+
+def with_conditioning(scene: Scene, plan: Plan) -> Plan:
+    """``plan`` with its input sensitivity (measured unless the plan carries it) and its method error
+    including the method's own round-off carried through that sensitivity (_with_roundoff).
+
+    The input-sensitivity floor is a statement about the problem, not a term of this run's error (the
+    run starts from the same floats as any reference): it is announced, and only when it exceeds the
+    target (ill-conditioned: the error is then decided by how rounding falls, and no tight bound exists)
+    does the predicted error become max(method error, floor), the most the inputs can promise.
+    """
+    if plan.sensitivity is None:
+        plan = _with_roundoff(scene, plan, measure_sensitivity(scene, plan))
+    sensitivity = plan.sensitivity
+    assert sensitivity is not None  # set by _with_roundoff
+    predicted = plan.method_error
+    if sensitivity.ill_conditioned:
+        predicted = max(predicted, sensitivity.floor)
     driven = scene.profile.constant_pieces(0.0, scene.duration) is None
-    return replace(
-        plan,
-        predicted_error=max(plan.predicted_error, sensitivity.floor),
-        method_error=plan.predicted_error,
-        sensitivity=sensitivity,
-        driven=driven,
+    return replace(plan, predicted_error=predicted, driven=driven)
+
+
+def _with_roundoff(scene: Scene, plan: Plan, sensitivity: Sensitivity) -> Plan:
+    """``plan`` with ``sensitivity`` and method_error = its error estimate with its own round-off.
+
+    Closed form: the evaluation-path bound plus START_SAFETY × the start's rounding carried through S(t)
+    (closed_form_start_error). Stepped with a halving pilot: ROUNDOFF_SAFETY × the measured round-off,
+    plus the Richardson estimate of truncation, PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1); when that
+    difference is within HALVING_NOISE × the round-off it is rounding, and the truncation at h is taken
+    from the doubling above instead, PILOT_SAFETY_FIXED |θ_{2h} − θ_h| / (2^p − 1). Others: their a-priori
+    error plus the round-off term.
+    """
+    noise = sensitivity.noise if math.isfinite(sensitivity.noise) else 0.0
+    error = plan.predicted_error
+    if plan.method == CLOSED_FORM_METHOD:
+        error += START_SAFETY * _start_rounding_effect(scene, sensitivity)
+    elif math.isfinite(plan.halving_difference):
+        order = FIXED_STEP_ORDER[plan.method][0]
+        richardson = PILOT_SAFETY_FIXED * 2.0**order / (2.0**order - 1.0)
+        if plan.halving_difference <= HALVING_NOISE * noise:
+            # rounding hides the truncation at h: take it from the doubling above, 2^p-fold larger there
+            coarse = plan.coarse_difference if math.isfinite(plan.coarse_difference) else 0.0
+            error += PILOT_SAFETY_FIXED * coarse / (2.0**order - 1.0) - richardson * plan.halving_difference
+        error += ROUNDOFF_SAFETY * noise
+    else:
+        error += ROUNDOFF_SAFETY * noise
+    return replace(plan, method_error=error, predicted_error=error, sensitivity=sensitivity)
+
+
+def _start_rounding_effect(scene: Scene, sensitivity: Sensitivity) -> float:
+    """max |Δθ| from the closed form's rounding of m1 at the start: S_i |δm1| / (|∂m1/∂x_i| ulp_i), x_i the
+    input through which an ulp moves m1 most (0 away from the separatrix, |m1| ≥ START_NEAR_SEPARATRIX)."""
+    pieces = _closed_form_pieces(scene)
+    if pieces is None:
+        return 0.0
+    p, accel = scene.pendulum, pieces[0][2]
+    start = OrbitStart.from_state(p, accel, scene.theta0, scene.theta_dot0)
+    if abs(start.m1) >= START_NEAR_SEPARATRIX:
+        return 0.0
+    per_ulp = (
+        abs(start.c * start.s) * sensitivity.units[0],  # ∂m1/∂θ0 = -c s   (m1 = c² − h², c = cos(φ0/2))
+        abs(start.h) / start.omega * sensitivity.units[1],  # ∂m1/∂θ'0 = -h/ω  (h = θ'0/2ω)
     )
+    which = int(np.argmax(per_ulp))
+    if per_ulp[which] == 0.0:
+        return 0.0
+    delta = closed_form_start_error(p, accel, scene.theta0, scene.theta_dot0)
+    return sensitivity.peaks[which] * delta / per_ulp[which]
+
+
+def closed_form_start_error(pendulum: Pendulum, accel: float, theta0: float, theta_dot0: float) -> float:
+    """|m1 − m1*|: physics.exact's rounding of m1 = (c − |h|)(c + |h|) at the start, against m1* formed
+    from the same floats in extended precision (numpy longdouble); where longdouble is plain double, the
+    worst case ε (c + |h|)(2c + 3|h| + |s| (|φ0| + |θ_eq|)) of the rounding path instead."""
+    start = OrbitStart.from_state(pendulum, accel, theta0, theta_dot0)
+    if np.finfo(np.longdouble).eps >= DOUBLE_EPS:
+        c, h, s = start.c, abs(start.h), abs(start.s)
+        tilt = abs(pendulum.equilibrium_angle(accel))
+        return 0.5 * DOUBLE_EPS * (c + h) * (2.0 * c + 3.0 * h + s * (abs(theta0 - tilt) + tilt))
+    g, a = np.longdouble(pendulum.gravity), np.longdouble(accel)
+    omega = np.sqrt(np.sqrt(g * g + a * a) / np.longdouble(pendulum.length))
+    half = 0.5 * (np.longdouble(theta0) - np.arctan2(a, g))
+    c_exact = abs(np.cos(half))
+    h_exact = abs(0.5 * np.longdouble(theta_dot0) / omega)
+    m1_exact = (c_exact - h_exact) * (c_exact + h_exact)
+    return float(abs(np.longdouble(start.m1) - m1_exact))
 
 
 def _plan(scene: Scene) -> Plan:
@@ -303,15 +388,15 @@ def _closed_form_pieces(scene: Scene) -> list[Piece] | None:
 def closed_form_roundoff(
     pendulum: Pendulum, accel: float, theta0: float, theta_dot0: float, span: float
 ) -> float:
-    """Round-off bound of the exact closed form over one piece: EXACT_ROUNDOFF ε (Θ + 2kω span)(1 + n/8).
+    """Round-off bound of the exact closed form over one piece: EXACT_ROUNDOFF ε (Θ + 2kω span)(1 + n/32).
 
     From the evaluation path (physics.exact): the elliptic argument u = ωt + u0 (or ζ, its Fourier
     phase) carries a relative error of a few ε, i.e. ε·2kω·span absolutely, and φ moves by at most
     |dφ/du| = 2k per unit of u; θ = θ0 + (φ − φ0) adds ε·Θ, Θ = the largest |θ| on the piece (|θ0| + the
     libration range 2A, or + 2kω·span for a rotation). Near the separatrix the argument is halved n times
     to |v| ≤ 1e-3 and doubled back (n = log2(K/1e-3), K the quarter period), each doubling adding its own
-    rounding: the factor (1 + n/8). The start's own rounding (m1 from θ0, θ'0) is the input sensitivity,
-    measured separately (pendulum_accel.conditioning).
+    rounding: the factor (1 + n/32) (measured: far less than one ε per doubling). The start's own
+    rounding (m1 from θ0, θ'0) is closed_form_start_error's, carried through the measured sensitivity.
     """
     start = OrbitStart.from_state(pendulum, accel, theta0, theta_dot0)
     k = math.sqrt(start.m)
@@ -326,7 +411,7 @@ def closed_form_roundoff(
         quarter = complete_k(m1)
         if nome(quarter, complete_k(m)) > FOURIER_MAX_NOME:
             doublings = max(0, math.ceil(math.log2(0.5 * quarter / 1e-3)))
-    return EXACT_ROUNDOFF * DOUBLE_EPS * (big_theta + rate * span) * (1.0 + doublings / 8.0)
+    return EXACT_ROUNDOFF * DOUBLE_EPS * (big_theta + rate * span) * (1.0 + doublings * DOUBLING_SHARE)
 
 
 def _closed_form(setup: _Setup, pieces: list[Piece], model: str, extra: float) -> Plan:
@@ -446,7 +531,29 @@ def _fixed_step(
         error = const * (h * setup.omega_fast) ** order * setup.omega_fast_t
         detail = f"{method} with hω = {h * setup.omega_fast:.1e} ({steps} steps)"
     cpu = _step_cost(setup, model, method, steps)
-    return Plan(model, method, dt, None, error + extra, f"{why}; {detail}", setup.scene.accuracy, cpu)
+    plan = Plan(model, method, dt, None, error + extra, f"{why}; {detail}", setup.scene.accuracy, cpu)
+    if model not in COMPILED_MODELS:
+        return plan
+    order = FIXED_STEP_ORDER[method][0]
+    difference = error / (PILOT_SAFETY_FIXED * 2.0**order / (2.0**order - 1.0))
+    coarse = _coarse_difference(setup, model, method, h)
+    plan = replace(plan, halving_difference=difference, coarse_difference=coarse)
+    return _with_roundoff(setup.scene, plan, measure_sensitivity(setup.scene, plan))
+
+
+def _coarse_difference(setup: _Setup, model: str, method: str, h: float) -> float:
+    """max |θ_{2h} − θ_h| on every other sample time: the truncation one doubling above the plan's step,
+    where it stands clear of rounding when the halving below it (h against h/2) does not."""
+    scene = setup.scene
+    t = scene.sensor.sample_times(setup.duration)[::2]
+    if t.size < 2:
+        return math.nan
+    runs = [
+        simulate(setup.pendulum, setup.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
+                 model=model, method=method, dt=step).theta
+        for step in (2.0 * h, h)
+    ]  # fmt: skip
+    return float(np.max(np.abs(runs[0] - runs[1])))
 
 
 def _stepped(setup: _Setup, model: str, budget: float, extra: float, why: str) -> Plan:
@@ -471,7 +578,11 @@ def _stepped(setup: _Setup, model: str, budget: float, extra: float, why: str) -
     if second.predicted_error <= target:
         return _replace_reason(second, f"{second.reason}, {order[0]} cannot promise the target")
     best = min((first, second), key=lambda p: p.predicted_error)
-    return _replace_reason(best, f"{best.reason}; the target is below what double precision can promise")
+    noise = best.sensitivity.noise if best.sensitivity is not None else math.nan
+    floor = f" (its measured round-off on this trajectory: {noise:.1e} rad)" if math.isfinite(noise) else ""
+    return _replace_reason(
+        best, f"{best.reason}; the target is below what {best.method} in double precision can promise{floor}"
+    )
 
 
 def pilot_error_constant(setup: _Setup, model: str, method: str) -> float:
