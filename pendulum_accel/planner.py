@@ -265,8 +265,9 @@ def _with_roundoff(scene: Scene, plan: Plan, sensitivity: Sensitivity) -> Plan:
     (closed_form_start_error). Stepped with a halving pilot: ROUNDOFF_SAFETY × the measured round-off,
     plus the Richardson estimate of truncation, PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1); when that
     difference is within HALVING_NOISE × the round-off it is rounding, and the truncation at h is taken
-    from the doubling above instead, PILOT_SAFETY_FIXED |θ_{2h} − θ_h| / (2^p − 1). Others: their a-priori
-    error plus the round-off term.
+    from the doubling above instead, PILOT_SAFETY_FIXED |θ_{2h} − θ_h| / (2^p − 1). Other fixed steps:
+    their a-priori error plus the round-off term; adaptive plans as they are (their pilot pair's K holds
+    their rounding).
     """
     noise = sensitivity.noise if math.isfinite(sensitivity.noise) else 0.0
     error = plan.predicted_error
@@ -280,7 +281,7 @@ def _with_roundoff(scene: Scene, plan: Plan, sensitivity: Sensitivity) -> Plan:
             coarse = plan.coarse_difference if math.isfinite(plan.coarse_difference) else 0.0
             error += PILOT_SAFETY_FIXED * coarse / (2.0**order - 1.0) - richardson * plan.halving_difference
         error += ROUNDOFF_SAFETY * noise
-    else:
+    elif plan.rtol is None:  # adaptive plans: the pilot pair's K was measured with their rounding in it
         error += ROUNDOFF_SAFETY * noise
     return replace(plan, method_error=error, predicted_error=error, sensitivity=sensitivity)
 
@@ -543,11 +544,13 @@ def _fixed_step(
 
 def _coarse_difference(setup: _Setup, model: str, method: str, h: float) -> float:
     """max |θ_{2h} − θ_h| on every other sample time: the truncation one doubling above the plan's step,
-    where it stands clear of rounding when the halving below it (h against h/2) does not."""
+    where it stands clear of rounding when the halving below it (h against h/2) does not (NaN if 2h
+    would be unstable)."""
     scene = setup.scene
     t = scene.sensor.sample_times(setup.duration)[::2]
-    if t.size < 2:
-        return math.nan
+    limit = stability_limit(method)
+    if t.size < 2 or (limit is not None and 2.0 * h * setup.omega_fast > STABILITY_FRACTION * limit):
+        return math.nan  # 2h would step past the stiff mode's stability: no truncation to read there
     runs = [
         simulate(setup.pendulum, setup.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
                  model=model, method=method, dt=step).theta
