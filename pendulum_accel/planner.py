@@ -581,6 +581,8 @@ def _stepped(setup: _Setup, model: str, budget: float, extra: float, why: str) -
     if second.predicted_error <= target:
         return _replace_reason(second, f"{second.reason}, {order[0]} cannot promise the target")
     best = min((first, second), key=lambda p: p.predicted_error)
+    if best.ill_conditioned:  # the runs differ by how rounding falls: no step size helps
+        return _replace_reason(best, f"{best.reason}; no step meets the target: the inputs do not fix θ")
     noise = best.sensitivity.noise if best.sensitivity is not None else math.nan
     floor = f" (its measured round-off on this trajectory: {noise:.1e} rad)" if math.isfinite(noise) else ""
     return _replace_reason(
