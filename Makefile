@@ -67,7 +67,7 @@ bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags
 
 # Every benchmark, each the way the README quotes it; figures print and land in out/bench.
-BENCHES := work_precision estimators calibration chain bags sweep_bench soak
+BENCHES := work_precision error_bounds estimators calibration chain bags sweep_bench soak
 bench: $(STAMP)
 	@for b in $(BENCHES); do \
 	  echo "== python -m benchmarks.$$b"; \

@@ -39,3 +39,7 @@ class RosMissingError(PendulumAccelError):
 
 class OutputError(PendulumAccelError):
     """An output that cannot be written (disk full, read-only, a directory where a file goes)."""
+
+
+class IllConditionedError(PendulumAccelError):
+    """Inputs so ill-conditioned that one ulp of them moves θ by more than the accuracy target."""

@@ -43,8 +43,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from pendulum_accel.conditioning import Sensitivity, input_sensitivity
 from pendulum_accel.errors import ParameterError, SceneError
-from pendulum_accel.physics.exact import exact_solution, libration_amplitude
+from pendulum_accel.physics.exact import (
+    FOURIER_MAX_NOME,
+    OrbitStart,
+    complete_k,
+    exact_solution,
+    libration_amplitude,
+    nome,
+)
 from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, stability_limit
 from pendulum_accel.physics.linear import linear_error_bound
 from pendulum_accel.physics.params import Pendulum
@@ -70,6 +78,7 @@ PILOT_SAFETY_FIXED = 4.0
 # step past the true limit (the radial mode's ω shifts with θ'²) as a blown-up difference and shrink it.
 STABILITY_FRACTION = 0.8
 PILOT_ROUNDS = 6
+PILOT_NO_CONVERGENCE = 1.0  # rad: a halving that moves θ this much means chaos; no smaller step helps
 COMPILED_MODELS = ("rigid", "elastic")
 STEPPED_METHODS = ("rk4", "rk8")  # what the planner chooses between for a compiled model
 MAX_FIXED_STEPS = 20_000_000
@@ -78,7 +87,16 @@ PILOT_SAFETY = 20.0
 PILOT_RTOLS = (1e-6, 1e-9)
 PILOT_POINTS = 1000
 RTOL_RANGE = (1e-13, 1e-3)
-EXACT_ROUNDOFF = 1e-13  # rad per unit (1 + ωT) per piece, before the separatrix factor
+EXACT_ROUNDOFF = 2.0  # × ε (Θ + 2kω span): closed_form_roundoff, calibrated by benchmarks/error_bounds.py
+DOUBLING_SHARE = 1.0 / 32.0  # each of the n argument doublings adds this share (measured: 1/8 was 4× loose)
+START_SAFETY = 2.0  # × the closed form's start rounding carried through S(t) (closed_form_start_error)
+START_NEAR_SEPARATRIX = 0.5  # |m1| below which K, K' and the nome depend on m1 enough for its rounding
+ROUNDOFF_SAFETY = 2.0  # × the measured round-off of a stepped run (conditioning: max over t of 1 draw)
+# A halving difference within this × the measured round-off of the run at h is rounding, not truncation:
+# the h/2 run takes twice the steps and its own rounding was measured up to 17× that of the h run (RK8 in
+# benchmarks/error_bounds.py), while truncation shrinks 2^p-fold per halving.
+HALVING_NOISE = 10.0
+DOUBLE_EPS = 2.0**-52
 LINEAR_CARRY = math.sqrt(2.0)
 # Measured CPU on this machine (see module docstring); only their ratio matters for the choice.
 KERNEL_STEP_S: dict[tuple[str, str], float] = {  # compiled kernels (physics.kernels), per step
@@ -91,6 +109,7 @@ PYTHON_STEP_S = 15e-6  # the numpy loop of physics.integrators (the multiplier m
 ADAPTIVE_CALL_S = 24e-6
 ADAPTIVE_CALLS = 3.5  # calls ≈ 3.5 (1 + ωT) rtol^(-1/8) for DOP853 (fit over rtol 1e-4 … 1e-12)
 CLOSED_FORM_SAMPLE_S = {"linear": 0.2e-6, "exact": 0.6e-6}
+CONDITIONING_POINTS = 20_000  # sample times of the paired runs when no fixed step ties them to the sensor
 
 
 @dataclass(frozen=True)
@@ -105,11 +124,21 @@ class Plan:
     reason: str
     target: float = math.nan
     estimated_cpu_s: float = math.nan
+    sensitivity: Sensitivity | None = None
+    method_error: float = math.nan
+    driven: bool = False
+    halving_difference: float = math.nan
+    coarse_difference: float = math.nan
 
     @property
     def meets_target(self) -> bool:
         """predicted_error ≤ target."""
         return self.predicted_error <= self.target
+
+    @property
+    def ill_conditioned(self) -> bool:
+        """The inputs' own rounding moves θ by more than the target (conditioning.Sensitivity)."""
+        return self.sensitivity is not None and self.sensitivity.ill_conditioned
 
     def setting(self) -> str:
         """'dt = … s', 'rtol = …' or 'no stepping'."""
@@ -121,11 +150,17 @@ class Plan:
 
     def explain(self) -> str:
         """'plan: <model> model, <method> (<dt/rtol>), predicted max angle error … rad (target …): <why>'."""
-        verdict = "" if self.meets_target else " — TARGET NOT MET"
+        verdict = "" if self.meets_target or self.ill_conditioned else " — TARGET NOT MET"
         text = (
             f"plan: {self.model} model, {self.method} ({self.setting()}), predicted max angle error "
             f"{self.predicted_error:.1e} rad (target {self.target:.1e} rad){verdict}: {self.reason}"
         )
+        if self.sensitivity is not None:
+            text += f"; method error {self.method_error:.1e} rad, {self.sensitivity.describe()}"
+            if self.driven:
+                text += f"; {self.sensitivity.chaos()}"
+            if self.sensitivity.verdict():
+                text += f" — {self.sensitivity.verdict()}"
         return " ".join(text.split())
 
 
@@ -161,11 +196,133 @@ def _setup(scene: Scene, model: str = "rigid") -> _Setup:
 
 
 def plan_scene(scene: Scene) -> Plan:
-    """The cheapest (model, method, dt | rtol) whose predicted max angle error meets scene.accuracy."""
+    """The cheapest (model, method, dt | rtol) whose predicted max angle error meets scene.accuracy.
+
+    The prediction: the larger of the method's error and the input-sensitivity floor (with_conditioning).
+    """
+    return with_conditioning(scene, _plan_method(scene))
+
+
+def _plan_method(scene: Scene) -> Plan:
+    """Rules 1-6 (method error only); a ParameterError becomes a SceneError naming the scene."""
     try:
         return _plan(scene.on_level())  # a road grade is planned as its level equivalent
     except ParameterError as err:
         raise SceneError(f"scene {scene.name}: cannot plan: {err}") from None
+
+
+def _sensitivity_times(scene: Scene, plan: Plan) -> np.ndarray:
+    """The sample times (a fixed step depends on them), or ≤ CONDITIONING_POINTS evenly spread ones."""
+    t = scene.sensor.sample_times(scene.duration)
+    if plan.dt is not None or t.size <= CONDITIONING_POINTS:
+        return t
+    return np.linspace(0.0, float(t[-1]), CONDITIONING_POINTS)
+
+
+def measure_sensitivity(scene: Scene, plan: Plan) -> Sensitivity:
+    """S(t) of ``scene`` by paired runs of ``plan``'s own model and solver (pendulum_accel.conditioning)."""
+    from pendulum_accel.physics.simulate import AUTO_METHOD
+
+    times = _sensitivity_times(scene, plan)
+    method = AUTO_METHOD if plan.method == CLOSED_FORM_METHOD else plan.method
+
+    def run(theta0: float, theta_dot0: float) -> np.ndarray:
+        """θ at ``times`` with the plan's model and solver from (θ0, θ'0)."""
+        return simulate(scene.pendulum, scene.profile, times, theta0=theta0, theta_dot0=theta_dot0,
+                        model=plan.model, method=method, dt=plan.dt, rtol=plan.rtol).theta  # fmt: skip
+
+    omega = scene.pendulum.omega(scene.profile.max_abs(0.0, scene.duration))
+    try:
+        return input_sensitivity(run, scene.theta0, scene.theta_dot0, omega, times, scene.accuracy)
+    except ParameterError as err:
+        raise SceneError(f"scene {scene.name}: cannot measure the input sensitivity: {err}") from None
+
+
+def with_conditioning(scene: Scene, plan: Plan) -> Plan:
+    """``plan`` with its input sensitivity (measured unless the plan carries it) and its method error
+    including the method's own round-off carried through that sensitivity (_with_roundoff).
+
+    The input-sensitivity floor is a statement about the problem, not a term of this run's error (the
+    run starts from the same floats as any reference): it is announced, and only when it exceeds the
+    target (ill-conditioned: the error is then decided by how rounding falls, and no tight bound exists)
+    does the predicted error become max(method error, floor), the most the inputs can promise.
+    """
+    if plan.sensitivity is None:
+        plan = _with_roundoff(scene, plan, measure_sensitivity(scene, plan))
+    sensitivity = plan.sensitivity
+    assert sensitivity is not None  # set by _with_roundoff
+    predicted = plan.method_error
+    if sensitivity.ill_conditioned:
+        predicted = max(predicted, sensitivity.floor)
+    driven = scene.profile.constant_pieces(0.0, scene.duration) is None
+    return replace(plan, predicted_error=predicted, driven=driven)
+
+
+def _with_roundoff(scene: Scene, plan: Plan, sensitivity: Sensitivity) -> Plan:
+    """``plan`` with ``sensitivity`` and method_error = its error estimate with its own round-off.
+
+    Closed form: the evaluation-path bound plus START_SAFETY × the start's rounding carried through S(t)
+    (closed_form_start_error). Stepped with a halving pilot: ROUNDOFF_SAFETY × the measured round-off,
+    plus the Richardson estimate of truncation, PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1); when that
+    difference is within HALVING_NOISE × the round-off it is rounding, and the truncation at h is taken
+    from the doubling above instead, PILOT_SAFETY_FIXED |θ_{2h} − θ_h| / (2^p − 1). Other fixed steps:
+    their a-priori error plus the round-off term; adaptive plans as they are (their pilot pair's K holds
+    their rounding).
+    """
+    noise = sensitivity.noise if math.isfinite(sensitivity.noise) else 0.0
+    error = plan.predicted_error
+    if plan.method == CLOSED_FORM_METHOD:
+        error += START_SAFETY * _start_rounding_effect(scene, sensitivity)
+    elif math.isfinite(plan.halving_difference):
+        order = FIXED_STEP_ORDER[plan.method][0]
+        richardson = PILOT_SAFETY_FIXED * 2.0**order / (2.0**order - 1.0)
+        if plan.halving_difference <= HALVING_NOISE * noise:
+            # rounding hides the truncation at h: take it from the doubling above, 2^p-fold larger there
+            coarse = plan.coarse_difference if math.isfinite(plan.coarse_difference) else 0.0
+            error += PILOT_SAFETY_FIXED * coarse / (2.0**order - 1.0) - richardson * plan.halving_difference
+        error += ROUNDOFF_SAFETY * noise
+    elif plan.rtol is None:  # adaptive plans: the pilot pair's K was measured with their rounding in it
+        error += ROUNDOFF_SAFETY * noise
+    return replace(plan, method_error=error, predicted_error=error, sensitivity=sensitivity)
+
+
+def _start_rounding_effect(scene: Scene, sensitivity: Sensitivity) -> float:
+    """max |Δθ| from the closed form's rounding of m1 at the start: S_i |δm1| / (|∂m1/∂x_i| ulp_i), x_i the
+    input through which an ulp moves m1 most (0 away from the separatrix, |m1| ≥ START_NEAR_SEPARATRIX)."""
+    pieces = _closed_form_pieces(scene)
+    if pieces is None:
+        return 0.0
+    p, accel = scene.pendulum, pieces[0][2]
+    start = OrbitStart.from_state(p, accel, scene.theta0, scene.theta_dot0)
+    if abs(start.m1) >= START_NEAR_SEPARATRIX:
+        return 0.0
+    per_ulp = (
+        abs(start.c * start.s) * sensitivity.units[0],  # ∂m1/∂θ0 = -c s   (m1 = c² − h², c = cos(φ0/2))
+        abs(start.h) / start.omega * sensitivity.units[1],  # ∂m1/∂θ'0 = -h/ω  (h = θ'0/2ω)
+    )
+    which = int(np.argmax(per_ulp))
+    if per_ulp[which] == 0.0:
+        return 0.0
+    delta = closed_form_start_error(p, accel, scene.theta0, scene.theta_dot0)
+    return sensitivity.peaks[which] * delta / per_ulp[which]
+
+
+def closed_form_start_error(pendulum: Pendulum, accel: float, theta0: float, theta_dot0: float) -> float:
+    """|m1 − m1*|: physics.exact's rounding of m1 = (c − |h|)(c + |h|) at the start, against m1* formed
+    from the same floats in extended precision (numpy longdouble); where longdouble is plain double, the
+    worst case ε (c + |h|)(2c + 3|h| + |s| (|φ0| + |θ_eq|)) of the rounding path instead."""
+    start = OrbitStart.from_state(pendulum, accel, theta0, theta_dot0)
+    if np.finfo(np.longdouble).eps >= DOUBLE_EPS:
+        c, h, s = start.c, abs(start.h), abs(start.s)
+        tilt = abs(pendulum.equilibrium_angle(accel))
+        return 0.5 * DOUBLE_EPS * (c + h) * (2.0 * c + 3.0 * h + s * (abs(theta0 - tilt) + tilt))
+    g, a = np.longdouble(pendulum.gravity), np.longdouble(accel)
+    omega = np.sqrt(np.sqrt(g * g + a * a) / np.longdouble(pendulum.length))
+    half = 0.5 * (np.longdouble(theta0) - np.arctan2(a, g))
+    c_exact = abs(np.cos(half))
+    h_exact = abs(0.5 * np.longdouble(theta_dot0) / omega)
+    m1_exact = (c_exact - h_exact) * (c_exact + h_exact)
+    return float(abs(np.longdouble(start.m1) - m1_exact))
 
 
 def _plan(scene: Scene) -> Plan:
@@ -202,16 +359,7 @@ def _plan(scene: Scene) -> Plan:
 
 def _replace_reason(plan: Plan, reason: str) -> Plan:
     """``plan`` with a new reason."""
-    return Plan(
-        plan.model,
-        plan.method,
-        plan.dt,
-        plan.rtol,
-        plan.predicted_error,
-        reason,
-        plan.target,
-        plan.estimated_cpu_s,
-    )
+    return replace(plan, reason=reason)
 
 
 def rigid_string_error(scene: Scene) -> float:
@@ -238,6 +386,35 @@ def _closed_form_pieces(scene: Scene) -> list[Piece] | None:
     return scene.profile.constant_pieces(0.0, scene.duration)
 
 
+def closed_form_roundoff(
+    pendulum: Pendulum, accel: float, theta0: float, theta_dot0: float, span: float
+) -> float:
+    """Round-off bound of the exact closed form over one piece: EXACT_ROUNDOFF ε (Θ + 2kω span)(1 + n/32).
+
+    From the evaluation path (physics.exact): the elliptic argument u = ωt + u0 (or ζ, its Fourier
+    phase) carries a relative error of a few ε, i.e. ε·2kω·span absolutely, and φ moves by at most
+    |dφ/du| = 2k per unit of u; θ = θ0 + (φ − φ0) adds ε·Θ, Θ = the largest |θ| on the piece (|θ0| + the
+    libration range 2A, or + 2kω·span for a rotation). Near the separatrix the argument is halved n times
+    to |v| ≤ 1e-3 and doubled back (n = log2(K/1e-3), K the quarter period), each doubling adding its own
+    rounding: the factor (1 + n/32) (measured: far less than one ε per doubling). The start's own
+    rounding (m1 from θ0, θ'0) is closed_form_start_error's, carried through the measured sensitivity.
+    """
+    start = OrbitStart.from_state(pendulum, accel, theta0, theta_dot0)
+    k = math.sqrt(start.m)
+    rate = 2.0 * k * start.omega  # max |φ'| on the orbit (libration and rotation alike)
+    amplitude = libration_amplitude(pendulum, accel, theta0, theta_dot0)
+    swing = 2.0 * amplitude if math.isfinite(amplitude) else rate * span + 2.0 * math.pi
+    big_theta = abs(theta0) + abs(pendulum.equilibrium_angle(accel)) + swing
+    doublings = 0
+    if start.m >= 1e-24 and start.m1 != 0.0:
+        # libration: K(m) from m1, K' from m; rotation: parameter 1/m, complement -m1/m (physics.exact)
+        m1, m = (start.m1, start.m) if start.m1 > 0.0 else (-start.m1 / start.m, 1.0 / start.m)
+        quarter = complete_k(m1)
+        if nome(quarter, complete_k(m)) > FOURIER_MAX_NOME:
+            doublings = max(0, math.ceil(math.log2(0.5 * quarter / 1e-3)))
+    return EXACT_ROUNDOFF * DOUBLE_EPS * (big_theta + rate * span) * (1.0 + doublings * DOUBLING_SHARE)
+
+
 def _closed_form(setup: _Setup, pieces: list[Piece], model: str, extra: float) -> Plan:
     """Closed-form plan with its predicted error: linear bound or exact round-off, per piece (rule 3)."""
     p = setup.pendulum
@@ -251,9 +428,7 @@ def _closed_form(setup: _Setup, pieces: list[Piece], model: str, extra: float) -
         omegas.append(omega)
         amplitude = libration_amplitude(p, a, th, w)
         linear_sum += linear_error_bound(p, a, amplitude, span) if math.isfinite(amplitude) else math.inf
-        half_cos = math.cos(0.5 * min(amplitude, math.pi))
-        m1 = max(half_cos * half_cos, 1e-6)
-        exact_sum += EXACT_ROUNDOFF * (1.0 + omega * span) / m1
+        exact_sum += closed_form_roundoff(p, a, th, w, span)
         th_end, w_end = exact_solution(p, a, th, w, np.array([span]))
         th, w = float(th_end[0]), float(w_end[0])
     n = len(pieces)
@@ -322,6 +497,8 @@ def _pilot_fixed(
         predicted = richardson * float(np.max(np.abs(coarse - fine)))
         if predicted > 0.5 * best[0]:
             return best  # round-off: a smaller step no longer buys accuracy
+        if predicted > PILOT_NO_CONVERGENCE:
+            return (predicted, dt)  # halving changes θ by radians: chaos, no step will converge
         best = (predicted, dt)
         if not adjust or predicted <= budget:
             return best
@@ -355,7 +532,31 @@ def _fixed_step(
         error = const * (h * setup.omega_fast) ** order * setup.omega_fast_t
         detail = f"{method} with hω = {h * setup.omega_fast:.1e} ({steps} steps)"
     cpu = _step_cost(setup, model, method, steps)
-    return Plan(model, method, dt, None, error + extra, f"{why}; {detail}", setup.scene.accuracy, cpu)
+    plan = Plan(model, method, dt, None, error + extra, f"{why}; {detail}", setup.scene.accuracy, cpu)
+    if model not in COMPILED_MODELS:
+        return plan
+    order = FIXED_STEP_ORDER[method][0]
+    difference = error / (PILOT_SAFETY_FIXED * 2.0**order / (2.0**order - 1.0))
+    coarse = _coarse_difference(setup, model, method, h)
+    plan = replace(plan, halving_difference=difference, coarse_difference=coarse)
+    return _with_roundoff(setup.scene, plan, measure_sensitivity(setup.scene, plan))
+
+
+def _coarse_difference(setup: _Setup, model: str, method: str, h: float) -> float:
+    """max |θ_{2h} − θ_h| on every other sample time: the truncation one doubling above the plan's step,
+    where it stands clear of rounding when the halving below it (h against h/2) does not (NaN if 2h
+    would be unstable)."""
+    scene = setup.scene
+    t = scene.sensor.sample_times(setup.duration)[::2]
+    limit = stability_limit(method)
+    if t.size < 2 or (limit is not None and 2.0 * h * setup.omega_fast > STABILITY_FRACTION * limit):
+        return math.nan  # 2h would step past the stiff mode's stability: no truncation to read there
+    runs = [
+        simulate(setup.pendulum, setup.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
+                 model=model, method=method, dt=step).theta
+        for step in (2.0 * h, h)
+    ]  # fmt: skip
+    return float(np.max(np.abs(runs[0] - runs[1])))
 
 
 def _stepped(setup: _Setup, model: str, budget: float, extra: float, why: str) -> Plan:
@@ -380,7 +581,13 @@ def _stepped(setup: _Setup, model: str, budget: float, extra: float, why: str) -
     if second.predicted_error <= target:
         return _replace_reason(second, f"{second.reason}, {order[0]} cannot promise the target")
     best = min((first, second), key=lambda p: p.predicted_error)
-    return _replace_reason(best, f"{best.reason}; the target is below what double precision can promise")
+    if best.ill_conditioned:  # the runs differ by how rounding falls: no step size helps
+        return _replace_reason(best, f"{best.reason}; no step meets the target: the inputs do not fix θ")
+    noise = best.sensitivity.noise if best.sensitivity is not None else math.nan
+    floor = f" (its measured round-off on this trajectory: {noise:.1e} rad)" if math.isfinite(noise) else ""
+    return _replace_reason(
+        best, f"{best.reason}; the target is below what {best.method} in double precision can promise{floor}"
+    )
 
 
 def pilot_error_constant(setup: _Setup, model: str, method: str) -> float:
@@ -474,9 +681,9 @@ def plan_with(
         if model is None and scene.model is None and method != CLOSED_FORM_METHOD:
             model = "elastic" if scene.wants_stretch else "rigid"
         scene = replace(scene, model=model or scene.model, method=method or scene.method)
-    base = plan_scene(scene)
+    base = _plan_method(scene)
     if dt is None and rtol is None:
-        return base
+        return with_conditioning(scene, base)
     if base.model in ("exact", "linear"):
         raise SceneError(f"model {base.model} is a closed form: it takes no --dt or --rtol")
     setup = _setup(scene, base.model)
@@ -488,9 +695,11 @@ def plan_with(
             raise SceneError(
                 f"--dt applies to fixed-step methods ({', '.join(FIXED_STEP_METHODS)}), not {method}"
             )
-        return _fixed_step(setup, base.model, chosen or "rk4", scene.accuracy - extra, extra, why, dt=dt)
+        given = _fixed_step(setup, base.model, chosen or "rk4", scene.accuracy - extra, extra, why, dt=dt)
+        return with_conditioning(scene, given)
     chosen = None if base.method in FIXED_STEP_METHODS else base.method
     if chosen is None and method is not None:
         raise SceneError(f"--rtol applies to adaptive methods, not {method}")
     default = "LSODA" if base.model == "elastic" else "DOP853"
-    return _adaptive(setup, base.model, chosen or default, scene.accuracy, why, extra, rtol=rtol)
+    given = _adaptive(setup, base.model, chosen or default, scene.accuracy, why, extra, rtol=rtol)
+    return with_conditioning(scene, given)

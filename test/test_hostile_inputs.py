@@ -1,6 +1,6 @@
 """Hostile battery, ROS-free part: bag paths, salvage, cost checks, Ctrl-C, write failures, odd inputs.
 
-Each case is one found by a hostile pass over the CLI (issue 13); each must end in one line (exit 2, no
+Each case is one found by a hostile pass over the CLI; each must end in one line (exit 2, no
 traceback), lose nothing recoverable and touch nothing outside what the command was pointed at.
 """
 

@@ -57,6 +57,7 @@ def test_registry_matches_modules() -> None:
         "gauge",
         "accelerometer",
         "equivalence",
+        "butterfly",
     ]
     for name, result in RESULTS.items():
         module = importlib.import_module(result.module)

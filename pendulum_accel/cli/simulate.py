@@ -7,6 +7,7 @@ explanation goes to stderr, so the CSV on stdout stays clean.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -15,7 +16,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from pendulum_accel.cli.output import write_text_output
-from pendulum_accel.errors import ParameterError, SceneError
+from pendulum_accel.errors import IllConditionedError, ParameterError, SceneError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME, SET_HELP, apply_overrides, parse_override
 from pendulum_accel.physics.integrators import METHODS
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
@@ -70,6 +71,17 @@ def register(subparsers: Any) -> None:
     step.add_argument("--dt", type=float, metavar="S", help="fixed step (fixed-step methods)")
     step.add_argument("--rtol", type=float, metavar="R", help="relative tolerance (adaptive methods)")
     parser.add_argument("--out", type=Path, metavar="FILE.csv", help="write the CSV here (default: stdout)")
+    parser.add_argument(
+        "--plot",
+        type=Path,
+        metavar="OUT.png",
+        help="also plot θ(t) and the input sensitivity, marking where the inputs stop determining θ",
+    )
+    parser.add_argument(
+        "--accept-ill-conditioned",
+        action="store_true",
+        help="simulate even when 1 ulp of the inputs moves θ by more than the target (else exit 2)",
+    )
     parser.set_defaults(func=run)
 
 
@@ -140,11 +152,25 @@ def run(args: argparse.Namespace) -> int:
         )
     plan = plan_with(scene, model=args.model, method=args.method, dt=args.dt, rtol=args.rtol)
     print(plan.explain(), file=sys.stderr)
+    if plan.ill_conditioned and not args.accept_ill_conditioned:
+        raise IllConditionedError(
+            f"scene {scene.name}: the inputs determine θ only to "
+            f"{plan.sensitivity.floor if plan.sensitivity else math.nan:.1e} rad, over the target "
+            f"{scene.accuracy:.1e} rad; nothing simulated (--accept-ill-conditioned to run anyway)"
+        )
+    if args.plot is not None:
+        from pendulum_accel.lecture.plotting import check_plot_path
+
+        check_plot_path(args.plot)
     t = scene.sensor.sample_times(scene.duration)
     traj = simulate_plan(scene, plan, t)
     columns = trajectory_columns(traj)
     if not all(np.all(np.isfinite(v)) for v in columns.values()):
         raise SceneError(f"scene {scene.name}: the simulation produced NaN or inf; nothing written")
+    if args.plot is not None:
+        from pendulum_accel.cli.simulate_plot import plot_simulation
+
+        print(f"plot: {plot_simulation(traj, plan, args.plot)}", file=sys.stderr)
     if args.out is None:
         write_csv(sys.stdout, columns)
         return 0

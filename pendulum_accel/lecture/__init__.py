@@ -72,6 +72,11 @@ RESULTS: dict[str, LectureResult] = {
             "grade β and acceleration g tan β give one angle; the period and the tension tell them apart",
             "pendulum_accel.lecture.equivalence",
         ),
+        LectureResult(
+            "butterfly",
+            "two runs one ulp apart diverge in the driven pendulum: when the inputs stop counting",
+            "pendulum_accel.lecture.butterfly",
+        ),
     )
 }
 

@@ -48,7 +48,7 @@ _TWO_PI = 2.0 * math.pi
 _SERIES_LIMIT = 1e-3  # |v| where the cn series through v⁸ is exact to < 1e-19 relative
 _LINEAR_LIMIT = 1e-24  # m below which sin φ = φ to double precision over the whole orbit
 _CHUNK = 8192
-_FOURIER_MAX_NOME = 0.15  # beyond (m ≳ 0.91) the > 21 Fourier terms cost more than halving/doubling
+FOURIER_MAX_NOME = 0.15  # beyond (m ≳ 0.91) the > 21 Fourier terms cost more than halving/doubling
 EVALUATIONS = ("auto", "fourier", "doubling")
 
 
@@ -169,7 +169,7 @@ def _use_fourier(method: str, q: float) -> bool:
     """Fourier series when asked, or for "auto" when q ≤ 0.15; ParameterError for an unknown method."""
     if method not in EVALUATIONS:
         raise ParameterError(f"evaluation method must be one of {EVALUATIONS}, got {method!r}")
-    return method == "fourier" or (method == "auto" and q <= _FOURIER_MAX_NOME)
+    return method == "fourier" or (method == "auto" and q <= FOURIER_MAX_NOME)
 
 
 def nome(K: float, K_prime: float) -> float:

@@ -1,0 +1,194 @@
+"""The problem's own conditioning: how far θ(t) moves when the inputs θ0, θ'0 move by their own rounding.
+
+No simulation in double precision can be more accurate than the inputs determine the answer: the start
+(θ0, θ'0) is known to within an ulp, and the method's own first roundings act like such a change. The
+input sensitivity is measured by paired runs with the plan's own model and solver: θ0 (then θ'0) nudged by
+NUDGE_ULPS ulps, the difference divided by NUDGE_ULPS: the linearised response S(t) to one ulp (the
+variational solution, sampled), free of the rounding noise a one-ulp pair would drown in. Where the nudged
+pair separates by more than LINEAR_LIMIT the response is no longer linear (an unstable start, chaos): the
+one-ulp pair itself is then run and its difference is the answer.
+
+From S(t): the floor max S (a statement about the problem, not about a run: the planner announces it
+and calls the inputs ill-conditioned when it exceeds the target), the first time S reaches the target
+(from then on θ is not determined by the inputs to within the target), and a finite-time Lyapunov
+exponent λ, the slope of ln max_{s≤t} S(s) over the growing stretch.
+
+The same runs also measure the solver's own round-off on this trajectory: the nudges are made in both
+directions, and the second difference θ(x + δ) + θ(x − δ) − 2 θ(x) cancels the response to δ (to first
+and, being symmetric, to second order) and leaves three independent realisations of the rounding,
+r₊ + r₋ − 2 r₀, whose spread is √6 times that of one run's rounding error r₀. ``noise`` =
+max |second difference| / √6, averaged over the two inputs: the typical max round-off error of one run,
+propagated through the problem's own growth (the rounding committed at step s is amplified to t exactly
+as an input perturbation is), with nothing modelled.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+Runner = Callable[[float, float], FloatArray]  # (θ0, θ'0) → θ at the sample times
+
+# Nudges tried in turn (ulps): the first whose pair stays within LINEAR_LIMIT gives S = |Δθ| / nudge;
+# 64 rises above the method's rounding noise; 1 is the last resort (an unstable start, chaos).
+NUDGE_LADDER = (64.0, 8.0, 1.0)
+LINEAR_LIMIT = 1e-2  # rad: a nudged pair further apart than this is past the linear regime
+INPUTS = ("θ0", "θ'0")
+SECOND_DIFFERENCE_SPREAD = math.sqrt(6.0)  # |r₊ + r₋ − 2 r₀| / |r| for independent equal roundings
+
+
+def input_units(theta0: float, theta_dot0: float, omega: float) -> tuple[float, float]:
+    """One ulp of θ0 and of θ'0 (rad, rad/s); for an input that is exactly 0, one ulp of its scale
+    (|θ'0|/ω, |θ0| ω, else 1 rad or ω rad/s), the rounding a simulation's state meets there."""
+    theta_scale = abs(theta0) or abs(theta_dot0) / omega or 1.0
+    rate_scale = abs(theta_dot0) or abs(theta0) * omega or omega
+    return math.ulp(theta_scale), math.ulp(rate_scale)
+
+
+@dataclass(frozen=True)
+class Sensitivity:
+    """S(t) = |Δθ(t)| per ulp of the input that moves θ most, and what follows from it (module docstring).
+
+    ``input`` names that input, ``ulp`` its size; ``floor`` = max S (rad) at ``at`` (s); ``lost_at`` the
+    first sample time where S ≥ ``target`` (None if never); ``lyapunov`` λ (1/s); ``linear`` False when
+    the one-ulp pair itself had to be run (S then is that pair's difference, not a linearised response);
+    ``noise`` the run's own round-off (rad, module docstring; NaN when not linear); ``peaks`` max S per
+    input (θ0, θ'0) and ``units`` their ulps.
+    """
+
+    input: str
+    ulp: float
+    floor: float
+    at: float
+    target: float
+    lost_at: float | None
+    lyapunov: float
+    linear: bool
+    noise: float
+    peaks: tuple[float, float]
+    units: tuple[float, float]
+    times: FloatArray = field(repr=False, compare=False)
+    curve: FloatArray = field(repr=False, compare=False)
+
+    @property
+    def ill_conditioned(self) -> bool:
+        """The inputs' own rounding moves θ by more than the target: floor > target."""
+        return self.floor > self.target
+
+    def describe(self) -> str:
+        """'input sensitivity: 1 ulp of θ'0 → 1.1e-03 rad at t = 18.3 s' (+ the Lyapunov exponent if > 0)."""
+        text = f"input sensitivity: 1 ulp of {self.input} → {self.floor:.1e} rad at t = {self.at:.3g} s"
+        if not self.linear:
+            text += " (past the linear regime)"
+        return text
+
+    def verdict(self) -> str:
+        """The one-line statement when the floor exceeds the target, else ''."""
+        if self.lost_at is None or not self.ill_conditioned:
+            return ""
+        return (
+            f"ILL-CONDITIONED: no double-precision simulation can meet the target for these inputs "
+            f"from t = {self.lost_at:.3g} s on"
+        )
+
+    def chaos(self) -> str:
+        """'finite-time Lyapunov exponent λ ≈ … 1/s; θ determined by the inputs to within the target until
+        t = … s' (or '… for the whole run')."""
+        until = (
+            f"until t = {self.lost_at:.3g} s"
+            if self.lost_at is not None
+            else f"for the whole {self.times[-1]:.3g} s"
+        )
+        return (
+            f"finite-time Lyapunov exponent λ ≈ {self.lyapunov:.2g} 1/s: θ is determined by the inputs "
+            f"to within the target {until}"
+        )
+
+
+def lyapunov_exponent(times: FloatArray, curve: FloatArray, saturation: float) -> float:
+    """λ = least-squares slope of ln max_{s≤t} S(s) (1/s, ≥ 0) over the growing stretch: from a quarter of
+    the way to where S first reaches ``saturation`` (past it the nudged pair is no longer linear)."""
+    running = np.maximum.accumulate(np.maximum(curve, 1e-300))
+    over = np.flatnonzero(running >= saturation)
+    end = float(times[over[0]]) if over.size else float(times[-1])
+    window = (times >= 0.25 * end) & (times <= end)
+    if np.count_nonzero(window) < 2 or end <= 0.0:
+        return 0.0
+    return max(float(np.polyfit(times[window], np.log(running[window]), 1)[0]), 0.0)
+
+
+def _nudged(theta0: float, theta_dot0: float, which: int, size: float) -> tuple[float, float]:
+    """(θ0 + size, θ'0) for which = 0, (θ0, θ'0 + size) for which = 1."""
+    return (theta0 + size, theta_dot0) if which == 0 else (theta0, theta_dot0 + size)
+
+
+def _rounding_noise(
+    run: Runner,
+    theta0: float,
+    theta_dot0: float,
+    sizes: list[float],
+    plus: list[FloatArray],
+    reference: FloatArray,
+) -> float:
+    """mean over the inputs of max |θ(x + δ) + θ(x − δ) − 2 θ(x)| / √6: one run's round-off (docstring);
+    ``plus`` holds θ(x + δ), already run."""
+    spreads = [
+        float(np.max(np.abs(up + run(*_nudged(theta0, theta_dot0, which, -size)) - 2.0 * reference)))
+        for which, (size, up) in enumerate(zip(sizes, plus, strict=True))
+    ]
+    return float(np.mean(spreads)) / SECOND_DIFFERENCE_SPREAD
+
+
+def input_sensitivity(
+    run: Runner,
+    theta0: float,
+    theta_dot0: float,
+    omega: float,
+    times: FloatArray,
+    target: float,
+    base: FloatArray | None = None,
+) -> Sensitivity:
+    """S(t) from paired runs of ``run`` (module docstring); ``base`` = run(θ0, θ'0) when already at hand."""
+    units = input_units(theta0, theta_dot0, omega)
+    reference = run(theta0, theta_dot0) if base is None else base
+    linear = False
+    noise = math.nan
+    curves: list[FloatArray] = []
+    for size in NUDGE_LADDER:  # the largest nudge that keeps the pair in the linear regime
+        plus = [run(*_nudged(theta0, theta_dot0, i, size * u)) for i, u in enumerate(units)]
+        deltas = [np.abs(p - reference) for p in plus]
+        # a one-ulp pair can round to the same start (the nudge lost): the 8-ulp response per ulp stays
+        curves = [
+            d / size if not curves else np.maximum(d / size, c)
+            for d, c in zip(deltas, curves or deltas, strict=True)
+        ]
+        if max(float(np.max(d)) for d in deltas) <= LINEAR_LIMIT:
+            linear = True
+            noise = _rounding_noise(run, theta0, theta_dot0, [size * u for u in units], plus, reference)
+            break
+    peaks = [float(np.max(c)) for c in curves]
+    worst = int(np.argmax(peaks))
+    curve = np.maximum(curves[0], curves[1])
+    index = int(np.argmax(curves[worst]))
+    over = np.flatnonzero(curve >= target)
+    lost_at = float(times[over[0]]) if over.size else None
+    return Sensitivity(
+        input=INPUTS[worst],
+        ulp=units[worst],
+        floor=peaks[worst],
+        at=float(times[index]),
+        target=target,
+        lost_at=lost_at,
+        lyapunov=lyapunov_exponent(times, curve, LINEAR_LIMIT / NUDGE_LADDER[1]),
+        linear=linear,
+        noise=noise,
+        peaks=(peaks[0], peaks[1]),
+        units=units,
+        times=times,
+        curve=curve,
+    )
