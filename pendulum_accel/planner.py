@@ -581,6 +581,10 @@ def _stepped(setup: _Setup, model: str, budget: float, extra: float, why: str) -
     if second.predicted_error <= target:
         return _replace_reason(second, f"{second.reason}, {order[0]} cannot promise the target")
     best = min((first, second), key=lambda p: p.predicted_error)
+    if extra > 0.5 * target:  # the model's own error, not the method's, is what misses
+        return _replace_reason(
+            best, f"{best.reason}; the rigid model ignores the string's stretch, ≈ {extra:.1e} rad here"
+        )
     if best.ill_conditioned:  # the runs differ by how rounding falls: no step size helps
         return _replace_reason(best, f"{best.reason}; no step meets the target: the inputs do not fix θ")
     noise = best.sensitivity.noise if best.sensitivity is not None else math.nan
@@ -642,21 +646,24 @@ def _forced(scene: Scene) -> Plan:
         return _replace_reason(plan, why)
     setup = _setup(scene, model)
     extra = rigid_string_error(scene) if model in ("rigid", "multiplier") else 0.0
+    # A forced rigid model can ignore more stretch than the target allows: the plan then says TARGET NOT
+    # MET, and the method still aims at half the target rather than at a negative budget.
+    budget = max(target - extra, 0.5 * target)
     method = scene.method
     if method is None:
         if model == "multiplier":
             return _adaptive(setup, model, "DOP853", target, why, extra)
-        return _stepped(setup, model, target - extra, extra, why)
+        return _stepped(setup, model, budget, extra, why)
     why = f"model {model} and method {method} forced by the scene"
     if method in FIXED_STEP_METHODS:
-        dt = _first_step(setup, model, method, target - extra)
+        dt = _first_step(setup, model, method, budget)
         if (steps := _effective_step(setup, dt)[1]) > MAX_FIXED_STEPS:
             # Checked before any stepping: a low-order method at a tight target would run for hours.
             raise SceneError(
                 f"method {method} at a {target:g} rad target needs {steps:.2g} steps over "
                 f"{setup.duration:g} s, more than {MAX_FIXED_STEPS:.0e}; loosen accuracy or use rk4/rk8"
             )
-        return _fixed_step(setup, model, method, target - extra, extra, why)
+        return _fixed_step(setup, model, method, budget, extra, why)
     return _adaptive(setup, model, method, target, why, extra)
 
 

@@ -248,3 +248,18 @@ def test_user_settings_are_followed_and_flagged() -> None:
         plan_with(scene, method="DOP853", dt=0.01)
     with pytest.raises(SceneError, match="closed form"):
         plan_with(scene, model="exact", rtol=1e-8)
+
+
+@pytest.mark.parametrize("method", [None, "rk4"])
+def test_forcing_rigid_on_a_stiff_string_says_the_stretch_misses(method: str | None) -> None:
+    """The rigid model forced where the ignored stretch alone exceeds the target: a plan, no traceback,
+    TARGET NOT MET, and a prediction that still bounds the error against the elastic string."""
+    base = load_scene("elastic_string")
+    scene = dataclasses.replace(base, outputs=("angle", "tension"), model="rigid", method=method)
+    plan = plan_scene(scene)
+    assert plan.model == "rigid" and not plan.meets_target
+    assert plan.predicted_error >= planner.rigid_string_error(scene) > scene.accuracy
+    t = scene.sensor.sample_times(scene.duration)
+    rigid = simulate_plan(scene, plan, t)
+    elastic = simulate_plan(base, plan_scene(base), t)
+    assert np.max(np.abs(rigid.theta - elastic.theta)) <= plan.predicted_error
