@@ -167,3 +167,34 @@ def test_finite_difference_euler_lagrange_recovers_the_equation_of_motion() -> N
             got = rhs(float(t), np.array([theta, theta_dot]))
             assert got[0] == theta_dot
             assert got[1] == pytest.approx(expected, abs=1e-7)
+
+
+def test_a_result_that_takes_over_a_second_shows_progress_on_a_terminal_only() -> None:
+    """lecture butterfly (a few seconds, no loop to count) draws an elapsed-time line on a terminal's
+    stderr, and nothing on a pipe."""
+    import fcntl
+    import os
+    import struct
+    import subprocess
+    import termios
+
+    command = [sys.executable, "-m", "pendulum_accel.cli.main", "lecture", "butterfly", "--no-plot"]
+    master, slave = os.openpty()
+    # A fresh pty is 0 columns wide, where tqdm draws nothing; a terminal window is 80 wide.
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 80, 0, 0))
+    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=slave)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:  # EIO: the child closed the terminal
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    os.close(master)
+    assert proc.wait(timeout=120) in (0, 1)
+    assert "lecture butterfly" in b"".join(chunks).decode(errors="replace")
+    piped = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)
+    assert "lecture butterfly" not in piped.stderr

@@ -58,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
         raise ParameterError(f"--plot names one file; use --plot-dir DIR with '{ALL}'")
     # Imported here so listing the results stays quick (no matplotlib import).
     from pendulum_accel.lecture.plotting import check_plot_path, write_plot
+    from pendulum_accel.lecture.progress import working
 
     paths = {name: plot_path(args, name) for name in names}
     for path in paths.values():
@@ -65,7 +66,8 @@ def run(args: argparse.Namespace) -> int:
             check_plot_path(path)  # a typo in the path fails before minutes of simulation, not after
     failed = 0
     for i, name in enumerate(names):
-        report = RESULTS[name].run(args.quick)
+        with working(f"lecture {name}"):
+            report = RESULTS[name].run(args.quick)
         if i:
             print()
         print(report.text())
