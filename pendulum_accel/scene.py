@@ -75,6 +75,7 @@ SCENE_NAMES: tuple[str, ...] = (
     "elastic_string",
     "multiplier_lecture",
     "hill",
+    "resonant_drive",
 )
 DEFAULT_SCENE = "lecture_constant"
 OUTPUTS: tuple[str, ...] = ("angle", "tension", "stretch")

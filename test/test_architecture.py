@@ -18,6 +18,7 @@ LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"physics", "bag"}),
     frozenset({"estimators", "sensor"}),
     frozenset({"scene"}),
+    frozenset({"conditioning"}),
     frozenset({"overrides", "planner"}),
     frozenset({"scene_run", "sweep"}),
     frozenset({"recording"}),

@@ -67,8 +67,12 @@ def test_golden_bag_content(name: str) -> None:
         }
 
 
-@pytest.mark.parametrize("name", sorted(n for n, s in SCENES.items() if s.grade == 0.0))
-def test_golden_bag_replays_offline_within_tolerance(name: str) -> None:
+# a(t) settles on a level road; a sinusoidal drive (resonant_drive) never does, so it has no settled figures.
+SETTLING = sorted(n for n, s in SCENES.items() if s.grade == 0.0 and s.profile.kind != "sinusoid")
+
+
+@pytest.mark.parametrize("name", SETTLING)
+def test_golden_bag_settles_within_tolerance(name: str) -> None:
     """analyze (default estimator) against the recorded truth: settling, bias and RMS as stated above."""
     result = analyze_bag(BAGS / name)
     assert result.settling_time is not None and result.settling_time <= SETTLE_S
@@ -76,7 +80,12 @@ def test_golden_bag_replays_offline_within_tolerance(name: str) -> None:
     assert settled.n >= 100
     assert abs(settled.bias) <= BIAS
     assert settled.rms <= RMS
-    # The offline re-run is the estimate the bag recorded, sample for sample.
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_golden_bag_replays_offline(name: str) -> None:
+    """The offline re-run is the estimate the bag recorded, sample for sample."""
+    result = analyze_bag(BAGS / name)
     est = read_bag(BAGS / name).decode(bm.TOPIC_ACCEL_ESTIMATE, bm.ACCEL_WITH_COVARIANCE_STAMPED)
     at = np.searchsorted(result.t, est.stamp)
     np.testing.assert_allclose(result.t[at], est.stamp, rtol=0, atol=1e-9)

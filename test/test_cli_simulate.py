@@ -30,9 +30,11 @@ def read_csv(text: str) -> tuple[list[str], np.ndarray]:
 def test_scene_to_csv_file_matches_run_scene(
     name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """simulate SCENE --out, every bundled scene: t, θ, θ', then what the model has; equal to run_scene."""
+    """simulate SCENE --out, every bundled scene: t, θ, θ', then what the model has; equal to run_scene.
+    resonant_drive is chaotic at its target, so it runs only when told the inputs do not fix θ."""
     out = tmp_path / f"{name}.csv"
-    assert main(["simulate", name, "--out", str(out)]) == 0
+    accept = ["--accept-ill-conditioned"] if name == "resonant_drive" else []
+    assert main(["simulate", name, "--out", str(out), *accept]) == 0
     captured = capsys.readouterr()
     assert captured.out == ""
     assert captured.err.strip().splitlines()[0].startswith("plan: ")

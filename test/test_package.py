@@ -131,6 +131,9 @@ def test_colcon_build_installs_ros2_run_layout(tmp_path: Path) -> None:
     # Where `ros2 launch pendulum_accel chain.launch.py` and --params-file look.
     assert (prefix / "share" / "pendulum_accel" / "launch" / "chain.launch.py").is_file()
     assert (prefix / "share" / "pendulum_accel" / "config" / "pendulum_accel.params.yaml").is_file()
+    # The viewer layouts the README tells Foxglove and PlotJuggler users to load.
+    layouts = {p.name for p in (prefix / "share" / "pendulum_accel" / "layouts").iterdir()}
+    assert layouts == {p.name for p in (REPO / "layouts").iterdir()} and layouts
     # Package data travels with the installed module: scenes and the Fast DDS profile.
     installed = list(prefix.glob("lib/python3*/site-packages/pendulum_accel"))
     assert len(installed) == 1, installed

@@ -22,6 +22,7 @@ _EXPLAINED = (
     ("warmup", "estimator warm-up"),
     ("dropped_nonfinite", "dropped non-finite"),
     ("dropped_out_of_order", "dropped out-of-order"),
+    ("dropped_wrong_joint", "dropped naming another joint"),
 )
 
 

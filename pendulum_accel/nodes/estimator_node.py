@@ -266,13 +266,14 @@ class EstimatorNode(ChainNode):
     def counters(self) -> dict[str, int]:
         """inputs, estimates and every reason an input got none: warm-up, dropped, unpublished."""
         guard = self.guarded.guard
-        dropped = guard.dropped_nonfinite + guard.dropped_out_of_order
+        dropped = guard.dropped_nonfinite + guard.dropped_out_of_order + guard.dropped_wrong_joint
         return {
             "inputs": self.inputs,
             "estimates": self.estimates,
             "warmup": self.inputs - self.estimates - dropped - self.unpublished,
             "dropped_nonfinite": guard.dropped_nonfinite,
             "dropped_out_of_order": guard.dropped_out_of_order,
+            "dropped_wrong_joint": guard.dropped_wrong_joint,
             "unpublished": self.unpublished,
             "resets": guard.resets,
         }

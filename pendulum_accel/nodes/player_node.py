@@ -33,7 +33,6 @@ from typing import Any
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from std_srvs.srv import Trigger
@@ -45,10 +44,16 @@ from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import message_class
 from pendulum_accel.nodes.parameters import PLAYER
 from pendulum_accel.nodes.qos import qos_for
-from pendulum_accel.nodes.runtime import ThreadedNode, declare_parameters, publish_blocking, run_node
+from pendulum_accel.nodes.runtime import (
+    ThreadedNode,
+    acked_within,
+    declare_parameters,
+    publish_blocking,
+    run_node,
+)
 
 NODE_NAME = "bag_player"
-_ACK_TIMEOUT = Duration(seconds=10)
+_ACK_TIMEOUT_S = 10.0
 RATE_STEP = 0.1
 """↑/↓ change the rate by this much, as rosbag2's keyboard controls do (get_rate() ± 0.1)."""
 KEY_PAUSE = b" "
@@ -375,7 +380,7 @@ class PlayerNode(ThreadedNode):
             if not self.loop:
                 break
         for publisher in self._outputs.values():
-            publisher.wait_for_all_acked(_ACK_TIMEOUT)
+            acked_within(publisher, _ACK_TIMEOUT_S, self._stop.is_set)
         self.get_logger().info(f"played {self.published} messages in {self.passes} pass(es)")
         if self.exit_on_end:
             self.finish(0)

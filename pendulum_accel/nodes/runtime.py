@@ -15,6 +15,7 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
@@ -32,6 +33,7 @@ from pendulum_accel.nodes.scheduling import apply_rt_priority
 # How often the main thread wakes to run pending signal handlers.
 _SIGNAL_POLL_PERIOD = 0.05  # s
 _PUBLISH_RETRY_PERIOD = 0.001  # s
+_ACK_SLICE = Duration(seconds=0.2)
 
 
 class ChainNode(Node):
@@ -187,6 +189,17 @@ def publish_blocking(publisher: Publisher, msg: Any, stopping: Callable[[], bool
             if stopping():
                 return False
             time.sleep(_PUBLISH_RETRY_PERIOD)
+
+
+def acked_within(publisher: Publisher, seconds: float, stopping: Callable[[], bool]) -> bool:
+    """True once every matched reader acknowledged all ``publisher`` sent; False after ``seconds`` or once
+    ``stopping()``. Waits in short slices: close() gives a node's thread 5 s, and destroying a publisher
+    while a thread still waits inside it crashes the process."""
+    deadline = time.monotonic() + seconds
+    while not publisher.wait_for_all_acked(_ACK_SLICE):
+        if stopping() or time.monotonic() >= deadline:
+            return False
+    return True
 
 
 def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None = None) -> int:

@@ -23,7 +23,6 @@ import numpy as np
 from geometry_msgs.msg import AccelStamped
 from numpy.typing import NDArray
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rosgraph_msgs.msg import Clock
@@ -37,6 +36,7 @@ from pendulum_accel.nodes.parameters import SIMULATOR
 from pendulum_accel.nodes.qos import DATA_QOS
 from pendulum_accel.nodes.runtime import (
     ThreadedNode,
+    acked_within,
     change_result,
     declare_parameters,
     parameter_values,
@@ -50,7 +50,7 @@ from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import run_scene
 
 NODE_NAME = "pendulum_sim"
-_ACK_TIMEOUT = Duration(seconds=10)
+_ACK_WARN_S = 10.0  # s between warnings about a reader that does not acknowledge
 
 
 def jitter_summary(lateness: NDArray[np.float64]) -> str:
@@ -174,15 +174,16 @@ class SimulatorNode(ThreadedNode):
     def _acknowledged(self) -> bool:
         """Wait until every matched reader acknowledged all published (warn every 10 s); False if stopped."""
         for topic, publisher in self._outputs.items():
-            while not publisher.wait_for_all_acked(_ACK_TIMEOUT):
+            started = time.monotonic()
+            while not acked_within(publisher, _ACK_WARN_S, self._stop.is_set):
+                if self._stop.is_set():
+                    return False
                 self.get_logger().warning(
-                    f"{topic}: a reader has not acknowledged for {_ACK_TIMEOUT.nanoseconds * 1e-9:g} s "
+                    f"{topic}: a reader has not acknowledged for {time.monotonic() - started:.0f} s "
                     "(a subscriber that does not take its messages holds a keep-all writer back); waiting"
                 )
                 if topic not in self.unacknowledged:
                     self.unacknowledged.append(topic)
-                if self._stop.is_set():
-                    return False
         return True
 
     def _publish(self, topic: str, data: bytes) -> None:
