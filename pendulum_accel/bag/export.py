@@ -16,13 +16,17 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import Bag
 from pendulum_accel.errors import PendulumAccelError
+
+if TYPE_CHECKING:  # pandas is the optional export extra: imported at run time only by _pandas()
+    from pandas import DataFrame
 
 FORMATS = ("csv", "parquet")
 BULK_TYPES = frozenset({bm.JOINT_STATE, bm.ACCEL_STAMPED, bm.ACCEL_WITH_COVARIANCE_STAMPED, bm.CLOCK})
@@ -55,8 +59,7 @@ def column_name(topic: str, path: str) -> str:
 def _joint_renames(bag: Bag, topic: str, paths: Sequence[str]) -> dict[str, str]:
     """{reader path: PlotJuggler series suffix} of a JointState topic: position[i] → <name i>/position."""
     _, payloads = bag.raw(topic)
-    msg: Any = bm.deserialize(payloads[0], bm.JOINT_STATE) if payloads else None
-    names = list(msg.name) if msg is not None else []
+    names = list(bm.deserialize_as(payloads[0], bm.JOINT_STATE, bm.JointStateMsg).name) if payloads else []
     renames = {}
     for path in paths:
         head, _, index = path.partition("[")
@@ -65,11 +68,13 @@ def _joint_renames(bag: Bag, topic: str, paths: Sequence[str]) -> dict[str, str]
     return renames
 
 
-def _diagnostic_columns(topic: str, payloads: Sequence[bytes], pd: ModuleType) -> dict[str, Any]:
+def _diagnostic_columns(
+    topic: str, payloads: Sequence[bytes], pd: ModuleType
+) -> dict[str, NDArray[np.generic]]:
     """PlotJuggler's DiagnosticArray series (hardware_id/name/key) plus level and message, one row each."""
     rows: list[dict[str, object]] = []
     for data in payloads:
-        msg: Any = bm.deserialize(data, bm.DIAGNOSTIC_ARRAY)
+        msg = bm.deserialize_as(data, bm.DIAGNOSTIC_ARRAY, bm.DiagnosticArrayMsg)
         row: dict[str, object] = {}
         for status in msg.status:
             prefix = "/".join(p for p in (topic, status.hardware_id, status.name) if p)
@@ -79,7 +84,7 @@ def _diagnostic_columns(topic: str, payloads: Sequence[bytes], pd: ModuleType) -
                 row[f"{prefix}/{kv.key}"] = kv.value
         rows.append(row)
     table = pd.DataFrame.from_records(rows)
-    columns = {}
+    columns: dict[str, NDArray[np.generic]] = {}
     for name in table.columns:
         if str(name).endswith("/message"):
             columns[str(name)] = table[name].to_numpy()
@@ -91,7 +96,7 @@ def _diagnostic_columns(topic: str, payloads: Sequence[bytes], pd: ModuleType) -
     return columns
 
 
-def topic_table(bag: Bag, topic: str) -> Any:
+def topic_table(bag: Bag, topic: str) -> DataFrame:
     """DataFrame of one topic: t, log_time, then every field as PlotJuggler names it, one row per message."""
     pd = _pandas()
     msgtype = bag.topics[topic].msgtype if topic in bag.topics else None
@@ -100,7 +105,7 @@ def topic_table(bag: Bag, topic: str) -> Any:
         t = arrays.stamp
         log_time = arrays.log_time_ns
         renames = _joint_renames(bag, topic, list(arrays.fields)) if msgtype == bm.JOINT_STATE else {}
-        columns: dict[str, Any] = {
+        columns: dict[str, NDArray[np.generic]] = {
             column_name(topic, renames.get(p, p)): col for p, col in arrays.fields.items()
         }
     elif msgtype == bm.DIAGNOSTIC_ARRAY:
@@ -114,7 +119,7 @@ def topic_table(bag: Bag, topic: str) -> Any:
     return pd.DataFrame({**head, **columns})
 
 
-def merged_table(bag: Bag, topics: Sequence[str]) -> Any:
+def merged_table(bag: Bag, topics: Sequence[str]) -> DataFrame:
     """One DataFrame on the angle's stamps: a per-sample topic's row with the same stamp (truth, estimate,
     string), any other topic's (/clock, /diagnostics) latest row at or before the stamp."""
     pd = _pandas()

@@ -16,7 +16,7 @@ import re
 import struct
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -269,6 +269,17 @@ def deserialize(raw: bytes | memoryview, msgtype: str) -> object:
         return TYPESTORE.deserialize_cdr(raw, msgtype)
     except Exception as err:  # rosbags raises assorted low-level errors on bad bytes
         raise BagError(f"cannot decode a {msgtype} message ({len(raw)} bytes): {err}") from None
+
+
+M = TypeVar("M")
+
+
+def deserialize_as(raw: bytes | memoryview, msgtype: str, cls: type[M]) -> M:
+    """deserialize(raw, msgtype) typed as ``cls`` (the rosbags class of msgtype); BagError otherwise."""
+    msg = deserialize(raw, msgtype)
+    if not isinstance(msg, cls):
+        raise BagError(f"a {msgtype} message decoded as {type(msg).__name__}, not {cls.__name__}")
+    return msg
 
 
 _PATH_TOKEN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?")

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,7 +26,8 @@ from pendulum_accel.bag.messages import (
     TOPIC_ACCEL_TRUTH,
     TOPIC_DIAGNOSTICS,
     TOPIC_JOINT_STATES,
-    deserialize,
+    DiagnosticArrayMsg,
+    deserialize_as,
 )
 from pendulum_accel.bag.reader import Bag, read_bag, scene_name
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
@@ -443,7 +443,7 @@ def recorded_estimator(bag: Bag) -> str | None:
     _, payloads = bag.raw(TOPIC_DIAGNOSTICS)
     for data in payloads[:10]:
         try:
-            msg: Any = deserialize(data, DIAGNOSTIC_ARRAY)
+            msg = deserialize_as(data, DIAGNOSTIC_ARRAY, DiagnosticArrayMsg)
         except BagError:
             continue
         for status in msg.status:
