@@ -5,8 +5,8 @@
 The launcher runs simulator, estimator and recorder (separate processes, real-time pacing, recording
 on) on ``lecture_constant`` for ``--minutes`` (default 10) at ``--rate`` (default 1000 Hz). Reported:
 
-* per topic, published (the simulator's and estimator's own end-of-run counts; /clock from the
-  simulator's tick rule over the samples it sent) against recorded (the bag);
+* per topic, published (the chain's accounting record in the bag: the simulator's and the estimator's
+  own end-of-run counts) against recorded (the bag);
 * the resident set size (VmRSS, /proc/<pid>/status) of each node sampled every 5 s from the first
   published sample on: first, last, max, and the least-squares slope over the second half (MiB per
   minute), which is what growth would show as once start-up allocations have settled;
@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.chain import CpuSampler, _start_on_log_line
+from pendulum_accel.bag.reader import Bag, read_bag
+from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting
 
 SCENE = "lecture_constant"
 ROLES = ("simulator", "estimator", "recorder")
@@ -78,27 +80,15 @@ def growth_per_minute(points: Sequence[tuple[float, float]]) -> float:
     return float(np.polyfit(t / 60.0, m, 1)[0])
 
 
-def published_counts(log: str, rate: float, string: bool) -> dict[str, int]:
-    """Per topic, what the nodes say they published (their end-of-run log lines)."""
-    from pendulum_accel.recording.generate import DEFAULT_CLOCK_RATE_HZ, clock_mask
-
-    out: dict[str, int] = {}
-    sim = re.search(r"published (\d+)/\d+ samples", log)
-    if sim:
-        sent = int(sim.group(1))
-        out["/pendulum/joint_states"] = out["/car/accel/truth"] = sent
-        out["/clock"] = int(clock_mask(np.arange(sent) / rate, DEFAULT_CLOCK_RATE_HZ).sum())
-    if sim and string:
-        out["/pendulum/string"] = int(sim.group(1))  # published with every sample when the scene has it
-    est = re.search(r"(\d+) estimates published", log)
-    if est:
-        out["/car/accel/estimate"] = int(est.group(1))
-    return out
+def published_counts(bag: Bag) -> dict[str, int]:
+    """Per topic, what the chain's nodes counted as published: the bag's accounting record."""
+    accounting = Accounting.from_json(bag.custom_data.get(CUSTOM_ACCOUNTING, "{}"))
+    counts = {topic: accounting.published(topic) for topic in bag.topics}
+    return {topic: n for topic, n in counts.items() if n is not None}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the chain once for the soak duration and print the tables."""
-    from pendulum_accel.bag.reader import read_bag
     from pendulum_accel.nodes.launcher import Chain, ChainConfig
 
     parser = argparse.ArgumentParser(prog="python -m benchmarks.soak", description=__doc__.split("\n\n")[0])
@@ -132,9 +122,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             for thread in threads:
                 thread.join()
         wall = time.monotonic() - wall
-        text = log.read_text(errors="replace")
-        recorded = {name: info.count for name, info in read_bag(bag).topics.items()}
-    published = published_counts(text, args.rate, "/pendulum/string" in recorded)
+        bag_data = read_bag(bag)
+        recorded = {name: info.count for name, info in bag_data.topics.items()}
+        published = published_counts(bag_data)
     lines = [
         f"Soak: {SCENE}, {args.rate:g} Hz, {duration:g} s scene, real time, recording; "
         f"{wall:.0f} s wall, chain exit {code}.",
