@@ -5,6 +5,7 @@ python -m test.player_control SPEC_JSON   (from the repository root)
 SPEC keys:
   "node": name                    the player's node name (default bag_player)
   "listen": {topic: type, ...}    record (wall time, stamp, value) of every message on these topics;
+  "matched": [topic, ...]         listened topics whose publisher must be matched before the first step;
                                   value: accel.accel.linear.x of an estimate, position[0] of a joint state
   "steps": [step, ...]            run in order, each recording one result:
       ["call", service]           call /<node>/<service> (std_srvs/Trigger): [success, message]
@@ -61,13 +62,15 @@ def main() -> None:
     rclpy.init()
     node = Node("player_control")
     messages: dict[str, list[list[Any]]] = {topic: [] for topic in spec.get("listen", {})}
+    subscriptions = {}
     for topic, msgtype in spec.get("listen", {}).items():
-        node.create_subscription(
+        subscription = node.create_subscription(
             message_class(msgtype),
             topic,
             lambda msg, topic=topic: messages[topic].append([time.time(), stamp_of(msg), value_of(msg)]),
             qos_for(topic),
         )
+        subscriptions[topic] = subscription
     setter: Any = node.create_client(SetParameters, f"/{target}/set_parameters")
     getter: Any = node.create_client(GetParameters, f"/{target}/get_parameters")
     triggers: dict[str, Any] = {}
@@ -79,6 +82,9 @@ def main() -> None:
         while not done() and time.monotonic() < end:
             rclpy.spin_once(node, timeout_sec=0.01)
 
+    # Nothing sent on a "matched" topic may be missed: its publisher is matched before step one.
+    matched = [subscriptions[topic] for topic in spec.get("matched", [])]
+    wait_until(lambda: all(sub.get_publisher_count() > 0 for sub in matched))
     for step in spec.get("steps", []):
         kind = step[0]
         if kind == "call":

@@ -216,7 +216,7 @@ def test_pause_resume_play_next_burst_and_rate_services(spawn: Spawn, tmp_path: 
         ["call", "toggle_paused"],
         ["wait_count", JOINT, 1001],
     ]
-    result = _control(spawn, {"listen": LISTEN, "steps": steps, "linger": 0.5})
+    result = _control(spawn, {"listen": LISTEN, "matched": [ESTIMATE], "steps": steps, "linger": 0.5})
     r = result["results"]
     assert r[0] == [True, "true"]
     assert r[2] == 0  # paused from the start: nothing in 1 s
@@ -271,7 +271,7 @@ def test_seek_forwards_and_backwards_with_clock_and_estimator_reset(spawn: Spawn
         ["wait_stamp", JOINT, 10.0],
     ]
     listen = {**LISTEN, "/clock": CLOCK}
-    result = _control(spawn, {"listen": listen, "steps": steps, "linger": 1.0})
+    result = _control(spawn, {"listen": listen, "matched": [ESTIMATE], "steps": steps, "linger": 1.0})
     r = result["results"]
     assert r[1] == [False, "past the end of the bag"]
     assert r[3] == [True, "seek to t=6.000 s"] and r[7] == [True, "seek to t=2.000 s"]

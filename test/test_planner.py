@@ -61,7 +61,11 @@ def measured_error(scene: Scene, plan: Plan) -> float:
     return float(np.max(np.abs(theta - reference(scene, t, elastic=plan.model == "elastic"))))
 
 
-@pytest.mark.parametrize("name", SCENE_NAMES)
+# resonant_drive is chaotic at its target: its plan says ILL-CONDITIONED (test_error_bounds holds that).
+WELL_CONDITIONED = [name for name in SCENE_NAMES if name != "resonant_drive"]
+
+
+@pytest.mark.parametrize("name", WELL_CONDITIONED)
 def test_plan_meets_the_target_against_a_tight_reference(name: str) -> None:
     """Every bundled scene: the planned run is within the scene's target of the reference, as predicted."""
     scene = load_scene(name)
@@ -263,3 +267,10 @@ def test_forcing_rigid_on_a_stiff_string_says_the_stretch_misses(method: str | N
     rigid = simulate_plan(scene, plan, t)
     elastic = simulate_plan(base, plan_scene(base), t)
     assert np.max(np.abs(rigid.theta - elastic.theta)) <= plan.predicted_error
+
+
+def test_the_chaotic_bundled_scene_is_announced_not_met() -> None:
+    """resonant_drive: the plan is ill-conditioned from a stated time on, never a silent TARGET NOT MET."""
+    plan = planned("resonant_drive")
+    assert plan.ill_conditioned and not plan.meets_target
+    assert "ILL-CONDITIONED" in plan.explain() and "TARGET NOT MET" not in plan.explain()
