@@ -42,9 +42,12 @@ def test_golden_bag_through_live_estimator_matches_offline_estimates(spawn: Spaw
     recorder = start_node(
         spawn,
         "recorder_node",
-        {"path": str(out), "topics": ["/car/accel/estimate", "/diagnostics", "/clock"]},
+        {
+            "path": str(out),
+            "topics": ["/car/accel/estimate", "/diagnostics", "/clock", "/pendulum/joint_states"],
+        },
     )
-    recorder.wait_for("recording 3 topics", timeout=60)
+    recorder.wait_for("recording 4 topics", timeout=60)
     # The recorder reads the estimate (not the Imu): wait for it by name on the estimate.
     estimator = start_node(spawn, "estimator_node", {"scene": "step_start", "reader_nodes": ["bag_recorder"]})
     estimator.wait_for("estimating with", timeout=60)
@@ -56,8 +59,10 @@ def test_golden_bag_through_live_estimator_matches_offline_estimates(spawn: Spaw
             "topics": ["/pendulum/joint_states"],
             "rate": 5.0,
             "clock": True,
-            "wait_for_subscribers": 1,
-            "wait_for_recorder": True,  # its /clock too has its reader before the first message
+            # By name: the estimator's own /clock subscription (use_sim_time) must not stand in for the
+            # recorder's, or the first seconds of /clock go unrecorded.
+            "reader_nodes": ["accel_estimator"],
+            "recorder_node": "bag_recorder",
         },
     )
     assert player.finish(timeout=120) == 0, player.text

@@ -211,6 +211,8 @@ PLAYER: tuple[ParamSpec, ...] = (
     _fixed("wait_for_subscribers", "integer", 0,
            "start once /pendulum/joint_states has this many subscribers", low=0, high=64),
     _fixed("wait_for_recorder", "bool", False, _WAIT_FOR_RECORDER),
+    _readers("the played /pendulum/joint_states (by name: strangers neither satisfy nor delay it)"),
+    _recorder("every played topic and /clock"),
     time_source_param(),
 )  # fmt: skip
 

@@ -42,6 +42,7 @@ from pendulum_accel.bag.playback import Playback, Taken
 from pendulum_accel.bag.reader import Bag, read_bag, salvage_note
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import message_class
+from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import PLAYER
 from pendulum_accel.nodes.qos import qos_for
 from pendulum_accel.nodes.runtime import (
@@ -117,6 +118,9 @@ class PlayerNode(ThreadedNode):
         self.exit_on_end = bool(values["exit_on_end"])
         self.wait_for_subscribers = int(values["wait_for_subscribers"])
         self.wait_for_recorder = bool(values["wait_for_recorder"])
+        namespace = self.get_namespace()
+        self.reader_nodes = node_names(values["reader_nodes"], namespace)
+        self.recorder_node = node_names([str(values["recorder_node"])], namespace)
         if not path:
             raise ParameterError("parameter path (the bag to play) is required")
         bag = read_bag(path)
@@ -319,12 +323,25 @@ class PlayerNode(ThreadedNode):
     # -- playing ------------------------------------------------------------------------------------
 
     def _wait(self) -> bool:
-        """True once /pendulum/joint_states has wait_for_subscribers subscribers and, with
-        wait_for_recorder, every published topic has one (False if stopped while waiting)."""
+        """True once the named readers (reader_nodes on /pendulum/joint_states, recorder_node on every
+        topic) are subscribed and matched, /pendulum/joint_states has wait_for_subscribers subscribers
+        and, with wait_for_recorder, every published topic has one (False if stopped while waiting)."""
         joint = self._outputs.get(bm.TOPIC_JOINT_STATES)
 
+        def named_ready() -> bool:
+            """Every named reader is matched on its topics (a count a stranger could satisfy is not)."""
+            for topic, publisher in self._outputs.items():
+                wanted = list(self.recorder_node) + (
+                    self.reader_nodes if topic == bm.TOPIC_JOINT_STATES else []
+                )
+                if wanted and missing_readers(self, publisher, topic, wanted):
+                    return False
+            return True
+
         def ready() -> bool:
-            """The subscriber counts asked for are there."""
+            """The named readers and the subscriber counts asked for are there."""
+            if not named_ready():
+                return False
             if joint is not None and joint.get_subscription_count() < self.wait_for_subscribers:
                 return False
             return not self.wait_for_recorder or all(
