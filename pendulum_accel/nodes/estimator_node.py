@@ -48,7 +48,7 @@ from pendulum_accel.nodes.runtime import (
     write_summary,
 )
 from pendulum_accel.recording.settings import estimator_settings, sensor_bias_settings
-from pendulum_accel.scene import load_scene
+from pendulum_accel.scene import Scene, load_scene
 
 NODE_NAME = "accel_estimator"
 DIAGNOSTIC_NAME = "accel_estimator"
@@ -90,6 +90,8 @@ class EstimatorNode(ChainNode):
         self.reader_nodes = node_names(values["reader_nodes"], namespace)
         self.recorder_node = node_names([str(values["recorder_node"])], namespace)
         self.summary_file = str(values["summary_file"])
+        # The scene parameter is read-only: load it once for the sensor's bias and range.
+        self._scene = self._own_scene()
         self.guarded = GuardedEstimator(self._build(self._config_values()), self._new_guard())
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
@@ -131,12 +133,16 @@ class EstimatorNode(ChainNode):
             raise PendulumAccelError("estimator parameters must be finite")
         return make_estimator(str(values["method"]), **cfg, **self._sensor_bias())
 
+    def _own_scene(self) -> Scene | None:
+        """The scene the ``scene`` parameter names, None when it does not load (no sensor figures then)."""
+        try:
+            return load_scene(str(self.get_parameter("scene").value))
+        except PendulumAccelError:
+            return None
+
     def _sensor_bias(self) -> dict[str, float]:
         """The scene's sensor bias fields, which widen the published variance (none without a scene)."""
-        try:
-            return sensor_bias_settings(load_scene(str(self.get_parameter("scene").value)))
-        except PendulumAccelError:
-            return {}
+        return {} if self._scene is None else sensor_bias_settings(self._scene)
 
     def _new_guard(self) -> InputGuard:
         """InputGuard at the configured rate, warn angle and stale limit."""
@@ -161,10 +167,7 @@ class EstimatorNode(ChainNode):
 
     def _sensor_range(self) -> float:
         """The scene's sensor range R (rad; 0 = none), so readings clipped at ±R are flagged saturated."""
-        try:
-            return float(load_scene(str(self.get_parameter("scene").value)).sensor.range)
-        except PendulumAccelError:
-            return 0.0
+        return 0.0 if self._scene is None else float(self._scene.sensor.range)
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Accept a change only if the estimator it makes is valid; else keep the old value and say why."""
