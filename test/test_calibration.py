@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -9,7 +10,7 @@ import pytest
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.estimators import EstimatorConfig, estimate_batch
-from pendulum_accel.recording.analyze import calibration
+from pendulum_accel.recording.analyze import calibration, nees_split
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
 from pendulum_accel.scene_run import run_scene
@@ -71,3 +72,29 @@ def test_calibration_splits_steady_and_after_change() -> None:
     cal = calibration(t, error, np.ones(t.size), t, truth, t_from=1.0)
     assert cal.after_change.n == 5 and cal.after_change.mean == 9.0 and cal.after_change.share_2sigma == 1.0
     assert cal.steady.n == t.size - 2 - 5 and cal.steady.mean == 1.0 and cal.steady.share_2sigma == 0.0
+
+
+@pytest.mark.parametrize(
+    ("name", "window", "most"),
+    [
+        ("step_start", "steady", 0.08),
+        ("step_start", "after", 0.08),
+        ("braking", "steady", 0.08),
+        # Above the 8 % aimed at (9.3 % over 40 seeds): the README says so and why.
+        ("stop_and_go", "steady", 0.12),
+    ],
+)
+def test_kalman_variance_is_calibrated_over_seeds(name: str, window: str, most: float) -> None:
+    """Pooled over 16 sensor seeds, t ≥ 2 s: mean NEES in [0.5, 2] and 1 % … ``most`` beyond 2σ, in steady
+    state (a manoeuvre's residual decays as the filter removes it) and after step_start's step."""
+    base = load_scene(name)
+    parts = []
+    for seed in range(16):
+        scene = dataclasses.replace(base, sensor=dataclasses.replace(base.sensor, seed=seed))
+        run = run_scene(scene)
+        a, var = estimate_batch("kalman", run.t, run.theta_measured, **estimator_settings(scene))
+        steady, after = nees_split(run.t, a - run.accel_true, var, run.t, run.accel_true, 2.0)
+        parts.append(steady if window == "steady" else after)
+    nees = np.concatenate(parts)
+    assert 0.5 <= float(nees.mean()) <= 2.0
+    assert 0.01 <= float(np.mean(nees > 4.0)) <= most

@@ -19,10 +19,16 @@ car does not follow: 60× too large at rest, far too small in a manoeuvre). It i
 * the angle noise carried through the gains actually applied (a second covariance P_n propagated
   with the same F and the Joseph form (I − KH) P_n (I − KH)ᵀ + K σ² Kᵀ, no process noise);
 * the sensor bias the filter cannot tell from a tilt, (g sec²θ)² E[b²](t) (EstimatorConfig);
-* a motion term for the lag while a changes: (L ŝ)², ŝ the filter's own rate of correcting â
-  (k₃ν/Δt averaged over 50 ms, counted only beyond 3σ of its noise-only spread), L = 0.3 s, held
-  with a 0.2 s decay. A change of a only enters once the angle reveals it: the first samples after
-  a step or the start of a ramp are beyond 2σ whatever the variance (README, "Calibration").
+* a motion term for the error a change of a leaves, the larger of
+  - the lag while the filter is still moving â: (L ŝ)², ŝ its own rate of correcting â (k₃ν/Δt
+    averaged over 50 ms, counted only beyond 3σ of its noise-only spread), L = 0.6 s, held with a
+    0.05 s decay;
+  - what is left of it afterwards: a third covariance P_m, propagated like P_n (same F, same gains,
+    Joseph form without measurement noise) and raised on its a entry to (L_m ŝ)², L_m = 0.05 s,
+    whenever that is larger. P_m decays exactly as fast as the filter actually removes an error of â:
+    within ~0.1 s while boosted, over seconds in the quiet mode (the slow tail after a manoeuvre).
+  A change of a only enters once the angle reveals it: the first ~0.3 s of a ramp and the first
+  samples after a step are beyond 2σ whatever the variance (README, "Calibration").
 """
 
 from __future__ import annotations
@@ -47,10 +53,11 @@ from pendulum_accel.physics.params import require_finite, require_positive
 _MAX_STEP = 0.01  # s; longer gaps are propagated in sub-steps so RK4 stays accurate
 # The published variance's motion term (see ``_lag_term``): tuned on the bundled scenes with
 # ``python -m benchmarks.calibration``.
-_LAG_SPAN = 0.3  # s: error ≈ this × the rate at which the filter is still moving â
+_LAG_SPAN = 0.6  # s: error ≈ this × the rate at which the filter is still moving â
+_RESIDUAL_SPAN = 0.05  # s: the same for the residual covariance P_m's a entry
 _SLOPE_TAU = 0.05  # s: averaging time of that rate
 _SLOPE_THRESHOLD = 9.0  # rate² must exceed this × its noise-only expectation (a 3σ test)
-_HOLD_TAU = 0.2  # s: the term decays no faster than this once the rate drops
+_HOLD_TAU = 0.05  # s: the lag term decays no faster than this once the rate drops
 
 
 def _propagate(
@@ -135,7 +142,8 @@ class KalmanEstimator(Estimator):
         self._first_t: float | None = None  # sensor turn-on, for the bias variance
         self._slope = 0.0  # running mean of k₃ν/Δt
         self._slope_noise = 0.0  # running mean of k₃²S/Δt², its noise-only expectation per sample
-        self._hold = 0.0  # the held motion term
+        self._hold = 0.0  # the held lag term
+        self._pm = [0.0] * 6  # the residual motion covariance, propagated with the gains applied
         self._nis = 1.0  # running mean of ν²/S
         self._q_now = self.q_accel
 
@@ -151,6 +159,7 @@ class KalmanEstimator(Estimator):
         # The start-up uncertainty (an unknown swing) is real error, so P_n starts from P too.
         self._pn = list(self._p)
         self._slope = self._slope_noise = self._hold = 0.0
+        self._pm = [0.0] * 6
         self._nis, self._q_now = 1.0, self.q_accel
 
     def _predict(self, dt: float) -> None:
@@ -186,6 +195,7 @@ class KalmanEstimator(Estimator):
         f = (f00, f01, f02, f10, f11, f12)
         self._p = _propagate(self._p, f, self.q_rate * dt, self._q_now * dt)
         self._pn = _propagate(self._pn, f, 0.0, 0.0)
+        self._pm = _propagate(self._pm, f, 0.0, 0.0)
 
     def _correct(self, theta: float, dt: float) -> None:
         """K = P Hᵀ/S, x ← x + K ν, P ← P − K Kᵀ S (H = [1, 0, 0], S = P₀₀ + σ²); then pick the next q_a."""
@@ -208,25 +218,28 @@ class KalmanEstimator(Estimator):
             p22 - k2 * p02,
         ]
         self._pn = _joseph(self._pn, k0, k1, k2, self._r)
+        self._pm = _joseph(self._pm, k0, k1, k2, 0.0)
         self._lag_term(k2 * innovation, k2 * k2 * s, dt)
 
     def _lag_term(self, correction: float, correction_var: float, dt: float) -> None:
-        """Hold ← max(L² (ŝ² − 9 E_noise[ŝ²])⁺, hold·e^{−Δt/τ_h}); ŝ = EWMA of k₃ν/Δt over 50 ms."""
+        """Hold ← max(L² X, hold·e^{−Δt/τ_h}), P_m₃₃ ← max(P_m₃₃, L_m² X); X = (ŝ² − 9 E_noise[ŝ²])⁺,
+        ŝ = EWMA of k₃ν/Δt over 50 ms."""
         alpha = min(1.0, dt / _SLOPE_TAU)
         self._slope += alpha * (correction / dt - self._slope)
         self._slope_noise += alpha * (correction_var / (dt * dt) - self._slope_noise)
         # An EWMA of white values of variance v has variance v α/(2 − α).
         noise = self._slope_noise * alpha / (2.0 - alpha)
-        excess = max(0.0, self._slope * self._slope - _SLOPE_THRESHOLD * noise) * _LAG_SPAN**2
-        self._hold = max(excess, self._hold * math.exp(-dt / _HOLD_TAU))
+        excess = max(0.0, self._slope * self._slope - _SLOPE_THRESHOLD * noise)
+        self._hold = max(excess * _LAG_SPAN**2, self._hold * math.exp(-dt / _HOLD_TAU))
+        self._pm[5] = max(self._pm[5], excess * _RESIDUAL_SPAN**2)
 
     def variance(self, t: float) -> float:
-        """Published var(â) at time t: P_n₃₃ + (g sec²θ)² E[b²](t − t₀) + the held motion term."""
+        """Published var(â) at time t: P_n₃₃ + (g sec²θ)² E[b²](t − t₀) + max(held lag, P_m₃₃)."""
         cfg = self.config
         th, _ = wrap_clamp(self._x[0], cfg.clamp_angle)
         elapsed = 0.0 if self._first_t is None else t - self._first_t
         bias = accel_gain(th, cfg.gravity) ** 2 * cfg.bias_second_moment(elapsed)
-        return self._pn[5] + bias + self._hold
+        return self._pn[5] + bias + max(self._hold, self._pm[5])
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """Predict to t (sub-steps ≤ 10 ms), correct with θ; â = x₃ clamped to g tan(clamp), var = P₃₃."""
@@ -243,8 +256,8 @@ class KalmanEstimator(Estimator):
                 self._predict(dt / steps)
             self._correct(theta, dt)
         x, p = self._x, self._p
-        # NaN and inf propagate through a sum: one test covers all nine numbers.
-        if not math.isfinite(sum(x) + sum(p) + sum(self._pn) + self._hold):
+        # NaN and inf propagate through a sum: one test covers every number.
+        if not math.isfinite(sum(x) + sum(p) + sum(self._pn) + sum(self._pm) + self._hold):
             self._initialise(theta)  # a diverged filter restarts rather than publish inf/NaN
         self._last_t = t
         a = self._x[2]

@@ -101,15 +101,16 @@ class Calibration:
         return f"{label}: steady {part(self.steady)}; ≤{CHANGE_WINDOW:g} s after a change {after}"
 
 
-def calibration(
+def nees_split(
     t: NDArray[np.float64],
     error: NDArray[np.float64],
     variance: NDArray[np.float64],
     t_truth: NDArray[np.float64],
     a_truth: NDArray[np.float64],
     t_from: float,
-) -> Calibration:
-    """NEES = e²/var at stamps t ≥ t_from, split at CHANGE_WINDOW s after any change of the truth a(t)."""
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(steady, after-change) NEES = e²/var at stamps t ≥ t_from, split at CHANGE_WINDOW s after any change
+    of the truth a(t); NaN where var ≤ 0."""
     changes = t_truth[1:][np.abs(np.diff(a_truth)) > 1e-9]
     after = np.zeros(t.size, dtype=bool)
     if changes.size:
@@ -118,7 +119,20 @@ def calibration(
     with np.errstate(divide="ignore", invalid="ignore"):
         nees = np.where(variance > 0.0, error * error / variance, np.nan)
     keep = t >= t_from
-    return Calibration(NeesStats.of(nees[keep & ~after]), NeesStats.of(nees[keep & after]))
+    return nees[keep & ~after], nees[keep & after]
+
+
+def calibration(
+    t: NDArray[np.float64],
+    error: NDArray[np.float64],
+    variance: NDArray[np.float64],
+    t_truth: NDArray[np.float64],
+    a_truth: NDArray[np.float64],
+    t_from: float,
+) -> Calibration:
+    """NeesStats of nees_split's two windows: steady state and CHANGE_WINDOW s after a change of a(t)."""
+    steady, after = nees_split(t, error, variance, t_truth, a_truth, t_from)
+    return Calibration(NeesStats.of(steady), NeesStats.of(after))
 
 
 @dataclass(frozen=True)
