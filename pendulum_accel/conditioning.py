@@ -133,7 +133,12 @@ def lyapunov_exponent(times: FloatArray, curve: FloatArray, saturation: float) -
     window = (times >= 0.25 * end) & (times <= end)
     if np.count_nonzero(window) < 2 or end <= 0.0:
         return 0.0
-    return max(float(np.polyfit(times[window], np.log(running[window]), 1)[0]), 0.0)
+    x = times[window] - np.mean(times[window])
+    y = np.log(running[window])
+    denominator = float(np.dot(x, x))
+    if denominator == 0.0:
+        return 0.0
+    return max(float(np.dot(x, y - np.mean(y))) / denominator, 0.0)  # Σ(x − x̄)(y − ȳ) / Σ(x − x̄)²
 
 
 def _nudged(theta0: float, theta_dot0: float, which: int, size: float) -> tuple[float, float]:
