@@ -138,7 +138,9 @@ def lyapunov_exponent(times: FloatArray, curve: FloatArray, saturation: float) -
     denominator = float(np.dot(x, x))
     if denominator == 0.0:
         return 0.0
-    return max(float(np.dot(x, y - np.mean(y))) / denominator, 0.0)  # Σ(x − x̄)(y − ȳ) / Σ(x − x̄)²
+    slope = float(np.dot(x, y - np.mean(y))) / denominator  # Σ(x − x̄)(y − ȳ) / Σ(x − x̄)²
+    # a growth by less than e^(1e-9) over the window is rounding in the fit, not growth
+    return slope if slope * end > 1e-9 else 0.0
 
 
 def _nudged(theta0: float, theta_dot0: float, which: int, size: float) -> tuple[float, float]:
