@@ -19,7 +19,16 @@ and, being symmetric, to second order) and leaves three independent realisations
 r₊ + r₋ − 2 r₀, whose spread is √6 times that of one run's rounding error r₀. ``noise`` =
 max |second difference| / √6, averaged over the two inputs: the typical max round-off error of one run,
 propagated through the problem's own growth (the rounding committed at step s is amplified to t exactly
-as an input perturbation is), with nothing modelled.
+as an input perturbation is), with nothing modelled. It costs two more runs, so the caller asks for it
+only where a prediction uses it (``noise=False`` leaves NaN).
+
+Past the linear regime (the one-ulp pair itself separates by more than LINEAR_LIMIT) no linearised
+response exists, and the pair's difference is one draw of how far runs whose inputs differ by their own
+rounding drift apart. The one-ulp runs are then made in both directions for both inputs: with the
+unnudged run, five equally valid runs, whose ``spread`` = max over t of (max θ − min θ) across them is the
+scale of the disagreement, which the planner multiplies by a safety factor (planner.SPREAD_SAFETY). Past
+the time the inputs stop determining θ (``lost_at``), that figure is how far apart runs of the same
+inputs land, not an accuracy of the method: no run is closer than that to the answer, except by luck.
 """
 
 from __future__ import annotations
@@ -57,8 +66,9 @@ class Sensitivity:
     ``input`` names that input, ``ulp`` its size; ``floor`` = max S (rad) at ``at`` (s); ``lost_at`` the
     first sample time where S ≥ ``target`` (None if never); ``lyapunov`` λ (1/s); ``linear`` False when
     the one-ulp pair itself had to be run (S then is that pair's difference, not a linearised response);
-    ``noise`` the run's own round-off (rad, module docstring; NaN when not linear); ``peaks`` max S per
-    input (θ0, θ'0) and ``units`` their ulps.
+    ``noise`` the run's own round-off (rad, module docstring; NaN when not linear or not asked for);
+    ``spread`` max over t of max θ − min θ across the five one-ulp runs (NaN when linear); ``peaks`` max S
+    per input (θ0, θ'0) and ``units`` their ulps.
     """
 
     input: str
@@ -70,6 +80,7 @@ class Sensitivity:
     lyapunov: float
     linear: bool
     noise: float
+    spread: float
     peaks: tuple[float, float]
     units: tuple[float, float]
     times: FloatArray = field(repr=False, compare=False)
@@ -84,7 +95,10 @@ class Sensitivity:
         """'input sensitivity: 1 ulp of θ'0 → 1.1e-03 rad at t = 18.3 s' (+ the Lyapunov exponent if > 0)."""
         text = f"input sensitivity: 1 ulp of {self.input} → {self.floor:.1e} rad at t = {self.at:.3g} s"
         if not self.linear:
-            text += " (past the linear regime)"
+            text += (
+                f" (past the linear regime: runs one ulp apart spread over {self.spread:.1e} rad, "
+                f"how far equally valid runs land apart, not an accuracy of the method)"
+            )
         return text
 
     def verdict(self) -> str:
@@ -119,7 +133,14 @@ def lyapunov_exponent(times: FloatArray, curve: FloatArray, saturation: float) -
     window = (times >= 0.25 * end) & (times <= end)
     if np.count_nonzero(window) < 2 or end <= 0.0:
         return 0.0
-    return max(float(np.polyfit(times[window], np.log(running[window]), 1)[0]), 0.0)
+    x = times[window] - np.mean(times[window])
+    y = np.log(running[window])
+    denominator = float(np.dot(x, x))
+    if denominator == 0.0:
+        return 0.0
+    slope = float(np.dot(x, y - np.mean(y))) / denominator  # Σ(x − x̄)(y − ȳ) / Σ(x − x̄)²
+    # a growth by less than e^(1e-9) over the window is rounding in the fit, not growth
+    return slope if slope * end > 1e-9 else 0.0
 
 
 def _nudged(theta0: float, theta_dot0: float, which: int, size: float) -> tuple[float, float]:
@@ -144,6 +165,15 @@ def _rounding_noise(
     return float(np.mean(spreads)) / SECOND_DIFFERENCE_SPREAD
 
 
+def _spread(run: Runner, theta0: float, theta_dot0: float, units: tuple[float, float],
+            members: list[FloatArray]) -> float:  # fmt: skip
+    """max_t (max_i θ_i(t) − min_i θ_i(t)) over ``members`` (the run and its +1-ulp runs) and the −1-ulp
+    runs of both inputs."""
+    down = [run(*_nudged(theta0, theta_dot0, i, -u)) for i, u in enumerate(units)]
+    stack = np.vstack([*members, *down])
+    return float(np.max(np.max(stack, axis=0) - np.min(stack, axis=0)))
+
+
 def input_sensitivity(
     run: Runner,
     theta0: float,
@@ -152,13 +182,17 @@ def input_sensitivity(
     times: FloatArray,
     target: float,
     base: FloatArray | None = None,
+    noise: bool = True,
 ) -> Sensitivity:
-    """S(t) from paired runs of ``run`` (module docstring); ``base`` = run(θ0, θ'0) when already at hand."""
+    """S(t) from paired runs of ``run`` (module docstring); ``base`` = run(θ0, θ'0) when already at hand;
+    the round-off (two more runs) only with ``noise``."""
     units = input_units(theta0, theta_dot0, omega)
     reference = run(theta0, theta_dot0) if base is None else base
     linear = False
-    noise = math.nan
+    roundoff = math.nan
+    spread = math.nan
     curves: list[FloatArray] = []
+    plus: list[FloatArray] = []
     for size in NUDGE_LADDER:  # the largest nudge that keeps the pair in the linear regime
         plus = [run(*_nudged(theta0, theta_dot0, i, size * u)) for i, u in enumerate(units)]
         deltas = [np.abs(p - reference) for p in plus]
@@ -169,8 +203,12 @@ def input_sensitivity(
         ]
         if max(float(np.max(d)) for d in deltas) <= LINEAR_LIMIT:
             linear = True
-            noise = _rounding_noise(run, theta0, theta_dot0, [size * u for u in units], plus, reference)
+            if noise:
+                sizes = [size * u for u in units]
+                roundoff = _rounding_noise(run, theta0, theta_dot0, sizes, plus, reference)
             break
+    if not linear:  # the one-ulp runs are what is left: five equally valid runs, and their spread
+        spread = _spread(run, theta0, theta_dot0, units, [reference, *plus])
     peaks = [float(np.max(c)) for c in curves]
     worst = int(np.argmax(peaks))
     curve = np.maximum(curves[0], curves[1])
@@ -186,7 +224,8 @@ def input_sensitivity(
         lost_at=lost_at,
         lyapunov=lyapunov_exponent(times, curve, LINEAR_LIMIT / NUDGE_LADDER[1]),
         linear=linear,
-        noise=noise,
+        noise=roundoff,
+        spread=spread,
         peaks=(peaks[0], peaks[1]),
         units=units,
         times=times,

@@ -57,7 +57,12 @@ from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, stability_lim
 from pendulum_accel.physics.linear import linear_error_bound
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, Piece
-from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, simulate, stability_omega
+from pendulum_accel.physics.simulate import (
+    CLOSED_FORM_METHOD,
+    closed_form_motion,
+    simulate,
+    stability_omega,
+)
 from pendulum_accel.scene import Scene
 
 COST_ORDER: tuple[str, ...] = ("linear", "exact", "rigid", "elastic")  # multiplier: forced only
@@ -96,6 +101,12 @@ ROUNDOFF_SAFETY = 2.0  # × the measured round-off of a stepped run (conditionin
 # the h/2 run takes twice the steps and its own rounding was measured up to 17× that of the h run (RK8 in
 # benchmarks/error_bounds.py), while truncation shrinks 2^p-fold per halving.
 HALVING_NOISE = 10.0
+# Truncation shrinks 2^p-fold per halving: a doubling difference |θ_{2h} − θ_h| under 2^(p − DOUBLING_SLACK)
+# times the halving difference |θ_h − θ_{h/2}| says the latter is rounding (RK8: under 64×, RK4: under 4×).
+DOUBLING_SLACK = 2
+# Past the linear regime the predicted error is this × the spread of five runs one ulp apart (conditioning):
+# the run and the reference are two more such runs; measured up to 0.66× the spread on the chaotic drive.
+SPREAD_SAFETY = 2.0
 DOUBLE_EPS = 2.0**-52
 LINEAR_CARRY = math.sqrt(2.0)
 # Measured CPU on this machine (see module docstring); only their ratio matters for the choice.
@@ -219,8 +230,11 @@ def _sensitivity_times(scene: Scene, plan: Plan) -> np.ndarray:
     return np.linspace(0.0, float(t[-1]), CONDITIONING_POINTS)
 
 
-def measure_sensitivity(scene: Scene, plan: Plan) -> Sensitivity:
-    """S(t) of ``scene`` by paired runs of ``plan``'s own model and solver (pendulum_accel.conditioning)."""
+def measure_sensitivity(
+    scene: Scene, plan: Plan, base: np.ndarray | None = None, noise: bool = True
+) -> Sensitivity:
+    """S(t) of ``scene`` by paired runs of ``plan``'s own model and solver (pendulum_accel.conditioning);
+    ``base`` = the plan's run at the conditioning times when at hand; the round-off only with ``noise``."""
     from pendulum_accel.physics.simulate import AUTO_METHOD
 
     times = _sensitivity_times(scene, plan)
@@ -228,12 +242,18 @@ def measure_sensitivity(scene: Scene, plan: Plan) -> Sensitivity:
 
     def run(theta0: float, theta_dot0: float) -> np.ndarray:
         """θ at ``times`` with the plan's model and solver from (θ0, θ'0)."""
+        if plan.method == CLOSED_FORM_METHOD:  # θ alone: the closed form without simulate()'s extras
+            return closed_form_motion(scene.pendulum, scene.profile, times, theta0, theta_dot0, plan.model)[0]
         return simulate(scene.pendulum, scene.profile, times, theta0=theta0, theta_dot0=theta_dot0,
                         model=plan.model, method=method, dt=plan.dt, rtol=plan.rtol).theta  # fmt: skip
 
     omega = scene.pendulum.omega(scene.profile.max_abs(0.0, scene.duration))
+    if base is not None and base.shape != times.shape:
+        base = None
     try:
-        return input_sensitivity(run, scene.theta0, scene.theta_dot0, omega, times, scene.accuracy)
+        return input_sensitivity(
+            run, scene.theta0, scene.theta_dot0, omega, times, scene.accuracy, base=base, noise=noise
+        )
     except ParameterError as err:
         raise SceneError(f"scene {scene.name}: cannot measure the input sensitivity: {err}") from None
 
@@ -245,15 +265,21 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
     The input-sensitivity floor is a statement about the problem, not a term of this run's error (the
     run starts from the same floats as any reference): it is announced, and only when it exceeds the
     target (ill-conditioned: the error is then decided by how rounding falls, and no tight bound exists)
-    does the predicted error become max(method error, floor), the most the inputs can promise.
+    does the predicted error become max(method error, floor), the most the inputs can promise; past the
+    linear regime max(method error, floor, SPREAD_SAFETY × the spread of five runs one ulp apart).
     """
     if plan.sensitivity is None:
-        plan = _with_roundoff(scene, plan, measure_sensitivity(scene, plan))
+        # only a fixed step without a pilot adds the measured round-off (_with_roundoff): a closed form's
+        # bound is a priori, an adaptive plan's K holds its rounding
+        noise = plan.method != CLOSED_FORM_METHOD and plan.rtol is None
+        plan = _with_roundoff(scene, plan, measure_sensitivity(scene, plan, noise=noise))
     sensitivity = plan.sensitivity
     assert sensitivity is not None  # set by _with_roundoff
     predicted = plan.method_error
     if sensitivity.ill_conditioned:
         predicted = max(predicted, sensitivity.floor)
+        if not sensitivity.linear:
+            predicted = max(predicted, SPREAD_SAFETY * sensitivity.spread)
     driven = scene.profile.constant_pieces(0.0, scene.duration) is None
     return replace(plan, predicted_error=predicted, driven=driven)
 
@@ -262,12 +288,14 @@ def _with_roundoff(scene: Scene, plan: Plan, sensitivity: Sensitivity) -> Plan:
     """``plan`` with ``sensitivity`` and method_error = its error estimate with its own round-off.
 
     Closed form: the evaluation-path bound plus START_SAFETY × the start's rounding carried through S(t)
-    (closed_form_start_error). Stepped with a halving pilot: ROUNDOFF_SAFETY × the measured round-off,
-    plus the Richardson estimate of truncation, PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1); when that
-    difference is within HALVING_NOISE × the round-off it is rounding, and the truncation at h is taken
-    from the doubling above instead, PILOT_SAFETY_FIXED |θ_{2h} − θ_h| / (2^p − 1). Other fixed steps:
-    their a-priori error plus the round-off term; adaptive plans as they are (their pilot pair's K holds
-    their rounding).
+    (closed_form_start_error). Stepped with a halving pilot: the Richardson estimate of truncation,
+    PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1), which holds the run's rounding too while truncation
+    dominates. When the halving difference is rounding (_rounding_dominated) the truncation at h is taken
+    from the doubling above instead, PILOT_SAFETY_FIXED |θ_{2h} − θ_h| / (2^p − 1), plus ROUNDOFF_SAFETY ×
+    the round-off: the larger of the measured one (input-nudged runs, conditioning) and |θ_h − θ_{h/2}|/√2,
+    two realisations of the rounding on different step grids (which also holds the rounding of t and a(t)
+    that input nudges leave alike). Other fixed steps: their a-priori error plus the round-off term;
+    adaptive plans as they are (their pilot pair's K holds their rounding).
     """
     noise = sensitivity.noise if math.isfinite(sensitivity.noise) else 0.0
     error = plan.predicted_error
@@ -276,11 +304,11 @@ def _with_roundoff(scene: Scene, plan: Plan, sensitivity: Sensitivity) -> Plan:
     elif math.isfinite(plan.halving_difference):
         order = FIXED_STEP_ORDER[plan.method][0]
         richardson = PILOT_SAFETY_FIXED * 2.0**order / (2.0**order - 1.0)
-        if plan.halving_difference <= HALVING_NOISE * noise:
+        if _rounding_dominated(plan, sensitivity.noise):
             # rounding hides the truncation at h: take it from the doubling above, 2^p-fold larger there
             coarse = plan.coarse_difference if math.isfinite(plan.coarse_difference) else 0.0
             error += PILOT_SAFETY_FIXED * coarse / (2.0**order - 1.0) - richardson * plan.halving_difference
-        error += ROUNDOFF_SAFETY * noise
+            error += ROUNDOFF_SAFETY * max(noise, plan.halving_difference / math.sqrt(2.0))
     elif plan.rtol is None:  # adaptive plans: the pilot pair's K was measured with their rounding in it
         error += ROUNDOFF_SAFETY * noise
     return replace(plan, method_error=error, predicted_error=error, sensitivity=sensitivity)
@@ -422,13 +450,15 @@ def _closed_form(setup: _Setup, pieces: list[Piece], model: str, extra: float) -
     linear_sum = 0.0
     exact_sum = 0.0
     omegas = []
-    for start, end, a in pieces:
+    for index, (start, end, a) in enumerate(pieces):
         span = end - start
         omega = p.omega(a)
         omegas.append(omega)
         amplitude = libration_amplitude(p, a, th, w)
         linear_sum += linear_error_bound(p, a, amplitude, span) if math.isfinite(amplitude) else math.inf
         exact_sum += closed_form_roundoff(p, a, th, w, span)
+        if index == len(pieces) - 1:
+            break  # the last piece's end state starts nothing
         th_end, w_end = exact_solution(p, a, th, w, np.array([span]))
         th, w = float(th_end[0]), float(w_end[0])
     n = len(pieces)
@@ -473,8 +503,9 @@ def _step_cost(setup: _Setup, model: str, method: str, steps: int) -> float:
 
 def _pilot_fixed(
     setup: _Setup, model: str, method: str, dt: float, budget: float, adjust: bool
-) -> tuple[float, float]:
-    """(predicted error, dt): error of θ_h ≈ PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1), on the scene.
+) -> tuple[float, float, np.ndarray]:
+    """(predicted error, dt, θ_h): error of θ_h ≈ PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1), on the
+    scene; θ_h is the run at the returned dt (the plan's own run, reused by the conditioning runs).
 
     With ``adjust`` the step shrinks by (prediction/budget)^(1/p) (at least ½) until the prediction meets
     the budget, at most PILOT_ROUNDS times, or until shrinking stops paying (round-off).
@@ -491,15 +522,15 @@ def _pilot_fixed(
 
     dt, _ = _effective_step(setup, dt)  # so that dt/2 really halves the step taken
     coarse = theta(dt)
-    best = (math.inf, dt)
+    best = (math.inf, dt, coarse)
     for _ in range(PILOT_ROUNDS):
         fine = theta(0.5 * dt)
         predicted = richardson * float(np.max(np.abs(coarse - fine)))
         if predicted > 0.5 * best[0]:
             return best  # round-off: a smaller step no longer buys accuracy
         if predicted > PILOT_NO_CONVERGENCE:
-            return (predicted, dt)  # halving changes θ by radians: chaos, no step will converge
-        best = (predicted, dt)
+            return (predicted, dt, coarse)  # halving changes θ by radians: chaos, no step will converge
+        best = (predicted, dt, coarse)
         if not adjust or predicted <= budget:
             return best
         _, half_steps = _effective_step(setup, 0.5 * dt)
@@ -522,8 +553,9 @@ def _fixed_step(
             f"dt = {dt:g} s needs {steps:.2g} steps over {setup.duration:g} s, more than "
             f"{MAX_FIXED_STEPS:.0e}; use a larger dt"
         )
+    run: np.ndarray | None = None
     if model in COMPILED_MODELS:
-        error, dt = _pilot_fixed(setup, model, method, dt, budget, adjust=not given)
+        error, dt, run = _pilot_fixed(setup, model, method, dt, budget, adjust=not given)
         h, steps = _effective_step(setup, dt)
         detail = f"{method} with hω = {h * setup.omega:.1e} ({steps} steps), error from a step-halving pilot"
     else:
@@ -537,26 +569,39 @@ def _fixed_step(
         return plan
     order = FIXED_STEP_ORDER[method][0]
     difference = error / (PILOT_SAFETY_FIXED * 2.0**order / (2.0**order - 1.0))
-    coarse = _coarse_difference(setup, model, method, h)
+    assert run is not None  # the pilot's run at the plan's step
+    coarse = _coarse_difference(setup, model, method, h, run)
     plan = replace(plan, halving_difference=difference, coarse_difference=coarse)
-    return _with_roundoff(setup.scene, plan, measure_sensitivity(setup.scene, plan))
+    # Only a rounding-dominated halving (or one with no doubling to test it against) uses the round-off.
+    noise = _rounding_dominated(plan, math.nan) or not math.isfinite(coarse)
+    return _with_roundoff(setup.scene, plan, measure_sensitivity(setup.scene, plan, base=run, noise=noise))
 
 
-def _coarse_difference(setup: _Setup, model: str, method: str, h: float) -> float:
+def _coarse_difference(setup: _Setup, model: str, method: str, h: float, run: np.ndarray) -> float:
     """max |θ_{2h} − θ_h| on every other sample time: the truncation one doubling above the plan's step,
     where it stands clear of rounding when the halving below it (h against h/2) does not (NaN if 2h
-    would be unstable)."""
+    would be unstable). θ_h is the pilot's ``run`` at every sample, taken at every other one (a run on
+    those times alone differs from it by rounding only)."""
     scene = setup.scene
     t = scene.sensor.sample_times(setup.duration)[::2]
     limit = stability_limit(method)
     if t.size < 2 or (limit is not None and 2.0 * h * setup.omega_fast > STABILITY_FRACTION * limit):
         return math.nan  # 2h would step past the stiff mode's stability: no truncation to read there
-    runs = [
-        simulate(setup.pendulum, setup.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
-                 model=model, method=method, dt=step).theta
-        for step in (2.0 * h, h)
-    ]  # fmt: skip
-    return float(np.max(np.abs(runs[0] - runs[1])))
+    doubled = simulate(setup.pendulum, setup.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
+                       model=model, method=method, dt=2.0 * h).theta  # fmt: skip
+    return float(np.max(np.abs(doubled - run[::2])))
+
+
+def _rounding_dominated(plan: Plan, noise: float) -> bool:
+    """The halving difference is rounding, not truncation: within HALVING_NOISE × the measured round-off
+    ``noise`` (when measured), or the doubling difference is under 2^(p − DOUBLING_SLACK) times it (a
+    truncation would have grown 2^p-fold); False without a halving difference."""
+    if not math.isfinite(plan.halving_difference):
+        return False
+    if math.isfinite(noise) and plan.halving_difference <= HALVING_NOISE * noise:
+        return True
+    order = FIXED_STEP_ORDER[plan.method][0]
+    return plan.coarse_difference < 2.0 ** (order - DOUBLING_SLACK) * plan.halving_difference
 
 
 def _stepped(setup: _Setup, model: str, budget: float, extra: float, why: str) -> Plan:

@@ -18,6 +18,7 @@ import pytest
 
 from benchmarks import error_bounds as eb
 from benchmarks.reference import reference_theta
+from pendulum_accel import planner
 from pendulum_accel.conditioning import input_sensitivity
 from pendulum_accel.physics.exact import exact_solution
 from pendulum_accel.physics.params import Pendulum
@@ -53,6 +54,27 @@ def test_prediction_is_an_upper_bound_and_tight() -> None:
     assert len(well) >= 15
     for row in well:
         assert 0.1 <= row.ratio <= 1.0, (row.case, row.target, row.plan.explain(), row.measured)
+
+
+def test_prediction_bounds_announced_ill_conditioned_runs_too() -> None:
+    """Where the inputs cannot determine θ the predicted figure is still ≥ the measured error (the floor,
+    or past the linear regime twice the spread of five runs one ulp apart)."""
+    ill = [row for row in rows() if row.plan.ill_conditioned]
+    assert ill
+    for row in ill:
+        assert row.measured <= row.plan.predicted_error, (row.case, row.target, row.plan.explain())
+
+
+def test_chaotic_drive_past_its_horizon_predicts_an_upper_bound() -> None:
+    """The resonant drive over 100 s (θ decided by how rounding falls from ≈ 70 s on): past the linear
+    regime the prediction is SPREAD_SAFETY × the spread of the one-ulp runs, ≥ the measured error, and the
+    plan line says what that figure is."""
+    (row,) = eb.run_case(eb.ILL_CONDITIONED[2], {})
+    sensitivity = row.plan.sensitivity
+    assert sensitivity is not None and not sensitivity.linear and row.plan.ill_conditioned
+    assert row.plan.predicted_error >= planner.SPREAD_SAFETY * sensitivity.spread >= sensitivity.floor
+    assert row.measured <= row.plan.predicted_error
+    assert "spread" in row.plan.explain() and "not an accuracy of the method" in row.plan.explain()
 
 
 def test_method_error_and_floor_are_separate() -> None:

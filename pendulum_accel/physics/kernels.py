@@ -18,6 +18,13 @@ Methods: explicit Euler, symplectic Euler, velocity Verlet and RK4 as in physics
 ``rk8``: the 8th-order solution of Dormand-Prince 8(5,3) (DOP853's 12-stage tableau, physics.dop853_tableau)
 taken with a fixed step, for tight targets where RK4 would need too many steps.
 
+RK4 and RK8 add their increment with compensated (Kahan) summation: y += h Σ bᵢkᵢ rounds the small
+increment into a large y at every step, an error of ulp(y)/2 that accumulates over N steps to ≈ √N ulp(y)
+(≈ N ulp at worst); the compensation c carries each addition's rounding, c = ((y + δ) − y) − δ, into the
+next increment, δ ← h Σ bᵢkᵢ − c, which leaves ≈ one ulp however long the run (the stages still read the
+rounded y: their error is multiplied by h). c is part of the state: a sliced run carries it from slice to
+slice, so it stays bit-identical to one call.
+
 The first call of each model compiles it (≈ 10 s) into numba's on-disk cache beside this file; later
 processes load it in ≈ 0.3 s. ``make setup`` warms the cache (``python -m pendulum_accel.physics.kernels``).
 """
@@ -104,13 +111,18 @@ def _steps(
     rhs: Any,
     par: np.ndarray,
     y0: np.ndarray,
+    comp: np.ndarray,
     nodes: np.ndarray,
     method: int,
     dt: float,
     kind: int,
     coef: np.ndarray,
 ) -> tuple[np.ndarray, int]:
-    """(y at every node, f calls): each node interval split into ⌈Δ/dt⌉ equal steps of ``method``."""
+    """(y at every node, f calls): each node interval split into ⌈Δ/dt⌉ equal steps of ``method``.
+
+    RK4/RK8: y ← y + (δ − c), c ← ((y + (δ − c)) − y) − (δ − c), δ = h Σ bᵢkᵢ (Kahan); ``comp`` holds c on
+    entry and is updated in place.
+    """
     n = y0.size
     half = n // 2
     out = np.empty((n, nodes.size))
@@ -141,7 +153,10 @@ def _steps(
                     tmp[j] = y[j] + h * k[2, j]
                 rhs(par, _accel(t + h, i, lo, kind, coef), tmp, k, 3)
                 for j in range(n):
-                    y[j] += h / 6.0 * (k[0, j] + 2.0 * (k[1, j] + k[2, j]) + k[3, j])
+                    inc = h / 6.0 * (k[0, j] + 2.0 * (k[1, j] + k[2, j]) + k[3, j]) - comp[j]
+                    new = y[j] + inc
+                    comp[j] = (new - y[j]) - inc
+                    y[j] = new
                 nfev += 4
             elif method == _RK8:
                 for s in range(_RK8_STAGES):
@@ -155,7 +170,10 @@ def _steps(
                     acc = 0.0
                     for s in range(_RK8_STAGES):
                         acc += RK8_B[s] * k[s, j]
-                    y[j] += h * acc
+                    inc = h * acc - comp[j]
+                    new = y[j] + inc
+                    comp[j] = (new - y[j]) - inc
+                    y[j] = new
                 nfev += _RK8_STAGES
             elif method == _EULER:
                 rhs(par, _accel(t, i, lo, kind, coef), y, k, 0)
@@ -191,18 +209,32 @@ def _steps(
 
 @njit(cache=True)
 def rigid_steps(
-    par: np.ndarray, y0: np.ndarray, nodes: np.ndarray, method: int, dt: float, kind: int, coef: np.ndarray
+    par: np.ndarray,
+    y0: np.ndarray,
+    comp: np.ndarray,
+    nodes: np.ndarray,
+    method: int,
+    dt: float,
+    kind: int,
+    coef: np.ndarray,
 ) -> tuple[np.ndarray, int]:
     """``_steps`` of the rigid pendulum, state [θ, θ'], par = (g/l, 1/l, c)."""
-    return _steps(_rigid_rhs, par, y0, nodes, method, dt, kind, coef)
+    return _steps(_rigid_rhs, par, y0, comp, nodes, method, dt, kind, coef)
 
 
 @njit(cache=True)
 def elastic_steps(
-    par: np.ndarray, y0: np.ndarray, nodes: np.ndarray, method: int, dt: float, kind: int, coef: np.ndarray
+    par: np.ndarray,
+    y0: np.ndarray,
+    comp: np.ndarray,
+    nodes: np.ndarray,
+    method: int,
+    dt: float,
+    kind: int,
+    coef: np.ndarray,
 ) -> tuple[np.ndarray, int]:
     """``_steps`` of the elastic string, state [r, θ, r', θ'], par = (k/m, g, c, l)."""
-    return _steps(_elastic_rhs, par, y0, nodes, method, dt, kind, coef)
+    return _steps(_elastic_rhs, par, y0, comp, nodes, method, dt, kind, coef)
 
 
 _LINEAR_PROFILES = (Constant, Step, Ramp, Table, Braking)
@@ -270,15 +302,17 @@ def run_kernel(
     y = np.ascontiguousarray(y0, dtype=float)
     out = np.empty((y.size, nodes.size))
     out[:, 0] = y
+    comp = np.zeros(y.size)  # the compensated sum's carried rounding, updated in place by each slice
     nfev = 0
     # Slices of whole node intervals: each interval restarts its substeps (and verlet's carried force)
-    # from y at its start, so the sliced run is bit-identical to one call, and a Ctrl-C, which Python
-    # only sees between compiled calls, lands within one slice's work.
+    # from y (and the compensation) at its start, so the sliced run is bit-identical to one call, and a
+    # Ctrl-C, which Python only sees between compiled calls, lands within one slice's work.
     for lo, hi in step_slices(nodes, float(dt), SLICE_STEPS[method]):
         part = coef if kind == ACCEL_SINUSOID else np.ascontiguousarray(coef[lo:hi])
         y_part, calls = steps(
             kernel.par,
             y,
+            comp,
             np.ascontiguousarray(nodes[lo : hi + 1]),
             METHOD_CODES[method],
             float(dt),

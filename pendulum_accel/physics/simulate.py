@@ -174,7 +174,7 @@ def _integrate(
 def _run_closed_form(problem: Problem) -> ModelRun:
     """The exact or linear closed form chained over the constant pieces; T from the reduced tension."""
     p = problem.pendulum
-    theta, theta_dot = _closed_form(
+    theta, theta_dot = closed_form_motion(
         p, problem.profile, problem.times, problem.theta0, problem.theta_dot0, problem.model
     )
     return ModelRun(theta, theta_dot, tension(p, theta, theta_dot, problem.accel))
@@ -298,10 +298,11 @@ def simulate(
     )
 
 
-def _closed_form(
+def closed_form_motion(
     pendulum: Pendulum, profile: AccelProfile, times: np.ndarray, theta0: float, theta_dot0: float, model: str
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Chain the exact or linear closed form over the constant pieces of a(t), restarting at each edge."""
+    """(θ, θ') at ``times``: the exact or linear closed form chained over the constant pieces of a(t),
+    restarting at each edge (θ_{k+1}(t) = closed form from the state of piece k at its end)."""
     if pendulum.damping != 0.0:
         raise ParameterError(
             f"model {model!r} is undamped only, got damping={pendulum.damping!r}; use model='rigid'"
