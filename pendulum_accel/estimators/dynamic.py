@@ -74,7 +74,10 @@ class DynamicEstimator(Estimator):
         self._gram = coeffs @ coeffs.T
         self._coeffs = coeffs.T.copy()  # (W, 3) for one matrix-vector product per sample
         self._buffer = np.zeros(2 * width)
-        self._series = self._fit_error_series(config)
+        r0, r1, r2 = self._fit_error_series(config)
+        # Highest power first, for Horner's rule.
+        self._series_even = list(zip(reversed(r0), reversed(r2), strict=True))
+        self._series_odd = list(reversed(r1))
         self._delay = (width // 2) * dt
         self._swing = SwingWindow(config, stages=_SWING_STAGES)
         self._outputs = Trail(2.0 * self._delay)
@@ -106,11 +109,16 @@ class DynamicEstimator(Estimator):
         """((l/cos θ) R₂ + g sec²θ R₀)² + ((l/cos θ) c R₁)²: â's mean-square error per A²/2 of swing at ω."""
         cfg = self.config
         y = omega * omega
-        r0 = r1 = r2 = 0.0
-        for c0, c1, c2 in zip(*(reversed(c) for c in self._series), strict=True):
-            r0, r1, r2 = r0 * y + c0, r1 * y + c1, r2 * y + c2
+        r0 = r2 = 0.0
+        for c0, c2 in self._series_even:
+            r0, r2 = r0 * y + c0, r2 * y + c2
         lever = cfg.length / math.cos(theta)
         real = lever * r2 + accel_gain(theta, cfg.gravity) * r0
+        if not cfg.damping:
+            return real * real
+        r1 = 0.0
+        for c1 in self._series_odd:
+            r1 = r1 * y + c1
         imag = lever * cfg.damping * r1 * omega
         return real * real + imag * imag
 
@@ -119,12 +127,16 @@ class DynamicEstimator(Estimator):
         cfg = self.config
         y = omega * omega
         r0 = np.zeros_like(y)
-        r1 = np.zeros_like(y)
         r2 = np.zeros_like(y)
-        for c0, c1, c2 in zip(*(reversed(c) for c in self._series), strict=True):
-            r0, r1, r2 = r0 * y + c0, r1 * y + c1, r2 * y + c2
+        for c0, c2 in self._series_even:
+            r0, r2 = r0 * y + c0, r2 * y + c2
         lever = cfg.length / np.cos(theta)
         real = lever * r2 + accel_gain_array(theta, cfg.gravity) * r0
+        if not cfg.damping:
+            return real * real
+        r1 = np.zeros_like(y)
+        for c1 in self._series_odd:
+            r1 = r1 * y + c1
         imag = lever * cfg.damping * r1 * omega
         return real * real + imag * imag
 

@@ -23,6 +23,7 @@ from pendulum_accel.estimators.base import EstimatorConfig, segments, wrap_clamp
 
 _AGM_STEPS = 6  # quadratic convergence: exact to rounding for cos(A/2) ≥ 0.5
 HORIZON = 1.25  # history kept, in T₀: the longest window a large swing can ask for
+_PRUNE_EVERY = 32  # samples between looks at what the history can drop
 
 
 Num = TypeVar("Num", float, np.ndarray)
@@ -142,7 +143,9 @@ class Trail:
         return mean1, mean2, float(k - j), j
 
     def prune(self, k: int) -> None:
-        """Drop samples before t_k − horizon once they are half the history (amortised O(1))."""
+        """Every 32nd sample, drop samples before t_k − horizon once they are half the history (O(1))."""
+        if k % _PRUNE_EVERY:
+            return
         _, _, _, self._jh = self.means(k, self.horizon, self._jh)
         drop = self._jh - self._base
         if drop > 64 and drop * 2 > len(self._t):
