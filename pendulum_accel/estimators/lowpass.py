@@ -11,8 +11,12 @@ The published variance is (g sec²θ_f)² (σ² w_k + E[b²]) plus the filter's 
 * what it leaves out, measured against a one-period mean θ̄ of the raw angle (``swing.SwingWindow``,
   no swing and a delay of T/2 where the filter's is √2/(2π f_c), 3.6 s at l = 1 m): e = θ_f − θ̄
   holds both the swing it lets through, |H(ω)| of it, and its lag while a changes (the start from
-  rest included). (g sec²θ_f)² (e² − 4 σ²/n)⁺ is added, n the samples in the period: e counts only
-  beyond 2σ of its noise-only spread, ≈ σ²/n (θ̄'s noise, far larger than θ_f's).
+  rest included). θ̄ lags too, so e misses T/2 of a ramp and, when a turns, can cross zero while
+  the filter is still far behind; e' = e − ¾ e₄ takes θ̄'s own lag out, e₄ = 4(θ̄ − mean_{T/4} θ̄)
+  being T/2 × the rate for a ramp (``period_mean``'s; the full e₄ is exact for a ramp but overshoots
+  by up to half a step for a period after one). (g sec²θ_f)² max((e² − 4σ²/n)⁺, (e'² − 29σ²/n)⁺)
+  is added, n the samples in the period: e counts beyond 2σ of its noise-only spread (σ²/n, θ̄'s;
+  θ_f's own is far smaller), e' beyond 3σ of its (¹³⁄₄ σ²/n).
 """
 
 from __future__ import annotations
@@ -37,17 +41,22 @@ from pendulum_accel.estimators.base import (
     wrap_clamp,
     wrap_clamp_array,
 )
-from pendulum_accel.estimators.swing import SwingWindow
+from pendulum_accel.estimators.swing import SwingWindow, Trail, trail_means
 from pendulum_accel.physics.params import require_positive
 
-_THRESHOLD = 4.0  # e² counts beyond 4 × its noise-only variance (2σ): θ̄ is noisier than θ_f
+_REF_LAG = 0.75  # the share of θ̄'s own lag, e₄, taken out of e'
+_SHORT = 0.25  # e₄'s window, in swing periods
+# e² counts beyond 4 × its noise-only variance (2σ), e'² beyond 9 × (3σ: it is the noisier, and the
+# filter's own noise is so small that any leak of the reference's shows). In units of σ²/n, with the
+# noise-only variances θ̄: 1, e' ≈ 4θ̄ − 3 mean_{T/4} θ̄: 13/4 (θ_f's own noise is far smaller).
+_NOISE_E, _NOISE_E_PRIME = 4.0, 9.0 * 13.0 / 4.0
 _STAGES = 3  # the reference mean must leave less swing than the filter (as period_mean)
 _TABLE_TOL = 1e-12  # the start-up noise gain is tabulated until the start's weight falls below this
 _TABLE_MAX = 1_000_000  # samples
 
 
 class LowpassEstimator(Estimator):
-    """a = g tan(θ_f), θ_f = Butterworth(order, f_c)[θ]; var = (g sec²θ_f)²(σ²w_k + E[b²] + (e² − 4σ²/n)⁺)."""
+    """a = g tan(θ_f), θ_f = Butterworth[θ]; var = (g sec²θ_f)²(σ²w_k + E[b²] + lag), module doc."""
 
     name: ClassVar[str] = "lowpass"
     summary: ClassVar[str] = "g tan(Butterworth low-pass of θ)"
@@ -74,6 +83,7 @@ class LowpassEstimator(Estimator):
         self._noise_gain = self._white_noise_gain()
         self._startup = self._startup_gain()
         self._swing = SwingWindow(config, stages=_STAGES)
+        self._means = Trail(self._swing.horizon)
         self.reset()
 
     def _white_noise_gain(self) -> float:
@@ -103,16 +113,20 @@ class LowpassEstimator(Estimator):
         self._first_t = 0.0
         self._count = 0
         self._swing.reset()
+        self._means.reset()
+        self._hint = 0
 
     def _restart(self) -> None:
         """After a hole: the filter starts over, the sensor's turn-on and the swing window stay."""
         self._z = []
         self._count = 0
 
-    def lag_variance(self, theta_f: float, mean: float, n: float) -> float:
-        """(e² − 9 σ²/n)⁺ (rad²), e = θ_f − θ̄: the filter's error against the one-period mean."""
+    def lag_variance(self, theta_f: float, mean: float, over_quarter: float, n: float) -> float:
+        """max((e² − 4σ²/n)⁺, (e'² − 29σ²/n)⁺) (rad²), e = θ_f − θ̄, e' = e − ¾·4(θ̄ − mean_{T/4} θ̄)."""
+        noise = self.config.sigma**2 / n
         e = theta_f - mean
-        return max(e * e - _THRESHOLD * self.config.sigma**2 / n, 0.0)
+        e_prime = e - _REF_LAG * (mean - over_quarter) / _SHORT
+        return max(e * e - _NOISE_E * noise, e_prime * e_prime - _NOISE_E_PRIME * noise, 0.0)
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """One lfilter step y = b₀x + z₀, z_i = z_{i+1} + b_{i+1}x − a_{i+1}y; a = g tan y."""
@@ -136,8 +150,14 @@ class LowpassEstimator(Estimator):
         cfg = self.config
         th, clamped = wrap_clamp(y, cfg.clamp_angle)
         gain = accel_gain(th, cfg.gravity)
-        means, _ = self._swing.push(t, theta)
-        var = gain * gain * (cfg.sigma**2 * weight + self.lag_variance(y, means.mean, means.n))
+        means, restarted = self._swing.push(t, theta)
+        if restarted:
+            self._means.reset()
+        k = self._means.append(t, means.mean)
+        over_quarter, _, _, self._hint = self._means.means(k, _SHORT * means.window, self._hint)
+        self._means.prune(k)
+        lag = self.lag_variance(y, means.mean, over_quarter, means.n)
+        var = gain * gain * (cfg.sigma**2 * weight + lag)
         var += bias_variance(cfg, th, t - self._first_t)
         return Estimate(cfg.gravity * math.tan(th), var, clamped)
 
@@ -156,9 +176,14 @@ class LowpassEstimator(Estimator):
         weight = self._startup[np.minimum(count, self._startup.size - 1)]
         if not t.size:
             return cfg.gravity * np.tan(th), weight
-        mean, _, n, _ = self._swing.batch(t, theta)
+        mean, _, n, window = self._swing.batch(t, theta)
+        noise = cfg.sigma**2 / n
         e = y - mean
-        lag = np.maximum(e * e - _THRESHOLD * cfg.sigma**2 / n, 0.0)
+        over_quarter = trail_means(t, mean, _SHORT * window, self._swing.restart_gap)
+        e_prime = e - _REF_LAG * (mean - over_quarter) / _SHORT
+        lag = np.maximum(
+            np.maximum(e * e - _NOISE_E * noise, e_prime * e_prime - _NOISE_E_PRIME * noise), 0.0
+        )
         var = gain * gain * (cfg.sigma**2 * weight + lag) + bias_variance_array(cfg, th, t - t[0])
         return cfg.gravity * np.tan(th), var
 
