@@ -46,7 +46,7 @@ from pendulum_accel.physics.params import require_positive
 
 _LAG_THRESHOLD = 9.0  # the lag term counts beyond 9 × its noise-only variance (3σ, as kalman's)
 _SWING_STAGES = 2  # T₀, then T(a₁, A₁)
-_SERIES_TOL = 1e-20  # last term of the fit-error power series, relative
+_SERIES_TOL = 1e-20  # x^{2j}/(2j)! of the fit-error series' last term at the fastest swing
 
 
 class DynamicEstimator(Estimator):
@@ -172,7 +172,7 @@ class DynamicEstimator(Estimator):
         return a, cfg.sigma**2 * quad, clamped
 
     def update(self, t: float, theta: float) -> Estimate | None:
-        """Push θ into the window; once full, fit and invert the equation of motion."""
+        """Push θ; once full, fit and invert; var = σ²Σw² + (g sec²θ)²E[b²] + fit error + (lag² − 9σ²Σw²)⁺."""
         if not self._accepts(t, theta, self._last_t):
             return None
         if self._last_t is None:

@@ -129,7 +129,7 @@ class LowpassEstimator(Estimator):
         return max(e * e - _NOISE_E * noise, e_prime * e_prime - _NOISE_E_PRIME * noise, 0.0)
 
     def update(self, t: float, theta: float) -> Estimate | None:
-        """One lfilter step y = b₀x + z₀, z_i = z_{i+1} + b_{i+1}x − a_{i+1}y; a = g tan y."""
+        """lfilter step y = b₀x + z₀, z_i = z_{i+1} + b_{i+1}x − a_{i+1}y; a = g tan y, var: module doc."""
         if not self._accepts(t, theta, self._last_t):
             return None
         if self._last_t is None:
