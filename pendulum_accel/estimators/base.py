@@ -121,6 +121,11 @@ class EstimatorConfig:
         return total + decay * turn_on + 0.5 * tau * self.dynamic_bias_stddev**2 * (1.0 - decay)
 
     @property
+    def error_cap(self) -> float:
+        """(2 g tan θ_max)² ((m/s²)²): â is clamped to ±g tan θ_max, so no error is larger than twice that."""
+        return (2.0 * self.gravity * math.tan(self.clamp_angle)) ** 2
+
+    @property
     def sigma(self) -> float:
         """σ used in variances: max(noise_std, MIN_NOISE_STD) rad."""
         return max(self.noise_std, MIN_NOISE_STD)
@@ -180,6 +185,16 @@ def bias_variance(config: EstimatorConfig, theta: float, elapsed: float) -> floa
 def bias_variance_array(config: EstimatorConfig, theta: np.ndarray, elapsed: np.ndarray) -> np.ndarray:
     """Vectorised :func:`bias_variance`: (g sec²θ)² E[b²](elapsed)."""
     return accel_gain_array(theta, config.gravity) ** 2 * config.bias_second_moment_array(elapsed)
+
+
+def capped(term: float, cap: float) -> float:
+    """min(term, cap), and cap for NaN: a model-error term no larger than any error can be."""
+    return term if term <= cap else cap
+
+
+def capped_array(term: np.ndarray, cap: float) -> np.ndarray:
+    """Vectorised :func:`capped`: min(term, cap), cap where NaN."""
+    return np.where(term <= cap, term, cap)
 
 
 def cramer_rao_std(accel: float, sigma: float, samples: float, gravity: float = STANDARD_GRAVITY) -> float:

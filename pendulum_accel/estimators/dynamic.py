@@ -36,6 +36,8 @@ from pendulum_accel.estimators.base import (
     accel_gain_array,
     bias_variance,
     bias_variance_array,
+    capped,
+    capped_array,
     check_batch_input,
     segments,
     wrap_clamp,
@@ -206,7 +208,7 @@ class DynamicEstimator(Estimator):
         self._outputs.prune(k)
         lag = a - mean
         excess = max(lag * lag - _LAG_THRESHOLD * var, 0.0)
-        var += model + bias_variance(cfg, th, t - self._first_t) + excess
+        var += capped(model + excess, cfg.error_cap) + bias_variance(cfg, th, t - self._first_t)
         return Estimate(a, var, clamped)
 
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -249,7 +251,8 @@ class DynamicEstimator(Estimator):
             model[start : seg.stop] = self._fit_error_gain_array(th, omega) * swing[start : seg.stop]
         lag = accel - trail_means(t, accel, 2.0 * self._delay, cfg.gap)
         excess = np.maximum(lag * lag - _LAG_THRESHOLD * var, 0.0)
-        return accel, var + model + bias_variance_array(cfg, th_c, t - t[0]) + excess
+        var = var + capped_array(model + excess, cfg.error_cap)
+        return accel, var + bias_variance_array(cfg, th_c, t - t[0])
 
     def noise_equivalent_samples(self, accel: float) -> float:
         """N = (g sec²θ_eq)²/Σw²: the weights' white-noise gain relative to one sample at θ_eq."""

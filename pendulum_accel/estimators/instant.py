@@ -23,6 +23,8 @@ from pendulum_accel.estimators.base import (
     accel_gain_array,
     bias_variance,
     bias_variance_array,
+    capped,
+    capped_array,
     check_batch_input,
     wrap_clamp,
     wrap_clamp_array,
@@ -51,10 +53,10 @@ class InstantEstimator(Estimator):
         self._swing.reset()
 
     def swing_variance(self, mean: float, variance: float) -> float:
-        """(g sec²θ̄)² (var θ − σ²)⁺: the mean-square swing in g tan θ, θ̄ = mean θ clamped."""
+        """(g sec²θ̄)² (var θ − σ²)⁺ ≤ error_cap: the mean-square swing in g tan θ, θ̄ = mean θ clamped."""
         cfg = self.config
         th, _ = wrap_clamp(mean, cfg.clamp_angle)
-        return accel_gain(th, cfg.gravity) ** 2 * max(variance - cfg.sigma**2, 0.0)
+        return capped(accel_gain(th, cfg.gravity) ** 2 * max(variance - cfg.sigma**2, 0.0), cfg.error_cap)
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """a = g tan θ_c with θ_c = θ clamped below 90°; var = (g sec²θ_c)²(σ² + E[b²]) + swing term."""
@@ -85,7 +87,8 @@ class InstantEstimator(Estimator):
             mean, mean_sq, _, _ = self._swing.batch(t, theta)
             th_bar, _ = wrap_clamp_array(mean, cfg.clamp_angle)
             swing = np.maximum(mean_sq - mean * mean, 0.0)
-            var = var + accel_gain_array(th_bar, cfg.gravity) ** 2 * np.maximum(swing - cfg.sigma**2, 0.0)
+            excess = accel_gain_array(th_bar, cfg.gravity) ** 2 * np.maximum(swing - cfg.sigma**2, 0.0)
+            var = var + capped_array(excess, cfg.error_cap)
         return cfg.gravity * np.tan(th), var
 
     def noise_equivalent_samples(self, accel: float) -> float:

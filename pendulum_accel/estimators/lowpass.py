@@ -36,6 +36,8 @@ from pendulum_accel.estimators.base import (
     accel_gain_array,
     bias_variance,
     bias_variance_array,
+    capped,
+    capped_array,
     check_batch_input,
     segments,
     wrap_clamp,
@@ -126,6 +128,8 @@ class LowpassEstimator(Estimator):
         noise = self.config.sigma**2 / n
         e = theta_f - mean
         e_prime = e - _REF_LAG * (mean - over_quarter) / _SHORT
+        if not math.isfinite(e * e + e_prime * e_prime):
+            return math.inf  # angles beyond ~1e154 rad: capped by the caller, as in ``batch``
         return max(e * e - _NOISE_E * noise, e_prime * e_prime - _NOISE_E_PRIME * noise, 0.0)
 
     def update(self, t: float, theta: float) -> Estimate | None:
@@ -157,7 +161,7 @@ class LowpassEstimator(Estimator):
         over_quarter, _, _, self._hint = self._means.means(k, _SHORT * means.window, self._hint)
         self._means.prune(k)
         lag = self.lag_variance(y, means.mean, over_quarter, means.n)
-        var = gain * gain * (cfg.sigma**2 * weight + lag)
+        var = gain * gain * cfg.sigma**2 * weight + capped(gain * gain * lag, cfg.error_cap)
         var += bias_variance(cfg, th, t - self._first_t)
         return Estimate(cfg.gravity * math.tan(th), var, clamped)
 
@@ -184,7 +188,8 @@ class LowpassEstimator(Estimator):
         lag = np.maximum(
             np.maximum(e * e - _NOISE_E * noise, e_prime * e_prime - _NOISE_E_PRIME * noise), 0.0
         )
-        var = gain * gain * (cfg.sigma**2 * weight + lag) + bias_variance_array(cfg, th, t - t[0])
+        var = gain * gain * cfg.sigma**2 * weight + capped_array(gain * gain * lag, cfg.error_cap)
+        var = var + bias_variance_array(cfg, th, t - t[0])
         return cfg.gravity * np.tan(th), var
 
     def noise_equivalent_samples(self, accel: float) -> float:

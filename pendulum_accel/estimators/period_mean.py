@@ -42,6 +42,8 @@ from pendulum_accel.estimators.base import (
     accel_gain_array,
     bias_variance,
     bias_variance_array,
+    capped,
+    capped_array,
     check_batch_input,
     wrap_clamp,
     wrap_clamp_array,
@@ -81,6 +83,8 @@ class PeriodMeanEstimator(Estimator):
         noise = self.config.sigma**2 / n
         e1 = mean - over_period
         e4 = (mean - over_quarter) / _SHORT
+        if not math.isfinite(e1 * e1 + e4 * e4):
+            return math.inf  # angles beyond ~1e154 rad: capped by the caller, as in ``batch``
         return min(max(e1 * e1 - 2.0 / 3.0 * noise, 0.0), max(e4 * e4 - 2.0 / 3.0 / _SHORT * noise, 0.0))
 
     def update(self, t: float, theta: float) -> Estimate | None:
@@ -102,7 +106,7 @@ class PeriodMeanEstimator(Estimator):
         th, clamped = wrap_clamp(means.mean, cfg.clamp_angle)
         gain = accel_gain(th, cfg.gravity)
         lag = self.lag_variance(means.mean, over_period, over_quarter, means.n)
-        var = gain * gain * (cfg.sigma**2 / means.n + lag)
+        var = gain * gain * cfg.sigma**2 / means.n + capped(gain * gain * lag, cfg.error_cap)
         var += bias_variance(cfg, th, t - self._first_t)
         return Estimate(cfg.gravity * math.tan(th), var, clamped)
 
@@ -122,7 +126,8 @@ class PeriodMeanEstimator(Estimator):
             np.maximum(e1 * e1 - 2.0 / 3.0 * noise, 0.0),
             np.maximum(e4 * e4 - 2.0 / 3.0 / _SHORT * noise, 0.0),
         )
-        var = gain * gain * (noise + lag) + bias_variance_array(cfg, th, t - t[0])
+        var = gain * gain * noise + capped_array(gain * gain * lag, cfg.error_cap)
+        var = var + bias_variance_array(cfg, th, t - t[0])
         return cfg.gravity * np.tan(th), var
 
     def noise_equivalent_samples(self, accel: float) -> float:
