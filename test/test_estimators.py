@@ -33,6 +33,10 @@ L = 0.5
 SIGMA = 1e-3
 RATE = 200.0
 METHODS = tuple(ESTIMATORS)
+# dynamic's variance holds (â − mean â)², its lag: â's own ~1e-14 difference between the streaming
+# fit (a matrix-vector product) and the batch one (a matrix product) is magnified by that difference
+# of nearly equal numbers (1.1e-12 at most on step_record); the estimates themselves agree to 1e-14.
+VARIANCE_RTOL = {"dynamic": 1e-10}
 
 
 @cache
@@ -59,7 +63,7 @@ def test_batch_equals_streaming(name: str) -> None:
     a_stream, v_stream = stream(name, t, theta)
     a_batch, v_batch = estimate_batch(name, t, theta, length=L, noise_std=SIGMA, rate_hz=RATE)
     np.testing.assert_allclose(a_batch, a_stream, rtol=0.0, atol=1e-12)
-    np.testing.assert_allclose(v_batch, v_stream, rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(v_batch, v_stream, rtol=VARIANCE_RTOL.get(name, 1e-12), atol=0.0)
     assert np.isfinite(a_batch).all() and (v_batch > 0.0).all()
 
 
@@ -74,7 +78,7 @@ def test_batch_equals_streaming_with_gaps_and_jitter(name: str, hole: float) -> 
     a_stream, v_stream = stream(name, t2, th2)
     a_batch, v_batch = estimate_batch(name, t2, th2, length=L, noise_std=SIGMA, rate_hz=RATE)
     np.testing.assert_allclose(a_batch, a_stream, rtol=0.0, atol=1e-12)
-    np.testing.assert_allclose(v_batch, v_stream, rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(v_batch, v_stream, rtol=VARIANCE_RTOL.get(name, 1e-12), atol=0.0)
 
 
 @pytest.mark.parametrize("name", METHODS)
@@ -93,6 +97,10 @@ def test_static_tilt_is_unbiased_and_variance_is_stated(name: str) -> None:
     if name == "kalman":
         # P_aa also allows for a drifting a (q_a); for a constant a the actual error is smaller.
         assert 0.1 * reported < measured <= reported
+    elif name in ("period_mean", "lowpass"):
+        # Their lag terms, (e² − κ var e)⁺, let a little noise through at rest: σ 5–10 % wider; and
+        # 50 s hold only ~15–50 independent errors, so the measured scatter is itself ±10–20 %.
+        assert 0.8 * reported < measured <= 1.1 * reported
     else:
         assert measured == pytest.approx(reported, rel=0.1)
 
@@ -235,7 +243,8 @@ def test_period_mean_memory_stays_bounded() -> None:
     for k in range(20_000):
         est.update(k / RATE, 0.01 * math.sin(k / 50.0))
     longest = 2 * math.pi * math.sqrt(L / G) * RATE
-    assert len(est._t) < 2 * longest + 130
+    assert len(est._swing.trail._t) < 2 * longest + 130
+    assert len(est._outputs._t) < 2 * longest + 130
 
 
 @pytest.mark.parametrize(

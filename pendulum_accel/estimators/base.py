@@ -1,8 +1,10 @@
 """What every estimator shares: configuration, the Estimate record, angle conditioning and input checks.
 
 The accelerometer relation is a = g tan θ, so an angle error dθ becomes an acceleration error
-da = g sec²θ dθ. Every method reports var_a = (g sec²θ)² σ² / N, where N is the number of
-independent angle samples its averaging is worth (its noise-equivalent sample count).
+da = g sec²θ dθ. Every method's published variance starts from (g sec²θ)² σ² / N, where N is the
+number of independent angle samples its averaging is worth (its noise-equivalent sample count), and
+adds the sensor bias (:func:`bias_variance`) and a term for what the method leaves out of its own
+model (the swing, its lag while a changes), estimated from its own data (each module says how).
 """
 
 from __future__ import annotations
@@ -107,6 +109,22 @@ class EstimatorConfig:
         decay = math.exp(-2.0 * t / tau)
         return total + decay * turn_on + 0.5 * tau * self.dynamic_bias_stddev**2 * (1.0 - decay)
 
+    def bias_second_moment_array(self, elapsed: np.ndarray) -> np.ndarray:
+        """Vectorised :meth:`bias_second_moment`: E[b(t)²] (rad²) at each of ``elapsed`` (s)."""
+        t = np.maximum(elapsed, 0.0)
+        turn_on = self.bias_mean**2 + self.bias_stddev**2
+        total = self.bias**2 + self.bias_random_walk**2 * t
+        tau = self.dynamic_bias_correlation_time
+        if tau <= 0.0:
+            return total + turn_on
+        decay = np.exp(-2.0 * t / tau)
+        return total + decay * turn_on + 0.5 * tau * self.dynamic_bias_stddev**2 * (1.0 - decay)
+
+    @property
+    def error_cap(self) -> float:
+        """(2 g tan θ_max)² ((m/s²)²): â is clamped to ±g tan θ_max, so no error is larger than twice that."""
+        return (2.0 * self.gravity * math.tan(self.clamp_angle)) ** 2
+
     @property
     def sigma(self) -> float:
         """σ used in variances: max(noise_std, MIN_NOISE_STD) rad."""
@@ -157,6 +175,26 @@ def accel_gain_array(theta: np.ndarray, gravity: float) -> np.ndarray:
     """Vectorised da/dθ = g sec²θ."""
     c = np.cos(theta)
     return gravity / (c * c)
+
+
+def bias_variance(config: EstimatorConfig, theta: float, elapsed: float) -> float:
+    """(g sec²θ)² E[b²](elapsed): the sensor bias, which no estimator can tell from a tilt, in (m/s²)²."""
+    return accel_gain(theta, config.gravity) ** 2 * config.bias_second_moment(elapsed)
+
+
+def bias_variance_array(config: EstimatorConfig, theta: np.ndarray, elapsed: np.ndarray) -> np.ndarray:
+    """Vectorised :func:`bias_variance`: (g sec²θ)² E[b²](elapsed)."""
+    return accel_gain_array(theta, config.gravity) ** 2 * config.bias_second_moment_array(elapsed)
+
+
+def capped(term: float, cap: float) -> float:
+    """min(term, cap), and cap for NaN: a model-error term no larger than any error can be."""
+    return term if term <= cap else cap
+
+
+def capped_array(term: np.ndarray, cap: float) -> np.ndarray:
+    """Vectorised :func:`capped`: min(term, cap), cap where NaN."""
+    return np.where(term <= cap, term, cap)
 
 
 def cramer_rao_std(accel: float, sigma: float, samples: float, gravity: float = STANDARD_GRAVITY) -> float:

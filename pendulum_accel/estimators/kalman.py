@@ -45,6 +45,7 @@ from pendulum_accel.estimators.base import (
     Estimator,
     EstimatorConfig,
     accel_gain,
+    bias_variance,
     check_batch_input,
     wrap_clamp,
 )
@@ -238,8 +239,7 @@ class KalmanEstimator(Estimator):
         cfg = self.config
         th, _ = wrap_clamp(self._x[0], cfg.clamp_angle)
         elapsed = 0.0 if self._first_t is None else t - self._first_t
-        bias = accel_gain(th, cfg.gravity) ** 2 * cfg.bias_second_moment(elapsed)
-        return self._pn[5] + bias + max(self._hold, self._pm[5])
+        return self._pn[5] + bias_variance(cfg, th, elapsed) + max(self._hold, self._pm[5])
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """Predict to t (sub-steps ≤ 10 ms), correct with θ; â = x₃ clamped to g tan(clamp), var = P₃₃."""
