@@ -125,7 +125,7 @@ def check_stability(method: str, dt: float, omega: float, n_steps: int = 1) -> N
         )
 
 
-def _nodes(t_eval: np.ndarray, breakpoints: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+def stop_times(t_eval: np.ndarray, breakpoints: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
     """All stop times (samples ∪ inner breakpoints), ascending, and a mask of which are samples."""
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
     inner = np.array(sorted({float(b) for b in breakpoints if t0 < b < t1}), dtype=float)
@@ -191,7 +191,7 @@ def integrate(
     state = np.array(y0, dtype=float)
     if state.ndim not in (1, 2) or not np.all(np.isfinite(state)):
         raise ParameterError(f"initial state must be a finite 1-D or 2-D array, got {state!r}")
-    nodes, is_sample = _nodes(times, breakpoints)
+    nodes, is_sample = stop_times(times, breakpoints)
     if method in FIXED_STEP_METHODS:
         if dt is None:
             raise ParameterError(f"fixed-step method {method} needs dt")
