@@ -223,8 +223,9 @@ class _Setup:
 
 def _setup(scene: Scene, model: str = "rigid") -> _Setup:
     """_Setup of ``scene``: ω and ω_fast from physics.simulate.stability_omega (rigid and ``model``)."""
-    omega = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, "rigid")
-    fast = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, model)
+    a_max = scene.profile.max_abs(0.0, scene.duration)
+    omega = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, "rigid", a_max)
+    fast = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, model, a_max)
     samples = scene.sensor.sample_count(scene.duration)
     return _Setup(scene, scene.pendulum, scene.profile, scene.duration, omega, fast, samples)
 

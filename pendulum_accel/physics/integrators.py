@@ -152,9 +152,9 @@ def check_samples(t_eval: np.ndarray) -> np.ndarray:
     times = np.asarray(t_eval, dtype=float)
     if times.ndim != 1 or times.size == 0:
         raise ParameterError(f"sample times must be a non-empty 1-D array, got shape {times.shape}")
-    if not np.all(np.isfinite(times)):
+    if not np.isfinite(times).all():
         raise ParameterError("sample times must be finite, got NaN or inf")
-    if times.size > 1 and not np.all(np.diff(times) > 0):
+    if times.size > 1 and not (times[1:] > times[:-1]).all():
         i = int(np.argmin(np.diff(times) > 0))
         raise ParameterError(
             f"sample times must be strictly increasing: t[{i + 1}]={times[i + 1]!r} <= {times[i]!r}"

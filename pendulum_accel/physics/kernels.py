@@ -369,12 +369,10 @@ def accel_coefficients(profile: AccelProfile, nodes: np.ndarray) -> tuple[int, n
         return None
     lo = np.nextafter(nodes[:-1], np.inf)
     hi = np.nextafter(nodes[1:], -np.inf)
-    coef = np.empty((lo.size, 2))
+    coef = np.zeros((lo.size, 2))
     coef[:, 0] = profile(lo)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        coef[:, 1] = (profile(hi) - coef[:, 0]) / (hi - lo)
-    # An interval of one or two ulps has no inside to read a slope from: a is constant there.
-    coef[~(hi > lo), 1] = 0.0
+    # An interval of one or two ulps has no inside to read a slope from: a is constant there (slope 0).
+    np.divide(profile(hi) - coef[:, 0], hi - lo, out=coef[:, 1], where=hi > lo)
     return ACCEL_LINEAR, coef
 
 
