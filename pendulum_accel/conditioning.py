@@ -8,6 +8,11 @@ variational solution, sampled), free of the rounding noise a one-ulp pair would 
 pair separates by more than LINEAR_LIMIT the response is no longer linear (an unstable start, chaos): the
 one-ulp pair itself is then run and its difference is the answer.
 
+Where the run can carry its own variational equations (the compiled RK4/RK8 kernels, SteppedRuns.tangent
+in physics.simulate), S(t) = |∂θ/∂xᵢ(t)| ulpᵢ comes from that one run instead (``tangent_sensitivity``):
+the derivative of the scheme's own map, what the nudged pair measures in the limit of a small nudge,
+without the pair's rounding noise. The nudged runs remain past the linear regime, and for the round-off.
+
 From S(t): the floor max S (a statement about the problem, not about a run: the planner announces it
 and calls the inputs ill-conditioned when it exceeds the target), the first time S reaches the target
 (from then on θ is not determined by the inputs to within the target), and a finite-time Lyapunov
@@ -49,6 +54,10 @@ NUDGE_LADDER = (64.0, 8.0, 1.0)
 LINEAR_LIMIT = 1e-2  # rad: a nudged pair further apart than this is past the linear regime
 INPUTS = ("θ0", "θ'0")
 SECOND_DIFFERENCE_SPREAD = math.sqrt(6.0)  # |r₊ + r₋ − 2 r₀| / |r| for independent equal roundings
+FIRST_DIFFERENCE_SPREAD = math.sqrt(2.0)  # |r₊ − r₀| / |r|
+# rad: a nudged pair closer than this leaves a second-order remainder far below its rounding
+# (tangent_sensitivity)
+TANGENT_NOISE_LIMIT = 1e-6
 
 
 def input_units(theta0: float, theta_dot0: float, omega: float) -> tuple[float, float]:
@@ -128,17 +137,19 @@ def lyapunov_exponent(times: FloatArray, curve: FloatArray, saturation: float) -
     """λ = least-squares slope of ln max_{s≤t} S(s) (1/s, ≥ 0) over the growing stretch: from a quarter of
     the way to where S first reaches ``saturation`` (past it the nudged pair is no longer linear)."""
     running = np.maximum.accumulate(np.maximum(curve, 1e-300))
-    over = np.flatnonzero(running >= saturation)
-    end = float(times[over[0]]) if over.size else float(times[-1])
-    window = (times >= 0.25 * end) & (times <= end)
-    if np.count_nonzero(window) < 2 or end <= 0.0:
+    over = running >= saturation
+    first = int(over.argmax())
+    end = float(times[first]) if over[first] else float(times[-1])
+    lo = int(np.searchsorted(times, 0.25 * end))  # the window 0.25 end ≤ t ≤ end (times ascending)
+    hi = int(np.searchsorted(times, end, side="right"))
+    if hi - lo < 2 or end <= 0.0:
         return 0.0
-    x = times[window] - np.mean(times[window])
-    y = np.log(running[window])
+    x = times[lo:hi] - times[lo:hi].mean()
+    y = np.log(running[lo:hi])
     denominator = float(np.dot(x, x))
     if denominator == 0.0:
         return 0.0
-    slope = float(np.dot(x, y - np.mean(y))) / denominator  # Σ(x − x̄)(y − ȳ) / Σ(x − x̄)²
+    slope = float(np.dot(x, y - y.mean())) / denominator  # Σ(x − x̄)(y − ȳ) / Σ(x − x̄)²
     # a growth by less than e^(1e-9) over the window is rounding in the fit, not growth
     return slope if slope * end > 1e-9 else 0.0
 
@@ -209,12 +220,27 @@ def input_sensitivity(
             break
     if not linear:  # the one-ulp runs are what is left: five equally valid runs, and their spread
         spread = _spread(run, theta0, theta_dot0, units, [reference, *plus])
-    peaks = [float(np.max(c)) for c in curves]
+    return _from_curves(curves, units, times, target, linear, roundoff, spread)
+
+
+def _from_curves(
+    curves: list[FloatArray],
+    units: tuple[float, float],
+    times: FloatArray,
+    target: float,
+    linear: bool,
+    roundoff: float,
+    spread: float,
+) -> Sensitivity:
+    """The Sensitivity of the per-input curves Sᵢ(t) (rad per ulp of input i)."""
+    where = [int(c.argmax()) for c in curves]
+    peaks = [float(c[i]) for c, i in zip(curves, where, strict=True)]
     worst = int(np.argmax(peaks))
     curve = np.maximum(curves[0], curves[1])
-    index = int(np.argmax(curves[worst]))
-    over = np.flatnonzero(curve >= target)
-    lost_at = float(times[over[0]]) if over.size else None
+    index = where[worst]
+    over = curve >= target
+    first = int(over.argmax())
+    lost_at = float(times[first]) if over[first] else None
     return Sensitivity(
         input=INPUTS[worst],
         ulp=units[worst],
@@ -231,3 +257,44 @@ def input_sensitivity(
         times=times,
         curve=curve,
     )
+
+
+def tangent_sensitivity(
+    run: Runner,
+    theta0: float,
+    theta_dot0: float,
+    omega: float,
+    times: FloatArray,
+    target: float,
+    base: FloatArray,
+    derivative: FloatArray,
+    noise: bool = True,
+) -> Sensitivity | None:
+    """S(t) from the variational solution: Sᵢ(t) = |∂θ/∂xᵢ(t)| ulpᵢ, ``derivative`` = [∂θ/∂θ0, ∂θ/∂θ'0] at
+    ``times`` along ``base`` = run(θ0, θ'0) (the run's own variational equations, no nudged runs); None
+    past the linear regime (NUDGE_LADDER[0] ulps would move θ by more than LINEAR_LIMIT: the caller then
+    measures S with input_sensitivity's nudged runs, as the linearisation no longer holds).
+
+    With ``noise``, the round-off from one run with both inputs nudged (by δᵢ = NUDGE_LADDER[0] ulpᵢ)
+    instead of four: θ(x + δ) − θ(x) − Σᵢ δᵢ ∂θ/∂xᵢ removes the response to first order and leaves r₊ − r₀,
+    two independent realisations of the rounding (spread √2 × one run's), so noise = max |that| / √2.
+    Its second-order remainder ½ δᵀ (∂²θ/∂x²) δ is not cancelled (the second difference cancels it), so
+    where a nudge moves θ by more than TANGENT_NOISE_LIMIT the second differences
+    θ(x + δᵢ) + θ(x − δᵢ) − 2 θ(x) of input_sensitivity are taken instead.
+    """
+    units = input_units(theta0, theta_dot0, omega)
+    size = NUDGE_LADDER[0]
+    curves = [np.abs(d) * u for d, u in zip(derivative, units, strict=True)]
+    largest = size * max(float(c.max()) for c in curves)
+    if not largest <= LINEAR_LIMIT:  # NaN included
+        return None
+    roundoff = math.nan
+    if noise and largest <= TANGENT_NOISE_LIMIT:
+        nudged = (theta0 + size * units[0], theta_dot0 + size * units[1])
+        steps = (nudged[0] - theta0, nudged[1] - theta_dot0)  # the nudges as rounded, taken exactly
+        residual = run(*nudged) - base - steps[0] * derivative[0] - steps[1] * derivative[1]
+        roundoff = float(np.abs(residual).max()) / FIRST_DIFFERENCE_SPREAD
+    elif noise:
+        plus = [run(*_nudged(theta0, theta_dot0, i, size * u)) for i, u in enumerate(units)]
+        roundoff = _rounding_noise(run, theta0, theta_dot0, [size * u for u in units], plus, base)
+    return _from_curves(curves, units, times, target, True, roundoff, math.nan)

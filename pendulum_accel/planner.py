@@ -39,11 +39,11 @@ scene and checks the chosen plan meets the target.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from pendulum_accel.conditioning import Sensitivity, input_sensitivity
+from pendulum_accel.conditioning import Sensitivity, input_sensitivity, tangent_sensitivity
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.physics.exact import (
     FOURIER_MAX_NOME,
@@ -59,9 +59,11 @@ from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, Piece
 from pendulum_accel.physics.simulate import (
     CLOSED_FORM_METHOD,
+    SteppedRuns,
     closed_form_motion,
     simulate,
     stability_omega,
+    stepped_runs,
 )
 from pendulum_accel.scene import Scene
 
@@ -186,6 +188,27 @@ class _Setup:
     omega: float
     omega_fast: float
     samples: int
+    prepared: dict[tuple[str, str, int], SteppedRuns | None] = field(default_factory=dict, compare=False)
+
+    def runs(self, model: str, method: str, stride: int = 1) -> SteppedRuns | None:
+        """simulate()'s compiled path prepared once (physics.simulate.SteppedRuns) for ``model`` and
+        ``method`` at every ``stride``-th sample time; None where simulate() has no compiled path."""
+        key = (model, method, stride)
+        if key not in self.prepared:
+            t = self.scene.sensor.sample_times(self.duration)[::stride]
+            self.prepared[key] = stepped_runs(self.pendulum, self.profile, t, model, method)
+        return self.prepared[key]
+
+    def theta(self, model: str, method: str, dt: float, stride: int = 1) -> np.ndarray:
+        """θ at every ``stride``-th sample time from the scene's start, stepped with dt: simulate()'s θ,
+        by its compiled path without its overheads where there is one."""
+        scene = self.scene
+        runs = self.runs(model, method, stride)
+        if runs is not None:
+            return runs.theta(scene.theta0, scene.theta_dot0, dt)
+        t = scene.sensor.sample_times(self.duration)[::stride]
+        return simulate(self.pendulum, self.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
+                        model=model, method=method, dt=dt).theta  # fmt: skip
 
     @property
     def omega_t(self) -> float:
@@ -200,8 +223,9 @@ class _Setup:
 
 def _setup(scene: Scene, model: str = "rigid") -> _Setup:
     """_Setup of ``scene``: ω and ω_fast from physics.simulate.stability_omega (rigid and ``model``)."""
-    omega = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, "rigid")
-    fast = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, model)
+    a_max = scene.profile.max_abs(0.0, scene.duration)
+    omega = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, "rigid", a_max)
+    fast = stability_omega(scene.pendulum, scene.profile, 0.0, scene.duration, model, a_max)
     samples = scene.sensor.sample_count(scene.duration)
     return _Setup(scene, scene.pendulum, scene.profile, scene.duration, omega, fast, samples)
 
@@ -231,26 +255,46 @@ def _sensitivity_times(scene: Scene, plan: Plan) -> np.ndarray:
 
 
 def measure_sensitivity(
-    scene: Scene, plan: Plan, base: np.ndarray | None = None, noise: bool = True
+    scene: Scene,
+    plan: Plan,
+    base: np.ndarray | None = None,
+    noise: bool = True,
+    derivative: np.ndarray | None = None,
+    runs: SteppedRuns | None = None,
 ) -> Sensitivity:
     """S(t) of ``scene`` by paired runs of ``plan``'s own model and solver (pendulum_accel.conditioning);
-    ``base`` = the plan's run at the conditioning times when at hand; the round-off only with ``noise``."""
+    ``base`` = the plan's run at the conditioning times when at hand; the round-off only with ``noise``.
+
+    With ``derivative`` = [∂θ/∂θ0, ∂θ/∂θ'0] along ``base`` (the run's variational equations), S(t) comes
+    from it (conditioning.tangent_sensitivity) and the nudged runs are made only for the round-off or
+    past the linear regime; ``runs`` = the plan's compiled path prepared for those runs.
+    """
     from pendulum_accel.physics.simulate import AUTO_METHOD
 
     times = _sensitivity_times(scene, plan)
     method = AUTO_METHOD if plan.method == CLOSED_FORM_METHOD else plan.method
+    if runs is None and plan.dt is not None:
+        runs = stepped_runs(scene.pendulum, scene.profile, times, plan.model, plan.method)
 
     def run(theta0: float, theta_dot0: float) -> np.ndarray:
         """θ at ``times`` with the plan's model and solver from (θ0, θ'0)."""
         if plan.method == CLOSED_FORM_METHOD:  # θ alone: the closed form without simulate()'s extras
             return closed_form_motion(scene.pendulum, scene.profile, times, theta0, theta_dot0, plan.model)[0]
+        if runs is not None and plan.dt is not None:  # the compiled path, bit for bit simulate()'s θ
+            return runs.theta(theta0, theta_dot0, plan.dt)
         return simulate(scene.pendulum, scene.profile, times, theta0=theta0, theta_dot0=theta_dot0,
                         model=plan.model, method=method, dt=plan.dt, rtol=plan.rtol).theta  # fmt: skip
 
     omega = scene.pendulum.omega(scene.profile.max_abs(0.0, scene.duration))
     if base is not None and base.shape != times.shape:
-        base = None
+        base = derivative = None
     try:
+        if base is not None and derivative is not None:
+            measured = tangent_sensitivity(
+                run, scene.theta0, scene.theta_dot0, omega, times, scene.accuracy, base, derivative, noise
+            )
+            if measured is not None:
+                return measured
         return input_sensitivity(
             run, scene.theta0, scene.theta_dot0, omega, times, scene.accuracy, base=base, noise=noise
         )
@@ -503,40 +547,57 @@ def _step_cost(setup: _Setup, model: str, method: str, steps: int) -> float:
 
 def _pilot_fixed(
     setup: _Setup, model: str, method: str, dt: float, budget: float, adjust: bool
-) -> tuple[float, float, np.ndarray]:
-    """(predicted error, dt, θ_h): error of θ_h ≈ PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1), on the
-    scene; θ_h is the run at the returned dt (the plan's own run, reused by the conditioning runs).
+) -> tuple[float, float, np.ndarray, np.ndarray | None]:
+    """(predicted error, dt, θ_h, D_h): error of θ_h ≈ PILOT_SAFETY_FIXED |θ_h − θ_{h/2}| 2^p/(2^p − 1), on
+    the scene; θ_h is the run at the returned dt (the plan's own run, reused by the conditioning runs) and
+    D_h = [∂θ_h/∂θ0, ∂θ_h/∂θ'0] its variational solution, from the same run (None where the method has
+    none compiled: the conditioning then nudges the inputs).
 
     With ``adjust`` the step shrinks by (prediction/budget)^(1/p) (at least ½) until the prediction meets
     the budget, at most PILOT_ROUNDS times, or until shrinking stops paying (round-off).
     """
     scene = setup.scene
-    t = scene.sensor.sample_times(setup.duration)
     order = FIXED_STEP_ORDER[method][0]
     richardson = PILOT_SAFETY_FIXED * 2.0**order / (2.0**order - 1.0)
+    runs = setup.runs(model, method)
+    variational = runs is not None and runs.variational
 
     def theta(h: float) -> np.ndarray:
         """θ at the sample times, stepped with h."""
-        return simulate(setup.pendulum, setup.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
-                        model=model, method=method, dt=h).theta  # fmt: skip
+        return setup.theta(model, method, h)
+
+    def with_derivative(h: float) -> tuple[np.ndarray, np.ndarray | None]:
+        """(θ, D) at the sample times, stepped with h; D None without a compiled variational run."""
+        if runs is None or not variational:
+            return theta(h), None
+        return runs.tangent(scene.theta0, scene.theta_dot0, h)
+
+    def done(predicted: float, h: float, run: np.ndarray, derivative: np.ndarray | None) -> tuple[
+        float, float, np.ndarray, np.ndarray | None
+    ]:  # fmt: skip
+        """The pilot's answer, the variational run made now if the run at h was a plain one."""
+        if derivative is None and variational:
+            run, derivative = with_derivative(h)  # θ bit for bit the same: only D is new
+        return predicted, h, run, derivative
 
     dt, _ = _effective_step(setup, dt)  # so that dt/2 really halves the step taken
-    coarse = theta(dt)
-    best = (math.inf, dt, coarse)
+    coarse, slope = with_derivative(dt)
+    best = (math.inf, dt, coarse, slope)
     for _ in range(PILOT_ROUNDS):
         fine = theta(0.5 * dt)
         predicted = richardson * float(np.max(np.abs(coarse - fine)))
         if predicted > 0.5 * best[0]:
-            return best  # round-off: a smaller step no longer buys accuracy
+            return done(*best)  # round-off: a smaller step no longer buys accuracy
         if predicted > PILOT_NO_CONVERGENCE:
-            return (predicted, dt, coarse)  # halving changes θ by radians: chaos, no step will converge
-        best = (predicted, dt, coarse)
+            return done(predicted, dt, coarse, slope)  # θ moves by radians: chaos, no step will converge
+        best = (predicted, dt, coarse, slope)
         if not adjust or predicted <= budget:
-            return best
+            return done(*best)
         _, half_steps = _effective_step(setup, 0.5 * dt)
         dt, steps = _effective_step(setup, dt / max(2.0, 1.1 * (predicted / budget) ** (1.0 / order)))
-        coarse = fine if steps == half_steps else theta(dt)  # a plain halving: that run is done already
-    return best
+        # a plain halving: that run is done already (without its variational part)
+        coarse, slope = (fine, None) if steps == half_steps else with_derivative(dt)
+    return done(*best)
 
 
 def _fixed_step(
@@ -554,8 +615,9 @@ def _fixed_step(
             f"{MAX_FIXED_STEPS:.0e}; use a larger dt"
         )
     run: np.ndarray | None = None
+    derivative: np.ndarray | None = None
     if model in COMPILED_MODELS:
-        error, dt, run = _pilot_fixed(setup, model, method, dt, budget, adjust=not given)
+        error, dt, run, derivative = _pilot_fixed(setup, model, method, dt, budget, adjust=not given)
         h, steps = _effective_step(setup, dt)
         detail = f"{method} with hω = {h * setup.omega:.1e} ({steps} steps), error from a step-halving pilot"
     else:
@@ -574,7 +636,9 @@ def _fixed_step(
     plan = replace(plan, halving_difference=difference, coarse_difference=coarse)
     # Only a rounding-dominated halving (or one with no doubling to test it against) uses the round-off.
     noise = _rounding_dominated(plan, math.nan) or not math.isfinite(coarse)
-    return _with_roundoff(setup.scene, plan, measure_sensitivity(setup.scene, plan, base=run, noise=noise))
+    runs = setup.runs(model, method)
+    sensitivity = measure_sensitivity(setup.scene, plan, run, noise, derivative, runs)
+    return _with_roundoff(setup.scene, plan, sensitivity)
 
 
 def _coarse_difference(setup: _Setup, model: str, method: str, h: float, run: np.ndarray) -> float:
@@ -582,13 +646,10 @@ def _coarse_difference(setup: _Setup, model: str, method: str, h: float, run: np
     where it stands clear of rounding when the halving below it (h against h/2) does not (NaN if 2h
     would be unstable). θ_h is the pilot's ``run`` at every sample, taken at every other one (a run on
     those times alone differs from it by rounding only)."""
-    scene = setup.scene
-    t = scene.sensor.sample_times(setup.duration)[::2]
     limit = stability_limit(method)
-    if t.size < 2 or (limit is not None and 2.0 * h * setup.omega_fast > STABILITY_FRACTION * limit):
+    if run.size < 3 or (limit is not None and 2.0 * h * setup.omega_fast > STABILITY_FRACTION * limit):
         return math.nan  # 2h would step past the stiff mode's stability: no truncation to read there
-    doubled = simulate(setup.pendulum, setup.profile, t, theta0=scene.theta0, theta_dot0=scene.theta_dot0,
-                       model=model, method=method, dt=2.0 * h).theta  # fmt: skip
+    doubled = setup.theta(model, method, 2.0 * h, stride=2)
     return float(np.max(np.abs(doubled - run[::2])))
 
 

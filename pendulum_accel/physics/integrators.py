@@ -125,7 +125,7 @@ def check_stability(method: str, dt: float, omega: float, n_steps: int = 1) -> N
         )
 
 
-def _nodes(t_eval: np.ndarray, breakpoints: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+def stop_times(t_eval: np.ndarray, breakpoints: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
     """All stop times (samples ∪ inner breakpoints), ascending, and a mask of which are samples."""
     t0, t1 = float(t_eval[0]), float(t_eval[-1])
     inner = np.array(sorted({float(b) for b in breakpoints if t0 < b < t1}), dtype=float)
@@ -152,9 +152,9 @@ def check_samples(t_eval: np.ndarray) -> np.ndarray:
     times = np.asarray(t_eval, dtype=float)
     if times.ndim != 1 or times.size == 0:
         raise ParameterError(f"sample times must be a non-empty 1-D array, got shape {times.shape}")
-    if not np.all(np.isfinite(times)):
+    if not np.isfinite(times).all():
         raise ParameterError("sample times must be finite, got NaN or inf")
-    if times.size > 1 and not np.all(np.diff(times) > 0):
+    if times.size > 1 and not (times[1:] > times[:-1]).all():
         i = int(np.argmin(np.diff(times) > 0))
         raise ParameterError(
             f"sample times must be strictly increasing: t[{i + 1}]={times[i + 1]!r} <= {times[i]!r}"
@@ -191,7 +191,7 @@ def integrate(
     state = np.array(y0, dtype=float)
     if state.ndim not in (1, 2) or not np.all(np.isfinite(state)):
         raise ParameterError(f"initial state must be a finite 1-D or 2-D array, got {state!r}")
-    nodes, is_sample = _nodes(times, breakpoints)
+    nodes, is_sample = stop_times(times, breakpoints)
     if method in FIXED_STEP_METHODS:
         if dt is None:
             raise ParameterError(f"fixed-step method {method} needs dt")

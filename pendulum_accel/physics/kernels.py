@@ -106,6 +106,58 @@ def _elastic_rhs(par: np.ndarray, a: float, y: np.ndarray, out: np.ndarray, row:
     out[row, 3] = (-par[1] * s + a * co - 2.0 * rd * w) / r - par[2] * w
 
 
+@njit(cache=True, inline="always")
+def _rigid_tangent_rhs(par: np.ndarray, a: float, y: np.ndarray, out: np.ndarray, row: int) -> None:
+    """The rigid rhs and its variational equations: y = [θ, θ', v₁, v₁', v₂, v₂'], (vᵢ, vᵢ') = ∂(θ, θ')/∂xᵢ,
+    x = (θ0, θ'0); vᵢ'' = J₁₀ vᵢ + J₁₁ vᵢ' with J₁₀ = −(g/l) cos θ − (a/l) sin θ, J₁₁ = −c."""
+    th = y[0]
+    w = y[1]
+    s = math.sin(th)
+    co = math.cos(th)
+    out[row, 0] = w
+    out[row, 1] = -par[0] * s + a * par[1] * co - par[2] * w
+    j10 = -par[0] * co - a * par[1] * s
+    j11 = -par[2]
+    for col in range(2):
+        v = y[2 + 2 * col]
+        vd = y[3 + 2 * col]
+        out[row, 2 + 2 * col] = vd
+        out[row, 3 + 2 * col] = j10 * v + j11 * vd
+
+
+@njit(cache=True, inline="always")
+def _elastic_tangent_rhs(par: np.ndarray, a: float, y: np.ndarray, out: np.ndarray, row: int) -> None:
+    """The elastic rhs (``_elastic_rhs``, y[0:4] = [r, θ, r', θ']) and its variational equations: y[4 + 4i :
+    8 + 4i] = ∂[r, θ, r', θ']/∂xᵢ, x = (θ0, θ'0), whose derivative is J · that column, J = ∂f/∂y (rows of
+    physics.elastic.elastic_jacobian: r'' row [θ'² − k/m, −g sin θ + a cos θ, −c, 2rθ'], θ'' row
+    [−τ/r², (−g cos θ − a sin θ)/r, −2θ'/r, −2r'/r − c], τ = a cos θ − g sin θ − 2r'θ')."""
+    r = y[0]
+    th = y[1]
+    rd = y[2]
+    w = y[3]
+    s = math.sin(th)
+    co = math.cos(th)
+    out[row, 0] = rd
+    out[row, 1] = w
+    out[row, 2] = r * w * w + par[1] * co + a * s - par[0] * (r - par[3]) - par[2] * rd
+    out[row, 3] = (-par[1] * s + a * co - 2.0 * rd * w) / r - par[2] * w
+    tangential = -par[1] * s + a * co - 2.0 * rd * w
+    j20 = w * w - par[0]
+    j21 = -par[1] * s + a * co
+    j22 = -par[2]
+    j23 = 2.0 * r * w
+    j30 = -tangential / (r * r)
+    j31 = (-par[1] * co - a * s) / r
+    j32 = -2.0 * w / r
+    j33 = -2.0 * rd / r - par[2]
+    for col in range(2):
+        b = 4 + 4 * col
+        out[row, b] = y[b + 2]
+        out[row, b + 1] = y[b + 3]
+        out[row, b + 2] = j20 * y[b] + j21 * y[b + 1] + j22 * y[b + 2] + j23 * y[b + 3]
+        out[row, b + 3] = j30 * y[b] + j31 * y[b + 1] + j32 * y[b + 2] + j33 * y[b + 3]
+
+
 @njit(inline="always")
 def _steps(
     rhs: Any,
@@ -130,12 +182,17 @@ def _steps(
     y = y0.copy()
     tmp = np.empty(n)
     k = np.empty((_RK8_STAGES, n))
+    ha = np.empty_like(RK8_A)  # h a_sq of the interval's step: h a_sq k_q rounds as (h a_sq) k_q
     nfev = 0
     for i in range(nodes.size - 1):
         lo = nodes[i]
         hi = nodes[i + 1]
         n_sub = max(1, math.ceil((hi - lo) / dt * (1.0 - 1e-12)))
         h = (hi - lo) / n_sub
+        if method == _RK8:
+            for s in range(_RK8_STAGES):
+                for q in range(s):
+                    ha[s, q] = h * RK8_A[s, q]
         carried = False  # verlet's a(t₁, q₁, v*) is reused as the next step's a₀ within a segment
         for step in range(n_sub):
             t = lo + step * h
@@ -163,7 +220,7 @@ def _steps(
                     for j in range(n):
                         acc = y[j]
                         for q in range(s):
-                            acc += h * RK8_A[s, q] * k[q, j]
+                            acc += ha[s, q] * k[q, j]
                         tmp[j] = acc
                     rhs(par, _accel(t + RK8_C[s] * h, i, lo, kind, coef), tmp, k, s)
                 for j in range(n):
@@ -237,8 +294,40 @@ def elastic_steps(
     return _steps(_elastic_rhs, par, y0, comp, nodes, method, dt, kind, coef)
 
 
+@njit(cache=True)
+def rigid_tangent_steps(
+    par: np.ndarray,
+    y0: np.ndarray,
+    comp: np.ndarray,
+    nodes: np.ndarray,
+    method: int,
+    dt: float,
+    kind: int,
+    coef: np.ndarray,
+) -> tuple[np.ndarray, int]:
+    """``_steps`` of the rigid pendulum and its variational equations (``_rigid_tangent_rhs``), 6 states."""
+    return _steps(_rigid_tangent_rhs, par, y0, comp, nodes, method, dt, kind, coef)
+
+
+@njit(cache=True)
+def elastic_tangent_steps(
+    par: np.ndarray,
+    y0: np.ndarray,
+    comp: np.ndarray,
+    nodes: np.ndarray,
+    method: int,
+    dt: float,
+    kind: int,
+    coef: np.ndarray,
+) -> tuple[np.ndarray, int]:
+    """``_steps`` of the elastic string and its variational equations (_elastic_tangent_rhs): 12 states."""
+    return _steps(_elastic_tangent_rhs, par, y0, comp, nodes, method, dt, kind, coef)
+
+
 _LINEAR_PROFILES = (Constant, Step, Ramp, Table, Braking)
 _STEPPERS = {"rigid": rigid_steps, "elastic": elastic_steps}
+_TANGENT_STEPPERS = {"rigid": rigid_tangent_steps, "elastic": elastic_tangent_steps}
+TANGENT_METHODS = ("rk4", "rk8")  # the schemes whose variational run is the derivative of their own map
 
 
 @dataclass(frozen=True)
@@ -280,12 +369,10 @@ def accel_coefficients(profile: AccelProfile, nodes: np.ndarray) -> tuple[int, n
         return None
     lo = np.nextafter(nodes[:-1], np.inf)
     hi = np.nextafter(nodes[1:], -np.inf)
-    coef = np.empty((lo.size, 2))
+    coef = np.zeros((lo.size, 2))
     coef[:, 0] = profile(lo)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        coef[:, 1] = (profile(hi) - coef[:, 0]) / (hi - lo)
-    # An interval of one or two ulps has no inside to read a slope from: a is constant there.
-    coef[~(hi > lo), 1] = 0.0
+    # An interval of one or two ulps has no inside to read a slope from: a is constant there (slope 0).
+    np.divide(profile(hi) - coef[:, 0], hi - lo, out=coef[:, 1], where=hi > lo)
     return ACCEL_LINEAR, coef
 
 
@@ -293,36 +380,65 @@ def run_kernel(
     kernel: Kernel, y0: np.ndarray, nodes: np.ndarray, method: str, dt: float
 ) -> tuple[np.ndarray, int] | None:
     """(y at every node, f calls) of a compiled fixed-step run; None when a(t) has no compiled form."""
-    accel = accel_coefficients(kernel.profile, nodes)
-    if accel is None:
-        return None
-    kind, coef = accel
-    steps = _STEPPERS[kernel.model]
-    nodes = np.ascontiguousarray(nodes, dtype=float)
-    y = np.ascontiguousarray(y0, dtype=float)
-    out = np.empty((y.size, nodes.size))
-    out[:, 0] = y
-    comp = np.zeros(y.size)  # the compensated sum's carried rounding, updated in place by each slice
-    nfev = 0
-    # Slices of whole node intervals: each interval restarts its substeps (and verlet's carried force)
-    # from y (and the compensation) at its start, so the sliced run is bit-identical to one call, and a
-    # Ctrl-C, which Python only sees between compiled calls, lands within one slice's work.
-    for lo, hi in step_slices(nodes, float(dt), SLICE_STEPS[method]):
-        part = coef if kind == ACCEL_SINUSOID else np.ascontiguousarray(coef[lo:hi])
-        y_part, calls = steps(
-            kernel.par,
-            y,
-            comp,
-            np.ascontiguousarray(nodes[lo : hi + 1]),
-            METHOD_CODES[method],
-            float(dt),
-            kind,
-            part,
-        )
-        out[:, lo + 1 : hi + 1] = y_part[:, 1:]
-        y = np.ascontiguousarray(y_part[:, -1])
-        nfev += int(calls)
-    return out, nfev
+    prepared = PreparedKernel.of(kernel, nodes)
+    return None if prepared is None else prepared.run(y0, method, dt)
+
+
+@dataclass(frozen=True)
+class PreparedKernel:
+    """A kernel with its stop times and a(t) coefficients (``accel_coefficients``), computed once for runs
+    that differ only in their start and step (the planner's pilot and conditioning runs)."""
+
+    kernel: Kernel
+    nodes: np.ndarray
+    kind: int
+    coef: np.ndarray
+
+    @classmethod
+    def of(cls, kernel: Kernel, nodes: np.ndarray) -> PreparedKernel | None:
+        """``kernel`` prepared for ``nodes``; None when a(t) has no compiled form."""
+        nodes = np.ascontiguousarray(nodes, dtype=float)
+        accel = accel_coefficients(kernel.profile, nodes)
+        if accel is None:
+            return None
+        return cls(kernel, nodes, accel[0], accel[1])
+
+    def run(self, y0: np.ndarray, method: str, dt: float, tangent: bool = False) -> tuple[np.ndarray, int]:
+        """(y at every node, f calls) from ``y0`` with steps ≤ ``dt`` of ``method``.
+
+        With ``tangent`` (rk4, rk8) y0 also holds the variational columns (``_rigid_tangent_rhs``,
+        ``_elastic_tangent_rhs``) and the run steps them with the same scheme: the state rows are
+        bit-identical to a plain run's, the columns the exact derivative of the scheme's own map.
+        """
+        if tangent and method not in TANGENT_METHODS:
+            raise ValueError(f"variational runs are compiled for {', '.join(TANGENT_METHODS)}, not {method}")
+        kind, coef, nodes = self.kind, self.coef, self.nodes
+        steps = (_TANGENT_STEPPERS if tangent else _STEPPERS)[self.kernel.model]
+        y = np.ascontiguousarray(y0, dtype=float)
+        out = np.empty((y.size, nodes.size))
+        out[:, 0] = y
+        comp = np.zeros(y.size)  # the compensated sum's carried rounding, updated in place by each slice
+        nfev = 0
+        # Slices of whole node intervals: each interval restarts its substeps (and verlet's carried force)
+        # from y (and the compensation) at its start, so the sliced run is bit-identical to one call, and a
+        # Ctrl-C, which Python only sees between compiled calls, lands within one slice's work.
+        for lo, hi in step_slices(nodes, float(dt), SLICE_STEPS[method]):
+            whole = lo == 0 and hi == nodes.size - 1
+            part = coef if kind == ACCEL_SINUSOID or whole else np.ascontiguousarray(coef[lo:hi])
+            y_part, calls = steps(
+                self.kernel.par,
+                y,
+                comp,
+                nodes if whole else np.ascontiguousarray(nodes[lo : hi + 1]),
+                METHOD_CODES[method],
+                float(dt),
+                kind,
+                part,
+            )
+            out[:, lo + 1 : hi + 1] = y_part[:, 1:]
+            y = np.ascontiguousarray(y_part[:, -1])
+            nfev += int(calls)
+        return out, nfev
 
 
 SLICE_STEPS: dict[str, int] = {
@@ -342,6 +458,9 @@ def step_slices(nodes: np.ndarray, dt: float, per_slice: int) -> list[tuple[int,
     """
     if nodes.size < 2:
         return []
+    # max(1, ⌈x⌉) ≤ x + 1: a run surely within one slice is one slice (what the count below also gives)
+    if (float(nodes[-1]) - float(nodes[0])) / dt + nodes.size <= per_slice:
+        return [(0, nodes.size - 1)]
     counts = np.maximum(1.0, np.ceil(np.diff(nodes) / dt * (1.0 - 1e-12)))
     total = np.cumsum(counts)
     bounds = [0]
@@ -354,7 +473,7 @@ def step_slices(nodes: np.ndarray, dt: float, per_slice: int) -> list[tuple[int,
 
 
 def warm() -> None:
-    """Compile (or load from the cache) both models' kernels with a one-step run each."""
+    """Compile (or load from the cache) both models' kernels, plain and variational: a one-step run each."""
     p = Pendulum(1.0, stiffness=1e3)
     nodes = np.array([0.0, 0.01])
     for kernel, y0 in (
@@ -362,6 +481,9 @@ def warm() -> None:
         (Kernel.elastic(p, Constant(0.0)), np.array([1.0, 0.0, 0.0, 0.0])),
     ):
         run_kernel(kernel, y0, nodes, "rk4", 0.01)
+        prepared = PreparedKernel.of(kernel, nodes)
+        assert prepared is not None
+        prepared.run(np.concatenate((y0, np.zeros(2 * y0.size))), "rk4", 0.01, tangent=True)
 
 
 if __name__ == "__main__":

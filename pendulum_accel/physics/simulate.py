@@ -38,10 +38,12 @@ from pendulum_accel.physics.integrators import (
     Rhs,
     check_method,
     check_samples,
+    check_stability,
     default_step,
     integrate,
+    stop_times,
 )
-from pendulum_accel.physics.kernels import Kernel
+from pendulum_accel.physics.kernels import TANGENT_METHODS, Kernel, PreparedKernel
 from pendulum_accel.physics.linear import linear_solution
 from pendulum_accel.physics.params import Pendulum, require_finite
 from pendulum_accel.physics.profiles import AccelProfile, Piece, scalar_accel
@@ -296,6 +298,94 @@ def simulate(
         method=chosen,
         nfev=run.nfev,
     )
+
+
+@dataclass(frozen=True)
+class SteppedRuns:
+    """simulate()'s compiled fixed-step path for one (pendulum, a(t), sample times, model, method), prepared
+    once for runs that differ only in their start and step (the planner's pilot and conditioning runs):
+    θ at the samples bit-identical to ``simulate(...).theta``, without simulate()'s checks, a(t) samples,
+    tension and Trajectory; and, for rk4/rk8, the variational run giving ∂θ/∂θ0 and ∂θ/∂θ'0 as well.
+
+    Built by ``stepped_runs`` (None where simulate() would not use a compiled kernel).
+    """
+
+    pendulum: Pendulum
+    model: str
+    method: str
+    omega: float
+    accel0: float
+    prepared: PreparedKernel
+    is_sample: np.ndarray
+
+    def start(self, theta0: float, theta_dot0: float) -> np.ndarray:
+        """The model's initial state: [θ0, θ'0], or [r0, θ0, 0, θ'0], r0 quasi-static (as in simulate())."""
+        if self.model == "rigid":
+            return np.array([theta0, theta_dot0])
+        r0 = elastic_model.quasi_static_radius(self.pendulum, theta0, theta_dot0, self.accel0)
+        return np.array([r0, theta0, 0.0, theta_dot0])
+
+    @property
+    def variational(self) -> bool:
+        """``tangent`` is available: the method is one whose variational run is compiled (rk4, rk8)."""
+        return self.method in TANGENT_METHODS
+
+    def _check(self, dt: float) -> None:
+        """integrate()'s stability check (explicit Euler's over the run's step count)."""
+        nodes = self.prepared.nodes
+        steps = int(np.sum(np.ceil(np.diff(nodes) / dt - 1e-9))) if self.method == "euler" else 1
+        check_stability(self.method, dt, self.omega, max(steps, 1))
+
+    def _angle(self, y: np.ndarray) -> np.ndarray:
+        """θ rows of the node states ``y``, at the samples."""
+        return y[0 if self.model == "rigid" else 1, self.is_sample]
+
+    def theta(self, theta0: float, theta_dot0: float, dt: float) -> np.ndarray:
+        """θ at the samples from (θ0, θ'0) with steps ≤ dt: simulate(..., dt=dt).theta, bit for bit."""
+        self._check(dt)
+        y, _ = self.prepared.run(self.start(theta0, theta_dot0), self.method, dt)
+        return self._angle(y)
+
+    def tangent(self, theta0: float, theta_dot0: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """(θ, D): θ at the samples as ``theta`` gives it (bit for bit) and D[i] = ∂θ/∂xᵢ at the samples,
+        x = (θ0, θ'0): the variational equations stepped with the state by the same scheme, so D is the
+        derivative of the run itself. Elastic: the start's columns carry ∂r0/∂θ0 = m(a cos θ0 − g sin θ0)/d
+        and ∂r0/∂θ'0 = 2 m θ'0 r0 / d, d = k − m θ'0² (r0 = (k l + m(g cos θ0 + a sin θ0))/d)."""
+        self._check(dt)
+        y0 = self.start(theta0, theta_dot0)
+        n = y0.size
+        columns = np.zeros((2, n))
+        angle = 0 if self.model == "rigid" else 1
+        columns[0, angle] = 1.0  # ∂/∂θ0 of the state
+        columns[1, angle + n // 2] = 1.0  # ∂/∂θ'0 of the state
+        if self.model == "elastic":
+            p = self.pendulum
+            d = elastic_model.stiffness_of(p) - p.mass * theta_dot0 * theta_dot0
+            a, g = self.accel0, p.gravity
+            columns[0, 0] = p.mass * (a * math.cos(theta0) - g * math.sin(theta0)) / d
+            columns[1, 0] = 2.0 * p.mass * theta_dot0 * float(y0[0]) / d
+        y, _ = self.prepared.run(np.concatenate((y0, columns.ravel())), self.method, dt, tangent=True)
+        rows = y[:, self.is_sample]
+        return rows[angle], np.vstack((rows[n + angle], rows[2 * n + angle]))
+
+
+def stepped_runs(
+    pendulum: Pendulum, profile: AccelProfile, t: np.ndarray, model: str, method: str
+) -> SteppedRuns | None:
+    """SteppedRuns of simulate(pendulum, profile, t, model=model, method=method, dt=…); None when that call
+    would not run a compiled kernel (another model or method, or an a(t) with no compiled form)."""
+    if model not in ("rigid", "elastic") or method not in FIXED_STEP_METHODS:
+        return None
+    times = check_samples(t)
+    t0, t1 = float(times[0]), float(times[-1])
+    omega = stability_omega(pendulum, profile, t0, t1, model)
+    nodes, is_sample = stop_times(times, profile.breakpoints())
+    kernel = Kernel.rigid(pendulum, profile) if model == "rigid" else Kernel.elastic(pendulum, profile)
+    prepared = PreparedKernel.of(kernel, nodes)
+    if prepared is None:
+        return None
+    accel0 = float(profile(times[:1])[0])
+    return SteppedRuns(pendulum, model, method, omega, accel0, prepared, is_sample)
 
 
 def closed_form_motion(
