@@ -233,7 +233,8 @@ def _setup(scene: Scene, model: str = "rigid") -> _Setup:
 def plan_scene(scene: Scene) -> Plan:
     """The cheapest (model, method, dt | rtol) whose predicted max angle error meets scene.accuracy.
 
-    The prediction: the larger of the method's error and the input-sensitivity floor (with_conditioning).
+    The prediction: the run's own error, its method error with its round-off, or past the linear regime
+    the spread of one-ulp runs; the input-sensitivity floor is announced beside it (with_conditioning).
     """
     return with_conditioning(scene, _plan_method(scene))
 
@@ -307,10 +308,11 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
     including the method's own round-off carried through that sensitivity (_with_roundoff).
 
     The input-sensitivity floor is a statement about the problem, not a term of this run's error (the
-    run starts from the same floats as any reference): it is announced, and only when it exceeds the
-    target (ill-conditioned: the error is then decided by how rounding falls, and no tight bound exists)
-    does the predicted error become max(method error, floor), the most the inputs can promise; past the
-    linear regime max(method error, floor, SPREAD_SAFETY × the spread of five runs one ulp apart).
+    run starts from the same floats as any reference): it is announced, and when it exceeds the target
+    the plan says the inputs are ill-conditioned, but while the response stays linear the run's own error
+    is still its method error (its rounding carried through the same growth). Past the linear regime the
+    run's error is decided by how its rounding falls and no tight bound exists: the prediction becomes
+    max(method error, floor, SPREAD_SAFETY × the spread of five runs one ulp apart).
     """
     if plan.sensitivity is None:
         # only a fixed step without a pilot adds the measured round-off (_with_roundoff): a closed form's
@@ -320,10 +322,8 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
     sensitivity = plan.sensitivity
     assert sensitivity is not None  # set by _with_roundoff
     predicted = plan.method_error
-    if sensitivity.ill_conditioned:
-        predicted = max(predicted, sensitivity.floor)
-        if not sensitivity.linear:
-            predicted = max(predicted, SPREAD_SAFETY * sensitivity.spread)
+    if sensitivity.ill_conditioned and not sensitivity.linear:
+        predicted = max(predicted, sensitivity.floor, SPREAD_SAFETY * sensitivity.spread)
     driven = scene.profile.constant_pieces(0.0, scene.duration) is None
     return replace(plan, predicted_error=predicted, driven=driven)
 
