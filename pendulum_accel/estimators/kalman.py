@@ -25,8 +25,10 @@ car does not follow: 60× too large at rest, far too small in a manoeuvre). It i
     0.05 s decay;
   - what is left of it afterwards: a third covariance P_m, propagated like P_n (same F, same gains,
     Joseph form without measurement noise) and raised on its a entry to (L_m ŝ)², L_m = 0.05 s,
-    whenever that is larger. P_m decays exactly as fast as the filter actually removes an error of â:
-    within ~0.1 s while boosted, over seconds in the quiet mode (the slow tail after a manoeuvre).
+    whenever that is larger; and, once q_a is quiet again, to (L_q ŝ_q)², ŝ_q the same rate averaged
+    over 0.5 s of quiet mode (beyond 3σ of its noise), L_q = 0.25 s: the slow corrections of a
+    residual the 50 ms rate cannot tell from noise. P_m decays exactly as fast as the filter actually
+    removes an error of â: within ~0.1 s while boosted, over seconds in the quiet mode.
   A change of a only enters once the angle reveals it: the first ~0.3 s of a ramp and the first
   samples after a step are beyond 2σ whatever the variance (README, "Calibration").
 """
@@ -56,6 +58,8 @@ _MAX_STEP = 0.01  # s; longer gaps are propagated in sub-steps so RK4 stays accu
 # ``python -m benchmarks.calibration``.
 _LAG_SPAN = 0.6  # s: error ≈ this × the rate at which the filter is still moving â
 _RESIDUAL_SPAN = 0.05  # s: the same for the residual covariance P_m's a entry
+_QUIET_SLOPE_TAU = 0.5  # s: averaging time of the rate in quiet mode (and the quiet time before it counts)
+_QUIET_SPAN = 0.25  # s: residual ≈ this × that slow rate
 _SLOPE_TAU = 0.05  # s: averaging time of that rate
 _SLOPE_THRESHOLD = 9.0  # rate² must exceed this × its noise-only expectation (a 3σ test)
 _HOLD_TAU = 0.05  # s: the lag term decays no faster than this once the rate drops
@@ -144,6 +148,7 @@ class KalmanEstimator(Estimator):
         self._slope = 0.0  # running mean of k₃ν/Δt
         self._slope_noise = 0.0  # running mean of k₃²S/Δt², its noise-only expectation per sample
         self._hold = 0.0  # the held lag term
+        self._quiet_slope = self._quiet_slope_noise = self._quiet_time = 0.0  # the same over quiet mode
         self._pm = [0.0] * 6  # the residual motion covariance, propagated with the gains applied
         self._nis = 1.0  # running mean of ν²/S
         self._q_now = self.q_accel
@@ -160,6 +165,7 @@ class KalmanEstimator(Estimator):
         # The start-up uncertainty (an unknown swing) is real error, so P_n starts from P too.
         self._pn = list(self._p)
         self._slope = self._slope_noise = self._hold = 0.0
+        self._quiet_slope = self._quiet_slope_noise = self._quiet_time = 0.0
         self._pm = [0.0] * 6
         self._nis, self._q_now = 1.0, self.q_accel
 
@@ -223,8 +229,8 @@ class KalmanEstimator(Estimator):
         self._lag_term(k2 * innovation, k2 * k2 * s, dt)
 
     def _lag_term(self, correction: float, correction_var: float, dt: float) -> None:
-        """Hold ← max(L² X, hold·e^{−Δt/τ_h}), P_m₃₃ ← max(P_m₃₃, L_m² X); X = (ŝ² − 9 E_noise[ŝ²])⁺,
-        ŝ = EWMA of k₃ν/Δt over 50 ms."""
+        """Hold ← max(L² X, hold·e^{−Δt/τ_h}), P_m₃₃ ← max(P_m₃₃, L_m² X, L_q² X_q);
+        X = (ŝ² − 9 E_noise[ŝ²])⁺, ŝ = EWMA of k₃ν/Δt over 50 ms; X_q the same over 0.5 s of quiet mode."""
         alpha = min(1.0, dt / _SLOPE_TAU)
         self._slope += alpha * (correction / dt - self._slope)
         self._slope_noise += alpha * (correction_var / (dt * dt) - self._slope_noise)
@@ -233,6 +239,17 @@ class KalmanEstimator(Estimator):
         excess = max(0.0, self._slope * self._slope - _SLOPE_THRESHOLD * noise)
         self._hold = max(excess * _LAG_SPAN**2, self._hold * math.exp(-dt / _HOLD_TAU))
         self._pm[5] = max(self._pm[5], excess * _RESIDUAL_SPAN**2)
+        if self._q_now > self.q_accel:  # boosted: the 50 ms rate covers it; start the quiet average afresh
+            self._quiet_slope = self._quiet_slope_noise = self._quiet_time = 0.0
+            return
+        beta = min(1.0, dt / _QUIET_SLOPE_TAU)
+        self._quiet_slope += beta * (correction / dt - self._quiet_slope)
+        self._quiet_slope_noise += beta * (correction_var / (dt * dt) - self._quiet_slope_noise)
+        self._quiet_time += dt
+        if self._quiet_time > _QUIET_SLOPE_TAU:  # the averages have filled
+            noise_q = self._quiet_slope_noise * beta / (2.0 - beta)
+            excess_q = max(0.0, self._quiet_slope * self._quiet_slope - _SLOPE_THRESHOLD * noise_q)
+            self._pm[5] = max(self._pm[5], excess_q * _QUIET_SPAN**2)
 
     def variance(self, t: float) -> float:
         """Published var(â) at time t: P_n₃₃ + (g sec²θ)² E[b²](t − t₀) + max(held lag, P_m₃₃)."""
