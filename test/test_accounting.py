@@ -75,3 +75,20 @@ def test_losses_name_each_missing_sample() -> None:
     )
     assert lost.losses(recording=True) == ["/car/accel/truth: 10 of 100 not recorded"]
     assert lost.losses(recording=False) == []
+
+
+def test_info_says_complete_only_where_the_publishers_counts_agree(tmp_path: Path, capsys: object) -> None:
+    """A recorder-only accounting (nodes started on their own) cannot vouch for what never reached the
+    recorder: no '[complete]'; publishers' counts above the recorded ones: INCOMPLETE, exit 1."""
+    every = np.ones(N, dtype=bool)
+    written = {"written": {"/pendulum/joint_states": N, "/car/accel/estimate": N}}
+    assert main(["info", str(_bag(tmp_path / "alone", every, {"recorder": written}))]) == 0
+    out = capsys.readouterr().out  # type: ignore[attr-defined]
+    assert "[recorded intact; the publishers left no counts to check it against]" in out
+    assert "[complete]" not in out
+    # The estimator says it published N + 11 estimates; the recorder wrote N.
+    short = {"estimator": _estimator(N, N + 11, 0), "recorder": written}
+    assert main(["info", str(_bag(tmp_path / "short", every, short))]) == 1
+    captured = capsys.readouterr()  # type: ignore[attr-defined]
+    assert "[INCOMPLETE: /car/accel/estimate: 11 of 211 published not recorded]" in captured.out
+    assert "11 of 211 published not recorded" in captured.err

@@ -28,6 +28,12 @@ def register(subparsers: Any) -> None:
 _STAMP_FIELDS = ("header.stamp.sec", "header.stamp.nanosec")
 
 
+def bag_accounting(bag: Bag) -> Accounting | None:
+    """The chain's counters stored in ``bag`` (custom_data), or None."""
+    text = bag.custom_data.get(CUSTOM_ACCOUNTING)
+    return Accounting.from_json(text) if text else None
+
+
 def missing_estimates(bag: Bag) -> int:
     """Angles in ``bag`` without an estimate that neither warm-up nor a dropped input explains."""
     topics = bag.topics
@@ -37,19 +43,40 @@ def missing_estimates(bag: Bag) -> int:
     estimates = bag.decode(bm.TOPIC_ACCEL_ESTIMATE, fields=_STAMP_FIELDS).stamp
     after_first = angles[angles >= estimates.min()] if estimates.size else angles
     holes = int(np.count_nonzero(~np.isin(after_first, estimates)))
-    text = bag.custom_data.get(CUSTOM_ACCOUNTING)
-    accounting = Accounting.from_json(text) if text else None
-    return unexplained_missing(angles.size, estimates.size, accounting, holes)
+    return unexplained_missing(angles.size, estimates.size, bag_accounting(bag), holes)
+
+
+def bag_state(bag: Bag) -> tuple[str, list[str]]:
+    """('complete' | 'DAMAGED …' | 'INCOMPLETE: …' | 'recorded intact; …', the losses found).
+
+    'complete' only where something could be checked: a bag written offline (no recorder counters), or a
+    live recording whose publishers' counters agree with it. A live recording whose publishers left no
+    counters (nodes started on their own, not by ``run``) is intact as far as the recorder saw, which
+    says nothing of messages it never received.
+    """
+    if bag.problem is not None:
+        return "DAMAGED (see the warning)", []
+    accounting = bag_accounting(bag)
+    losses = accounting.unrecorded() if accounting else []
+    missing = missing_estimates(bag)
+    if missing:
+        losses.append(
+            f"{missing} angles have no estimate, and the estimator's counters explain none of them "
+            "(the estimator started late or estimates were lost)"
+        )
+        return f"INCOMPLETE: {missing} angles without an estimate", losses
+    if losses:
+        return f"INCOMPLETE: {losses[0]}", losses
+    if accounting is not None and accounting.recorder and not accounting.publishers_counted:
+        return "recorded intact; the publishers left no counts to check it against", []
+    return "complete", []
 
 
 def info_lines(path: str) -> tuple[list[str], str | None]:
     """(report lines, damage note or None) for the bag at ``path``."""
     bag = read_bag(path)
     size = bag.mcap_path.stat().st_size
-    missing = missing_estimates(bag) if bag.problem is None else 0
-    state = "complete" if bag.problem is None else "DAMAGED (see the warning)"
-    if missing:
-        state = f"INCOMPLETE: {missing} angles without an estimate"
+    state, losses = bag_state(bag)
     lines = [
         f"bag:       {bag.path}  [{state}]",
         f"file:      {bag.mcap_path.name}  {size / 1e6:.2f} MB",
@@ -69,11 +96,8 @@ def info_lines(path: str) -> tuple[list[str], str | None]:
             f"  {name:<{width}}  {topic.msgtype:<{type_width}}  {topic.count:>8} msgs  {rate:9.1f} Hz"
         )
     note = salvage_note(bag)
-    if missing and note is None:
-        note = (
-            f"{missing} angles have no estimate, and the estimator's counters explain none of them "
-            "(the estimator started late or estimates were lost)"
-        )
+    if losses and note is None:
+        note = "; ".join(losses)
     return lines, note
 
 

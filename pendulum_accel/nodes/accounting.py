@@ -84,6 +84,23 @@ class Accounting:
             )
         return lines
 
+    def unrecorded(self) -> list[str]:
+        """What the publishers' counters say the bag lacks, a phrase each (empty: nothing, or no counters)."""
+        out: list[str] = []
+        angles = self.published(bm.TOPIC_JOINT_STATES)
+        if self.estimator and angles is not None and int(self.estimator["inputs"]) < angles:
+            out.append(f"the estimator missed {angles - int(self.estimator['inputs'])} of {angles} angles")
+        for topic in (*bm.TOPIC_TYPES, bm.TOPIC_IMU):
+            published, recorded = self.published(topic), self.recorded(topic)
+            if published is not None and recorded is not None and recorded < published:
+                out.append(f"{topic}: {published - recorded} of {published} published not recorded")
+        return out
+
+    @property
+    def publishers_counted(self) -> bool:
+        """True when the publishers (simulator or estimator) left counters to check the bag against."""
+        return bool(self.simulator or self.estimator)
+
     def losses(self, recording: bool) -> list[str]:
         """Every sample lost or missed, one phrase each (empty: all accounted for)."""
         out: list[str] = []
