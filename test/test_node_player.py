@@ -241,7 +241,9 @@ def test_pause_resume_play_next_burst_and_rate_services(spawn: Spawn, tmp_path: 
     stamps = np.array([m[1] for m in result["messages"][JOINT]])
     np.testing.assert_array_equal(stamps, golden.stamp)  # each angle once, in order, whatever the controls
     live = read_bag(out).decode(ESTIMATE)
-    np.testing.assert_array_equal(live.stamp, golden.stamp)
+    # Seen once under CI load: the first 211 estimates missing from the bag; the nodes' own logs say where.
+    logs = f"estimator:\n{estimator.text[-1500:]}\nrecorder:\n{recorder.text[-1500:]}"
+    np.testing.assert_array_equal(live.stamp, golden.stamp, err_msg=logs)
     np.testing.assert_allclose(live["accel.accel.linear.x"], _offline(0), rtol=0, atol=1e-9)
     assert re.search(r"bag_player \[paused\] bag time 0\.000 s of 10\.000 s \(0/1001 messages\)", player.text)
 
