@@ -34,8 +34,9 @@ def bag_accounting(bag: Bag) -> Accounting | None:
     return Accounting.from_json(text) if text else None
 
 
-def missing_estimates(bag: Bag) -> int:
-    """Angles in ``bag`` without an estimate that neither warm-up nor a dropped input explains."""
+def missing_estimates(bag: Bag, accounting: Accounting | None) -> int:
+    """Angles in ``bag`` without an estimate that neither warm-up nor a dropped input explains (the chain's
+    ``accounting`` stored in it, if any)."""
     topics = bag.topics
     if bm.TOPIC_JOINT_STATES not in topics or bm.TOPIC_ACCEL_ESTIMATE not in topics:
         return 0
@@ -43,7 +44,7 @@ def missing_estimates(bag: Bag) -> int:
     estimates = bag.decode(bm.TOPIC_ACCEL_ESTIMATE, fields=_STAMP_FIELDS).stamp
     after_first = angles[angles >= estimates.min()] if estimates.size else angles
     holes = int(np.count_nonzero(~np.isin(after_first, estimates)))
-    return unexplained_missing(angles.size, estimates.size, bag_accounting(bag), holes)
+    return unexplained_missing(angles.size, estimates.size, accounting, holes)
 
 
 def bag_state(bag: Bag) -> tuple[str, list[str]]:
@@ -58,7 +59,7 @@ def bag_state(bag: Bag) -> tuple[str, list[str]]:
         return "DAMAGED (see the warning)", []
     accounting = bag_accounting(bag)
     losses = accounting.unrecorded() if accounting else []
-    missing = missing_estimates(bag)
+    missing = missing_estimates(bag, accounting)
     if missing:
         losses.append(
             f"{missing} angles have no estimate, and the estimator's counters explain none of them "
