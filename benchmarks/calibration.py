@@ -18,15 +18,15 @@ consistency plot (kalman error with its ±2σ band on stop_and_go, the scene's o
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from pathlib import Path
 
 import numpy as np
 
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
-from pendulum_accel.recording.analyze import NeesStats, nees_split
+from pendulum_accel.recording.analyze import nees_split
+from pendulum_accel.recording.seed_spread import WindowSpread, with_seed
 from pendulum_accel.recording.settings import estimator_settings
-from pendulum_accel.scene import SCENE_NAMES, Scene, load_scene
+from pendulum_accel.scene import SCENE_NAMES, load_scene
 from pendulum_accel.scene_run import SceneRun, run_scene
 
 SKIP = 2.0  # s of start-up left out
@@ -37,20 +37,14 @@ PLOT_SCENE = "stop_and_go"
 SEEDS = 10
 
 
-def with_seed(scene: Scene, seed: int) -> Scene:
-    """``scene`` with its sensor's seed replaced."""
-    return dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, seed=seed))
-
-
 def _cells(parts: list[np.ndarray]) -> list[str]:
     """Pooled mean, median, share beyond 2σ, per-seed share p10–p90, n — or dashes without samples."""
-    parts = [p for p in parts if p.size]
-    if not parts:
+    spread = WindowSpread.of(parts)
+    if spread is None:
         return ["—", "—", "—", "—", "0"]
-    s = NeesStats.of(np.concatenate(parts))
-    shares = 100 * np.array([np.mean(p[np.isfinite(p)] > 4.0) for p in parts])
-    spread = f"{np.percentile(shares, 10):.1f}–{np.percentile(shares, 90):.1f} %"
-    return [f"{s.mean:.3g}", f"{s.median:.3g}", f"{100 * s.share_2sigma:.1f} %", spread, str(s.n)]
+    s = spread.pooled
+    between = f"{100 * spread.share_low:.1f}–{100 * spread.share_high:.1f} %"
+    return [f"{s.mean:.3g}", f"{s.median:.3g}", f"{100 * s.share_2sigma:.1f} %", between, str(s.n)]
 
 
 def table(seeds: int = SEEDS) -> tuple[list[str], dict[str, tuple[SceneRun, np.ndarray, np.ndarray]]]:

@@ -10,7 +10,8 @@ from typing import Any
 from pendulum_accel.bag.reader import read_bag, salvage_note
 from pendulum_accel.errors import BagError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME
-from pendulum_accel.recording.analyze import analysis_dict, analyze_bag, plot_analysis
+from pendulum_accel.recording.analyze import analysis_dict, analyze_bag, plot_analysis, stored_scene
+from pendulum_accel.recording.seed_spread import SeedSpread, seed_spread
 
 ESTIMATOR_OVERRIDES = ("length", "noise_std")
 """Scene fields ``analyze`` lets the user replace in the estimator's settings (ranges: overrides.py)."""
@@ -51,6 +52,14 @@ def register(subparsers: Any) -> None:
             default=None,
             help=f"{spec.description} ({spec.unit}), overrides the stored scene's",
         )
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also re-simulate the bag's scene with sensor seeds 0..N-1 and print the calibration pooled "
+        "over them, with the spread of one seed's share beyond 2σ (one bag is one draw of its noise)",
+    )
     parser.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     parser.set_defaults(func=run)
 
@@ -66,13 +75,23 @@ def run(args: argparse.Namespace) -> int:
         for name in ESTIMATOR_OVERRIDES
         if getattr(args, name) is not None
     }
+    if args.seeds < 0:
+        raise BagError(f"--seeds must be >= 0, got {args.seeds}")
+    scene = stored_scene(bag) if args.seeds else None
+    if args.seeds and scene is None:
+        raise BagError(f"--seeds re-simulates the bag's scene, and {bag.path} stores none")
     result = analyze_bag(
         bag, estimator=args.estimator, config=config, skip=args.skip, tolerance=args.tolerance
     )
+    spread = (
+        None if scene is None else seed_spread(scene, result.estimator, result.config, args.seeds, args.skip)
+    )
     if args.json:
-        print(json.dumps(analysis_dict(result)))
+        print(json.dumps({**analysis_dict(result), "seed_spread": _spread_dict(spread)}))
     else:
         print("\n".join(result.lines()))
+        if spread is not None:
+            print(spread.line())
     if args.plot:
         path = plot_analysis(result, args.plot)
         if not args.json:
@@ -82,3 +101,23 @@ def run(args: argparse.Namespace) -> int:
         print(f"pendulum-accel analyze: warning: {note}", file=sys.stderr)
         return 1
     return 0
+
+
+def _spread_dict(spread: SeedSpread | None) -> dict[str, Any] | None:
+    """{seeds, steady/after_change: {nees_mean, share_2sigma, share_p10, share_p90}}; None without --seeds."""
+    if spread is None:
+        return None
+    out: dict[str, Any] = {"seeds": spread.seeds}
+    for window in ("steady", "after_change"):
+        w = getattr(spread, window)
+        out[window] = (
+            None
+            if w is None
+            else {
+                "nees_mean": w.pooled.mean,
+                "share_2sigma": w.pooled.share_2sigma,
+                "share_p10": w.share_low,
+                "share_p90": w.share_high,
+            }
+        )
+    return out

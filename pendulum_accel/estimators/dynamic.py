@@ -6,25 +6,40 @@ fixed delay of (W − 1)/2 samples and no phase distortion. A second derivative 
 ~1/(W dt)²; the window length is the noise/bandwidth knob. Linearised, the estimate is a weighted
 sum of the W angles, so its noise variance is σ² Σ w_k² with w = (l/cos θ)(c₂ + c c₁) + g sec²θ c₀.
 
-The published variance adds to that the sensor bias, (g sec²θ)² E[b²], and the two errors the fit
-makes, both estimated from the method's own data:
+The published variance adds to that the sensor bias, (g sec²θ)² E[b²], and the errors the fit
+makes, each estimated from the method's own data:
 * the swing the polynomial does not follow: for θ = A cos ωt the fit's θ, θ', θ'' are off by
   R₀ = Σc₀ cos ωτ − 1, R₁ = Σc₁ sin ωτ − ω, R₂ = Σc₂ cos ωτ + ω² (τ the samples' times from the
   centre; each a power series in ω² from the order the polynomial no longer fits exactly), so â is
   off by a sinusoid of mean square ((l/cos θ) R₂ + g sec²θ R₀)² + ((l/cos θ) c R₁)² times A²/2 =
-  (var θ − σ²)⁺, var θ and ω = 2π/T over the last swing period (``swing.SwingWindow``);
+  (var θ − σ²)⁺, var θ and ω = 2π/T over the last swing period (``swing.SwingWindow``). A large
+  swing is not a sinusoid: its third harmonic, −(A³/192) cos 3ωt (Lindstedt), meets a fit error
+  ~3⁵ times larger, so the same gain at 3ω times (A₃)²/2, A₃ = min(A, 1 rad)³/192, is added
+  (at l = 0.5 m: 1 % of the fundamental's at A = 0.2 rad, 16 % at braking's 0.39 rad, 90 % at
+  0.6 rad; past 1 rad the series is not used);
 * the lag while a changes: â is a at the window centre, D = (W − 1)/2 samples ago, so it trails a
   ramp by D × its rate, which is â − mean(â over the last 2D) for a ramp. Its square counts beyond
   9 × the noise variance (3σ, as kalman's motion term: â − mean(â) carries about â's own noise).
+* a change of a inside the window, which the centre does not see for D: the same polynomial
+  evaluated at the newest sample gives â_end, a from the window's end, and δ = â_end − â shows a
+  step of a ~0.05 s after the bob starts to move (the fit's end bends with the newest samples).
+  |δ| counts beyond 3σ_δ of its noise, σ_δ² = σ² Σ(w_end − w)² (the two linearised weight sets),
+  and beyond what a swing of amplitude A = √(2 (var θ − σ²)⁺) can make of it through the two fits'
+  errors, A (|H_end(ω)| + |H(ω)|) + A₃ (|H_end(3ω)| + |H(3ω)|), H = (l/cos θ)(E₂ + c E₁) + g sec²θ E₀ and
+  E_k = Σ c_k e^{iωτ} − (iω)^k each fit's error on e^{iωt} (τ from its own evaluation point).
+  The square of that excess enters as the lag does (the larger of the two).
 Before the window has filled the estimate is g tan θ, and the swing term is ``instant``'s.
+The first ~0.1 s after a step of a (braking) and ~0.4 s after a ramp starts (stop_and_go, where δ
+grows with the ramp and stays within its noise) remain beyond 2σ.
 """
 
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from typing import ClassVar, TypeVar
 
 import numpy as np
+from numba import njit
 from scipy import signal
 
 from pendulum_accel.errors import ParameterError
@@ -49,6 +64,59 @@ from pendulum_accel.physics.params import require_positive
 _LAG_THRESHOLD = 9.0  # the lag term counts beyond 9 × its noise-only variance (3σ, as kalman's)
 _SWING_STAGES = 2  # T₀, then T(a₁, A₁)
 _SERIES_TOL = 1e-20  # x^{2j}/(2j)! of the fit-error series' last term at the fastest swing
+_JUMP_SIGMAS = 3.0  # δ = â_end − â counts beyond 3 × its noise-only spread (as the lag term)
+# The libration's third harmonic, −(A³/192) cos 3ωt (Lindstedt), from this amplitude on not extrapolated.
+_HARMONIC_MAX = 1.0  # rad
+_TINY = 1e-300  # A below this: no swing, the harmonic's share of the allowance is 0
+Num = TypeVar("Num", float, np.ndarray)
+
+
+@njit(cache=True)
+def _allowance(
+    omega: np.ndarray,
+    cos_th: np.ndarray,
+    length: float,
+    gravity: float,
+    damping: float,
+    centre: np.ndarray,
+    tau_centre: np.ndarray,
+    end: np.ndarray,
+    tau_end: np.ndarray,
+) -> np.ndarray:
+    """Σ over the two fits of |(l/cos θ)(E₂ + c E₁) + g sec²θ E₀|, E_k = Σ_j c_kj e^{iωτ_j} − (iω)^k, for
+    each sample. A compiled loop: in numpy calls (a W-point complex exponential per fit and frequency) it
+    cost ~100 µs a sample, more than the rest of the method together.
+    """
+    total = np.zeros(omega.size)
+    for i in range(omega.size):
+        w = omega[i]
+        lever = length / cos_th[i]
+        gain = gravity / (cos_th[i] * cos_th[i])
+        for coeffs, tau in ((centre, tau_centre), (end, tau_end)):
+            r0 = i0 = r1 = i1 = r2 = i2 = 0.0
+            # τ is evenly spaced: e^{iωτ_j} by repeated rotation through e^{iωΔτ}, not a sine and cosine each.
+            c, s = math.cos(w * tau[0]), math.sin(w * tau[0])
+            step = tau[1] - tau[0] if tau.size > 1 else 0.0
+            dc, ds = math.cos(w * step), math.sin(w * step)
+            for j in range(tau.size):
+                if j > 0:
+                    c, s = c * dc - s * ds, s * dc + c * ds
+                r0 += coeffs[0, j] * c
+                i0 += coeffs[0, j] * s
+                r1 += coeffs[1, j] * c
+                i1 += coeffs[1, j] * s
+                r2 += coeffs[2, j] * c
+                i2 += coeffs[2, j] * s
+            re = lever * ((r2 + w * w) + damping * r1) + gain * (r0 - 1.0)
+            im = lever * (i2 + damping * (i1 - w)) + gain * i0
+            total[i] += math.hypot(re, im)
+    return total
+
+
+def warm_cache() -> None:
+    """Compile the loop into numba's on-disk cache (``make setup`` calls this once)."""
+    one = np.ones(1)
+    _allowance(one, one, 1.0, 9.8, 0.0, np.ones((3, 2)), np.zeros(2), np.ones((3, 2)), np.zeros(2))
 
 
 class DynamicEstimator(Estimator):
@@ -75,6 +143,21 @@ class DynamicEstimator(Estimator):
         coeffs = np.stack([self._c0, self._c1, self._c2])
         self._gram = coeffs @ coeffs.T
         self._coeffs = coeffs.T.copy()  # (W, 3) for one matrix-vector product per sample
+        # The same fit evaluated at the newest sample: θ, θ', θ'' there, for δ = â_end − â.
+        end = np.stack(
+            [
+                signal.savgol_coeffs(width, self.polyorder, deriv=k, delta=dt, pos=width - 1, use="dot")
+                for k in range(3)
+            ]
+        )
+        self._coeffs_end = end.T.copy()
+        self._gram_jump = (end - coeffs) @ (end - coeffs).T
+        self._fits = (
+            np.ascontiguousarray(coeffs),
+            (np.arange(width) - pos) * dt,
+            np.ascontiguousarray(end),
+            (np.arange(width) - width + 1) * dt,
+        )
         self._buffer = np.zeros(2 * width)
         r0, r1, r2 = self._fit_error_series(config)
         # Highest power first, for Horner's rule.
@@ -156,6 +239,33 @@ class DynamicEstimator(Estimator):
         self._outputs.reset()
         self._hint = 0
 
+    @staticmethod
+    def _quad(v0: Num, v1: Num, v2: Num, g: np.ndarray) -> Num:
+        """vᵀGv, v = (v0, v1, v2): Σ w² of the linearised weights w = v0 c₀ + v1 c₁ + v2 c₂, G their Gram."""
+        return (
+            v0 * v0 * g[0, 0]
+            + v1 * v1 * g[1, 1]
+            + v2 * v2 * g[2, 2]
+            + 2.0 * (v0 * v1 * g[0, 1] + v0 * v2 * g[0, 2] + v1 * v2 * g[1, 2])
+        )
+
+    def swing_allowance(self, theta: Num, omega: Num) -> Num:
+        """|H_end(ω)| + |H(ω)|: what a unit swing at ω can make of δ = â_end − â through the fits' errors.
+
+        H = (l/cos θ)(E₂ + c E₁) + g sec²θ E₀, E_k = Σ c_k e^{iωτ} − (iω)^k, τ from each fit's own point.
+        """
+        cfg = self.config
+        w = np.atleast_1d(np.asarray(omega, dtype=float))
+        cos_th = np.ascontiguousarray(np.broadcast_to(np.cos(theta), w.shape), dtype=float)
+        total = _allowance(w, cos_th, cfg.length, cfg.gravity, cfg.damping, *self._fits)
+        return total if isinstance(omega, np.ndarray) else float(total[0])
+
+    def jump_excess(self, jump: Num, quad_jump: Num, amplitude: Num, allowance: Num) -> Num:
+        """(|δ| − 3σ_δ − A·allowance)⁺, σ_δ² = σ² Σ(w_end − w)² (= σ² ``quad_jump``)."""
+        return np.maximum(
+            np.abs(jump) - _JUMP_SIGMAS * self.config.sigma * np.sqrt(quad_jump) - amplitude * allowance, 0.0
+        )
+
     def _accel(self, th: float, th_d: float, th_dd: float) -> tuple[float, float, bool]:
         """(a, var_a, clamped) from the fitted θ, θ', θ''."""
         cfg = self.config
@@ -164,14 +274,7 @@ class DynamicEstimator(Estimator):
         lever = cfg.length / cos_th
         a = (cfg.length * (th_dd + cfg.damping * th_d) + cfg.gravity * math.sin(thc)) / cos_th
         v0, v1, v2 = accel_gain(thc, cfg.gravity), lever * cfg.damping, lever
-        g = self._gram
-        quad = (
-            v0 * v0 * g[0, 0]
-            + v1 * v1 * g[1, 1]
-            + v2 * v2 * g[2, 2]
-            + 2.0 * (v0 * v1 * g[0, 1] + v0 * v2 * g[0, 2] + v1 * v2 * g[1, 2])
-        )
-        return a, cfg.sigma**2 * quad, clamped
+        return a, cfg.sigma**2 * self._quad(v0, v1, v2, self._gram), clamped
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """Push θ; once full, fit and invert; var = σ²Σw² + (g sec²θ)²E[b²] + fit error + (lag² − 9σ²Σw²)⁺."""
@@ -197,17 +300,32 @@ class DynamicEstimator(Estimator):
             a, var = cfg.gravity * math.tan(th), (gain * cfg.sigma) ** 2
             th_bar, _ = wrap_clamp(means.mean, cfg.clamp_angle)
             model = accel_gain(th_bar, cfg.gravity) ** 2 * swing
+            jump = 0.0
         else:
-            fit = self._buffer[self._head : self._head + width] @ self._coeffs
+            recent = self._buffer[self._head : self._head + width]
+            fit = recent @ self._coeffs
             th_fit, th_d, th_dd = (float(x) for x in fit)
             a, var, clamped = self._accel(th_fit, th_d, th_dd)
             th, _ = wrap_clamp(th_fit, cfg.clamp_angle)
-            model = self.fit_error_gain(th, 2.0 * math.pi / means.window) * swing
+            omega = 2.0 * math.pi / means.window
+            amplitude = math.sqrt(2.0 * swing)
+            third = min(amplitude, _HARMONIC_MAX) ** 3 / 192.0
+            model = (
+                self.fit_error_gain(th, omega) * swing
+                + self.fit_error_gain(th, 3.0 * omega) * 0.5 * third * third
+            )
+            a_end, _, _ = self._accel(*(float(x) for x in recent @ self._coeffs_end))
+            lever = cfg.length / math.cos(th)
+            quad = self._quad(accel_gain(th, cfg.gravity), lever * cfg.damping, lever, self._gram_jump)
+            allowance = self.swing_allowance(th, omega) + third / max(
+                amplitude, _TINY
+            ) * self.swing_allowance(th, 3.0 * omega)
+            jump = float(self.jump_excess(a_end - a, quad, amplitude, allowance))
         k = self._outputs.append(t, a)
         mean, _, _, self._hint = self._outputs.means(k, 2.0 * self._delay, self._hint)
         self._outputs.prune(k)
         lag = a - mean
-        excess = max(lag * lag - _LAG_THRESHOLD * var, 0.0)
+        excess = max(lag * lag - _LAG_THRESHOLD * var, jump * jump, 0.0)
         var += capped(model + excess, cfg.error_cap) + bias_variance(cfg, th, t - self._first_t)
         return Estimate(a, var, clamped)
 
@@ -226,31 +344,42 @@ class DynamicEstimator(Estimator):
         th_bar, _ = wrap_clamp_array(mean, cfg.clamp_angle)
         model = accel_gain_array(th_bar, cfg.gravity) ** 2 * swing
         width = self.width
+        jump = np.zeros(t.size)
         for seg in segments(t, cfg.gap):
             x = theta[seg]
             if x.size < width:
                 continue
-            fits = np.lib.stride_tricks.sliding_window_view(x, width) @ self._coeffs
+            windows = np.lib.stride_tricks.sliding_window_view(x, width)
+            fits = windows @ self._coeffs
+            ends = windows @ self._coeffs_end
             th, _ = wrap_clamp_array(fits[:, 0], cfg.clamp_angle)
             cos_th = np.cos(th)
             lever = cfg.length / cos_th
             a = (cfg.length * (fits[:, 2] + cfg.damping * fits[:, 1]) + cfg.gravity * np.sin(th)) / cos_th
             v0, v1, v2 = accel_gain_array(th, cfg.gravity), lever * cfg.damping, lever
-            g = self._gram
-            quad = (
-                v0 * v0 * g[0, 0]
-                + v1 * v1 * g[1, 1]
-                + v2 * v2 * g[2, 2]
-                + 2.0 * (v0 * v1 * g[0, 1] + v0 * v2 * g[0, 2] + v1 * v2 * g[1, 2])
-            )
+            quad = self._quad(v0, v1, v2, self._gram)
+            th_end, _ = wrap_clamp_array(ends[:, 0], cfg.clamp_angle)
+            a_end = (
+                cfg.length * (ends[:, 2] + cfg.damping * ends[:, 1]) + cfg.gravity * np.sin(th_end)
+            ) / np.cos(th_end)
             start = seg.start + width - 1
             accel[start : seg.stop] = a
             var[start : seg.stop] = cfg.sigma**2 * quad
             th_c[start : seg.stop] = th
             omega = 2.0 * math.pi / window[start : seg.stop]
-            model[start : seg.stop] = self._fit_error_gain_array(th, omega) * swing[start : seg.stop]
+            amplitude = np.sqrt(2.0 * swing[start : seg.stop])
+            third = np.minimum(amplitude, _HARMONIC_MAX) ** 3 / 192.0
+            model[start : seg.stop] = (
+                self._fit_error_gain_array(th, omega) * swing[start : seg.stop]
+                + self._fit_error_gain_array(th, 3.0 * omega) * 0.5 * third * third
+            )
+            allowance = self.swing_allowance(th, omega) + third / np.maximum(
+                amplitude, _TINY
+            ) * self.swing_allowance(th, 3.0 * omega)
+            quad_jump = self._quad(v0, v1, v2, self._gram_jump)
+            jump[start : seg.stop] = self.jump_excess(a_end - a, quad_jump, amplitude, allowance)
         lag = accel - trail_means(t, accel, 2.0 * self._delay, cfg.gap)
-        excess = np.maximum(lag * lag - _LAG_THRESHOLD * var, 0.0)
+        excess = np.maximum(np.maximum(lag * lag - _LAG_THRESHOLD * var, jump * jump), 0.0)
         var = var + capped_array(model + excess, cfg.error_cap)
         return accel, var + bias_variance_array(cfg, th_c, t - t[0])
 

@@ -22,14 +22,18 @@ car does not follow: 60× too large at rest, far too small in a manoeuvre). It i
 * a motion term for the error a change of a leaves, the larger of
   - the lag while the filter is still moving â: (L ŝ)², ŝ its own rate of correcting â (k₃ν/Δt
     averaged over 50 ms, counted only beyond 3σ of its noise-only spread), L = 0.6 s, held with a
-    0.05 s decay;
+    0.05 s decay, or a 0.4 s one once q_a has stayed boosted for over 1 s: an a(t) that keeps
+    moving (resonant_drive), whose error peaks where the correction rate crosses zero;
   - what is left of it afterwards: a third covariance P_m, propagated like P_n (same F, same gains,
     Joseph form without measurement noise) and raised on its a entry to (L_m ŝ)², L_m = 0.05 s,
     whenever that is larger; and, once q_a is quiet again, to (L_q ŝ_q)², ŝ_q the same rate averaged
     over 0.5 s of quiet mode (beyond 3σ of its noise), L_q = 0.25 s: the slow corrections of a
     residual the 50 ms rate cannot tell from noise. P_m decays exactly as fast as the filter actually
     removes an error of â: within ~0.1 s while boosted, over seconds in the quiet mode.
-  A change of a only enters once the angle reveals it: the first ~0.3 s of a ramp and the first
+  - a ramp of a that has just begun, in quiet mode: a generalised likelihood ratio test on the
+    innovations against the quiet filter's response to a ramp (``estimators.onset``) finds it ~0.1 s before
+    their power does, and adds 4 × the error the fitted ramp implies.
+  A change of a only enters once the angle reveals it: the first ~0.15 s of a ramp and the first
   samples after a step are beyond 2σ whatever the variance (README, "Calibration").
 """
 
@@ -51,6 +55,7 @@ from pendulum_accel.estimators.base import (
     check_batch_input,
     wrap_clamp,
 )
+from pendulum_accel.estimators.onset import OnsetTest
 from pendulum_accel.physics.params import require_finite, require_positive
 
 _MAX_STEP = 0.01  # s; longer gaps are propagated in sub-steps so RK4 stays accurate
@@ -63,6 +68,19 @@ _QUIET_SPAN = 0.25  # s: residual ≈ this × that slow rate
 _SLOPE_TAU = 0.05  # s: averaging time of that rate
 _SLOPE_THRESHOLD = 9.0  # rate² must exceed this × its noise-only expectation (a 3σ test)
 _HOLD_TAU = 0.05  # s: the lag term decays no faster than this once the rate drops
+# A manoeuvre that keeps q_a boosted longer than any single change of a takes to absorb is an a(t) that
+# keeps moving (a drive at the swing's resonance): there the error is largest where the correction rate
+# crosses zero, a quarter cycle after it peaks, so the held term decays over a longer time.
+_SUSTAINED = 1.0  # s of unbroken boost after which a manoeuvre counts as sustained
+_HOLD_TAU_SUSTAINED = 0.4  # s: the lag term's decay time then
+# The onset test (``_onset_term``): a ramp of a that has just begun, found in the quiet filter's innovations
+# before their power gives it away. Tuned on the bundled scenes with ``python -m benchmarks.calibration``.
+_ONSET_WINDOW = 0.4  # s: the onsets tried lie this far back at most
+_ONSET_MIN_AGE = 0.1  # s: younger onsets fit a step's first samples or noise, not a ramp
+_ONSET_THRESHOLD = 14.0  # GLR statistic beyond which an onset counts as found (χ²₁ for one onset tried)
+_ONSET_TAU = 0.05  # s: what it adds decays this fast once the test no longer passes
+_ONSET_TAU_BOOSTED = 0.1  # s: its decay once q_a is boosted, while the lag term catches up
+_ONSET_MARGIN = 4.0  # the variance added is this × the error the fitted ramp implies (it keeps growing)
 
 
 def _propagate(
@@ -151,7 +169,10 @@ class KalmanEstimator(Estimator):
         self._quiet_slope = self._quiet_slope_noise = self._quiet_time = 0.0  # the same over quiet mode
         self._pm = [0.0] * 6  # the residual motion covariance, propagated with the gains applied
         self._nis = 1.0  # running mean of ν²/S
+        self._boost_time = 0.0  # how long q_a has been boosted without a break (s)
         self._q_now = self.q_accel
+        self._onset: OnsetTest | None = None  # built at the first correction, from the steady filter
+        self._onset_var = 0.0  # the onset test's variance, while it holds
 
     def _initialise(self, theta: float) -> None:
         """x = [θ, 0, g tan θ]; P = diag(σ², (ω₀ A)², (g sec²θ A)²) with A = init_angle_std."""
@@ -168,6 +189,9 @@ class KalmanEstimator(Estimator):
         self._quiet_slope = self._quiet_slope_noise = self._quiet_time = 0.0
         self._pm = [0.0] * 6
         self._nis, self._q_now = 1.0, self.q_accel
+        self._boost_time = self._onset_var = 0.0
+        if self._onset is not None:
+            self._onset.clear()
 
     def _predict(self, dt: float) -> None:
         """x ← RK4(x, dt); P ← F P Fᵀ + Q with F = I + J dt + J² dt²/2, Q = diag(0, q_ω dt, q_a dt).
@@ -227,6 +251,7 @@ class KalmanEstimator(Estimator):
         self._pn = _joseph(self._pn, k0, k1, k2, self._r)
         self._pm = _joseph(self._pm, k0, k1, k2, 0.0)
         self._lag_term(k2 * innovation, k2 * k2 * s, dt)
+        self._onset_term(innovation, s, dt)
 
     def _lag_term(self, correction: float, correction_var: float, dt: float) -> None:
         """Hold ← max(L² X, hold·e^{−Δt/τ_h}), P_m₃₃ ← max(P_m₃₃, L_m² X, L_q² X_q);
@@ -237,7 +262,9 @@ class KalmanEstimator(Estimator):
         # An EWMA of white values of variance v has variance v α/(2 − α).
         noise = self._slope_noise * alpha / (2.0 - alpha)
         excess = max(0.0, self._slope * self._slope - _SLOPE_THRESHOLD * noise)
-        self._hold = max(excess * _LAG_SPAN**2, self._hold * math.exp(-dt / _HOLD_TAU))
+        self._boost_time = self._boost_time + dt if self._q_now > self.q_accel else 0.0
+        hold_tau = _HOLD_TAU_SUSTAINED if self._boost_time > _SUSTAINED else _HOLD_TAU
+        self._hold = max(excess * _LAG_SPAN**2, self._hold * math.exp(-dt / hold_tau))
         self._pm[5] = max(self._pm[5], excess * _RESIDUAL_SPAN**2)
         if self._q_now > self.q_accel:  # boosted: the 50 ms rate covers it; start the quiet average afresh
             self._quiet_slope = self._quiet_slope_noise = self._quiet_time = 0.0
@@ -251,12 +278,30 @@ class KalmanEstimator(Estimator):
             excess_q = max(0.0, self._quiet_slope * self._quiet_slope - _SLOPE_THRESHOLD * noise_q)
             self._pm[5] = max(self._pm[5], excess_q * _QUIET_SPAN**2)
 
+    def _onset_term(self, innovation: float, s: float, dt: float) -> None:
+        """V_o ← max(V_o e^{−Δt/τ}, M (ê² + var(ĵ) h(k̂)²)) when the GLR λ(k̂) = (Σ g ν)²/(S Σ g²) of a ramp
+        begun k̂ samples ago passes the threshold; ĵ = Σ g ν / Σ g², ê = ĵ h(k̂) (``estimators.onset``). In
+        quiet mode only: once q_a is boosted V_o decays over 0.1 s while the lag term catches up."""
+        if self._q_now > self.q_accel:  # boosted: the innovations no longer follow the quiet response
+            self._onset_var *= math.exp(-dt / _ONSET_TAU_BOOSTED)
+            if self._onset is not None:
+                self._onset.clear()
+            return
+        if self._onset is None:
+            transition, gain, _ = self.steady_state(0.0)
+            self._onset = OnsetTest(
+                transition, gain, self.config.rate_hz, _ONSET_WINDOW, _ONSET_MIN_AGE, _ONSET_THRESHOLD
+            )
+        found = self._onset.push(innovation, s)
+        decayed = self._onset_var * math.exp(-dt / _ONSET_TAU)
+        self._onset_var = decayed if found is None else max(decayed, _ONSET_MARGIN * found)
+
     def variance(self, t: float) -> float:
-        """Published var(â) at time t: P_n₃₃ + (g sec²θ)² E[b²](t − t₀) + max(held lag, P_m₃₃)."""
+        """Published var(â) at time t: P_n₃₃ + (g sec²θ)² E[b²](t − t₀) + max(held lag, P_m₃₃, onset V_o)."""
         cfg = self.config
         th, _ = wrap_clamp(self._x[0], cfg.clamp_angle)
         elapsed = 0.0 if self._first_t is None else t - self._first_t
-        return self._pn[5] + bias_variance(cfg, th, elapsed) + max(self._hold, self._pm[5])
+        return self._pn[5] + bias_variance(cfg, th, elapsed) + max(self._hold, self._pm[5], self._onset_var)
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """Predict to t (sub-steps ≤ 10 ms), correct with θ; â = x₃ clamped to g tan(clamp), var = P₃₃."""
@@ -274,7 +319,7 @@ class KalmanEstimator(Estimator):
             self._correct(theta, dt)
         x, p = self._x, self._p
         # NaN and inf propagate through a sum: one test covers every number.
-        if not math.isfinite(sum(x) + sum(p) + sum(self._pn) + sum(self._pm) + self._hold):
+        if not math.isfinite(sum(x) + sum(p) + sum(self._pn) + sum(self._pm) + self._hold + self._onset_var):
             self._initialise(theta)  # a diverged filter restarts rather than publish inf/NaN
         self._last_t = t
         a = self._x[2]

@@ -24,6 +24,14 @@ the window leaves in θ̄ (a damped swing, a period estimate slightly off), but 
 period after a change ends; e₄ forgets the change within T/4 but magnifies a left-over swing.
 lag = min((e₁² − ⅔σ²/n)⁺, (e₄² − ⁸⁄₃σ²/n)⁺): each square less its expected noise-only part (for white
 angle noise var e₁ = ⅔σ²/n, var e₄ = ⁸⁄₃σ²/n), the smaller of the two.
+
+Both come from θ̄, which moves only as the change enters its window: after a step they are still
+small when the lag is the whole step, and a ramp's e₁ builds up over a period. The raw angle shows
+the change as soon as the bob moves: the published lag is max(min(e₁², e₄²) as above, x²),
+x = max(|d| − 3σ_d, |q| − 4.5σ_q)⁺ from the period change d and the rate change q
+(``swing.change_excess``; |d| ≥ the lag for a θ_eq monotone over the period, q covers the first
+half period after a step). The first ~0.1 s after a step (braking) and ~0.25 s after a ramp starts
+(stop_and_go) stay beyond 2σ: the bob has not moved enough yet.
 """
 
 from __future__ import annotations
@@ -48,13 +56,16 @@ from pendulum_accel.estimators.base import (
     wrap_clamp,
     wrap_clamp_array,
 )
-from pendulum_accel.estimators.swing import SwingWindow, Trail, trail_means
+from pendulum_accel.estimators.swing import SwingWindow, Trail, change_excess, period_changes, trail_means
 
 _SHORT = 0.25  # e₄'s window, in swing periods
 
 
 class PeriodMeanEstimator(Estimator):
-    """a = g tan(θ̄), θ̄ = mean θ over one swing period T(â, A); var = (g sec²θ̄)²(σ²/n + E[b²] + lag)."""
+    """a = g tan(θ̄), θ̄ = mean θ over one swing period T(â, A); var = (g sec²θ̄)²(σ²/n + E[b²] + lag).
+
+    lag = max(min((e₁² − ⅔σ²/n)⁺, (e₄² − ⁸⁄₃σ²/n)⁺), change_excess(d, q)²) (module doc).
+    """
 
     name: ClassVar[str] = "period_mean"
     summary: ClassVar[str] = "g tan(mean θ over one swing period)"
@@ -75,6 +86,7 @@ class PeriodMeanEstimator(Estimator):
         self._swing.reset()
         self._outputs.reset()
         self._hints = [0, 0]
+        self._change_hints = [0] * 5
         self._last_t: float | None = None
         self._first_t = 0.0
 
@@ -105,7 +117,10 @@ class PeriodMeanEstimator(Estimator):
         outputs.prune(k)
         th, clamped = wrap_clamp(means.mean, cfg.clamp_angle)
         gain = accel_gain(th, cfg.gravity)
-        lag = self.lag_variance(means.mean, over_period, over_quarter, means.n)
+        d, q, n_w = self._swing.period_change(means.mean, means.window, self._change_hints)
+        rho = math.exp(-0.5 * cfg.damping * means.window)
+        excess = float(change_excess(d, q, n_w, rho, cfg.sigma))
+        lag = max(self.lag_variance(means.mean, over_period, over_quarter, means.n), excess * excess)
         var = gain * gain * cfg.sigma**2 / means.n + capped(gain * gain * lag, cfg.error_cap)
         var += bias_variance(cfg, th, t - self._first_t)
         return Estimate(cfg.gravity * math.tan(th), var, clamped)
@@ -126,6 +141,9 @@ class PeriodMeanEstimator(Estimator):
             np.maximum(e1 * e1 - 2.0 / 3.0 * noise, 0.0),
             np.maximum(e4 * e4 - 2.0 / 3.0 / _SHORT * noise, 0.0),
         )
+        d, q, n_w, rho = period_changes(t, theta, mean, window, self._swing)
+        excess = change_excess(d, q, n_w, rho, cfg.sigma)
+        lag = np.maximum(lag, excess * excess)
         var = gain * gain * noise + capped_array(gain * gain * lag, cfg.error_cap)
         var = var + bias_variance_array(cfg, th, t - t[0])
         return cfg.gravity * np.tan(th), var

@@ -34,7 +34,7 @@ from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
 from pendulum_accel.recording.settings import estimator_settings
-from pendulum_accel.scene import scene_from_yaml
+from pendulum_accel.scene import Scene, scene_from_yaml
 
 DEFAULT_REL_TOLERANCE = 0.02
 DEFAULT_ABS_TOLERANCE = 0.1  # m/s², about 1 % of g: below it sensor noise, not the method, dominates
@@ -506,11 +506,21 @@ def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
 
 def _scene_config(text: str) -> dict[str, float]:
     """Estimator settings of a scene stored as YAML text; BagError when it no longer loads."""
+    return estimator_settings(_stored_scene(text))
+
+
+def _stored_scene(text: str) -> Scene:
+    """The scene a bag stores as YAML text; BagError when it no longer loads."""
     try:
-        scene = scene_from_yaml(text, label="the scene stored in the bag")
+        return scene_from_yaml(text, label="the scene stored in the bag")
     except PendulumAccelError as err:
         raise BagError(f"{err}; give --length (and --noise-std) instead") from None
-    return estimator_settings(scene)
+
+
+def stored_scene(bag: Bag) -> Scene | None:
+    """The scene the bag was recorded from (custom data), None when it stores none."""
+    text = bag.custom_data.get(CUSTOM_SCENE)
+    return _stored_scene(text) if text else None
 
 
 def plot_analysis(result: Analysis, out: Path | str) -> Path:
