@@ -5,7 +5,9 @@ python test/node_probe.py SPEC_JSON
 SPEC keys (all optional):
   "listen": [topic, ...]          record /car/accel/estimate and /diagnostics messages
   "wait_subscribers": n           before feeding, wait until /pendulum/joint_states has n subscribers
-  "feed": [[t, theta] | ["pause", seconds], ...]  joint states at 100 Hz wall pace; theta null = NaN
+  "feed": [[t, theta] | ["pause", seconds] | ["until", state, seconds], ...]  joint states at 100 Hz
+                                  wall pace, theta null = NaN; "until" waits (at most seconds) for a
+                                  /diagnostics status whose state is ``state`` (needs "listen")
   "joints": [name, ...]           publish these joints (θ on the last, 0.5 on the others), no velocity
   "set": {"node": name, "params": {name: value}}  call SetParameters, then GetParameters
   "linger": seconds               keep listening after feeding
@@ -84,6 +86,13 @@ def main() -> None:
     for item in spec.get("feed", []):
         if item[0] == "pause":
             spin_for(node, float(item[1]))
+            continue
+        if item[0] == "until":
+            seen, end = len(out["diagnostics"]), time.monotonic() + float(item[2])
+            while time.monotonic() < end and not any(
+                values.get("state") == item[1] for _, _, values in out["diagnostics"][seen:]
+            ):
+                spin_for(node, 0.01)
             continue
         t, theta = float(item[0]), math.nan if item[1] is None else float(item[1])
         msg = joint_state(time_from_ns(round(t * 1e9)), theta, 0.0)

@@ -143,7 +143,8 @@ def _generated_matches_live(live: Bag, out: Path) -> None:
 def _start_long_chain(spawn: Spawn, bag: Path) -> tuple[Output, dict[str, int]]:
     """A real-time chain on a 60 s scene, once its simulator publishes; (output, {role: pid})."""
     chain = start_chain(spawn, "lecture_constant", "--set", "duration=60", "--record", str(bag))
-    chain.wait_for(r"\[pendulum_sim\]: subscribers matched: publishing", timeout=60)
+    # The readers' acknowledgement of the first sample, not the matching before it, starts the stream.
+    chain.wait_for(r"\[pendulum_sim\]: first sample acknowledged by every reader", timeout=60)
     time.sleep(2.0)  # a couple of seconds of data
     pids = child_pids(chain)
     assert set(pids) == {"recorder", "estimator", "simulator"}

@@ -205,7 +205,7 @@ def test_chain_across_two_hosts_with_loss_and_a_link_cut(
         "simulator_node",
         {"scene": str(scene_file), "reader_nodes": ["accel_estimator"], "recorder_node": "bag_recorder"},
     )
-    simulator.wait_for(r"subscribers matched: publishing", timeout=60)
+    simulator.wait_for(r"first sample acknowledged by every reader", timeout=60)
     time.sleep(4.0)
     cut_at = time.monotonic()
     two_hosts.link(up=False)

@@ -114,7 +114,8 @@ def _allowance(
 
 
 def warm_cache() -> None:
-    """Compile the loop into numba's on-disk cache (``make setup`` calls this once)."""
+    """Compile the loop into numba's on-disk cache, or load it from there: ``make setup`` calls this once,
+    and the constructor each time, so that a live node pays the load before it says it is estimating."""
     one = np.ones(1)
     _allowance(one, one, 1.0, 9.8, 0.0, np.ones((3, 2)), np.zeros(2), np.ones((3, 2)), np.zeros(2))
 
@@ -135,6 +136,7 @@ class DynamicEstimator(Estimator):
             raise ParameterError(f"polyorder must be an integer in 2..{min(6, width - 1)}, got {polyorder!r}")
         self.width = width
         self.polyorder = int(polyorder)
+        warm_cache()
         dt = 1.0 / config.rate_hz
         pos = width // 2
         self._c0 = signal.savgol_coeffs(width, self.polyorder, deriv=0, pos=pos, use="dot")

@@ -46,6 +46,7 @@ import numpy as np
 from scipy import linalg
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.estimators import onset
 from pendulum_accel.estimators.base import (
     Estimate,
     Estimator,
@@ -154,6 +155,7 @@ class KalmanEstimator(Estimator):
         self._g, self._l_inv, self._c = config.gravity, 1.0 / config.length, config.damping
         self._r = config.sigma**2
         self._a_max = config.gravity * math.tan(config.clamp_angle)
+        onset.warm_cache()
         self.reset()
 
     def reset(self) -> None:

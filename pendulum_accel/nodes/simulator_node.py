@@ -272,6 +272,9 @@ class SimulatorNode(ThreadedNode):
                 # seconds of fast runs; one acknowledged sample proves every reader is ready.
                 if not self._acknowledged():
                     break
+                self.get_logger().info(
+                    f"first sample acknowledged by every reader after {time.perf_counter() - start:.2f} s"
+                )
                 start = time.perf_counter() - float(t_rel[0])
                 if self.time_source == "wall":
                     self._stamp_wall(frames, start, 1)
