@@ -24,6 +24,7 @@ from pendulum_accel.estimators import (
 from pendulum_accel.estimators.base import cramer_rao_std, wrap_clamp, wrap_clamp_array
 from pendulum_accel.estimators.lowpass import LowpassEstimator
 from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
+from pendulum_accel.estimators.swing import swing_amplitude
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import Constant, Step
 from pendulum_accel.physics.simulate import simulate
@@ -116,14 +117,20 @@ def test_instant_variance_is_conditioning_times_noise() -> None:
         assert not out.clamped
 
 
-def _tangent_and_angle_means(amplitude: float, accel: float = 3.0) -> tuple[float, float]:
-    """Over one exact period of a swing of ``amplitude`` about θ_eq: (mean g tan θ, g tan(mean θ)) / a − 1."""
+def _exact_period_swing(amplitude: float, accel: float = 3.0) -> tuple[np.ndarray, np.ndarray, float]:
+    """(t, θ, T) over one exact libration period T of a swing of ``amplitude`` about θ_eq."""
     pend = Pendulum(length=L)
     omega = pend.omega(accel)
     period = 4.0 * float(ellipk(math.sin(amplitude / 2.0) ** 2)) / omega  # exact libration period
     t = np.linspace(0.0, period, 20001)
     theta0 = pend.equilibrium_angle(accel) + amplitude
     theta = simulate(pend, Constant(accel), t, theta0=theta0, rtol=1e-12, atol=1e-13).theta
+    return t, theta, period
+
+
+def _tangent_and_angle_means(amplitude: float, accel: float = 3.0) -> tuple[float, float]:
+    """Over one exact period of a swing of ``amplitude`` about θ_eq: (mean g tan θ, g tan(mean θ)) / a − 1."""
+    t, theta, period = _exact_period_swing(amplitude, accel)
     mean_tan = trapezoid(G * np.tan(theta), t) / period
     mean_angle = trapezoid(theta, t) / period
     return mean_tan / accel - 1.0, G * math.tan(mean_angle) / accel - 1.0
@@ -147,9 +154,21 @@ def test_period_mean_is_unbiased_on_a_large_swing(amplitude: float) -> None:
     a_hat, _ = estimate_batch("period_mean", t, theta, length=L, noise_std=SIGMA, rate_hz=RATE)
     settled = t > 5.0
     assert abs(float(np.mean(a_hat[settled])) / 3.0 - 1.0) < 1e-4  # measured 3e-8 (0.1 rad), 8e-6 (0.5 rad)
-    assert np.max(np.abs(a_hat[settled] - 3.0)) < 2e-3  # measured 6e-6 and 5e-4 m/s²
+    assert np.max(np.abs(a_hat[settled] - 3.0)) < 2e-3  # measured 6e-6 and 3e-4 m/s²
     tan_bias = float(np.mean(G * np.tan(theta[settled]))) / 3.0 - 1.0
     assert tan_bias > 0.8 * (1.0 + (3.0 / G) ** 2) * amplitude**2 / 2.0  # naive: ≈ sec²θ_eq A²/2 high
+
+
+@pytest.mark.parametrize(("amplitude", "tolerance"), [(0.3, 5e-6), (0.77, 2e-4), (2.0, 7e-3)])
+def test_swing_amplitude_from_the_variance_of_an_exact_swing(amplitude: float, tolerance: float) -> None:
+    """A from var θ over one exact period: within 2e-4 at braking's 0.77 rad (measured 9e-5), where the
+    sinusoid's √(2 var θ) is 0.32 % high; 0.54 % at 2 rad (√(2 var θ): 2.7 %)."""
+    t, theta, period = _exact_period_swing(amplitude)
+    mean = trapezoid(theta, t) / period
+    variance = trapezoid(theta * theta, t) / period - mean * mean
+    error = abs(swing_amplitude(variance) / amplitude - 1.0)
+    assert error < tolerance
+    assert math.sqrt(2.0 * variance) / amplitude - 1.0 > 4.0 * error  # the sinusoid's is high
 
 
 def test_default_is_a_known_method_and_meets_its_targets() -> None:

@@ -6,14 +6,14 @@ Jensen's inequality it is biased high, +0.5 % at 0.1 rad amplitude and +16 % at 
 
 The period T = 2π/ω with ω² = √(g² + a²)/l depends on the estimate itself, so the average is done
 in stages: first over T₀ = 2π√(l/g) (the small-swing period at a = 0) to get a₁ and the swing
-amplitude A₁ (from the variance of θ, A² ≈ 2 var θ), then over T(a₁, A₁) for a₂ and A₂, then over
-T(a₂, A₂) (each stage cuts the period error ~20×; ``stages`` = 3 by default). A swing of amplitude A
-lasts longer than 2π/ω: the exact libration period is T = (2π/ω)/AGM(1, cos(A/2)) (= 4K(sin²(A/2))/ω);
-``exact_period=False`` keeps the small-swing 2π/ω (0.6 % short at A = 0.3 rad,
-which leaves a residual swing in the average). The averages are exact integrals of the
-piecewise-linear θ(t) and θ²(t) over [t − T, t], accumulated by the trapezoid rule, so irregular
-sampling is handled; a hole longer than a quarter of T₀ (or ``max_gap``) restarts the average
-(``swing.SwingWindow``, shared with the other methods).
+amplitude A₁ (from the variance of θ, 2 var θ = A²(1 + A²/96): ``swing.swing_amplitude``), then over
+T(a₁, A₁) for a₂ and A₂, then over T(a₂, A₂) (each stage cuts the period error ~20×; ``stages`` = 3 by
+default). A swing of amplitude A lasts longer than 2π/ω: the exact libration period is
+T = (2π/ω)/AGM(1, cos(A/2)) (= 4K(sin²(A/2))/ω); ``exact_period=False`` keeps the small-swing 2π/ω
+(0.6 % short at A = 0.3 rad, which leaves a residual swing in the average). The averages are exact
+integrals of the piecewise-linear θ(t) and θ²(t) over [t − T, t], accumulated by the trapezoid
+rule, so irregular sampling is handled; a hole longer than a quarter of T₀ (or ``max_gap``) restarts
+the average (``swing.SwingWindow``, shared with the other methods).
 
 The published variance is (g sec²θ̄)² (σ²/n + E[b²] + lag), n the samples in the window: the noise
 of the mean, the sensor bias and what the average leaves in. While a changes the mean lags the newest
