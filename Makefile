@@ -50,6 +50,7 @@ $(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.x
 	@touch $(STAMP)
 
 demo: $(STAMP)
+	@mkdir -p $(dir $(DEMO_BAG))
 	$(BIN)/pendulum-accel run --record $(DEMO_BAG) --overwrite
 
 lint: $(STAMP)
