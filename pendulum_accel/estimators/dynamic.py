@@ -28,9 +28,13 @@ makes, each estimated from the method's own data:
   errors, A (|H_end(ω)| + |H(ω)|) + A₃ (|H_end(3ω)| + |H(3ω)|), H = (l/cos θ)(E₂ + c E₁) + g sec²θ E₀ and
   E_k = Σ c_k e^{iωτ} − (iω)^k each fit's error on e^{iωt} (τ from its own evaluation point).
   The square of that excess enters as the lag does (the larger of the two).
+* a ramp begun inside the window, which δ sees late (it grows with the ramp and stays within its
+  noise ~0.4 s): a likelihood-ratio test of the raw window against a steady swing
+  (``estimators.fit_onset``) finds it 0.15–0.3 s in and gives its rate ĵ, hence the fit's error
+  ê = ĵ h; 2 (ê² + var ê) enters with the others (the largest counts), held with a 50 ms decay.
 Before the window has filled the estimate is g tan θ, and the swing term is ``instant``'s.
-The first ~0.1 s after a step of a (braking) and ~0.4 s after a ramp starts (stop_and_go, where δ
-grows with the ramp and stays within its noise) remain beyond 2σ.
+The first ~0.1 s after a step of a (braking) and ~0.2 s after a ramp starts (stop_and_go: the angle
+departs as j t³/(6 l)) remain beyond 2σ.
 """
 
 from __future__ import annotations
@@ -58,6 +62,7 @@ from pendulum_accel.estimators.base import (
     wrap_clamp,
     wrap_clamp_array,
 )
+from pendulum_accel.estimators.fit_onset import FitOnsetTest
 from pendulum_accel.estimators.swing import SwingWindow, Trail, trail_means
 from pendulum_accel.physics.params import require_positive
 
@@ -68,6 +73,14 @@ _JUMP_SIGMAS = 3.0  # δ = â_end − â counts beyond 3 × its noise-only sprea
 # The libration's third harmonic, −(A³/192) cos 3ωt (Lindstedt), from this amplitude on not extrapolated.
 _HARMONIC_MAX = 1.0  # rad
 _TINY = 1e-300  # A below this: no swing, the harmonic's share of the allowance is 0
+# The ramp-onset test on the raw window (``estimators.fit_onset``), tuned on the bundled scenes with
+# ``python -m benchmarks.calibration``: onsets 0.1–0.5 s back (younger ones fit noise), λ beyond 20 (at 14,
+# kalman's, noise alone passes in ~5 % of windows and widens σ at rest), 2 × the implied error's
+# variance, held 50 ms.
+_ONSET_MIN_AGE, _ONSET_MAX_AGE = 0.1, 0.5  # s
+_ONSET_THRESHOLD = 20.0
+_ONSET_MARGIN = 2.0
+_ONSET_TAU = 0.05  # s
 Num = TypeVar("Num", float, np.ndarray)
 
 
@@ -166,6 +179,14 @@ class DynamicEstimator(Estimator):
         self._series_even = list(zip(reversed(r0), reversed(r2), strict=True))
         self._series_odd = list(reversed(r1))
         self._delay = (width // 2) * dt
+        self._onset = FitOnsetTest(
+            config.rate_hz,
+            self._c0,
+            self._c2,
+            min_age=_ONSET_MIN_AGE,
+            max_age=_ONSET_MAX_AGE,
+            threshold=_ONSET_THRESHOLD,
+        )
         self._swing = SwingWindow(config, stages=_SWING_STAGES)
         self._outputs = Trail(2.0 * self._delay)
         self.reset()
@@ -240,6 +261,7 @@ class DynamicEstimator(Estimator):
         self._head = 0
         self._outputs.reset()
         self._hint = 0
+        self._onset_var = 0.0  # the onset test's variance, held with a 50 ms decay
 
     @staticmethod
     def _quad(v0: Num, v1: Num, v2: Num, g: np.ndarray) -> Num:
@@ -268,6 +290,14 @@ class DynamicEstimator(Estimator):
             np.abs(jump) - _JUMP_SIGMAS * self.config.sigma * np.sqrt(quad_jump) - amplitude * allowance, 0.0
         )
 
+    def onset_variance(self, window: np.ndarray, omega: float, third: float, lever: float) -> float:
+        """M (ê² + var ê), M = 2, for a ramp the fit-window test finds (``estimators.fit_onset``); else 0."""
+        found = self._onset.error(window, omega, third, lever, self.config.sigma)
+        if found is None:
+            return 0.0
+        error, spread = found
+        return _ONSET_MARGIN * (error * error + spread)
+
     def _accel(self, th: float, th_d: float, th_dd: float) -> tuple[float, float, bool]:
         """(a, var_a, clamped) from the fitted θ, θ', θ''."""
         cfg = self.config
@@ -279,13 +309,16 @@ class DynamicEstimator(Estimator):
         return a, cfg.sigma**2 * self._quad(v0, v1, v2, self._gram), clamped
 
     def update(self, t: float, theta: float) -> Estimate | None:
-        """Push θ; once full, fit and invert; var = σ²Σw² + (g sec²θ)²E[b²] + fit error + (lag² − 9σ²Σw²)⁺."""
+        """Push θ; once full, fit and invert; var = σ²Σw² + (g sec²θ)²E[b²] + fit error
+        + max((lag² − 9σ²Σw²)⁺, jump², onset)."""
         if not self._accepts(t, theta, self._last_t):
             return None
         if self._last_t is None:
             self._first_t = t
         elif t - self._last_t > self.config.gap:
             self._restart()
+        else:
+            self._onset_var *= math.exp(-(t - self._last_t) / _ONSET_TAU)
         self._last_t = t
         width = self.width
         # Each sample is written twice so the last W samples are always one contiguous slice.
@@ -323,11 +356,13 @@ class DynamicEstimator(Estimator):
                 amplitude, _TINY
             ) * self.swing_allowance(th, 3.0 * omega)
             jump = float(self.jump_excess(a_end - a, quad, amplitude, allowance))
+            found = self.onset_variance(recent, omega, third, lever)
+            self._onset_var = max(self._onset_var, found)
         k = self._outputs.append(t, a)
         mean, _, _, self._hint = self._outputs.means(k, 2.0 * self._delay, self._hint)
         self._outputs.prune(k)
         lag = a - mean
-        excess = max(lag * lag - _LAG_THRESHOLD * var, jump * jump, 0.0)
+        excess = max(lag * lag - _LAG_THRESHOLD * var, jump * jump, self._onset_var, 0.0)
         var += capped(model + excess, cfg.error_cap) + bias_variance(cfg, th, t - self._first_t)
         return Estimate(a, var, clamped)
 
@@ -347,6 +382,7 @@ class DynamicEstimator(Estimator):
         model = accel_gain_array(th_bar, cfg.gravity) ** 2 * swing
         width = self.width
         jump = np.zeros(t.size)
+        onset = np.zeros(t.size)
         for seg in segments(t, cfg.gap):
             x = theta[seg]
             if x.size < width:
@@ -380,8 +416,15 @@ class DynamicEstimator(Estimator):
             ) * self.swing_allowance(th, 3.0 * omega)
             quad_jump = self._quad(v0, v1, v2, self._gram_jump)
             jump[start : seg.stop] = self.jump_excess(a_end - a, quad_jump, amplitude, allowance)
+            held = 0.0
+            for i, k in enumerate(range(start, seg.stop)):
+                if k > start:
+                    held *= math.exp(-(t[k] - t[k - 1]) / _ONSET_TAU)
+                found = self.onset_variance(windows[i], float(omega[i]), float(third[i]), float(lever[i]))
+                held = max(held, found)
+                onset[k] = held
         lag = accel - trail_means(t, accel, 2.0 * self._delay, cfg.gap)
-        excess = np.maximum(np.maximum(lag * lag - _LAG_THRESHOLD * var, jump * jump), 0.0)
+        excess = np.maximum(np.maximum(np.maximum(lag * lag - _LAG_THRESHOLD * var, jump * jump), onset), 0.0)
         var = var + capped_array(model + excess, cfg.error_cap)
         return accel, var + bias_variance_array(cfg, th_c, t - t[0])
 
