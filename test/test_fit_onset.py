@@ -145,3 +145,37 @@ def test_the_onset_test_covers_a_ramp_sooner(monkeypatch: pytest.MonkeyPatch) ->
     for seed in range(3):
         beyond, found = _ramp_violations(seed)
         assert found is None and beyond >= 0.35 * RATE, (seed, beyond)
+
+
+@pytest.mark.parametrize("rate", [1000.0, 10000.0])
+def test_fast_sensors_are_tested_on_block_means(rate: float) -> None:
+    """At 1 and 10 kHz the test runs on means of round(rate/200) samples: its shapes stay at ~120 points
+    (not the 601 or 6001 of the window), a ramp in a swing gives back its rate within 2 %, and white noise
+    passes in under 0.5 % of 1000 windows."""
+    est = make_estimator("dynamic", length=LENGTH, noise_std=SIGMA, rate_hz=rate)
+    assert isinstance(est, DynamicEstimator)
+    test = FitOnsetTest(rate, est._c0, est._c2, min_age=0.1, max_age=0.5, threshold=20.0)
+    omega = math.sqrt(9.80665 / LENGTH)
+    basis = test.basis(omega)
+    assert basis.u.shape[0] <= 121 and basis.u.shape[1] <= 81
+    tau = (np.arange(est.width) - (est.width - 1)) / rate
+    since = np.maximum(tau + 0.3, 0.0)
+    cos_th, lever = math.cos(0.2), LENGTH / math.cos(0.2)
+    ramp = cos_th / LENGTH * 1.5 * (omega * since - np.sin(omega * since)) / omega**3
+    found = test.error(_swing(omega, 0.1, tau) + ramp, omega, 0.0, lever, SIGMA)
+    assert found is not None
+    m = int(np.argmin(np.abs(test._ages - 0.3)))
+    assert found[0] == pytest.approx(1.5 * float(basis.response[m]), rel=0.02)
+    rng = np.random.default_rng(4)
+    alarms = sum(
+        test.error(
+            _swing(omega, 0.3, tau, phase=0.01 * k) + SIGMA * rng.standard_normal(tau.size),
+            omega,
+            0.3**3 / 192.0,
+            lever,
+            SIGMA,
+        )
+        is not None
+        for k in range(1000)
+    )
+    assert alarms <= 5

@@ -30,8 +30,10 @@ from numpy.typing import NDArray
 from pendulum_accel.errors import ParameterError
 
 _OMEGA_STEP = 1e-3  # the basis is built for ω rounded to this relative step (and cached)
-_CACHE = 64  # bases kept (each W × ages floats: 0.4 MB at 1 kHz)
-_AGE_RATE = 200.0  # Hz: onsets are tried at most this often (every sample at 200 Hz, every 5th at 1 kHz)
+_CACHE = 64  # bases kept (each ~120 blocks × ~80 ages floats, 80 kB, whatever the rate)
+# Above this rate the test runs on means of k = round(rate/200) samples (noise σ²/k each): its cost and
+# its shapes stay at ~120 points a window, where 1 kHz would take 601 and 100 kHz 60001.
+_BLOCK_RATE = 200.0  # Hz
 
 
 class FitBasis:
@@ -45,7 +47,8 @@ class FitBasis:
         c0: NDArray[np.float64],
         c2: NDArray[np.float64],
     ) -> None:
-        """u_m = (I − Q Qᵀ) r(τ + s_m), Q an orthonormal basis of {1, cos ωτ, sin ωτ}; h_m: module doc."""
+        """u_m = (I − Q Qᵀ) r(τ + s_m), Q an orthonormal basis of {1, cos ωτ, sin ωτ}; h_m: module doc.
+        τ are the blocks' centres and c₀, c₂ the fit's weights summed over each block."""
         swing = np.stack([np.ones_like(tau), np.cos(omega * tau), np.sin(omega * tau)], axis=1)
         q, _ = np.linalg.qr(swing)
         since = np.maximum(tau[:, None] + ages[None, :], 0.0)
@@ -70,23 +73,31 @@ class FitOnsetTest:
         max_age: float,
         threshold: float,
     ) -> None:
-        """Onset ages m Δt for m from min_age·rate (at least 1) up to max_age·rate and W − 4 (the swing's
-        three functions need samples before the onset; a window too short for any age tests nothing),
-        5 ms apart at most; c₀, c₂ the fit's weights for θ and θ''."""
+        """Blocks of k = round(rate/200) samples (at least 1), the newest ⌊W/k⌋ of the window; onset ages
+        m k Δt for m from min_age/(k Δt) (at least 1) up to max_age/(k Δt) and the blocks less 4 (the
+        swing's three functions need blocks before the onset; a window too short for any age tests
+        nothing); c₀, c₂ the fit's weights for θ and θ''."""
         if not (rate_hz > 0.0 and 0.0 <= min_age <= max_age and threshold > 0.0):
             raise ParameterError(
                 f"fit onset test needs rate > 0, 0 <= min_age <= max_age and threshold > 0; got rate "
                 f"{rate_hz!r}, ages {min_age!r}–{max_age!r} s, threshold {threshold!r}"
             )
         width = c0.size
-        low = max(1, round(min_age * rate_hz))
-        high = min(round(max_age * rate_hz), width - 4)
-        stride = max(1, round(rate_hz / _AGE_RATE))
-        dt = 1.0 / rate_hz
-        self._tau = np.asarray((np.arange(width) - (width - 1)) * dt, dtype=np.float64)
+        stride = max(1, round(rate_hz / _BLOCK_RATE))
+        blocks = width // stride
+        self._stride, self._skip = stride, width - blocks * stride
+        block_dt = stride / rate_hz
+        # Each block's centre, from the newest sample.
+        offsets = (blocks - 1 - np.arange(blocks)) * stride + 0.5 * (stride - 1)
+        self._tau = np.asarray(-offsets / rate_hz, dtype=np.float64)
+        low = max(1, round(min_age / block_dt))
+        high = min(round(max_age / block_dt), blocks - 4)
         # Empty when the window is too short for any onset age.
-        self._ages = np.asarray(np.arange(low, high + 1, stride) * dt, dtype=np.float64)
-        self._c0, self._c2 = np.asarray(c0, dtype=np.float64), np.asarray(c2, dtype=np.float64)
+        self._ages = np.asarray(np.arange(low, high + 1) * block_dt, dtype=np.float64)
+        self._c0, self._c2 = (
+            np.asarray(c[self._skip :], dtype=np.float64).reshape(blocks, stride).sum(axis=1)
+            for c in (c0, c2)
+        )
         self._threshold = threshold
         self._basis = lru_cache(maxsize=_CACHE)(self._build)
 
@@ -107,13 +118,15 @@ class FitOnsetTest:
         sigma: float,
     ) -> tuple[float, float] | None:
         """(ê, var ê) = (ĵ h, var(ĵ) h²) at the likeliest onset if its λ passes the threshold, else None;
-        ``window`` the W angles oldest first, A₃ = ``third`` the swing's third harmonic (``dynamic``'s),
-        ``lever`` = l/cos θ (ĵ = lever · u_mᵀθ/u_mᵀu_m)."""
+        ``window`` the W angles oldest first (taken in block means), A₃ = ``third`` the swing's third
+        harmonic (``dynamic``'s), ``lever`` = l/cos θ (ĵ = lever · u_mᵀθ/u_mᵀu_m)."""
         if not self._ages.size:
             return None
         basis = self.basis(omega)
-        proj = window @ basis.u
-        spread = sigma * sigma * basis.energy + third * third * basis.harmonic
+        means = window if self._stride == 1 else window[self._skip :].reshape(-1, self._stride).mean(axis=1)
+        noise = sigma * sigma / self._stride
+        proj = means @ basis.u
+        spread = noise * basis.energy + third * third * basis.harmonic
         with np.errstate(divide="ignore", invalid="ignore"):  # a noiseless sensor: σ = 0 and no swing
             stat = proj * proj / spread
         best = int(np.argmax(stat))
@@ -121,4 +134,4 @@ class FitOnsetTest:
             return None
         rate = lever * float(proj[best] / basis.energy[best])
         h = float(basis.response[best])
-        return rate * h, (lever * sigma * h) ** 2 / float(basis.energy[best])
+        return rate * h, noise * (lever * h) ** 2 / float(basis.energy[best])
