@@ -331,3 +331,18 @@ def test_period_change_cancels_a_damped_swing_and_measures_a_ramp() -> None:
             assert np.abs(d[late]).max() < 0.01 * amplitude
             assert np.abs(q[late]).max() < 0.01 * amplitude
     assert (d[:400] == 0.0).all()  # no period change before the history holds T + 2w
+
+
+def test_lowpass_does_not_count_its_start_up_noise_twice() -> None:
+    """at_rest, t = 2–6 s, seeds 0–19: the first sample still weighs in θ_f; its noise is in the noise gain
+    w_k, and the lag term's threshold now allows for it too, so mean NEES is 0.6–1.5 (0.36 when the lag
+    term read that start-up noise as lag)."""
+    base = load_scene("at_rest")
+    nees = []
+    for seed in range(20):
+        scene = dataclasses.replace(base, sensor=dataclasses.replace(base.sensor, seed=seed))
+        run = run_scene(scene)
+        a, var = estimate_batch("lowpass", run.t, run.theta_measured, **estimator_settings(scene))
+        early = (run.t >= 2.0) & (run.t < 6.0)
+        nees.append((a - run.accel_true)[early] ** 2 / var[early])
+    assert 0.6 <= float(np.mean(np.concatenate(nees))) <= 1.5

@@ -14,9 +14,12 @@ The published variance is (g sec²θ_f)² (σ² w_k + E[b²]) plus the filter's 
   rest included). θ̄ lags too, so e misses T/2 of a ramp and, when a turns, can cross zero while
   the filter is still far behind; e' = e − ¾ e₄ takes θ̄'s own lag out, e₄ = 4(θ̄ − mean_{T/4} θ̄)
   being T/2 × the rate for a ramp (``period_mean``'s; the full e₄ is exact for a ramp but overshoots
-  by up to half a step for a period after one). (g sec²θ_f)² max(((|e| + x/2)² − 4σ²/n)⁺,
-  (e'² − 29σ²/n)⁺) is added, n the samples in the period: e counts beyond 2σ of its noise-only
-  spread (σ²/n, θ̄'s; θ_f's own is far smaller), e' beyond 3σ of its (¹³⁄₄ σ²/n).
+  by up to half a step for a period after one). (g sec²θ_f)² max(((|e| + x/2)² − 4(σ²/n + s))⁺,
+  (e'² − 29σ²/n − 9s)⁺) is added, n the samples in the period: e counts beyond 2σ of its noise-only
+  spread (σ²/n, θ̄'s, plus s), e' beyond 3σ of its (¹³⁄₄ σ²/n + s). θ_f's own noise is far smaller
+  than θ̄'s once the filter has settled, but not in its first seconds, when the first sample still
+  weighs (1 − S_{k−1}) in it: s = σ²(w_k − Σh²)⁺, that start-up part, which the noise term already
+  counts (without it at_rest's NEES was 0.34 over 2–4 s and 0.57 over 2–10 s, 40 seeds; now 0.80, 0.84).
 * x = ``swing.change_excess`` of the raw angle's period change (d, q): θ_f − θ_eq = e − (θ_eq − θ̄),
   and θ̄'s own lag is d/2 for a ramp, which the raw angle shows as soon as the bob moves while e
   (θ̄ not having moved yet) still reads 0 after a step. x/2 rather than x: with x the after-change
@@ -56,7 +59,8 @@ _SHORT = 0.25  # e₄'s window, in swing periods
 # e² counts beyond 4 × its noise-only variance (2σ), e'² beyond 9 × (3σ: it is the noisier, and the
 # filter's own noise is so small that any leak of the reference's shows). In units of σ²/n, with the
 # noise-only variances θ̄: 1, e' ≈ 4θ̄ − 3 mean_{T/4} θ̄: 13/4 (θ_f's own noise is far smaller).
-_NOISE_E, _NOISE_E_PRIME = 4.0, 9.0 * 13.0 / 4.0
+_SIGMAS_E_PRIME = 3.0
+_NOISE_E, _NOISE_E_PRIME = 4.0, _SIGMAS_E_PRIME**2 * 13.0 / 4.0
 _STAGES = 3  # the reference mean must leave less swing than the filter (as period_mean)
 _TABLE_TOL = 1e-12  # the start-up noise gain is tabulated until the start's weight falls below this
 _TABLE_MAX = 1_000_000  # samples
@@ -129,18 +133,28 @@ class LowpassEstimator(Estimator):
         self._z = []
         self._count = 0
 
-    def lag_variance(self, theta_f: float, mean: float, quarter: float, n: float, change: float) -> float:
-        """max(((|e| + x/2)² − 4σ²/n)⁺, (e'² − 29σ²/n)⁺) (rad²), e = θ_f − θ̄, e' = e − ¾·4(θ̄ − mean_{T/4} θ̄).
+    def lag_variance(
+        self, theta_f: float, mean: float, quarter: float, n: float, change: float, weight: float
+    ) -> float:
+        """max(((|e| + x/2)² − 4(σ²/n + s))⁺, (e'² − 29σ²/n − 9s)⁺) (rad²), e = θ_f − θ̄,
+        e' = e − ¾·4(θ̄ − mean_{T/4} θ̄), s = σ²(w_k − Σh²)⁺ θ_f's start-up noise.
 
-        ``quarter`` = mean_{T/4} θ̄; x = ``change``, ``swing.change_excess`` of the period change (module doc).
+        ``quarter`` = mean_{T/4} θ̄; x = ``change``, ``swing.change_excess`` of the period change; w_k =
+        ``weight``, the noise gain k samples after a start (module doc).
         """
-        noise = self.config.sigma**2 / n
+        sigma2 = self.config.sigma**2
+        noise = sigma2 / n
+        startup = sigma2 * max(weight - self._noise_gain, 0.0)
         e = theta_f - mean
         e_prime = e - _REF_LAG * (mean - quarter) / _SHORT
         if not math.isfinite(e * e + e_prime * e_prime + change):
             return math.inf  # angles beyond ~1e154 rad: capped by the caller, as in ``batch``
         reach = abs(e) + 0.5 * change
-        return max(reach * reach - _NOISE_E * noise, e_prime * e_prime - _NOISE_E_PRIME * noise, 0.0)
+        return max(
+            reach * reach - _NOISE_E * (noise + startup),
+            e_prime * e_prime - _NOISE_E_PRIME * noise - _SIGMAS_E_PRIME**2 * startup,
+            0.0,
+        )
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """lfilter step y = b₀x + z₀, z_i = z_{i+1} + b_{i+1}x − a_{i+1}y; a = g tan y, var: module doc."""
@@ -173,7 +187,7 @@ class LowpassEstimator(Estimator):
         d, q, n_w = self._swing.period_change(means.mean, means.window, self._change_hints)
         rho = math.exp(-0.5 * cfg.damping * means.window)
         excess = float(change_excess(d, q, n_w, rho, cfg.sigma))
-        lag = self.lag_variance(y, means.mean, over_quarter, means.n, excess)
+        lag = self.lag_variance(y, means.mean, over_quarter, means.n, excess, weight)
         var = gain * gain * cfg.sigma**2 * weight + capped(gain * gain * lag, cfg.error_cap)
         var += bias_variance(cfg, th, t - self._first_t)
         return Estimate(cfg.gravity * math.tan(th), var, clamped)
@@ -200,8 +214,13 @@ class LowpassEstimator(Estimator):
         e_prime = e - _REF_LAG * (mean - over_quarter) / _SHORT
         d, q, n_w, rho = period_changes(t, theta, mean, window, self._swing)
         reach = np.abs(e) + 0.5 * change_excess(d, q, n_w, rho, cfg.sigma)
+        startup = cfg.sigma**2 * np.maximum(weight - self._noise_gain, 0.0)
         lag = np.maximum(
-            np.maximum(reach * reach - _NOISE_E * noise, e_prime * e_prime - _NOISE_E_PRIME * noise), 0.0
+            np.maximum(
+                reach * reach - _NOISE_E * (noise + startup),
+                e_prime * e_prime - _NOISE_E_PRIME * noise - _SIGMAS_E_PRIME**2 * startup,
+            ),
+            0.0,
         )
         var = gain * gain * cfg.sigma**2 * weight + capped_array(gain * gain * lag, cfg.error_cap)
         var = var + bias_variance_array(cfg, th, t - t[0])
