@@ -346,3 +346,18 @@ def test_lowpass_does_not_count_its_start_up_noise_twice() -> None:
         early = (run.t >= 2.0) & (run.t < 6.0)
         nees.append((a - run.accel_true)[early] ** 2 / var[early])
     assert 0.6 <= float(np.mean(np.concatenate(nees))) <= 1.5
+
+
+def test_dynamic_does_not_read_its_residual_swing_as_lag() -> None:
+    """braking after the car stops (7.5–12 s), seeds 0–4: the bob swings 0.4–0.8 rad and â carries a residual
+    swing the fit-error term already counts; the lag term counts beyond 8 × that term, so mean NEES is
+    0.8–1.5 (0.62 when â − mean(â) read that residual as lag)."""
+    base = load_scene("braking")
+    nees = []
+    for seed in range(5):
+        scene = dataclasses.replace(base, sensor=dataclasses.replace(base.sensor, seed=seed))
+        run = run_scene(scene)
+        a, var = estimate_batch("dynamic", run.t, run.theta_measured, **estimator_settings(scene))
+        stopped = run.t >= 7.5
+        nees.append((a - run.accel_true)[stopped] ** 2 / var[stopped])
+    assert 0.8 <= float(np.mean(np.concatenate(nees))) <= 1.5

@@ -19,7 +19,8 @@ makes, each estimated from the method's own data:
   0.6 rad; past 1 rad the series is not used);
 * the lag while a changes: â is a at the window centre, D = (W − 1)/2 samples ago, so it trails a
   ramp by D × its rate, which is â − mean(â over the last 2D) for a ramp. Its square counts beyond
-  9 × the noise variance (3σ, as kalman's motion term: â − mean(â) carries about â's own noise).
+  9 × the noise variance (3σ, as kalman's motion term: â − mean(â) carries about â's own noise) and
+  beyond 8 × the swing term's mean square m (the residual swing moves â − mean(â) by up to 2√(2m)).
 * a change of a inside the window, which the centre does not see for D: the same polynomial
   evaluated at the newest sample gives â_end, a from the window's end, and δ = â_end − â shows a
   step of a ~0.05 s after the bob starts to move (the fit's end bends with the newest samples).
@@ -67,6 +68,10 @@ from pendulum_accel.estimators.swing import SwingWindow, Trail, trail_means
 from pendulum_accel.physics.params import require_positive
 
 _LAG_THRESHOLD = 9.0  # the lag term counts beyond 9 × its noise-only variance (3σ, as kalman's)
+# â carries the residual swing the model term already counts (mean square m, amplitude √(2m)); â − mean(â)
+# moves with it by at most twice that amplitude, so the lag term counts beyond 4 × 2m as well: without it,
+# braking's swinging steady stretch read that residual as lag (mean NEES 0.69, 0.4 % beyond 2σ; now 0.99).
+_LAG_SWING = 8.0
 _SWING_STAGES = 2  # T₀, then T(a₁, A₁)
 _SERIES_TOL = 1e-20  # x^{2j}/(2j)! of the fit-error series' last term at the fastest swing
 _JUMP_SIGMAS = 3.0  # δ = â_end − â counts beyond 3 × its noise-only spread (as the lag term)
@@ -310,7 +315,7 @@ class DynamicEstimator(Estimator):
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """Push θ; once full, fit and invert; var = σ²Σw² + (g sec²θ)²E[b²] + fit error
-        + max((lag² − 9σ²Σw²)⁺, jump², onset)."""
+        + max((lag² − 9σ²Σw² − 8 m)⁺, jump², onset), m the fit-error (swing) term."""
         if not self._accepts(t, theta, self._last_t):
             return None
         if self._last_t is None:
@@ -362,7 +367,7 @@ class DynamicEstimator(Estimator):
         mean, _, _, self._hint = self._outputs.means(k, 2.0 * self._delay, self._hint)
         self._outputs.prune(k)
         lag = a - mean
-        excess = max(lag * lag - _LAG_THRESHOLD * var, jump * jump, self._onset_var, 0.0)
+        excess = max(lag * lag - _LAG_THRESHOLD * var - _LAG_SWING * model, jump * jump, self._onset_var, 0.0)
         var += capped(model + excess, cfg.error_cap) + bias_variance(cfg, th, t - self._first_t)
         return Estimate(a, var, clamped)
 
@@ -424,7 +429,8 @@ class DynamicEstimator(Estimator):
                 held = max(held, found)
                 onset[k] = held
         lag = accel - trail_means(t, accel, 2.0 * self._delay, cfg.gap)
-        excess = np.maximum(np.maximum(np.maximum(lag * lag - _LAG_THRESHOLD * var, jump * jump), onset), 0.0)
+        lag_excess = lag * lag - _LAG_THRESHOLD * var - _LAG_SWING * model
+        excess = np.maximum(np.maximum(np.maximum(lag_excess, jump * jump), onset), 0.0)
         var = var + capped_array(model + excess, cfg.error_cap)
         return accel, var + bias_variance_array(cfg, th_c, t - t[0])
 
