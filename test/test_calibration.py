@@ -17,6 +17,7 @@ from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import Constant, Ramp
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.recording.analyze import calibration, nees_split
+from pendulum_accel.recording.seed_spread import with_seed
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import SceneRun, run_scene
@@ -333,31 +334,28 @@ def test_period_change_cancels_a_damped_swing_and_measures_a_ramp() -> None:
     assert (d[:400] == 0.0).all()  # no period change before the history holds T + 2w
 
 
+def _mean_nees(name: str, method: str, seeds: int, t_from: float, t_to: float) -> float:
+    """Mean NEES of ``method`` on scene ``name`` over t_from ≤ t < t_to, sensor seeds 0 … seeds − 1."""
+    base = load_scene(name)
+    nees = []
+    for seed in range(seeds):
+        scene = with_seed(base, seed)
+        run = run_scene(scene)
+        a, var = estimate_batch(method, run.t, run.theta_measured, **estimator_settings(scene))
+        keep = (run.t >= t_from) & (run.t < t_to)
+        nees.append((a - run.accel_true)[keep] ** 2 / var[keep])
+    return float(np.mean(np.concatenate(nees)))
+
+
 def test_lowpass_does_not_count_its_start_up_noise_twice() -> None:
     """at_rest, t = 2–6 s, seeds 0–19: the first sample still weighs in θ_f; its noise is in the noise gain
     w_k, and the lag term's threshold now allows for it too, so mean NEES is 0.6–1.5 (0.36 when the lag
     term read that start-up noise as lag)."""
-    base = load_scene("at_rest")
-    nees = []
-    for seed in range(20):
-        scene = dataclasses.replace(base, sensor=dataclasses.replace(base.sensor, seed=seed))
-        run = run_scene(scene)
-        a, var = estimate_batch("lowpass", run.t, run.theta_measured, **estimator_settings(scene))
-        early = (run.t >= 2.0) & (run.t < 6.0)
-        nees.append((a - run.accel_true)[early] ** 2 / var[early])
-    assert 0.6 <= float(np.mean(np.concatenate(nees))) <= 1.5
+    assert 0.6 <= _mean_nees("at_rest", "lowpass", 20, 2.0, 6.0) <= 1.5
 
 
 def test_dynamic_does_not_read_its_residual_swing_as_lag() -> None:
     """braking after the car stops (7.5–12 s), seeds 0–4: the bob swings 0.4–0.8 rad and â carries a residual
     swing the fit-error term already counts; the lag term counts beyond 8 × that term, so mean NEES is
     0.8–1.5 (0.62 when â − mean(â) read that residual as lag)."""
-    base = load_scene("braking")
-    nees = []
-    for seed in range(5):
-        scene = dataclasses.replace(base, sensor=dataclasses.replace(base.sensor, seed=seed))
-        run = run_scene(scene)
-        a, var = estimate_batch("dynamic", run.t, run.theta_measured, **estimator_settings(scene))
-        stopped = run.t >= 7.5
-        nees.append((a - run.accel_true)[stopped] ** 2 / var[stopped])
-    assert 0.8 <= float(np.mean(np.concatenate(nees))) <= 1.5
+    assert 0.8 <= _mean_nees("braking", "dynamic", 5, 7.5, math.inf) <= 1.5
