@@ -58,9 +58,10 @@ _REF_LAG = 0.75  # the share of θ̄'s own lag, e₄, taken out of e'
 _SHORT = 0.25  # e₄'s window, in swing periods
 # e² counts beyond 4 × its noise-only variance (2σ), e'² beyond 9 × (3σ: it is the noisier, and the
 # filter's own noise is so small that any leak of the reference's shows). In units of σ²/n, with the
-# noise-only variances θ̄: 1, e' ≈ 4θ̄ − 3 mean_{T/4} θ̄: 13/4 (θ_f's own noise is far smaller).
-_SIGMAS_E_PRIME = 3.0
-_NOISE_E, _NOISE_E_PRIME = 4.0, _SIGMAS_E_PRIME**2 * 13.0 / 4.0
+# noise-only variances θ̄: 1, e' ≈ 4θ̄ − 3 mean_{T/4} θ̄: 13/4. θ_f's own noise is far smaller once the
+# filter has settled; its start-up part is added to both per sample (``lag_variance``).
+_SIGMAS_E, _SIGMAS_E_PRIME = 2.0, 3.0
+_NOISE_E, _NOISE_E_PRIME = _SIGMAS_E**2, _SIGMAS_E_PRIME**2 * 13.0 / 4.0
 _STAGES = 3  # the reference mean must leave less swing than the filter (as period_mean)
 _TABLE_TOL = 1e-12  # the start-up noise gain is tabulated until the start's weight falls below this
 _TABLE_MAX = 1_000_000  # samples
