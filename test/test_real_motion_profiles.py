@@ -15,6 +15,7 @@ import pytest
 
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError, SceneError
+from pendulum_accel.overrides import OVERRIDE_BY_NAME, SENSOR_DESIGNS, apply_overrides
 from pendulum_accel.physics.profiles import Table, profile_from_dict
 from pendulum_accel.physics.speed_trace import (
     DEFAULT_MAX_CUTOFF_HZ,
@@ -244,6 +245,20 @@ def test_drive_cycles_are_real_motion_not_core_scenes() -> None:
     assert short.sensor.rate_hz == 200.0 and short.sensor.noise_std == 2e-3
     teaching = load_scene("udds_teaching")
     assert teaching.pendulum.length == 1.0 and teaching.profile == short.profile
+
+
+@pytest.mark.parametrize("name", list(CYCLES))
+def test_scenes_ship_the_two_sensor_designs_of_the_override_table(name: str) -> None:
+    """NAME is the short damped design and NAME_teaching the 1 m one, exactly as SENSOR_DESIGNS says."""
+    short, teaching = load_scene(name), load_scene(f"{name}_teaching")
+    for scene, design in ((short, "short_damped"), (teaching, "teaching")):
+        values = SENSOR_DESIGNS[design]
+        assert {key: OVERRIDE_BY_NAME[key].get(scene) for key in values} == values
+    moved = apply_overrides(short, SENSOR_DESIGNS["teaching"])
+    assert (
+        moved.pendulum.length == teaching.pendulum.length and moved.sensor.rate_hz == teaching.sensor.rate_hz
+    )
+    assert moved.profile == teaching.profile and moved.duration == teaching.duration
 
 
 @pytest.mark.parametrize("name", list(CYCLES))

@@ -41,8 +41,8 @@ MAX_GAP_STEPS = 5.0
 invent the motion across it."""
 
 TABLE_TOLERANCE = 2e-3
-"""m/s²: the most the piecewise-linear table may differ from the spline's derivative s'(t); a quarter of
-the ≈ 8 mm/s² that the EPA schedules' 0.1 mph rounding leaves in s'(t) at their 0.25 Hz cut-off."""
+"""m/s²: the most the piecewise-linear table may differ from the spline's derivative s'(t); a fifth of
+the 10 mm/s² RMS that the EPA schedules' 0.1 mph rounding leaves in s'(t) at their 0.25 Hz cut-off."""
 
 TABLE_MIN_STEPS = 2
 """At least this many table points per trace step h, whatever |a''| is."""
