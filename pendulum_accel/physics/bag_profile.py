@@ -34,6 +34,7 @@ from pendulum_accel.physics.speed_trace import (
     differentiate,
     median_step,
     spline_table,
+    window_fields,
     windowed_table,
 )
 
@@ -118,8 +119,7 @@ def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     msgtype, times, values, stamped = read_topic(path, topic)
     where: Callable[[int], str] = lambda i: f"bag {path.name} {topic} message {i}"  # noqa: E731
     check_trace(times, values, where, name="speed" if msgtype in SPEED_FIELDS else "acceleration")
-    start = field_number(kind, "start", d["start"]) if "start" in d else None
-    end = field_number(kind, "end", d["end"]) if "end" in d else None
+    start, end = window_fields(kind, d)
     clock = "header stamps" if stamped else "log times (header stamps unset)"
     label = f"bag_topic {path.name} {topic} ({msgtype}, {times.size} messages, {clock})"
     if msgtype in SPEED_FIELDS:

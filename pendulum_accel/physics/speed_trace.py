@@ -180,7 +180,7 @@ def windowed_table(
 
 
 def describe_differentiation(cutoff_hz: float, step: float, default: bool) -> str:
-    """'smoothing spline, −3 dB cut-off f_c Hz (default: half the Nyquist of h = … s)' for plan lines."""
+    """'a = d/dt of a smoothing spline of v, -3 dB cut-off f_c Hz (default: …)' for plan lines."""
     rule = f" (default: min(half the Nyquist of the {step:.3g} s samples, 1 Hz))" if default else ""
     return f"a = d/dt of a smoothing spline of v, -3 dB cut-off {cutoff_hz:.3g} Hz{rule}"
 
@@ -238,8 +238,8 @@ def read_columns(
     return np.array(times), np.array(values), lines
 
 
-def _window(kind: str, d: Mapping[str, object]) -> tuple[float | None, float | None]:
-    """The optional 'start' and 'end' fields, s."""
+def window_fields(kind: str, d: Mapping[str, object]) -> tuple[float | None, float | None]:
+    """The optional 'start' and 'end' fields of a profile mapping, s (None when absent)."""
     start = field_number(kind, "start", d["start"]) if "start" in d else None
     end = field_number(kind, "end", d["end"]) if "end" in d else None
     return start, end
@@ -281,7 +281,7 @@ def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
             )
     default = "cutoff_hz" not in d
     cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
-    start, end = _window(kind, d)
+    start, end = window_fields(kind, d)
     recipe: dict[str, object] = {
         "type": "speed_table",
         "units": units,
