@@ -19,6 +19,7 @@ the CPU they run on, and each is switched off its AVX-512, AVX2 and FMA paths it
 
 from __future__ import annotations
 
+import importlib
 import os
 import sys
 
@@ -35,8 +36,7 @@ def implies_disabled(target: str) -> bool:
 def numpy_disabled_targets() -> list[str]:
     """numpy's dispatch targets this CPU has, not baseline, that are or imply AVX-512F, AVX2 or FMA3
     (inside the emulation numpy reports the disabled ones as absent: they are kept from the variable)."""
-    from numpy._core import _multiarray_umath as umath
-
+    umath = importlib.import_module("numpy._core._multiarray_umath")  # numpy's own CPU tables
     baseline = set(umath.__cpu_baseline__)
     have = {t for t, on in umath.__cpu_features__.items() if on}
     have |= set(os.environ.get("NPY_DISABLE_CPU_FEATURES", "").replace(",", " ").split())
