@@ -312,7 +312,8 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
     the plan says the inputs are ill-conditioned, but while the response stays linear the run's own error
     is still its method error (its rounding carried through the same growth). Past the linear regime the
     run's error is decided by how its rounding falls and no tight bound exists: the prediction becomes
-    max(method error, floor, SPREAD_SAFETY × the spread of five runs one ulp apart).
+    max(method error, floor, SPREAD_SAFETY × the spread of five runs one ulp apart). A θ0 the scene
+    wrapped into (-π, π] is said first in the reason.
     """
     if plan.sensitivity is None:
         # only a fixed step without a pilot adds the measured round-off (_with_roundoff): a closed form's
@@ -321,11 +322,17 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
         plan = _with_roundoff(scene, plan, measure_sensitivity(scene, plan, noise=noise))
     sensitivity = plan.sensitivity
     assert sensitivity is not None  # set by _with_roundoff
-    predicted = plan.method_error
+    # Never 0 (a step-halving pilot whose two runs come out identical reads 0): a run rounds at least its
+    # start state, so its error is at least what one ulp of its inputs does (the floor), and at least its
+    # measured round-off where that was measured.
+    noise = sensitivity.noise if math.isfinite(sensitivity.noise) else 0.0
+    predicted = max(plan.method_error, sensitivity.floor, noise)
     if sensitivity.ill_conditioned and not sensitivity.linear:
-        predicted = max(predicted, sensitivity.floor, SPREAD_SAFETY * sensitivity.spread)
+        predicted = max(predicted, SPREAD_SAFETY * sensitivity.spread)
     driven = scene.profile.constant_pieces(0.0, scene.duration) is None
-    return replace(plan, predicted_error=predicted, driven=driven)
+    note = scene.wrap_note()
+    reason = f"{note}; {plan.reason}" if note and not plan.reason.startswith(note) else plan.reason
+    return replace(plan, predicted_error=predicted, driven=driven, reason=reason)
 
 
 def _with_roundoff(scene: Scene, plan: Plan, sensitivity: Sensitivity) -> Plan:
