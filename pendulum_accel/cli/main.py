@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 
@@ -66,9 +67,26 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run one subcommand; a PendulumAccelError becomes a one-line message and exit code 2."""
+    """Run one subcommand; a PendulumAccelError becomes a one-line message and exit code 2, Ctrl-C (even
+    while the command's modules are still importing) one line and exit code 130."""
+    own_process = argv is None  # the console script or python -m: this process is the command's own
     argv = list(sys.argv[1:] if argv is None else argv)
     command = command_in(argv)
+    try:
+        return _run(argv, command)
+    except KeyboardInterrupt:
+        print(f"pendulum-accel {command or ''}: interrupted".replace(" :", ":"), file=sys.stderr)
+        if own_process:
+            # The command has removed its partial output already; the interpreter's own teardown (numba,
+            # llvmlite, matplotlib finalizers) took 2-3 s of a loaded machine after a long generate.
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(130)
+        return 130
+
+
+def _run(argv: list[str], command: str | None) -> int:
+    """Parse argv (only ``command``'s module imported) and run it; PendulumAccelError → one line, exit 2."""
     if command is None:  # --version, --help, or an unknown command: argparse answers without the modules
         parser = build_parser("")
         args = parser.parse_args(argv)
@@ -85,8 +103,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except PendulumAccelError as err:
         print(f"pendulum-accel {args.command}: error: {err}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        return 130
     except BrokenPipeError:
         return 0
 
