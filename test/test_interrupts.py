@@ -66,9 +66,6 @@ def test_generate_interrupted_while_writing_leaves_no_bag(tmp_path: Path) -> Non
     assert not out.exists()
 
 
-@pytest.mark.skipif(
-    shutil.which("ffmpeg") is None, reason="the MP4 path needs ffmpeg (make setup installs it)"
-)
 def test_animate_interrupted_while_encoding_leaves_no_file(tmp_path: Path) -> None:
     """SIGINT once ffmpeg has opened its (hidden, partial) output: exit 130, no MP4 and no partial file
     (ffmpeg is a requirement of the animation tests: make setup installs it)."""
