@@ -167,6 +167,7 @@ def test_bias_second_moment() -> None:
     t = 50.0
     decay = math.exp(-1.0)
     expected = 1e-6 + 1e-8 * t + decay * 5e-6 + 50.0 * 1e-8 * (1.0 - decay)
+    # four positive terms and one exp, summed in another order: ≤ ~8 roundings of the sum, 8 ε ≈ 1.8e-15
     assert cfg.bias_second_moment(t) == pytest.approx(expected, rel=1e-12)
     assert EstimatorConfig(length=1.0, bias_mean=2e-3).bias_second_moment(1e6) == pytest.approx(4e-6)
 

@@ -137,8 +137,9 @@ def test_instant_variance_is_conditioning_times_noise() -> None:
     for k, theta in enumerate((0.0, 0.3, -1.0, 1.4)):
         out = est.update(float(k), theta)
         assert out is not None
-        assert out.a == pytest.approx(G * math.tan(theta), rel=1e-15)
-        assert out.variance == pytest.approx((G / math.cos(theta) ** 2 * SIGMA) ** 2, rel=1e-14)
+        # the same libm tan/cos and ≤ 5 roundings each way: within 5 ε ≈ 1.1e-15 (relative)
+        assert out.a == pytest.approx(G * math.tan(theta), rel=5 * EPS)
+        assert out.variance == pytest.approx((G / math.cos(theta) ** 2 * SIGMA) ** 2, rel=10 * EPS)
         assert not out.clamped
 
 
