@@ -18,7 +18,7 @@ VENV_FLAGS :=
 ROS_REQS   := -r requirements-ros.txt
 endif
 
-.PHONY: demo test setup lint typecheck pytest bags bench clean
+.PHONY: demo test setup lint typecheck pytest pytest-emulated bags bench clean
 
 setup: $(STAMP)
 
@@ -63,7 +63,21 @@ typecheck: $(STAMP)
 pytest: $(STAMP)
 	$(BIN)/python -m pytest
 
-test: lint typecheck pytest
+# The numerics tests: every test whose figures come from floating-point arithmetic that numpy, libm or
+# numba may do differently on another x86-64 CPU (physics, integrators, kernels, closed forms, planner
+# and conditioning, estimators and calibration, Allan deviation, sweeps, golden bags). pytest-emulated
+# runs them once more with numpy, glibc's libm and numba kept off AVX-512, AVX2 and FMA
+# (test/cpu_emulation.py; docs/portability.md), so a machine-dependent assertion fails here first.
+NUMERICS_TESTS := $(addprefix test/test_,$(addsuffix .py, \
+  physics_properties equation_of_motion rigid elastic multiplier grade linear exact variational \
+  integrators dop853_tableau kernels profiles simulate extremes planner error_bounds \
+  estimators estimator_guard onset fit_onset calibration seed_spread sensor allan \
+  lecture sweep scene_run bag_golden figures cpu_emulation))
+
+pytest-emulated: $(STAMP)
+	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pytest $(NUMERICS_TESTS)
+
+test: lint typecheck pytest pytest-emulated
 
 bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags

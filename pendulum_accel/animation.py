@@ -9,11 +9,13 @@ arrows start at the pivot along the car's x axis, ARROW_M_PER_MS2 metres per m/s
 from __future__ import annotations
 
 import math
+import os
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import matplotlib as mpl
 import numpy as np
 from matplotlib.animation import FFMpegWriter, PillowWriter
 from matplotlib.artist import Artist
@@ -193,19 +195,43 @@ class SwingAnimation:
         ``on_frame`` is called after each frame is written (a progress bar).
         """
         out = check_output_path(path)
+        # Frames go to a hidden sibling with the same suffix (Pillow and ffmpeg pick the format by it),
+        # renamed over ``out`` only once complete: an interrupt or error leaves no partial GIF or MP4.
+        partial = out.with_name(f".{out.stem}.partial{out.suffix}")
         writer: PillowWriter | FFMpegWriter
         if out.suffix.lower() == ".gif":
             writer = PillowWriter(fps=self.fps)
         else:
             writer = FFMpegWriter(fps=self.fps, codec="h264", extra_args=["-pix_fmt", "yuv420p"])
-        # Each frame is drawn once, by the writer's savefig (FuncAnimation would draw it twice).
-        with writer.saving(self.figure, str(out), DPI):
-            for k in range(self.times.size):
-                self.draw_frame(k)
-                writer.grab_frame()
-                if on_frame is not None:
-                    on_frame()
+        # Not writer.saving(): its finally encodes every frame grabbed so far even on Ctrl-C (seconds of
+        # Pillow or ffmpeg work, and a partial file). Each frame is drawn once, by the writer's savefig.
+        done = False
+        writer.setup(self.figure, str(partial), DPI)
+        try:
+            with mpl.rc_context({"savefig.bbox": None}):
+                for k in range(self.times.size):
+                    self.draw_frame(k)
+                    writer.grab_frame()
+                    if on_frame is not None:
+                        on_frame()
+                writer.finish()
+            os.replace(partial, out)
+            done = True
+        finally:
+            if not done:
+                _abandon(writer)
+                partial.unlink(missing_ok=True)
         return out
+
+
+def _abandon(writer: PillowWriter | FFMpegWriter) -> None:
+    """Drop an unfinished writer without encoding: kill its ffmpeg (if any), forget Pillow's frames."""
+    proc = getattr(writer, "_proc", None)
+    if proc is not None and proc.poll() is None:
+        proc.kill()
+        proc.wait()
+    if hasattr(writer, "_frames"):
+        writer._frames = []
 
 
 def check_output_path(path: Path | str) -> Path:

@@ -115,8 +115,9 @@ class Sensitivity:
         if self.lost_at is None or not self.ill_conditioned:
             return ""
         return (
-            f"ILL-CONDITIONED: no double-precision simulation can meet the target for these inputs "
-            f"from t = {self.lost_at:.3g} s on"
+            f"ILL-CONDITIONED: the inputs do not determine θ to within the target from "
+            f"t = {self.lost_at:.3g} s on (one ulp of {self.input} moves θ by more; a run may still land "
+            f"within it, nothing assures it)"
         )
 
     def chaos(self) -> str:

@@ -7,7 +7,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.scene import Scene
+from pendulum_accel.scene import THETA0_MAX, Scene
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,8 @@ OVERRIDES: tuple[Override, ...] = (
              lambda s, v: replace(s, sensor=replace(s.sensor, rate_hz=v))),
     Override("seed", int, 0, 2**31 - 1, "", "sensor noise seed", lambda s: s.sensor.seed,
              lambda s, v: replace(s, sensor=replace(s.sensor, seed=int(v)))),
-    Override("theta0", float, -math.pi, math.pi, "rad", "initial angle θ(0)", lambda s: s.theta0,
+    Override("theta0", float, -THETA0_MAX, THETA0_MAX, "rad", "initial angle θ(0), wrapped into (-π, π]",
+             lambda s: s.theta0,
              lambda s, v: replace(s, theta0=v)),
     Override("duration", float, 1e-3, 86_400.0, "s", "scene duration", lambda s: s.duration,
              lambda s, v: replace(s, duration=v)),

@@ -97,6 +97,17 @@ BUNDLED_SCENE_NAMES: tuple[str, ...] = SCENE_NAMES + REAL_MOTION_SCENE_NAMES
 DEFAULT_SCENE = "lecture_constant"
 OUTPUTS: tuple[str, ...] = ("angle", "tension", "stretch")
 _NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
+# θ0 is periodic and is wrapped into (-π, π]; up to 8 turns the wrap moves it by ≤ 8·|2π − fl(2π)| ≈ 2e-15
+# rad beyond the given value's own rounding, past that the given value's ulp (≥ 8e-15 rad) is the error.
+THETA0_MAX = 16.0 * math.pi
+
+
+def wrap_angle(theta: float) -> float:
+    """θ − 2πk in (-π, π]: math.remainder by fl(2π) (exact), its -π mapped to π."""
+    wrapped = math.remainder(theta, 2.0 * math.pi)
+    return math.pi if wrapped == -math.pi else wrapped
+
+
 _LOG = logging.getLogger(__name__)
 
 
@@ -143,10 +154,26 @@ class Scene:
     method: str | None = None
     grade: float = 0.0
     source: Path | None = field(default=None, compare=False)
+    theta0_given: float | None = field(default=None, compare=False)  # θ0 as given when it was wrapped
 
     def __post_init__(self) -> None:
-        """Check every field and the cross-field rules; raise SceneError('<field>: <expected>')."""
+        """Wrap θ0 into (-π, π] (noting the given value); check every field and the cross-field rules;
+        raise SceneError('<field>: <expected>')."""
+        theta0 = self.theta0
+        if _finite(theta0) and abs(theta0) <= THETA0_MAX and not -math.pi < theta0 <= math.pi:
+            object.__setattr__(self, "theta0_given", theta0)
+            object.__setattr__(self, "theta0", wrap_angle(theta0))
+        elif self.theta0_given is not None and (
+            not _finite(self.theta0_given) or wrap_angle(self.theta0_given) != theta0
+        ):
+            object.__setattr__(self, "theta0_given", None)  # θ0 replaced since: the note no longer holds
         _check_scene(self)
+
+    def wrap_note(self) -> str:
+        """'θ0 = … rad wrapped to … rad (the angle is periodic)' when θ0 was wrapped, else ''."""
+        if self.theta0_given is None:
+            return ""
+        return f"θ0 = {self.theta0_given:.6g} rad wrapped to {self.theta0:.6g} rad (the angle is periodic)"
 
     def on_level(self) -> Scene:
         """The level-road scene with this one's motion: g → g cos β, a(t) → a(t) + g sin β, grade 0.
@@ -187,6 +214,8 @@ def _check_scene(scene: Scene) -> None:
     for name in ("theta0", "theta_dot0"):
         if not _finite(getattr(scene, name)):
             raise SceneError(f"pendulum.{name}: expected a finite number, got {getattr(scene, name)!r}")
+    if not abs(scene.theta0) <= math.pi:
+        raise SceneError(f"pendulum.theta0: expected |θ0| ≤ 16π rad (8 turns), got {scene.theta0!r}")
     if not _finite(scene.accuracy) or scene.accuracy <= 0.0:
         raise SceneError(f"accuracy.max_angle_error: expected a number of rad > 0, got {scene.accuracy!r}")
     if not isinstance(scene.outputs, tuple) or any(o not in OUTPUTS for o in scene.outputs):

@@ -63,6 +63,8 @@ def test_sigkill_loses_at_most_a_second_and_repair_restores(tmp_path: Path, spaw
     lost_s = (kill_ns - int(js.log_time_ns[-1])) * 1e-9
     assert 0.0 <= lost_s <= MAX_LOSS_S, f"lost {lost_s:.3f} s of data"
     # What is there is exactly the first messages written, in order.
+    # stored as the float64 bytes of the writer's k·1e-3, the same product as here: equal to the bit; the
+    # 1e-12 (< 1e-3, one message apart) only says which message each is
     np.testing.assert_allclose(js["position[0]"], np.arange(len(js)) * 1e-3, rtol=0, atol=1e-12)
     assert bag.custom_data["pendulum_accel.plan"] == "crash test"  # provisional metadata.yaml
 

@@ -21,6 +21,7 @@ from pendulum_accel.recording.seed_spread import with_seed
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import SceneRun, run_scene
+from test.rounding import EPS
 
 SEEDS = (100, 101, 102, 103)
 
@@ -166,6 +167,7 @@ def test_bias_second_moment() -> None:
     t = 50.0
     decay = math.exp(-1.0)
     expected = 1e-6 + 1e-8 * t + decay * 5e-6 + 50.0 * 1e-8 * (1.0 - decay)
+    # four positive terms and one exp, summed in another order: ≤ ~8 roundings of the sum, 8 ε ≈ 1.8e-15
     assert cfg.bias_second_moment(t) == pytest.approx(expected, rel=1e-12)
     assert EstimatorConfig(length=1.0, bias_mean=2e-3).bias_second_moment(1e6) == pytest.approx(4e-6)
 
@@ -320,7 +322,10 @@ def test_period_change_cancels_a_damped_swing_and_measures_a_ramp() -> None:
             means, _ = swing.push(ti, xi)
             streamed.append(swing.period_change(means.mean, means.window, hints))
         swing.reset()
-        np.testing.assert_allclose(np.array(streamed)[:, :2], np.column_stack([d, q]), rtol=0.0, atol=1e-12)
+        # Both form the same window means (sums of ≤ N samples |θ| ≤ Θ: each within N ε Θ, test.rounding's
+        # argument); q = (T/w)·(four means) with T/w = 16 carries 64 of them, d three: 64 N ε Θ covers both.
+        atol = 64.0 * t.size * EPS * float(np.max(np.abs(theta)))
+        np.testing.assert_allclose(np.array(streamed)[:, :2], np.column_stack([d, q]), rtol=0.0, atol=atol)
         period = window[late]
         rho = np.exp(-0.5 * cfg.damping * period)
         d_line = rate * period * (1.0 + rho) / 2.0 - (1.0 - rho) * rate * period / 16.0

@@ -90,7 +90,9 @@ def test_plain_flags_start_at_equilibrium_and_stay(capsys: pytest.CaptureFixture
     assert header == ["t", "theta", "theta_dot", "tension"]
     assert data.shape == (61, 4)
     assert np.max(np.abs(data[:, 1] - theta_eq)) < 1e-12
-    assert np.allclose(data[:, 3], math.hypot(9.80665, 1.0), rtol=1e-12)  # T = m √(g² + a²), m = 1
+    # T = m √(g² + a²), m = 1, written to the CSV with 17 digits: at θ_eq within 1e-12 rad the tension's
+    # terms g cos θ + a sin θ move by ≤ |a cos − g sin|·1e-12 ≈ 1e-12 of T ≈ 9.86, i.e. rel 1e-13
+    assert np.allclose(data[:, 3], math.hypot(9.80665, 1.0), rtol=1e-12)
 
 
 def test_model_method_and_step_options(capsys: pytest.CaptureFixture[str]) -> None:

@@ -80,6 +80,7 @@ def test_zero_and_ten_g(a):
     √(√(g²+a²)/l) to 1e-6."""
     p = Pendulum(1.0)
     theta_eq = math.atan(a / G)
+    # atan2(a, g) against atan(a/g): two libm calls and one division, ≤ 3 ulp of |θ_eq| < π/2
     assert p.equilibrium_angle(a) == pytest.approx(theta_eq, abs=1e-15)
     still = simulate(p, Constant(a), np.linspace(0.0, 5.0, 51), theta0=theta_eq)
     assert np.max(np.abs(still.theta - theta_eq)) < 1e-12

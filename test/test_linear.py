@@ -22,6 +22,7 @@ def test_harmonic_solution_and_start_state() -> None:
     times = np.linspace(0.0, 7.0, 50)
     theta, rate = linear_solution(pendulum, accel, theta_eq + 0.05, -0.2, times)
     want = theta_eq + 0.05 * np.cos(omega * times) - (0.2 / omega) * np.sin(omega * times)
+    # the same cos/sin of the same products, summed alike: |θ| ≤ 0.2, so 1e-15 is ≥ 4 ulp of every term
     np.testing.assert_allclose(theta, want, rtol=0, atol=1e-15)
     want_rate = -0.2 * np.cos(omega * times) - 0.05 * omega * np.sin(omega * times)
     np.testing.assert_allclose(rate, want_rate, rtol=0, atol=1e-14)

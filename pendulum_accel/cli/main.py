@@ -1,55 +1,100 @@
 """Entry point of ``pendulum-accel``: dispatches to one module per subcommand.
 
 Each module in ``COMMANDS`` defines ``register(subparsers)``, which adds its parser and
-sets ``func(args) -> int`` as the default.
+sets ``func(args) -> int`` as the default. Only the module of the command given is imported (the
+others appear in ``--help`` by their one-line summary here), so ``--version`` and ``--help`` import no
+numpy, scipy or numba (test_startup.py checks what they import).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 
 from pendulum_accel import __version__
-from pendulum_accel.cli.sweep import attach_negative_values
 from pendulum_accel.errors import PendulumAccelError
 
-# Order is the order of ``pendulum-accel --help``.
-COMMANDS: tuple[str, ...] = (
-    "simulate",
-    "scenes",
-    "sweep",
-    "lecture",
-    "animate",
-    "info",
-    "analyze",
-    "allan",
-    "export",
-    "generate",
-    "repair",
-    "golden_bags",
-    "run",
-)
+# command → (its module in pendulum_accel.cli, its one-line summary: the help= of its parser, which
+# test_startup checks). Order is the order of ``pendulum-accel --help``.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "simulate": (
+        "simulate",
+        "simulate a scene (or plain flags) with the planner's model and solver, write a CSV",
+    ),
+    "scenes": ("scenes", "list the bundled scenes (name and description), or show one"),
+    "sweep": ("sweep", "run many variants of a scene at once (lengths, accelerations or noise levels)"),
+    "lecture": ("lecture", "reproduce a result of the lecture notes: formula vs simulation, with a plot"),
+    "animate": ("animate", "draw the car and the swinging bob from a scene or a bag, as a GIF or MP4"),
+    "info": ("info", "summarise a bag: topics, counts, duration, scene and plan"),
+    "analyze": ("analyze", "compare a bag's recorded estimate and an offline re-run with its truth"),
+    "allan": (
+        "allan",
+        "Allan deviation of the angle and the estimate: white-noise density, bias random walk",
+    ),
+    "export": ("export", "write a bag's topics as CSV or Parquet tables (pandas)"),
+    "generate": ("generate", "write a bag straight from a scene (same topics as a live recording), no DDS"),
+    "repair": ("repair", "rebuild a damaged bag (killed recorder) from what its MCAP file holds"),
+    "golden-bags": ("golden_bags", "regenerate the small golden bags of the bundled scenes (make bags)"),
+    "run": ("run", "run the live ROS 2 chain on a scene and record it"),
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the top-level parser with every registered subcommand."""
+def command_in(argv: Sequence[str]) -> str | None:
+    """The subcommand named in argv: its first token that is not an option (the top level has only
+    -h/--help and --version, which take no value); None when there is none or it is not a command."""
+    first = next((token for token in argv if not token.startswith("-")), None)
+    return first if first in COMMANDS else None
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The top-level parser: ``command`` (all when None) registered by its module, the rest by name and
+    summary only."""
     parser = argparse.ArgumentParser(
         prog="pendulum-accel",
         description="Pendulum accelerometer: simulate, estimate, record and replay.",
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMANDS:
-        importlib.import_module(f"pendulum_accel.cli.{name}").register(sub)
+    for name, (module, summary) in COMMANDS.items():
+        if command is None or name == command:
+            importlib.import_module(f"pendulum_accel.cli.{module}").register(sub)
+        else:
+            sub.add_parser(name, help=summary)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run one subcommand; a PendulumAccelError becomes a one-line message and exit code 2."""
-    parser = build_parser()
-    args = parser.parse_args(attach_negative_values(sys.argv[1:] if argv is None else argv))
+    """Run one subcommand; a PendulumAccelError becomes a one-line message and exit code 2, Ctrl-C (even
+    while the command's modules are still importing) one line and exit code 130."""
+    own_process = argv is None  # the console script or python -m: this process is the command's own
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = command_in(argv)
+    try:
+        return _run(argv, command)
+    except KeyboardInterrupt:
+        print(f"pendulum-accel {command or ''}: interrupted".replace(" :", ":"), file=sys.stderr)
+        if own_process:
+            # The command has removed its partial output already; the interpreter's own teardown (numba,
+            # llvmlite, matplotlib finalizers) took 2-3 s of a loaded machine after a long generate.
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(130)
+        return 130
+
+
+def _run(argv: list[str], command: str | None) -> int:
+    """Parse argv (only ``command``'s module imported) and run it; PendulumAccelError → one line, exit 2."""
+    if command is None:  # --version, --help, or an unknown command: argparse answers without the modules
+        parser = build_parser("")
+        args = parser.parse_args(argv)
+    else:
+        from pendulum_accel.cli.sweep import attach_negative_values
+
+        parser = build_parser(command)
+        args = parser.parse_args(attach_negative_values(argv))
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
@@ -58,8 +103,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except PendulumAccelError as err:
         print(f"pendulum-accel {args.command}: error: {err}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        return 130
     except BrokenPipeError:
         return 0
 

@@ -44,8 +44,6 @@ import math
 from typing import ClassVar, TypeVar
 
 import numpy as np
-from numba import njit
-from scipy import signal
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators.base import (
@@ -65,7 +63,10 @@ from pendulum_accel.estimators.base import (
 )
 from pendulum_accel.estimators.fit_onset import FitOnsetTest
 from pendulum_accel.estimators.swing import SwingWindow, Trail, trail_means
+from pendulum_accel.physics.lazy import lazy_module, njit
 from pendulum_accel.physics.params import require_positive
+
+signal = lazy_module("scipy.signal")  # imported on first use: start-up (docs/portability.md)
 
 _LAG_THRESHOLD = 9.0  # the lag term counts beyond 9 × its noise-only variance (3σ, as kalman's)
 # â carries the residual swing the model term already counts (mean square m, amplitude √(2m)); â − mean(â)

@@ -43,7 +43,6 @@ import math
 from typing import ClassVar
 
 import numpy as np
-from scipy import linalg
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import onset
@@ -57,7 +56,10 @@ from pendulum_accel.estimators.base import (
     wrap_clamp,
 )
 from pendulum_accel.estimators.onset import OnsetTest
+from pendulum_accel.physics.lazy import lazy_module
 from pendulum_accel.physics.params import require_finite, require_positive
+
+linalg = lazy_module("scipy.linalg")  # imported on first use: start-up (docs/portability.md)
 
 _MAX_STEP = 0.01  # s; longer gaps are propagated in sub-steps so RK4 stays accurate
 # The published variance's motion term (see ``_lag_term``): tuned on the bundled scenes with

@@ -33,7 +33,6 @@ import math
 from typing import ClassVar
 
 import numpy as np
-from scipy import linalg, signal
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators.base import (
@@ -52,7 +51,11 @@ from pendulum_accel.estimators.base import (
     wrap_clamp_array,
 )
 from pendulum_accel.estimators.swing import SwingWindow, Trail, change_excess, period_changes, trail_means
+from pendulum_accel.physics.lazy import lazy_module
 from pendulum_accel.physics.params import require_positive
+
+linalg = lazy_module("scipy.linalg")
+signal = lazy_module("scipy.signal")  # imported on first use: start-up (docs/portability.md)
 
 _REF_LAG = 0.75  # the share of θ̄'s own lag, e₄, taken out of e'
 _SHORT = 0.25  # e₄'s window, in swing periods

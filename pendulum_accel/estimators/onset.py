@@ -14,9 +14,9 @@ the innovation power gives the ramp away (README, "What var(â) accounts for").
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.physics.lazy import njit
 
 
 @njit(cache=True)

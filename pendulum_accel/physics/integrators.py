@@ -40,7 +40,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from pendulum_accel.errors import ParameterError, StabilityError
 from pendulum_accel.physics.kernels import RK8_A, RK8_B, RK8_C, Kernel, run_kernel
@@ -300,6 +299,9 @@ def _adaptive(
     jac: Jacobian | None,
 ) -> tuple[np.ndarray, int]:
     """scipy solve_ivp, restarted at each breakpoint so it never steps across one."""
+    # imported here, not with the module: scipy costs start-up time that --help does not need
+    from scipy.integrate import solve_ivp
+
     shape = y0.shape
     rel = DEFAULT_RTOL[method] if rtol is None else float(rtol)
     if not (math.isfinite(rel) and rel > 0.0):

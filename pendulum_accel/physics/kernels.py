@@ -37,10 +37,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from pendulum_accel.physics import dop853_tableau
 from pendulum_accel.physics.elastic import stiffness_of
+from pendulum_accel.physics.lazy import njit
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import (
     AccelProfile,

@@ -11,6 +11,7 @@ call, so a 1 kHz scene goes far faster than real time.
 from __future__ import annotations
 
 import dataclasses
+import shutil
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -301,7 +302,16 @@ def generate_bag(
         CUSTOM_VERSION: __version__,
         CUSTOM_ESTIMATOR: method,
     }
-    counts = write_chain_bag(out, streams, custom_data=custom, overwrite=overwrite, compression=compression)
+    try:
+        counts = write_chain_bag(
+            out, streams, custom_data=custom, overwrite=overwrite, compression=compression
+        )
+    except KeyboardInterrupt:
+        # The writer closes what it holds into a readable bag of the first k seconds, which `info` would
+        # call complete: an interrupted generate leaves no bag instead (the directory then holds only it:
+        # prepare_output replaces nothing but a bag).
+        shutil.rmtree(out, ignore_errors=True)
+        raise
     t3 = time.perf_counter()
     sim_duration = float(t[-1] - t[0]) if t.size > 1 else 0.0
     return GenerateResult(out, counts, sim_duration, t1 - t0, t2 - t1, t3 - t2)

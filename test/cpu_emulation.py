@@ -1,0 +1,68 @@
+"""The environment of `make test`'s CPU-emulation step: numpy, libm and numba without AVX-512, AVX2 or FMA.
+
+``python -m test.cpu_emulation COMMAND...`` runs COMMAND in that environment (the Makefile's
+``pytest-emulated``); without a command it prints the assignments. Three libraries pick their code by
+the CPU they run on, and each is switched off its AVX-512, AVX2 and FMA paths its own way:
+
+* numpy: ``NPY_DISABLE_CPU_FEATURES`` lists dispatch targets. numpy ≥ 2.3 dispatches by level (X86_V3 =
+  AVX2 + FMA3 + …, X86_V4 = AVX-512, AVX512_ICL, AVX512_SPR) and only warns about a name it does not
+  dispatch (``AVX512F AVX2 FMA3`` would be ignored), while naming a baseline feature aborts its import;
+  so the list is the dispatch targets this CPU has that are, or imply, one of ``DISABLED``.
+* libm (glibc): its exp/sin/tan/atan… take FMA variants when the CPU has FMA and AVX2;
+  ``GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F`` makes it take the SSE2 ones (names it does not
+  know, or features the CPU lacks, are ignored).
+* numba: ``NUMBA_CPU_NAME=generic`` also sets its CPU features to none (numba.core.config), so the
+  kernels compile for baseline x86-64. numba's cache index keys each entry on (signature, target triple,
+  CPU name, CPU features), so the host-compiled entries are never loaded under ``generic``: the step
+  compiles its own once and keeps both (test_cpu_emulation checks this).
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+
+DISABLED = ("AVX512F", "AVX2", "FMA3")
+_LEVELS = ("X86_V3", "X86_V4")  # numpy's level targets holding AVX2 + FMA3 (V3) or AVX-512 (V4)
+GLIBC_HWCAPS = "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F"
+
+
+def implies_disabled(target: str) -> bool:
+    """True for a numpy dispatch target that is one of DISABLED or needs one (any AVX512*, X86_V3/V4)."""
+    return target in DISABLED or target in _LEVELS or target.startswith("AVX512")
+
+
+def numpy_disabled_targets() -> list[str]:
+    """numpy's dispatch targets this CPU has, not baseline, that are or imply AVX-512F, AVX2 or FMA3
+    (inside the emulation numpy reports the disabled ones as absent: they are kept from the variable)."""
+    umath = importlib.import_module("numpy._core._multiarray_umath")  # numpy's own CPU tables
+    baseline = set(umath.__cpu_baseline__)
+    have = {t for t, on in umath.__cpu_features__.items() if on}
+    have |= set(os.environ.get("NPY_DISABLE_CPU_FEATURES", "").replace(",", " ").split())
+    return [t for t in umath.__cpu_dispatch__ if t not in baseline and t in have and implies_disabled(t)]
+
+
+def environment() -> dict[str, str]:
+    """The variables the emulation step sets (an existing GLIBC_TUNABLES is kept, the hwcaps appended)."""
+    tunables = ":".join(x for x in (os.environ.get("GLIBC_TUNABLES", ""), GLIBC_HWCAPS) if x)
+    return {
+        "NPY_DISABLE_CPU_FEATURES": " ".join(numpy_disabled_targets()),
+        "NUMBA_CPU_NAME": "generic",
+        "GLIBC_TUNABLES": tunables,
+    }
+
+
+def main(argv: list[str]) -> int:
+    """Print the environment, or run argv in it (replacing this process)."""
+    env = environment()
+    if not argv:
+        for name, value in env.items():
+            print(f"{name}='{value}'")
+        return 0
+    print("CPU emulation: " + " ".join(f"{k}='{v}'" for k, v in env.items()), file=sys.stderr)
+    os.execvpe(argv[0], argv, {**os.environ, **env})
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,84 @@
+"""The CPU-emulation step (test/cpu_emulation.py): numpy accepts its list and runs at baseline, and
+numba compiles for a generic CPU without loading the host's cached code."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from test.cpu_emulation import DISABLED, environment, implies_disabled, numpy_disabled_targets
+
+_TARGETS = """
+import json
+from numpy._core import _multiarray_umath as umath
+current = {spec["current"] for loops in umath.__cpu_targets_info__.values() for spec in loops.values()}
+print(json.dumps(sorted(current)))
+"""
+
+
+def _host_env() -> dict[str, str]:
+    """This environment without the emulation's variables (the test may itself run under it)."""
+    drop = {*environment(), "NUMBA_CPU_FEATURES"}
+    return {k: v for k, v in os.environ.items() if k not in drop}
+
+
+def test_numpy_takes_the_list_and_dispatches_no_disabled_target() -> None:
+    """numpy imports under the list without an ImportWarning (a name it ignores) and no ufunc loop runs a
+    target that is or needs AVX-512F, AVX2 or FMA3."""
+    listed = numpy_disabled_targets()
+    assert all(implies_disabled(t) for t in listed)
+    env = {**_host_env(), **environment()}
+    out = subprocess.run(
+        [sys.executable, "-W", "error::ImportWarning", "-c", _TARGETS],
+        env=env, capture_output=True, text=True, timeout=60, check=True,
+    )  # fmt: skip
+    current = json.loads(out.stdout)
+    assert not [t for t in current if implies_disabled(t.removeprefix("baseline(").rstrip(")"))], current
+    assert set(DISABLED) <= {"AVX512F", "AVX2", "FMA3"}
+
+
+_MODULE = """
+from numba import njit
+
+@njit(cache=True)
+def axpy(x):
+    return 1.5 * x + 1.0
+"""
+_CALL = "import kernel; print(kernel.axpy(2.0)); print(kernel.axpy.inspect_asm(kernel.axpy.signatures[0]))"
+
+
+def _run_cached(folder: Path, env: dict[str, str]) -> tuple[str, str]:
+    """(value and assembly, numba's cache log) of one process that calls the cached kernel."""
+    env = {**env, "NUMBA_DEBUG_CACHE": "1", "PYTHONPATH": str(folder)}
+    out = subprocess.run(
+        [sys.executable, "-c", _CALL],
+        cwd=folder,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    ).stdout.splitlines()
+    log = [line for line in out if line.startswith("[cache]")]
+    return "\n".join(line for line in out if line not in log), "\n".join(log)
+
+
+def test_numba_compiles_for_generic_and_never_loads_the_host_cache(tmp_path: Path) -> None:
+    """Host run saves its entry; the generic run saves its own (baseline x86-64: no AVX, no FMA) instead of
+    loading the host's; each later run loads its own."""
+    (tmp_path / "kernel.py").write_text(_MODULE)
+    host = _host_env()
+    generic = {**host, "NUMBA_CPU_NAME": "generic"}
+    out, log = _run_cached(tmp_path, host)
+    assert out.startswith("4.0") and "data saved" in log
+    out, log = _run_cached(tmp_path, generic)
+    assert out.startswith("4.0") and "data saved" in log and "data loaded" not in log
+    asm = out.lower()
+    # compiled in this run (numba inspects no cached code): SSE2's mulsd, none of AVX's VEX forms or FMA
+    assert "mulsd" in asm and not any(x in asm for x in ("vfmadd", "%ymm", "%zmm", "vmulsd", "vaddsd")), asm
+    for env in (host, generic):
+        _, log = _run_cached(tmp_path, env)
+        assert "data loaded" in log and "data saved" not in log
