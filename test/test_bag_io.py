@@ -137,11 +137,13 @@ def test_bulk_write_equals_plain_rosbags_writer(tmp_path: Path) -> None:
     ours, theirs = (_mcap_parts(tmp_path / w / "bag" / "bag.mcap") for w in "ab")
     # Schemas, channels, chunks and message indexes: same bytes after the header, which names the library,
     # but for the chunk CRCs, which rosbags leaves 0 and ours fills with crc32 of the chunk's records.
-    ours_crcs, ours_data = _chunk_crcs(ours[0], ours[2][2])
-    theirs_crcs, theirs_data = _chunk_crcs(theirs[0], theirs[2][2])
+    ours_chunks, theirs_chunks = ours[2][2], theirs[2][2]
+    assert isinstance(ours_chunks, tuple) and isinstance(theirs_chunks, tuple)
+    ours_crcs, ours_data = _chunk_crcs(ours[0], ours_chunks)
+    theirs_crcs, theirs_data = _chunk_crcs(theirs[0], theirs_chunks)
     assert ours_data == theirs_data
     assert set(theirs_crcs) == {0}
-    assert ours_crcs == [zlib.crc32(records) for records in _chunk_records(ours[0], ours[2][2])]
+    assert ours_crcs == [zlib.crc32(records) for records in _chunk_records(ours[0], ours_chunks)]
     assert len(ours[0]) > 2 * 2**20
     assert ours[3] == f"pendulum_accel-{__version__}" and theirs[3].startswith("rosbags-")
     # The rosbag2 metadata record holds the same YAML document (dumped by libyaml, not ruamel)...

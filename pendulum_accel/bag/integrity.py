@@ -149,7 +149,7 @@ def _framed_offsets(data: bytes, on_record: Callable[[int, memoryview], None]) -
     schema and channel records go to ``on_record(opcode, body)`` as they are met."""
     view = memoryview(data)
     pos, size = 0, len(data)
-    found = []
+    found: list[int] = []
     while pos + 9 <= size:
         op, length = _RECORD_HEAD.unpack_from(data, pos)
         end = pos + 9 + length

@@ -571,7 +571,7 @@ class _Scanner:
 
         def on_record(op: int, body: memoryview) -> None:
             """Register a schema or channel met inside the damaged chunk, if it still parses."""
-            with contextlib.suppress(_RECORD_ERRORS):
+            with contextlib.suppress(*_RECORD_ERRORS):
                 self.schema(body) if op == Opcode.SCHEMA else self.channel(body)
 
         offsets = [int(o) for _, entries in indexes for o in entries[:, 1].tolist()]
@@ -629,7 +629,10 @@ class _Scanner:
         (expected,) = struct.unpack_from("<I", body, 0)
         self._hash_to(at)
         if expected and self.data_crc != expected and not self.bag.damage:
-            reason = "data section CRC mismatch with every chunk intact: a message index, schema, channel or metadata record is damaged"
+            reason = (
+                "data section CRC mismatch with every chunk intact: "
+                "a message index, schema, channel or metadata record is damaged"
+            )
             self.bag.damage.append(ChunkDamage(None, 0, 0, reason))
 
     def _scan(self, data: bytes) -> int | None:
@@ -834,7 +837,10 @@ def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
                 bag.custom_data.update({str(k): str(v) for k, v in custom.items()})
     _Scanner(bag).scan(data)
     if bag.problem is not None and not salvage:
-        raise BagError(bag.problem)
+        raise BagError(
+            f"bag {bag.path} is damaged ({bag.problem}); refusing to compute from it: pass --salvage "
+            f"to use only its intact records, or run `pendulum-accel repair {bag.path}`"
+        )
     return bag
 
 
