@@ -95,8 +95,15 @@ class ChunkDamage:
         """'chunk 4, 3.012–3.998 s: CRC mismatch; 812 message records recovered by parsing, 1 dropped'."""
         text = f"{self.span(origin_ns)}: {self.reason}"
         if self.chunk is not None:
-            text += f"; {self.recovered} message records recovered by parsing, {self.dropped} dropped"
+            text += f"; {self.recovered} message records recovered by parsing"
+            text += f", {self.dropped} dropped as not intact"
         return text
+
+
+def damage_origin(start_ns: int, damage: Iterable[ChunkDamage]) -> int:
+    """The bag's start for damage times: its first log time read, or a damaged chunk's earlier start."""
+    starts = [d.start_ns for d in damage if d.chunk is not None and d.start_ns]
+    return min([start_ns, *starts]) if starts else start_ns
 
 
 @dataclass(frozen=True)

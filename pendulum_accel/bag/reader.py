@@ -44,6 +44,7 @@ from pendulum_accel.bag.integrity import (
     ChunkHead,
     chunk_head,
     crc32_combine,
+    damage_origin,
     inflate_prefix,
     recover_messages,
 )
@@ -533,9 +534,7 @@ class _Scanner:
             if recovered:
                 bag.problem = f"{bag.problem}; read {recovered} chunk(s) after it through the chunk index"
         if bag.damage:
-            origin = min(
-                [bag.start_ns] + [d.start_ns for d in bag.damage if d.chunk is not None and d.start_ns]
-            )
+            origin = damage_origin(bag.start_ns, bag.damage)
             note = "; ".join(f"damaged {d.sentence(origin)}" for d in bag.damage)
             bag.problem = note if bag.problem is None else f"{bag.problem}; {note}"
         for ch in bag._channels.values():
@@ -848,8 +847,15 @@ def salvage_note(bag: Bag) -> str | None:
     """One line for a damaged bag: the damage and what was kept; None for an intact one."""
     if bag.problem is None:
         return None
+    recovered = sum(d.recovered for d in bag.damage)
+    unverified = (
+        f", {recovered} of them recovered by parsing damaged chunks: they frame and decode, but no "
+        "checksum vouches for their values"
+        if recovered
+        else ""
+    )
     return (
-        f"{bag.problem}; read the {bag.message_count} messages that are intact "
+        f"{bag.problem}; read the {bag.message_count} messages that are intact{unverified} "
         f"(`pendulum-accel repair {bag.path}` rewrites the bag from them)"
     )
 
