@@ -55,7 +55,8 @@ class Accounting:
         none), or the run was interrupted before the scene's end.
         """
         if self.chain.get("died"):
-            return f"the chain stopped because the {self.chain['died']} {self.chain.get('how', 'died')}"
+            how = self.chain.get("how", "unknown cause")
+            return f"the chain stopped because the {self.chain['died']} died ({how})"
         # The launcher writes chain.json, the nodes their counters; role names as the user knows them.
         roles = {"simulator": self.simulator, "estimator": self.estimator, "launcher": self.chain}
         expected = ["launcher" if r == "chain" else r for r in self.recorder.get("expected", [])]

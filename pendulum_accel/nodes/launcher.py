@@ -324,7 +324,7 @@ class Chain:
                 simulator.expected_exit = True
                 if code != 0:
                     self._say(f"simulator ended with {describe_exit(code)}: stopping the chain")
-                    self._ended("node died", "simulator", f"ended with {describe_exit(code)}")
+                    self._ended("node died", "simulator", describe_exit(code))
                     self.stop()
                     return 1
                 self._say("scene finished: stopping the chain")
@@ -341,7 +341,7 @@ class Chain:
                         f"{child.role} (pid {child.pid}) died with {describe_exit(code)}: stopping the chain"
                     )
                     child.expected_exit = True
-                    self._ended("node died", child.role, f"died with {describe_exit(code)}")
+                    self._ended("node died", child.role, describe_exit(code))
                     self.stop()
                     return 1
             time.sleep(_POLL)
