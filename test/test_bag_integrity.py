@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 from mcap.reader import NonSeekingReader, SeekingReader, make_reader
+from mcap.records import Chunk, DataEnd, Message
 from mcap.stream_reader import CRCValidationError, StreamReader
 from rosbags.rosbag2 import Reader
 
@@ -29,7 +30,7 @@ from pendulum_accel.bag.repair import CUSTOM_REPAIRED
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.cli.main import main
 from pendulum_accel.recording.generate import generate_bag
-from pendulum_accel.scene import load_scene
+from pendulum_accel.scene import Scene, load_scene
 from test.chain_helpers import child_pids, start_chain
 from test.conftest import Spawn
 
@@ -71,11 +72,18 @@ def chunks_of(mcap: Path) -> list[ChunkInfo]:
     return out
 
 
+def at_1khz(duration: float) -> Scene:
+    """The lecture_constant scene sampled at 1 kHz for ``duration`` s (~0.8 MB of bag per second)."""
+    scene = load_scene("lecture_constant")
+    return dataclasses.replace(
+        scene, sensor=dataclasses.replace(scene.sensor, rate_hz=1000.0), duration=duration
+    )
+
+
 @pytest.fixture(scope="module")
 def multi_chunk_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A generated chain bag at 1 kHz over 10.5 s: 8 chunks of ~1 MiB (1.38 s each), uncompressed."""
-    scene = load_scene("lecture_constant")
-    scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, rate_hz=1000.0), duration=10.5)
+    scene = at_1khz(10.5)
     path = tmp_path_factory.mktemp("integrity") / "multi"
     generate_bag(scene, path)
     return path
@@ -115,9 +123,7 @@ def flip(path: Path, at: int) -> None:
 def test_written_bags_pass_the_mcap_library_crc_checks(tmp_path: Path, compression: str | None) -> None:
     """Chunk CRCs (make_reader, SeekingReader, NonSeekingReader), the data section CRC (StreamReader)
     and the summary CRC (recomputed here as the spec defines it) are written, non-zero and right."""
-    scene = load_scene("lecture_constant")
-    scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, rate_hz=1000.0), duration=3.0)
-    counts = generate_bag(scene, tmp_path / "b", compression=compression).counts
+    counts = generate_bag(at_1khz(3.0), tmp_path / "b", compression=compression).counts
     mcap = mcap_of(tmp_path / "b")
     total = sum(counts.values())
     with mcap.open("rb") as handle:
@@ -131,8 +137,8 @@ def test_written_bags_pass_the_mcap_library_crc_checks(tmp_path: Path, compressi
     assert sum(type(r).__name__ == "Message" for r in streamed) == total
     with mcap.open("rb") as handle:
         records = list(StreamReader(handle, validate_crcs=True, emit_chunks=True).records)
-    chunks = [r for r in records if type(r).__name__ == "Chunk"]
-    data_end = next(r for r in records if type(r).__name__ == "DataEnd")
+    chunks = [r for r in records if isinstance(r, Chunk)]
+    data_end = next(r for r in records if isinstance(r, DataEnd))
     assert len(chunks) >= 2 and all(c.uncompressed_crc != 0 for c in chunks)
     assert data_end.data_section_crc != 0
     data = mcap.read_bytes()
@@ -171,7 +177,11 @@ def test_flipped_byte_in_a_chunk_is_reported_refused_and_detected(
     assert out == "" and err.count("\n") == 1 and "damaged" in err and "--salvage" in err
     assert main(["export", str(bag), "--out", str(tmp_path / "tables")]) == 2
     assert not (tmp_path / "tables").exists()
-    capsys.readouterr()
+    assert main(["allan", str(bag)]) == 2
+    assert main(["animate", str(bag), "--out", str(tmp_path / "swing.gif")]) == 2
+    assert not (tmp_path / "swing.gif").exists()
+    err = capsys.readouterr().err
+    assert err.count("\n") == 3 and err.count("--salvage") == 3
 
     with mcap.open("rb") as handle, pytest.raises(CRCValidationError):
         for _ in make_reader(handle, validate_crcs=True).iter_messages():
@@ -243,7 +253,7 @@ def test_truncated_in_chunk_4_of_8_keeps_every_intact_record(
         assert sum(1 for _ in reader.messages()) == intact
 
 
-def _messages(mcap: Path) -> list[object]:
+def _messages(mcap: Path) -> list[Message]:
     """Every message of a file through the mcap library with CRC checks."""
     with mcap.open("rb") as handle:
         return [m for _, _, m in make_reader(handle, validate_crcs=True).iter_messages()]

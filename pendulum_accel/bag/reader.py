@@ -35,7 +35,7 @@ import yaml
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import Channel, Chunk, ChunkIndex, Footer, Metadata, Schema
+from mcap.records import Channel, ChunkIndex, Footer, Metadata, Schema
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
@@ -386,22 +386,22 @@ def _load_yaml(path: Path) -> Any:
         return None
 
 
-def _decompress(chunk: Chunk) -> bytes:
-    """Uncompressed chunk data (none or zstd; lz4 when installed); BagError when it does not inflate."""
-    if chunk.compression == "":
-        return chunk.data
+def _decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes:
+    """Uncompressed chunk records (none or zstd; lz4 when installed); ValueError when they do not inflate."""
+    if head.compression == "":
+        return bytes(packed)
     try:
-        if chunk.compression == "zstd":
+        if head.compression == "zstd":
             return bytes(
-                zstandard.ZstdDecompressor().decompress(chunk.data, max_output_size=chunk.uncompressed_size)
+                zstandard.ZstdDecompressor().decompress(packed, max_output_size=head.uncompressed_size)
             )
-        if chunk.compression == "lz4":
+        if head.compression == "lz4":
             import lz4.frame
 
-            return bytes(lz4.frame.decompress(chunk.data))
+            return bytes(lz4.frame.decompress(packed))
     except Exception as err:  # zstd/lz4 raise their own error types on damaged data
-        raise ValueError(f"{chunk.compression} chunk does not decompress ({err})") from None
-    raise ValueError(f"unsupported chunk compression {chunk.compression!r}")
+        raise ValueError(f"{head.compression} chunk does not decompress ({err})") from None
+    raise ValueError(f"unsupported chunk compression {head.compression!r}")
 
 
 class _Scanner:
@@ -597,14 +597,17 @@ class _Scanner:
             return None
         packed = body[head.records_at :]
         try:
-            chunk = Chunk.read(ReadDataStream(BytesIO(body)))
-            if chunk.compression == "" and len(chunk.data) != chunk.uncompressed_size:
+            # The fields were parsed by chunk_head; the records are the rest of the body (one copy).
+            (records_length,) = struct.unpack_from("<Q", body, head.records_at - 8)
+            if records_length != len(packed):
+                raise ValueError(f"records length {records_length} does not match the record's {len(packed)}")
+            if head.compression == "" and len(packed) != head.uncompressed_size:
                 raise ValueError("chunk data is shorter than its declared size")
-            data = _decompress(chunk)
-            if len(data) != chunk.uncompressed_size:
-                raise ValueError(f"inflates to {len(data)} bytes, declared {chunk.uncompressed_size}")
+            data = _decompress(head, packed)
+            if len(data) != head.uncompressed_size:
+                raise ValueError(f"inflates to {len(data)} bytes, declared {head.uncompressed_size}")
             crc = zlib.crc32(data)
-            if chunk.uncompressed_crc and crc != chunk.uncompressed_crc:
+            if head.crc and crc != head.crc:
                 raise ValueError("CRC mismatch")
         except _RECORD_ERRORS as err:
             self.pending_damage = str(err)
