@@ -31,6 +31,8 @@ import numpy as np
 import zstandard
 from numpy.typing import NDArray
 
+from pendulum_accel.bag.integrity import crc32_combine
+
 MAGIC = b"\x89MCAP0\r\n"
 PROFILE = "ros2"
 CHUNK_BYTES = 2**20
@@ -192,9 +194,17 @@ class McapFile:
         packed = zstandard.compress(raw) if self.compression == "zstd" else raw
         tail = string(self.compression) + struct.pack("<Q", len(packed))
         # uncompressed_crc = crc32 of the uncompressed records, as mcap's and rosbag2's writers compute it.
-        head = struct.pack("<QQQI", chunk.start_ns, chunk.end_ns, len(raw), zlib.crc32(raw))
+        crc = zlib.crc32(raw)
+        head = struct.pack("<QQQI", chunk.start_ns, chunk.end_ns, len(raw), crc)
         chunk_start = self._file.tell()
-        self._write(record(OP_CHUNK, head + tail + packed))
+        prefix = struct.pack("<BQ", OP_CHUNK, len(head) + len(tail) + len(packed)) + head + tail
+        if packed is raw:
+            # Uncompressed: the record ends with the records, whose CRC is known; one pass over them.
+            self.data_crc = crc32_combine(zlib.crc32(prefix, self.data_crc), crc, len(raw))
+            self._file.write(prefix)
+            self._file.write(raw)
+        else:
+            self._write(prefix + packed)
         chunk_end = self._file.tell()
         offsets = []
         for channel_id, parts in chunk.index.items():
