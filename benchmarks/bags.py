@@ -3,7 +3,9 @@
     python -m benchmarks.bags [--out DIR] [--scene NAME] [--rate HZ] [--duration S] [--repeat N]
 
 1. generate: a scene at ``--rate`` (default 1 kHz) with every topic of the chain, simulated,
-   estimated and written; messages/s and × real time, per phase.
+   estimated and written; messages/s and × real time, per phase. Then the write alone: the bag's
+   messages, already serialised, written again by ``write_chain_bag`` (chunk, data section and
+   summary CRCs included), uncompressed and zstd; MB/s of file written.
 2. analyze: ``analyze_bag`` on that bag (read, bulk decode, re-run the estimator, metrics) with each
    estimator, and our reader alone, against a plain rosbags ``Reader.messages()`` +
    ``deserialize_cdr`` loop over the same bag. Best of ``--repeat`` runs each.
@@ -34,11 +36,13 @@ from pendulum_accel.bag.messages import (
     TOPIC_ACCEL_TRUTH,
     TOPIC_JOINT_STATES,
     TYPESTORE,
+    rows_from_bytes,
 )
 from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag.writer import Stream
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from pendulum_accel.recording.analyze import analyze_bag
-from pendulum_accel.recording.generate import generate_bag
+from pendulum_accel.recording.generate import generate_bag, write_chain_bag
 from pendulum_accel.scene import Scene, load_scene
 
 
@@ -51,6 +55,13 @@ class Row:
     seconds: float
     sim_seconds: float
     baseline_seconds: float | None = None
+    megabytes: float | None = None
+    """MB of file written, for the write rows."""
+
+    @property
+    def mb_per_s(self) -> float | None:
+        """MB written / s, for the write rows."""
+        return None if self.megabytes is None else self.megabytes / self.seconds
 
     @property
     def rate(self) -> float:
@@ -126,6 +137,36 @@ def our_read_decode(path: Path) -> int:
     return bag.message_count
 
 
+def bag_streams(path: Path) -> tuple[list[Stream], dict[str, str]]:
+    """The bag's messages as write_sorted streams (fixed-size topics as (n, size) rows), its custom_data."""
+    bag = read_bag(path)
+    streams = []
+    for topic in bag.topics:
+        times, payloads = bag.raw(topic)
+        fixed = len({len(p) for p in payloads}) == 1
+        streams.append(Stream(topic, times, rows_from_bytes(payloads) if fixed else payloads))
+    return streams, bag.custom_data
+
+
+def write_rows(path: Path, folder: Path, repeat: int, sim: float) -> list[Row]:
+    """Write the messages of bag ``path`` again, uncompressed and zstd: best time and MB/s of each."""
+    streams, custom = bag_streams(path)
+    n = sum(s.log_time_ns.size for s in streams)
+    rows = []
+    for compression in ("", "zstd"):
+        out = folder / f"rewrite_{compression or 'none'}"
+
+        def write(out: Path = out, compression: str = compression) -> None:
+            """One write of the whole bag."""
+            write_chain_bag(out, streams, custom_data=custom, overwrite=True, compression=compression)
+
+        seconds, _ = best_of(repeat, write)
+        size = sum(f.stat().st_size for f in out.iterdir()) / 1e6
+        label = f"write bag only, {compression or 'uncompressed'} (CRCs included)"
+        rows.append(Row(label, n, seconds, sim, megabytes=size))
+    return rows
+
+
 def scene_at_rate(name: str, rate_hz: float, duration: float) -> Scene:
     """Bundled scene ``name`` with its sensor at ``rate_hz`` and its length set to ``duration`` s."""
     scene = load_scene(name)
@@ -148,6 +189,7 @@ def run_benchmark(scene_name: str, rate_hz: float, duration: float, repeat: int,
         Row("generate: simulate (run_scene)", n, gen.simulate_s, sim),
         Row("generate: estimate (estimate_batch)", n, gen.estimate_s, sim),
         Row("generate: serialise + write bag", n, gen.write_s, sim),
+        *write_rows(bag_path, folder, repeat, sim),
     ]
     base_s, base_n = best_of(repeat, lambda: plain_rosbags_loop(bag_path))
     rows.append(Row("plain rosbags read + deserialize loop", base_n, base_s, sim, base_s))
@@ -178,7 +220,7 @@ def _fmt(value: float | None, spec: str) -> str:
 
 def table(rows: Sequence[Row]) -> list[list[str]]:
     """Header + formatted rows."""
-    out = [["task", "messages", "wall s", "msg/s", "x real time", "x its plain rosbags loop"]]
+    out = [["task", "messages", "wall s", "msg/s", "MB/s", "x real time", "x its plain rosbags loop"]]
     for r in rows:
         out.append(
             [
@@ -186,6 +228,7 @@ def table(rows: Sequence[Row]) -> list[list[str]]:
                 str(r.messages),
                 f"{r.seconds:.4f}",
                 f"{r.rate:,.0f}",
+                _fmt(r.mb_per_s, ".0f"),
                 f"{r.realtime:.0f}",
                 _fmt(r.speedup, ".1f"),
             ]
@@ -199,7 +242,9 @@ def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
     csv_path, md_path = out / "bags.csv", out / "bags.md"
     with csv_path.open("w", newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(["task", "messages", "seconds", "messages_per_s", "x_realtime", "x_plain_rosbags"])
+        writer.writerow(
+            ["task", "messages", "seconds", "messages_per_s", "mb_per_s", "x_realtime", "x_plain_rosbags"]
+        )
         for r in rows:
             writer.writerow(
                 [
@@ -207,6 +252,7 @@ def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
                     r.messages,
                     f"{r.seconds:.6f}",
                     f"{r.rate:.1f}",
+                    _fmt(r.mb_per_s, ".1f"),
                     f"{r.realtime:.2f}",
                     _fmt(r.speedup, ".3f"),
                 ]

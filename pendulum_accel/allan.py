@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import allantools
 import numpy as np
@@ -24,6 +25,9 @@ from numpy.typing import NDArray
 from scipy.optimize import nnls
 
 from pendulum_accel.errors import ParameterError
+
+if TYPE_CHECKING:
+    from pendulum_accel.bag.reader import Bag
 
 FloatArray = NDArray[np.float64]
 
@@ -217,17 +221,19 @@ def scene_series(scene_name: str, duration: float, estimator: str | None = None)
     )
 
 
-def bag_series(path: str) -> StaticSeries:
-    """The recorded angles and (when recorded) estimates of a bag, at the rate of the angle stamps."""
+def bag_series(path: str | Bag) -> StaticSeries:
+    """The recorded angles and (when recorded) estimates of a bag (read here, refused when damaged, or
+    already read), at the rate of the angle stamps."""
     from pendulum_accel.bag.messages import (
         ACCEL_WITH_COVARIANCE_STAMPED,
         JOINT_STATE,
         TOPIC_ACCEL_ESTIMATE,
         TOPIC_JOINT_STATES,
     )
-    from pendulum_accel.bag.reader import read_bag
+    from pendulum_accel.bag.reader import Bag, read_bag
 
-    bag = read_bag(path)
+    bag = path if isinstance(path, Bag) else read_bag(path, salvage=False)
+    path = str(bag.path)
     js = bag.decode(
         TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
     )

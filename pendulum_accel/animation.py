@@ -27,7 +27,7 @@ from matplotlib.patches import Polygon
 from matplotlib.quiver import Quiver
 from numpy.typing import NDArray
 
-from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.recording.analyze import analyze_bag
@@ -264,9 +264,11 @@ def swing_from_scene(scene: Scene, estimator: str | None = None) -> SwingData:
     )
 
 
-def swing_from_bag(path: Path | str, estimator: str | None = None) -> SwingData:
-    """SwingData of a bag: its recorded θ and truth, ``estimator`` re-run offline (recording.analyze)."""
-    bag = read_bag(path)
+def swing_from_bag(path: Path | str | Bag, estimator: str | None = None) -> SwingData:
+    """SwingData of a bag (read here, refused when damaged, or already read): its recorded θ and truth,
+    ``estimator`` re-run offline (recording.analyze)."""
+    bag = path if isinstance(path, Bag) else read_bag(path, salvage=False)
+    path = bag.path
     result = analyze_bag(bag, estimator=estimator)
     text = bag.custom_data.get("pendulum_accel.scene")
     grade = 0.0

@@ -103,7 +103,9 @@ def test_cli_info_and_analyze(step_bag: Path, tmp_path: Path, capsys: pytest.Cap
 def test_cli_damaged_bag_warns_and_salvages(
     step_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """A truncated copy: info/analyze print what is readable and one warning line, exit 1; repair fixes it."""
+    """A truncated copy: info prints what is readable and one warning line, exit 1; analyze refuses it in
+    one line, exit 2, and with --salvage analyses its intact records with one warning line, exit 1;
+    repair fixes it."""
     copy = tmp_path / "step"
     copy.mkdir()
     data = (step_bag / "step.mcap").read_bytes()
@@ -111,8 +113,13 @@ def test_cli_damaged_bag_warns_and_salvages(
     assert main(["info", str(copy)]) == 1
     captured = capsys.readouterr()
     assert "truncated" in captured.err and captured.err.count("\n") == 1
-    assert main(["analyze", str(copy), "--length", str(LENGTH)]) == 1
-    assert "RMS" in capsys.readouterr().out
+    assert main(["analyze", str(copy), "--length", str(LENGTH)]) == 2
+    captured = capsys.readouterr()
+    assert "damaged" in captured.err and "--salvage" in captured.err and captured.err.count("\n") == 1
+    assert "RMS" not in captured.out
+    assert main(["analyze", str(copy), "--length", str(LENGTH), "--salvage"]) == 1
+    captured = capsys.readouterr()
+    assert "RMS" in captured.out and "recovered by parsing" in captured.err and captured.err.count("\n") == 1
     assert main(["repair", str(copy)]) == 0
     assert "rebuilt with" in capsys.readouterr().out
     bag = read_bag(copy, salvage=False)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -134,8 +135,15 @@ def test_bulk_write_equals_plain_rosbags_writer(tmp_path: Path) -> None:
         plain.write(conns[topic], t, payload)
     plain.close()
     ours, theirs = (_mcap_parts(tmp_path / w / "bag" / "bag.mcap") for w in "ab")
-    # Schemas, channels, chunks and message indexes: same bytes after the header, which names the library.
-    assert ours[0] == theirs[0]
+    # Schemas, channels, chunks and message indexes: same bytes after the header, which names the library,
+    # but for the chunk CRCs, which rosbags leaves 0 and ours fills with crc32 of the chunk's records.
+    ours_chunks, theirs_chunks = ours[2][2], theirs[2][2]
+    assert isinstance(ours_chunks, tuple) and isinstance(theirs_chunks, tuple)
+    ours_crcs, ours_data = _chunk_crcs(ours[0], ours_chunks)
+    theirs_crcs, theirs_data = _chunk_crcs(theirs[0], theirs_chunks)
+    assert ours_data == theirs_data
+    assert set(theirs_crcs) == {0}
+    assert ours_crcs == [zlib.crc32(records) for records in _chunk_records(ours[0], ours_chunks)]
     assert len(ours[0]) > 2 * 2**20
     assert ours[3] == f"pendulum_accel-{__version__}" and theirs[3].startswith("rosbags-")
     # The rosbag2 metadata record holds the same YAML document (dumped by libyaml, not ruamel)...
@@ -145,6 +153,27 @@ def test_bulk_write_equals_plain_rosbags_writer(tmp_path: Path) -> None:
     assert yaml.safe_load((tmp_path / "a/bag/metadata.yaml").read_text()) == yaml.safe_load(
         (tmp_path / "b/bag/metadata.yaml").read_text()
     )
+
+
+def _chunk_crcs(data: bytes, chunks: tuple[tuple[int, int, int], ...]) -> tuple[list[int], bytes]:
+    """(uncompressed_crc of each chunk at (offset, length, start time) in ``data``, data with them 0)."""
+    out = bytearray(data)
+    crcs = []
+    for offset, _, _ in chunks:
+        at = offset + 9 + 24  # opcode, record length, then message start/end times and uncompressed size
+        crcs.append(int.from_bytes(out[at : at + 4], "little"))
+        out[at : at + 4] = bytes(4)
+    return crcs, bytes(out)
+
+
+def _chunk_records(data: bytes, chunks: tuple[tuple[int, int, int], ...]) -> list[bytes]:
+    """Records of each uncompressed chunk at (offset, length, start time) in ``data``."""
+    out = []
+    for offset, length, _ in chunks:
+        compression_length = int.from_bytes(data[offset + 37 : offset + 41], "little")
+        records_at = offset + 41 + compression_length + 8
+        out.append(data[records_at : offset + length])
+    return out
 
 
 def _mcap_parts(path: Path) -> tuple[bytes, str, tuple[object, ...], str]:
@@ -290,8 +319,23 @@ def test_not_a_bag_and_wrong_type(tmp_path: Path) -> None:
         bag.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE, fields=["effort[0]"])
 
 
+def without_crcs(data: bytearray) -> bytearray:
+    """The MCAP file ``data`` with its chunk and data section CRCs set to 0 ("not computed", as rosbags
+    writes them), walking its top-level records."""
+    pos = 8
+    while pos + 9 <= len(data):
+        op, length = data[pos], int.from_bytes(data[pos + 1 : pos + 9], "little")
+        if op == 0x06:  # Chunk: start, end, uncompressed size, then the CRC
+            data[pos + 9 + 24 : pos + 9 + 28] = bytes(4)
+        elif op == 0x0F:  # DataEnd: the data section CRC
+            data[pos + 9 : pos + 13] = bytes(4)
+        pos += 9 + length
+    return data
+
+
 def test_damaged_payload_is_skipped_not_fatal(tmp_path: Path) -> None:
-    """A message whose CDR no longer decodes is dropped from its topic and named in bag.problem."""
+    """A message whose CDR no longer decodes is dropped from its topic and named in bag.problem, in a
+    file without CRCs (with them, the chunk is reported damaged: test_bag_integrity.py)."""
     counts = _write_chain_bag(tmp_path / "bag", n=500)
     mcap = tmp_path / "bag" / "bag.mcap"
     data = bytearray(mcap.read_bytes())
@@ -300,7 +344,7 @@ def test_damaged_payload_is_skipped_not_fatal(tmp_path: Path) -> None:
     for _ in range(3):  # the third joint state's name: break its string length
         at = data.index(name, at + 1)
     data[at - 4 : at] = b"\xff\xff\xff\x7f"
-    mcap.write_bytes(bytes(data))
+    mcap.write_bytes(bytes(without_crcs(data)))
     bag = read_bag(tmp_path / "bag")
     js = bag.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)
     assert len(js) == counts[bm.TOPIC_JOINT_STATES] - 1

@@ -5,6 +5,12 @@ per channel it holds (schemas and channels are written into the chunk that is op
 added); the ``rosbag2`` Metadata record (``serialized_metadata``); DataEnd; the summary (schemas,
 channels, chunk indexes, metadata index, statistics) with its summary offsets; Footer; magic.
 
+Checksums as the ``mcap`` library's writer and rosbag2's MCAP storage write them, and one more: every
+chunk's ``uncompressed_crc`` (zlib CRC-32 of its uncompressed records), the summary CRC in the Footer
+(the summary section through the Footer's ``summary_offset_start`` field), and the data section CRC in
+DataEnd (everything from the leading magic through the last record before DataEnd), which both leave
+0 by default. A zero CRC means "not computed" to readers, so a file written here is checked end to end.
+
 Messages go in one at a time (``write_message``) or many at once (``append``, records laid out by the
 caller); a chunk is closed once its data passes ``CHUNK_BYTES`` or on ``flush``, so a killed process
 loses at most the open chunk. Only public numpy, struct and zstandard calls: nothing here depends on
@@ -14,6 +20,7 @@ another MCAP writer's internals.
 from __future__ import annotations
 
 import struct
+import zlib
 from collections import defaultdict
 from collections.abc import Mapping
 from io import BytesIO
@@ -23,6 +30,8 @@ from typing import BinaryIO
 import numpy as np
 import zstandard
 from numpy.typing import NDArray
+
+from pendulum_accel.bag.integrity import crc32_combine
 
 MAGIC = b"\x89MCAP0\r\n"
 PROFILE = "ros2"
@@ -97,7 +106,9 @@ class McapFile:
         self.path = path
         self.compression = compression
         self._file: BinaryIO = path.open("xb")
-        self._file.write(MAGIC + record(OP_HEADER, string(PROFILE) + string(library)))
+        self.data_crc = 0
+        """zlib CRC-32 of every byte written so far, up to DataEnd (the data section CRC)."""
+        self._write(MAGIC + record(OP_HEADER, string(PROFILE) + string(library)))
         self._schemas: list[bytes] = []
         self._channels: list[bytes] = []
         self._chunk_indexes: list[bytes] = []
@@ -106,6 +117,11 @@ class McapFile:
         """Messages written so far per channel id."""
         self.start_ns = _NO_TIME
         self.end_ns = 0
+
+    def _write(self, data: bytes) -> None:
+        """Write data-section bytes: data_crc = crc32(data, data_crc), then to the file."""
+        self.data_crc = zlib.crc32(data, self.data_crc)
+        self._file.write(data)
 
     @property
     def chunk_size(self) -> int:
@@ -177,16 +193,25 @@ class McapFile:
         raw = chunk.data.getvalue()
         packed = zstandard.compress(raw) if self.compression == "zstd" else raw
         tail = string(self.compression) + struct.pack("<Q", len(packed))
-        head = struct.pack("<QQQI", chunk.start_ns, chunk.end_ns, len(raw), 0)
+        # uncompressed_crc = crc32 of the uncompressed records, as mcap's and rosbag2's writers compute it.
+        crc = zlib.crc32(raw)
+        head = struct.pack("<QQQI", chunk.start_ns, chunk.end_ns, len(raw), crc)
         chunk_start = self._file.tell()
-        self._file.write(record(OP_CHUNK, head + tail + packed))
+        prefix = struct.pack("<BQ", OP_CHUNK, len(head) + len(tail) + len(packed)) + head + tail
+        if packed is raw:
+            # Uncompressed: the record ends with the records, whose CRC is known; one pass over them.
+            self.data_crc = crc32_combine(zlib.crc32(prefix, self.data_crc), crc, len(raw))
+            self._file.write(prefix)
+            self._file.write(raw)
+        else:
+            self._write(prefix + packed)
         chunk_end = self._file.tell()
         offsets = []
         for channel_id, parts in chunk.index.items():
             offsets.append(struct.pack("<HQ", channel_id, self._file.tell()))
             entries = _index_entries(parts)
             body = struct.pack("<HI", channel_id, entries.nbytes) + entries.tobytes()
-            self._file.write(record(OP_MESSAGE_INDEX, body))
+            self._write(record(OP_MESSAGE_INDEX, body))
         index_length = self._file.tell() - chunk_end
         body = struct.pack(
             "<QQQQI", chunk.start_ns, chunk.end_ns, chunk_start, chunk_end - chunk_start, 10 * len(offsets)
@@ -206,21 +231,23 @@ class McapFile:
             self.close_chunk()
         out = self._file
         metadata_start = out.tell()
-        out.write(
+        self._write(
             record(OP_METADATA, string("rosbag2") + string_map({"serialized_metadata": rosbag2_metadata}))
         )
         metadata_end = out.tell()
-        out.write(record(OP_DATA_END, struct.pack("<I", 0)))
+        out.write(record(OP_DATA_END, struct.pack("<I", self.data_crc)))
+        # The summary section and the Footer up to its summary_crc field, collected for that CRC.
+        summary = BytesIO()
         groups: list[tuple[int, int, int]] = []
+        summary_start = out.tell()
 
         def group(opcode: int, records: list[bytes]) -> None:
-            """Write a summary group and note its (opcode, start, length) if it is not empty."""
-            start = out.tell()
-            out.write(b"".join(records))
-            if out.tell() != start:
-                groups.append((opcode, start, out.tell() - start))
+            """Add a summary group and note its (opcode, file offset, length) if it is not empty."""
+            start = summary_start + summary.tell()
+            summary.write(b"".join(records))
+            if summary_start + summary.tell() != start:
+                groups.append((opcode, start, summary_start + summary.tell() - start))
 
-        summary_start = out.tell()
         group(OP_SCHEMA, self._schemas)
         group(OP_CHANNEL, self._channels)
         group(OP_CHUNK_INDEX, self._chunk_indexes)
@@ -240,10 +267,12 @@ class McapFile:
             len(counts),
         )
         group(OP_STATISTICS, [record(OP_STATISTICS, stats + counts)])
-        offsets_start = out.tell()
+        offsets_start = summary_start + summary.tell()
         for opcode, start, length in groups:
-            out.write(record(OP_SUMMARY_OFFSET, struct.pack("<BQQ", opcode, start, length)))
-        out.write(record(OP_FOOTER, struct.pack("<QQI", summary_start, offsets_start, 0)) + MAGIC)
+            summary.write(record(OP_SUMMARY_OFFSET, struct.pack("<BQQ", opcode, start, length)))
+        summary.write(struct.pack("<BQQQ", OP_FOOTER, 20, summary_start, offsets_start))
+        tail = summary.getvalue()
+        out.write(tail + struct.pack("<I", zlib.crc32(tail)) + MAGIC)
         out.close()
 
     def abort(self) -> None:

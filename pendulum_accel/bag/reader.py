@@ -3,9 +3,11 @@
 The file is scanned front to back, without the summary or index: every top-level record is
 framed (opcode, length) and checked against the file size; Header, Schema, Channel, Chunk and
 Metadata records are parsed by the ``mcap`` library; inside a chunk, each message record's
-channel, log time and payload slice are taken with one ``struct.unpack_from``. A chunk whose data
-is damaged (CRC mismatch, does not inflate, malformed records) is skipped and the scan goes on with
-the next record, since its framing still holds. When the framing itself breaks (a record cut off or
+channel, log time and payload slice are taken with one ``struct.unpack_from``. Every chunk's CRC
+and the data section CRC are verified (``bag.integrity``). A chunk whose data is damaged (CRC
+mismatch, does not inflate, cut off by the end of the file) is listed in ``bag.damage`` and only its
+intact message records are kept (``integrity.recover_messages``); the scan goes on with the next
+record, since its framing still holds. When the framing itself breaks (a record cut off or
 with a damaged opcode or length), the scan stops there, and the chunks after the damage are read
 through the chunk index of the MCAP summary when the file still has its footer. A bag whose
 recorder was killed (no summary) reads up to its last flushed chunk. Fixed-layout topics are then
@@ -17,6 +19,7 @@ out) is refused: nothing outside the bag is ever read, renamed or deleted throug
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 import os
 import struct
@@ -32,10 +35,19 @@ import yaml
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import Channel, Chunk, ChunkIndex, Footer, Metadata, Schema
+from mcap.records import Channel, ChunkIndex, Footer, Metadata, Schema
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
+from pendulum_accel.bag.integrity import (
+    ChunkDamage,
+    ChunkHead,
+    chunk_head,
+    crc32_combine,
+    damage_origin,
+    inflate_prefix,
+    recover_messages,
+)
 from pendulum_accel.bag.messages import Layout, deserialize, rows_from_bytes, stamp_seconds
 from pendulum_accel.errors import BagError
 
@@ -140,6 +152,8 @@ class Bag:
         self.metadata: dict[str, Any] | None = None
         self.custom_data: dict[str, str] = {}
         self.complete = False
+        self.damage: list[ChunkDamage] = []
+        """Damaged chunks (and damage between chunks) in file order; empty when every CRC matched."""
         self._channels: dict[int, _ChannelData] = {}
 
     @property
@@ -372,22 +386,22 @@ def _load_yaml(path: Path) -> Any:
         return None
 
 
-def _decompress(chunk: Chunk) -> bytes:
-    """Uncompressed chunk data (none or zstd; lz4 when installed); BagError when it does not inflate."""
-    if chunk.compression == "":
-        return chunk.data
+def _decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes:
+    """Uncompressed chunk records (none or zstd; lz4 when installed); ValueError when they do not inflate."""
+    if head.compression == "":
+        return bytes(packed)
     try:
-        if chunk.compression == "zstd":
+        if head.compression == "zstd":
             return bytes(
-                zstandard.ZstdDecompressor().decompress(chunk.data, max_output_size=chunk.uncompressed_size)
+                zstandard.ZstdDecompressor().decompress(packed, max_output_size=head.uncompressed_size)
             )
-        if chunk.compression == "lz4":
+        if head.compression == "lz4":
             import lz4.frame
 
-            return bytes(lz4.frame.decompress(chunk.data))
+            return bytes(lz4.frame.decompress(packed))
     except Exception as err:  # zstd/lz4 raise their own error types on damaged data
-        raise ValueError(f"{chunk.compression} chunk does not decompress ({err})") from None
-    raise ValueError(f"unsupported chunk compression {chunk.compression!r}")
+        raise ValueError(f"{head.compression} chunk does not decompress ({err})") from None
+    raise ValueError(f"unsupported chunk compression {head.compression!r}")
 
 
 class _Scanner:
@@ -399,8 +413,14 @@ class _Scanner:
         self.schemas: dict[int, Schema] = {}
         self.pending: tuple[bytes, list[tuple[int, NDArray[np.uint64]]]] | None = None
         self.pending_at = 0  # file offset of the pending chunk
-        self.damaged: list[str] = []  # one note per skipped chunk, in file order
+        # The pending chunk's number and head, and its damage (None: its CRC matched).
+        self.pending_head: tuple[int, ChunkHead | None] = (0, None)
+        self.pending_damage: str | None = None
+        self.file = b""  # the whole file, for the data section CRC
         self.read_chunks: set[int] = set()  # file offsets of chunks read (or skipped as damaged)
+        self.chunks_seen = 0  # chunk records met in the scan: the 1-based number of the current one
+        self.data_crc = 0  # crc32 of data[:crc_upto], the data section as far as the scan has hashed it
+        self.crc_upto = 0
 
     def schema(self, body: memoryview) -> None:
         """Register a Schema record."""
@@ -513,39 +533,109 @@ class _Scanner:
             recovered = self._indexed_chunks(data, stop)
             if recovered:
                 bag.problem = f"{bag.problem}; read {recovered} chunk(s) after it through the chunk index"
-        if self.damaged:
-            first = self.damaged[0]
-            note = f"{len(self.damaged)} damaged chunk(s) skipped (first: {first})"
+        if bag.damage:
+            origin = damage_origin(bag.start_ns, bag.damage)
+            note = "; ".join(f"damaged {d.sentence(origin)}" for d in bag.damage)
             bag.problem = note if bag.problem is None else f"{bag.problem}; {note}"
         for ch in bag._channels.values():
             ch.seal()
 
     def _flush_chunk(self) -> None:
-        """Read the pending chunk with the message indexes that followed it; a damaged one is noted."""
+        """Read the pending chunk with the message indexes that followed it; a damaged one is noted, and
+        only its intact message records are kept."""
         if self.pending is not None:
             data, indexes = self.pending
             self.pending = None
+            damage, self.pending_damage = self.pending_damage, None
+            number, head = self.pending_head
+            if damage is not None and head is not None:
+                self._recover(data, indexes, number, head, damage)
+                return
             try:
                 self.chunk(data, indexes)
             except _RECORD_ERRORS as err:
-                self.damaged.append(f"chunk at byte {self.pending_at}: {err}")
+                start, end = (head.start_ns, head.end_ns) if head is not None else (0, 0)
+                self.bag.damage.append(ChunkDamage(number, start, end, f"malformed records ({err})"))
 
-    def _open_chunk(self, body: memoryview | bytes, at: int) -> bytes | None:
-        """Uncompressed data of the Chunk record ``body`` at file offset ``at``; None (noted) when damaged."""
+    def _recover(
+        self,
+        data: bytes,
+        indexes: list[tuple[int, NDArray[np.uint64]]],
+        number: int,
+        head: ChunkHead,
+        reason: str,
+    ) -> None:
+        """Keep the intact message records of a damaged chunk's ``data`` and note the damage."""
+        channels = self.bag._channels
+
+        def on_record(op: int, body: memoryview) -> None:
+            """Register a schema or channel met inside the damaged chunk, if it still parses."""
+            with contextlib.suppress(*_RECORD_ERRORS):
+                self.schema(body) if op == Opcode.SCHEMA else self.channel(body)
+
+        offsets = [int(o) for _, entries in indexes for o in entries[:, 1].tolist()]
+        kept, dropped = recover_messages(
+            data, head, offsets, on_record, lambda: {cid: ch.msgtype for cid, ch in channels.items()}
+        )
+        for cid, log_time, payload in kept:
+            ch = channels[cid]
+            ch.times.append(log_time)
+            ch.payloads.append(payload)
+        self.bag.damage.append(ChunkDamage(number, head.start_ns, head.end_ns, reason, len(kept), dropped))
+
+    def _open_chunk(self, body: memoryview | bytes, at: int, number: int) -> bytes | None:
+        """Uncompressed data of the Chunk record ``body`` (chunk ``number``) at file offset ``at``.
+
+        Its CRC is checked (and folded into the data section CRC); a damaged chunk becomes the pending
+        one with its damage, to be recovered record by record. None when not even its head parses.
+        """
         self.read_chunks.add(at)
+        head = chunk_head(body)
+        self.pending_head = (number, head)
+        if head is None:
+            self.bag.damage.append(ChunkDamage(number, 0, 0, "its header fields do not parse"))
+            return None
+        packed = body[head.records_at :]
         try:
-            chunk = Chunk.read(ReadDataStream(BytesIO(body)))
-            if chunk.compression == "" and len(chunk.data) != chunk.uncompressed_size:
+            # The fields were parsed by chunk_head; the records are the rest of the body (one copy).
+            (records_length,) = struct.unpack_from("<Q", body, head.records_at - 8)
+            if records_length != len(packed):
+                raise ValueError(f"records length {records_length} does not match the record's {len(packed)}")
+            if head.compression == "" and len(packed) != head.uncompressed_size:
                 raise ValueError("chunk data is shorter than its declared size")
-            data = _decompress(chunk)
-            if len(data) != chunk.uncompressed_size:
-                raise ValueError(f"inflates to {len(data)} bytes, declared {chunk.uncompressed_size}")
-            if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
+            data = _decompress(head, packed)
+            if len(data) != head.uncompressed_size:
+                raise ValueError(f"inflates to {len(data)} bytes, declared {head.uncompressed_size}")
+            crc = zlib.crc32(data)
+            if head.crc and crc != head.crc:
                 raise ValueError("CRC mismatch")
         except _RECORD_ERRORS as err:
-            self.damaged.append(f"chunk at byte {at}: {err}")
-            return None
+            self.pending_damage = str(err)
+            return inflate_prefix(head, packed)
+        if head.compression == "" and self.crc_upto <= at:
+            # The records are the chunk record's tail, and their CRC is known: hash only the part before.
+            records_at = at + 9 + len(body) - len(data)
+            self._hash_to(records_at)
+            self.data_crc = crc32_combine(self.data_crc, crc, len(data))
+            self.crc_upto = records_at + len(data)
         return data
+
+    def _hash_to(self, stop: int) -> None:
+        """Extend the data section CRC over the file's bytes up to ``stop``."""
+        if stop > self.crc_upto:
+            self.data_crc = zlib.crc32(memoryview(self.file)[self.crc_upto : stop], self.data_crc)
+            self.crc_upto = stop
+
+    def _data_end(self, body: memoryview, at: int) -> None:
+        """Check DataEnd's data section CRC (when written) against the file's bytes before ``at``."""
+        (expected,) = struct.unpack_from("<I", body, 0)
+        self._hash_to(at)
+        if expected and self.data_crc != expected and not self.bag.damage:
+            reason = (
+                "data section CRC mismatch with every chunk intact: "
+                "a message index, schema, channel or metadata record is damaged"
+            )
+            self.bag.damage.append(ChunkDamage(None, 0, 0, reason))
 
     def _scan(self, data: bytes) -> int | None:
         """The record loop of scan(); the offset where the framing broke, None when it held to the end."""
@@ -554,6 +644,7 @@ class _Scanner:
         if size < len(_MAGIC) or data[: len(_MAGIC)] != _MAGIC:
             raise BagError(f"{bag.mcap_path} is not an MCAP file (bad magic bytes)")
         view = memoryview(data)
+        self.file = data
         pos = len(_MAGIC)
         while True:
             if pos >= size:
@@ -572,6 +663,8 @@ class _Scanner:
                     f"{bag.mcap_path} is truncated: {Opcode(op).name} record at byte {pos} needs "
                     f"{length} bytes, only {size - pos - 9} remain"
                 )
+                if op == Opcode.CHUNK:
+                    self._cut_chunk(view[pos + 9 :], pos)
                 return pos
             body = view[pos + 9 : stop]
             try:
@@ -585,15 +678,32 @@ class _Scanner:
                         bag.complete = True
                         return None
                     if op == Opcode.CHUNK:
-                        chunk_data = self._open_chunk(body, pos)
+                        self.chunks_seen += 1
+                        chunk_data = self._open_chunk(body, pos, self.chunks_seen)
                         if chunk_data is not None:
                             self.pending, self.pending_at = (chunk_data, []), pos
+                    elif op == Opcode.DATA_END:
+                        self._data_end(body, pos)
                     else:
                         self._top_level(op, body)
             except _RECORD_ERRORS as err:
                 bag.problem = f"{bag.mcap_path} is corrupt at byte {pos} ({Opcode(op).name} record): {err}"
                 return pos
             pos = stop
+
+    def _cut_chunk(self, body: memoryview, at: int) -> None:
+        """Keep the intact message records of a chunk record that the end of the file cuts off."""
+        self._flush_chunk()  # the chunk before it, still waiting for message indexes
+        self.chunks_seen += 1
+        head = chunk_head(body)
+        self.read_chunks.add(at)
+        if head is None:
+            self.bag.damage.append(ChunkDamage(self.chunks_seen, 0, 0, "cut off by the end of the file"))
+            return
+        self.pending, self.pending_at = (inflate_prefix(head, body[head.records_at :]), []), at
+        self.pending_head = (self.chunks_seen, head)
+        self.pending_damage = f"cut off by the end of the file at byte {at + 9 + len(body)}"
+        self._flush_chunk()
 
     def _indexed_chunks(self, data: bytes, broken_at: int) -> int:
         """Read the chunks the summary's chunk index places past ``broken_at``; how many were read.
@@ -615,7 +725,7 @@ class _Scanner:
         except _RECORD_ERRORS:
             return 0
         read = 0
-        for entry in sorted(indexes, key=lambda e: e.chunk_start_offset):
+        for number, entry in enumerate(sorted(indexes, key=lambda e: e.chunk_start_offset), start=1):
             at = int(entry.chunk_start_offset)
             if at < broken_at or at in self.read_chunks or at + entry.chunk_length > start:
                 continue
@@ -623,7 +733,7 @@ class _Scanner:
                 op, length = _RECORD_HEAD.unpack_from(data, at)
                 if op != Opcode.CHUNK or at + 9 + length > start:
                     raise ValueError("the chunk index points at no chunk record")
-                chunk_data = self._open_chunk(memoryview(data)[at + 9 : at + 9 + length], at)
+                chunk_data = self._open_chunk(memoryview(data)[at + 9 : at + 9 + length], at, number)
                 if chunk_data is None:
                     continue
                 message_indexes = []
@@ -633,7 +743,8 @@ class _Scanner:
                     if mop == Opcode.MESSAGE_INDEX and found is not None:
                         message_indexes.append(found)
             except _RECORD_ERRORS as err:
-                self.damaged.append(f"chunk at byte {at}: {err}")
+                t0, t1 = int(entry.message_start_time), int(entry.message_end_time)
+                self.bag.damage.append(ChunkDamage(number, t0, t1, str(err)))
                 continue
             self.pending, self.pending_at = (chunk_data, message_indexes), at
             self._flush_chunk()
@@ -728,7 +839,10 @@ def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
                 bag.custom_data.update({str(k): str(v) for k, v in custom.items()})
     _Scanner(bag).scan(data)
     if bag.problem is not None and not salvage:
-        raise BagError(bag.problem)
+        raise BagError(
+            f"bag {bag.path} is damaged ({bag.problem}); refusing to compute from it: pass --salvage "
+            f"to use only its intact records, or run `pendulum-accel repair {bag.path}`"
+        )
     return bag
 
 
@@ -736,8 +850,15 @@ def salvage_note(bag: Bag) -> str | None:
     """One line for a damaged bag: the damage and what was kept; None for an intact one."""
     if bag.problem is None:
         return None
+    recovered = sum(d.recovered for d in bag.damage)
+    unverified = (
+        f", {recovered} of them recovered by parsing damaged chunks: they frame and decode, but no "
+        "checksum vouches for their values"
+        if recovered
+        else ""
+    )
     return (
-        f"{bag.problem}; read the {bag.message_count} messages that are intact "
+        f"{bag.problem}; read the {bag.message_count} messages that are intact{unverified} "
         f"(`pendulum-accel repair {bag.path}` rewrites the bag from them)"
     )
 

@@ -1,8 +1,12 @@
-"""Rebuild a damaged bag (killed recorder, cut-off copy) from what its MCAP file still holds.
+"""Rebuild a damaged bag (killed recorder, cut-off copy, flipped bytes) from what its MCAP file still holds.
 
-Every message that reads before the damage is rewritten, with its channel's type, QoS and the
-bag's custom_data, into a fresh file through :class:`BagWriter`, which writes the MCAP summary,
-index and metadata.yaml anew. The damaged file is kept next to it as ``<name>.mcap.damaged``.
+Every message the reader keeps is rewritten, with its channel's type, QoS and the bag's custom_data,
+into a fresh file through :class:`BagWriter`, which writes the MCAP summary, index, CRCs and
+metadata.yaml anew. The reader keeps every chunk whose CRC matches and, of a damaged or cut-off chunk,
+every intact message record (``bag.integrity``: it frames, names a known channel, lies in the chunk's
+time range and decodes as CDR of the channel's type). ``DROPS`` says what is not kept. The repaired
+bag's custom_data ``pendulum_accel.repaired`` says what was recovered without a checksum, for ``info``.
+The damaged file is kept next to it as ``<name>.mcap.damaged``.
 Only files inside the bag directory are ever touched (the reader refuses a metadata.yaml that names
 one outside), and a write failure leaves the damaged bag as it was.
 """
@@ -13,22 +17,48 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+from pendulum_accel.bag.integrity import ChunkDamage, damage_origin
 from pendulum_accel.bag.messages import TYPESTORE
 from pendulum_accel.bag.metadata import parse_qos
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.errors import BagError
 
+CUSTOM_REPAIRED = "pendulum_accel.repaired"
+"""custom_data key of a repaired bag: what repair recovered by parsing, without a checksum (one line)."""
+
+DROPS = (
+    "repair drops only what is not intact: in a damaged or cut-off chunk, the records that do not frame, "
+    "name an unknown channel, lie outside the chunk's time range or do not decode as CDR of their "
+    "channel's type, and the record the end of the file cuts off; a chunk whose own header fields are "
+    "damaged, whole; in a file without its summary, everything after broken record framing. It does not "
+    "carry over sequence numbers and publish times (rewritten as 0 and the log time), MCAP attachments, "
+    "or metadata records other than rosbag2's"
+)
+
 
 @dataclass(frozen=True)
 class RepairResult:
-    """Outcome of repair_bag: whether it rewrote the bag, the per-topic counts kept, the damage seen."""
+    """Outcome of repair_bag: whether it rewrote the bag, the per-topic counts kept, the damage seen
+    (``damage``, with chunk times relative to ``origin_ns``)."""
 
     path: Path
     rewritten: bool
     counts: dict[str, int]
     problem: str | None
     backup: Path | None
+    damage: tuple[ChunkDamage, ...] = ()
+    origin_ns: int = 0
+
+    @property
+    def recovered(self) -> int:
+        """Message records recovered by parsing damaged chunks (no checksum vouches for them)."""
+        return sum(d.recovered for d in self.damage)
+
+    @property
+    def dropped(self) -> int:
+        """Message records found in damaged chunks that were not intact."""
+        return sum(d.dropped for d in self.damage)
 
 
 def metadata_matches(bag: Bag) -> bool:
@@ -57,6 +87,8 @@ def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:
     root = Path(path)
     if not root.is_dir():
         raise BagError(f"repair needs a bag directory, {root} is not one")
+    if not any(root.glob("*.mcap")) and not (root / "metadata.yaml").is_file():
+        raise BagError(f"{root} is not a bag directory (no metadata.yaml, no .mcap file); nothing repaired")
     bag = read_bag(root)
     if bag.problem is None and metadata_matches(bag):
         return RepairResult(root, False, {n: t.count for n, t in bag.topics.items()}, None, None)
@@ -84,8 +116,16 @@ def _rewrite(root: Path, bag: Bag, staging: Path, keep_backup: bool) -> RepairRe
     if staging.exists():
         shutil.rmtree(staging)
     new_dir = staging / root.name
+    origin = damage_origin(bag.start_ns, bag.damage)
+    custom = dict(bag.custom_data)
+    recovered = [d for d in bag.damage if d.recovered]
+    if recovered:
+        custom[CUSTOM_REPAIRED] = "; ".join(
+            f"{d.recovered} messages recovered by parsing from damaged {d.span(origin)} ({d.reason})"
+            for d in recovered
+        )
     try:
-        with BagWriter(new_dir, custom_data=bag.custom_data, flush_interval=None) as writer:
+        with BagWriter(new_dir, custom_data=custom, flush_interval=None) as writer:
             for name, topic in bag.topics.items():
                 writer.add_topic(name, topic.msgtype, parse_qos(topic.offered_qos_profiles or []))
             streams = []
@@ -107,4 +147,4 @@ def _rewrite(root: Path, bag: Bag, staging: Path, keep_backup: bool) -> RepairRe
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     problem = bag.problem or "metadata.yaml was missing or listed other message counts"
-    return RepairResult(root, True, counts, problem, backup)
+    return RepairResult(root, True, counts, problem, backup, tuple(bag.damage), origin)

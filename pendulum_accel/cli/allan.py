@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from pendulum_accel.allan import AllanResult, allan_deviation, bag_series, plot_allan, scene_series
+from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 
 ESTIMATE_FIT_FROM = 5.0  # s: past the default kalman's quiet-mode memory (3.3 s for the lecture scene)
 DEFAULT_DURATION = 3600.0  # s of a generated static run: enough clusters to read the walk out to ~400 s
@@ -38,6 +39,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--plot", default=None, metavar="PNG", help="save the log-log plot with the slopes marked"
     )
+    add_salvage_flag(parser)
     parser.set_defaults(func=run)
 
 
@@ -51,11 +53,8 @@ def _is_bag(source: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Print σ(τ) figures for the angle and the estimate; plot them when asked."""
-    series = (
-        bag_series(args.source)
-        if _is_bag(args.source)
-        else scene_series(args.source, args.duration, args.estimator)
-    )
+    bag = read_intact(args.source, args.salvage) if _is_bag(args.source) else None
+    series = bag_series(bag) if bag is not None else scene_series(args.source, args.duration, args.estimator)
     results: list[AllanResult] = [allan_deviation(series.theta, series.rate_hz, label="angle θ", unit="rad")]
     if series.accel is not None:
         results.append(
@@ -73,4 +72,4 @@ def run(args: argparse.Namespace) -> int:
         print("\n".join(res.lines()))
     if args.plot:
         print(f"plot: {plot_allan(results, args.plot)}")
-    return 0
+    return warn_salvaged("allan", bag) if bag is not None else 0

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from typing import Any
 
-from pendulum_accel.bag.reader import read_bag, salvage_note
+from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 from pendulum_accel.errors import BagError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME
 from pendulum_accel.recording.analyze import analysis_dict, analyze_bag, plot_analysis, stored_scene
@@ -61,12 +60,14 @@ def register(subparsers: Any) -> None:
         "over them, with the spread of one seed's share beyond 2σ (one bag is one draw of its noise)",
     )
     parser.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    add_salvage_flag(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the report (and plot); a damaged bag is analysed up to the damage, with a warning, exit 1."""
-    bag = read_bag(args.bag)
+    """Print the report (and plot); a damaged bag is refused, or with --salvage analysed from its intact
+    records, with a warning, exit 1."""
+    bag = read_intact(args.bag, args.salvage)
     if args.skip > 0 and not args.skip < bag.duration_s:
         # Nothing would be left to average: the report would be NaN figures.
         raise BagError(f"--skip {args.skip:g} s leaves no samples: {bag.path} spans {bag.duration_s:.3f} s")
@@ -96,11 +97,7 @@ def run(args: argparse.Namespace) -> int:
         path = plot_analysis(result, args.plot)
         if not args.json:
             print(f"plot:       {path}")
-    note = salvage_note(bag)
-    if note is not None:
-        print(f"pendulum-accel analyze: warning: {note}", file=sys.stderr)
-        return 1
-    return 0
+    return warn_salvaged("analyze", bag)
 
 
 def _spread_dict(spread: SeedSpread | None) -> dict[str, Any] | None:

@@ -9,6 +9,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 from pendulum_accel.errors import ParameterError
 
 DEFAULT_FPS = 20
@@ -41,6 +42,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--estimator", "-e", default=None, help="estimator method (default: the package default)"
     )
+    add_salvage_flag(parser)
     parser.set_defaults(func=run)
 
 
@@ -60,8 +62,9 @@ def run(args: argparse.Namespace) -> int:
     check_output_path(args.out)  # a bad suffix or missing ffmpeg fails before the simulation
     if args.fps < 1:
         raise ParameterError(f"--fps must be an integer >= 1, got {args.fps}")
-    if _is_bag(args.source):
-        data = swing_from_bag(args.source, args.estimator)
+    bag = read_intact(args.source, args.salvage) if _is_bag(args.source) else None
+    if bag is not None:
+        data = swing_from_bag(bag, args.estimator)
     else:
         data = swing_from_scene(load_scene(args.source), args.estimator)
     anim = SwingAnimation(data, fps=args.fps, duration=args.duration)
@@ -71,4 +74,4 @@ def run(args: argparse.Namespace) -> int:
         out = anim.save(args.out, on_frame=lambda: bar.update(1))
     size = out.stat().st_size
     print(f"wrote {anim.times.size} frames at {args.fps:g} fps ({size / 1024:.0f} KiB) to {out}")
-    return 0
+    return warn_salvaged("animate", bag) if bag is not None else 0

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
 from pendulum_accel.bag.export import FORMATS, export_bag
-from pendulum_accel.bag.reader import read_bag, salvage_note
+from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 
 
 def register(subparsers: Any) -> None:
@@ -26,16 +25,14 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--format", choices=FORMATS, default="csv", help="file format (default csv)")
     parser.add_argument("--merged", action="store_true", help="one table on the angle's stamps")
     parser.add_argument("--topics", nargs="+", default=[], metavar="TOPIC", help="only these topics")
+    add_salvage_flag(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the tables and list them; a damaged bag is exported up to the damage, with a warning, exit 1."""
-    bag = read_bag(args.bag)
+    """Write the tables and list them; a damaged bag is refused, or with --salvage exported from its intact
+    records, with a warning, exit 1."""
+    bag = read_intact(args.bag, args.salvage)
     for path in export_bag(bag, args.out, fmt=args.format, merged=args.merged, topics=args.topics):
         print(path)
-    note = salvage_note(bag)
-    if note is not None:
-        print(f"pendulum-accel export: warning: {note}", file=sys.stderr)
-        return 1
-    return 0
+    return warn_salvaged("export", bag)

@@ -9,7 +9,9 @@ from typing import Any
 import numpy as np
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.integrity import damage_origin
 from pendulum_accel.bag.reader import Bag, read_bag, salvage_note, scene_name
+from pendulum_accel.bag.repair import CUSTOM_REPAIRED
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_VERSION
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting, unexplained_missing
 
@@ -47,6 +49,18 @@ def missing_estimates(bag: Bag, accounting: Accounting | None) -> int:
     return unexplained_missing(angles.size, estimates.size, accounting, holes)
 
 
+def damage_state(bag: Bag) -> str:
+    """'DAMAGED: chunk 4, 3.012–3.998 s; chunk 6, …': one entry per damaged chunk (times from the chunk's
+    message start/end, relative to the bag's start), then a cut-off end or broken framing."""
+    origin = damage_origin(bag.start_ns, bag.damage)
+    parts = [d.span(origin) for d in bag.damage]
+    problem = bag.problem or ""
+    if not bag.complete:
+        cut = "truncated" in problem or "without its MCAP footer" in problem
+        parts.append("cut off before its footer" if cut else "record framing broken")
+    return "DAMAGED: " + "; ".join(parts or ["see the warning"])
+
+
 def bag_state(bag: Bag) -> tuple[str, list[str]]:
     """('complete' | 'DAMAGED …' | 'INCOMPLETE: …' | 'recorded intact; …', the losses found).
 
@@ -56,8 +70,15 @@ def bag_state(bag: Bag) -> tuple[str, list[str]]:
     says nothing of messages it never received.
     """
     if bag.problem is not None:
-        return "DAMAGED (see the warning)", []
+        return damage_state(bag), []
+    if CUSTOM_REPAIRED in bag.custom_data:
+        # Intact as a file now, but these records came back without a checksum to vouch for them.
+        return f"repaired: {bag.custom_data[CUSTOM_REPAIRED]}", []
     accounting = bag_accounting(bag)
+    ending = accounting.ending() if accounting else None
+    if ending is not None:
+        # A chain cut short by a dead node or an interrupt: the bag holds less than the scene.
+        return f"INCOMPLETE: {ending}", [ending]
     losses = accounting.unrecorded() if accounting else []
     missing = missing_estimates(bag, accounting)
     if missing:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pendulum_accel.bag.repair import repair_bag
+from pendulum_accel.bag.repair import DROPS, repair_bag
 
 
 def register(subparsers: Any) -> None:
@@ -14,8 +14,9 @@ def register(subparsers: Any) -> None:
         "repair",
         help="rebuild a damaged bag (killed recorder) from what its MCAP file holds",
         description=(
-            "Rewrite BAG from every message readable before the damage, with a new MCAP summary/index "
-            "and metadata.yaml. The damaged file is kept as <name>.mcap.damaged unless --no-backup."
+            "Rewrite BAG from every intact chunk and every intact message record of its damaged or "
+            "cut-off chunks, with a new MCAP summary/index/CRCs and metadata.yaml. The damaged file is "
+            "kept as <name>.mcap.damaged unless --no-backup. " + DROPS + "."
         ),
     )
     parser.add_argument("bag", help="bag directory")
@@ -36,6 +37,15 @@ def run(args: argparse.Namespace) -> int:
     print(f"rebuilt with {sum(result.counts.values())} messages:")
     for name, count in result.counts.items():
         print(f"  {name}: {count}")
+    for damage in result.damage:
+        print(f"  damaged {damage.sentence(result.origin_ns)}")
+    if result.recovered:
+        print(
+            f"{result.recovered} messages were recovered by parsing damaged chunks: each frames and decodes "
+            "as CDR of its channel's type, but no checksum vouches for its values (a flipped bit inside a "
+            "number decodes too); info shows them as repaired"
+        )
+    print(f"dropped: {result.dropped} message records found not intact. {DROPS}.")
     if result.backup is not None:
         print(f"damaged file kept as {result.backup}")
     return 0

@@ -33,12 +33,39 @@ class Accounting:
     simulator: Mapping[str, Any] = field(default_factory=dict)
     estimator: Mapping[str, Any] = field(default_factory=dict)
     recorder: Mapping[str, Any] = field(default_factory=dict)
+    chain: Mapping[str, Any] = field(default_factory=dict)
+    """How the launcher saw the chain end: {"ended": "finished" | "interrupted" | "node died", "died", "how"}
+    (chain.json, which the launcher writes before it stops the nodes)."""
 
     @classmethod
     def from_json(cls, text: str) -> Accounting:
         """Accounting from the custom_data JSON ({role: counters})."""
         data = json.loads(text)
-        return cls(data.get("simulator", {}), data.get("estimator", {}), data.get("recorder", {}))
+        return cls(
+            data.get("simulator", {}),
+            data.get("estimator", {}),
+            data.get("recorder", {}),
+            data.get("chain", {}),
+        )
+
+    def ending(self) -> str | None:
+        """Why the recording is not the whole run, one phrase; None when the chain ended as planned.
+
+        A node died (the launcher's word, or an expected role that left no counters: a killed node writes
+        none), or the run was interrupted before the scene's end.
+        """
+        if self.chain.get("died"):
+            how = self.chain.get("how", "unknown cause")
+            return f"the chain stopped because the {self.chain['died']} died ({how})"
+        # The launcher writes chain.json, the nodes their counters; role names as the user knows them.
+        roles = {"simulator": self.simulator, "estimator": self.estimator, "launcher": self.chain}
+        expected = ["launcher" if r == "chain" else r for r in self.recorder.get("expected", [])]
+        silent = [r for r in expected if r in roles and not roles[r]]
+        if silent:
+            return f"the {' and the '.join(silent)} left no counters: died before the recording ended"
+        if self.chain.get("ended") == "interrupted":
+            return "the run was interrupted before the scene's end"
+        return None
 
     def published(self, topic: str) -> int | None:
         """Messages the chain published on ``topic`` (simulator's topics and the estimator's outputs)."""

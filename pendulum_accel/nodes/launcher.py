@@ -157,6 +157,7 @@ class Chain:
         self.accounting: Accounting | None = None
         self.config = config
         self.children: list[Child] = []
+        self._summaries: Path | None = None  # where the nodes' counters and the chain's ending go
         self.log = log
         self._signalled = 0
         self.output = output
@@ -182,7 +183,9 @@ class Chain:
                 "overwrite": cfg.overwrite,
                 "scene": scene_arg,
                 "time_source": time_source,
-                "chain_summaries": [str(summaries / f"{role}.json") for role in ("simulator", "estimator")],
+                "chain_summaries": [
+                    str(summaries / f"{role}.json") for role in ("simulator", "estimator", "chain")
+                ],
                 "summary_file": str(summaries / "recorder.json"),
             }
             out.append(("recorder", node_command("recorder_node", rec)))
@@ -266,6 +269,7 @@ class Chain:
             with tempfile.TemporaryDirectory(prefix="pendulum_accel_chain_") as tmp:
                 scene_arg = effective_scene_file(self.config, Path(tmp))
                 self._say(f"time source: {self.config.effective_time_source}")
+                self._summaries = Path(tmp)
                 for role, command in self.commands(scene_arg, Path(tmp)):
                     self._start(role, command)
                 code = self._supervise()
@@ -298,6 +302,13 @@ class Chain:
             return 1
         return 0
 
+    def _ended(self, ended: str, died: str | None = None, how: str | None = None) -> None:
+        """Write how the chain ended (chain.json, which the recorder stores with the counters) before the
+        nodes are stopped: 'finished' | 'interrupted' | 'node died', and which node and how."""
+        if self._summaries is not None:
+            ending = {"ended": ended, **({"died": died, "how": how} if died else {})}
+            (self._summaries / "chain.json").write_text(json.dumps(ending))
+
     def _supervise(self) -> int:
         """Watch the children until the simulator ends, a signal arrives or another child dies."""
         simulator = self.child("simulator")
@@ -305,6 +316,7 @@ class Chain:
         while True:
             if self._signalled:
                 self._say("interrupted: stopping the chain")
+                self._ended("interrupted")
                 self.stop()
                 return 130
             code = simulator.process.poll()
@@ -312,9 +324,11 @@ class Chain:
                 simulator.expected_exit = True
                 if code != 0:
                     self._say(f"simulator ended with {describe_exit(code)}: stopping the chain")
+                    self._ended("node died", "simulator", describe_exit(code))
                     self.stop()
                     return 1
                 self._say("scene finished: stopping the chain")
+                self._ended("finished")
                 self.stop()
                 failed = [c for c in self.children if c.process.returncode not in (0, None)]
                 for c in failed:
@@ -327,6 +341,7 @@ class Chain:
                         f"{child.role} (pid {child.pid}) died with {describe_exit(code)}: stopping the chain"
                     )
                     child.expected_exit = True
+                    self._ended("node died", child.role, describe_exit(code))
                     self.stop()
                     return 1
             time.sleep(_POLL)

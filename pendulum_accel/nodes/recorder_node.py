@@ -191,7 +191,9 @@ class RecorderNode(ChainNode):
         if self._closed:
             return
         self._closed = True
-        own = {"received": self.received, "written": dict(self.writer.counts)}
+        # The roles whose counters were expected: one missing from the accounting died without closing.
+        expected = [Path(name).stem for name in self.chain_summaries]
+        own = {"received": self.received, "written": dict(self.writer.counts), "expected": expected}
         try:
             self._write_pending()
             own["written"] = dict(self.writer.counts)
