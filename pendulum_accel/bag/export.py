@@ -29,9 +29,7 @@ if TYPE_CHECKING:  # pandas is the optional export extra: imported at run time o
     from pandas import DataFrame
 
 FORMATS = ("csv", "parquet")
-BULK_TYPES = frozenset(
-    {bm.JOINT_STATE, bm.ACCEL_STAMPED, bm.ACCEL_WITH_COVARIANCE_STAMPED, bm.CLOCK, bm.IMU}
-)
+BULK_TYPES = frozenset({bm.JOINT_STATE, bm.ACCEL_STAMPED, bm.ACCEL_WITH_COVARIANCE_STAMPED, bm.CLOCK, bm.IMU})
 """Message types whose fields sit at fixed offsets in every message the chain writes: decoded in bulk."""
 MERGED_NAME = "merged"
 PER_SAMPLE_TOPICS = frozenset({bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_STRING})

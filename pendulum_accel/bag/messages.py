@@ -289,7 +289,7 @@ def canonical_cdr(raw: bytes | memoryview, msgtype: str) -> tuple[object, bytes]
     used, size = len(canonical), len(raw)
     padded = -(-used // CDR_END_ALIGNMENT) * CDR_END_ALIGNMENT
     if size != used and size != padded:
-        raise BagError(f"a {msgtype} message has {size - used} bytes past its end ({size} bytes, uses {used})")
+        raise BagError(f"a {msgtype} message has {size - used} bytes past its end (uses {used} of {size})")
     return msg, canonical
 
 
