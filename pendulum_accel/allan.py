@@ -226,8 +226,10 @@ def bag_series(path: str) -> StaticSeries:
         TOPIC_JOINT_STATES,
     )
     from pendulum_accel.bag.reader import read_bag
+    from pendulum_accel.recording.contract import check_chain_contract
 
     bag = read_bag(path)
+    check_chain_contract(bag)
     js = bag.decode(
         TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
     )

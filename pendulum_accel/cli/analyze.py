@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 from pendulum_accel.bag.reader import read_bag, salvage_note
+from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.errors import BagError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME
 from pendulum_accel.recording.analyze import analysis_dict, analyze_bag, plot_analysis, stored_scene
@@ -66,6 +67,7 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the report (and plot); a damaged bag is analysed up to the damage, with a warning, exit 1."""
+    plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     bag = read_bag(args.bag)
     if args.skip > 0 and not args.skip < bag.duration_s:
         # Nothing would be left to average: the report would be NaN figures.
@@ -92,8 +94,8 @@ def run(args: argparse.Namespace) -> int:
         print("\n".join(result.lines()))
         if spread is not None:
             print(spread.line())
-    if args.plot:
-        path = plot_analysis(result, args.plot)
+    if plot is not None:
+        path = write_output(plot, lambda target: plot_analysis(result, target))
         if not args.json:
             print(f"plot:       {path}")
     note = salvage_note(bag)

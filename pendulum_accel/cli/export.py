@@ -8,6 +8,8 @@ from typing import Any
 
 from pendulum_accel.bag.export import FORMATS, export_bag
 from pendulum_accel.bag.reader import read_bag, salvage_note
+from pendulum_accel.cli.output import check_output_dir, output_directory
+from pendulum_accel.recording.contract import check_chain_contract
 
 
 def register(subparsers: Any) -> None:
@@ -30,9 +32,16 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the tables and list them; a damaged bag is exported up to the damage, with a warning, exit 1."""
+    """Write the tables and list them; a damaged bag is exported up to the damage, with a warning, exit 1.
+
+    The output directory is checked first; a bag of foreign data (another joint, another frame) is refused.
+    """
+    out = check_output_dir(args.out)
     bag = read_bag(args.bag)
-    for path in export_bag(bag, args.out, fmt=args.format, merged=args.merged, topics=args.topics):
+    check_chain_contract(bag)
+    with output_directory(out):
+        paths = export_bag(bag, out, fmt=args.format, merged=args.merged, topics=args.topics)
+    for path in paths:
         print(path)
     note = salvage_note(bag)
     if note is not None:
