@@ -186,6 +186,15 @@ def test_export_every_topic(live_bag: Path, tmp_path: Path, fmt: str) -> None:
     np.testing.assert_array_equal(imu["t"], tables[bm.TOPIC_JOINT_STATES]["t"])
     diagnostics = tables[bm.TOPIC_DIAGNOSTICS]
     assert set(diagnostics[f"{bm.TOPIC_DIAGNOSTICS}/pendulum_accel/accel_estimator/method"]) == {"kalman"}
+    merged_dir = tmp_path / "merged"
+    _no_traceback(cli("export", str(live_bag), "--out", str(merged_dir), "--format", fmt, "--merged"))
+    merged_path = merged_dir / f"merged.{fmt}"
+    merged = pd.read_csv(merged_path) if fmt == "csv" else pd.read_parquet(merged_path)
+    assert len(merged) == SAMPLES  # one row per angle, each with its own Imu (same stamp)
+    np.testing.assert_array_equal(
+        merged[column_name(bm.TOPIC_IMU, "linear_acceleration.x")],
+        merged[column_name(bm.TOPIC_ACCEL_ESTIMATE, "accel.accel.linear.x")],
+    )
 
 
 @pytest.mark.ros

@@ -32,8 +32,8 @@ FORMATS = ("csv", "parquet")
 BULK_TYPES = frozenset({bm.JOINT_STATE, bm.ACCEL_STAMPED, bm.ACCEL_WITH_COVARIANCE_STAMPED, bm.CLOCK, bm.IMU})
 """Message types whose fields sit at fixed offsets in every message the chain writes: decoded in bulk."""
 MERGED_NAME = "merged"
-PER_SAMPLE_TOPICS = frozenset({bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_STRING})
-"""Topics stamped with the angle's stamp: merged on equal stamps (a missing estimate stays missing)."""
+PER_SAMPLE_TOPICS = frozenset({bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_STRING, bm.TOPIC_IMU})
+"""Topics stamped with the angle's stamp: merged on equal stamps (a missing estimate or Imu stays missing)."""
 
 
 class ExportError(PendulumAccelError):
