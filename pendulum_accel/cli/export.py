@@ -9,7 +9,6 @@ from typing import Any
 from pendulum_accel.bag.export import FORMATS, export_bag
 from pendulum_accel.bag.reader import read_bag, salvage_note
 from pendulum_accel.cli.output import check_output_dir, output_directory
-from pendulum_accel.recording.contract import check_chain_contract
 
 
 def register(subparsers: Any) -> None:
@@ -36,6 +35,8 @@ def run(args: argparse.Namespace) -> int:
 
     The output directory is checked first; a bag of foreign data (another joint, another frame) is refused.
     """
+    from pendulum_accel.recording.contract import check_chain_contract  # estimators: loaded when used
+
     out = check_output_dir(args.out)
     bag = read_bag(args.bag)
     check_chain_contract(bag)
