@@ -231,9 +231,11 @@ def bag_series(path: str | Bag) -> StaticSeries:
         TOPIC_JOINT_STATES,
     )
     from pendulum_accel.bag.reader import Bag, read_bag
+    from pendulum_accel.recording.contract import check_chain_contract
 
     bag = path if isinstance(path, Bag) else read_bag(path, salvage=False)
     path = str(bag.path)
+    check_chain_contract(bag)
     js = bag.decode(
         TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
     )

@@ -62,7 +62,7 @@ from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, profile_from_dict
 from pendulum_accel.physics.rigid import level_equivalent
 from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, MODELS
-from pendulum_accel.sensor import SensorModel, noise_std_from_density
+from pendulum_accel.sensor import SENSOR_LIMITS, SensorModel, check_sensor_field, noise_std_from_density
 from pendulum_accel.textfile import read_text_file
 
 SCENES_DIR = Path(__file__).resolve().parent / "scenes"
@@ -369,7 +369,18 @@ def _sensor(sens: _Fields) -> SensorModel:
         raise SceneError("sensor: give noise_std (rad per sample) or noise_density (rad/√Hz), not both")
     noise_std = sens.number("noise_std", 0.0, low=0.0)
     if sens.has("noise_density"):
-        noise_std = noise_std_from_density(sens.number("noise_density", low=0.0), rate_hz)
+        density = sens.number("noise_density", low=0.0)
+        try:
+            check_sensor_field("noise_density", density)
+        except ParameterError as err:
+            raise _sensor_error(err) from None
+        noise_std = noise_std_from_density(density, rate_hz)
+        if noise_std > SENSOR_LIMITS["noise_std"][1]:
+            top = SENSOR_LIMITS["noise_std"][1] / math.sqrt(rate_hz)
+            raise SceneError(
+                f"sensor: noise_density must be in [0, {top:.6g}] rad/√Hz at rate_hz {rate_hz:g} "
+                f"(σ = N·√rate_hz ≤ {SENSOR_LIMITS['noise_std'][1]:g} rad), got {density!r}"
+            )
     try:
         return SensorModel(
             rate_hz=rate_hz,
@@ -385,7 +396,13 @@ def _sensor(sens: _Fields) -> SensorModel:
             range=sens.number("range", 0.0, low=0.0),
         )
     except ParameterError as err:
-        raise SceneError(f"sensor: {err}") from None
+        raise _sensor_error(err) from None
+
+
+def _sensor_error(err: ParameterError) -> SceneError:
+    """SceneError of a SensorModel refusal, the field named by its path: 'sensor.bias_mean must be …'."""
+    text = str(err)
+    return SceneError(f"sensor.{text[len('sensor ') :]}" if text.startswith("sensor ") else f"sensor: {text}")
 
 
 def _parse(data: object, base_dir: Path | None) -> Scene:

@@ -54,6 +54,31 @@ _NON_NEGATIVE = (
     "range",
 )
 
+SENSOR_LIMITS: dict[str, tuple[float, float, str]] = {
+    "noise_std": (0.0, 1.0, "rad"),
+    "noise_density": (0.0, 1.0, "rad/√Hz"),
+    "bias": (-math.pi, math.pi, "rad"),
+    "bias_mean": (-math.pi, math.pi, "rad"),
+    "bias_stddev": (0.0, math.pi, "rad"),
+    "bias_random_walk": (0.0, 1.0, "rad/√s"),
+    "dynamic_bias_stddev": (0.0, 1.0, "rad/√s"),
+    "quantization": (0.0, math.pi, "rad"),
+    "range": (0.0, math.pi, "rad"),
+}
+"""(low, high, unit) of the sensor fields that are angles or angle spreads. An angle sensor whose noise,
+bias or step exceeds a full turn (1 rad of noise per sample or per √s) measures nothing; values past
+these (1e300) would only overflow the noise draws into inf and NaN. noise_density's bound also keeps
+σ = N·√f within noise_std's (checked on σ once the rate is known)."""
+
+
+def check_sensor_field(name: str, value: float) -> float:
+    """``value`` when finite and within SENSOR_LIMITS[name], else ParameterError stating the range."""
+    low, high, unit = SENSOR_LIMITS[name]
+    number = require_finite(f"sensor {name}", value)
+    if not low <= number <= high:
+        raise ParameterError(f"sensor {name} must be in [{low:.6g}, {high:.6g}] {unit}, got {value!r}")
+    return number
+
 
 def noise_std_from_density(density: float, rate_hz: float) -> float:
     """σ = N · √f: per-sample white-noise std (rad) of a density N (rad/√Hz) sampled at f (Hz)."""
@@ -77,15 +102,15 @@ class SensorModel:
     range: float = 0.0
 
     def __post_init__(self) -> None:
-        """Validate: f > 0, the spreads, τ and R ≥ 0, b and bias_mean finite, seed an integer ≥ 0."""
+        """Validate: f > 0, spreads, τ and R ≥ 0, angle fields within SENSOR_LIMITS, seed an integer ≥ 0."""
         object.__setattr__(self, "rate_hz", require_positive("sensor rate_hz", self.rate_hz))
         for name in _NON_NEGATIVE:
             value = require_finite(f"sensor {name}", getattr(self, name))
             if value < 0.0:
                 raise ParameterError(f"sensor {name} must be >= 0, got {value!r}")
             object.__setattr__(self, name, value)
-        for name in ("bias", "bias_mean"):
-            object.__setattr__(self, name, require_finite(f"sensor {name}", getattr(self, name)))
+        for name in SENSOR_LIMITS.keys() - {"noise_density"}:
+            object.__setattr__(self, name, check_sensor_field(name, getattr(self, name)))
         seed = self.seed
         if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
             raise ParameterError(f"sensor seed must be an integer >= 0, got {seed!r}")

@@ -1,18 +1,40 @@
-"""Read a small user-given text file (scene YAML, acceleration CSV) without trusting its size or bytes."""
+"""Read a small user-given text file (scene YAML, acceleration CSV): its size, type and bytes are checked."""
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 
 MAX_TEXT_BYTES = 64 * 1024**2
-"""Scene and profile files are kilobytes; anything past this (``/dev/zero``, a disk image) is refused
-before it is read into memory."""
+"""Scene and profile files are kilobytes; anything past this (a disk image) is refused before it is read
+into memory."""
+
+_KINDS = {
+    stat.S_IFDIR: "a directory",
+    stat.S_IFIFO: "a FIFO (named pipe)",
+    stat.S_IFCHR: "a character device",
+    stat.S_IFBLK: "a block device",
+    stat.S_IFSOCK: "a socket",
+}
 
 
 def read_text_file(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
-    """UTF-8 text of ``path`` (≤ ``limit`` bytes); OSError when unreadable, else ValueError (one line)."""
-    with path.open("rb") as handle:
-        data = handle.read(limit + 1)
+    """UTF-8 text of regular file ``path`` (≤ ``limit`` bytes); OSError when unreadable, else ValueError.
+
+    The file is opened without blocking and its type checked on the open descriptor before any read: a
+    FIFO would block until a writer came, a device (/dev/zero) never ends.
+    """
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        kind = stat.S_IFMT(os.fstat(fd).st_mode)
+        if kind != stat.S_IFREG:
+            raise ValueError(f"{_KINDS.get(kind, 'not a regular file')}, not a text file")
+        os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb", closefd=False) as handle:
+            data = handle.read(limit + 1)
+    finally:
+        os.close(fd)
     if len(data) > limit:
         raise ValueError(f"more than {limit / 1024**2:g} MiB, not a text file of this kind")
     try:

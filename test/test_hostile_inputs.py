@@ -7,17 +7,20 @@ traceback), lose nothing recoverable and touch nothing outside what the command 
 from __future__ import annotations
 
 import contextlib
+import copy
 import itertools
 import os
 import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
@@ -25,11 +28,13 @@ from mcap.reader import make_reader
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.repair import repair_bag
+from pendulum_accel.bag.writer import BagWriter
 from pendulum_accel.errors import BagError, ParameterError, SceneError
 from pendulum_accel.estimators.guard import Decision, GuardState, InputGuard
 from pendulum_accel.physics import kernels
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Sinusoid
+from pendulum_accel.recording.generate import generate_bag
 from test.conftest import PYTHON, REPO
 from test.test_bag_io import _write_chain_bag
 
@@ -241,7 +246,8 @@ def _tiny_filesystem(where: Path, size: str, options: str = "") -> Iterator[Path
 
 
 def test_simulate_to_a_full_device_or_a_directory_is_one_line(tmp_path: Path) -> None:
-    one_line_error(cli("simulate", "--out", "/dev/full"), "No space left", "nothing")
+    # The suffix says the format, devices included: /dev/full is refused by its name, before the run.
+    one_line_error(cli("simulate", "--out", "/dev/full"), "must end in .csv", "nothing")
     one_line_error(cli("simulate", "--out", str(tmp_path)), "directory", "nothing written")
     assert list(tmp_path.iterdir()) == []
 
@@ -284,12 +290,16 @@ def test_a_foreign_joint_is_dropped_counted_and_reported() -> None:
     guard = InputGuard(rate_hz=100.0)
     assert guard.check(0.0, 0.1, names=["elbow_joint"]) is Decision.DROP
     assert guard.check(0.01, 0.1, names=[bm.PENDULUM_JOINT]) is Decision.ACCEPT
-    assert guard.check(0.02, 0.1, names=["wheel", bm.PENDULUM_JOINT]) is Decision.ACCEPT
-    assert guard.check(0.03, 0.1) is Decision.ACCEPT  # a bare angle, no names
+    # Extra joints: another robot's JointState on the topic; which position is θ would be a guess.
+    assert guard.check(0.02, 0.1, names=["wheel", bm.PENDULUM_JOINT]) is Decision.DROP
+    assert guard.check(0.03, 0.1, names=[bm.PENDULUM_JOINT], frame_id="odom") is Decision.DROP
+    assert guard.check(0.04, 0.1, names=[bm.PENDULUM_JOINT], frame_id=bm.FRAME_ID) is Decision.ACCEPT
+    assert guard.check(0.05, 0.1, names=[bm.PENDULUM_JOINT], frame_id="") is Decision.ACCEPT
+    assert guard.check(0.06, 0.1) is Decision.ACCEPT  # a bare angle, no names
     report = guard.report()
-    assert report.state is GuardState.ERROR and "elbow_joint" in report.message
-    assert dict(report.values)["dropped_wrong_joint"] == "1"
-    assert guard.accepted == 3
+    assert report.state is GuardState.ERROR and "odom" in report.message
+    assert dict(report.values)["dropped_wrong_joint"] == "3"
+    assert guard.accepted == 4
 
 
 @settings(max_examples=200, deadline=None)
@@ -318,11 +328,11 @@ def test_odd_files_are_one_line(tmp_path: Path) -> None:
     text = cli("scenes", "lecture_constant").stdout
     start = text.index("acceleration:")
     end = text.index("sensor:")
-    for source, words in (("binary.csv", ("not UTF-8",)), ("/dev/zero", ("MiB",))):
+    for source, words in (("binary.csv", ("not UTF-8",)), ("/dev/zero", ("character device",))):
         scene = tmp_path / "csv_scene.yaml"
         scene.write_text(text[:start] + profile.format(source) + text[end:])
         one_line_error(cli("simulate", str(scene)), *words)
-    one_line_error(cli("simulate", "/dev/zero"), "MiB")
+    one_line_error(cli("simulate", "/dev/zero"), "character device")
 
 
 def test_a_huge_duration_is_one_line(tmp_path: Path) -> None:
@@ -383,6 +393,227 @@ def test_preflight_is_a_function_of_the_config(tmp_path: Path) -> None:
         check_chain(ChainConfig(scene=str(tmp_path / "missing.yaml")))
     with pytest.raises(ParameterError, match="does not exist"):
         check_chain(ChainConfig(scene="lecture_constant", record=tmp_path / "a" / "b"))
+
+
+# --- 9. the red-team table: every output path, every hostile scene input, foreign data -------------
+#
+# Each row: a command line (placeholders below), a fragment of its one error line, its exit code. Rows
+# run in-process (main(argv)) from a scratch directory: an exception other than the package's own
+# propagates and fails the row, as a traceback would. The scratch directory and the workspace must be
+# as they were afterwards: nothing is written outside the path asked for, not even on refusal.
+#   {ws}  a workspace: {ws}/afile (a file), {ws}/adir (a directory), {ws}/ro (a read-only tmpfs),
+#         {ws}/fifo.yaml (a FIFO), {ws}/dir.yaml (a directory), {ws}/missing (absent)
+#   {bag} a small generated bag; {elbow}, {two}, {odom}, {est_odom}: copies carrying foreign data
+#   {huge_FIELD}: lecture_constant with sensor FIELD at 1e300 (bias_random_walk 1e307)
+
+HUGE_SENSOR = {
+    "noise_density": 1e300,
+    "bias_stddev": 1e300,
+    "dynamic_bias_stddev": 1e300,
+    "bias_mean": 1e300,
+    "bias_random_walk": 1e307,
+}
+
+RED_TEAM: list[tuple[str, str, int]] = [
+    # output paths, file outputs
+    ("simulate --out {ws}/ro/x.csv", "is not writable", 2),
+    ("simulate --out {ws}/adir", "is a directory", 2),
+    ("simulate --out {ws}/afile/x.csv", "is not a directory", 2),
+    ("simulate --out {ws}/x.txt", "must end in .csv", 2),
+    ("simulate --out {ws}/missing/x.csv", "does not exist (it is not created", 2),
+    ("simulate --out /dev/full", "must end in .csv", 2),
+    ("simulate --plot {ws}/ro/x.png", "is not writable", 2),
+    ("simulate --plot {ws}/x.jpg", "must end in .png", 2),
+    ("sweep at_rest --length 1,2 --out {ws}/ro/s.csv", "is not writable", 2),
+    ("sweep at_rest --length 1,2 --out {ws}/adir", "is a directory", 2),
+    ("sweep at_rest --length 1,2 --plot {ws}/s.svg", "must end in .png", 2),
+    ("sweep at_rest --length 1,2 --plot {ws}/missing/s.png", "does not exist", 2),
+    ("lecture equilibrium --plot {ws}/ro/x.png", "is not writable", 2),
+    ("lecture equilibrium --plot {ws}/afile/x.png", "is not a directory", 2),
+    ("lecture equilibrium --plot {ws}/x.pdf", "must end in .png", 2),
+    ("lecture equilibrium --plot-dir {ws}/missing", "does not exist", 2),
+    ("analyze {bag} --plot {ws}/ro/a.png", "is not writable", 2),
+    ("analyze {bag} --plot {ws}/adir", "is a directory", 2),
+    ("analyze {bag} --plot {ws}/afile/a.png", "is not a directory", 2),
+    ("analyze {bag} --plot {ws}/a.jpg", "must end in .png", 2),
+    ("allan {bag} --plot {ws}/ro/a.png", "is not writable", 2),
+    ("animate {bag} --out {ws}/ro/a.gif", "is not writable", 2),
+    ("animate {bag} --out {ws}/a.png", "must end in .gif or .mp4", 2),
+    ("animate {bag} --out {ws}/adir", "is a directory", 2),
+    ("animate {bag} --out {ws}/missing/a.gif", "does not exist", 2),
+    ("animate {bag} --out /dev/full", "must end in .gif or .mp4", 2),
+    # output paths, directory outputs
+    ("export {bag} --out ", "--out is empty", 2),
+    ("export {bag} --out {ws}/afile", "is not a directory", 2),
+    ("export {bag} --out {ws}/afile/sub", "is not a directory", 2),
+    ("export {bag} --out {ws}/ro/t", "is not writable", 2),
+    ("export {bag} --out {ws}/missing/t", "does not exist", 2),
+    ("export {bag} --out /dev/full", "is not a directory", 2),
+    ("generate lecture_constant --out {ws}/ro/b", "is not writable", 2),
+    ("generate lecture_constant --out {ws}/afile", "is not a directory", 2),
+    ("generate lecture_constant --out {ws}/missing/b", "does not exist", 2),
+    ("generate lecture_constant --out /dev/full", "is not a directory", 2),
+    ("generate lecture_constant --out {ws}/b --duration 1000", "lecture_constant lasts 20 s", 2),
+    # hostile scene inputs
+    *[(f"simulate {{huge_{name}}}", f"sensor.{name} must be in [", 2) for name in HUGE_SENSOR],
+    *[(f"generate {{huge_{name}}} --out {{ws}}/b", f"sensor.{name} must be in [", 2) for name in HUGE_SENSOR],
+    ("simulate {ws}/fifo.yaml", "a FIFO (named pipe), not a text file", 2),
+    ("simulate {ws}/dir.yaml", "a directory, not a text file", 2),
+    ("simulate /proc/self/mem", "cannot read scene file", 2),  # unreadable even for root (EIO)
+    ("repair {ws}/adir", ".mcap", 2),
+    # foreign data, refused offline as the estimator node refuses it online
+    *[
+        (f"{command} {{{bag}}}{tail}", fragment, 2)
+        for bag, fragment in (
+            ("elbow", "names joint(s) 'elbow_joint', not only 'pendulum_joint'"),
+            ("two", "names joint(s) 'pendulum_joint', 'elbow_joint'"),
+            ("odom", "/pendulum/joint_states messages are not the pendulum chain's (frame_id 'odom'"),
+            ("est_odom", "/car/accel/estimate messages are not the pendulum chain's (frame_id 'odom'"),
+        )
+        for command, tail in (
+            ("analyze", ""),
+            ("allan", ""),
+            ("export", " --out {ws}/t"),
+            ("animate", " --out {ws}/a.gif"),
+        )
+    ],
+]
+
+
+def _rewritten(source: Path, target: Path, topic: str, edit: Callable[[Any], None]) -> Path:
+    """A copy of bag ``source`` whose ``topic`` messages went through ``edit`` (in place)."""
+    bag = read_bag(source)
+    with BagWriter(target, custom_data=bag.custom_data) as writer:
+        for name, info in bag.topics.items():
+            writer.add_topic(name, info.msgtype)
+        for name, ns, data in bag.iter_raw():
+            if name == topic:
+                msg = bm.deserialize(data, bag.topics[name].msgtype)
+                edit(msg)
+                data = bm.serialize(msg, bag.topics[name].msgtype)
+            writer.write(name, ns, data)
+    return target
+
+
+def _joints(names: list[str]) -> Callable[[Any], None]:
+    """Edit: the JointState names ``names``, its positions and velocities repeated to their number."""
+
+    def edit(msg: Any) -> None:
+        """In place."""
+        msg.name = names
+        msg.position = np.resize(msg.position, len(names))
+        msg.velocity = np.resize(msg.velocity, len(names))
+
+    return edit
+
+
+def _frame(frame_id: str) -> Callable[[Any], None]:
+    """Edit: header.frame_id = ``frame_id``."""
+
+    def edit(msg: Any) -> None:
+        """In place."""
+        msg.header.frame_id = frame_id
+
+    return edit
+
+
+@pytest.fixture(scope="module")
+def red_team(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, str]]:
+    """The placeholders of RED_TEAM, made real (the read-only tmpfs is unmounted at the end)."""
+    base = tmp_path_factory.mktemp("red_team")
+    ws = base / "ws"
+    ws.mkdir()
+    (ws / "afile").write_text("a file\n")
+    (ws / "adir").mkdir()
+    (ws / "dir.yaml").mkdir()
+    os.mkfifo(ws / "fifo.yaml")
+    bags = base / "bags"
+    bags.mkdir()
+    generate_bag("lecture_constant", bags / "bag", duration=2.0)
+    places = {"ws": str(ws), "bag": str(bags / "bag")}
+    for name, topic, edit in (
+        ("elbow", bm.TOPIC_JOINT_STATES, _joints(["elbow_joint"])),
+        ("two", bm.TOPIC_JOINT_STATES, _joints([bm.PENDULUM_JOINT, "elbow_joint"])),
+        ("odom", bm.TOPIC_JOINT_STATES, _frame("odom")),
+        ("est_odom", bm.TOPIC_ACCEL_ESTIMATE, _frame("odom")),
+    ):
+        places[name] = str(_rewritten(bags / "bag", bags / name, topic, edit))
+    scene = yaml.safe_load(cli("scenes", "lecture_constant").stdout)
+    for name, value in HUGE_SENSOR.items():
+        doc = copy.deepcopy(scene)
+        doc["sensor"][name] = value
+        if name == "noise_density":
+            doc["sensor"].pop("noise_std", None)  # one or the other
+        if name == "dynamic_bias_stddev":
+            doc["sensor"]["dynamic_bias_correlation_time"] = 1.0  # needed with it
+        path = bags / f"huge_{name}.yaml"
+        path.write_text(yaml.safe_dump(doc))
+        places[f"huge_{name}"] = str(path)
+    with _tiny_filesystem(ws / "ro", "64k", "ro"):
+        yield places
+
+
+def _tree(root: Path) -> set[str]:
+    """Every path under ``root`` (the read-only mount's inside included), relative."""
+    return {str(p.relative_to(root)) for p in root.rglob("*")}
+
+
+@pytest.mark.parametrize(("line", "fragment", "code"), RED_TEAM, ids=[row[0] for row in RED_TEAM])
+def test_red_team_case_is_one_line(
+    red_team: dict[str, str],
+    line: str,
+    fragment: str,
+    code: int,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from pendulum_accel.cli.main import main
+
+    words = line.split(" ")
+    argv = [word.format(**red_team) for word in words]
+    ws = Path(red_team["ws"])
+    before = _tree(ws)
+    monkeypatch.chdir(tmp_path)
+    try:
+        returned = main(argv)
+    except SystemExit as exit_:  # argparse
+        returned = int(exit_.code or 0)
+    err = capsys.readouterr().err
+    errors = [row for row in err.splitlines() if "error:" in row]
+    assert returned == code, err
+    assert len(errors) == 1 and fragment in errors[0], err
+    assert "Traceback" not in err
+    assert _tree(ws) == before  # nothing written in the workspace, even inside the path asked for
+    assert list(tmp_path.iterdir()) == []  # nor in the working directory (``export --out ""``)
+
+
+# --- 10. a disk that fills up during the write: one line, nothing left ------------------------------
+
+
+@pytest.mark.parametrize(
+    ("line", "size"),
+    [
+        ("export {bag} --out {fs}/tables", "64k"),
+        ("export {bag} --out {fs}/tables --format parquet", "16k"),
+        ("animate {bag} --out {fs}/a.gif --duration 1 --fps 10", "16k"),
+        ("analyze {bag} --plot {fs}/a.png", "16k"),
+        ("sweep at_rest --length 0.5:2:100 --duration 0.2 --no-progress --out {fs}/s.csv", "16k"),
+        ("simulate lecture_constant --plot {fs}/p.png", "16k"),
+    ],
+)
+def test_a_disk_filling_up_during_the_write_is_one_line(
+    red_team: dict[str, str], tmp_path: Path, line: str, size: str
+) -> None:
+    with _tiny_filesystem(tmp_path / "fs", size) as fs:
+        # Fill the file system but for a few KiB: the check passes (space is left), the write fails.
+        with contextlib.suppress(OSError), (fs / "filler").open("wb") as filler:
+            while os.statvfs(fs).f_bavail * os.statvfs(fs).f_frsize > 4096:
+                filler.write(b"\0" * 4096)
+                filler.flush()
+        argv = [word.format(fs=fs, **red_team) for word in line.split(" ")]
+        one_line_error(cli(*argv), "cannot write", "No space left")
+        assert sorted(p.name for p in fs.iterdir()) == ["filler"]  # the partial output is gone
 
 
 if __name__ == "__main__":

@@ -112,9 +112,12 @@ def test_invalid_parameters_are_rejected_with_a_reason(spawn: Spawn) -> None:
 
 
 def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
-    """Several joints, ours second and no velocity: not our fixed layout, so rclpy deserializes it,
-    and pendulum_joint's angle (not the other joint's) gives â = g tan θ."""
-    estimator = start_node(spawn, "estimator_node", {"scene": "lecture_constant", "method": "instant"})
+    """Our joint without velocity: not our fixed layout, so rclpy deserializes it and â = g tan θ. The
+    same with another joint besides ours is another robot's JointState (guard.joint_state_problem, the
+    rule the offline commands apply too): dropped, counted, no estimate."""
+    estimator = start_node(
+        spawn, "estimator_node", {"scene": "lecture_constant", "method": "instant", "diagnostics_period": 0.2}
+    )
     estimator.wait_for(r"estimating with", timeout=60)
     theta = math.atan2(2.0, G)
     feed = [[0.01 * i, theta] for i in range(50)]
@@ -123,7 +126,7 @@ def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
         {
             "listen": ["/car/accel/estimate"],
             "wait_subscribers": 1,
-            "joints": ["wheel", "pendulum_joint"],
+            "joints": ["pendulum_joint"],
             "feed": feed,
             "linger": 1.0,
         },
@@ -132,4 +135,18 @@ def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
     assert stamps == pytest.approx([t for t, _ in feed], abs=1e-9)  # one estimate per input, in order
     for _, accel, _ in result["estimates"]:
         # g tan(atan(2/g)): atan then tan, each ≤ 1 ulp, amplified by tan's condition 2θ/sin 2θ ≈ 1.0: ~4 ε
-        assert accel == pytest.approx(2.0, rel=1e-12)  # g tan(atan(2/g)); the other joint reads 0.5 rad
+        assert accel == pytest.approx(2.0, rel=1e-12)  # g tan(atan(2/g))
+    later = [[1.0 + 0.01 * i, theta] for i in range(50)]
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/car/accel/estimate", "/diagnostics"],
+            "wait_subscribers": 1,
+            "joints": ["wheel", "pendulum_joint"],
+            "feed": later,
+            "linger": 1.0,
+        },
+    )
+    assert result["estimates"] == []
+    errors = [values for level, _, values in result["diagnostics"] if level == 2]
+    assert errors and int(errors[-1]["dropped_wrong_joint"]) == 50, result["diagnostics"]

@@ -29,11 +29,11 @@ if TYPE_CHECKING:  # pandas is the optional export extra: imported at run time o
     from pandas import DataFrame
 
 FORMATS = ("csv", "parquet")
-BULK_TYPES = frozenset({bm.JOINT_STATE, bm.ACCEL_STAMPED, bm.ACCEL_WITH_COVARIANCE_STAMPED, bm.CLOCK})
+BULK_TYPES = frozenset({bm.JOINT_STATE, bm.ACCEL_STAMPED, bm.ACCEL_WITH_COVARIANCE_STAMPED, bm.CLOCK, bm.IMU})
 """Message types whose fields sit at fixed offsets in every message the chain writes: decoded in bulk."""
 MERGED_NAME = "merged"
-PER_SAMPLE_TOPICS = frozenset({bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_STRING})
-"""Topics stamped with the angle's stamp: merged on equal stamps (a missing estimate stays missing)."""
+PER_SAMPLE_TOPICS = frozenset({bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_STRING, bm.TOPIC_IMU})
+"""Topics stamped with the angle's stamp: merged on equal stamps (a missing estimate or Imu stays missing)."""
 
 
 class ExportError(PendulumAccelError):
@@ -69,12 +69,22 @@ def _joint_renames(bag: Bag, topic: str, paths: Sequence[str]) -> dict[str, str]
 
 
 def _diagnostic_columns(
-    topic: str, payloads: Sequence[bytes], pd: ModuleType
-) -> dict[str, NDArray[np.generic]]:
-    """PlotJuggler's DiagnosticArray series (hardware_id/name/key) plus level and message, one row each."""
+    bag: Bag, topic: str, pd: ModuleType
+) -> tuple[NDArray[np.float64], NDArray[np.int64], dict[str, NDArray[np.generic]]]:
+    """(t, log time ns, columns) of a DiagnosticArray topic: PlotJuggler's series (hardware_id/name/key)
+    plus level and message, one row per message that decodes correctly (messages.canonical_cdr); the
+    others are skipped and named in ``bag.problem``, as Bag.decode does."""
+    log_times, payloads = bag.raw(topic)
     rows: list[dict[str, object]] = []
-    for data in payloads:
-        msg = bm.deserialize_as(data, bm.DIAGNOSTIC_ARRAY, bm.DiagnosticArrayMsg)
+    stamps: list[float] = []
+    kept: list[int] = []
+    for i, data in enumerate(payloads):
+        try:
+            msg, _ = bm.canonical_cdr(data, bm.DIAGNOSTIC_ARRAY)
+        except PendulumAccelError:
+            continue
+        if not isinstance(msg, bm.DiagnosticArrayMsg):
+            continue
         row: dict[str, object] = {}
         for status in msg.status:
             prefix = "/".join(p for p in (topic, status.hardware_id, status.name) if p)
@@ -83,7 +93,13 @@ def _diagnostic_columns(
             for kv in status.values:
                 row[f"{prefix}/{kv.key}"] = kv.value
         rows.append(row)
-    table = pd.DataFrame.from_records(rows)
+        stamps.append(float(bm.stamp_seconds(msg.header.stamp.sec, msg.header.stamp.nanosec)))
+        kept.append(i)
+    skipped = len(payloads) - len(kept)
+    if skipped:
+        note = f"topic {topic}: skipped {skipped} damaged message(s) that do not decode"
+        bag.problem = note if bag.problem is None else f"{bag.problem}; {note}"
+    table = pd.DataFrame.from_records(rows, index=range(len(rows)))
     columns: dict[str, NDArray[np.generic]] = {}
     for name in table.columns:
         if str(name).endswith("/message"):
@@ -93,7 +109,7 @@ def _diagnostic_columns(
             columns[str(name)] = pd.to_numeric(table[name]).to_numpy()
         except (ValueError, TypeError):
             columns[str(name)] = table[name].to_numpy()
-    return columns
+    return np.array(stamps, dtype=np.float64), log_times[np.array(kept, dtype=np.int64)], columns
 
 
 def topic_table(bag: Bag, topic: str) -> DataFrame:
@@ -109,10 +125,7 @@ def topic_table(bag: Bag, topic: str) -> DataFrame:
             column_name(topic, renames.get(p, p)): col for p, col in arrays.fields.items()
         }
     elif msgtype == bm.DIAGNOSTIC_ARRAY:
-        log_time, payloads = bag.raw(topic)
-        stamps = bag.decode(topic, fields=["header.stamp.sec", "header.stamp.nanosec"])
-        t = stamps.stamp
-        columns = _diagnostic_columns(topic, payloads, pd)
+        t, log_time, columns = _diagnostic_columns(bag, topic, pd)
     else:
         raise ExportError(f"topic {topic} has type {msgtype}, which export does not flatten")
     head = {"t": np.asarray(t, dtype=np.float64), "log_time": np.asarray(log_time) * 1e-9}

@@ -271,6 +271,28 @@ def deserialize(raw: bytes | memoryview, msgtype: str) -> object:
         raise BagError(f"cannot decode a {msgtype} message ({len(raw)} bytes): {err}") from None
 
 
+CDR_END_ALIGNMENT = 4
+"""A CDR stream may end with up to 3 padding bytes that round its length up to a multiple of 4 (rclpy
+writes them; the typestore does not)."""
+
+
+def canonical_cdr(raw: bytes | memoryview, msgtype: str) -> tuple[object, bytes]:
+    """(message, its typestore bytes) when ``raw`` decodes correctly, else BagError.
+
+    Correct: the typestore decodes it and consumes the whole payload, except the end padding that
+    rounds the length up to a multiple of CDR_END_ALIGNMENT. The decode consumes exactly as many
+    bytes as the typestore writes for the message, so consumed = len(canonical bytes). Padding
+    bytes inside the payload are not compared (rclpy leaves them uninitialised).
+    """
+    msg = deserialize(raw, msgtype)
+    canonical = serialize(msg, msgtype)
+    used, size = len(canonical), len(raw)
+    padded = -(-used // CDR_END_ALIGNMENT) * CDR_END_ALIGNMENT
+    if size != used and size != padded:
+        raise BagError(f"a {msgtype} message has {size - used} bytes past its end (uses {used} of {size})")
+    return msg, canonical
+
+
 M = TypeVar("M")
 
 

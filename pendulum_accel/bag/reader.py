@@ -48,7 +48,7 @@ from pendulum_accel.bag.integrity import (
     inflate_prefix,
     recover_messages,
 )
-from pendulum_accel.bag.messages import Layout, deserialize, rows_from_bytes, stamp_seconds
+from pendulum_accel.bag.messages import Layout, canonical_cdr, deserialize, rows_from_bytes, stamp_seconds
 from pendulum_accel.errors import BagError
 
 _MAGIC = b"\x89MCAP0\r\n"
@@ -265,6 +265,76 @@ class Bag:
             return times[order], [(rank[idx], rows) for idx, rows in groups]
         return times, groups
 
+    def _shapes(
+        self, topic: str, msgtype: str | None
+    ) -> tuple[NDArray[np.int64], list[tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]], int]:
+        """(sorted log times, [(layout, first message, message indices, rows)] per shape, skipped count).
+
+        A message is kept when its CDR decodes correctly: the typestore consumes the whole payload, up to
+        the 0-3 bytes that pad a CDR stream to 4 (``messages.canonical_cdr``). Rows equal to their shape's
+        template outside its numeric fields are taken in bulk; the rest (rclpy leaves padding bytes
+        uninitialised and pads the end to 4 bytes, so its bytes need not re-serialise to themselves) are
+        decoded one by one and taken as the typestore re-serialises them. Bytes that do not decode are
+        skipped and counted.
+        """
+        chans = self._channels_of(topic, msgtype)
+        mtype = chans[0].msgtype
+        times, groups = self._shape_groups(topic, msgtype)
+        shapes: list[tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]] = []
+        stray: list[tuple[NDArray[np.int64], NDArray[np.uint8]]] = []
+        for idx, rows in groups:
+            todo = np.ones(idx.size, dtype=bool)
+            while todo.any():
+                first = int(np.flatnonzero(todo)[0])
+                try:
+                    msg = deserialize(rows[first].tobytes(), mtype)
+                    layout = Layout.of(msg, mtype)
+                except BagError:
+                    todo[first] = False  # does not decode: skipped (counted below)
+                    continue
+                ok = todo & layout.matches(rows)
+                if not ok[first]:
+                    # Decodes, but not as the typestore writes it: the rest of this size, one by one.
+                    stray.append((idx[todo], rows[todo]))
+                    break
+                shapes.append((layout, msg, idx[ok], rows[ok]))
+                todo &= ~ok
+        if stray:
+            shapes += self._canonical_shapes(mtype, stray)
+        kept = sum(int(s[2].size) for s in shapes)
+        return times, shapes, int(times.size) - kept
+
+    @staticmethod
+    def _canonical_shapes(
+        mtype: str, stray: list[tuple[NDArray[np.int64], NDArray[np.uint8]]]
+    ) -> list[tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]]:
+        """Shapes of messages decoded one by one, each row replaced by its typestore re-serialisation."""
+        by_key: dict[bytes, tuple[Layout, object, list[int], list[bytes]]] = {}
+        for idx, rows in stray:
+            for i, row in zip(idx.tolist(), rows, strict=True):
+                try:
+                    msg, canonical = canonical_cdr(row.tobytes(), mtype)
+                    layout = Layout.of(msg, mtype)
+                except BagError:
+                    continue
+                key = layout.mask.tobytes() + layout.template[layout.mask].tobytes()
+                entry = by_key.setdefault(key, (layout, msg, [], []))
+                entry[2].append(i)
+                entry[3].append(canonical)
+        return [
+            (layout, msg, np.array(idx, dtype=np.int64), rows_from_bytes(rows))
+            for layout, msg, idx, rows in by_key.values()
+        ]
+
+    def shapes(self, topic: str, msgtype: str | None = None) -> list[tuple[object, int]]:
+        """(first decoded message, message count) of each shape of ``topic`` (strings, frame, names, sizes).
+
+        A cheap look at what a topic holds (e.g. which joints a JointState names) without decoding every
+        message: a shape is every message equal to the first outside the numeric fields.
+        """
+        _, shapes, _ = self._shapes(topic, msgtype)
+        return [(msg, int(idx.size)) for _, msg, idx, _ in shapes]
+
     def decode(
         self, topic: str, msgtype: str | None = None, fields: Sequence[str] | None = None
     ) -> TopicArrays:
@@ -274,44 +344,26 @@ class Bag:
         over all its messages. BagError when a requested field is missing from some shape; messages whose
         bytes do not decode are skipped and named in ``problem``.
         """
-        chans = self._channels_of(topic, msgtype)
-        mtype = chans[0].msgtype
-        times, groups = self._shape_groups(topic, msgtype)
+        mtype = self._channels_of(topic, msgtype)[0].msgtype
+        times, shapes, skipped = self._shapes(topic, msgtype)
         n = times.size
-        columns: dict[str, NDArray[Any]] = {}
         if n == 0:
             return TopicArrays(topic, mtype, times, {p: np.zeros(0) for p in fields or ()})
+        columns: dict[str, NDArray[Any]] = {}
         assigned = np.zeros(n, dtype=bool)
         wanted: Sequence[str] | None = fields
-        for idx, rows in groups:
-            todo = np.ones(idx.size, dtype=bool)
-            while todo.any():
-                first = int(np.flatnonzero(todo)[0])
-                try:
-                    layout = Layout.of(deserialize(rows[first].tobytes(), mtype), mtype)
-                except BagError:
-                    layout = None
-                ok = todo & layout.matches(rows) if layout is not None else np.zeros(idx.size, dtype=bool)
-                if layout is None or not ok[first]:
-                    # Damaged bytes that do not decode (or do not re-serialize to themselves): skip it.
-                    todo[first] = False
-                    continue
-                if wanted is None:
-                    wanted = list(layout.fields)
-                missing = [p for p in wanted if p not in layout.fields]
-                if missing:
-                    raise BagError(
-                        f"topic {topic} ({mtype}): message {int(idx[first])} has no field {missing[0]!r}"
-                    )
-                decoded = layout.decode(rows[ok], wanted)
-                for path, col in decoded.items():
-                    if path not in columns:
-                        columns[path] = np.zeros(n, dtype=col.dtype)
-                    columns[path][idx[ok]] = col
-                assigned[idx[ok]] = True
-                todo &= ~ok
-        if not assigned.all():
-            skipped = int(n - assigned.sum())
+        for layout, _, idx, rows in shapes:
+            if wanted is None:
+                wanted = list(layout.fields)
+            missing = [p for p in wanted if p not in layout.fields]
+            if missing:
+                raise BagError(f"topic {topic} ({mtype}): message {int(idx[0])} has no field {missing[0]!r}")
+            for path, col in layout.decode(rows, wanted).items():
+                if path not in columns:
+                    columns[path] = np.zeros(n, dtype=col.dtype)
+                columns[path][idx] = col
+            assigned[idx] = True
+        if skipped:
             note = f"topic {topic}: skipped {skipped} damaged message(s) that do not decode"
             self.problem = note if self.problem is None else f"{self.problem}; {note}"
             columns = {path: col[assigned] for path, col in columns.items()}

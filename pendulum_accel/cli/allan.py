@@ -7,7 +7,9 @@ from pathlib import Path
 from typing import Any
 
 from pendulum_accel.allan import AllanResult, allan_deviation, bag_series, plot_allan, scene_series
+from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.errors import ParameterError
 
 ESTIMATE_FIT_FROM = 5.0  # s: past the default kalman's quiet-mode memory (3.3 s for the lecture scene)
 DEFAULT_DURATION = 3600.0  # s of a generated static run: enough clusters to read the walk out to ~400 s
@@ -53,23 +55,31 @@ def _is_bag(source: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Print σ(τ) figures for the angle and the estimate; plot them when asked."""
+    plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     bag = read_intact(args.source, args.salvage) if _is_bag(args.source) else None
     series = bag_series(bag) if bag is not None else scene_series(args.source, args.duration, args.estimator)
     results: list[AllanResult] = [allan_deviation(series.theta, series.rate_hz, label="angle θ", unit="rad")]
+    note = None
     if series.accel is not None:
-        results.append(
-            # The estimator shapes the short τ (it is a filter): fit from τ = ESTIMATE_FIT_FROM on.
-            allan_deviation(
-                series.accel,
-                series.rate_hz,
-                label=f"estimate â ({series.estimator})",
-                unit="m/s²",
-                fit_from=ESTIMATE_FIT_FROM,
+        try:
+            results.append(
+                # The estimator shapes the short τ (it is a filter): fit from τ = ESTIMATE_FIT_FROM on.
+                allan_deviation(
+                    series.accel,
+                    series.rate_hz,
+                    label=f"estimate â ({series.estimator})",
+                    unit="m/s²",
+                    fit_from=ESTIMATE_FIT_FROM,
+                )
             )
-        )
+        except ParameterError as err:
+            # A bag long enough for the angle's figures but not for the estimate's still has the former.
+            note = f"estimate â ({series.estimator}) not fitted: {err}"
     print(f"source: {series.source}, {series.theta.size} samples at {series.rate_hz:g} Hz")
     for res in results:
         print("\n".join(res.lines()))
-    if args.plot:
-        print(f"plot: {plot_allan(results, args.plot)}")
+    if note is not None:
+        print(note)
+    if plot is not None:
+        print(f"plot: {write_output(plot, lambda target: plot_allan(results, target))}")
     return warn_salvaged("allan", bag) if bag is not None else 0

@@ -6,6 +6,7 @@ import argparse
 import json
 from typing import Any
 
+from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 from pendulum_accel.errors import BagError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME
@@ -67,6 +68,7 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the report (and plot); a damaged bag is refused, or with --salvage analysed from its intact
     records, with a warning, exit 1."""
+    plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     bag = read_intact(args.bag, args.salvage)
     if args.skip > 0 and not args.skip < bag.duration_s:
         # Nothing would be left to average: the report would be NaN figures.
@@ -93,8 +95,8 @@ def run(args: argparse.Namespace) -> int:
         print("\n".join(result.lines()))
         if spread is not None:
             print(spread.line())
-    if args.plot:
-        path = plot_analysis(result, args.plot)
+    if plot is not None:
+        path = write_output(plot, lambda target: plot_analysis(result, target))
         if not args.json:
             print(f"plot:       {path}")
     return warn_salvaged("analyze", bag)

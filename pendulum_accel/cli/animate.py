@@ -9,6 +9,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 from pendulum_accel.errors import ParameterError
 
@@ -59,7 +60,9 @@ def run(args: argparse.Namespace) -> int:
     from pendulum_accel.animation import SwingAnimation, check_output_path, swing_from_bag, swing_from_scene
     from pendulum_accel.scene import load_scene
 
-    check_output_path(args.out)  # a bad suffix or missing ffmpeg fails before the simulation
+    # A bad path or a missing ffmpeg fails before the simulation, not after it.
+    out_path = check_output_file(args.out, (".gif", ".mp4"))
+    check_output_path(out_path)
     if args.fps < 1:
         raise ParameterError(f"--fps must be an integer >= 1, got {args.fps}")
     bag = read_intact(args.source, args.salvage) if _is_bag(args.source) else None
@@ -71,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     with tqdm(
         total=anim.times.size, desc="frames", file=sys.stderr, leave=False, delay=1.0, disable=None
     ) as bar:
-        out = anim.save(args.out, on_frame=lambda: bar.update(1))
-    size = out.stat().st_size
+        out = write_output(out_path, lambda path: anim.save(path, on_frame=lambda: bar.update(1)))
+    size = out.stat().st_size if out.is_file() else 0
     print(f"wrote {anim.times.size} frames at {args.fps:g} fps ({size / 1024:.0f} KiB) to {out}")
     return warn_salvaged("animate", bag) if bag is not None else 0

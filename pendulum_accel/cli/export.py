@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from pendulum_accel.bag.export import FORMATS, export_bag
+from pendulum_accel.cli.output import check_output_dir, output_directory
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 
 
@@ -31,8 +32,17 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write the tables and list them; a damaged bag is refused, or with --salvage exported from its intact
-    records, with a warning, exit 1."""
+    records, with a warning, exit 1.
+
+    The output directory is checked first; a bag of foreign data (another joint, another frame) is refused.
+    """
+    from pendulum_accel.recording.contract import check_chain_contract  # estimators: loaded when used
+
+    out = check_output_dir(args.out)
     bag = read_intact(args.bag, args.salvage)
-    for path in export_bag(bag, args.out, fmt=args.format, merged=args.merged, topics=args.topics):
+    check_chain_contract(bag)
+    with output_directory(out):
+        paths = export_bag(bag, out, fmt=args.format, merged=args.merged, topics=args.topics)
+    for path in paths:
         print(path)
     return warn_salvaged("export", bag)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 import shutil
-from pathlib import Path
 from typing import Any
 
+from pendulum_accel.cli.output import check_output_dir
 from pendulum_accel.errors import OutputError
 from pendulum_accel.recording.generate import generate_bag
 
@@ -24,7 +24,9 @@ def register(subparsers: Any) -> None:
     parser.add_argument("scene", help="bundled scene name or scene YAML path")
     parser.add_argument("--out", "-o", required=True, help="bag directory to create")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing bag at --out")
-    parser.add_argument("--duration", type=float, default=None, metavar="S", help="shorten the scene to S s")
+    parser.add_argument(
+        "--duration", type=float, default=None, metavar="S", help="shorten the scene to S s (at most its own)"
+    )
     parser.add_argument("--estimator", "-e", default=None, help="estimator for /car/accel/estimate")
     parser.add_argument("--compress", action="store_true", help="zstd-compress the MCAP chunks")
     parser.set_defaults(func=run)
@@ -32,7 +34,7 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Generate and print counts and speed; a write failure is one line and leaves no partial bag."""
-    out = Path(args.out)
+    out = check_output_dir(args.out)
     existed = out.exists()
     try:
         result = generate_bag(

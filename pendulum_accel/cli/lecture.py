@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import functools
 from pathlib import Path
 from typing import Any
 
+from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.lecture import RESULTS, get_result
 
@@ -57,13 +59,16 @@ def run(args: argparse.Namespace) -> int:
     if len(names) > 1 and args.plot is not None:
         raise ParameterError(f"--plot names one file; use --plot-dir DIR with '{ALL}'")
     # Imported here so listing the results stays quick (no matplotlib import).
-    from pendulum_accel.lecture.plotting import check_plot_path, write_plot
+    from pendulum_accel.lecture.plotting import write_plot
     from pendulum_accel.lecture.progress import working
 
+    # A typo in the path fails before minutes of simulation, not after.
+    option = "--plot-dir" if args.plot_dir is not None else "--plot"
     paths = {name: plot_path(args, name) for name in names}
-    for path in paths.values():
-        if path is not None:
-            check_plot_path(path)  # a typo in the path fails before minutes of simulation, not after
+    paths = {
+        name: None if path is None else check_output_file(path, (".png",), option=option)
+        for name, path in paths.items()
+    }
     failed = 0
     for i, name in enumerate(names):
         with working(f"lecture {name}"):
@@ -73,6 +78,6 @@ def run(args: argparse.Namespace) -> int:
         print(report.text())
         path = paths[name]
         if path is not None:
-            print(f"  plot:     {write_plot(report, path)}")
+            print(f"  plot:     {write_output(path, functools.partial(write_plot, report))}")
         failed += not report.passed
     return 1 if failed else 0

@@ -1,35 +1,96 @@
-"""Write a command's output file so that a failure is one line and leaves no partial file behind."""
+"""Every output path of every command, checked before the work starts and written so that a failure is one
+line that leaves nothing behind.
+
+The rules, the same for every command (docs/hostile_inputs.md lists the messages):
+
+* a file output must end in one of the command's suffixes, and its directory must exist and be writable;
+  a missing directory is refused, never created, so that nothing is written outside the path asked for;
+* a directory output (``export``'s tables, ``generate``'s bag) is created by the command, but its parent
+  must exist: again nothing is created above the path asked for;
+* an existing device or FIFO (``/dev/null``, a pipe) is written as given when its name has the suffix,
+  so the suffix always says the format (``/dev/full`` is refused by name; a full disk fails at the write);
+* an empty path, a directory where a file goes, a file where a directory goes (or in the path above it),
+  a read-only or full file system are refused before any work;
+* a write that fails later (the disk fills up) removes what this command wrote, and says so.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Callable
+import shutil
+import stat
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TextIO
 
 from pendulum_accel.errors import OutputError
 
 
-def write_text_output(path: Path, write: Callable[[TextIO], None]) -> None:
-    """Call ``write`` on ``path`` opened for text; OutputError naming the cause on any OSError.
-
-    A regular file this call created or truncated is removed on failure (no partial output); a device
-    such as /dev/full is left alone. The message says that nothing was kept.
-    """
-    existed = path.exists()
-    if path.is_dir():
-        raise OutputError(f"cannot write {path}: it is a directory; give a file name, nothing written")
+def _special(path: Path) -> bool:
+    """True when ``path`` exists and is neither a regular file nor a directory (a device, a FIFO)."""
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with path.open("w", encoding="utf-8", newline="") as handle:
-            write(handle)
-    except OSError as err:
-        removed = _remove_partial(path)
-        kept = "the partial file was removed" if removed else "nothing was kept"
-        if existed and not removed:
-            kept = "nothing was written"
-        raise OutputError(f"cannot write {path}: {err.strerror or err}; {kept}") from None
+        mode = path.stat().st_mode
+    except OSError:
+        return False
+    return not (stat.S_ISREG(mode) or stat.S_ISDIR(mode))
+
+
+def _check_directory(directory: Path, shown: str, option: str) -> None:
+    """OutputError unless ``directory`` exists, is a directory, is writable and has free space."""
+    for above in (directory, *directory.parents):
+        if above.exists() and not above.is_dir():
+            raise OutputError(f"{option} {shown}: {above} is not a directory; nothing written")
+    if not directory.exists():
+        raise OutputError(
+            f"{option} {shown}: directory {directory} does not exist (it is not created: create it first); "
+            "nothing written"
+        )
+    # os.access sees a read-only mount (EROFS) and an immutable directory (EPERM) even for root.
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise OutputError(f"{option} {shown}: directory {directory} is not writable; nothing written")
+    try:
+        free = os.statvfs(directory).f_bavail
+    except OSError:
+        return
+    if free == 0:
+        raise OutputError(f"{option} {shown}: no space left on the device of {directory}; nothing written")
+
+
+def _given(path: Path | str, option: str) -> Path:
+    """``path`` as a Path; OutputError for an empty one (``--out ""`` would mean the current directory)."""
+    if str(path).strip() == "":
+        raise OutputError(f"{option} is empty: give a path; nothing written")
+    return Path(path)
+
+
+def check_output_file(path: Path | str, suffixes: Sequence[str], *, option: str = "--out") -> Path:
+    """``path`` as a Path if a file with one of ``suffixes`` (e.g. ``(".png",)``) can be written there,
+    else OutputError (one line naming ``option``). A device or FIFO with the suffix is accepted as it is."""
+    out = _given(path, option)
+    shown = repr(str(path))
+    if out.is_dir() or str(path).endswith(("/", os.sep)):
+        raise OutputError(f"{option} {shown} is a directory; give a file name; nothing written")
+    if out.suffix.lower() not in suffixes:
+        raise OutputError(f"{option} {shown} must end in {' or '.join(suffixes)}; nothing written")
+    if _special(out):
+        return out
+    _check_directory(out.parent, shown, option)
+    if out.exists() and not os.access(out, os.W_OK):
+        raise OutputError(f"{option} {shown} exists and is not writable; nothing written")
+    return out
+
+
+def check_output_dir(path: Path | str, *, option: str = "--out") -> Path:
+    """``path`` as a Path if the command can create (or fill) the directory there, else OutputError.
+
+    The directory may exist (a writable directory) or not (its parent must exist and be writable)."""
+    out = _given(path, option)
+    shown = repr(str(path))
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"{option} {shown} exists and is not a directory; nothing written")
+    _check_directory(out if out.is_dir() else out.parent, shown, option)
+    return out
 
 
 def _remove_partial(path: Path) -> bool:
@@ -43,3 +104,64 @@ def _remove_partial(path: Path) -> bool:
         path.unlink()
         return True
     return False
+
+
+def _failure(path: Path, err: OSError, removed: bool, existed: bool) -> OutputError:
+    """The one line for a write that failed: the cause, then what was kept."""
+    kept = "the partial file was removed" if removed else "nothing was kept"
+    if existed and not removed:
+        kept = "nothing was written"
+    return OutputError(f"cannot write {path}: {err.strerror or err}; {kept}")
+
+
+def write_output(path: Path, write: Callable[[Path], object]) -> Path:
+    """Call ``write(path)`` (it creates the file); OutputError naming the cause on any OSError.
+
+    A regular file left by the failed write is removed (no partial output); a device such as /dev/full
+    is left alone. The message says what was kept. Returns ``path``.
+    """
+    if path.is_dir():
+        raise OutputError(f"cannot write {path}: it is a directory; give a file name, nothing written")
+    existed = path.exists()
+    try:
+        write(path)
+    except OSError as err:
+        raise _failure(path, err, _remove_partial(path), existed) from None
+    return path
+
+
+def write_text_output(path: Path, write: Callable[[TextIO], None]) -> None:
+    """``write`` on ``path`` opened for UTF-8 text, through write_output (one line, no partial file)."""
+
+    def text(target: Path) -> None:
+        """Open and fill ``target``."""
+        with target.open("w", encoding="utf-8", newline="") as handle:
+            write(handle)
+
+    write_output(path, text)
+
+
+@contextlib.contextmanager
+def output_directory(path: Path) -> Iterator[Path]:
+    """Create directory ``path`` (if new) for the body to fill. When the body fails (an OSError, any other
+    error, an interrupt), what it added is removed (the directory too when this call created it); an
+    OSError becomes one OutputError line, anything else is re-raised."""
+    existed = path.is_dir()
+    before = set(path.iterdir()) if existed else set()
+    try:
+        path.mkdir(exist_ok=True)
+        yield path
+    except BaseException as err:
+        if existed:
+            for added in set(path.iterdir()) - before:
+                if added.is_dir() and not added.is_symlink():
+                    shutil.rmtree(added, ignore_errors=True)
+                else:
+                    _remove_partial(added)
+            kept = "what it wrote was removed"
+        else:
+            shutil.rmtree(path, ignore_errors=True)
+            kept = "the partial directory was removed"
+        if isinstance(err, OSError):
+            raise OutputError(f"cannot write {path}: {err.strerror or err}; {kept}") from None
+        raise

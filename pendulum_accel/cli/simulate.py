@@ -15,7 +15,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from pendulum_accel.cli.output import write_text_output
+from pendulum_accel.cli.output import check_output_file, write_output, write_text_output
 from pendulum_accel.errors import IllConditionedError, ParameterError, SceneError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME, SET_HELP, apply_overrides, parse_override
 from pendulum_accel.physics.integrators import METHODS
@@ -142,6 +142,8 @@ def run(args: argparse.Namespace) -> int:
     from pendulum_accel.planner import plan_with
     from pendulum_accel.scene_run import simulate_plan
 
+    out = check_output_file(args.out, (".csv",)) if args.out is not None else None
+    plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     scene = scene_from_args(args)
     interval = scene.sensor.period
     if args.dt is not None and args.dt > interval:
@@ -161,22 +163,19 @@ def run(args: argparse.Namespace) -> int:
             f"{plan.sensitivity.floor if plan.sensitivity else math.nan:.1e} rad, over the target "
             f"{scene.accuracy:.1e} rad; nothing simulated (--accept-ill-conditioned to run anyway)"
         )
-    if args.plot is not None:
-        from pendulum_accel.lecture.plotting import check_plot_path
-
-        check_plot_path(args.plot)
     t = scene.sensor.sample_times(scene.duration)
     traj = simulate_plan(scene, plan, t)
     columns = trajectory_columns(traj)
     if not all(np.all(np.isfinite(v)) for v in columns.values()):
         raise SceneError(f"scene {scene.name}: the simulation produced NaN or inf; nothing written")
-    if args.plot is not None:
+    if plot is not None:
         from pendulum_accel.cli.simulate_plot import plot_simulation
 
-        print(f"plot: {plot_simulation(traj, plan, args.plot)}", file=sys.stderr)
-    if args.out is None:
+        written = write_output(plot, lambda target: plot_simulation(traj, plan, target))
+        print(f"plot: {written}", file=sys.stderr)
+    if out is None:
         write_csv(sys.stdout, columns)
         return 0
-    write_text_output(args.out, lambda handle: write_csv(handle, columns))
+    write_text_output(out, lambda handle: write_csv(handle, columns))
     print(f"wrote {t.size} rows ({', '.join(columns)}) to {args.out}", file=sys.stderr)
     return 0

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from pendulum_accel.cli.output import check_output_file, write_output, write_text_output
 from pendulum_accel.errors import ParameterError
 
 if TYPE_CHECKING:
@@ -71,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
     from pendulum_accel.scene import load_scene
     from pendulum_accel.sweep import parse_values, run_sweep, setup_from_scene
 
+    out = check_output_file(args.out, (".csv",)) if args.out is not None else None
+    plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     field = next(name for name in ("length", "accel", "noise") if getattr(args, name) is not None)
     values = parse_values(field, getattr(args, field))
     if args.duration is not None and not args.duration > 0:
@@ -87,14 +90,14 @@ def run(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
     )
     elapsed = time.perf_counter() - started
-    if args.out is None:
+    if out is None:
         buffer = io.StringIO()
         result.write_csv_to(buffer)
         sys.stdout.write(buffer.getvalue())
     else:
-        result.write_csv(args.out)
-    if args.plot is not None:
-        plot_sweep(result, args.plot)
+        write_text_output(out, result.write_csv_to)
+    if plot is not None:
+        write_output(plot, lambda target: plot_sweep(result, target))
     where = "stdout" if args.out is None else str(args.out)
     step = "adaptive" if result.dt is None else f"dt={result.dt:.3g} s"
     print(

@@ -3,9 +3,9 @@
 Each input sample gets a decision:
 
 * ACCEPT — finite θ, t later than the last accepted t;
-* DROP   — NaN/inf θ or t (state ERROR), a sample naming joints but not the pendulum's (another
-  robot's JointState on the topic, state ERROR), or t ≤ last t by less than ``reset_jump`` (a small
-  reorder or a duplicate, state WARN);
+* DROP   — NaN/inf θ or t (state ERROR), a sample that is not the pendulum's angle by
+  ``joint_state_problem`` (another joint, extra joints, another frame: state ERROR), or t ≤ last t by
+  less than ``reset_jump`` (a small reorder or a duplicate, state WARN);
 * RESET  — t jumped back by more than ``reset_jump`` (a looping bag): the estimator must restart
   (state RESET), then the sample is used.
 
@@ -24,10 +24,37 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from pendulum_accel.bag.messages import PENDULUM_JOINT
+from pendulum_accel.bag.messages import FRAME_ID, PENDULUM_JOINT
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators.base import Estimate, Estimator
 from pendulum_accel.physics.params import require_finite, require_positive
+
+PENDULUM_FRAMES = (FRAME_ID, "")
+"""frame_ids the chain's messages may carry: the car's (REP-103 base_link), or none given."""
+
+
+def frame_problem(frame_id: str) -> str | None:
+    """None when ``frame_id`` is one of PENDULUM_FRAMES, else why the message is not the chain's."""
+    if frame_id in PENDULUM_FRAMES:
+        return None
+    return f"frame_id {str(frame_id)[:40]!r}, not {FRAME_ID!r}"
+
+
+def joint_state_problem(
+    names: Sequence[str] | None, frame_id: str | None = None, joint: str = PENDULUM_JOINT
+) -> str | None:
+    """None when a JointState is the pendulum's angle, else why not (a phrase): the one rule of the
+    estimator node (per message) and of the offline commands (per bag).
+
+    The pendulum's: ``names`` None or empty (a bare angle) or exactly ``[joint]``; ``frame_id`` None
+    (not known) or one of PENDULUM_FRAMES. Another joint, or more joints than the pendulum's, are
+    another robot's JointState on the topic: which position is θ would be a guess.
+    """
+    if names and list(names) != [joint]:
+        shown = ", ".join(repr(str(n)[:40]) for n in list(names)[:3])
+        more = f" (+{len(names) - 3} more)" if len(names) > 3 else ""
+        return f"names joint(s) {shown}{more}, not only {joint!r}"
+    return None if frame_id is None else frame_problem(frame_id)
 
 
 class GuardState(enum.Enum):
@@ -124,21 +151,26 @@ class InputGuard:
             self._worst, self._worst_message = state, message
 
     def check(
-        self, t: float, theta: float, now: float | None = None, names: Sequence[str] | None = None
+        self,
+        t: float,
+        theta: float,
+        now: float | None = None,
+        names: Sequence[str] | None = None,
+        frame_id: str | None = None,
     ) -> Decision:
-        """ACCEPT, DROP (non-finite, wrong joint, small reorder, duplicate) or RESET (t back > reset_jump).
+        """ACCEPT, DROP (non-finite, not the pendulum's, reorder, duplicate) or RESET (t back > reset_jump).
 
-        ``names``: the sample's joint names; None or empty (a bare angle) is taken as the pendulum's,
-        a list without ``joint`` is dropped.
+        ``names``, ``frame_id``: the sample's joint names and frame (None: not known); a sample that
+        ``joint_state_problem`` refuses is dropped and counted in ``dropped_wrong_joint``.
         """
         arrival = now if now is not None else t
         if math.isfinite(arrival):
             self._last_arrival = arrival
             self._stale_for = None
-        if names and self.joint not in names:
+        problem = joint_state_problem(names, frame_id, self.joint)
+        if problem is not None:
             self.dropped_wrong_joint += 1
-            shown = ", ".join(repr(str(n)[:40]) for n in list(names)[:3])
-            self.note(GuardState.ERROR, f"dropped input naming joint(s) {shown}, not {self.joint!r}")
+            self.note(GuardState.ERROR, f"dropped input: {problem}")
             return Decision.DROP
         if not (math.isfinite(t) and math.isfinite(theta)):
             self.dropped_nonfinite += 1
@@ -220,10 +252,15 @@ class GuardedEstimator:
         self.guard = guard if guard is not None else InputGuard(rate_hz=estimator.config.rate_hz)
 
     def update(
-        self, t: float, theta: float, now: float | None = None, names: Sequence[str] | None = None
+        self,
+        t: float,
+        theta: float,
+        now: float | None = None,
+        names: Sequence[str] | None = None,
+        frame_id: str | None = None,
     ) -> Estimate | None:
-        """Guard the sample (``names``: its joint names, see InputGuard.check), then estimator.update."""
-        decision = self.guard.check(t, theta, now, names)
+        """Guard the sample (``names``, ``frame_id``: see InputGuard.check), then estimator.update."""
+        decision = self.guard.check(t, theta, now, names, frame_id)
         if decision is Decision.DROP:
             return None
         if decision is Decision.RESET:

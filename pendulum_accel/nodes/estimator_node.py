@@ -220,15 +220,18 @@ class EstimatorNode(ChainNode):
         self._last_input = now
         self.inputs += 1
         fields = self._read_input(data)
-        names: list[str] | None = None  # the fast path's shape names pendulum_joint already
-        if fields is None:  # another publisher's JointState shape (more joints, no velocity, ...)
+        # The fast path's shape names pendulum_joint in base_link already; any other shape (no velocity,
+        # more joints, another frame) goes through rclpy and the guard's joint_state_problem.
+        names: list[str] | None = None
+        frame_id: str | None = None
+        if fields is None:
             msg = deserialize_message(data, JointState)
             sec, nanosec, theta = msg.header.stamp.sec, msg.header.stamp.nanosec, pendulum_angle(msg)
-            names = list(msg.name)
+            names, frame_id = list(msg.name), str(msg.header.frame_id)
         else:
             sec, nanosec, theta = fields
         self._last_stamp = (sec, nanosec)
-        estimate = self.guarded.update(stamp_seconds(sec, nanosec), theta, now, names)
+        estimate = self.guarded.update(stamp_seconds(sec, nanosec), theta, now, names, frame_id)
         if estimate is None:
             return
         out = self._write_estimate(sec, nanosec, estimate.a, estimate.variance)

@@ -33,6 +33,7 @@ from pendulum_accel.bag.reader import Bag, read_bag, scene_name
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
+from pendulum_accel.recording.contract import check_chain_contract
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import Scene, scene_from_yaml
 
@@ -375,6 +376,7 @@ def analyze_bag(
     if tolerance is not None and not tolerance > 0.0:
         raise BagError(f"tolerance must be > 0 m/s², got {tolerance!r}")
     data = bag if isinstance(bag, Bag) else read_bag(bag)
+    check_chain_contract(data)
     js = data.decode(
         TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
     )

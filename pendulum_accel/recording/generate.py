@@ -269,9 +269,13 @@ def generate_bag(
     if isinstance(scene, (str, Path)):
         scene = load_scene(scene)
     if duration is not None:
-        if not duration > 0.0:
-            raise BagError(f"duration must be > 0 s, got {duration!r}")
-        scene = dataclasses.replace(scene, duration=min(float(duration), float(scene.duration)))
+        # It shortens the scene: a longer one would silently give a bag of the scene's length.
+        if not 0.0 < duration <= scene.duration:
+            raise BagError(
+                f"duration must be in (0, {scene.duration:g}] s (scene {scene.name} lasts "
+                f"{scene.duration:g} s; --duration only shortens it), got {duration!r}"
+            )
+        scene = dataclasses.replace(scene, duration=float(duration))
     out = Path(out)
     if out.exists() and not overwrite:
         raise BagError(f"{out} exists already; pass --overwrite to replace it")
