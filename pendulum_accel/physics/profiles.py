@@ -449,6 +449,12 @@ _FIELDS: dict[str, tuple[type[AccelProfile], tuple[str, ...], tuple[str, ...]]] 
     "csv": (Table, ("path",), ()),
 }
 PROFILE_TYPES: tuple[str, ...] = tuple(_FIELDS)
+PROFILE_FIELDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    kind: (required, optional) for kind, (_, required, optional) in _FIELDS.items()
+}
+"""Each profile type's (required fields, optional fields), as a scene's ``acceleration`` takes them."""
+PROFILE_CLASSES: dict[str, type[AccelProfile]] = {kind: cls for kind, (cls, _, _) in _FIELDS.items()}
+"""Each profile type's class (its docstring states a(t))."""
 
 
 def _number(kind: str, name: str, value: object) -> float:
