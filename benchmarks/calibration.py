@@ -9,7 +9,7 @@ of a(t) (recording.analyze.calibration): mean, median and the share beyond 2σ, 
 and the 10th–90th percentile of the per-seed share. One recording shows only one draw of a sensor's
 errors, which a long-memory estimator correlates over seconds: the pooled figures are what the
 variance promises, the percentile range how far one bag may stray from it.
-A calibrated Gaussian σ gives mean ≈ 1 and ≈ 5 % beyond 2σ; the tolerance used in the README is mean
+A calibrated Gaussian σ gives mean ≈ 1 and ≈ 5 % beyond 2σ; the tolerance the docs use is mean
 NEES in [0.5, 2] and 3–8 % beyond 2σ.
 Writes calibration.md into the output directory (default out/bench), prints it, and draws the
 consistency plot (kalman error with its ±2σ band on stop_and_go, the scene's own seed) to ``--plot``.
