@@ -70,7 +70,7 @@ bags: $(STAMP)
 
 # The docs site (mkdocs.yml) into site/; strict, so a broken link or a missing page fails.
 docs: $(STAMP)
-	$(BIN)/mkdocs build --strict --site-dir site
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
 
 # The reference pages generated from the code (node parameters, scene fields, CLI); test_docs checks them.
 docs-reference: $(STAMP)
