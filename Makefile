@@ -18,7 +18,7 @@ VENV_FLAGS :=
 ROS_REQS   := -r requirements-ros.txt
 endif
 
-.PHONY: demo test setup lint typecheck pytest pytest-emulated bags bench clean
+.PHONY: demo test setup lint typecheck pytest pytest-emulated bags bench docs docs-reference clean
 
 setup: $(STAMP)
 
@@ -82,7 +82,15 @@ test: lint typecheck pytest pytest-emulated
 bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags
 
-# Every benchmark, each the way the README quotes it; figures print and land in out/bench.
+# The docs site (mkdocs.yml) into site/; strict, so a broken link or a missing page fails.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
+
+# The reference pages generated from the code (node parameters, scene fields, CLI); test_docs checks them.
+docs-reference: $(STAMP)
+	$(BIN)/python -m pendulum_accel.cli.docs_reference docs
+
+# Every benchmark; figures print, land in out/bench, and each writes its page under docs/benchmarks.
 BENCHES := work_precision error_bounds estimators calibration chain bags sweep_bench soak
 bench: $(STAMP)
 	@for b in $(BENCHES); do \
@@ -91,4 +99,4 @@ bench: $(STAMP)
 	done
 
 clean:
-	rm -rf build install log out .pytest_cache .mypy_cache .ruff_cache
+	rm -rf build install log out site .pytest_cache .mypy_cache .ruff_cache

@@ -29,6 +29,7 @@ from typing import Any
 
 from rosbags.rosbag2 import Reader
 
+from benchmarks import report
 from pendulum_accel.bag.export import export_bag
 from pendulum_accel.bag.messages import (
     ACCEL_STAMPED,
@@ -276,6 +277,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--rate", type=float, default=1000.0, help="sensor rate in Hz (default 1000)")
     parser.add_argument("--duration", type=float, default=60.0, help="scene length in s (default 60)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per task, best kept (default 3)")
+    report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_") as folder:
         rows = run_benchmark(args.scene, args.rate, args.duration, max(1, args.repeat), Path(folder))
@@ -292,7 +294,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                 c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))
             )
         )
-    for path in write_outputs(rows, header, args.out):
+    paths = write_outputs(rows, header, args.out)
+    paths.append(
+        report.write_page(
+            "bags", "Bags: generate, analyze and export throughput", [paths[1].read_text()],
+            intro=__doc__ or "", docs=args.docs, argv=argv,
+        )
+    )  # fmt: skip
+    for path in paths:
         print(f"wrote {path}")
     return 0
 

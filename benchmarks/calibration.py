@@ -9,7 +9,7 @@ of a(t) (recording.analyze.calibration): mean, median and the share beyond 2σ, 
 and the 10th–90th percentile of the per-seed share. One recording shows only one draw of a sensor's
 errors, which a long-memory estimator correlates over seconds: the pooled figures are what the
 variance promises, the percentile range how far one bag may stray from it.
-A calibrated Gaussian σ gives mean ≈ 1 and ≈ 5 % beyond 2σ; the tolerance used in the README is mean
+A calibrated Gaussian σ gives mean ≈ 1 and ≈ 5 % beyond 2σ; the tolerance the docs use is mean
 NEES in [0.5, 2] and 3–8 % beyond 2σ.
 Writes calibration.md into the output directory (default out/bench), prints it, and draws the
 consistency plot (kalman error with its ±2σ band on stop_and_go, the scene's own seed) to ``--plot``.
@@ -18,10 +18,12 @@ consistency plot (kalman error with its ±2σ band on stop_and_go, the scene's o
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from benchmarks import report
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
 from pendulum_accel.recording.analyze import nees_split
 from pendulum_accel.recording.seed_spread import WindowSpread, with_seed
@@ -99,21 +101,28 @@ def plot(path: Path, run: SceneRun, accel: np.ndarray, var: np.ndarray) -> None:
     plt.close(fig)
 
 
-def main() -> None:
-    """Print the table, write calibration.md and the consistency plot."""
+def main(argv: Sequence[str] | None = None) -> None:
+    """Print the table, write calibration.md, the consistency plot and the docs page."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory")
     parser.add_argument(
-        "--plot", type=Path, default=Path("docs/img/calibration_stop_and_go.png"), help="consistency plot"
+        "--plot", type=Path, default=Path("out/bench/calibration_stop_and_go.png"), help="consistency plot"
     )
     parser.add_argument("--seeds", type=int, default=SEEDS, help="sensor seeds per scene (0 … N−1)")
-    args = parser.parse_args()
+    report.add_docs_argument(parser)
+    args = parser.parse_args(argv)
     rows, runs = table(args.seeds)
     text = "\n".join(rows) + "\n"
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "calibration.md").write_text(text)
     plot(args.plot, *runs[PLOT_SCENE])
+    caption = f"{DEFAULT_ESTIMATOR} error with its published ±2σ band on {PLOT_SCENE}"
+    page = report.write_page(
+        "calibration", "Calibration: does each published variance tell the truth?", [text],
+        [(args.plot, caption)], intro=__doc__ or "", docs=args.docs, argv=argv,
+    )  # fmt: skip
+    print(f"wrote {page}")
 
 
 if __name__ == "__main__":

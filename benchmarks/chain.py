@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks import report
+
 SCENE = "lecture_constant"
 RATES = (100, 1000, 5000, 10000)
 LISTENER_NODE = "chain_bench_listener"
@@ -338,6 +340,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="SCHED_FIFO priority of the extra real-time 1 kHz run (0: no extra run)",
     )
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
+    report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     rows = []
     p99, worst = sleep_loop_floor()
@@ -364,6 +367,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(table)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "chain.md").write_text(table + "\n\n" + floor + "\n")
+    page = report.write_page(
+        "chain", "Live chain: losses, latency, jitter, CPU", [table, floor], intro=__doc__ or "",
+        docs=args.docs, argv=argv,
+    )  # fmt: skip
+    print(f"wrote {page}")
     return 0
 
 

@@ -21,9 +21,11 @@ import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
+from benchmarks import report
 from benchmarks.reference import reference_theta
 from pendulum_accel.physics.params import STANDARD_GRAVITY as G
 from pendulum_accel.physics.params import Pendulum
@@ -245,7 +247,7 @@ def run_battery(cases: Sequence[Case]) -> list[Row]:
     return [row for case in cases for row in run_case(case, reference)]
 
 
-def report(rows: Sequence[Row]) -> str:
+def run_report(rows: Sequence[Row]) -> str:
     """The per-run table and the summary (ratio distribution, false alarms, silent misses)."""
     lines = [
         f"{'case':<28} {'target':>7} {'model/method':<20} {'predicted':>9} {'measured':>9} "
@@ -307,12 +309,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="the test's shorter subset")
     parser.add_argument("--case", action="append", help="only cases whose name contains this text")
+    # Accepted so that every benchmark runs the same way (make bench); this one writes no files there.
+    parser.add_argument("--out", type=Path, default=Path("out/bench"), help="unused: prints its report")
+    report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     cases = battery(args.quick)
     if args.case:
         cases = [c for c in cases if any(text in c.name for text in args.case)]
     rows = run_battery(cases)
-    print(report(rows))
+    text = run_report(rows)
+    print(text)
+    page = report.write_page(
+        "error_bounds", "Error bounds: predicted against measured", [f"```text\n{text}\n```"],
+        intro=__doc__ or "", docs=args.docs, argv=argv,
+    )  # fmt: skip
+    print(f"wrote {page}")
     bad = any(r.false_alarm or r.silent_miss or (r.outside and _linear(r)) for r in rows)
     return 1 if bad else 0
 

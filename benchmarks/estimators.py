@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks import report
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, make_estimator
 from pendulum_accel.estimators.base import cramer_rao_std
 from pendulum_accel.physics.params import Pendulum
@@ -330,6 +331,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--rate", type=float, default=200.0, help="sensor rate in Hz (default 200)")
     parser.add_argument("--noise", type=float, default=1e-3, help="angle noise σ in rad (default 1e-3)")
     parser.add_argument("--quick", action="store_true", help="1 seed, 25 s scenes")
+    report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     cfg = BenchConfig(
         rate_hz=args.rate,
@@ -339,11 +341,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     rows, traces = run_benchmark(cfg)
     paths = write_outputs(rows, traces, args.out)
-    print(
+    setting = (
         f"l={cfg.length} m, σ={cfg.noise_std} rad, {cfg.rate_hz:g} Hz, {cfg.duration:g} s, "
         f"{cfg.seeds} seed(s); default method: {DEFAULT_ESTIMATOR}"
     )
+    print(setting)
     print(markdown_table(rows), end="")
+    paths.append(
+        report.write_page(
+            "estimators", "Estimators: accuracy, settling and delay against the Cramér-Rao bound",
+            [setting, markdown_table(rows)],
+            [(paths[2], "every estimator against the truth, and its RMS error")],
+            intro=__doc__ or "", docs=args.docs, argv=argv,
+        )
+    )  # fmt: skip
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 

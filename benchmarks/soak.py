@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks import report
 from benchmarks.chain import CpuSampler, _start_on_log_line
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting
@@ -95,6 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--minutes", type=float, default=10.0, help="scene minutes (10)")
     parser.add_argument("--rate", type=float, default=1000.0, help="sensor rate, Hz (1000)")
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
+    report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     duration = args.minutes * 60.0
     cpu = CpuSampler()
@@ -151,10 +153,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{growth_per_minute(points):+.3f} | {percent.get(role, float('nan')):.0f} |"
         )
     lines += ["", f"lost in all: {lost_total} (topics with a published count)"]
-    report = "\n".join(lines)
-    print(report)
+    text = "\n".join(lines)
+    print(text)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "soak.md").write_text(report + "\n")
+    (args.out / "soak.md").write_text(text + "\n")
+    page = report.write_page(
+        "soak", "Soak: the live chain for minutes at 1 kHz", [text], intro=__doc__ or "",
+        docs=args.docs, argv=argv,
+    )  # fmt: skip
+    print(f"wrote {page}")
     series = ["t_s,role,rss_mib"] + [
         f"{t:.1f},{role},{m:.2f}" for role, points in rss.series.items() for t, m in points
     ]

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks import report
 from benchmarks.work_precision import cpu_time
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, Constant, Step
@@ -52,6 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--steps", type=int, default=10_000, help="RK4 steps per trajectory (10000)")
     parser.add_argument("--repeats", type=int, default=3, help="best of this many runs (3)")
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
+    report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     if args.variants < 1 or args.steps < SAMPLE_EVERY or args.repeats < 1:
         print(
@@ -124,6 +126,11 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "sweep_bench.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
+    page = report.write_page(
+        "sweep_bench", "Sweep throughput", ["\n".join(lines[2:])], intro=__doc__ or "",
+        docs=args.docs, argv=argv,
+    )  # fmt: skip
+    print(f"wrote {page}")
     return 0 if math.isfinite(rate) else 1
 
 

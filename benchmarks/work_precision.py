@@ -37,6 +37,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from benchmarks import report
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.physics.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS
 from pendulum_accel.physics.kernels import ACCEL_LINEAR, accel_coefficients
@@ -836,6 +837,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     names = ", ".join(s.name for s in case_specs())
     parser.add_argument("--case", action="append", help=f"run only this scene (repeatable): {names}")
     parser.add_argument("--no-planner", action="store_true", help="skip the planner points and targets")
+    report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     specs = [s for s in case_specs() if not args.case or s.name in args.case]
     if not specs:
@@ -873,6 +875,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     write_markdown(cases, rows, checks, closed, floors, out / "work_precision.md", command)
     plot(cases, rows, plan_rows, out / "work_precision.png")
     print("\n".join(summary_lines(checks, closed)))
+    # The markdown's own first line is its title; the page has its own.
+    tables = (out / "work_precision.md").read_text(encoding="utf-8").split("\n", 2)[2]
+    page = report.write_page(
+        "work_precision", "Work-precision: error against CPU for every model and integrator",
+        [tables, "\n".join(summary_lines(checks, closed))],
+        [(out / "work_precision.png", "max angle error against CPU time")],
+        intro=__doc__ or "", docs=args.docs, argv=argv,
+    )  # fmt: skip
+    print(f"wrote {page}")
     print(f"wrote {out / 'work_precision.csv'}, {out / 'work_precision.md'}, {out / 'work_precision.png'}")
     return 0
 

@@ -46,7 +46,9 @@ def test_values_are_finite_and_consistent(tiny: tuple[list[Row], dict]) -> None:
 
 
 def test_command_line_prints_the_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["--out", str(tmp_path), "--duration", "4", "--rate", "50", "--seeds", "1"]) == 0
+    docs = tmp_path / "docs"
+    argv = ["--out", str(tmp_path), "--duration", "4", "--rate", "50", "--seeds", "1", "--docs", str(docs)]
+    assert main(argv) == 0
     out = capsys.readouterr().out
     assert "default method: kalman" in out and "| step | period_mean |" in out
     assert "| ramp | kalman_fixed_q |" in out
@@ -56,3 +58,8 @@ def test_command_line_prints_the_table(tmp_path: Path, capsys: pytest.CaptureFix
     md = (tmp_path / "estimators.md").read_text().splitlines()
     assert md[0].startswith("| scene | method | bias |") and len(md) == 2 + 3 * 7
     assert (tmp_path / "estimators.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # The docs page: written by the script itself, with the command, the machine, the table and the plot.
+    page = (docs / "benchmarks" / "estimators.md").read_text(encoding="utf-8")
+    assert "`python -m benchmarks.estimators --out" in page and "Machine: " in page and " cores" in page
+    assert "| step | period_mean |" in page and "](../img/bench_estimators.png)" in page
+    assert (docs / "img" / "bench_estimators.png").read_bytes() == (tmp_path / "estimators.png").read_bytes()

@@ -26,7 +26,7 @@ ROUNDING_FLOOR = 1e-12
 def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One quick run on the lecture scene; returns its output directory."""
     out = tmp_path_factory.mktemp("wp")
-    assert wp.main(["--quick", "--case", "lecture", "--out", str(out)]) == 0
+    assert wp.main(["--quick", "--case", "lecture", "--out", str(out), "--docs", str(out / "docs")]) == 0
     return out
 
 
@@ -41,6 +41,9 @@ def test_outputs_written(quick_run: Path) -> None:
     assert (quick_run / "work_precision.md").read_text(encoding="utf-8").startswith("# Work-precision")
     png = (quick_run / "work_precision.png").read_bytes()
     assert png.startswith(b"\x89PNG") and len(png) > 10_000
+    page = (quick_run / "docs" / "benchmarks" / "work_precision.md").read_text(encoding="utf-8")
+    assert page.startswith("# Work-precision") and "Machine: " in page and "--quick" in page
+    assert (quick_run / "docs" / "img" / "bench_work_precision.png").read_bytes() == png
 
 
 def test_every_method_measured_with_finite_errors(quick_run: Path) -> None:

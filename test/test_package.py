@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import ast
 import importlib
-import re
 import shutil
 import subprocess
 import sys
@@ -51,29 +50,7 @@ def test_package_xml_is_format_3_ament_python() -> None:
     }
 
 
-# Import name → distribution name, where they differ; ROS 2 comes from the system or the wheels.
-_DISTRIBUTION = {"yaml": "pyyaml"}
-_ROS_MODULES = {"rclpy", "builtin_interfaces", "rcl_interfaces", "rosidl_runtime_py", "std_srvs"}
-
-
-def test_every_third_party_import_is_declared() -> None:
-    """Each non-stdlib, non-ROS module the package imports is in install_requires (or, for the lazily
-    imported pandas/pyarrow of ``export``, in an extra)."""
-    requires = importlib.metadata.requires("pendulum_accel") or []
-    declared = {re.split(r"[<>=!~;\[ ]", r, maxsplit=1)[0].strip().lower() for r in requires}
-    for path in (REPO / "pendulum_accel").rglob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text())):
-            names = [a.name for a in node.names] if isinstance(node, ast.Import) else []
-            if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                names = [node.module]
-            for name in names:
-                top = name.split(".")[0]
-                if top in sys.stdlib_module_names or top in _ROS_MODULES or top.endswith("_msgs"):
-                    continue
-                if top == "pendulum_accel":
-                    continue
-                dist = _DISTRIBUTION.get(top, top)
-                assert dist in declared, f"{path.relative_to(REPO)} imports {top}, not declared in setup.py"
+# Every run-time import against setup.py, package.xml and the README: test/test_dependencies.py.
 
 
 def test_one_version_everywhere() -> None:

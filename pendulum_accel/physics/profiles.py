@@ -467,6 +467,12 @@ _FIELDS: dict[str, tuple[type[AccelProfile], tuple[str, ...], tuple[str, ...]]] 
     "bag_topic": (Table, ("path", "topic"), ("cutoff_hz", "start", "end")),
 }
 PROFILE_TYPES: tuple[str, ...] = tuple(_FIELDS)
+PROFILE_FIELDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    kind: (required, optional) for kind, (_, required, optional) in _FIELDS.items()
+}
+"""Each profile type's (required fields, optional fields), as a scene's ``acceleration`` takes them."""
+PROFILE_CLASSES: dict[str, type[AccelProfile]] = {kind: cls for kind, (cls, _, _) in _FIELDS.items()}
+"""Each profile type's class (its docstring states a(t))."""
 
 
 def field_number(kind: str, name: str, value: object) -> float:

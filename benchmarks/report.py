@@ -1,0 +1,114 @@
+"""Each benchmark's docs page: its tables and plots, the machine and the date, written by the script itself.
+
+``write_page(name, title, tables, figures)`` writes ``docs/benchmarks/<name>.md`` and copies each plot
+to ``docs/img/bench_<name>.png`` (``bench_<name>_2.png`` … for more), so no figure on the docs site is
+ever typed by hand: rerunning ``python -m benchmarks.<name>`` rewrites its page.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import os
+import platform
+import shlex
+import shutil
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+DOCS_DIR = Path(__file__).resolve().parent.parent / "docs"
+"""The repository's docs/ (benchmarks/ is not installed, so it always sits beside it)."""
+
+
+def add_docs_argument(parser: argparse.ArgumentParser) -> None:
+    """``--docs DIR``: the docs tree the page and its plots go to (default the repository's docs/)."""
+    parser.add_argument(
+        "--docs",
+        type=Path,
+        default=DOCS_DIR,
+        help="docs tree for the benchmark's page (default: the repository's docs/)",
+    )
+
+
+def cpu_model() -> str:
+    """The CPU's model name from /proc/cpuinfo ('model name'), else platform.processor(), else 'unknown'."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8", errors="replace").splitlines():
+            key, _, value = line.partition(":")
+            if key.strip() == "model name" and value.strip():
+                return value.strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def memory_gib() -> float | None:
+    """MemTotal of /proc/meminfo in GiB (kB ÷ 2²⁰), or None where there is none."""
+    try:
+        for line in Path("/proc/meminfo").read_text(encoding="utf-8").splitlines():
+            if line.startswith("MemTotal:"):
+                return int(line.split()[1]) / 2**20
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def machine_line() -> str:
+    """'CPU model, N cores (os.cpu_count), M GiB RAM, Linux …, Python x.y.z': where the figures come from."""
+    mem = memory_gib()
+    parts = [cpu_model(), f"{os.cpu_count() or '?'} cores"]
+    if mem is not None:
+        parts.append(f"{mem:.0f} GiB RAM")
+    parts += [f"{platform.system()} {platform.release()}", f"Python {platform.python_version()}"]
+    return ", ".join(parts)
+
+
+def command_line(name: str, argv: Sequence[str] | None = None) -> str:
+    """'python -m benchmarks.<name> ARGS': the command that wrote the page (ARGS: argv, else sys.argv[1:])."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    return shlex.join(["python", "-m", f"benchmarks.{name}", *args])
+
+
+def write_page(
+    name: str,
+    title: str,
+    markdown_tables: Sequence[str],
+    figures: Sequence[tuple[Path, str]] = (),
+    *,
+    intro: str = "",
+    docs: Path = DOCS_DIR,
+    argv: Sequence[str] | None = None,
+    when: dt.datetime | None = None,
+) -> Path:
+    """Write docs/benchmarks/<name>.md (title, intro, command, machine, date, tables, plots); return it.
+
+    ``figures`` are (png path, caption) pairs; each is copied to docs/img/bench_<name>[_k].png.
+    """
+    when = when or dt.datetime.now(dt.timezone.utc)
+    img_dir, page_dir = docs / "img", docs / "benchmarks"
+    img_dir.mkdir(parents=True, exist_ok=True)
+    page_dir.mkdir(parents=True, exist_ok=True)
+    lines = [f"# {title}", ""]
+    if intro:
+        lines += [intro.strip(), ""]
+    lines += [
+        f"Written by `{command_line(name, argv)}` on {when:%Y-%m-%d %H:%M} UTC.",
+        "",
+        f"Machine: {machine_line()}.",
+        "",
+    ]
+    for table in markdown_tables:
+        lines += [table.strip(), ""]
+    for k, (png, caption) in enumerate(figures, start=1):
+        target = img_dir / (f"bench_{name}.png" if k == 1 else f"bench_{name}_{k}.png")
+        if Path(png).resolve() != target.resolve():
+            shutil.copyfile(png, target)
+        lines += [f"![{caption}](../img/{target.name})", ""]
+    lines += [
+        f"*This page is written by `python -m benchmarks.{name}`; rerun it to update the figures.*",
+        "",
+    ]
+    page = page_dir / f"{name}.md"
+    page.write_text("\n".join(lines), encoding="utf-8")
+    return page

@@ -1,0 +1,128 @@
+"""The docs site: it builds strictly, its reference pages match the code, its benchmark pages come from
+the benchmark scripts, and the README is a short landing page that links to pages that exist."""
+
+from __future__ import annotations
+
+import ast
+import datetime as dt
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from benchmarks import report
+from pendulum_accel.cli.docs_reference import PAGES
+from pendulum_accel.cli.main import COMMANDS, build_parser
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = ROOT / "docs"
+README = ROOT / "README.md"
+# Scripts under benchmarks/ that are helpers, not benchmarks.
+NOT_BENCHMARKS = {"__init__", "report", "reference"}
+
+
+def _nav_files(node: object) -> list[str]:
+    """Every page path named in mkdocs.yml's nav (nested lists of {title: path or list})."""
+    if isinstance(node, str):
+        return [node]
+    if isinstance(node, list):
+        return [p for item in node for p in _nav_files(item)]
+    if isinstance(node, dict):
+        return [p for value in node.values() for p in _nav_files(value)]
+    return []
+
+
+def _config() -> dict[str, object]:
+    """mkdocs.yml (plain YAML: it uses no !!python tags)."""
+    loaded = yaml.safe_load((ROOT / "mkdocs.yml").read_text(encoding="utf-8"))
+    assert isinstance(loaded, dict)
+    return loaded
+
+
+@pytest.mark.parametrize("name", sorted(PAGES))
+def test_reference_page_matches_the_code(name: str) -> None:
+    committed = (DOCS / "reference" / name).read_text(encoding="utf-8")
+    assert committed == PAGES[name](), (
+        f"docs/reference/{name} differs from what the code generates: run `make docs-reference`"
+    )
+
+
+def test_site_builds_strictly(tmp_path: Path) -> None:
+    """mkdocs build --strict: a broken link, a missing page or a missing anchor fails it."""
+    env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
+    result = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert (tmp_path / "site" / "reference" / "parameters" / "index.html").is_file()
+
+
+def test_every_page_is_in_the_nav() -> None:
+    nav = set(_nav_files(_config()["nav"]))
+    pages = {p.relative_to(DOCS).as_posix() for p in DOCS.rglob("*.md")}
+    assert pages - nav == set(), "pages missing from mkdocs.yml's nav"
+    assert nav - pages == set(), "nav entries without a page"
+
+
+def test_every_benchmark_writes_its_own_page() -> None:
+    """Each benchmarks/*.py calls report.write_page with its own name, and its page is in the nav."""
+    nav = set(_nav_files(_config()["nav"]))
+    scripts = sorted(p for p in (ROOT / "benchmarks").glob("*.py") if p.stem not in NOT_BENCHMARKS)
+    assert scripts
+    for script in scripts:
+        names = [
+            node.args[0].value
+            for node in ast.walk(ast.parse(script.read_text(encoding="utf-8")))
+            if isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Attribute)
+            and node.func.attr == "write_page"
+            and node.args
+            and isinstance(node.args[0], ast.Constant)
+        ]
+        assert names == [script.stem], (
+            f"{script.name} must write its page with write_page({script.stem!r}, …)"
+        )
+        assert f"benchmarks/{script.stem}.md" in nav
+
+
+def test_write_page_records_the_machine_the_date_and_the_plot(tmp_path: Path) -> None:
+    png = tmp_path / "plot.png"
+    png.write_bytes(b"\x89PNG\r\n\x1a\nnot a real image")
+    when = dt.datetime(2026, 1, 2, 3, 4, tzinfo=dt.timezone.utc)
+    page = report.write_page(
+        "demo_bench", "Demo", ["| a | b |\n|---|---|\n| 1 | 2 |"], [(png, "a plot")],
+        docs=tmp_path / "docs", argv=["--quick"], when=when,
+    )  # fmt: skip
+    text = page.read_text(encoding="utf-8")
+    assert page == tmp_path / "docs" / "benchmarks" / "demo_bench.md"
+    assert text.startswith("# Demo\n")
+    assert "`python -m benchmarks.demo_bench --quick` on 2026-01-02 03:04 UTC" in text
+    assert f"Machine: {report.machine_line()}." in text and f"{os.cpu_count()} cores" in text
+    assert "| 1 | 2 |" in text and "![a plot](../img/bench_demo_bench.png)" in text
+    assert (tmp_path / "docs" / "img" / "bench_demo_bench.png").read_bytes() == png.read_bytes()
+
+
+def test_readme_is_a_short_landing_page() -> None:
+    """≤ 200 lines; the two commands CI and a newcomer run; every subcommand named; its links resolve."""
+    text = README.read_text(encoding="utf-8")
+    assert len(text.splitlines()) <= 200
+    assert "make test" in text and "make demo" in text  # .ci/run runs `make test`
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    assert sub.choices is not None
+    names = set(sub.choices)
+    assert len(names) == len(COMMANDS)
+    missing = sorted(n for n in names if f"`{n}`" not in text)
+    assert missing == [], f"README names no line for these subcommands: {missing}"
+    for target in re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", text):
+        if "://" not in target:
+            assert (ROOT / target).exists(), f"README links to a missing file: {target}"
+    assert (ROOT / "CHANGELOG.md").is_file()
