@@ -224,12 +224,15 @@ def bag_series(path: str) -> StaticSeries:
         JOINT_STATE,
         TOPIC_ACCEL_ESTIMATE,
         TOPIC_JOINT_STATES,
+        chain_topic,
     )
     from pendulum_accel.bag.reader import read_bag
 
     bag = read_bag(path)
     js = bag.decode(
-        TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
+        chain_topic(bag.topics, TOPIC_JOINT_STATES),
+        JOINT_STATE,
+        fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"],
     )
     if len(js) < MIN_SAMPLES:
         raise ParameterError(
@@ -240,9 +243,10 @@ def bag_series(path: str) -> StaticSeries:
     dt = np.diff(t[order])
     rate = float(1.0 / np.median(dt[dt > 0])) if np.any(dt > 0) else 0.0
     accel = None
-    if TOPIC_ACCEL_ESTIMATE in bag.topics and bag.topics[TOPIC_ACCEL_ESTIMATE].count >= MIN_SAMPLES:
+    estimate = chain_topic(bag.topics, TOPIC_ACCEL_ESTIMATE)
+    if estimate in bag.topics and bag.topics[estimate].count >= MIN_SAMPLES:
         est = bag.decode(
-            TOPIC_ACCEL_ESTIMATE,
+            estimate,
             ACCEL_WITH_COVARIANCE_STAMPED,
             fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x"],
         )

@@ -145,6 +145,15 @@ def find_topic(names: Iterable[str], role: str) -> str | None:
     return found[0] if found else None
 
 
+def chain_topic(names: Iterable[str], topic: str) -> str:
+    """The name among ``names`` (a bag's topics) of a chain topic given by its root name
+    (``/pendulum/joint_states``): the topic that plays its role under any namespace
+    (``/car1/pendulum/joint_states``), else ``topic`` itself, so a missing one is reported by its usual
+    name; BagError when several namespaces hold it (see find_topic)."""
+    found = find_topic(names, role_of(topic) or topic)
+    return topic if found is None else found
+
+
 FRAME_ID = "base_link"
 PENDULUM_JOINT = "pendulum_joint"
 STRING_JOINT = "string_joint"

@@ -52,6 +52,21 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
         "by default they bind the loopback interface only",
     )
     parser.add_argument(
+        "--namespace",
+        default="",
+        metavar="NS",
+        help="run every node in this namespace (the chain's relative topics resolve under it, so two "
+        "chains on one domain stay apart); /clock and /diagnostics stay global",
+    )
+    parser.add_argument(
+        "--remap",
+        dest="remaps",
+        action="append",
+        default=[],
+        metavar="FROM:=TO",
+        help="remap a topic for every node, as --ros-args -r FROM:=TO (the bag records the remapped name)",
+    )
+    parser.add_argument(
         "--set",
         dest="overrides",
         action="append",
@@ -84,7 +99,17 @@ def chain_config(args: argparse.Namespace) -> ChainConfig:
         overrides=dict(parse_override(text) for text in args.overrides),
         rt_priority=args.rt_priority,
         time_source=args.time_source,
+        namespace=str(getattr(args, "namespace", "") or ""),
+        remaps=[_remap(text) for text in getattr(args, "remaps", [])],
     )
+
+
+def _remap(text: str) -> str:
+    """A FROM:=TO rule as given; ParameterError (one line) when it does not read FROM:=TO."""
+    source, sep, target = text.partition(":=")
+    if not sep or not source or not target:
+        raise ParameterError(f"--remap {text!r} must read FROM:=TO (e.g. pendulum/joint_states:=angles)")
+    return text
 
 
 def _priority(text: str) -> int:

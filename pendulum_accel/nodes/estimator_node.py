@@ -148,8 +148,8 @@ class EstimatorNode(ManagedNode):
             x, y, z = self.imu_offset
             # tf2_msgs has no PyPI wheel: the transform is stated, for a static_transform_publisher.
             self.get_logger().info(
-                f"Imu in frame {self.imu_frame_id}, at ({x:g}, {y:g}, {z:g}) m in {self.frame_id}: publish it "
-                f"with `ros2 run tf2_ros static_transform_publisher --x {x:g} --y {y:g} --z {z:g} "
+                f"Imu in frame {self.imu_frame_id}, at ({x:g}, {y:g}, {z:g}) m in {self.frame_id}: "
+                f"publish it with `ros2 run tf2_ros static_transform_publisher --x {x:g} --y {y:g} --z {z:g} "
                 f"--frame-id {self.frame_id} --child-frame-id {self.imu_frame_id}`"
             )
         steady = Clock(clock_type=ClockType.STEADY_TIME)

@@ -126,7 +126,8 @@ class RecorderNode(ChainNode):
             if time.monotonic() > deadline:
                 raise ParameterError(
                     f"cannot record {missing[0]}: not one of the chain's topics "
-                    f"({', '.join(bm.CHAIN_ROLES)}) and no publisher of it within {wait:g} s to learn its type"
+                    f"({', '.join(bm.CHAIN_ROLES)}) and no publisher of it within {wait:g} s "
+                    "to learn its type"
                 )
             time.sleep(0.1)
 

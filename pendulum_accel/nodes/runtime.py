@@ -329,7 +329,8 @@ def check_ros_args(argv: Sequence[str]) -> None:
                 raise ParameterError(f"parameters file {value} is not valid YAML{line}") from None
             if not isinstance(data, dict):
                 raise ParameterError(
-                    f"parameters file {value} must map node names to ros__parameters, got {type(data).__name__}"
+                    f"parameters file {value} must map node names to ros__parameters, "
+                    f"got {type(data).__name__}"
                 )
         elif token in ("-p", "--param"):
             name, sep, text = value.partition(":=")

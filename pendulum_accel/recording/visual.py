@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -94,7 +95,7 @@ def urdf(length: float, name: str = "pendulum_accel") -> str:
 """
 
 
-def _marker(ns: str, kind: int, color: tuple[float, float, float], points: int = 0) -> object:
+def _marker(ns: str, kind: int, color: tuple[float, float, float], points: int = 0) -> Any:
     """A visualization_msgs/Marker in base_link (id 0 in ``ns``), ``points`` zero points, opaque."""
     store = bm.TYPESTORE.types
     marker_cls = store["visualization_msgs/msg/Marker"]
@@ -131,7 +132,7 @@ def _marker(ns: str, kind: int, color: tuple[float, float, float], points: int =
     )
 
 
-def _marker_array(markers: list[object]) -> object:
+def _marker_array(markers: list[Any]) -> Any:
     """visualization_msgs/MarkerArray of ``markers``."""
     return bm.TYPESTORE.types[bm.MARKER_ARRAY](markers=markers)
 
@@ -144,7 +145,7 @@ def marker_mask(t: NDArray[np.float64], rate_hz: float = MARKER_RATE_HZ) -> NDAr
     return mask
 
 
-def _stamp(ns: NDArray[np.int64], prefix: str) -> dict[str, NDArray[np.int64]]:
+def _stamp(ns: NDArray[np.int64], prefix: str) -> dict[str, Any]:
     """{prefix.header.stamp.sec / nanosec: columns} of integer nanoseconds."""
     sec, nanosec = bm.split_stamp(ns)
     return {f"{prefix}header.stamp.sec": sec, f"{prefix}header.stamp.nanosec": nanosec}
@@ -164,7 +165,7 @@ def swing_marker_rows(
     bz = h - length * np.cos(theta)
     diameter = 2.0 * bob_radius(length)
     arrow_z = h + 0.1
-    cols: dict[str, NDArray[np.float64] | NDArray[np.int64] | float] = {}
+    cols: dict[str, Any] = {}
     for i in range(3):
         cols.update(_stamp(ns, f"markers[{i}]."))
     cols.update(
