@@ -125,12 +125,22 @@ def _priority(text: str) -> int:
 
 def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
     """Messages per topic, live-estimator error vs truth (bias, RMS, max), plan line and bag path."""
+    from pendulum_accel.bag import messages as bm
     from pendulum_accel.bag.reader import read_bag
     from pendulum_accel.bag.writer import CUSTOM_PLAN
     from pendulum_accel.recording.analyze import analyze_bag
 
     bag = read_bag(bag_path)
-    lines = ["messages:"] + [f"  {name:<22} {info.count:>8}" for name, info in bag.topics.items()]
+    width = max([22, *(len(name) for name in bag.topics)])
+    lines = ["messages:"] + [f"  {name:<{width}} {info.count:>8}" for name, info in bag.topics.items()]
+    if (
+        bm.find_topic(bag.topics, bm.JOINT_STATES) is None
+        or bm.find_topic(bag.topics, bm.ACCEL_TRUTH) is None
+    ):
+        # Remapped away from the chain's names: the bag is whole, the comparison has nothing to go on.
+        lines.append("estimate vs truth: not computed (the angles or the truth were remapped to other names)")
+        lines.append(f"bag: {bag.path}")
+        return lines
     analysis = analyze_bag(bag, estimator=estimator)
     recorded = analysis.recorded
     if recorded is not None and recorded.n:
