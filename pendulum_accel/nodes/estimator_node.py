@@ -354,8 +354,9 @@ class EstimatorNode(ManagedNode):
         """Deliver what was published, then log the counts and write them to summary_file."""
         if not hasattr(self, "guarded"):  # never configured: nothing was estimated
             return
-        for publisher in (self.estimate_publisher, self.imu_publisher):
-            publisher.wait_for_all_acked(Duration(seconds=2))
+        if self._publishers:  # configured (cleanup destroys them)
+            for publisher in (self.estimate_publisher, self.imu_publisher):
+                publisher.wait_for_all_acked(Duration(seconds=2))
         guard = self.guarded.guard
         self.get_logger().info(
             f"{self.inputs} inputs, {self.estimates} estimates published; dropped {guard.dropped_nonfinite} "
