@@ -139,3 +139,32 @@ def test_colcon_build_installs_ros2_run_layout(tmp_path: Path) -> None:
     assert len(installed) == 1, installed
     assert (installed[0] / "nodes" / "fastdds_profile.xml").is_file()
     assert len(list((installed[0] / "scenes").glob("*.yaml"))) == len(SCENE_NAMES)
+
+
+def test_package_xml_lists_every_ros_package_the_nodes_and_the_launch_file_import() -> None:
+    """Each ROS package imported under nodes/ or by the launch file (module level or inside functions) is
+    an exec_depend, so rosdep installs all of them."""
+    import ast
+
+    exec_deps = {e.text for e in _package_xml().findall("exec_depend")}
+    sources = [*(REPO / "pendulum_accel" / "nodes").glob("*.py"), *(REPO / "launch_scripts").glob("*.py")]
+    ros = {"rclpy", "launch", "launch_ros", "ament_index_python", "rcl_interfaces", "builtin_interfaces"}
+    imported: set[str] = set()
+    for path in sources:
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module]
+                if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module
+                else []
+            )
+            for name in names:
+                top = name.split(".")[0]
+                if top in ros or top.endswith(("_msgs", "_srvs")):
+                    imported.add(top)
+    assert {"rclpy", "launch", "launch_ros", "ament_index_python", "lifecycle_msgs"} <= imported | {
+        "lifecycle_msgs"
+    }
+    assert imported <= exec_deps, sorted(imported - exec_deps)
+    assert "lifecycle_msgs" in exec_deps  # rclpy.lifecycle's services
