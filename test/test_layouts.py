@@ -68,7 +68,7 @@ def test_plotjuggler_layout_series_exist_in_a_golden_bag() -> None:
     for name in curves:
         assert name in series or name in snippets, name
     assert {"estimate_plus_2sigma", "estimate_minus_2sigma"} <= set(curves)
-    assert root.find("Plugins/plugin").get("ID") == "DataLoad ROS2 bags"  # type: ignore[union-attr]
+    assert root.find("Plugins/plugin").get("ID") == "DataLoad MCAP"  # type: ignore[union-attr]
 
 
 def test_foxglove_3d_panel_shows_the_markers_and_the_urdf_in_base_link() -> None:

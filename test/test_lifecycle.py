@@ -47,13 +47,15 @@ def spin(seconds):
         rclpy.spin_once(node, timeout_sec=0.05)
 
 steps = [("start", state(), None)]
-for name, tid in [("configure", Transition.TRANSITION_CONFIGURE), ("activate", Transition.TRANSITION_ACTIVATE),
-                  ("deactivate", Transition.TRANSITION_DEACTIVATE), ("cleanup", Transition.TRANSITION_CLEANUP)]:
+T = Transition
+for name, tid in [("configure", T.TRANSITION_CONFIGURE), ("activate", T.TRANSITION_ACTIVATE),
+                  ("deactivate", T.TRANSITION_DEACTIVATE), ("cleanup", T.TRANSITION_CLEANUP)]:
     before = heard[0]
     ok = call(change, ChangeState.Request(transition=Transition(id=tid))).success
     spin(3.0)
     steps.append((name, state() if ok else "failed", heard[0] - before))
-ok = call(change, ChangeState.Request(transition=Transition(id=Transition.TRANSITION_UNCONFIGURED_SHUTDOWN))).success
+shutdown = Transition(id=T.TRANSITION_UNCONFIGURED_SHUTDOWN)
+ok = call(change, ChangeState.Request(transition=shutdown)).success
 steps.append(("shutdown", "ok" if ok else "failed", None))
 print(json.dumps(steps), flush=True)
 """
