@@ -157,7 +157,8 @@ def main(argv: list[str] | None = None) -> int:
         "| bag | messages | chunks | RSS start → max (MiB) | RSS after 1/10 | read | seek median / max |",
         "|---|---|---|---|---|---|---|",
         f"| {result['bag_gib']:.2f} GiB | {result['messages']} | {result['chunks']} | "
-        f"{result['rss_start_mib']:.0f} → {result['rss_max_mib']:.0f} | {result['rss_first_tenth_mib']:.0f} | "
+        f"{result['rss_start_mib']:.0f} → {result['rss_max_mib']:.0f} | "
+        f"{result['rss_first_tenth_mib']:.0f} | "
         f"{result['read_s']:.0f} s ({result['messages_per_s'] / 1e6:.2f} M msg/s) | "
         f"{result['seek_median_ms']:.0f} / {result['seek_max_ms']:.0f} ms |",
     ]

@@ -8,7 +8,6 @@ version 8 form (enum values as integers).
 from __future__ import annotations
 
 import os
-
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
