@@ -11,7 +11,7 @@ import json
 
 import pytest
 
-from pendulum_accel.nodes.launcher import node_command
+from pendulum_accel.nodes.launcher import ParamValue, node_command
 from test.chain_helpers import Output
 from test.conftest import PYTHON, Spawn
 
@@ -68,7 +68,9 @@ print(json.dumps(steps), flush=True)
         ("estimator_node", "accel_estimator", {"scene": "step_start"}),
     ],
 )
-def test_lifecycle_transitions(spawn: Spawn, module: str, node_name: str, params: dict[str, object]) -> None:
+def test_lifecycle_transitions(
+    spawn: Spawn, module: str, node_name: str, params: dict[str, ParamValue]
+) -> None:
     node = Output(spawn(node_command(module, {**params, "autostart": False, "time_source": "wall"})))
     node.wait_for("autostart false", timeout=60)
     # The simulator's angles show whether it publishes; the estimator is checked by its state alone.

@@ -96,7 +96,7 @@ class RecorderNode(ChainNode):
         self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data_for(scene))
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
         self._offsets = {topic: stamp_offset(self.types[topic]) for topic in topics}
-        self._latest_ns = 0  # a message without a stamp (robot_description) is logged at the latest stamp
+
         # Messages wait here (log times, CDR payloads) until the next flush writes them in one bulk call:
         # a per-message write through rosbags cost more CPU than the rest of the recorder.
         self._pending: dict[str, tuple[list[int], list[bytes]]] = {topic: ([], []) for topic in topics}
@@ -151,10 +151,8 @@ class RecorderNode(ChainNode):
         offset = self._offsets[topic]
         if self.log_time == "stamp" and offset is not None and len(data) >= offset + _STAMP.size:
             log_ns = stamp_ns(data, offset)
-            self._latest_ns = max(self._latest_ns, log_ns)
-        elif self.log_time == "stamp":
-            log_ns = self._latest_ns
-        else:
+        else:  # receive time, or a message without a stamp (robot_description): the node's clock, which
+            # runs on the run's time base (use_sim_time follows time_source)
             log_ns = self.get_clock().now().nanoseconds
         times, payloads = self._pending[topic]
         times.append(max(log_ns, 0))
