@@ -68,7 +68,7 @@ class StreamedBag:
         """(topic, log time ns, CDR) of ``topics`` with first_ns ≤ log time ≤ last_ns, in log-time order,
         decompressing one chunk at a time (the library's SeekingReader over the chunk index)."""
         for _, channel, message in self._reader.iter_messages(
-            topics=list(topics), start_time=first_ns, end_time=last_ns + 1, log_time_order=True
+            topics=list(topics), starting_at=first_ns, ending_at=last_ns, log_time_order=True
         ):
             yield channel.topic, message.log_time, message.data
 
