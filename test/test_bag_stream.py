@@ -7,11 +7,9 @@ worth, whatever the bag's length. The messages and their order equal the in-memo
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import mcap.reader
 import numpy as np
 import pytest
 
@@ -36,16 +34,15 @@ def test_streaming_holds_at_most_two_chunks_of_decoded_messages(
     from pendulum_accel.nodes.player_node import StreamTimeline
 
     decoded: list[int] = []  # messages of each chunk decoded so far
-    original = mcap.reader.breakup_chunk
+    original = StreamedBag.decode_chunk
 
-    def counting(*args: Any, **kwargs: Any) -> Iterator[Any]:
-        """The library's chunk decoder, counting the messages of each chunk it decodes."""
-        decoded.append(0)
-        for record in original(*args, **kwargs):
-            decoded[-1] += 1
-            yield record
+    def counting(self: StreamedBag, *args: Any) -> list[tuple[int, str, bytes]]:
+        """The chunk decoder, counting the messages of each chunk it decodes."""
+        out = original(self, *args)
+        decoded.append(len(out))
+        return out
 
-    monkeypatch.setattr(mcap.reader, "breakup_chunk", counting)
+    monkeypatch.setattr(StreamedBag, "decode_chunk", counting)
     source = StreamedBag(bag)
     assert len(source.chunks) >= 4
     topics = list(source.topics)
