@@ -9,7 +9,8 @@
    ``StreamTimeline``: the MCAP chunk index, one chunk decoded at a time) and takes every message
    in order, sampling the RSS (/proc/self/statm) every 100 000 messages; then seeks to 20 targets
    spread over the bag and times each (the seek re-reads one chunk and counts the index records).
-3. For scale, the RSS of the in-memory reader (``read_bag``) on a 1/10 slice is given too.
+   "RSS start" is the process after importing the player (rclpy, numpy, numba...): the streaming
+   itself adds the difference to "max".
 
 Writes player_memory.csv and player_memory.md into the output directory (default out/bench).
 No ROS graph is involved: the node's publishing adds a constant, not a size-dependent, amount.
