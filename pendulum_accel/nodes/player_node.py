@@ -400,9 +400,10 @@ class PlayerNode(ThreadedNode):
     # -- playing ------------------------------------------------------------------------------------
 
     def _wait(self) -> bool:
-        """True once the named readers (reader_nodes on /pendulum/joint_states, recorder_node on every
-        topic) are subscribed and matched, /pendulum/joint_states has wait_for_subscribers subscribers
-        and, with wait_for_recorder, every published topic has one (False if stopped while waiting)."""
+        """True once the named readers (reader_nodes on the angles, the bag's pendulum/joint_states under
+        any namespace; recorder_node on every topic) are subscribed and matched, the angles have
+        wait_for_subscribers subscribers and, with wait_for_recorder, every published topic has one
+        (False if stopped while waiting)."""
         joint = self._outputs.get(self._joint_topic) if self._joint_topic else None
 
         def named_ready() -> bool:
