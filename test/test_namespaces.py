@@ -12,8 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pendulum_accel.allan import bag_series
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import Bag, read_bag
+from pendulum_accel.cli.info import info_lines
 from pendulum_accel.recording.analyze import analyze_bag
 from test.chain_helpers import Output
 from test.conftest import PYTHON, REPO, Spawn
@@ -55,7 +57,10 @@ def test_two_namespaced_chains_on_one_domain_do_not_cross_talk(spawn: Spawn, tmp
         assert angles.size == round(DURATION * 100) + 1
         assert np.array_equal(estimates, angles), namespace
         result = analyze_bag(bag)
-        assert result.recorded is not None
+        assert result.recorded is not None and result.recorded.n == angles.size
+        lines, note = info_lines(str(bag.path))  # info finds the namespaced chain: every angle estimated
+        assert note is None and "[complete]" in lines[0], lines
+        assert bag_series(str(bag.path)).accel is not None  # allan finds the namespaced estimate too
         # The recorded estimate follows its own truth: after settling, the other car's truth (3 m/s²
         # apart) would put the mean error near ±1.5 m/s²; 0.3 m/s² is 10 times the settled kalman bias
         # these scenes show (< 0.03 m/s²) and 5 times below the cross-talk's error.

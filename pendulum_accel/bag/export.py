@@ -32,9 +32,13 @@ FORMATS = ("csv", "parquet")
 BULK_TYPES = frozenset({bm.JOINT_STATE, bm.ACCEL_STAMPED, bm.ACCEL_WITH_COVARIANCE_STAMPED, bm.CLOCK})
 """Message types whose fields sit at fixed offsets in every message the chain writes: decoded in bulk."""
 MERGED_NAME = "merged"
-PER_SAMPLE_ROLES = frozenset({bm.ACCEL_TRUTH, bm.ACCEL_ESTIMATE, bm.STRING, bm.IMU_DATA_RAW})
+PER_SAMPLE_ROLES = frozenset({bm.ACCEL_TRUTH, bm.ACCEL_ESTIMATE, bm.STRING})
 """Topics (by role, any namespace) stamped with the angle's stamp: merged on equal stamps (a missing
 estimate stays missing)."""
+
+
+VISUAL_ROLES = frozenset({bm.MARKERS, bm.ROBOT_DESCRIPTION})
+"""Topics export leaves out unless named: what RViz and Foxglove draw, no table to flatten."""
 
 
 class ExportError(PendulumAccelError):
@@ -154,7 +158,8 @@ def export_bag(
             import pyarrow  # noqa: F401
         except ImportError:
             raise ExportError("Parquet export needs pyarrow: pip install 'pendulum_accel[export]'") from None
-    chosen = list(topics) or list(bag.topics)
+    # By default every topic but the visual ones (markers, the URDF), which are for RViz and Foxglove.
+    chosen = list(topics) or [t for t in bag.topics if bm.role_of(t) not in VISUAL_ROLES]
     unknown = [t for t in chosen if t not in bag.topics]
     if unknown:
         raise ExportError(f"bag {bag.path} has no topic {unknown[0]} (it has {', '.join(bag.topics)})")

@@ -96,6 +96,8 @@ class RecorderNode(ChainNode):
         self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data_for(scene))
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
         self._offsets = {topic: stamp_offset(self.types[topic]) for topic in topics}
+        self._first_stamp_ns: int | None = None
+        self._unstamped: list[tuple[str, bytes]] = []
 
         # Messages wait here (log times, CDR payloads) until the next flush writes them in one bulk call:
         # a per-message write through rosbags cost more CPU than the rest of the recorder.
@@ -151,9 +153,22 @@ class RecorderNode(ChainNode):
         offset = self._offsets[topic]
         if self.log_time == "stamp" and offset is not None and len(data) >= offset + _STAMP.size:
             log_ns = stamp_ns(data, offset)
-        else:  # receive time, or a message without a stamp (robot_description): the node's clock, which
-            # runs on the run's time base (use_sim_time follows time_source)
+            if self._first_stamp_ns is None:
+                self._first_stamp_ns = log_ns
+                for early_topic, early in self._unstamped:
+                    self._queue(early_topic, log_ns, early)
+                self._unstamped = []
+        elif self.log_time == "stamp" and self._first_stamp_ns is None:
+            # A message without a stamp (robot_description, sent to every new subscriber at once) before
+            # the data: logged with the first stamped message, so the bag starts with the data.
+            self._unstamped.append((topic, data))
+            return
+        else:  # receive time, or an unstamped message later on: the node's clock, on the run's time base
             log_ns = self.get_clock().now().nanoseconds
+        self._queue(topic, log_ns, data)
+
+    def _queue(self, topic: str, log_ns: int, data: bytes) -> None:
+        """Buffer one message for the next write at log time ``log_ns`` (clamped at 0)."""
         times, payloads = self._pending[topic]
         times.append(max(log_ns, 0))
         payloads.append(data)
@@ -217,6 +232,9 @@ class RecorderNode(ChainNode):
             return
         self._closed = True
         own = {"received": self.received, "written": dict(self.writer.counts)}
+        for topic, data in self._unstamped:  # no stamped message ever came: log them at the clock
+            self._queue(topic, self.get_clock().now().nanoseconds, data)
+        self._unstamped = []
         try:
             self._write_pending()
             own["written"] = dict(self.writer.counts)
