@@ -23,7 +23,7 @@ ARGUMENTS: dict[str, tuple[str, str]] = {
     "estimator": ("kalman", "estimation method"),
     "fast": ("false", "true: as fast as possible, on sim time"),
     "time_source": ("", "sim or wall (empty: sim when fast or recording, else wall)"),
-    "namespace": ("", "namespace of every node (and of the relative imu/data_raw topic)"),
+    "namespace": ("", "namespace of every node: the chain's relative topics resolve under it"),
 }
 
 

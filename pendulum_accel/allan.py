@@ -229,6 +229,7 @@ def bag_series(path: str | Bag) -> StaticSeries:
         JOINT_STATE,
         TOPIC_ACCEL_ESTIMATE,
         TOPIC_JOINT_STATES,
+        chain_topic,
     )
     from pendulum_accel.bag.reader import Bag, read_bag
     from pendulum_accel.recording.contract import check_chain_contract
@@ -237,7 +238,9 @@ def bag_series(path: str | Bag) -> StaticSeries:
     path = str(bag.path)
     check_chain_contract(bag)
     js = bag.decode(
-        TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
+        chain_topic(bag.topics, TOPIC_JOINT_STATES),
+        JOINT_STATE,
+        fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"],
     )
     if len(js) < MIN_SAMPLES:
         raise ParameterError(
@@ -248,9 +251,10 @@ def bag_series(path: str | Bag) -> StaticSeries:
     dt = np.diff(t[order])
     rate = float(1.0 / np.median(dt[dt > 0])) if np.any(dt > 0) else 0.0
     accel = None
-    if TOPIC_ACCEL_ESTIMATE in bag.topics and bag.topics[TOPIC_ACCEL_ESTIMATE].count >= MIN_SAMPLES:
+    estimate = chain_topic(bag.topics, TOPIC_ACCEL_ESTIMATE)
+    if estimate in bag.topics and bag.topics[estimate].count >= MIN_SAMPLES:
         est = bag.decode(
-            TOPIC_ACCEL_ESTIMATE,
+            estimate,
             ACCEL_WITH_COVARIANCE_STAMPED,
             fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x"],
         )

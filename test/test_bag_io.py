@@ -147,11 +147,12 @@ def test_bulk_write_equals_plain_rosbags_writer(tmp_path: Path) -> None:
     assert len(ours[0]) > 2 * 2**20
     assert ours[3] == f"pendulum_accel-{__version__}" and theirs[3].startswith("rosbags-")
     # The rosbag2 metadata record holds the same YAML document (dumped by libyaml, not ruamel)...
-    assert yaml.safe_load(ours[1]) == yaml.safe_load(theirs[1])
+    # but ros_distro: ours names the distribution in use, a plain rosbags Writer writes "rosbags".
+    assert _distro_apart(ours[1]) == _distro_apart(theirs[1], "rosbags")
     # ...and the summary indexes the same chunks, channels and counts.
     assert ours[2] == theirs[2]
-    assert yaml.safe_load((tmp_path / "a/bag/metadata.yaml").read_text()) == yaml.safe_load(
-        (tmp_path / "b/bag/metadata.yaml").read_text()
+    assert _distro_apart((tmp_path / "a/bag/metadata.yaml").read_text()) == _distro_apart(
+        (tmp_path / "b/bag/metadata.yaml").read_text(), "rosbags"
     )
 
 
@@ -174,6 +175,17 @@ def _chunk_records(data: bytes, chunks: tuple[tuple[int, int, int], ...]) -> lis
         records_at = offset + 41 + compression_length + 8
         out.append(data[records_at : offset + length])
     return out
+
+
+def _distro_apart(text: str, distro: str | None = None) -> dict[str, Any]:
+    """The rosbag2 metadata document without its ros_distro, after checking it is ``distro`` (default:
+    the distribution in use, pendulum_accel.bag.metadata.ros_distro())."""
+    from pendulum_accel.bag.metadata import ros_distro
+
+    document: dict[str, Any] = yaml.safe_load(text)
+    info = document.get("rosbag2_bagfile_information", document)  # metadata.yaml nests it, the record not
+    assert info.pop("ros_distro") == (distro or ros_distro())
+    return document
 
 
 def _mcap_parts(path: Path) -> tuple[bytes, str, tuple[object, ...], str]:

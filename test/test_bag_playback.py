@@ -72,8 +72,8 @@ def test_step_only_while_paused_and_seek_both_ways() -> None:
     jumped = playback.step()
     assert jumped is not None and jumped.index == 7 and jumped.jumped
     assert playback.seek(2 * NS) and playback.index == 2  # backwards
-    assert playback.seek(-5 * NS) and playback.index == 0  # before the start: the first message
-    assert not playback.seek(20 * NS) and playback.index == 0  # past the end: refused, unchanged
+    assert not playback.seek(-5 * NS) and playback.index == 2  # before the start: refused, unchanged
+    assert not playback.seek(20 * NS) and playback.index == 2  # past the end: refused, unchanged
     playback.resume()
     assert playback.step() is None  # not paused
     with pytest.raises(ParameterError):

@@ -112,7 +112,7 @@ def _generated_matches_live(live: Bag, out: Path) -> None:
     """``generate`` (no DDS) writes what the live chain recorded: topics, counts, data, scene and plan.
 
     Only /diagnostics differs in count: the node reports on a wall-clock period; the live Imu
-    (one per estimate) is not part of ``generate``'s contract.
+    (one per estimate), markers and robot_description are not part of ``generate``'s contract.
     """
     scene = apply_overrides(load_scene("lecture_constant"), {"rate_hz": RATE, "duration": DURATION})
     generated = read_bag(generate_bag(scene, out).path)
@@ -120,6 +120,9 @@ def _generated_matches_live(live: Bag, out: Path) -> None:
     live_counts = {name: info.count for name, info in live.topics.items()}
     assert counts.pop("/diagnostics") >= 1 and live_counts.pop("/diagnostics") >= 1
     assert live_counts.pop("/imu/data_raw") == live_counts["/car/accel/estimate"]
+    # The visual topics are live only too: the URDF once, the markers at 30 Hz from each of two publishers.
+    assert live_counts.pop("/robot_description") == 1
+    assert live_counts.pop("/pendulum/markers") > 2 * 30 * (DURATION - 1.0)
     assert counts == live_counts
     for topic, fields in (
         ("/pendulum/joint_states", ("position[0]", "velocity[0]")),

@@ -68,4 +68,24 @@ def test_plotjuggler_layout_series_exist_in_a_golden_bag() -> None:
     for name in curves:
         assert name in series or name in snippets, name
     assert {"estimate_plus_2sigma", "estimate_minus_2sigma"} <= set(curves)
-    assert root.find("Plugins/plugin").get("ID") == "DataLoad ROS2 bags"  # type: ignore[union-attr]
+    assert root.find("Plugins/plugin").get("ID") == "DataLoad MCAP"  # type: ignore[union-attr]
+
+
+def test_foxglove_3d_panel_shows_the_markers_and_the_urdf_in_base_link() -> None:
+    """The 3D panel follows base_link and shows the topics the simulator and estimator publish for it,
+    as a root-namespace run records them."""
+    from pendulum_accel.bag import messages as bm
+
+    layout = json.loads((LAYOUTS / "foxglove_pendulum_accel.json").read_text(encoding="utf8"))
+    panels = {k: v for k, v in layout["configById"].items() if k.startswith("3D!")}
+    assert len(panels) == 1
+    config = next(iter(panels.values()))
+    assert config["followTf"] == bm.FRAME_ID
+    assert {"/" + bm.MARKERS, "/" + bm.ROBOT_DESCRIPTION} <= set(config["topics"])
+
+
+def test_plotjuggler_layout_names_the_mcap_loader() -> None:
+    """docs/ros.md opens the .mcap with `plotjuggler -d`, which goes through the MCAP loader."""
+    text = (LAYOUTS / "plotjuggler_pendulum_accel.xml").read_text(encoding="utf8")
+    assert '<plugin ID="DataLoad MCAP">' in text and "ROS2 bags" not in text
+    assert "DataLoad MCAP" in (REPO / "docs" / "ros.md").read_text(encoding="utf8")

@@ -282,7 +282,7 @@ def test_seek_forwards_and_backwards_with_clock_and_estimator_reset(spawn: Spawn
     listen = {**LISTEN, "/clock": CLOCK}
     result = _control(spawn, {"listen": listen, "matched": [ESTIMATE], "steps": steps, "linger": 1.0})
     r = result["results"]
-    assert r[1] == [False, "past the end of the bag"]
+    assert r[1][0] is False and r[1][1].startswith("refused: t=")  # outside the bag
     assert r[3] == [True, "seek to t=6.000 s"] and r[7] == [True, "seek to t=2.000 s"]
     assert player.finish(timeout=60) == 0, player.text
     _stop(estimator)
@@ -373,3 +373,40 @@ def test_keyboard_controls_on_a_terminal(spawn: Spawn) -> None:
     finally:
         os.close(master)
         os.close(slave)
+
+
+def test_seek_at_the_end_plays_on_and_a_seek_outside_the_bag_is_refused(spawn: Spawn) -> None:
+    """exit_on_end false: after the last message the player stays; a seek back plays on from there.
+    Seeks before the first or after the last message are refused (success false), nothing moves."""
+    player = start_node(
+        spawn,
+        "player_node",
+        {
+            "path": str(GOLDEN),
+            "topics": [JOINT],
+            "rate": 20.0,
+            "exit_on_end": False,
+            "wait_for_subscribers": 1,
+        },
+    )
+    steps: list[list[Any]] = [
+        ["wait_stamp", JOINT, 10.0],  # the whole bag played (its last angle is stamped 10 s)
+        ["sleep", 1.0],
+        ["count", JOINT],
+        ["set", {"seek_time": 10.5}],
+        ["call", "seek"],
+        ["set", {"seek_time": -1.0}],
+        ["call", "seek"],
+        ["set", {"seek_time": 9.0}],
+        ["call", "seek"],
+        ["wait_count", JOINT, 1001 + 101],
+        ["sleep", 1.0],
+        ["count", JOINT],
+    ]
+    result = _control(spawn, {"listen": {JOINT: JOINT_STATE}, "matched": [JOINT], "steps": steps})
+    r = result["results"]
+    assert r[4][0] is False and "outside the bag" in r[4][1]
+    assert r[6][0] is False and "outside the bag" in r[6][1]
+    assert r[8] == [True, "seek to t=9.000 s"]
+    assert r[11] - r[2] == 101  # 9.00 .. 10.00 s of 100 Hz angles, played again after the end, once
+    _stop(player)

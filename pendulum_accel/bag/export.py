@@ -32,8 +32,13 @@ FORMATS = ("csv", "parquet")
 BULK_TYPES = frozenset({bm.JOINT_STATE, bm.ACCEL_STAMPED, bm.ACCEL_WITH_COVARIANCE_STAMPED, bm.CLOCK, bm.IMU})
 """Message types whose fields sit at fixed offsets in every message the chain writes: decoded in bulk."""
 MERGED_NAME = "merged"
-PER_SAMPLE_TOPICS = frozenset({bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_STRING, bm.TOPIC_IMU})
-"""Topics stamped with the angle's stamp: merged on equal stamps (a missing estimate or Imu stays missing)."""
+PER_SAMPLE_ROLES = frozenset({bm.ACCEL_TRUTH, bm.ACCEL_ESTIMATE, bm.STRING, bm.IMU_DATA_RAW})
+"""Topics (by role, any namespace) stamped with the angle's stamp: merged on equal stamps (a missing
+estimate or Imu stays missing)."""
+
+
+VISUAL_ROLES = frozenset({bm.MARKERS, bm.ROBOT_DESCRIPTION})
+"""Topics export leaves out unless named: what RViz and Foxglove draw, no table to flatten."""
 
 
 class ExportError(PendulumAccelError):
@@ -136,12 +141,13 @@ def merged_table(bag: Bag, topics: Sequence[str]) -> DataFrame:
     """One DataFrame on the angle's stamps: a per-sample topic's row with the same stamp (truth, estimate,
     string), any other topic's (/clock, /diagnostics) latest row at or before the stamp."""
     pd = _pandas()
-    base = topic_table(bag, bm.TOPIC_JOINT_STATES).drop(columns=["log_time"]).sort_values("t", kind="stable")
+    joint = bm.chain_topic(bag.topics, bm.TOPIC_JOINT_STATES)
+    base = topic_table(bag, joint).drop(columns=["log_time"]).sort_values("t", kind="stable")
     for topic in topics:
-        if topic == bm.TOPIC_JOINT_STATES:
+        if topic == joint:
             continue
         other = topic_table(bag, topic).drop(columns=["log_time"]).sort_values("t", kind="stable")
-        if topic in PER_SAMPLE_TOPICS:
+        if bm.role_of(topic) in PER_SAMPLE_ROLES:
             base = base.merge(other.drop_duplicates("t", keep="last"), on="t", how="left")
         else:
             base = pd.merge_asof(base, other, on="t", direction="backward")
@@ -165,11 +171,12 @@ def export_bag(
             import pyarrow  # noqa: F401
         except ImportError:
             raise ExportError("Parquet export needs pyarrow: pip install 'pendulum_accel[export]'") from None
-    chosen = list(topics) or list(bag.topics)
+    # By default every topic but the visual ones (markers, the URDF), which are for RViz and Foxglove.
+    chosen = list(topics) or [t for t in bag.topics if bm.role_of(t) not in VISUAL_ROLES]
     unknown = [t for t in chosen if t not in bag.topics]
     if unknown:
         raise ExportError(f"bag {bag.path} has no topic {unknown[0]} (it has {', '.join(bag.topics)})")
-    if merged and bm.TOPIC_JOINT_STATES not in bag.topics:
+    if merged and bm.chain_topic(bag.topics, bm.TOPIC_JOINT_STATES) not in bag.topics:
         raise ExportError(f"bag {bag.path} has no {bm.TOPIC_JOINT_STATES} to merge on")
     tables = (
         {MERGED_NAME: merged_table(bag, chosen)}

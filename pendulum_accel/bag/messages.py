@@ -14,7 +14,7 @@ import copy
 import dataclasses
 import re
 import struct
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -61,14 +61,29 @@ CLOCK = "rosgraph_msgs/msg/Clock"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
 IMU = "sensor_msgs/msg/Imu"
 
-TOPIC_JOINT_STATES = "/pendulum/joint_states"
-TOPIC_ACCEL_TRUTH = "/car/accel/truth"
-TOPIC_STRING = "/pendulum/string"
-TOPIC_ACCEL_ESTIMATE = "/car/accel/estimate"
+STRING_MSG = "std_msgs/msg/String"
+MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
+
+# The chain's topics by role. Relative names, so that a namespace (__ns, launch's namespace:=,
+# PushRosNamespace) or a remap applies and two chains on one domain cannot cross-talk; /clock and
+# /diagnostics stay global, as ROS conventions want (one clock per graph, one aggregator).
+JOINT_STATES = "pendulum/joint_states"
+ACCEL_TRUTH = "car/accel/truth"
+STRING = "pendulum/string"
+ACCEL_ESTIMATE = "car/accel/estimate"
+IMU_DATA_RAW = "imu/data_raw"
+MARKERS = "pendulum/markers"
+ROBOT_DESCRIPTION = "robot_description"
+
+# The same topics as resolved in the root namespace: what ``generate`` and the golden bags hold.
+TOPIC_JOINT_STATES = "/" + JOINT_STATES
+TOPIC_ACCEL_TRUTH = "/" + ACCEL_TRUTH
+TOPIC_STRING = "/" + STRING
+TOPIC_ACCEL_ESTIMATE = "/" + ACCEL_ESTIMATE
 TOPIC_CLOCK = "/clock"
 TOPIC_DIAGNOSTICS = "/diagnostics"
 
-# The fixed topic contract: topic -> message type.
+# The fixed topic contract of a generated bag: topic -> message type.
 TOPIC_TYPES: dict[str, str] = {
     TOPIC_JOINT_STATES: JOINT_STATE,
     TOPIC_ACCEL_TRUTH: ACCEL_STAMPED,
@@ -78,18 +93,65 @@ TOPIC_TYPES: dict[str, str] = {
     TOPIC_DIAGNOSTICS: DIAGNOSTIC_ARRAY,
 }
 
-TOPIC_IMU = "/imu/data_raw"
+TOPIC_IMU = "/" + IMU_DATA_RAW
 """The estimator's Imu (REP-145 ``imu/data_raw``) as recorded from the root namespace. Live only:
 ``generate`` and the golden bags hold the contract above."""
 
+ROLE_TYPES: dict[str, str] = {
+    JOINT_STATES: JOINT_STATE,
+    ACCEL_TRUTH: ACCEL_STAMPED,
+    STRING: JOINT_STATE,
+    ACCEL_ESTIMATE: ACCEL_WITH_COVARIANCE_STAMPED,
+    IMU_DATA_RAW: IMU,
+    MARKERS: MARKER_ARRAY,
+    ROBOT_DESCRIPTION: STRING_MSG,
+    TOPIC_CLOCK: CLOCK,
+    TOPIC_DIAGNOSTICS: DIAGNOSTIC_ARRAY,
+}
+"""Every topic of a live chain by role (a relative name, or the global /clock and /diagnostics)."""
+
+CHAIN_ROLES: tuple[str, ...] = tuple(ROLE_TYPES)
+"""What the recorder records by default: every role, resolved in the recorder's namespace."""
+
+
+def role_of(name: str) -> str | None:
+    """The chain role of a topic name: a global role as is, else the relative role ``name`` ends with
+    ('pendulum/joint_states', '/pendulum/joint_states', '/car1/pendulum/joint_states' → the same role);
+    None for any other name."""
+    if name in (TOPIC_CLOCK, TOPIC_DIAGNOSTICS):
+        return name
+    bare = name.lstrip("/")
+    for role in ROLE_TYPES:
+        if not role.startswith("/") and (bare == role or bare.endswith("/" + role)):
+            return role
+    return None
+
 
 def topic_type(name: str) -> str | None:
-    """Message type of a chain topic; the Imu under any namespace ('imu/data_raw', '/ns/imu/data_raw')."""
-    if name in TOPIC_TYPES:
-        return TOPIC_TYPES[name]
-    if name.strip("/") == "imu/data_raw" or name.endswith(TOPIC_IMU):
-        return IMU
-    return None
+    """Message type of a chain topic under any namespace (see role_of); None for any other name."""
+    role = role_of(name)
+    return None if role is None else ROLE_TYPES[role]
+
+
+def find_topic(names: Iterable[str], role: str) -> str | None:
+    """The one name in ``names`` (a bag's topics) that plays ``role`` under any namespace, None when none
+    does; BagError when several do (a bag holding two chains: name the topics to use)."""
+    found = [name for name in names if role_of(name) == role]
+    if len(found) > 1:
+        raise BagError(
+            f"{len(found)} topics play the role {role} ({', '.join(sorted(found))}): the bag holds "
+            "several chains; record or export one namespace at a time"
+        )
+    return found[0] if found else None
+
+
+def chain_topic(names: Iterable[str], topic: str) -> str:
+    """The name among ``names`` (a bag's topics) of a chain topic given by its root name
+    (``/pendulum/joint_states``): the topic that plays its role under any namespace
+    (``/car1/pendulum/joint_states``), else ``topic`` itself, so a missing one is reported by its usual
+    name; BagError when several namespaces hold it (see find_topic)."""
+    found = find_topic(names, role_of(topic) or topic)
+    return topic if found is None else found
 
 
 FRAME_ID = "base_link"
@@ -223,14 +285,15 @@ def imu(
     stamp_ns: int, ax: float, az: float, var_x: float, var_unmeasured: float, frame_id: str = FRAME_ID
 ) -> ImuMsg:
     """sensor_msgs/Imu of a pendulum (REP-145 data_raw): specific force (ax, 0, az), its covariance
-    diag(var_x, var_unmeasured, var_unmeasured); orientation and angular velocity not measured
-    (zeros, covariance[0] = -1, as the message definition asks)."""
+    diag(var_x, var_unmeasured, var_unmeasured). Orientation and angular velocity are not measured:
+    covariance[0] = -1, as the message definition asks, with the identity quaternion (a valid unit
+    quaternion: rviz_imu_plugin rejects (0, 0, 0, 0)) and a zero angular velocity."""
     not_measured = np.zeros(9, dtype=np.float64)
     not_measured[0] = -1.0
     accel_cov = np.diag([var_x, var_unmeasured, var_unmeasured]).astype(np.float64).reshape(9)
     return ImuMsg(
         header=_header(stamp_ns, frame_id),
-        orientation=QuaternionMsg(x=0.0, y=0.0, z=0.0, w=0.0),
+        orientation=QuaternionMsg(x=0.0, y=0.0, z=0.0, w=1.0),
         orientation_covariance=not_measured,
         angular_velocity=_vector3(),
         angular_velocity_covariance=not_measured.copy(),

@@ -7,6 +7,7 @@ version 8 form (enum values as integers).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
@@ -169,9 +170,20 @@ def metadata_document(
                 }
             ],
             "custom_data": dict(custom_data) or None,
-            "ros_distro": "rosbags",
+            "ros_distro": ros_distro(),
         }
     }
+
+
+ROS_DISTRO = "kilted"
+"""The distribution of the message definitions bags are written with (rosbags' ROS2_KILTED typestore,
+the ros-kilted-* wheels of requirements-ros.txt)."""
+
+
+def ros_distro() -> str:
+    """metadata.yaml's ``ros_distro``, as rosbag2 writes it: $ROS_DISTRO when a ROS 2 install is sourced,
+    else the distribution of the message definitions in use ("kilted")."""
+    return os.environ.get("ROS_DISTRO", "").strip() or ROS_DISTRO
 
 
 def write_metadata(bag_dir: Path, document: MetadataDocument) -> None:

@@ -40,10 +40,12 @@ def missing_estimates(bag: Bag, accounting: Accounting | None) -> int:
     """Angles in ``bag`` without an estimate that neither warm-up nor a dropped input explains (the chain's
     ``accounting`` stored in it, if any)."""
     topics = bag.topics
-    if bm.TOPIC_JOINT_STATES not in topics or bm.TOPIC_ACCEL_ESTIMATE not in topics:
+    joint = bm.chain_topic(topics, bm.TOPIC_JOINT_STATES)
+    estimate = bm.chain_topic(topics, bm.TOPIC_ACCEL_ESTIMATE)
+    if joint not in topics or estimate not in topics:
         return 0
-    angles = bag.decode(bm.TOPIC_JOINT_STATES, fields=_STAMP_FIELDS).stamp
-    estimates = bag.decode(bm.TOPIC_ACCEL_ESTIMATE, fields=_STAMP_FIELDS).stamp
+    angles = bag.decode(joint, fields=_STAMP_FIELDS).stamp
+    estimates = bag.decode(estimate, fields=_STAMP_FIELDS).stamp
     after_first = angles[angles >= estimates.min()] if estimates.size else angles
     holes = int(np.count_nonzero(~np.isin(after_first, estimates)))
     return unexplained_missing(angles.size, estimates.size, accounting, holes)

@@ -52,6 +52,21 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
         "by default they bind the loopback interface only",
     )
     parser.add_argument(
+        "--namespace",
+        default="",
+        metavar="NS",
+        help="run every node in this namespace (the chain's relative topics resolve under it, so two "
+        "chains on one domain stay apart); /clock and /diagnostics stay global",
+    )
+    parser.add_argument(
+        "--remap",
+        dest="remaps",
+        action="append",
+        default=[],
+        metavar="FROM:=TO",
+        help="remap a topic for every node, as --ros-args -r FROM:=TO (the bag records the remapped name)",
+    )
+    parser.add_argument(
         "--set",
         dest="overrides",
         action="append",
@@ -84,7 +99,17 @@ def chain_config(args: argparse.Namespace) -> ChainConfig:
         overrides=dict(parse_override(text) for text in args.overrides),
         rt_priority=args.rt_priority,
         time_source=args.time_source,
+        namespace=str(getattr(args, "namespace", "") or ""),
+        remaps=[_remap(text) for text in getattr(args, "remaps", [])],
     )
+
+
+def _remap(text: str) -> str:
+    """A FROM:=TO rule as given; ParameterError (one line) when it does not read FROM:=TO."""
+    source, sep, target = text.partition(":=")
+    if not sep or not source or not target:
+        raise ParameterError(f"--remap {text!r} must read FROM:=TO (e.g. pendulum/joint_states:=angles)")
+    return text
 
 
 def _priority(text: str) -> int:
@@ -100,12 +125,22 @@ def _priority(text: str) -> int:
 
 def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
     """Messages per topic, live-estimator error vs truth (bias, RMS, max), plan line and bag path."""
+    from pendulum_accel.bag import messages as bm
     from pendulum_accel.bag.reader import read_bag
     from pendulum_accel.bag.writer import CUSTOM_PLAN
     from pendulum_accel.recording.analyze import analyze_bag
 
     bag = read_bag(bag_path)
-    lines = ["messages:"] + [f"  {name:<22} {info.count:>8}" for name, info in bag.topics.items()]
+    width = max([22, *(len(name) for name in bag.topics)])
+    lines = ["messages:"] + [f"  {name:<{width}} {info.count:>8}" for name, info in bag.topics.items()]
+    if (
+        bm.find_topic(bag.topics, bm.JOINT_STATES) is None
+        or bm.find_topic(bag.topics, bm.ACCEL_TRUTH) is None
+    ):
+        # Remapped away from the chain's names: the bag is whole, the comparison has nothing to go on.
+        lines.append("estimate vs truth: not computed (the angles or the truth were remapped to other names)")
+        lines.append(f"bag: {bag.path}")
+        return lines
     analysis = analyze_bag(bag, estimator=estimator)
     recorded = analysis.recorded
     if recorded is not None and recorded.n:

@@ -68,16 +68,16 @@ class Accounting:
         return None
 
     def published(self, topic: str) -> int | None:
-        """Messages the chain published on ``topic`` (simulator's topics and the estimator's outputs)."""
-        if topic in (bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_IMU) and self.estimator:
+        """Messages the chain published on ``topic``'s role (simulator's topics, the estimator's outputs),
+        whatever namespace the chain ran in."""
+        role = bm.role_of(topic)
+        if role in (bm.ACCEL_ESTIMATE, bm.IMU_DATA_RAW) and self.estimator:
             return int(self.estimator["estimates"])
-        value = self.simulator.get("published", {}).get(topic)
-        return None if value is None else int(value)
+        return _by_role(self.simulator.get("published", {}), role)
 
     def recorded(self, topic: str) -> int | None:
-        """Messages the recorder wrote on ``topic``."""
-        value = self.recorder.get("written", {}).get(topic)
-        return None if value is None else int(value)
+        """Messages the recorder wrote on ``topic``'s role (the bag holds the resolved names)."""
+        return _by_role(self.recorder.get("written", {}), bm.role_of(topic))
 
     def explained_without_estimate(self) -> int:
         """Angles the estimator received that rightly have no estimate: warm-up plus dropped inputs."""
@@ -150,6 +150,14 @@ class Accounting:
         for topic in self.simulator.get("unacknowledged", []):
             out.append(f"{topic}: a reader did not acknowledge within 10 s")
         return out
+
+
+def _by_role(counts: Mapping[str, Any], role: str | None) -> int | None:
+    """The count of the topic in ``counts`` (resolved name -> count) that plays ``role``; None if none."""
+    for name, value in counts.items():
+        if role is not None and bm.role_of(name) == role:
+            return int(value)
+    return None
 
 
 def _text(count: int | None) -> str:

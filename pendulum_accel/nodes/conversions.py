@@ -32,8 +32,15 @@ def stamp_seconds(sec: int, nanosec: int) -> float:
     return float(sec) + float(nanosec) * 1e-9
 
 
-def stamp_offset(msgtype: str) -> int:
-    """Offset of the leading stamp's ``sec`` in the CDR of ``msgtype`` (learnt by bm.Layout)."""
+def stamp_offset(msgtype: str) -> int | None:
+    """Offset of the leading stamp's ``sec`` in the CDR of ``msgtype`` (learnt by bm.Layout); None for a
+    type without a stamp (std_msgs/String). A MarkerArray's is its first marker's header stamp."""
+    if msgtype == bm.STRING_MSG:
+        return None
+    if msgtype == bm.MARKER_ARRAY:
+        # The array's length (4 bytes) follows the 4-byte CDR header; the first marker starts with its
+        # header, whose stamp comes first: offset 8, whatever the markers hold.
+        return 8
     templates = {
         bm.JOINT_STATE: lambda: bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]),
         bm.ACCEL_STAMPED: lambda: bm.accel_stamped(0, 0.0),

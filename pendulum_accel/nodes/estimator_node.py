@@ -26,12 +26,15 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
+from rclpy.publisher import Publisher
 from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
+from rclpy.timer import Timer
 from sensor_msgs.msg import Imu, JointState
+from visualization_msgs.msg import MarkerArray
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.errors import PendulumAccelError
+from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.estimators import Estimator, make_estimator
 from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, GuardState, InputGuard
 from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
@@ -39,7 +42,7 @@ from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOPIC
 from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
 from pendulum_accel.nodes.runtime import (
-    ChainNode,
+    ManagedNode,
     change_result,
     declare_parameters,
     parameter_values,
@@ -47,6 +50,7 @@ from pendulum_accel.nodes.runtime import (
     run_node,
     write_summary,
 )
+from pendulum_accel.recording import visual
 from pendulum_accel.recording.settings import estimator_settings, sensor_bias_settings
 from pendulum_accel.scene import Scene, load_scene
 
@@ -72,36 +76,29 @@ def diagnostic_array(report: GuardReport, method: str, stamp: Time) -> Diagnosti
     return msg
 
 
-class EstimatorNode(ChainNode):
-    """Streams the chosen estimator over /pendulum/joint_states; publishes estimates and diagnostics."""
+class EstimatorNode(ManagedNode):
+    """Streams the chosen estimator over pendulum/joint_states; publishes estimates and diagnostics."""
 
     def __init__(self) -> None:
-        """Declare parameters, build the guarded estimator, subscribe (after waiting for subscribers)."""
+        """Declare parameters, then configure and activate when ``autostart`` (subscribing to the angles
+        once the named readers of the outputs are there)."""
         super().__init__(NODE_NAME)
         values = declare_parameters(self, ESTIMATOR, lambda name: estimator_settings(load_scene(name)))
         self.method = str(values["method"])
         self.warn_angle_deg = float(values["warn_angle_deg"])
         self.stale_after = float(values["stale_after"])
-        period = float(values["diagnostics_period"])
+        self.diagnostics_period = float(values["diagnostics_period"])
         self.time_source = str(values["time_source"])
         self.frame_id = str(values["frame_id"])
+        self.imu_frame_id = str(values["imu_frame_id"]) or self.frame_id
+        self.imu_offset = tuple(float(values[f"imu_offset_{axis}"]) for axis in "xyz")
         self.unmeasured_accel_variance = float(values["unmeasured_accel_variance"])
         namespace = self.get_namespace()
         self.reader_nodes = node_names(values["reader_nodes"], namespace)
         self.recorder_node = node_names([str(values["recorder_node"])], namespace)
         self.summary_file = str(values["summary_file"])
-        # The scene parameter is read-only: load it once for the sensor's bias and range.
-        self._scene = self._own_scene()
-        self.guarded = GuardedEstimator(self._build(self._config_values()), self._new_guard())
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
-        self.estimate_publisher = self.create_publisher(
-            AccelWithCovarianceStamped, bm.TOPIC_ACCEL_ESTIMATE, DATA_QOS
-        )
-        self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, bm.TOPIC_DIAGNOSTICS, DIAGNOSTICS_QOS
-        )
-        self.imu_publisher = self.create_publisher(Imu, IMU_TOPIC, DATA_QOS)
         self.inputs = 0
         self.estimates = 0
         self.unpublished = 0  # estimates computed but not sent (a second stop request while blocked)
@@ -111,14 +108,75 @@ class EstimatorNode(ChainNode):
         self._read_input = bm.Layout.of(
             bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE
         ).reader(("header.stamp.sec", "header.stamp.nanosec", "position[0]"))
-        self._build_writers()
         self._last_input = time.monotonic()
         self._stopping_since: float | None = None
         self._subscription: Subscription | None = None
+        self._publishers: list[Publisher] = []
+        self._timers: list[Timer] = []
+        self._active = False
+        self._marker_tick = -1
+        self.start(bool(values["autostart"]))
+
+    # -- lifecycle --------------------------------------------------------------------------------
+
+    def configure(self) -> None:
+        """Build the guarded estimator, the publishers and the timers (PendulumAccelError when bad)."""
+        if any(self.imu_offset) and self.imu_frame_id == self.frame_id:
+            raise ParameterError(
+                "an Imu offset (imu_offset_x/y/z) needs imu_frame_id naming its own frame (e.g. imu_link), "
+                f"not {self.frame_id}"
+            )
+        # The scene parameter is read-only: load it once for the sensor's bias and range.
+        self._scene = self._own_scene()
+        self.guarded = GuardedEstimator(self._build(self._config_values()), self._new_guard())
+        self.estimate_publisher = self.create_publisher(
+            AccelWithCovarianceStamped, bm.ACCEL_ESTIMATE, DATA_QOS
+        )
+        self.diagnostics_publisher = self.create_publisher(
+            DiagnosticArray, bm.TOPIC_DIAGNOSTICS, DIAGNOSTICS_QOS
+        )
+        self.imu_publisher = self.create_publisher(Imu, IMU_TOPIC, DATA_QOS)
+        self.marker_publisher = self.create_publisher(MarkerArray, bm.MARKERS, DATA_QOS)
+        self._publishers = [
+            self.estimate_publisher,
+            self.diagnostics_publisher,
+            self.imu_publisher,
+            self.marker_publisher,
+        ]
+        self._build_writers()
+        if self.imu_frame_id != self.frame_id:
+            x, y, z = self.imu_offset
+            # tf2_msgs has no PyPI wheel: the transform is stated, for a static_transform_publisher.
+            self.get_logger().info(
+                f"Imu in frame {self.imu_frame_id}, at ({x:g}, {y:g}, {z:g}) m in {self.frame_id}: "
+                f"publish it with `ros2 run tf2_ros static_transform_publisher --x {x:g} --y {y:g} --z {z:g} "
+                f"--frame-id {self.frame_id} --child-frame-id {self.imu_frame_id}`"
+            )
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.create_timer(period, self._publish_diagnostics, clock=steady)
-        self.create_timer(0.05, self._tick, clock=steady)
+        self._timers = [
+            self.create_timer(self.diagnostics_period, self._publish_diagnostics, clock=steady),
+            self.create_timer(0.05, self._tick, clock=steady),
+        ]
+
+    def activate(self) -> None:
+        """Subscribe to the angles as soon as the named readers of the outputs are there."""
+        self._active = True
         self._subscribe_when_ready()
+
+    def deactivate(self) -> None:
+        """Unsubscribe from the angles: no more estimates until activated again."""
+        self._active = False
+        if self._subscription is not None:
+            self.destroy_subscription(self._subscription)
+            self._subscription = None
+
+    def cleanup(self) -> None:
+        """Destroy the publishers and timers configure made."""
+        for timer in self._timers:
+            self.destroy_timer(timer)
+        for publisher in self._publishers:
+            self.destroy_publisher(publisher)
+        self._timers, self._publishers = [], []
 
     # -- configuration --------------------------------------------------------------------------
 
@@ -160,10 +218,11 @@ class EstimatorNode(ChainNode):
             bm.accel_with_covariance_stamped(0, 0.0, 0.0, self.frame_id), bm.ACCEL_WITH_COVARIANCE_STAMPED
         ).writer((*stamp, "accel.accel.linear.x", "accel.covariance[0]"))
         gravity = float(self.get_parameter("gravity").value)
-        template = bm.imu(0, 0.0, gravity, 0.0, self.unmeasured_accel_variance, self.frame_id)
+        template = bm.imu(0, 0.0, gravity, 0.0, self.unmeasured_accel_variance, self.imu_frame_id)
         self._write_imu = bm.Layout.of(template, bm.IMU).writer(
             (*stamp, "linear_acceleration.x", "linear_acceleration_covariance[0]")
         )
+        self._write_marker = visual.estimate_marker_writer(float(self.get_parameter("length").value))
 
     def _sensor_range(self) -> float:
         """The scene's sensor range R (rad; 0 = none), so readings clipped at ±R are flagged saturated."""
@@ -177,6 +236,8 @@ class EstimatorNode(ChainNode):
         """Rebuild the estimator from the new values; it starts over from the next sample."""
         values = self._config_values()
         self.method = str(values["method"])
+        if not hasattr(self, "guarded"):  # not configured yet: configure builds it from these values
+            return
         self.guarded.estimator = self._build(values)
         self._build_writers()
         self.get_logger().info(f"estimator rebuilt: {self.guarded.estimator.describe()}")
@@ -186,24 +247,23 @@ class EstimatorNode(ChainNode):
     def _missing_readers(self) -> list[str]:
         """Named readers not yet on the outputs: reader_nodes on the estimate, the recorder on all three."""
         outputs = (
-            (bm.TOPIC_ACCEL_ESTIMATE, self.estimate_publisher, [*self.recorder_node, *self.reader_nodes]),
-            (bm.TOPIC_DIAGNOSTICS, self.diagnostics_publisher, self.recorder_node),
-            (IMU_TOPIC, self.imu_publisher, self.recorder_node),
+            (self.estimate_publisher, [*self.recorder_node, *self.reader_nodes]),
+            (self.diagnostics_publisher, self.recorder_node),
+            (self.imu_publisher, self.recorder_node),
         )
         missing: list[str] = []
-        for topic, publisher, wanted in outputs:
+        for publisher, wanted in outputs:
             if wanted:
-                resolved = self.resolve_topic_name(topic)
-                missing += missing_readers(self, publisher, resolved, wanted)
+                missing += missing_readers(self, publisher, wanted)
         return missing
 
     def _subscribe_when_ready(self) -> None:
         """Subscribe to the angles once every named reader of the outputs is subscribed and matched."""
-        if self._subscription is not None:
+        if self._subscription is not None or not self._active:
             return
         if not self._missing_readers():
             self._subscription = self.create_subscription(
-                JointState, bm.TOPIC_JOINT_STATES, self._on_joint_state, DATA_QOS, raw=True
+                JointState, bm.JOINT_STATES, self._on_joint_state, DATA_QOS, raw=True
             )
             self.get_logger().info(f"estimating with {self.guarded.estimator.describe()}")
             # Status from the start, not one diagnostics period later: a short or fast run still
@@ -242,6 +302,12 @@ class EstimatorNode(ChainNode):
             self.estimates += 1
         else:
             self.unpublished += 1
+            return
+        tick = math.floor(stamp_seconds(sec, nanosec) * visual.MARKER_RATE_HZ)
+        if tick != self._marker_tick:  # the estimate's arrow at MARKER_RATE_HZ of stamp time
+            self._marker_tick = tick
+            marker = self._write_marker(sec, nanosec, estimate.a)
+            publish_blocking(self.marker_publisher, marker, self._stopping)
 
     def _publish_diagnostics(self) -> None:
         """One DiagnosticArray with the worst input state since the previous one (STALE checked first)."""
@@ -266,8 +332,11 @@ class EstimatorNode(ChainNode):
             self.finish(0)
 
     def request_stop(self) -> None:
-        """Drain: keep estimating until the input has been idle for a moment, then finish."""
+        """Drain: keep estimating until the input has been idle for a moment, then finish (at once when
+        not configured: nothing to drain)."""
         self._stopping_since = time.monotonic()
+        if not self._timers:
+            self.finish(0)
 
     def counters(self) -> dict[str, int]:
         """inputs, estimates and every reason an input got none: warm-up, dropped, unpublished."""
@@ -286,8 +355,11 @@ class EstimatorNode(ChainNode):
 
     def close(self) -> None:
         """Deliver what was published, then log the counts and write them to summary_file."""
-        for publisher in (self.estimate_publisher, self.imu_publisher):
-            publisher.wait_for_all_acked(Duration(seconds=2))
+        if not hasattr(self, "guarded"):  # never configured: nothing was estimated
+            return
+        if self._publishers:  # configured (cleanup destroys them)
+            for publisher in (self.estimate_publisher, self.imu_publisher):
+                publisher.wait_for_all_acked(Duration(seconds=2))
         guard = self.guarded.guard
         self.get_logger().info(
             f"{self.inputs} inputs, {self.estimates} estimates published; dropped {guard.dropped_nonfinite} "

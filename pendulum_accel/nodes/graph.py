@@ -28,13 +28,14 @@ def node_names(entries: Sequence[str], namespace: str) -> list[str]:
     return [qualified_name(entry, namespace) for entry in entries if entry]
 
 
-def missing_readers(node: Node, publisher: Publisher, topic: str, wanted: Sequence[str]) -> list[str]:
-    """The names in ``wanted`` not yet subscribed to ``topic`` and matched by ``publisher``.
+def missing_readers(node: Node, publisher: Publisher, wanted: Sequence[str]) -> list[str]:
+    """The names in ``wanted`` not yet subscribed to the publisher's topic (its resolved name: namespace
+    and remaps applied) and matched by ``publisher``.
 
     A wanted node listed in the graph counts as matched only once the publisher's matched count
     reaches the number of QoS-compatible subscribers the graph lists (ours and anyone else's).
     """
-    infos = node.get_subscriptions_info_by_topic(topic)
+    infos = node.get_subscriptions_info_by_topic(publisher.topic_name)
     present = {qualified_name(info.node_name, info.node_namespace) for info in infos}
     missing = [name for name in wanted if name not in present]
     if missing:

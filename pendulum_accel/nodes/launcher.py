@@ -26,6 +26,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
+from typing import Any
 
 from pendulum_accel.errors import ParameterError, RosMissingError
 from pendulum_accel.nodes.accounting import Accounting
@@ -71,11 +72,22 @@ def ros_param(name: str, value: ParamValue) -> list[str]:
     return ["-p", f"{name}:={text}"]
 
 
-def node_command(module: str, params: Mapping[str, ParamValue], name: str | None = None) -> list[str]:
-    """python -m pendulum_accel.nodes.<module> --ros-args -p k:=v … (optionally remapping the node name)."""
+def node_command(
+    module: str,
+    params: Mapping[str, ParamValue],
+    name: str | None = None,
+    namespace: str = "",
+    remaps: Sequence[str] = (),
+) -> list[str]:
+    """python -m pendulum_accel.nodes.<module> --ros-args [-r __node:=name] [-r __ns:=/namespace]
+    [-r from:=to …] -p k:=v …: what ``ros2 run`` passes for a node name, a namespace and remaps."""
     cmd = [sys.executable, "-m", f"pendulum_accel.nodes.{module}", "--ros-args"]
     if name:
         cmd += ["-r", f"__node:={name}"]
+    if namespace:
+        cmd += ["-r", f"__ns:={'/' + namespace.strip('/')}"]
+    for rule in remaps:
+        cmd += ["-r", rule]
     for key, value in params.items():
         cmd += ros_param(key, value)
     return cmd
@@ -95,6 +107,8 @@ class ChainConfig:
     simulator_params: dict[str, ParamValue] = field(default_factory=dict)
     rt_priority: int = 0  # SCHED_FIFO priority of every node in a real-time run (0: normal scheduling)
     time_source: str | None = None  # sim or wall; None: sim for --fast and recordings, else wall
+    namespace: str = ""  # every node's namespace: the chain's relative topics resolve under it
+    remaps: list[str] = field(default_factory=list)  # from:=to rules given to every node
 
     @property
     def effective_time_source(self) -> str:
@@ -188,7 +202,7 @@ class Chain:
                 ],
                 "summary_file": str(summaries / "recorder.json"),
             }
-            out.append(("recorder", node_command("recorder_node", rec)))
+            out.append(("recorder", node_command("recorder_node", rec, **self._names())))
         est: dict[str, ParamValue] = {
             "scene": scene_arg,
             "time_source": time_source,
@@ -198,7 +212,7 @@ class Chain:
         if cfg.estimator:
             est["method"] = cfg.estimator
         est.update(cfg.estimator_params)
-        out.append(("estimator", node_command("estimator_node", est)))
+        out.append(("estimator", node_command("estimator_node", est, **self._names())))
         sim: dict[str, ParamValue] = {
             "scene": scene_arg,
             "realtime": cfg.realtime,
@@ -208,8 +222,12 @@ class Chain:
             "summary_file": str(summaries / "simulator.json"),
         }
         sim.update(cfg.simulator_params)
-        out.append(("simulator", node_command("simulator_node", sim)))
+        out.append(("simulator", node_command("simulator_node", sim, **self._names())))
         return out
+
+    def _names(self) -> dict[str, Any]:
+        """node_command's namespace and remaps for every node of this chain."""
+        return {"namespace": self.config.namespace, "remaps": list(self.config.remaps)}
 
     def _start(self, role: str, command: list[str]) -> None:
         """Start one node in its own process group (a terminal's Ctrl-C reaches only the launcher)."""

@@ -111,6 +111,17 @@ def time_source_param(default: str = "sim") -> ParamSpec:
     )
 
 
+def autostart_param() -> ParamSpec:
+    """The ``autostart`` parameter of a managed node: configure and activate at start-up."""
+    return _fixed(
+        "autostart",
+        "bool",
+        True,
+        "configure and activate at start-up (false: stay unconfigured until a lifecycle manager or "
+        "`ros2 lifecycle set` drives the transitions)",
+    )
+
+
 def summary_file_param() -> ParamSpec:
     """The ``summary_file`` parameter: where the node writes its counters (JSON) at exit."""
     return _fixed(
@@ -146,8 +157,9 @@ SIMULATOR: tuple[ParamSpec, ...] = (
     _fixed("realtime", "bool", True, "pace by the wall clock (else as fast as possible)"),
     time_source_param(),
     ParamSpec("exit_on_end", "bool", True, "exit when the scene ends (else stay idle)"),
-    _readers("/pendulum/joint_states"),
+    _readers("pendulum/joint_states"),
     _recorder("every topic this node publishes"),
+    autostart_param(),
     _fixed("wait_timeout", "double", 30.0, "give up waiting for subscribers after this many seconds (s)",
            low=0.0, high=3600.0),
     _fixed("clock_rate_hz", "double", DEFAULT_CLOCK_RATE_HZ,
@@ -167,11 +179,18 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
            low=0.01, high=60.0),
     time_source_param(),
     _fixed("frame_id", "string", bm.FRAME_ID, "frame_id of the estimate and the Imu (the car, REP-103)"),
+    _fixed("imu_frame_id", "string", "",
+           "frame_id of the Imu (empty: frame_id); give its own frame (imu_link) with an imu offset"),
+    *(_fixed(f"imu_offset_{axis}", "double", 0.0,
+             f"{axis} of the Imu frame's origin in frame_id, m (the transform is stated at start-up for a "
+             "static_transform_publisher; a rigid, non-rotating car reads the same specific force there)",
+             low=-100.0, high=100.0) for axis in "xyz"),
     _fixed("unmeasured_accel_variance", "double", UNMEASURED_ACCEL_VARIANCE,
            "Imu linear_acceleration_covariance of y and z, (m/s²)²: not measured by a pendulum",
            low=1e-6, high=1e12),
-    _readers("/car/accel/estimate (before subscribing to the input)"),
-    _recorder(f"/car/accel/estimate, /diagnostics and {IMU_TOPIC} (before subscribing to the input)"),
+    _readers("car/accel/estimate (before subscribing to the input)"),
+    _recorder(f"car/accel/estimate, /diagnostics and {IMU_TOPIC} (before subscribing to the input)"),
+    autostart_param(),
     summary_file_param(),
 )  # fmt: skip
 
@@ -209,9 +228,9 @@ PLAYER: tuple[ParamSpec, ...] = (
            low=0.0, high=3600.0),
     _fixed("exit_on_end", "bool", True, "exit after the last message"),
     _fixed("wait_for_subscribers", "integer", 0,
-           "start once /pendulum/joint_states has this many subscribers", low=0, high=64),
+           "start once pendulum/joint_states has this many subscribers", low=0, high=64),
     _fixed("wait_for_recorder", "bool", False, _WAIT_FOR_RECORDER),
-    _readers("the played /pendulum/joint_states (by name: strangers neither satisfy nor delay it)"),
+    _readers("the played pendulum/joint_states (by name: strangers neither satisfy nor delay it)"),
     _recorder("every played topic and /clock"),
     time_source_param(),
 )  # fmt: skip
@@ -219,8 +238,9 @@ PLAYER: tuple[ParamSpec, ...] = (
 RECORDER: tuple[ParamSpec, ...] = (
     _fixed("path", "string", "", "bag directory to create"),
     _fixed("overwrite", "bool", False, "replace an existing bag"),
-    _fixed("topics", "string_array", (*bm.TOPIC_TYPES, IMU_TOPIC),
-           "topics to record (any of the chain's; relative names resolve in this node's namespace)"),
+    _fixed("topics", "string_array", bm.CHAIN_ROLES,
+           "topics to record (relative names resolve in this node's namespace and follow its remaps; a "
+           "name outside the chain's roles takes its type from the graph)"),
     _fixed("scene", "string", "", "scene stored in the bag's custom_data"),
     ParamSpec("log_time", "string", "stamp",
               "log time: the message stamp (on the run's time base) or its receive time (node clock)",

@@ -38,8 +38,9 @@ from rclpy.publisher import Publisher
 from std_srvs.srv import Trigger
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.playback import Playback, Taken
+from pendulum_accel.bag.playback import ArrayTimeline, Playback, Taken, Timeline
 from pendulum_accel.bag.reader import Bag, read_bag, salvage_note
+from pendulum_accel.bag.stream import NotIndexedError, StreamedBag
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import message_class
 from pendulum_accel.nodes.graph import missing_readers, node_names
@@ -90,7 +91,75 @@ def select_topics(
     ]
 
 
-def play_window(bag: Bag, start_offset: float, duration: float, until: float) -> tuple[int, int]:
+class StreamTimeline:
+    """A Timeline over a StreamedBag: the messages of ``topics`` in [first, last], one chunk decoded at a
+    time; seeking restarts the chunk-index reader at the target and counts the index exactly."""
+
+    def __init__(self, bag: StreamedBag, topics: Sequence[str], first_ns: int, last_ns: int) -> None:
+        """Count the messages in the window (index records only) and put the cursor on the first."""
+        self.bag = bag
+        self.topics = list(topics)
+        self.size = bag.count(self.topics, first_ns, last_ns)
+        self._window = (first_ns, last_ns)
+        self.first_ns, self.last_ns = first_ns, last_ns
+        if self.size:
+            head = next(bag.messages(self.topics, first_ns, last_ns))
+            self.first_ns = head[1]
+        self._iter: Any = iter(())
+        self._next: tuple[str, int, bytes] | None = None
+        self.seek(self.first_ns)
+
+    def seek(self, ns: int) -> int:
+        """Cursor on the first message at or after ``ns``; its index (messages in [first, ns))."""
+        first, last = self._window
+        self._iter = self.bag.messages(self.topics, max(ns, first), last)
+        self._next = next(self._iter, None)
+        return self.bag.count(self.topics, first, ns - 1) if ns > first else 0
+
+    def peek_ns(self) -> int | None:
+        """Log time of the message at the cursor."""
+        return None if self._next is None else self._next[1]
+
+    def take(self) -> tuple[str, int, bytes]:
+        """The message at the cursor; the next one is read (a new chunk decoded when it starts one)."""
+        item = self._next
+        assert item is not None
+        self._next = next(self._iter, None)
+        return item
+
+
+def open_source(path: str) -> StreamedBag | Bag:
+    """The bag streamed through its chunk index, or read whole (salvaged) when it has none."""
+    try:
+        return StreamedBag(path)
+    except NotIndexedError:
+        return read_bag(path)
+
+
+def make_timeline(source: StreamedBag | Bag, topics: Sequence[str], first: int, last: int) -> Timeline:
+    """The messages of ``topics`` in [first, last] as a Timeline whose take() gives (topic, ns, cdr)."""
+    if isinstance(source, StreamedBag):
+        return StreamTimeline(source, topics, first, last)
+    messages = [(t, ns, data) for t, ns, data in source.iter_raw(list(topics)) if first <= ns <= last]
+    return _ListTimeline(messages)
+
+
+class _ListTimeline(ArrayTimeline):
+    """An ArrayTimeline over messages held in memory; take gives the message itself."""
+
+    def __init__(self, messages: list[tuple[str, int, bytes]]) -> None:
+        """Cursor on the first of ``messages`` (time-ordered (topic, ns, cdr))."""
+        super().__init__(np.array([ns for _, ns, _ in messages], dtype=np.int64))
+        self.messages = messages
+
+    def take(self) -> Any:
+        """The message at the cursor; the cursor moves on."""
+        return self.messages[super().take()]
+
+
+def play_window(
+    bag: Bag | StreamedBag, start_offset: float, duration: float, until: float
+) -> tuple[int, int]:
     """(first, last) log time (ns) to play: from start + offset, for ``duration`` s and up to ``until`` s
     of bag time (either negative: no limit)."""
     first = bag.start_ns + round(start_offset * 1e9)
@@ -123,11 +192,17 @@ class PlayerNode(ThreadedNode):
         self.recorder_node = node_names([str(values["recorder_node"])], namespace)
         if not path:
             raise ParameterError("parameter path (the bag to play) is required")
-        bag = read_bag(path)
-        note = salvage_note(bag)
-        if note:
-            self.get_logger().warning(note)
-        available = bag.topics
+        source = open_source(path)
+        if isinstance(source, Bag):
+            note = salvage_note(source)
+            self.get_logger().warning(
+                (note + "; " if note else "") + "no chunk index: the bag is read whole into memory"
+            )
+        available = (
+            source.topics
+            if isinstance(source, StreamedBag)
+            else {name: info.msgtype for name, info in source.topics.items()}
+        )
         wanted = select_topics(
             list(available),
             [t for t in values["topics"] if t],
@@ -140,7 +215,7 @@ class PlayerNode(ThreadedNode):
         if self.clock:
             wanted = [t for t in wanted if t != bm.TOPIC_CLOCK]
         self._outputs: dict[str, Publisher] = {
-            topic: self.create_publisher(message_class(available[topic].msgtype), topic, qos_for(topic))
+            topic: self.create_publisher(message_class(available[topic]), topic, qos_for(topic))
             for topic in wanted
         }
         if self.clock:
@@ -148,19 +223,17 @@ class PlayerNode(ThreadedNode):
                 message_class(bm.CLOCK), bm.TOPIC_CLOCK, qos_for(bm.TOPIC_CLOCK)
             )
         first, last = play_window(
-            bag,
+            source,
             float(values["start_offset"]),
             float(values["playback_duration"]),
             float(values["playback_until"]),
         )
-        self._messages = [
-            (topic, ns, data) for topic, ns, data in bag.iter_raw(wanted) if first <= ns <= last
-        ]
-        if not self._messages:
+        timeline = make_timeline(source, wanted, first, last)
+        if timeline.size == 0:
             raise ParameterError(f"bag {path} has no messages in the chosen time range")
-        times = np.array([ns for _, ns, _ in self._messages], dtype=np.int64)
-        self.playback = Playback(times, rate=float(values["rate"]), paused=bool(values["start_paused"]))
-        self._clock_origin = int(times[0])
+        self._joint_topic = bm.find_topic(wanted, bm.JOINT_STATES)
+        self.playback = Playback(timeline, rate=float(values["rate"]), paused=bool(values["start_paused"]))
+        self._clock_origin = timeline.first_ns
         self._last_tick: int | None = None
         self._publish_lock = threading.Lock()
         self.passes = 0
@@ -187,7 +260,7 @@ class PlayerNode(ThreadedNode):
             self.create_timer(period, self._progress, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.start_thread(self._play, "bag_player")
         self.get_logger().info(
-            f"playing {len(self._messages)} messages of {path} ({', '.join(wanted)}) at rate "
+            f"playing {timeline.size} messages of {path} ({', '.join(wanted)}) at rate "
             f"{self.playback.rate:g}"
             + (", looping" if self.loop else "")
             + (", paused" if self.playback.paused else "")
@@ -253,12 +326,16 @@ class PlayerNode(ThreadedNode):
         return self._reply(response, played > 0, f"burst {played} messages")
 
     def _srv_seek(self, request: Any, response: Any) -> Any:
-        """~/seek: go to bag time ``seek_time`` (s); fails past the last message."""
+        """~/seek: go to bag time ``seek_time`` (s); refused (success false) outside the played span."""
         seconds = float(self.get_parameter("seek_time").value)
         ok = self.playback.seek(round(seconds * 1e9))
         if ok:
             self.get_logger().info(f"seek to t={seconds:.3f} s")
-        return self._reply(response, ok, f"seek to t={seconds:.3f} s" if ok else "past the end of the bag")
+            return self._reply(response, True, f"seek to t={seconds:.3f} s")
+        first, last = self.playback.first_ns * 1e-9, self.playback.last_ns * 1e-9
+        return self._reply(
+            response, False, f"refused: t={seconds:.3f} s lies outside the bag's [{first:.3f}, {last:.3f}] s"
+        )
 
     # -- keyboard and progress --------------------------------------------------------------------
 
@@ -308,7 +385,7 @@ class PlayerNode(ThreadedNode):
         playback = self.playback
         state = "paused" if playback.paused else "playing"
         t = playback.bag_now_ns() * 1e-9
-        end = float(playback.times[-1]) * 1e-9
+        end = playback.last_ns * 1e-9
         return (
             f"bag_player [{state}] bag time {t:.3f} s of {end:.3f} s "
             f"({playback.index}/{playback.size} messages), rate {playback.rate:g}"
@@ -323,18 +400,17 @@ class PlayerNode(ThreadedNode):
     # -- playing ------------------------------------------------------------------------------------
 
     def _wait(self) -> bool:
-        """True once the named readers (reader_nodes on /pendulum/joint_states, recorder_node on every
-        topic) are subscribed and matched, /pendulum/joint_states has wait_for_subscribers subscribers
-        and, with wait_for_recorder, every published topic has one (False if stopped while waiting)."""
-        joint = self._outputs.get(bm.TOPIC_JOINT_STATES)
+        """True once the named readers (reader_nodes on the angles, the bag's pendulum/joint_states under
+        any namespace; recorder_node on every topic) are subscribed and matched, the angles have
+        wait_for_subscribers subscribers and, with wait_for_recorder, every published topic has one
+        (False if stopped while waiting)."""
+        joint = self._outputs.get(self._joint_topic) if self._joint_topic else None
 
         def named_ready() -> bool:
             """Every named reader is matched on its topics (a count a stranger could satisfy is not)."""
             for topic, publisher in self._outputs.items():
-                wanted = list(self.recorder_node) + (
-                    self.reader_nodes if topic == bm.TOPIC_JOINT_STATES else []
-                )
-                if wanted and missing_readers(self, publisher, topic, wanted):
+                wanted = list(self.recorder_node) + (self.reader_nodes if topic == self._joint_topic else [])
+                if wanted and missing_readers(self, publisher, wanted):
                     return False
             return True
 
@@ -356,7 +432,7 @@ class PlayerNode(ThreadedNode):
     def _publish(self, taken: Taken) -> bool:
         """Publish message ``taken.index``, preceded by /clock on each new tick (1/clock_rate_hz of bag
         time) and after every jump; False if stopped while the readers held it back."""
-        topic, ns, data = self._messages[taken.index]
+        topic, ns, data = taken.item
         stopping = self._stop.is_set
         with self._publish_lock:
             if self.clock:
@@ -401,6 +477,16 @@ class PlayerNode(ThreadedNode):
         self.get_logger().info(f"played {self.published} messages in {self.passes} pass(es)")
         if self.exit_on_end:
             self.finish(0)
+            return
+        # Staying at the end: a seek (or play_next after one) puts the cursor back inside the bag, and
+        # playing goes on from there.
+        while not self._stop.is_set():
+            if self.playback.at_end():
+                self._stop.wait(0.05)
+                continue
+            while (taken := self.playback.take_due(self._stop)) is not None:
+                if not self._publish(taken):
+                    return
 
     def close(self) -> None:
         """Stop the threads and give the terminal its mode back."""

@@ -71,8 +71,11 @@ class RecorderNode(ChainNode):
         values = declare_parameters(self, RECORDER)
         path = str(values["path"])
         overwrite = bool(values["overwrite"])
-        # Relative names (the Imu's imu/data_raw) resolve in this node's namespace, as its publisher's do.
-        topics = [self.resolve_topic_name(t) for t in values["topics"] if t]
+        # Relative names resolve in this node's namespace and through its remaps, as the publishers' do;
+        # the bag holds the resolved names.
+        asked = [str(t) for t in values["topics"] if t]
+        resolved = [self.resolve_topic_name(t) for t in asked]
+        topics = list(dict.fromkeys(resolved))
         scene = str(values["scene"])
         self.chain_summaries = [str(f) for f in values["chain_summaries"] if f]
         self.summary_file = str(values["summary_file"])
@@ -81,16 +84,21 @@ class RecorderNode(ChainNode):
             raise ParameterError("parameter path (the bag directory to create) is required")
         if self.log_time not in LOG_TIMES:
             raise ParameterError(f"log_time must be one of {', '.join(LOG_TIMES)}, got {self.log_time!r}")
-        types = {topic: bm.topic_type(topic) for topic in topics}
+        # The type of a chain role, asked or resolved (a remap keeps the role of the name asked for);
+        # any other name takes its type from the graph, as `ros2 bag record` does.
+        types = {
+            name: bm.topic_type(t) or bm.topic_type(name) for t, name in zip(asked, resolved, strict=True)
+        }
         unknown = [t for t, msgtype in types.items() if msgtype is None]
         if unknown:
-            raise ParameterError(
-                f"cannot record {unknown[0]}: not a chain topic ({', '.join(bm.TOPIC_TYPES)}, imu/data_raw)"
-            )
+            types.update(self._graph_types(unknown))
         self.types: dict[str, str] = {t: str(msgtype) for t, msgtype in types.items()}
         self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data_for(scene))
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
         self._offsets = {topic: stamp_offset(self.types[topic]) for topic in topics}
+        self._first_stamp_ns: int | None = None
+        self._unstamped: list[tuple[str, bytes]] = []
+
         # Messages wait here (log times, CDR payloads) until the next flush writes them in one bulk call:
         # a per-message write through rosbags cost more CPU than the rest of the recorder.
         self._pending: dict[str, tuple[list[int], list[bytes]]] = {topic: ([], []) for topic in topics}
@@ -107,6 +115,23 @@ class RecorderNode(ChainNode):
             )
         self.create_timer(0.1, self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f"recording {len(topics)} topics to {path}")
+
+    def _graph_types(self, names: Sequence[str], wait: float = 5.0) -> dict[str, str]:
+        """{name: type} of topics outside the chain's roles, from the graph (waiting up to ``wait`` s for
+        their publishers); ParameterError naming a topic no publisher offers."""
+        deadline = time.monotonic() + wait
+        while True:
+            known = dict(self.get_topic_names_and_types())
+            missing = [n for n in names if not known.get(n)]
+            if not missing:
+                return {n: known[n][0] for n in names}
+            if time.monotonic() > deadline:
+                raise ParameterError(
+                    f"cannot record {missing[0]}: not one of the chain's topics "
+                    f"({', '.join(bm.CHAIN_ROLES)}) and no publisher of it within {wait:g} s "
+                    "to learn its type"
+                )
+            time.sleep(0.1)
 
     def _add_topic(self, topic: str) -> None:
         """Register ``topic`` in the bag with the QoS its publishers offer (the chain's if unknown); history
@@ -125,10 +150,25 @@ class RecorderNode(ChainNode):
         if self.received[topic] == 0:
             self._add_topic(topic)
         self.received[topic] += 1
-        if self.log_time == "stamp":
-            log_ns = stamp_ns(data, self._offsets[topic])
-        else:
+        offset = self._offsets[topic]
+        if self.log_time == "stamp" and offset is not None and len(data) >= offset + _STAMP.size:
+            log_ns = stamp_ns(data, offset)
+            if self._first_stamp_ns is None:
+                self._first_stamp_ns = log_ns
+                for early_topic, early in self._unstamped:
+                    self._queue(early_topic, log_ns, early)
+                self._unstamped = []
+        elif self.log_time == "stamp" and self._first_stamp_ns is None:
+            # A message without a stamp (robot_description, sent to every new subscriber at once) before
+            # the data: logged with the first stamped message, so the bag starts with the data.
+            self._unstamped.append((topic, data))
+            return
+        else:  # receive time, or an unstamped message later on: the node's clock, on the run's time base
             log_ns = self.get_clock().now().nanoseconds
+        self._queue(topic, log_ns, data)
+
+    def _queue(self, topic: str, log_ns: int, data: bytes) -> None:
+        """Buffer one message for the next write at log time ``log_ns`` (clamped at 0)."""
         times, payloads = self._pending[topic]
         times.append(max(log_ns, 0))
         payloads.append(data)
@@ -194,6 +234,9 @@ class RecorderNode(ChainNode):
         # The roles whose counters were expected: one missing from the accounting died without closing.
         expected = [Path(name).stem for name in self.chain_summaries]
         own = {"received": self.received, "written": dict(self.writer.counts), "expected": expected}
+        for topic, data in self._unstamped:  # no stamped message ever came: log them at the clock
+            self._queue(topic, self.get_clock().now().nanoseconds, data)
+        self._unstamped = []
         try:
             self._write_pending()
             own["written"] = dict(self.writer.counts)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gc
 import json
+import re
 import signal
 import sys
 import threading
@@ -15,10 +16,12 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
@@ -81,6 +84,86 @@ class ThreadedNode(ChainNode):
         self._stop.set()
         if self._thread is not None and self._thread.is_alive():
             self._thread.join(timeout=5.0)
+
+
+class ManagedNode(ThreadedNode, LifecycleNode):
+    """A ThreadedNode that is also a managed node (rclpy.lifecycle): ``configure`` builds what the node
+    publishes from its parameters, ``activate`` starts the data flow, ``deactivate`` stops it,
+    ``cleanup`` releases what configure built, ``shutdown`` ends the process (exit 0).
+
+    Subclasses implement ``configure`` (raise PendulumAccelError on bad values), ``activate``,
+    ``deactivate`` and ``cleanup``. With ``autostart`` (see ``start``), the node configures and
+    activates itself at once, so it runs as an unmanaged node would; a bad configuration is then
+    the one-line error and exit 2 of any other node.
+    """
+
+    def configure(self) -> None:
+        """Build the outputs and the model from the parameters (PendulumAccelError when they are bad)."""
+
+    def activate(self) -> None:
+        """Start the data flow."""
+
+    def deactivate(self) -> None:
+        """Stop the data flow; configure's outputs stay."""
+
+    def cleanup(self) -> None:
+        """Release what configure built."""
+
+    def start(self, autostart: bool) -> None:
+        """Configure and activate now when ``autostart`` (the configure error, if any, raised as is);
+        else wait, unconfigured, for a lifecycle manager (``ros2 lifecycle set``, the services)."""
+        self._configure_error: PendulumAccelError | None = None
+        if not autostart:
+            self.get_logger().info("unconfigured: waiting for the lifecycle transitions (autostart false)")
+            return
+        if self.trigger_configure() != TransitionCallbackReturn.SUCCESS:
+            raise self._configure_error or PendulumAccelError("configure failed")
+        if self.trigger_activate() != TransitionCallbackReturn.SUCCESS:
+            raise PendulumAccelError("activate failed")
+
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """configure(); FAILURE (back to unconfigured) with the reason logged when it raises."""
+        try:
+            self.configure()
+        except PendulumAccelError as err:
+            self._configure_error = err
+            self.get_logger().error(f"configure failed: {err}")
+            return TransitionCallbackReturn.FAILURE
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """activate() (after the lifecycle publishers, if any, are enabled)."""
+        result = super().on_activate(state)
+        self._stop.clear()
+        self.activate()
+        return result
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """deactivate(), then disable the lifecycle publishers."""
+        self.deactivate()
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """cleanup()."""
+        self.cleanup()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Stop the data flow and end the process with exit 0."""
+        self.deactivate()
+        self.finish(0)
+        return TransitionCallbackReturn.SUCCESS
+
+    def stop_thread(self) -> None:
+        """Set ``_stop`` and wait for the worker thread (5 s at most); the node stays usable."""
+        self._stop.set()
+        if (
+            self._thread is not None
+            and self._thread.is_alive()
+            and self._thread is not threading.current_thread()
+        ):
+            self._thread.join(timeout=5.0)
+        self._thread = None
 
 
 def parameter_descriptor(spec: ParamSpec) -> ParameterDescriptor:
@@ -202,6 +285,63 @@ def acked_within(publisher: Publisher, seconds: float, stopping: Callable[[], bo
     return True
 
 
+_RCL_WHERE = re.compile(r",? at /\S+:\d+")
+
+
+def rcl_error_line(err: Exception) -> str:
+    """One line of an RCLError: its message without the C source locations rcl appends
+    ("Couldn't parse params file: '--params-file x.yaml'. Error: Error opening YAML file")."""
+    text = _RCL_WHERE.sub("", str(err))
+    text = text.replace("failed to initialize rcl: ", "")
+    return " ".join(text.split())
+
+
+def check_ros_args(argv: Sequence[str]) -> None:
+    """ParameterError (one line) for a ``--params-file`` that is missing or not YAML mapping, or a
+    ``-p name:=value`` rule that does not parse, among the --ros-args of ``argv``; checked before rcl
+    sees them, because rcl logs its own error line before raising."""
+    import yaml
+
+    inside = False
+    tokens = list(argv)
+    for i, token in enumerate(tokens):
+        if token == "--ros-args":
+            inside = True
+            continue
+        if token == "--":
+            inside = False
+            continue
+        if not inside or i + 1 >= len(tokens):
+            continue
+        value = tokens[i + 1]
+        if token == "--params-file":
+            try:
+                text = Path(value).read_text()
+            except (OSError, UnicodeDecodeError) as err:
+                raise ParameterError(
+                    f"cannot read the parameters file {value}: {getattr(err, 'strerror', None) or err}"
+                ) from None
+            try:
+                data = yaml.safe_load(text)
+            except yaml.YAMLError as err:
+                where = getattr(err, "problem_mark", None)
+                line = f" (line {where.line + 1})" if where is not None else ""
+                raise ParameterError(f"parameters file {value} is not valid YAML{line}") from None
+            if not isinstance(data, dict):
+                raise ParameterError(
+                    f"parameters file {value} must map node names to ros__parameters, "
+                    f"got {type(data).__name__}"
+                )
+        elif token in ("-p", "--param"):
+            name, sep, text = value.partition(":=")
+            if not sep or not name:
+                raise ParameterError(f"parameter rule {value!r} must read name:=value")
+            try:
+                yaml.safe_load(text)
+            except yaml.YAMLError:
+                raise ParameterError(f"parameter rule {value!r}: the value is not valid YAML") from None
+
+
 def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None = None) -> int:
     """Exit code of one node's life: the node's own code, 0 on SIGINT/SIGTERM, 2 on a PendulumAccelError.
 
@@ -228,6 +368,7 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
 
     use_package_profile()
     try:
+        check_ros_args(list(args) if args is not None else sys.argv)
         rclpy.init(
             args=list(args) if args is not None else None, signal_handler_options=SignalHandlerOptions.NO
         )
@@ -259,6 +400,9 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
         pass
     except (PendulumAccelError, ParameterException) as err:
         print(f"{name}: error: {err}", file=sys.stderr, flush=True)
+        code = 2
+    except RCLError as err:  # a bad --params-file or -p rule: rcl refuses the arguments
+        print(f"{name}: error: {rcl_error_line(err)}", file=sys.stderr, flush=True)
         code = 2
     finally:
         if isinstance(node, ChainNode):

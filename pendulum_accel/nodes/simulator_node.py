@@ -6,6 +6,15 @@ seed always give the same bytes. ``realtime`` paces the loop by the wall clock a
 otherwise it runs as fast as the subscribers take the messages (reliable keep-all QoS blocks the
 publisher when a reader lags, so nothing is lost) and the graph follows /clock.
 
+Topic names are relative (``pendulum/joint_states``, ``car/accel/truth``, ``pendulum/string``,
+``pendulum/markers``, ``robot_description``), so a namespace or a remap applies; /clock is global.
+The URDF of the scene's pendulum goes out once on ``robot_description`` (std_msgs/String, reliable,
+transient local, depth 1: what robot_state_publisher offers, so late subscribers get it), and a
+MarkerArray in base_link (string, bob, true-acceleration arrow) at 30 Hz of simulated time.
+
+A managed node (rclpy.lifecycle): configure builds the scene and the publishers, activate starts
+publishing, deactivate stops it; ``autostart`` (default true) runs both at start-up.
+
 ``time_source``: ``sim`` stamps from the scene's t = 0 and publishes /clock; ``wall`` (real time
 only) stamps each sample with the ROS clock at its due time and publishes no /clock. Publishing
 starts once the nodes named in ``reader_nodes`` and ``recorder_node`` subscribe (by name: other
@@ -27,15 +36,17 @@ from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from visualization_msgs.msg import MarkerArray
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import restamp, stamp_offset
 from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import SIMULATOR
-from pendulum_accel.nodes.qos import DATA_QOS
+from pendulum_accel.nodes.qos import DATA_QOS, DESCRIPTION_QOS
 from pendulum_accel.nodes.runtime import (
-    ThreadedNode,
+    ManagedNode,
     acked_within,
     change_result,
     declare_parameters,
@@ -45,6 +56,7 @@ from pendulum_accel.nodes.runtime import (
     write_summary,
 )
 from pendulum_accel.overrides import OVERRIDES, apply_overrides
+from pendulum_accel.recording import visual
 from pendulum_accel.recording.generate import Frames, serialise_run
 from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import run_scene
@@ -65,11 +77,12 @@ def jitter_summary(lateness: NDArray[np.float64]) -> str:
     )
 
 
-class SimulatorNode(ThreadedNode):
+class SimulatorNode(ManagedNode):
     """Publishes one scene: parameters pick the scene, override its physics and choose the pacing."""
 
     def __init__(self) -> None:
-        """Declare parameters, build the scene (PendulumAccelError on a bad one) and start publishing."""
+        """Declare parameters (PendulumAccelError on a bad scene), then configure and activate when
+        ``autostart``."""
         super().__init__(NODE_NAME)
         values = declare_parameters(
             self, SIMULATOR, lambda name: {spec.name: spec.get(load_scene(name)) for spec in OVERRIDES}
@@ -78,32 +91,60 @@ class SimulatorNode(ThreadedNode):
         self.realtime = bool(values["realtime"])
         self.exit_on_end = bool(values["exit_on_end"])
         self.time_source = str(values["time_source"])
-        if self.time_source == "wall" and not self.realtime:
-            raise ParameterError(
-                "time_source wall needs realtime true: a sample's wall stamp is its due time on the "
-                "wall clock, which only a paced run has"
-            )
         namespace = self.get_namespace()
         self.reader_nodes = node_names(values["reader_nodes"], namespace)
         self.recorder_node = node_names([str(values["recorder_node"])], namespace)
         self.wait_timeout = float(values["wait_timeout"])
         self.clock_rate_hz = float(values["clock_rate_hz"])
         self.summary_file = str(values["summary_file"])
-        self.scene = self._scene_from(self._override_values())
-        self._outputs: dict[str, Publisher] = {
-            bm.TOPIC_JOINT_STATES: self.create_publisher(JointState, bm.TOPIC_JOINT_STATES, DATA_QOS),
-            bm.TOPIC_ACCEL_TRUTH: self.create_publisher(AccelStamped, bm.TOPIC_ACCEL_TRUTH, DATA_QOS),
-        }
-        if self.time_source == "sim":
-            self._outputs[bm.TOPIC_CLOCK] = self.create_publisher(Clock, bm.TOPIC_CLOCK, DATA_QOS)
-        self.counts: dict[str, int] = dict.fromkeys(self._outputs, 0)
+        self._outputs: dict[str, Publisher] = {}
+        self.counts: dict[str, int] = {}
         self.unacknowledged: list[str] = []
-        self._string_publisher: Publisher | None = None
+        self._extra: list[Publisher] = []
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
         self._restart = threading.Event()
         self.published = 0
+        self.start(bool(values["autostart"]))
+
+    # -- lifecycle --------------------------------------------------------------------------------
+
+    def configure(self) -> None:
+        """Build the scene and the publishers; publish the URDF on robot_description."""
+        if self.time_source == "wall" and not self.realtime:
+            raise ParameterError(
+                "time_source wall needs realtime true: a sample's wall stamp is its due time on the "
+                "wall clock, which only a paced run has"
+            )
+        self.scene = self._scene_from(self._override_values())
+        self._outputs = {
+            bm.JOINT_STATES: self.create_publisher(JointState, bm.JOINT_STATES, DATA_QOS),
+            bm.ACCEL_TRUTH: self.create_publisher(AccelStamped, bm.ACCEL_TRUTH, DATA_QOS),
+        }
+        if self.time_source == "sim":
+            self._outputs[bm.TOPIC_CLOCK] = self.create_publisher(Clock, bm.TOPIC_CLOCK, DATA_QOS)
+        self._markers = self.create_publisher(MarkerArray, bm.MARKERS, DATA_QOS)
+        self._description = self.create_publisher(String, bm.ROBOT_DESCRIPTION, DESCRIPTION_QOS)
+        self._extra = [self._markers, self._description]
+        self._publish_description()
+
+    def _publish_description(self) -> None:
+        """The URDF of the current scene's pendulum, once (transient local keeps it for late joiners)."""
+        self._description.publish(String(data=visual.urdf(float(self.scene.pendulum.length))))
+
+    def activate(self) -> None:
+        """Start the publishing thread."""
         self.start_thread(self._publish_loop, "pendulum_sim_publisher")
+
+    def deactivate(self) -> None:
+        """Stop the publishing thread (a later activate starts the scene over)."""
+        self.stop_thread()
+
+    def cleanup(self) -> None:
+        """Destroy the publishers configure made."""
+        for publisher in [*self._outputs.values(), *self._extra]:
+            self.destroy_publisher(publisher)
+        self._outputs, self._extra = {}, []
 
     # -- parameters ---------------------------------------------------------------------------
 
@@ -128,6 +169,8 @@ class SimulatorNode(ThreadedNode):
         """A physics change restarts the scene at t = 0 with the new values (receivers see time jump back)."""
         if any(p.name in {spec.name for spec in OVERRIDES} for p in params):
             self.scene = self._scene_from(self._override_values())
+            if self._extra:
+                self._publish_description()
             self.get_logger().info(
                 "parameters changed ("
                 + ", ".join(f"{p.name}={p.value}" for p in params)
@@ -142,9 +185,9 @@ class SimulatorNode(ThreadedNode):
         missing: dict[str, list[str]] = {}
         for topic, publisher in self._outputs.items():
             wanted = list(self.recorder_node)
-            if topic == bm.TOPIC_JOINT_STATES:
+            if topic == bm.JOINT_STATES:
                 wanted += self.reader_nodes
-            names = missing_readers(self, publisher, topic, wanted) if wanted else []
+            names = missing_readers(self, publisher, wanted) if wanted else []
             if names:
                 missing[topic] = names
         return missing
@@ -186,6 +229,11 @@ class SimulatorNode(ThreadedNode):
                     self.unacknowledged.append(topic)
         return True
 
+    def _count(self, role: str, n: int) -> None:
+        """Add n to the published count of ``role``, kept under its resolved name (what the bag holds)."""
+        name = self._outputs[role].topic_name
+        self.counts[name] = self.counts.get(name, 0) + n
+
     def _publish(self, topic: str, data: bytes) -> None:
         """Publish CDR bytes on ``topic``, waiting out a full keep-all history unless stopping."""
         publish_blocking(self._outputs[topic], data, self._stop.is_set)
@@ -204,13 +252,11 @@ class SimulatorNode(ThreadedNode):
                     f"{frames.t[-1] - frames.t[0]:.3f} s simulated in {time.perf_counter() - wall0:.2f} s; "
                     f"{frames.plan}"
                 )
-                if bm.TOPIC_STRING in frames.rows and bm.TOPIC_STRING not in self._outputs:
-                    self._outputs[bm.TOPIC_STRING] = self.create_publisher(
-                        JointState, bm.TOPIC_STRING, DATA_QOS
-                    )
-                    self.counts[bm.TOPIC_STRING] = 0
+                if bm.TOPIC_STRING in frames.rows and bm.STRING not in self._outputs:
+                    self._outputs[bm.STRING] = self.create_publisher(JointState, bm.STRING, DATA_QOS)
                 if not self._wait_for_subscribers():
-                    self.finish(1)
+                    if not self._stop.is_set():  # timed out (a stop is a deactivate or a signal)
+                        self.finish(1)
                     return
                 self.get_logger().info(f"subscribers matched: publishing ({self.time_source} time)")
                 completed = self._publish_frames(frames)
@@ -218,7 +264,9 @@ class SimulatorNode(ThreadedNode):
                     self._acknowledged()
                 if self._restart.is_set():
                     continue
-                if self.exit_on_end or self._stop.is_set():
+                if self._stop.is_set():
+                    return
+                if self.exit_on_end:
                     self.finish(0)
                     return
                 self.get_logger().info(
@@ -235,12 +283,38 @@ class SimulatorNode(ThreadedNode):
         wall0_ns = self.get_clock().now().nanoseconds - round((time.perf_counter() - start) * 1e9)
         due_ns = wall0_ns + bm.seconds_to_ns(frames.t[first:] - frames.t[0])
         for topic, rows in frames.rows.items():
-            restamp(rows[first:], stamp_offset(bm.TOPIC_TYPES[topic]), due_ns)
+            offset = stamp_offset(bm.TOPIC_TYPES[topic])
+            assert offset is not None  # every topic of the frames is stamped
+            restamp(rows[first:], offset, due_ns)
+        mask = self._marker_mask[first:]
+        self._marker_rows[int(self._marker_mask[:first].sum()) :] = visual.swing_marker_rows(
+            due_ns[mask], self._theta[first:][mask], self._accel[first:][mask], self._length
+        )
+
+    def _prepare_markers(self, frames: Frames) -> None:
+        """The MarkerArray rows of this run (MARKER_RATE_HZ of simulated time), from the published θ and a."""
+        joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+        truth = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+        self._theta = joint.decode(frames.rows[bm.TOPIC_JOINT_STATES], ["position[0]"])["position[0]"]
+        self._accel = truth.decode(frames.rows[bm.TOPIC_ACCEL_TRUTH], ["accel.linear.x"])["accel.linear.x"]
+        self._length = float(self.scene.pendulum.length)
+        self._marker_mask = visual.marker_mask(frames.t)
+        ns = bm.seconds_to_ns(frames.t)[self._marker_mask]
+        self._marker_rows = visual.swing_marker_rows(
+            ns, self._theta[self._marker_mask], self._accel[self._marker_mask], self._length
+        )
 
     def _publish_frames(self, frames: Frames) -> bool:
         """Publish every sample in order, paced by the wall clock in real-time mode; True when all went."""
         joint = frames.rows[bm.TOPIC_JOINT_STATES]
-        others = [(topic, rows) for topic, rows in frames.rows.items() if topic != bm.TOPIC_JOINT_STATES]
+        # frames hold the root-namespace names; the publishers are keyed by role (relative names).
+        others = [
+            (str(bm.role_of(topic)), rows)
+            for topic, rows in frames.rows.items()
+            if topic != bm.TOPIC_JOINT_STATES
+        ]
+        self._prepare_markers(frames)
+        marker_index = np.cumsum(self._marker_mask) - 1
         clock_index = np.cumsum(frames.clock_mask) - 1
         with_clock = bm.TOPIC_CLOCK in self._outputs
         lateness = np.empty(frames.size)
@@ -261,10 +335,15 @@ class SimulatorNode(ThreadedNode):
                 lateness[i] = now - due
             if with_clock and frames.clock_mask[i]:
                 self._publish(bm.TOPIC_CLOCK, frames.clock_rows[clock_index[i]].tobytes())
-                self.counts[bm.TOPIC_CLOCK] += 1
-            self._publish(bm.TOPIC_JOINT_STATES, joint[i].tobytes())
+                self._count(bm.TOPIC_CLOCK, 1)
+            self._publish(bm.JOINT_STATES, joint[i].tobytes())
             for topic, rows in others:
                 self._publish(topic, rows[i].tobytes())
+            if self._marker_mask[i]:
+                # Visual only: not waited for, not in the accounting.
+                publish_blocking(
+                    self._markers, self._marker_rows[marker_index[i]].tobytes(), self._stop.is_set
+                )
             sent += 1
             if i == 0:
                 # Handshake: readers acknowledge only once their side of discovery has matched this
@@ -279,7 +358,7 @@ class SimulatorNode(ThreadedNode):
                 if self.time_source == "wall":
                     self._stamp_wall(frames, start, 1)
         for topic in frames.rows:
-            self.counts[topic] += sent
+            self._count(str(bm.role_of(topic)), sent)
         self.published += sent
         wall = time.perf_counter() - start
         span = float(t_rel[sent - 1]) if sent else 0.0

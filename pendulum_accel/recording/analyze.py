@@ -27,6 +27,7 @@ from pendulum_accel.bag.messages import (
     TOPIC_DIAGNOSTICS,
     TOPIC_JOINT_STATES,
     DiagnosticArrayMsg,
+    chain_topic,
     deserialize_as,
 )
 from pendulum_accel.bag.reader import Bag, read_bag, scene_name
@@ -378,10 +379,12 @@ def analyze_bag(
     data = bag if isinstance(bag, Bag) else read_bag(bag)
     check_chain_contract(data)
     js = data.decode(
-        TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
+        chain_topic(data.topics, TOPIC_JOINT_STATES),
+        JOINT_STATE,
+        fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"],
     )
     truth = data.decode(
-        TOPIC_ACCEL_TRUTH,
+        chain_topic(data.topics, TOPIC_ACCEL_TRUTH),
         ACCEL_STAMPED,
         fields=["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"],
     )
@@ -436,10 +439,11 @@ def _recorded_calibration(
     bag: Bag, t_truth: NDArray[np.float64], a_truth: NDArray[np.float64], t_from: float
 ) -> Calibration | None:
     """NEES figures of the recorded estimate and its covariance[0]; None without that topic."""
-    if TOPIC_ACCEL_ESTIMATE not in bag.topics or bag.topics[TOPIC_ACCEL_ESTIMATE].count == 0:
+    topic = chain_topic(bag.topics, TOPIC_ACCEL_ESTIMATE)
+    if topic not in bag.topics or bag.topics[topic].count == 0:
         return None
     est = bag.decode(
-        TOPIC_ACCEL_ESTIMATE,
+        topic,
         ACCEL_WITH_COVARIANCE_STAMPED,
         fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x", "accel.covariance[0]"],
     )
@@ -454,9 +458,10 @@ def recorded_estimator(bag: Bag) -> str | None:
     stored = bag.custom_data.get(CUSTOM_ESTIMATOR)
     if stored in ESTIMATORS:
         return stored
-    if TOPIC_DIAGNOSTICS not in bag.topics:
+    topic = chain_topic(bag.topics, TOPIC_DIAGNOSTICS)
+    if topic not in bag.topics:
         return None
-    _, payloads = bag.raw(TOPIC_DIAGNOSTICS)
+    _, payloads = bag.raw(topic)
     for data in payloads[:10]:
         try:
             msg = deserialize_as(data, DIAGNOSTIC_ARRAY, DiagnosticArrayMsg)
@@ -478,10 +483,11 @@ def _recorded_figures(
     skip_until: float,
 ) -> EstimateFigures | None:
     """Figures of the estimate recorded in the bag (the live estimator), None without that topic."""
-    if TOPIC_ACCEL_ESTIMATE not in bag.topics or bag.topics[TOPIC_ACCEL_ESTIMATE].count == 0:
+    topic = chain_topic(bag.topics, TOPIC_ACCEL_ESTIMATE)
+    if topic not in bag.topics or bag.topics[topic].count == 0:
         return None
     est = bag.decode(
-        TOPIC_ACCEL_ESTIMATE,
+        topic,
         ACCEL_WITH_COVARIANCE_STAMPED,
         fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x"],
     )

@@ -1,8 +1,8 @@
 """Is a bag the pendulum chain's? The offline commands ask the same question the estimator node asks of
 each message (estimators.guard.joint_state_problem), once per shape of message in the bag.
 
-A bag whose angles name another joint, more joints than the pendulum's, or whose angle, truth, estimate or
-Imu carry another frame is refused with one line (analyze, allan, animate, export): figures computed
+A bag whose angles name another joint, more joints than the pendulum's, or whose angle, truth or estimate
+carry another frame is refused with one line (analyze, allan, animate, export): figures computed
 from another robot's data would look like figures of this one.
 """
 
@@ -13,24 +13,27 @@ from pendulum_accel.bag.reader import Bag
 from pendulum_accel.errors import BagError
 from pendulum_accel.estimators.guard import frame_problem, joint_state_problem
 
-FRAMED_TOPICS = (bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_IMU)
-"""Topics whose header.frame_id must be the car's (the angle's is checked with its joint)."""
+FRAMED_TOPICS = (bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE)
+"""Topics whose header.frame_id must be the car's (the angle's is checked with its joint). The Imu is not
+among them: its frame may be an ``imu_frame_id`` of the estimator's (docs/ros.md)."""
 
 
 def check_chain_contract(bag: Bag) -> None:
-    """BagError (one line) unless every /pendulum/joint_states message passes joint_state_problem and every
-    message of FRAMED_TOPICS passes frame_problem; topics the bag lacks are not checked here."""
+    """BagError (one line) unless every pendulum/joint_states message passes joint_state_problem and every
+    message of FRAMED_TOPICS passes frame_problem, each found by its role under any namespace; topics the
+    bag lacks are not checked here."""
     checks = [(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)] + [
         (topic, bm.topic_type(topic)) for topic in FRAMED_TOPICS
     ]
-    for topic, msgtype in checks:
+    for root, msgtype in checks:
+        topic = bm.chain_topic(bag.topics, root)
         if topic not in bag.topics or bag.topics[topic].count == 0:
             continue
         total = bag.topics[topic].count
         for msg, count in bag.shapes(topic, msgtype):
             header = getattr(msg, "header", None)
             frame = str(header.frame_id) if header is not None else None
-            if topic == bm.TOPIC_JOINT_STATES:
+            if root == bm.TOPIC_JOINT_STATES:
                 problem = joint_state_problem([str(n) for n in getattr(msg, "name", [])], frame)
             else:
                 problem = frame_problem(frame) if frame is not None else None
