@@ -25,6 +25,7 @@ from mcap.opcode import Opcode
 from mcap.reader import SeekingReader
 from mcap.records import Chunk, ChunkIndex
 
+from pendulum_accel.bag.integrity import ChunkHead
 from pendulum_accel.bag.reader import _decompress, _find_mcap
 from pendulum_accel.errors import BagError
 
@@ -106,7 +107,15 @@ class StreamedBag:
         self._file.seek(index.chunk_start_offset + 1 + 8)
         chunk = Chunk.read(ReadDataStream(self._file))
         try:
-            data = _decompress(chunk)
+            head = ChunkHead(
+                chunk.message_start_time,
+                chunk.message_end_time,
+                chunk.uncompressed_size,
+                chunk.uncompressed_crc,
+                chunk.compression,
+                0,
+            )
+            data = _decompress(head, chunk.data)
         except ValueError as err:
             raise BagError(f"bag {self.path}: chunk at byte {index.chunk_start_offset}: {err}") from None
         if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
