@@ -72,3 +72,19 @@ def test_answer_text_rounds_within_a_fifth_of_tol() -> None:
     for value, tol in ((3.2055321, 2e-5), (4.4876e-4, 4.5e-6), (1817.0, 90.0), (9.0, 0.5), (4.85e-12, 5e-14)):
         text = Answer("x", "x", value, "", tol).text
         assert abs(float(text) - value) <= tol / 5, (value, text)
+
+
+def test_a_groups_bad_choice_is_one_line_and_the_window_fits_the_cycle() -> None:
+    """LabRun refuses a seed < 0, a ≤ 0 and a window past the cycle's end; its UDDS length is the scene's."""
+    import pytest
+
+    from pendulum_accel.errors import ParameterError
+    from pendulum_accel.lecture import lab_data
+    from pendulum_accel.lecture.lab_answers import main
+    from pendulum_accel.scene import load_scene
+
+    assert load_scene(lab_data.DRIVE_SCENE).duration == lab_data.UDDS_LENGTH
+    for bad in ({"seed": -1}, {"accel": 0.0}, {"drive_start": lab_data.LAST_DRIVE_START + 1.0}):
+        with pytest.raises(ParameterError, match=r"^[^\n]*$"):
+            LabRun(**bad)
+    assert main(["--drive-start", "1300"]) == 2

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -23,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import curve_fit
 
+from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.estimators import estimate_batch
 from pendulum_accel.lecture.lab_data import LabRun, drive_data, released_data, swing_data
 from pendulum_accel.lecture.measure import period
@@ -302,8 +304,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--accel", type=float, default=KEY_RUN.accel)
     parser.add_argument("--drive-start", type=float, default=KEY_RUN.drive_start)
     args = parser.parse_args(argv)
-    run = LabRun(seed=args.seed, accel=args.accel, drive_start=args.drive_start)
-    for answer in answers(run, extensions=False).values():
+    try:
+        run = LabRun(seed=args.seed, accel=args.accel, drive_start=args.drive_start)
+        found = answers(run, extensions=False)
+    except (ParameterError, SceneError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    for answer in found.values():
         print(answer.line())
     return 0
 

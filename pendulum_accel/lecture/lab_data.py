@@ -11,6 +11,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics.profiles import Constant, profile_from_dict
 from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import SceneRun, run_scene
@@ -22,6 +23,9 @@ SWING_DURATION = 20.0  # s: about 10 periods
 BIAS_DURATION = 20.0  # s: the exercise-2 run, released hanging straight down
 DRIVE_SCENE = "udds_teaching"  # EPA city cycle, 1 m pendulum, ζ = 0.008
 DRIVE_WINDOW = 120.0  # s of the cycle, from the group's chosen start
+UDDS_LENGTH = 1369.0  # s, the EPA schedule's length
+LAST_DRIVE_START = UDDS_LENGTH - DRIVE_WINDOW
+MAX_ACCEL = 9.80665  # m/s²: up to one g (θ_eq = 45°); beyond, the small-swing fit of exercise 1 still works
 
 
 @dataclass(frozen=True)
@@ -31,6 +35,18 @@ class LabRun:
     seed: int = 27
     accel: float = 3.0
     drive_start: float = 180.0
+
+    def __post_init__(self) -> None:
+        """ParameterError (one line) unless seed ≥ 0, 0 < accel ≤ MAX_ACCEL, 0 ≤ drive_start ≤ last start."""
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ParameterError(f"seed must be a whole number >= 0, got {self.seed!r}")
+        if not (math.isfinite(self.accel) and 0.0 < self.accel <= MAX_ACCEL):
+            raise ParameterError(f"accel must be > 0 and <= {MAX_ACCEL:g} m/s², got {self.accel!r}")
+        if not (math.isfinite(self.drive_start) and 0.0 <= self.drive_start <= LAST_DRIVE_START):
+            raise ParameterError(
+                f"drive_start must be between 0 and {LAST_DRIVE_START:g} s (UDDS lasts {UDDS_LENGTH:g} s, "
+                f"the window {DRIVE_WINDOW:g} s), got {self.drive_start!r}"
+            )
 
 
 def swing_scene(run: LabRun, accel: float | None = None) -> Scene:
