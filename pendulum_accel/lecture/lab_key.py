@@ -60,8 +60,8 @@ ${ex2_period} s and never settles. The raw reading g tan θ (estimator `instant`
 last ${ex2_periods} whole periods (the first one left out), is biased by
 **${ex2_bias_whole} m/s²** (noise contributes ± ${ex2_bias_noise}). The second-order prediction
 a (1 + a²/g²) A²/2 with A = θ_eq gives ${ex2_bias_predicted} m/s²; the rest is the fourth-order term
-(≈ 5 % at A = 0.3 rad). `pendulum-accel lecture accelerometer` prints the same bias for its run
-(+0.152 m/s²: the bias depends on a/g and the amplitude, not on l).
+(the expansion's next term, of relative size ~A²). `pendulum-accel lecture accelerometer` prints the
+same bias for its run (+0.152 m/s²: the bias depends on a/g and the amplitude, not on l).
 
 The pitfall to discuss: the mean over all 20 s is ${ex2_bias_window} m/s². 20 s is not a whole number of
 periods, so the average cuts a swing and lands anywhere from about +0.11 to +0.20 depending on the window.
