@@ -1,6 +1,7 @@
 # Two commands for users:  make demo  (set up, run the default scene end to end)
 #                          make test  (set up, lint, type-check, run every test)
 # Both create .venv on first use and reuse it afterwards.
+# For students:                make lab   (a light venv, .venv-lab: the ROS-free core + Jupyter; docs/lab/)
 
 PYTHON ?= python3
 VENV   ?= .venv
@@ -18,7 +19,7 @@ VENV_FLAGS :=
 ROS_REQS   := -r requirements-ros.txt
 endif
 
-.PHONY: demo test setup lint typecheck pytest pytest-emulated bags bench docs docs-reference clean
+.PHONY: demo test setup lint typecheck pytest pytest-emulated bags bench docs docs-reference clean lab
 
 setup: $(STAMP)
 
@@ -100,3 +101,15 @@ bench: $(STAMP)
 
 clean:
 	rm -rf build install log out site .pytest_cache .mypy_cache .ruff_cache
+
+# The student lab: the ROS-free core, Jupyter and matplotlib in .venv-lab (no ROS 2, no test tools).
+# Without make (e.g. Windows): python -m venv .venv-lab, then pip install ".[lab]" inside it.
+LAB_VENV ?= .venv-lab
+lab: $(LAB_VENV)/.installed
+	@echo "start the lab with:  $(LAB_VENV)/bin/jupyter lab docs/lab/student.ipynb"
+
+$(LAB_VENV)/.installed: setup.py package.xml
+	$(PYTHON) -m venv $(LAB_VENV)
+	$(LAB_VENV)/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
+	$(LAB_VENV)/bin/python -m pip install -q --disable-pip-version-check ".[lab]"
+	@touch $@

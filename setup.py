@@ -66,6 +66,8 @@ setup(
     # The work-precision benchmark's 30-digit reference, and the test tools.
     extras_require={
         "bench": ["mpmath>=1.4.1"],
+        # The student lab (docs/lab/): Jupyter on top of the ROS-free core; matplotlib is already core.
+        "lab": ["jupyterlab>=4.0", "ipykernel>=7.4.0"],
         # `pendulum-accel export`: pandas for the tables, pyarrow for Parquet.
         "export": ["pandas>=3.1.1", "pyarrow>=26.0.1"],
         "test": [

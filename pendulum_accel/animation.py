@@ -124,8 +124,17 @@ class SwingAnimation:
             scale=1.0,
             width=0.012,
         )
-        self.text = top.text(
-            0.01, 0.98, "", transform=top.transAxes, va="top", fontsize=9, family="monospace"
+        # Readout on the figure's left and legend on its right, both outside the car's axes (which the
+        # equal aspect keeps narrow), so neither covers the other nor the car.
+        self.text = self.figure.text(0.02, 0.90, "", va="top", ha="left", fontsize=9, family="monospace")
+        self.figure.legend(
+            handles=[
+                Line2D([], [], color=TRUE_COLOR, lw=3, label="true a"),
+                Line2D([], [], color=EST_COLOR, lw=3, label="estimated â"),
+            ],
+            loc="upper right",
+            bbox_to_anchor=(0.99, 0.91),
+            fontsize=8,
         )
         self._draw_chart(bottom)
         self.figure.canvas.draw()  # lay out once; frames then keep these positions
@@ -149,14 +158,6 @@ class SwingAnimation:
         title = f"{self.data.label}: " if self.data.label else ""
         grade = f", grade β = {beta:.4f} rad" if beta else ""
         ax.set_title(f"{title}l = {length:g} m{grade}   → forward", fontsize=10)
-        ax.legend(
-            handles=[
-                Line2D([], [], color=TRUE_COLOR, lw=3, label="true a"),
-                Line2D([], [], color=EST_COLOR, lw=3, label="estimated â"),
-            ],
-            loc="upper right",
-            fontsize=8,
-        )
 
     def _draw_chart(self, ax: Axes) -> None:
         """θ(t) in degrees over the animated span, with a cursor that follows the frame."""
@@ -184,8 +185,8 @@ class SwingAnimation:
         shown = self.data.t <= t
         self.trace.set_data(self.data.t[shown], np.degrees(self.data.theta[shown]))
         self.text.set_text(
-            f"t = {t:6.2f} s   θ = {math.degrees(self.theta[k]):+6.2f}°\n"
-            f"a = {self.a_true[k]:+6.3f}   â = {a_est:+6.3f} m/s²"
+            f"t = {t:6.2f} s\nθ = {math.degrees(self.theta[k]):+6.2f}°\n"
+            f"a = {self.a_true[k]:+6.3f} m/s²\nâ = {a_est:+6.3f} m/s²"
         )
         return [self.rod, self.bob, self.arrows, self.cursor, self.trace, self.text]
 

@@ -16,7 +16,7 @@ File layout (every key is checked; unknown keys are errors so a typo never passe
       theta_dot0: 0.0               # rad/s (optional, 0)
       stiffness: 1.0e5              # N/m, > 0 (optional; the elastic string's k)
     acceleration: {type: constant, a: 2.0}   # any physics.profiles type; file paths (csv, speed_csv,
-                                             # bag_topic) are relative to this file
+                                             # bag_topic, accel_csv) are relative to this file
     sensor:
       rate_hz: 100                  # Hz, > 0
       noise_std: 1.0e-3             # rad per sample, >= 0 (optional, 0; Gazebo stddev)

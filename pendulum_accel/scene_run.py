@@ -16,6 +16,7 @@ from pendulum_accel.physics.simulate import AUTO_METHOD, CLOSED_FORM_METHOD, sim
 from pendulum_accel.physics.trajectory import Trajectory
 from pendulum_accel.planner import Plan, plan_scene
 from pendulum_accel.scene import Scene, scene_to_yaml
+from pendulum_accel.sensor import measured_rate
 
 FloatArray = NDArray[np.float64]
 
@@ -38,6 +39,11 @@ class SceneRun:
     stretch_rate: FloatArray | None
     plan: Plan
     scene: Scene
+
+    @property
+    def theta_dot_measured(self) -> FloatArray:
+        """The rate published beside the measured angle: sensor.measured_rate of θ_measured (no truth)."""
+        return measured_rate(self.t, self.theta_measured)
 
     @property
     def explanation(self) -> str:

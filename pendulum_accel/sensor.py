@@ -203,6 +203,21 @@ class SensorModel:
         return _first_order_recursion(float(start), phi, drive, bias)
 
 
+def measured_rate(t: ArrayLike, measured: ArrayLike) -> FloatArray:
+    """θ'_k = (y_k − y_{k−1})/(t_k − t_{k−1}): the rate a sensor's driver publishes from its own samples.
+
+    Backward (causal) differences of the *measured* angles y, so it carries the sensor's noise (white σ
+    becomes σ √2 / Δt per sample) and none of the simulator's truth; the first sample repeats the second's
+    rate (0 for a single sample).
+    """
+    times = np.asarray(t, dtype=np.float64)
+    y = np.asarray(measured, dtype=np.float64)
+    if times.size < 2:
+        return np.zeros_like(y)
+    rate = np.diff(y) / np.diff(times)
+    return np.concatenate((rate[:1], rate))
+
+
 def _first_order_recursion(start: float, phi: FloatArray, drive: FloatArray, out: FloatArray) -> FloatArray:
     """out_0 = start, out_{k+1} = φ_k out_k + u_k; scipy.signal.lfilter when φ is constant, else a loop."""
     # Uniform sampling (t_k = k/f) differs from a constant Δt only by rounding: one φ serves.

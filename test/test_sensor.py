@@ -167,3 +167,24 @@ def test_gauss_markov_without_correlation_time_is_refused() -> None:
     """dynamic_bias_stddev without a correlation time: one-line ParameterError pointing at the walk."""
     with pytest.raises(ParameterError, match="dynamic_bias_correlation_time must be > 0"):
         SensorModel(100.0, dynamic_bias_stddev=1e-3)
+
+
+def test_measured_rate_carries_the_sensor_noise_not_the_truth() -> None:
+    """The published rate: backward differences of the measured angle.
+
+    Noise-free, on θ = 0.1 sin(ωt) at 100 Hz, it is θ' at the interval's midpoint, so it differs from
+    θ'(t_k) by at most ω²·0.1·Δt/2 (the half-step lag) plus the O(Δt²) curvature term: 5e-3 rad/s bound.
+    With σ = 1 mrad its scatter about that is σ√2/Δt = 0.141 rad/s: the sample std lies within ±10 %
+    (≈ 1000 samples: the std of a std estimate is 1/√(2N) ≈ 2 %, so 10 % is 5 of those).
+    """
+    from pendulum_accel.sensor import measured_rate
+
+    t = np.arange(1001) * 0.01
+    omega = 3.0
+    theta = 0.1 * np.sin(omega * t)
+    truth = 0.1 * omega * np.cos(omega * t)
+    clean = measured_rate(t, SensorModel(rate_hz=100.0).measure(t, theta))
+    assert np.max(np.abs(clean[1:] - truth[1:])) <= 5e-3
+    noisy = measured_rate(t, SensorModel(rate_hz=100.0, noise_std=1e-3, seed=4).measure(t, theta))
+    assert abs(np.std(noisy[1:] - clean[1:]) / (1e-3 * np.sqrt(2) / 0.01) - 1.0) <= 0.1
+    assert measured_rate(t[:1], theta[:1]).tolist() == [0.0]

@@ -53,7 +53,12 @@ def run(args: argparse.Namespace) -> int:
         width = max(len(n) for n in RESULTS)
         print("results of the lecture (run one with: pendulum-accel lecture NAME [--plot out.png]):")
         for result in RESULTS.values():
-            print(f"  {result.name:<{width}}  {result.summary}")
+            if not result.extension:
+                print(f"  {result.name:<{width}}  {result.summary}")
+        print("extensions (beyond the lecture notes: road grade, chaos):")
+        for result in RESULTS.values():
+            if result.extension:
+                print(f"  {result.name:<{width}}  {result.summary}")
         return 0
     names = list(RESULTS) if args.name == ALL else [get_result(args.name).name]
     if len(names) > 1 and args.plot is not None:

@@ -25,6 +25,7 @@ class LectureResult:
     name: str
     summary: str
     module: str
+    extension: bool = False  # True: goes beyond the lecture notes (listed as an extension, not a result)
 
     def run(self, quick: bool = False) -> LectureReport:
         """Import the result's module and run it."""
@@ -44,7 +45,7 @@ RESULTS: dict[str, LectureResult] = {
         ),
         LectureResult(
             "frequency",
-            "small-oscillation ω² = √(g² + a²)/l against a sweep of a; where the small-angle period fails",
+            "small-oscillation ω² = √(g² + a²)/l over a sweep of a (extension: the exact, elliptic period)",
             "pendulum_accel.lecture.frequency",
         ),
         LectureResult(
@@ -71,11 +72,13 @@ RESULTS: dict[str, LectureResult] = {
             "equivalence",
             "grade β and acceleration g tan β give one angle; the period and the tension tell them apart",
             "pendulum_accel.lecture.equivalence",
+            extension=True,
         ),
         LectureResult(
             "butterfly",
             "two runs one ulp apart diverge in the driven pendulum: when the inputs stop counting",
             "pendulum_accel.lecture.butterfly",
+            extension=True,
         ),
     )
 }

@@ -22,7 +22,7 @@ from pendulum_accel.physics.profiles import Constant
 from pendulum_accel.physics.simulate import simulate
 
 NAME = "frequency"
-SUMMARY = "small-oscillation ω² = √(g² + a²)/l against a sweep of a; where the small-angle period fails"
+SUMMARY = "small-oscillation ω² = √(g² + a²)/l over a sweep of a (extension: the exact, elliptic period)"
 
 LENGTH = 1.0  # m
 A_MAX = 15.0  # m/s²

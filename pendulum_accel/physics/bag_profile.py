@@ -33,9 +33,8 @@ from pendulum_accel.physics.speed_trace import (
     describe_differentiation,
     differentiate,
     median_step,
-    spline_table,
+    recorded_acceleration,
     window_fields,
-    windowed_table,
 )
 
 SPEED_FIELDS: dict[str, Callable[[Any], float]] = {
@@ -137,8 +136,4 @@ def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
         }
         recipe |= {k: v for k, v in (("start", start), ("end", end)) if v is not None}
         return differentiate(times, values, cutoff, start=start, end=end, origin=origin, recipe=recipe)
-    if "cutoff_hz" in d:
-        cutoff = field_number(kind, "cutoff_hz", d["cutoff_hz"])
-        origin = f"{label}: a as recorded, smoothing spline -3 dB cut-off {cutoff:.3g} Hz"
-        return spline_table(times, values, cutoff, order=0, start=start, end=end, origin=origin)
-    return windowed_table(times, values, start=start, end=end, origin=f"{label}: a as recorded")
+    return recorded_acceleration(kind, d, times, values, label)

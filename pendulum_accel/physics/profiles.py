@@ -465,6 +465,8 @@ _FIELDS: dict[str, tuple[type[AccelProfile], tuple[str, ...], tuple[str, ...]]] 
         ("time_column", "speed_column", "cutoff_hz", "start", "end", "signed"),
     ),
     "bag_topic": (Table, ("path", "topic"), ("cutoff_hz", "start", "end")),
+    # A phone's accelerometer log (phyphox's CSV export, or any t, a columns), used as recorded.
+    "accel_csv": (Table, ("path",), ("time_column", "accel_column", "scale", "cutoff_hz", "start", "end")),
 }
 PROFILE_TYPES: tuple[str, ...] = tuple(_FIELDS)
 PROFILE_FIELDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
@@ -540,6 +542,10 @@ def profile_from_dict(d: Mapping[str, object], base_dir: Path | None = None) -> 
         from pendulum_accel.physics.speed_trace import speed_profile  # it builds on Table
 
         return speed_profile(d, base_dir)
+    if kind == "accel_csv":
+        from pendulum_accel.physics.speed_trace import accel_csv_profile
+
+        return accel_csv_profile(d, base_dir)
     if kind == "bag_topic":
         from pendulum_accel.physics.bag_profile import bag_topic_profile  # reads bags with rosbags
 

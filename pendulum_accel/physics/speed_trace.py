@@ -186,19 +186,20 @@ def describe_differentiation(cutoff_hz: float, step: float, default: bool) -> st
 
 
 def read_columns(
-    path: Path, time_column: str | None, value_column: str | None
+    path: Path, time_column: str | None, value_column: str | None, *, what: str = "speed"
 ) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """(t, v, line numbers) from a CSV file: ``#`` comments and blank lines skipped.
 
     A first row that is not all numbers is the header; the named columns are read from it (the first
-    and second column when unnamed). Every failure is one ParameterError naming file and line.
+    and second column when unnamed; quoted names such as phyphox's "Time (s)" work). Every failure is one
+    ParameterError naming file and line; ``what`` (speed, accel) names the file and the column field.
     """
     try:
         text = read_text_file(path)
     except OSError as exc:
-        raise ParameterError(f"cannot read speed CSV {path}: {exc.strerror or exc}", path="path") from None
+        raise ParameterError(f"cannot read {what} CSV {path}: {exc.strerror or exc}", path="path") from None
     except ValueError as exc:
-        raise ParameterError(f"cannot read speed CSV {path}: {exc}", path="path") from None
+        raise ParameterError(f"cannot read {what} CSV {path}: {exc}", path="path") from None
     header: list[str] | None = None
     columns = [0, 1]
     times: list[float] = []
@@ -218,7 +219,7 @@ def read_columns(
                         if name not in cells:
                             raise ParameterError(
                                 f"{path}:{line_no}: no column {name!r} in header {','.join(cells)!r}",
-                                path="time_column" if k == 0 else "speed_column",
+                                path="time_column" if k == 0 else f"{what}_column",
                             ) from None
                         columns[k] = cells.index(name)
                 continue
@@ -294,3 +295,42 @@ def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     origin = f"{label} ({units}): " + describe_differentiation(cutoff, median_step(times), default)
     speeds = values * SPEED_UNITS[units]
     return differentiate(times, speeds, cutoff, start=start, end=end, origin=origin, recipe=recipe)
+
+
+def recorded_acceleration(
+    kind: str, d: Mapping[str, object], times: np.ndarray, values: np.ndarray, label: str
+) -> Table:
+    """a(t) used as recorded: the samples joined linearly, or with ``cutoff_hz`` the order-0 smoothing
+    spline (low-passed, not differentiated); the optional ``start``/``end`` window of ``d`` applies."""
+    start, end = window_fields(kind, d)
+    if "cutoff_hz" in d:
+        cutoff = field_number(kind, "cutoff_hz", d["cutoff_hz"])
+        origin = f"{label}: a as recorded, smoothing spline -3 dB cut-off {cutoff:.3g} Hz"
+        return spline_table(times, values, cutoff, order=0, start=start, end=end, origin=origin)
+    return windowed_table(times, values, start=start, end=end, origin=f"{label}: a as recorded")
+
+
+PHYPHOX_TIME_COLUMN = "Time (s)"
+"""phyphox's "Acceleration (without g)" CSV export: "Time (s)", then "Acceleration x (m/s^2)", y, z (and,
+in some versions, "Absolute acceleration (m/s^2)"); x across the screen, y along it, z out of it."""
+
+
+def accel_csv_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
+    """Table of a(t) from an accel_csv mapping: a column of a logged acceleration, times scale.
+
+    a(t) = scale × the column (default the second), t from the time column (default the first) shifted
+    to start at 0; checked as any trace (check_trace), then used as recorded (recorded_acceleration).
+    """
+    kind = "accel_csv"
+    path = field_path(kind, d["path"], base_dir)
+    time_column = field_text(kind, "time_column", d["time_column"]) if "time_column" in d else None
+    accel_column = field_text(kind, "accel_column", d["accel_column"]) if "accel_column" in d else None
+    scale = field_number(kind, "scale", d["scale"]) if "scale" in d else 1.0
+    if scale == 0.0:
+        raise ParameterError(f"{kind} profile field 'scale' must not be 0", path="scale")
+    times, values, lines = read_columns(path, time_column, accel_column, what="accel")
+    check_trace(times, values, lambda i: f"{path}:{lines[i]}", name="acceleration")
+    column = accel_column if accel_column is not None else "column 2"
+    scaled = f", x {scale:g}" if scale != 1.0 else ""
+    label = f"accel_csv {path.name} ({column}{scaled}, {times.size} samples)"
+    return recorded_acceleration(kind, d, times, values * scale, label)

@@ -1,7 +1,8 @@
 """Write a bag straight from a scene, without DDS, with the content a live recording of it has.
 
 Topics (stamp = log time = sim time t, starting at 0): /clock, /pendulum/joint_states (measured θ,
-θ'), /car/accel/truth, /pendulum/string (only when the scene computes tension or stretch),
+and its rate from backward differences of the measured θ: no truth), /car/accel/truth,
+/pendulum/string (only when the scene computes tension or stretch),
 /car/accel/estimate (the default estimator, from the first sample it gives a value on) and
 /diagnostics (the estimator node's input-guard report, once per second of sim time). Every
 fixed-layout topic is serialised in bulk (:class:`Layout`) and written in one ``write_sorted``
@@ -122,7 +123,7 @@ def simulator_rows(
     string: StringColumns | None = None,
     clock_rate_hz: float = DEFAULT_CLOCK_RATE_HZ,
 ) -> SimulatorRows:
-    """What the simulator publishes for samples at times t (s): measured θ, θ', true a, (r − l, ṙ, T)."""
+    """What the simulator publishes at times t (s): measured θ and its rate, true a, (r − l, ṙ, T)."""
     ns = bm.seconds_to_ns(t)
     if ns.size > 1 and np.any(np.diff(ns) <= 0):
         raise BagError("sample times must be strictly increasing after rounding to ns")
@@ -162,12 +163,12 @@ class Frames:
 
 
 def serialise_run(run: SceneRun, clock_rate_hz: float) -> Frames:
-    """Frames of a SceneRun: joint_states (measured θ, θ'), truth (a), string (r − l, ṙ, T) if any, clock."""
+    """Frames of a SceneRun: joint_states (measured θ and rate), truth (a), string (r − l, ṙ, T), clock."""
     t = np.asarray(run.t, dtype=np.float64)
     sim = simulator_rows(
         t,
         np.asarray(run.theta_measured, dtype=np.float64),
-        np.asarray(run.theta_dot, dtype=np.float64),
+        run.theta_dot_measured,
         np.asarray(run.accel_true, dtype=np.float64),
         string=string_columns(run),
         clock_rate_hz=clock_rate_hz,
@@ -291,7 +292,7 @@ def generate_bag(
     streams = chain_streams(
         t,
         theta,
-        np.asarray(run.theta_dot, dtype=np.float64),
+        run.theta_dot_measured,
         np.asarray(run.accel_true, dtype=np.float64),
         np.asarray(a_est, dtype=np.float64),
         np.asarray(variance, dtype=np.float64),
