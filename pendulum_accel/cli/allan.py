@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from pendulum_accel.allan import AllanResult, allan_deviation, bag_series, plot_allan, scene_series
+if TYPE_CHECKING:
+    from pendulum_accel.allan import AllanResult
 
 ESTIMATE_FIT_FROM = 5.0  # s: past the default kalman's quiet-mode memory (3.3 s for the lecture scene)
 DEFAULT_DURATION = 3600.0  # s of a generated static run: enough clusters to read the walk out to ~400 s
@@ -51,6 +52,8 @@ def _is_bag(source: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Print σ(τ) figures for the angle and the estimate; plot them when asked."""
+    from pendulum_accel.allan import allan_deviation, bag_series, plot_allan, scene_series
+
     series = (
         bag_series(args.source)
         if _is_bag(args.source)
