@@ -1,4 +1,4 @@
-"""Fast start-up: ``--version``, ``--help`` and every command's and node's ``--help`` import no costly library.
+"""Fast start-up: --version, --help and every command's and node's --help import no costly library.
 
 Checked by what they import (sys.modules in a fresh interpreter), never by a time: the figures
 (benchmarks, docs/portability.md) depend on the machine, the imports do not.
