@@ -73,7 +73,7 @@ NUMERICS_TESTS := $(addprefix test/test_,$(addsuffix .py, \
   physics_properties equation_of_motion rigid elastic multiplier grade linear exact variational \
   integrators dop853_tableau kernels profiles simulate extremes planner error_bounds \
   estimators estimator_guard onset fit_onset calibration seed_spread sensor allan \
-  lecture sweep scene_run bag_golden figures cpu_emulation))
+  lecture sweep scene_run plan_honesty bag_golden figures cpu_emulation))
 
 pytest-emulated: $(STAMP)
 	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pytest $(NUMERICS_TESTS)

@@ -37,10 +37,15 @@ def numpy_disabled_targets() -> list[str]:
     """numpy's dispatch targets this CPU has, not baseline, that are or imply AVX-512F, AVX2 or FMA3
     (inside the emulation numpy reports the disabled ones as absent: they are kept from the variable)."""
     umath = importlib.import_module("numpy._core._multiarray_umath")  # numpy's own CPU tables
-    baseline = set(umath.__cpu_baseline__)
     have = {t for t, on in umath.__cpu_features__.items() if on}
     have |= set(os.environ.get("NPY_DISABLE_CPU_FEATURES", "").replace(",", " ").split())
-    return [t for t in umath.__cpu_dispatch__ if t not in baseline and t in have and implies_disabled(t)]
+    return targets_to_disable(umath.__cpu_dispatch__, umath.__cpu_baseline__, have)
+
+
+def targets_to_disable(dispatch: list[str], baseline: list[str], have: set[str]) -> list[str]:
+    """The dispatch targets in ``have`` (this CPU's), not baseline, that are or imply one of DISABLED:
+    a target the CPU lacks is never named (nothing to switch off), a baseline one never (numpy aborts)."""
+    return [t for t in dispatch if t not in set(baseline) and t in have and implies_disabled(t)]
 
 
 def environment() -> dict[str, str]:

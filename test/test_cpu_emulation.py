@@ -9,7 +9,13 @@ import subprocess
 import sys
 from pathlib import Path
 
-from test.cpu_emulation import DISABLED, environment, implies_disabled, numpy_disabled_targets
+from test.cpu_emulation import (
+    DISABLED,
+    environment,
+    implies_disabled,
+    numpy_disabled_targets,
+    targets_to_disable,
+)
 
 _TARGETS = """
 import json
@@ -38,6 +44,18 @@ def test_numpy_takes_the_list_and_dispatches_no_disabled_target() -> None:
     current = json.loads(out.stdout)
     assert not [t for t in current if implies_disabled(t.removeprefix("baseline(").rstrip(")"))], current
     assert set(DISABLED) <= {"AVX512F", "AVX2", "FMA3"}
+
+
+def test_the_list_follows_the_cpu_and_numpys_naming() -> None:
+    """numpy 2.x levels on an AVX2 machine without AVX-512: only X86_V3; numpy 1.x names on an AVX-512
+    machine: every AVX-512/AVX2/FMA3 target, none of the SSE ones; baseline targets never."""
+    levels = ["X86_V3", "X86_V4", "AVX512_ICL", "AVX512_SPR"]
+    assert targets_to_disable(levels, ["X86_V2"], {"X86_V2", "X86_V3"}) == ["X86_V3"]
+    old = ["SSSE3", "SSE41", "POPCNT", "SSE42", "AVX", "F16C", "FMA3", "AVX2", "AVX512F", "AVX512_SKX"]
+    have = set(old) | {"SSE", "SSE2", "SSE3"}
+    assert targets_to_disable(old, ["SSE", "SSE2", "SSE3"], have) == ["FMA3", "AVX2", "AVX512F", "AVX512_SKX"]
+    above_v3 = targets_to_disable(levels, ["X86_V2", "X86_V3"], set(levels))
+    assert above_v3 == ["X86_V4", "AVX512_ICL", "AVX512_SPR"]
 
 
 _MODULE = """

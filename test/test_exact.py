@@ -328,6 +328,8 @@ def test_rotation_is_unwrapped_and_periodic() -> None:
         assert np.all(np.diff(theta) * sign > 0.0)
         assert np.all(rate * sign > 0.0)
         turn, _ = exact_solution(pendulum, accel, 0.0, sign * 8.0, [period, 5 * period])
+        # the closed form's round-off, EXACT_ROUNDOFF ε (Θ + 2kω·span), grows with the turns: with Θ = 10π
+        # and 2kω·span of the same order, ~1e-13; 1e-11 leaves the elliptic argument reduction 100×
         assert turn == pytest.approx(sign * np.array([2 * math.pi, 10 * math.pi]), abs=1e-11)
 
 
@@ -347,6 +349,7 @@ def test_exact_period_known_values() -> None:
     """T(0) = 2π/ω; T(π/2) = 4K(½)/ω, K(½) = 1.854074677301372; θ(T) = θ0 and θ(T/2) = θ_eq - A (1e-12)."""
     pendulum, accel = Pendulum(2.0), 3.0
     omega = pendulum.omega(accel)
+    # K(m=0) = π/2 from R_F(0, 1, 1) exactly to an ulp, then ≤ 3 roundings: within 4.5 ε relative
     assert exact_period(pendulum, accel, 0.0) == pytest.approx(2 * math.pi / omega, rel=1e-15)
     quarter_turn = exact_period(pendulum, accel, math.pi / 2)
     assert quarter_turn == pytest.approx(4 * 1.854074677301372 / omega, rel=1e-14)
@@ -354,6 +357,8 @@ def test_exact_period_known_values() -> None:
     period = exact_period(pendulum, accel, amp)
     theta0 = pendulum.equilibrium_angle(accel) + amp
     theta, _ = exact_solution(pendulum, accel, theta0, 0.0, [0.5 * period, period])
+    # back to θ0 after one period of A = 2.7 rad: the period's few-ulp rounding is amplified by 1/m₁ ≈ 20
+    # (m₁ = cos²(A/2) ≈ 0.05, near the separatrix), ~1e-14 rad; 1e-12 leaves it 100×
     assert theta[1] == pytest.approx(theta0, abs=1e-12)
     assert theta[0] == pytest.approx(theta0 - 2 * amp, abs=1e-12)  # turning point on the other side
     assert libration_amplitude(pendulum, accel, theta0, 0.0) == pytest.approx(amp, abs=1e-14)

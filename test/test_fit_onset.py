@@ -59,6 +59,7 @@ def test_a_ramp_in_a_swing_gives_back_its_rate_age_and_the_fits_error() -> None:
     h = float(basis.response[m])
     # ω rounded to 1e-3 for the basis: the shape differs by that much, the fitted rate by less.
     assert found[0] == pytest.approx(1.5 * h, rel=1e-3)
+    # the same closed-form variance, a few products and one quotient both ways: ~10 ε relative
     assert found[1] == pytest.approx((LENGTH / cos_th * SIGMA * h) ** 2 / float(basis.energy[m]), rel=1e-12)
     # The fit's error is the ramp missing from its centre: at 0.3 s, about −j × 0.3 s.
     assert -0.3 * 1.5 * 1.1 < found[0] < -0.3 * 1.5 * 0.8

@@ -50,6 +50,8 @@ def test_level_equivalent_is_the_tilted_gravity_equation() -> None:
             q, prof = level_equivalent(p, Constant(a), beta)
             for th in rng.uniform(-3.0, 3.0, 5):
                 got = float(theta_ddot(q, th, 0.0, prof.scalar(0.0)))
+                # level equivalent (g cos β, a + g sin β) against the tilted-frame formula: ~10 roundings
+                # and 4 libm calls on terms ≤ g + |a| ≈ 14 m/s², ≈ 1e-14; 1e-12 is 100× that
                 assert got == pytest.approx(reference_theta_ddot(G, 0.7, beta, a, th), rel=1e-12, abs=1e-12)
 
 
@@ -122,6 +124,7 @@ def test_energy_is_conserved_on_a_grade() -> None:
     assert np.max(np.abs(e - e[0])) < 1e-9
     tq = tension(q, traj.theta, traj.theta_dot, prof(t))
     assert traj.tension is not None
+    # the same tension formula on the same θ, θ' (numpy inside simulate, numpy here): a few ulp of T
     np.testing.assert_allclose(traj.tension, tq, rtol=1e-12)
 
 
@@ -137,6 +140,7 @@ def test_compiled_kernels_take_the_grade(profile: Constant | Step | Sinusoid) ->
     compiled = simulate(q, prof, t, theta0=0.3, model="rigid", method="rk8", dt=2e-3)
     reference = simulate(q, prof, t, theta0=0.3, model="rigid", method="DOP853", rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(compiled.theta, reference.theta, atol=1e-9)
+    # a(t) + g sin β evaluated twice from the same floats (≤ 2 roundings of |a| + g ≈ 12: 5e-15)
     np.testing.assert_allclose(compiled.accel, profile(t) + G * math.sin(-0.2), atol=1e-12)
 
 

@@ -36,6 +36,7 @@ def test_equilibrium_is_still_with_tension_m_geff(length, g, a, m):
     tr = simulate(p, ConstantAccel(a), t, theta0=theta_eq)
     assert np.max(np.abs(tr.theta - theta_eq)) < 1e-10
     assert tr.tension is not None
+    # at θ_eq within 1e-10 rad: T = m(g cos θ + a sin θ + l θ'²) moves by ≤ m √(g² + a²)·1e-10 (rel 1e-10)
     np.testing.assert_allclose(tr.tension, m * math.hypot(g, a), rtol=1e-10)
 
 

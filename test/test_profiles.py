@@ -119,6 +119,8 @@ def test_scalar_accel_matches_profile(profile):
     f = scalar_accel(profile, 0.0, 4.0)
     t = np.linspace(0.01, 3.99, 397)
     t = t[np.min(np.abs(t[:, None] - np.array([*profile.breakpoints(), 1e9])[None, :]), axis=1) > 1e-9]
+    # the same piece formulas, scalar (math) against vectorised (numpy): ≤ 2 ulp of |a| ≤ 3 m/s²
+    # (8.9e-16), the constant pieces exact
     np.testing.assert_allclose([f(x) for x in t], profile(t), rtol=0, atol=1e-15)
 
 

@@ -1,4 +1,4 @@
-"""Fast start-up: ``pendulum-accel --version`` and ``--help`` import none of the expensive libraries.
+"""Fast start-up: --version, --help and every command's and node's --help import no costly library.
 
 Checked by what they import (sys.modules in a fresh interpreter), never by a time: the figures
 (benchmarks, docs/portability.md) depend on the machine, the imports do not.
@@ -15,6 +15,7 @@ import pytest
 
 from pendulum_accel import __version__
 from pendulum_accel.cli.main import COMMANDS, build_parser
+from pendulum_accel.nodes.node_help import NODE_MODULES
 
 # numpy alone is the yardstick (--version ≤ 3 × `import numpy`); these each cost as much again or more.
 EXPENSIVE = ("numpy", "scipy", "numba", "llvmlite", "matplotlib", "pandas", "pyarrow", "rosbags", "mcap",
@@ -50,6 +51,40 @@ def test_version_and_help_import_nothing_expensive(args: tuple[str, ...]) -> Non
         assert code == 0 and out.strip() == f"pendulum-accel {__version__}"
     else:
         assert all(name in out for name in COMMANDS)
+
+
+# A command's or node's --help may read the tables it prints from (numpy; rosbags' message types for the
+# bag commands and the nodes), but none of the libraries only its work needs.
+WORK_ONLY = ("scipy", "numba", "llvmlite", "matplotlib", "pandas", "pyarrow", "allantools", "mpmath", "rclpy")
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_each_command_help_imports_no_work_library(command: str) -> None:
+    """`pendulum-accel COMMAND --help` prints its usage (exit 0) without scipy, numba, matplotlib …"""
+    code, out, modules = _imports_of(command, "--help")
+    assert code == 0 and out.startswith(f"usage: pendulum-accel {command}")
+    assert sorted(modules & set(WORK_ONLY)) == []
+
+
+_NODE_PROBE = """
+import contextlib, io, json, sys
+from pendulum_accel.nodes import node_help
+out = io.StringIO()
+with contextlib.redirect_stdout(out):
+    code = node_help.console_main(sys.argv[1], ["--help"])
+modules = sorted({m.split(".")[0] for m in sys.modules})
+print(json.dumps({"code": code, "out": out.getvalue(), "modules": modules}))
+"""
+
+
+@pytest.mark.parametrize("node", sorted(NODE_MODULES))
+def test_each_node_help_imports_no_work_library(node: str) -> None:
+    """A node's --help prints its parameters (exit 0) without scipy, numba, matplotlib or rclpy."""
+    probe = [sys.executable, "-c", _NODE_PROBE, node]
+    done = subprocess.run(probe, capture_output=True, text=True, timeout=60)
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert report["code"] == 0 and report["out"].startswith(f"usage: {node}")
+    assert sorted(set(report["modules"]) & set(WORK_ONLY)) == []
 
 
 def test_summaries_are_the_commands_own_help() -> None:

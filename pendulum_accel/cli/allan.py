@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from pendulum_accel.allan import AllanResult, allan_deviation, bag_series, plot_allan, scene_series
 from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 from pendulum_accel.errors import ParameterError
+
+if TYPE_CHECKING:
+    from pendulum_accel.allan import AllanResult
 
 ESTIMATE_FIT_FROM = 5.0  # s: past the default kalman's quiet-mode memory (3.3 s for the lecture scene)
 DEFAULT_DURATION = 3600.0  # s of a generated static run: enough clusters to read the walk out to ~400 s
@@ -55,6 +57,8 @@ def _is_bag(source: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Print σ(τ) figures for the angle and the estimate; plot them when asked."""
+    from pendulum_accel.allan import allan_deviation, bag_series, plot_allan, scene_series
+
     plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     bag = read_intact(args.source, args.salvage) if _is_bag(args.source) else None
     series = bag_series(bag) if bag is not None else scene_series(args.source, args.duration, args.estimator)

@@ -37,10 +37,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import elliprf
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.physics.lazy import lazy_module
 from pendulum_accel.physics.params import Pendulum, require_finite
+
+special = lazy_module("scipy.special")  # imported on first use: start-up (docs/portability.md)
 
 FloatArray = NDArray[np.float64]
 
@@ -100,13 +102,13 @@ class OrbitStart:
 
 def complete_k(m1: float) -> float:
     """K(m) = R_F(0, m1, 1), from the complementary parameter m1 = 1 - m > 0."""
-    return float(elliprf(0.0, m1, 1.0))
+    return float(special.elliprf(0.0, m1, 1.0))
 
 
 def incomplete_f(sin_psi: float, cos_psi: float, m: float, m1: float) -> float:
     """F(ψ | m) = sin ψ · R_F(cos²ψ, cos²ψ + m1 sin²ψ, 1) for |ψ| ≤ π/2 (cos ψ ≥ 0)."""
     c2 = cos_psi * cos_psi
-    return sin_psi * float(elliprf(c2, c2 + m1 * sin_psi * sin_psi, 1.0))
+    return sin_psi * float(special.elliprf(c2, c2 + m1 * sin_psi * sin_psi, 1.0))
 
 
 def _jacobi_half_quarter(v: FloatArray, m: float, m1: float) -> tuple[FloatArray, FloatArray, FloatArray]:
