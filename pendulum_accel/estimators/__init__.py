@@ -22,15 +22,26 @@ from pendulum_accel.estimators.base import (
 )
 from pendulum_accel.estimators.dynamic import DynamicEstimator
 from pendulum_accel.estimators.instant import InstantEstimator
-from pendulum_accel.estimators.kalman import KalmanEstimator
+from pendulum_accel.estimators.kalman import KalmanEstimator, SmootherEstimator
 from pendulum_accel.estimators.lowpass import LowpassEstimator
 from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY
 
 ESTIMATORS: Mapping[str, type[Estimator]] = {
     cls.name: cls
-    for cls in (InstantEstimator, PeriodMeanEstimator, LowpassEstimator, DynamicEstimator, KalmanEstimator)
+    for cls in (
+        InstantEstimator,
+        PeriodMeanEstimator,
+        LowpassEstimator,
+        DynamicEstimator,
+        KalmanEstimator,
+        SmootherEstimator,
+    )
 }
+# What a live node can run: every estimator but the offline-only ones (the smoother needs the whole bag).
+LIVE_ESTIMATORS: tuple[str, ...] = tuple(
+    name for name, cls in ESTIMATORS.items() if not getattr(cls, "offline_only", False)
+)
 # Best accuracy/latency trade in ``python -m benchmarks.estimators`` (see the README).
 DEFAULT_ESTIMATOR = "kalman"
 
@@ -96,6 +107,7 @@ __all__ = [
     "BIAS_FIELDS",
     "DEFAULT_ESTIMATOR",
     "ESTIMATORS",
+    "LIVE_ESTIMATORS",
     "Estimate",
     "Estimator",
     "EstimatorConfig",

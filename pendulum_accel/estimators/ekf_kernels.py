@@ -1,0 +1,356 @@
+"""Compiled (numba) passes of the pendulum EKF on x = [θ, θ', a]: filter, fixed-lag smoother, RTS smoother.
+
+Model (physics.rigid.theta_ddot written out in scalar form, as in physics.kernels):
+
+    θ'' = (a cos θ − g sin θ)/l − c θ',   a' = w_a, E[w_a w_a] = q_a δ (a random walk of a),
+    θ''' noise: E[w_ω w_ω] = q_ω δ on θ' (unmodelled torque),   y = θ + v, E[v²] = r.
+
+Prediction over Δt: sub-steps h ≤ ``MAX_STEP``; per sub-step x ← one classic RK4 step with a held,
+F_h = I + J h + J² h²/2 (J the Jacobian at the prior state), P ← F_h P F_hᵀ + Q_h with Q_h the
+integrated random walk of a through θ'' ≈ j₁₂ a (j₁₂ = cos θ / l): q_a [h⁵j²/20, h⁴j²/8, h³j/6; ·, h³j²/3,
+h²j/2; ·, ·, h] plus q_ω h on θ'θ'. The transition kept for the smoothers is the product of the F_h.
+
+Fixed-lag smoothing (Anderson & Moore's augmented state, for a only): for every buffered sample i ≤ k
+the pass keeps â_{i|k}, its variance and the cross-covariance row c_i = Cov(a_i, x_k | y_{..k}).
+A measurement with innovation ν, S = P⁻₀₀ + r, gain K moves â_i by c_i[0] ν/S and its variance by
+−c_i[0]²/S, then c_i ← c_i − c_i[0] K; a prediction maps c_i ← F c_i. One pass gives every lag at once
+(O(N) per sample for a lag of N samples). The RTS pass is the fixed-interval limit.
+
+The first call compiles (≈ 20 s) into numba's on-disk cache beside this file (``make setup`` warms it:
+``python -m pendulum_accel.estimators.ekf_kernels``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+MAX_STEP = 0.01  # s; longer intervals are propagated in sub-steps so RK4 and F stay accurate
+
+
+@njit(cache=True, inline="always")
+def _accel(th: float, om: float, ac: float, g: float, linv: float, c: float) -> float:
+    """θ'' = (a cos θ − g sin θ)/l − c θ'."""
+    return (ac * math.cos(th) - g * math.sin(th)) * linv - c * om
+
+
+@njit(cache=True)
+def predict(
+    x: np.ndarray,
+    p: np.ndarray,
+    f: np.ndarray,
+    dt: float,
+    g: float,
+    linv: float,
+    c: float,
+    q_rate: float,
+    q_accel: float,
+) -> None:
+    """In place: x ← RK4 sub-steps (a held), P ← F_h P F_hᵀ + Q_h per sub-step, f ← Π F_h (module doc)."""
+    steps = max(1, math.ceil(dt / MAX_STEP))
+    h = dt / steps
+    fh = np.empty((3, 3))
+    tmp = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            f[i, j] = 1.0 if i == j else 0.0
+    for _ in range(steps):
+        th, om, ac = x[0], x[1], x[2]
+        cos_th, sin_th = math.cos(th), math.sin(th)
+        j10 = -(g * cos_th + ac * sin_th) * linv
+        j12 = cos_th * linv
+        h2 = 0.5 * h * h
+        fh[0, 0], fh[0, 1], fh[0, 2] = 1.0 + j10 * h2, h - c * h2, j12 * h2
+        fh[1, 0] = j10 * h - c * j10 * h2
+        fh[1, 1] = 1.0 - c * h + (j10 + c * c) * h2
+        fh[1, 2] = j12 * h - c * j12 * h2
+        fh[2, 0], fh[2, 1], fh[2, 2] = 0.0, 0.0, 1.0
+        half = 0.5 * h
+        w1 = _accel(th, om, ac, g, linv, c)
+        th2, om2 = th + half * om, om + half * w1
+        w2 = _accel(th2, om2, ac, g, linv, c)
+        th3, om3 = th + half * om2, om + half * w2
+        w3 = _accel(th3, om3, ac, g, linv, c)
+        th4, om4 = th + h * om3, om + h * w3
+        w4 = _accel(th4, om4, ac, g, linv, c)
+        sixth = h / 6.0
+        x[0] = th + sixth * (om + 2.0 * om2 + 2.0 * om3 + om4)
+        x[1] = om + sixth * (w1 + 2.0 * w2 + 2.0 * w3 + w4)
+        # P ← F_h P F_hᵀ
+        for i in range(3):
+            for j in range(3):
+                tmp[i, j] = fh[i, 0] * p[0, j] + fh[i, 1] * p[1, j] + fh[i, 2] * p[2, j]
+        for i in range(3):
+            for j in range(3):
+                p[i, j] = tmp[i, 0] * fh[j, 0] + tmp[i, 1] * fh[j, 1] + tmp[i, 2] * fh[j, 2]
+        # + Q_h: the random walk of a integrated through θ'' ≈ j₁₂ a, and q_ω on θ'.
+        qa = q_accel
+        h3 = h * h * h
+        p[0, 0] += qa * j12 * j12 * h3 * h * h / 20.0
+        p[0, 1] += qa * j12 * j12 * h3 * h / 8.0
+        p[0, 2] += qa * j12 * h3 / 6.0
+        p[1, 1] += qa * j12 * j12 * h3 / 3.0 + q_rate * h
+        p[1, 2] += qa * j12 * h * h / 2.0
+        p[2, 2] += qa * h
+        p[1, 0], p[2, 0], p[2, 1] = p[0, 1], p[0, 2], p[1, 2]
+        # f ← F_h f
+        for i in range(3):
+            for j in range(3):
+                tmp[i, j] = fh[i, 0] * f[0, j] + fh[i, 1] * f[1, j] + fh[i, 2] * f[2, j]
+        f[:, :] = tmp
+
+
+@njit(cache=True)
+def correct(x: np.ndarray, p: np.ndarray, k: np.ndarray, y: float, r: float) -> tuple[float, float]:
+    """In place: K = P Hᵀ/S, x ← x + K ν, P ← P − K Kᵀ S (H = [1, 0, 0], S = P₀₀ + r); returns (ν, S)."""
+    s = p[0, 0] + r
+    nu = y - x[0]
+    for i in range(3):
+        k[i] = p[i, 0] / s
+    for i in range(3):
+        x[i] += k[i] * nu
+    for i in range(3):
+        for j in range(3):
+            p[i, j] -= k[i] * k[j] * s
+    return nu, s
+
+
+@njit(cache=True)
+def initialise(
+    x: np.ndarray, p: np.ndarray, y: float, g: float, length: float, r: float, clamp: float, amp: float
+) -> None:
+    """x = [θ, 0, g tan θ_c]; P = diag(r, (ω₀ A)², (g sec²θ_c A)²), θ_c = θ clipped to ±clamp, A = amp."""
+    th = min(max(y, -clamp), clamp)
+    x[0], x[1], x[2] = y, 0.0, g * math.tan(th)
+    for i in range(3):
+        for j in range(3):
+            p[i, j] = 0.0
+    cos_th = math.cos(th)
+    p[0, 0] = r
+    p[1, 1] = (math.sqrt(g / length) * amp) ** 2
+    p[2, 2] = (g / (cos_th * cos_th) * amp) ** 2
+
+
+@njit(cache=True)
+def _finite(x: np.ndarray, p: np.ndarray) -> bool:
+    """True when every entry of x and P is finite."""
+    total = 0.0
+    for i in range(3):
+        total += x[i]
+        for j in range(3):
+            total += p[i, j]
+    return math.isfinite(total)
+
+
+@njit(cache=True)
+def step(
+    x: np.ndarray,
+    p: np.ndarray,
+    f: np.ndarray,
+    k: np.ndarray,
+    prior_x: np.ndarray,
+    prior_p: np.ndarray,
+    ring_a: np.ndarray,
+    ring_v: np.ndarray,
+    ring_c: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+) -> bool:
+    """One sample into the filter and the fixed-lag buffer; True when the filter (re)started here.
+
+    ``state`` = [last t (NaN before the first sample), samples in the current segment]; ``params`` =
+    [g, l, c, r, q_ω, q_a, reset_gap, clamp, init amplitude]. The buffer (size N + 1) holds â, var and
+    c for the last N + 1 samples, sample i at slot i mod (N + 1); a restart empties it (state[1] = 1).
+    The prior x⁻, P⁻ of the sample is left in prior_x, prior_p and the transition from the last in f.
+    """
+    g, length, c, r = params[0], params[1], params[2], params[3]
+    q_rate, q_accel, reset_gap, clamp, amp = params[4], params[5], params[6], params[7], params[8]
+    size = ring_a.size
+    last_t = state[0]
+    if needs_restart(state, t, reset_gap):
+        _start(x, p, f, prior_x, prior_p, ring_a, ring_v, ring_c, state, t, y, params)
+        return True
+    predict(x, p, f, t - last_t, g, 1.0 / length, c, q_rate, q_accel)
+    prior_x[:] = x
+    prior_p[:, :] = p
+    count = int(state[1])
+    held = min(count, size - 1)
+    # Cross-covariances of the buffered a's with the new state: c ← F c.
+    for j in range(1, held + 1):
+        slot = (count - j) % size
+        c0, c1, c2 = ring_c[slot, 0], ring_c[slot, 1], ring_c[slot, 2]
+        for i in range(3):
+            ring_c[slot, i] = f[i, 0] * c0 + f[i, 1] * c1 + f[i, 2] * c2
+    slot = count % size
+    ring_a[slot], ring_v[slot] = x[2], p[2, 2]
+    for i in range(3):
+        ring_c[slot, i] = p[2, i]
+    nu, s = correct(x, p, k, y, r)
+    for j in range(0, held + 1):
+        slot = (count - j) % size
+        c0 = ring_c[slot, 0]
+        ring_a[slot] += c0 * nu / s
+        ring_v[slot] -= c0 * c0 / s
+        for i in range(3):
+            ring_c[slot, i] -= c0 * k[i]
+    if _finite(x, p):
+        state[0], state[1] = t, count + 1
+        return False
+    # A diverged filter restarts rather than publish inf/NaN.
+    _start(x, p, f, prior_x, prior_p, ring_a, ring_v, ring_c, state, t, y, params)
+    return True
+
+
+@njit(cache=True)
+def needs_restart(state: np.ndarray, t: float, reset_gap: float) -> bool:
+    """True before the first sample and after a gap longer than reset_gap."""
+    last_t = state[0]
+    return not (last_t == last_t) or t - last_t > reset_gap
+
+
+@njit(cache=True)
+def _start(
+    x: np.ndarray,
+    p: np.ndarray,
+    f: np.ndarray,
+    prior_x: np.ndarray,
+    prior_p: np.ndarray,
+    ring_a: np.ndarray,
+    ring_v: np.ndarray,
+    ring_c: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+) -> None:
+    """Initialise the filter from y (``initialise``) and the buffer with it as sample 0 of a segment."""
+    initialise(x, p, y, params[0], params[1], params[3], params[7], params[8])
+    prior_x[:] = x
+    prior_p[:, :] = p
+    for i in range(3):
+        for j in range(3):
+            f[i, j] = 1.0 if i == j else 0.0
+    ring_a[0], ring_v[0] = x[2], p[2, 2]
+    for i in range(3):
+        ring_c[0, i] = p[2, i]
+    state[0], state[1] = t, 1.0
+
+
+@njit(cache=True)
+def _flush(
+    out_a: np.ndarray,
+    out_v: np.ndarray,
+    ring_a: np.ndarray,
+    ring_v: np.ndarray,
+    last: int,
+    count: int,
+    lags: np.ndarray,
+) -> None:
+    """At a segment's end (sample ``last``): samples whose lag reaches past it get their latest â, var."""
+    size = ring_a.size
+    for j in range(min(count, size)):
+        slot = (count - 1 - j) % size
+        for m in range(lags.size):
+            if lags[m] > j:
+                out_a[last - j, m] = ring_a[slot]
+                out_v[last - j, m] = ring_v[slot]
+
+
+@njit(cache=True)
+def run_pass(
+    t: np.ndarray, y: np.ndarray, params: np.ndarray, lags: np.ndarray, keep: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Filter and fixed-lag pass over a recording (``step`` per sample).
+
+    Returns (â_lag, var_lag) of shape (n, len(lags)): column m holds â_{i | i + lags[m]}, aligned to the
+    sample i it describes (NaN where a divergence restart lost it; the last lags[m] samples of a segment
+    use all the data there is), and, when ``keep``, what the RTS pass needs: priors x⁻, P⁻, posteriors
+    x⁺, P⁺, transitions F (from the previous sample) and the restart flags.
+    """
+    n = t.size
+    size = int(lags.max()) + 1 if lags.size else 1
+    out_a = np.full((n, lags.size), np.nan)
+    out_v = np.full((n, lags.size), np.nan)
+    m_keep = n if keep else 0
+    xpr = np.empty((m_keep, 3))
+    ppr = np.empty((m_keep, 3, 3))
+    xpo = np.empty((m_keep, 3))
+    ppo = np.empty((m_keep, 3, 3))
+    fk = np.empty((m_keep, 3, 3))
+    starts = np.zeros(m_keep, dtype=np.bool_)
+    x = np.zeros(3)
+    p = np.zeros((3, 3))
+    f = np.eye(3)
+    k = np.zeros(3)
+    prior_x = np.zeros(3)
+    prior_p = np.zeros((3, 3))
+    ring_a = np.zeros(size)
+    ring_v = np.zeros(size)
+    ring_c = np.zeros((size, 3))
+    state = np.array([np.nan, 0.0])
+    reset_gap = params[6]
+    for i in range(n):
+        if i > 0 and needs_restart(state, t[i], reset_gap):
+            _flush(out_a, out_v, ring_a, ring_v, i - 1, int(state[1]), lags)
+        restarted = step(x, p, f, k, prior_x, prior_p, ring_a, ring_v, ring_c, state, t[i], y[i], params)
+        if keep:
+            starts[i] = restarted
+            xpo[i] = x
+            ppo[i] = p
+            fk[i] = f
+            xpr[i] = prior_x
+            ppr[i] = prior_p
+        count = int(state[1])
+        for m in range(lags.size):
+            lag = lags[m]
+            if lag < count:
+                slot = (count - 1 - lag) % size
+                out_a[i - lag, m] = ring_a[slot]
+                out_v[i - lag, m] = ring_v[slot]
+    _flush(out_a, out_v, ring_a, ring_v, n - 1, int(state[1]), lags)
+    return out_a, out_v, xpr, ppr, xpo, ppo, fk, starts
+
+
+@njit(cache=True)
+def _inverse3(m: np.ndarray) -> np.ndarray:
+    """M⁻¹ of a 3×3 matrix by cofactors (adjugate / determinant)."""
+    inv = np.empty((3, 3))
+    inv[0, 0] = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
+    inv[0, 1] = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
+    inv[0, 2] = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
+    inv[1, 0] = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
+    inv[1, 1] = m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]
+    inv[1, 2] = m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]
+    inv[2, 0] = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
+    inv[2, 1] = m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
+    inv[2, 2] = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+    det = m[0, 0] * inv[0, 0] + m[0, 1] * inv[1, 0] + m[0, 2] * inv[2, 0]
+    return inv / det
+
+
+@njit(cache=True)
+def rts(
+    xpr: np.ndarray, ppr: np.ndarray, xpo: np.ndarray, ppo: np.ndarray, fk: np.ndarray, starts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rauch-Tung-Striebel pass, per segment: G = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹,
+    xˢ_k = x⁺_k + G (xˢ_{k+1} − x⁻_{k+1}), Pˢ_k = P⁺_k + G (Pˢ_{k+1} − P⁻_{k+1}) Gᵀ; returns (âˢ, var âˢ)."""
+    n = xpo.shape[0]
+    a = np.empty(n)
+    v = np.empty(n)
+    xs = np.zeros(3)
+    ps = np.zeros((3, 3))
+    for k in range(n - 1, -1, -1):
+        if k == n - 1 or starts[k + 1]:
+            xs[:] = xpo[k]
+            ps[:, :] = ppo[k]
+        else:
+            g = ppo[k] @ fk[k + 1].T @ _inverse3(ppr[k + 1])
+            xs = xpo[k] + g @ (xs - xpr[k + 1])
+            ps = ppo[k] + g @ (ps - ppr[k + 1]) @ g.T
+        a[k] = xs[2]
+        v[k] = ps[2, 2]
+    return a, v
