@@ -8,6 +8,10 @@ from typing import Any
 
 from pendulum_accel.bag.export import FORMATS, export_bag
 from pendulum_accel.bag.reader import read_bag, salvage_note
+from pendulum_accel.recording.analyze import smoothed_estimate
+
+SMOOTHED = "/car/accel/smoothed"
+"""Name of the derived smoother series (not a topic in the bag): columns a and variance."""
 
 
 def register(subparsers: Any) -> None:
@@ -26,13 +30,23 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--format", choices=FORMATS, default="csv", help="file format (default csv)")
     parser.add_argument("--merged", action="store_true", help="one table on the angle's stamps")
     parser.add_argument("--topics", nargs="+", default=[], metavar="TOPIC", help="only these topics")
+    parser.add_argument(
+        "--no-smoothed",
+        action="store_true",
+        help=f"leave out {SMOOTHED}/a and /variance, the RTS smoother's acceleration over the whole bag "
+        "(written by default when the bag stores its scene)",
+    )
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Write the tables and list them; a damaged bag is exported up to the damage, with a warning, exit 1."""
     bag = read_bag(args.bag)
-    for path in export_bag(bag, args.out, fmt=args.format, merged=args.merged, topics=args.topics):
+    smoothed = None if args.no_smoothed else smoothed_estimate(bag)
+    derived = {} if smoothed is None else {SMOOTHED: smoothed}
+    for path in export_bag(
+        bag, args.out, fmt=args.format, merged=args.merged, topics=args.topics, derived=derived
+    ):
         print(path)
     note = salvage_note(bag)
     if note is not None:

@@ -222,7 +222,9 @@ class KalmanEstimator(Estimator):
         t, theta = check_batch_input(t, theta)
         if t.size == 0:
             return np.empty(0), np.empty(0)
-        _, _, xpr, ppr, xpo, ppo, fk, starts = kern.run_pass(t, theta, self._params, np.zeros(1, np.int64), True)
+        _, _, xpr, ppr, xpo, ppo, fk, starts = kern.run_pass(
+            t, theta, self._params, np.zeros(1, np.int64), True
+        )
         a, var = kern.rts(xpr, ppr, xpo, ppo, fk, starts)
         return self._publish(t, a, var)
 
