@@ -15,7 +15,17 @@ setup(
     name=PACKAGE,
     version=VERSION,
     packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
-    package_data={PACKAGE: ["scenes/*.yaml", "scenes/*.csv", "nodes/*.xml", "py.typed"]},
+    package_data={
+        PACKAGE: [
+            "scenes/*.yaml",
+            "scenes/*.csv",
+            # Recorded motion (drive cycles, a robot's odometry) with its provenance and licences.
+            "scenes/real_motion/*.csv",
+            "scenes/real_motion/*.md",
+            "nodes/*.xml",
+            "py.typed",
+        ]
+    },
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
@@ -28,6 +38,11 @@ setup(
         (
             f"share/{PACKAGE}/scenes",
             sorted(glob(f"{PACKAGE}/scenes/*.yaml") + glob(f"{PACKAGE}/scenes/*.csv")),
+        ),
+        # The scenes' relative paths (real_motion/udds.csv) resolve in share/ as in the package.
+        (
+            f"share/{PACKAGE}/scenes/real_motion",
+            sorted(glob(f"{PACKAGE}/scenes/real_motion/*.csv") + glob(f"{PACKAGE}/scenes/real_motion/*.md")),
         ),
     ],
     # ROS 2 (rclpy and message packages) is deliberately absent: it comes from

@@ -15,7 +15,8 @@ File layout (every key is checked; unknown keys are errors so a typo never passe
       theta0: 0.0                   # rad (optional, 0)
       theta_dot0: 0.0               # rad/s (optional, 0)
       stiffness: 1.0e5              # N/m, > 0 (optional; the elastic string's k)
-    acceleration: {type: constant, a: 2.0}   # any physics.profiles type; csv paths are relative to this file
+    acceleration: {type: constant, a: 2.0}   # any physics.profiles type; file paths (csv, speed_csv,
+                                             # bag_topic) are relative to this file
     sensor:
       rate_hz: 100                  # Hz, > 0
       noise_std: 1.0e-3             # rad per sample, >= 0 (optional, 0; Gazebo stddev)
@@ -77,6 +78,22 @@ SCENE_NAMES: tuple[str, ...] = (
     "hill",
     "resonant_drive",
 )
+"""The core scenes: seconds long, each run in full by the golden bags and the per-scene tests."""
+REAL_MOTION_SCENE_NAMES: tuple[str, ...] = (
+    "udds",
+    "hwfet",
+    "ftp75",
+    "husky_odom",
+    "udds_teaching",
+    "hwfet_teaching",
+    "ftp75_teaching",
+    "husky_odom_teaching",
+)
+"""Recorded motion (drive cycles, a robot's odometry; docs/real_motion.md): minutes long, so kept out of
+the loops that run every core scene in full. Each comes in the short damped design and in the 1 m
+teaching design (``*_teaching``)."""
+BUNDLED_SCENE_NAMES: tuple[str, ...] = SCENE_NAMES + REAL_MOTION_SCENE_NAMES
+"""Every scene file shipped in scenes/, as ``pendulum-accel scenes`` lists them."""
 DEFAULT_SCENE = "lecture_constant"
 OUTPUTS: tuple[str, ...] = ("angle", "tension", "stretch")
 _NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
@@ -425,9 +442,9 @@ def scene_path(name_or_path: str | Path) -> Path:
         or Path(text).is_file()
     ):
         return Path(name_or_path)
-    if text not in SCENE_NAMES and not (SCENES_DIR / f"{text}.yaml").is_file():
+    if text not in BUNDLED_SCENE_NAMES and not (SCENES_DIR / f"{text}.yaml").is_file():
         raise SceneError(
-            f"no bundled scene named {text!r}; choose one of {', '.join(SCENE_NAMES)} or give a path"
+            f"no bundled scene named {text!r}; choose one of {', '.join(BUNDLED_SCENE_NAMES)} or give a path"
         )
     return SCENES_DIR / f"{text}.yaml"
 
@@ -450,7 +467,7 @@ def load_scene(name_or_path: str | Path) -> Scene:
 def _named_after_copy(scene: Scene, path: Path) -> Scene:
     """``scene`` renamed after its file's stem when it keeps a bundled name but is not that bundled file."""
     bundled = SCENES_DIR / f"{scene.name}.yaml"
-    if scene.name not in SCENE_NAMES or path.resolve() == bundled.resolve():
+    if scene.name not in BUNDLED_SCENE_NAMES or path.resolve() == bundled.resolve():
         return scene
     stem = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem) or "scene"
     if stem == scene.name:
@@ -466,9 +483,9 @@ def _with_source(scene: Scene, path: Path) -> Scene:
     return replace(scene, source=path)
 
 
-def list_scenes() -> tuple[Scene, ...]:
-    """Every bundled scene, in SCENE_NAMES order."""
-    return tuple(load_scene(name) for name in SCENE_NAMES)
+def list_scenes(names: tuple[str, ...] = SCENE_NAMES) -> tuple[Scene, ...]:
+    """The bundled scenes ``names`` (default: the core SCENE_NAMES), in that order."""
+    return tuple(load_scene(name) for name in names)
 
 
 def scene_to_dict(scene: Scene) -> dict[str, Any]:

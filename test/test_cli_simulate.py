@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from pendulum_accel.cli.main import main
-from pendulum_accel.scene import SCENE_NAMES, load_scene
+from pendulum_accel.scene import BUNDLED_SCENE_NAMES, SCENE_NAMES, load_scene
 from pendulum_accel.scene_run import run_scene
 
 REPO = Path(__file__).resolve().parent.parent
@@ -143,8 +143,8 @@ def test_scenes_lists_every_bundled_scene(capsys: pytest.CaptureFixture[str]) ->
     """`scenes`: one line per scene, name then description; `scenes NAME` prints YAML and the plan."""
     assert main(["scenes"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
-    assert [line.split()[0] for line in lines] == list(SCENE_NAMES)
-    for line, name in zip(lines, SCENE_NAMES, strict=True):
+    assert [line.split()[0] for line in lines] == list(BUNDLED_SCENE_NAMES)
+    for line, name in zip(lines, BUNDLED_SCENE_NAMES, strict=True):
         assert load_scene(name).description in line
     assert main(["scenes", "braking"]) == 0
     shown = capsys.readouterr()

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import pendulum_accel
-from pendulum_accel.scene import SCENE_NAMES
+from pendulum_accel.scene import BUNDLED_SCENE_NAMES
 from test.conftest import REPO
 
 NODES = ("pendulum_sim", "accel_estimator", "bag_recorder", "bag_player")
@@ -138,4 +138,7 @@ def test_colcon_build_installs_ros2_run_layout(tmp_path: Path) -> None:
     installed = list(prefix.glob("lib/python3*/site-packages/pendulum_accel"))
     assert len(installed) == 1, installed
     assert (installed[0] / "nodes" / "fastdds_profile.xml").is_file()
-    assert len(list((installed[0] / "scenes").glob("*.yaml"))) == len(SCENE_NAMES)
+    assert len(list((installed[0] / "scenes").glob("*.yaml"))) == len(BUNDLED_SCENE_NAMES)
+    # The recorded motion the real-motion scenes read, beside them as in the source tree.
+    assert (installed[0] / "scenes" / "real_motion" / "udds.csv").is_file()
+    assert (prefix / "share" / "pendulum_accel" / "scenes" / "real_motion" / "husky_odom.csv").is_file()

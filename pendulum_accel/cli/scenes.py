@@ -23,18 +23,28 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the table of bundled scenes, or one scene's YAML (stdout) and plan (stderr)."""
-    from pendulum_accel.scene import DEFAULT_SCENE, list_scenes, load_scene, scene_to_yaml
+    from pendulum_accel.scene import (
+        BUNDLED_SCENE_NAMES,
+        DEFAULT_SCENE,
+        list_scenes,
+        load_scene,
+        scene_to_yaml,
+    )
 
     if args.name is None:
-        scenes = list_scenes()
+        scenes = list_scenes(BUNDLED_SCENE_NAMES)
         width = max(len(s.name) for s in scenes)
         for scene in scenes:
             mark = " (default)" if scene.name == DEFAULT_SCENE else ""
-            print(f"{scene.name:<{width}}  {scene.description}{mark}")
+            origin = getattr(scene.profile, "origin", "")
+            print(f"{scene.name:<{width}}  {scene.description}{mark}" + (f" [{origin}]" if origin else ""))
         return 0
     from pendulum_accel.planner import plan_scene
 
     scene = load_scene(args.name)
     sys.stdout.write(scene_to_yaml(scene))
+    origin = getattr(scene.profile, "origin", "")
+    if origin:
+        print(f"acceleration: {origin}", file=sys.stderr)
     print(plan_scene(scene).explain(), file=sys.stderr)
     return 0

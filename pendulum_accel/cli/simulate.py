@@ -151,6 +151,9 @@ def run(args: argparse.Namespace) -> int:
             f"({scene.sensor.rate_hz:g} Hz); give at most {interval:g} s"
         )
     plan = plan_with(scene, model=args.model, method=args.method, dt=args.dt, rtol=args.rtol)
+    origin = getattr(scene.profile, "origin", "")
+    if origin:
+        print(f"acceleration: {origin}", file=sys.stderr)
     print(plan.explain(), file=sys.stderr)
     if plan.ill_conditioned and not args.accept_ill_conditioned:
         raise IllConditionedError(

@@ -260,10 +260,18 @@ class Sinusoid(AccelProfile):
 
 @dataclass(frozen=True)
 class Table(AccelProfile):
-    """a(t) piecewise linear through (times[i], accels[i]), flat beyond the first and last point."""
+    """a(t) piecewise linear through (times[i], accels[i]), flat beyond the first and last point.
+
+    A table derived from real motion (physics.speed_trace) carries ``origin``, one line saying where it
+    came from and how it was differentiated (for plan lines and listings), and ``recipe``, the
+    ``speed_table`` mapping it was built from, which ``to_dict`` returns instead of every sample. Neither
+    takes part in equality.
+    """
 
     times: tuple[float, ...]
     accels: tuple[float, ...]
+    origin: str = field(default="", compare=False)
+    recipe: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
     kind: ClassVar[str] = "table"
     _t: np.ndarray = field(init=False, repr=False, compare=False)
     _a: np.ndarray = field(init=False, repr=False, compare=False)
@@ -352,7 +360,9 @@ class Table(AccelProfile):
         return _split_constant(start, end, self.times, lambda s: float(self(s)))
 
     def to_dict(self) -> dict[str, Any]:
-        """{'type': 'table', 'times': [...], 'accels': [...]}."""
+        """{'type': 'table', 'times': [...], 'accels': [...]}, or the recipe of a derived table."""
+        if self.recipe is not None:
+            return dict(self.recipe)
         return {"type": self.kind, "times": list(self.times), "accels": list(self.accels)}
 
 
@@ -447,11 +457,19 @@ _FIELDS: dict[str, tuple[type[AccelProfile], tuple[str, ...], tuple[str, ...]]] 
     "table": (Table, ("times", "accels"), ()),
     "braking": (Braking, ("v0", "decel"), ("t_start",)),
     "csv": (Table, ("path",), ()),
+    # Real motion (physics.speed_trace, physics.bag_profile): each becomes a Table.
+    "speed_table": (Table, ("times", "speeds", "units"), ("cutoff_hz", "start", "end", "signed")),
+    "speed_csv": (
+        Table,
+        ("path", "units"),
+        ("time_column", "speed_column", "cutoff_hz", "start", "end", "signed"),
+    ),
+    "bag_topic": (Table, ("path", "topic"), ("cutoff_hz", "start", "end")),
 }
 PROFILE_TYPES: tuple[str, ...] = tuple(_FIELDS)
 
 
-def _number(kind: str, name: str, value: object) -> float:
+def field_number(kind: str, name: str, value: object) -> float:
     """float(value) for profile field ``name``, else ParameterError naming it."""
     if isinstance(value, bool) or not isinstance(value, int | float | str):
         raise ParameterError(f"{kind} profile field '{name}' must be a number, got {value!r}", path=name)
@@ -461,14 +479,32 @@ def _number(kind: str, name: str, value: object) -> float:
         raise ParameterError(str(err), path=name) from None
 
 
-def _numbers(kind: str, name: str, value: object) -> tuple[float, ...]:
+def field_path(kind: str, raw: object, base_dir: Path | None) -> Path:
+    """Profile field 'path' as a Path, relative ones under ``base_dir``; else ParameterError naming it."""
+    if not isinstance(raw, str | Path):
+        raise ParameterError(f"{kind} profile field 'path' must be a file path, got {raw!r}", path="path")
+    path = Path(raw)
+    if not path.is_absolute() and base_dir is not None:
+        path = Path(base_dir) / path
+    return path
+
+
+def field_text(kind: str, name: str, value: object, choices: Sequence[str] = ()) -> str:
+    """Profile field ``name`` as text (one of ``choices`` when given), else ParameterError naming it."""
+    if not isinstance(value, str) or (choices and value not in choices):
+        expected = f"one of {', '.join(choices)}" if choices else "text"
+        raise ParameterError(f"{kind} profile field '{name}' must be {expected}, got {value!r}", path=name)
+    return value
+
+
+def field_numbers(kind: str, name: str, value: object) -> tuple[float, ...]:
     """Tuple of floats for list field ``name``, else ParameterError naming it."""
     if isinstance(value, str | bytes) or not isinstance(value, Sequence):
         raise ParameterError(
             f"{kind} profile field '{name}' must be a list of numbers, got {value!r}", path=name
         )
     try:
-        return tuple(_number(kind, f"{name}[{i}]", v) for i, v in enumerate(value))
+        return tuple(field_number(kind, f"{name}[{i}]", v) for i, v in enumerate(value))
     except ParameterError as err:
         raise ParameterError(str(err), path=name) from None
 
@@ -494,17 +530,19 @@ def profile_from_dict(d: Mapping[str, object], base_dir: Path | None = None) -> 
     for name in required:
         if name not in d:
             raise ParameterError(f"{kind} profile is missing field '{name}'", path=name)
+    if kind in ("speed_table", "speed_csv"):
+        from pendulum_accel.physics.speed_trace import speed_profile  # it builds on Table
+
+        return speed_profile(d, base_dir)
+    if kind == "bag_topic":
+        from pendulum_accel.physics.bag_profile import bag_topic_profile  # reads bags with rosbags
+
+        return bag_topic_profile(d, base_dir)
     if kind == "csv":
-        raw = d["path"]
-        if not isinstance(raw, str | Path):
-            raise ParameterError(f"csv profile field 'path' must be a file path, got {raw!r}", path="path")
-        path = Path(raw)
-        if not path.is_absolute() and base_dir is not None:
-            path = Path(base_dir) / path
-        return Table.from_csv(path)
+        return Table.from_csv(field_path(kind, d["path"], base_dir))
     if kind == "table":
-        return Table(_numbers(kind, "times", d["times"]), _numbers(kind, "accels", d["accels"]))
-    kwargs = {name: _number(kind, name, d[name]) for name in required + optional if name in d}
+        return Table(field_numbers(kind, "times", d["times"]), field_numbers(kind, "accels", d["accels"]))
+    kwargs = {name: field_number(kind, name, d[name]) for name in required + optional if name in d}
     return cls(**kwargs)
 
 

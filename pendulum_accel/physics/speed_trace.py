@@ -1,0 +1,257 @@
+"""Speed traces v(t) → car acceleration a(t): checks, units, and the stated differentiation.
+
+A measured or scheduled speed is differentiated by a cubic smoothing spline (scipy's
+``make_smoothing_spline``), which minimises Σ (v_i − s(t_i))² + λ ∫ s''(t)² dt. On samples ``h`` apart
+it is, away from the ends, the zero-phase low-pass filter
+
+    H(f) = 1 / (1 + λ h (2π f)⁴),
+
+so a stated −3 dB cut-off f_c (H = 1/√2) sets λ = (√2 − 1) / (h (2π f_c)⁴). a(t) = s'(t) then has the
+gain 2π f · H(f) of a differentiator below f_c and falls as f⁻³ above it, which keeps the trace's
+quantisation (0.1 mph in the EPA schedules) from turning into acceleration noise. Unless a scene states
+``cutoff_hz``, f_c is half the trace's Nyquist frequency, 1 / (4 h).
+
+s'(t) is a quadratic spline; the profile is its samples joined linearly (a ``Table``), every ``h/2`` s
+or closer, so the simulator and the closed forms take it as any other table. The step is chosen from
+the largest |a''| so that the straight segments stay within ``TABLE_TOLERANCE`` of s'(t)
+(chord error ≤ Δ² max|a''| / 8).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import make_smoothing_spline
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.physics.profiles import Table, field_number, field_numbers, field_path, field_text
+from pendulum_accel.textfile import read_text_file
+
+SPEED_UNITS: dict[str, float] = {"m/s": 1.0, "km/h": 1.0 / 3.6, "mph": 0.44704}
+"""Metres per second in one unit of each accepted speed unit (1 mph = 0.44704 m/s exactly)."""
+
+MAX_GAP_STEPS = 5.0
+"""A step longer than this many median steps is a gap in the recording, refused: the spline would
+invent the motion across it."""
+
+TABLE_TOLERANCE = 2e-3
+"""m/s²: the most the piecewise-linear table may differ from the spline's derivative s'(t); a quarter of
+the ≈ 8 mm/s² that the EPA schedules' 0.1 mph rounding leaves in s'(t) at their 0.25 Hz cut-off."""
+
+TABLE_MIN_STEPS = 2
+"""At least this many table points per trace step h, whatever |a''| is."""
+
+
+def check_trace(
+    times: np.ndarray, values: np.ndarray, where: Callable[[int], str], *, name: str = "speed"
+) -> None:
+    """Raise ParameterError (one line, naming the row by ``where(i)``) unless the trace is usable.
+
+    Usable: at least 4 samples, every value finite, times strictly increasing, and no step longer
+    than ``MAX_GAP_STEPS`` × the median step.
+    """
+    if times.size != values.size:
+        raise ParameterError(f"{name} trace has {times.size} times but {values.size} values")
+    if times.size < 4:
+        raise ParameterError(f"{name} trace needs at least 4 samples to differentiate, got {times.size}")
+    for label, column in (("time", times), (name, values)):
+        bad = np.flatnonzero(~np.isfinite(column))
+        if bad.size:
+            raise ParameterError(f"{where(int(bad[0]))}: {label} is not a finite number ({column[bad[0]]!r})")
+    steps = np.diff(times)
+    back = np.flatnonzero(steps <= 0.0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise ParameterError(
+            f"{where(i)}: times must be strictly increasing, got {times[i]!r} after {times[i - 1]!r}"
+        )
+    median = float(np.median(steps))
+    gaps = np.flatnonzero(steps > MAX_GAP_STEPS * median)
+    if gaps.size:
+        i = int(gaps[0]) + 1
+        raise ParameterError(
+            f"{where(i)}: gap of {steps[i - 1]:.6g} s before this sample, more than {MAX_GAP_STEPS:g} × "
+            f"the median step {median:.6g} s"
+        )
+
+
+def median_step(times: np.ndarray) -> float:
+    """Median of t[i+1] − t[i], s."""
+    return float(np.median(np.diff(times)))
+
+
+def default_cutoff_hz(times: np.ndarray) -> float:
+    """f_c = 1 / (4 h), half the Nyquist frequency of samples a median step h apart."""
+    return 0.25 / median_step(times)
+
+
+def spline_lambda(cutoff_hz: float, step: float) -> float:
+    """λ = (√2 − 1) / (h (2π f_c)⁴): the smoothing spline's gain is 1/√2 (−3 dB) at f_c."""
+    return (math.sqrt(2.0) - 1.0) / (step * (2.0 * math.pi * cutoff_hz) ** 4)
+
+
+def differentiate(
+    times: np.ndarray,
+    speeds: np.ndarray,
+    cutoff_hz: float,
+    *,
+    start: float | None = None,
+    end: float | None = None,
+    origin: str = "",
+    recipe: Mapping[str, object] | None = None,
+) -> Table:
+    """a(t) = s'(t), s the smoothing spline of v (−3 dB at ``cutoff_hz``), as a Table from t = 0.
+
+    ``times`` are shifted so the first sample is t = 0; ``start``/``end`` (s, on that shifted axis)
+    keep a window, which then starts at t = 0 too. The spline is fitted to the whole trace, so a window
+    has no end effects of its own.
+    """
+    t = np.asarray(times, dtype=float) - float(times[0])
+    v = np.asarray(speeds, dtype=float)
+    step = median_step(t)
+    nyquist = 0.5 / step
+    if not (math.isfinite(cutoff_hz) and 0.0 < cutoff_hz <= nyquist):
+        raise ParameterError(
+            f"cutoff_hz must be > 0 and at most the trace's Nyquist frequency {nyquist:.6g} Hz, "
+            f"got {cutoff_hz!r}",
+            path="cutoff_hz",
+        )
+    lo = 0.0 if start is None else start
+    hi = float(t[-1]) if end is None else end
+    if not (0.0 <= lo < hi <= t[-1]):
+        raise ParameterError(
+            f"window start/end must satisfy 0 <= start < end <= {t[-1]:.6g} s (the trace's length), "
+            f"got start={lo!r}, end={hi!r}",
+            path="start" if not 0.0 <= lo < t[-1] else "end",
+        )
+    spline = make_smoothing_spline(t, v, lam=spline_lambda(cutoff_hz, step))
+    accel = spline.derivative(1)
+    jerk_rate = accel.derivative(2)  # a''(t), piecewise linear: its extremes are at the knots
+    curvature = float(np.max(np.abs(jerk_rate(t))))
+    table_step = step / TABLE_MIN_STEPS
+    if curvature > 0.0:
+        table_step = min(table_step, math.sqrt(8.0 * TABLE_TOLERANCE / curvature))
+    count = max(2, math.ceil((hi - lo) / table_step) + 1)
+    grid = np.linspace(lo, hi, count)
+    return Table(tuple((grid - lo).tolist()), tuple(accel(grid).tolist()), origin=origin, recipe=recipe)
+
+
+def describe_differentiation(cutoff_hz: float, step: float, default: bool) -> str:
+    """'smoothing spline, −3 dB cut-off f_c Hz (default: half the Nyquist of h = … s)' for plan lines."""
+    rule = f" (default: half the Nyquist of the {step:.3g} s samples)" if default else ""
+    return f"a = d/dt of a smoothing spline of v, -3 dB cut-off {cutoff_hz:.3g} Hz{rule}"
+
+
+def read_columns(
+    path: Path, time_column: str | None, value_column: str | None
+) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """(t, v, line numbers) from a CSV file: ``#`` comments and blank lines skipped.
+
+    A first row that is not all numbers is the header; the named columns are read from it (the first
+    and second column when unnamed). Every failure is one ParameterError naming file and line.
+    """
+    try:
+        text = read_text_file(path)
+    except OSError as exc:
+        raise ParameterError(f"cannot read speed CSV {path}: {exc.strerror or exc}", path="path") from None
+    except ValueError as exc:
+        raise ParameterError(f"cannot read speed CSV {path}: {exc}", path="path") from None
+    header: list[str] | None = None
+    columns = [0, 1]
+    times: list[float] = []
+    values: list[float] = []
+    lines: list[int] = []
+    for line_no, row in enumerate(csv.reader(text.splitlines()), start=1):
+        cells = [c.strip() for c in row]
+        if not cells or not any(cells) or cells[0].startswith("#"):
+            continue
+        if header is None and not times:
+            try:
+                [float(c) for c in cells]
+            except ValueError:
+                header = cells
+                for k, name in enumerate((time_column, value_column)):
+                    if name is not None:
+                        if name not in cells:
+                            raise ParameterError(
+                                f"{path}:{line_no}: no column {name!r} in header {','.join(cells)!r}",
+                                path="time_column" if k == 0 else "speed_column",
+                            ) from None
+                        columns[k] = cells.index(name)
+                continue
+        if not times and header is None and (time_column is not None or value_column is not None):
+            raise ParameterError(f"{path}:{line_no}: column names are given but the file has no header row")
+        if len(cells) <= max(columns):
+            raise ParameterError(f"{path}:{line_no}: expected {max(columns) + 1} columns, got {len(cells)}")
+        try:
+            t_value, v_value = float(cells[columns[0]]), float(cells[columns[1]])
+        except ValueError:
+            raise ParameterError(f"{path}:{line_no}: not a number in {','.join(cells)!r}") from None
+        times.append(t_value)
+        values.append(v_value)
+        lines.append(line_no)
+    if not times:
+        raise ParameterError(f"{path}: no (t, v) rows found", path="path")
+    return np.array(times), np.array(values), lines
+
+
+def _window(kind: str, d: Mapping[str, object]) -> tuple[float | None, float | None]:
+    """The optional 'start' and 'end' fields, s."""
+    start = field_number(kind, "start", d["start"]) if "start" in d else None
+    end = field_number(kind, "end", d["end"]) if "end" in d else None
+    return start, end
+
+
+def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
+    """Table of a(t) from a speed_table or speed_csv mapping (field names checked by profile_from_dict).
+
+    Its ``recipe`` is the speed_table mapping (the speeds inline, in the declared units), so a scene
+    written back to YAML (the copy stored in a bag) stands alone and reads back into an equal profile.
+    """
+    kind = str(d["type"])
+    units = field_text(kind, "units", d["units"], tuple(SPEED_UNITS))
+    signed = d.get("signed", False)
+    if not isinstance(signed, bool):
+        raise ParameterError(
+            f"{kind} profile field 'signed' must be true or false, got {signed!r}", path="signed"
+        )
+    if kind == "speed_csv":
+        path = field_path(kind, d["path"], base_dir)
+        time_column = field_text(kind, "time_column", d["time_column"]) if "time_column" in d else None
+        speed_column = field_text(kind, "speed_column", d["speed_column"]) if "speed_column" in d else None
+        times, values, lines = read_columns(path, time_column, speed_column)
+        where: Callable[[int], str] = lambda i: f"{path}:{lines[i]}"  # noqa: E731
+        label = f"speed_csv {path.name}"
+    else:
+        times = np.array(field_numbers(kind, "times", d["times"]))
+        values = np.array(field_numbers(kind, "speeds", d["speeds"]))
+        where = lambda i: f"speeds[{i}]"  # noqa: E731
+        label = "speed_table"
+    check_trace(times, values, where)
+    if not signed:
+        negative = np.flatnonzero(values < 0.0)
+        if negative.size:
+            i = int(negative[0])
+            raise ParameterError(
+                f"{where(i)}: speed {values[i]!r} {units} is negative (set signed: true for a trace "
+                "that reverses)"
+            )
+    default = "cutoff_hz" not in d
+    cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
+    start, end = _window(kind, d)
+    recipe: dict[str, object] = {
+        "type": "speed_table",
+        "units": units,
+        "times": times.tolist(),
+        "speeds": values.tolist(),
+        "cutoff_hz": cutoff,
+    }
+    recipe |= {k: v for k, v in (("start", start), ("end", end)) if v is not None}
+    recipe |= {"signed": True} if signed else {}
+    origin = f"{label} ({units}): " + describe_differentiation(cutoff, median_step(times), default)
+    speeds = values * SPEED_UNITS[units]
+    return differentiate(times, speeds, cutoff, start=start, end=end, origin=origin, recipe=recipe)
