@@ -49,12 +49,14 @@ class MotionPreset:
     fitted_on: str
 
 
-# Fitted by ``python -m benchmarks.real_motion --fit`` (maximum innovation likelihood of the filter over
-# the preset's training profiles, both sensor designs, seeds 0-2): see docs/estimators.md, "Presets".
+# Fitted by ``python -m benchmarks.real_motion --fit --seeds 3``: the q_a of a grid (3 per decade) with the
+# least RMS of the filter over the preset's training profiles only, geometric mean over the two sensor
+# designs (teaching l = 1 m, 100 Hz; short damped l = 5 cm, 200 Hz), seeds 0-2. No q_ω: with the
+# damping known, adding one never lowered the training RMS. See docs/estimators.md, "Presets".
 PRESETS: dict[str, MotionPreset] = {
-    "car": MotionPreset(0.05, 0.0, "UDDS + stop_and_go training split, seeds 0-2, both sensor designs"),
-    "robot": MotionPreset(0.05, 0.0, "robot odometry first half, seeds 0-2, both sensor designs"),
-    "lab_steps": MotionPreset(1.0, 0.0, "step_start + ramp scenes, seeds 0-2, both sensor designs"),
+    "car": MotionPreset(0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-2"),
+    "robot": MotionPreset(0.00464, 0.0, "Husky odometry 0-195 s, both designs, seeds 0-2"),
+    "lab_steps": MotionPreset(0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-2"),
 }
 DEFAULT_PRESET = "car"
 
