@@ -43,13 +43,15 @@ def test_smoother_is_offline_only() -> None:
 
 
 def test_smoother_beats_the_filter_and_its_variance_is_smaller() -> None:
-    """Using later data too, the smoother's RMS is below the filter's, and so is its variance (Pˢ ≤ P⁺)."""
+    """Using later data too, the smoother's RMS is below the filter's, and on the same q_a so is its variance:
+    Pˢ = P⁺ + G (Pˢ₊ − P⁻₊) Gᵀ with Pˢ₊ ≤ P⁻₊ never exceeds P⁺ (1e-9 relative for the recursion's rounding)."""
     t, theta, truth = drive()
     a_f, v_f = estimate_batch("kalman", t, theta, **CFG)
-    a_s, v_s = estimate_batch("smoother", t, theta, **CFG)
+    q = make_estimator("kalman", **CFG).q_accel  # type: ignore[attr-defined]
+    a_s, v_s = estimate_batch("smoother", t, theta, **CFG, q_accel=q)
+    assert np.all(v_s <= v_f * (1.0 + 1e-9))  # same model: the smoothed variance never exceeds the filtered
+    a_s, v_s = estimate_batch("smoother", t, theta, **CFG)  # q_a fitted to the recording
     assert rms(a_s, truth, t) < rms(a_f, truth, t)
-    # Pˢ = P⁺ + G (Pˢ₊ − P⁻₊) Gᵀ with Pˢ₊ ≤ P⁻₊: never above P⁺; 1e-9 relative for rounding in the recursion.
-    assert np.all(v_s <= v_f * (1.0 + 1e-9))
     assert np.all(np.isfinite(a_s)) and np.all(v_s > 0.0)
 
 
@@ -61,7 +63,8 @@ def test_fixed_lag_over_the_whole_record_is_the_rts_smoother() -> None:
     is far above that and far below any modelling difference (the smoother gains ~1e-2 m/s² on the filter).
     """
     t, theta, _ = drive()
-    a_s, v_s = estimate_batch("smoother", t, theta, **CFG)
+    q = make_estimator("kalman", **CFG).q_accel  # type: ignore[attr-defined]
+    a_s, v_s = estimate_batch("smoother", t, theta, **CFG, q_accel=q)
     a_l, v_l = estimate_batch("kalman", t, theta, **CFG, lag=float(t[-1] + 1.0))
     np.testing.assert_allclose(a_l, a_s, rtol=0.0, atol=1e-6)
     np.testing.assert_allclose(v_l, v_s, rtol=1e-6, atol=0.0)
@@ -77,7 +80,7 @@ def test_lag_trades_latency_for_accuracy() -> None:
     a, _ = est.lagged(t, theta, lags)
     errors = [rms(a[:, m], truth, t) for m in range(len(lags))]
     assert errors[0] > errors[1] > errors[2] >= errors[3]
-    a_s, _ = estimate_batch("smoother", t, theta, **CFG)
+    a_s, _ = estimate_batch("smoother", t, theta, **CFG, q_accel=est.q_accel)
     assert errors[3] < 1.1 * rms(a_s, truth, t)
 
 
@@ -104,5 +107,7 @@ def test_lag_is_checked_and_only_kalman_has_it() -> None:
         make_estimator("kalman", **CFG, lag=-0.1)
     with pytest.raises(ParameterError, match="has no option 'lag'"):
         make_estimator("instant", **CFG, lag=0.5)
+    with pytest.raises(ParameterError, match="has no option 'lag'"):
+        make_estimator("smoother", **CFG, lag=0.5)  # it has the whole recording
     with pytest.raises(ParameterError, match="unknown preset"):
         make_estimator("kalman", **CFG, preset="boat")

@@ -354,3 +354,156 @@ def rts(
         a[k] = xs[2]
         v[k] = ps[2, 2]
     return a, v
+
+
+@njit(cache=True)
+def imm_step(
+    xs: np.ndarray,
+    ps: np.ndarray,
+    mu: np.ndarray,
+    x: np.ndarray,
+    p: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+    qs: np.ndarray,
+    switch_time: float,
+) -> bool:
+    """One sample into the interacting-multiple-model filter (Blom & Bar-Shalom); True when it (re)started.
+
+    Model j is the EKF above with q_a = qs[j]; the mode follows a Markov chain that leaves each mode at
+    rate 1/switch_time to any other (Π_ij = e^{−Δt/τ} on the diagonal, the rest shared evenly). Per sample:
+    mix (c_j = Σ_i Π_ij μ_i, x⁰_j = Σ_i Π_ij μ_i x_i / c_j, P⁰_j likewise plus the spread of the x_i), predict
+    and correct each model, μ_j ∝ c_j N(ν_j; 0, S_j), and combine: x = Σ μ_j x_j,
+    P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ). ``state``, ``params``: as ``step``; x, p receive the combination.
+    """
+    g, length, c, r = params[0], params[1], params[2], params[3]
+    q_rate, reset_gap = params[4], params[6]
+    m = qs.size
+    if needs_restart(state, t, reset_gap):
+        _imm_start(xs, ps, mu, x, p, state, t, y, params)
+        return True
+    dt = t - state[0]
+    stay = math.exp(-dt / switch_time)
+    move = (1.0 - stay) / (m - 1) if m > 1 else 0.0
+    cj = np.zeros(m)
+    for j in range(m):
+        for i in range(m):
+            cj[j] += (stay if i == j else move) * mu[i]
+    x0 = np.zeros((m, 3))
+    p0 = np.zeros((m, 3, 3))
+    for j in range(m):
+        for i in range(m):
+            w = (stay if i == j else move) * mu[i] / cj[j]
+            for a in range(3):
+                x0[j, a] += w * xs[i, a]
+        for i in range(m):
+            w = (stay if i == j else move) * mu[i] / cj[j]
+            for a in range(3):
+                da = xs[i, a] - x0[j, a]
+                for b in range(3):
+                    p0[j, a, b] += w * (ps[i, a, b] + da * (xs[i, b] - x0[j, b]))
+    f = np.empty((3, 3))
+    k = np.empty(3)
+    logl = np.empty(m)
+    for j in range(m):
+        xj = x0[j]
+        pj = p0[j]
+        predict(xj, pj, f, dt, g, 1.0 / length, c, q_rate, qs[j])
+        nu, s = correct(xj, pj, k, y, r)
+        xs[j] = xj
+        ps[j] = pj
+        logl[j] = -0.5 * (nu * nu / s + math.log(s)) + math.log(cj[j])
+    top = logl.max()
+    total = 0.0
+    for j in range(m):
+        mu[j] = math.exp(logl[j] - top)
+        total += mu[j]
+    for j in range(m):
+        mu[j] = max(mu[j] / total, 1e-12)  # a floor keeps every mode revivable (and no 0/0 in the mixing)
+    for a in range(3):
+        x[a] = 0.0
+        for j in range(m):
+            x[a] += mu[j] * xs[j, a]
+    for a in range(3):
+        for b in range(3):
+            acc = 0.0
+            for j in range(m):
+                acc += mu[j] * (ps[j, a, b] + (xs[j, a] - x[a]) * (xs[j, b] - x[b]))
+            p[a, b] = acc
+    if _finite(x, p):
+        state[0], state[1] = t, state[1] + 1.0
+        return False
+    _imm_start(xs, ps, mu, x, p, state, t, y, params)  # diverged: restart rather than publish inf/NaN
+    return True
+
+
+@njit(cache=True)
+def _imm_start(
+    xs: np.ndarray,
+    ps: np.ndarray,
+    mu: np.ndarray,
+    x: np.ndarray,
+    p: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+) -> None:
+    """Every mode initialised from y (``initialise``), equally likely."""
+    m = mu.size
+    initialise(x, p, y, params[0], params[1], params[3], params[7], params[8])
+    for j in range(m):
+        xs[j] = x
+        ps[j] = p
+        mu[j] = 1.0 / m
+    state[0], state[1] = t, 1.0
+
+
+@njit(cache=True)
+def run_imm(
+    t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, switch_time: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(â, P_aa, μ) of the IMM filter over a recording (``imm_step`` per sample); μ has one column per mode."""
+    n = t.size
+    m = qs.size
+    a = np.empty(n)
+    v = np.empty(n)
+    mus = np.empty((n, m))
+    xs = np.zeros((m, 3))
+    ps = np.zeros((m, 3, 3))
+    mu = np.full(m, 1.0 / m)
+    x = np.zeros(3)
+    p = np.zeros((3, 3))
+    state = np.array([np.nan, 0.0])
+    for i in range(n):
+        imm_step(xs, ps, mu, x, p, state, t[i], y[i], params, qs, switch_time)
+        a[i] = x[2]
+        v[i] = p[2, 2]
+        mus[i] = mu
+    return a, v, mus
+
+
+@njit(cache=True)
+def log_likelihood(t: np.ndarray, y: np.ndarray, params: np.ndarray) -> float:
+    """Σ_k −½ (ν_k²/S_k + ln S_k) of the single-model filter at params (the first 10 samples of each
+    segment left out: they hold the start-up, whatever q_a)."""
+    x = np.zeros(3)
+    p = np.zeros((3, 3))
+    f = np.eye(3)
+    k = np.zeros(3)
+    state = np.array([np.nan, 0.0])
+    total = 0.0
+    g, length, c, r = params[0], params[1], params[2], params[3]
+    for i in range(t.size):
+        if needs_restart(state, t[i], params[6]):
+            initialise(x, p, y[i], g, length, r, params[7], params[8])
+            state[0], state[1] = t[i], 1.0
+            continue
+        predict(x, p, f, t[i] - state[0], g, 1.0 / length, c, params[4], params[5])
+        nu, s = correct(x, p, k, y[i], r)
+        if state[1] >= 10.0:
+            total += -0.5 * (nu * nu / s + math.log(s))
+        state[0], state[1] = t[i], state[1] + 1.0
+    return total

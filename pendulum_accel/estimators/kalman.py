@@ -289,8 +289,36 @@ class KalmanEstimator(Estimator):
         )
 
 
+# q_a tried by the smoother's maximum-likelihood fit: 1e-4 … 10 (m/s²)²/s, 4 per decade, which spans every
+# preset and every hindsight optimum of the real-motion corpus (0.002-2.2) with a margin on both sides.
+ML_Q_GRID = tuple(float(q) for q in np.logspace(-4.0, 1.0, 21))
+
+
+def max_likelihood_q(params: np.ndarray, t: np.ndarray, theta: np.ndarray) -> float:
+    """argmax over ML_Q_GRID of the innovations' log-likelihood Σ −½(ν²/S + ln S) (ekf_kernels), refined by
+    a parabola through the best grid point and its neighbours in log q."""
+    trial = params.copy()
+    logs = np.log(ML_Q_GRID)
+    scores = np.empty(len(ML_Q_GRID))
+    for i, q in enumerate(ML_Q_GRID):
+        trial[5] = q
+        scores[i] = kern.log_likelihood(t, theta, trial)
+    best = int(np.argmax(scores))
+    if 0 < best < len(ML_Q_GRID) - 1:
+        y0, y1, y2 = scores[best - 1 : best + 2]
+        curve = y0 - 2.0 * y1 + y2
+        if curve < 0.0:
+            step = logs[1] - logs[0]
+            return float(np.exp(logs[best] + 0.5 * step * (y0 - y2) / curve))
+    return ML_Q_GRID[best]
+
+
 class SmootherEstimator(KalmanEstimator):
-    """Fixed-interval RTS smoother on the kalman model: offline only (batch), the best a history can be."""
+    """Fixed-interval RTS smoother on the kalman model: offline only (batch), the best a history can be.
+
+    Offline, the whole recording is there to tell how fast its a(t) wanders: q_a is its maximum-likelihood
+    value (:func:`max_likelihood_q`, from the angles alone, no truth) unless ``q_accel`` is given.
+    """
 
     name: ClassVar[str] = "smoother"
     summary: ClassVar[str] = "RTS smoother on the kalman model (offline only)"
@@ -300,8 +328,33 @@ class SmootherEstimator(KalmanEstimator):
         """Refused: a fixed-interval smoother needs the whole recording."""
         raise ParameterError("smoother is offline only; use lag for live")
 
+    def __init__(
+        self,
+        config: EstimatorConfig,
+        *,
+        preset: str = DEFAULT_PRESET,
+        q_accel: float | None = None,
+        q_rate: float | None = None,
+        init_angle_std: float = 0.3,
+        reset_gap: float = 1.0,
+    ) -> None:
+        """As KalmanEstimator (no lag: it has the whole recording); without ``q_accel``, q_a is fitted (ML)."""
+        super().__init__(
+            config,
+            preset=preset,
+            q_accel=q_accel,
+            q_rate=q_rate,
+            init_angle_std=init_angle_std,
+            reset_gap=reset_gap,
+        )
+        self.fit_q = q_accel is None
+
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(âˢ, var âˢ) from the forward EKF pass and the RTS backward pass."""
+        """(âˢ, var âˢ) from the forward EKF pass and the RTS backward pass, at the ML q_a when fitting."""
+        t, theta = check_batch_input(t, theta)
+        if self.fit_q and t.size > 20:
+            self.q_accel = max_likelihood_q(self._params, t, theta)
+            self._params[5] = self.q_accel
         return self.smoothed(t, theta)
 
     def nominal_delay(self, accel: float) -> float:
