@@ -27,7 +27,7 @@ shift τ maximising the cross-correlation of â(t) with a(t − τ)), mean NEES,
 state and within 2 s after a change (|a(t) − a(t − 1 s)| > 0.2 m/s²), and µs/sample of streaming
 ``update`` (on a 20 s slice). The bound: ``ekf_hindsight``, a fixed-q EKF with q chosen per profile and
 design for the least RMS over a grid (with the truth: hindsight), and ``rts_hindsight``, the RTS smoother
-at that q. Ratios: kalman / ekf_hindsight, smoother / rts_hindsight. The latency–accuracy curve is the
+at its own hindsight q (every other point of the grid). Ratios: kalman / ekf_hindsight, smoother / rts_hindsight. The latency–accuracy curve is the
 RMS of kalman's fixed-lag smoother against its lag (0 … 2 s), per design, over the validation profiles.
 
 ``--fit`` fits each preset's q_a on its training profiles only (least mean log RMS over both designs and
@@ -39,6 +39,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import math
+import os
 import platform
 import time
 from collections.abc import Callable, Sequence
@@ -49,6 +50,7 @@ import numpy as np
 import yaml
 
 from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
+from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, Braking, Step, profile_from_dict
@@ -287,6 +289,34 @@ def q_scan(runs: Sequence[Run], design: Design, grid: Sequence[float] = Q_GRID) 
     return out
 
 
+def imm_scan(
+    runs: Sequence[Run], design: Design, candidates: Sequence[tuple[tuple[float, ...], float]]
+) -> np.ndarray:
+    """Σ (â − a)² over the runs (t ≥ WARMUP) of the IMM at every (modes, switch_time) candidate."""
+    params = kalman_q(design, 1.0)._params
+    out = np.zeros(len(candidates))
+    for i, (modes, switch) in enumerate(candidates):
+        for r in runs:
+            a, _, _ = kern.run_imm(r.t, r.theta, params, np.array(modes), switch)
+            out[i] += float(np.sum(((a - r.accel)[r.t >= WARMUP]) ** 2))
+    return out
+
+
+def rts_scan(runs: Sequence[Run], design: Design, grid: Sequence[float]) -> np.ndarray:
+    """Σ (âˢ − a)² over the runs (t ≥ WARMUP) of the RTS smoother at every q of the grid."""
+    out = np.zeros(len(grid))
+    for i, q in enumerate(grid):
+        est = kalman_q(design, q)
+        for r in runs:
+            out[i] += float(np.sum(((est.smoothed(r.t, r.theta)[0] - r.accel)[r.t >= WARMUP]) ** 2))
+    return out
+
+
+IMM_CANDIDATES = tuple(
+    ((q_lo, q_hi), switch) for q_lo in (1e-4, 1e-3) for q_hi in (0.03, 0.1, 0.3, 1.0) for switch in (2.0, 5.0)
+)
+
+
 def scored(runs: Sequence[Run]) -> int:
     """Samples scored over the runs (t ≥ WARMUP)."""
     return sum(int(np.count_nonzero(r.t >= WARMUP)) for r in runs)
@@ -311,40 +341,46 @@ def _runs_for(profile: Profile, design: Design, seeds: int, quick: bool) -> list
     return simulate_runs(profile.build(), design, seeds, duration)
 
 
-def fit_presets(seeds: int, quick: bool) -> dict[str, tuple[float, list[float]]]:
-    """q_a per preset: argmin over Q_GRID of the geometric mean over the designs of the filter's RMS pooled
-    over the preset's training profiles and the seeds; returns (q_a, that mean per q)."""
-    out: dict[str, tuple[float, list[float]]] = {}
+def fit_presets(
+    seeds: int, quick: bool
+) -> dict[str, tuple[float, list[float], tuple[tuple[float, ...], float], list[float]]]:
+    """Per preset: the single q_a (argmin over Q_GRID) and the IMM (argmin over IMM_CANDIDATES) of the geometric
+    mean over the designs of the filter's RMS pooled over the preset's training profiles and the seeds;
+    returns (q_a, mean RMS per q, (modes, switch_time), mean RMS per candidate)."""
+    out = {}
     for preset in PRESETS:
         logs = np.zeros(len(Q_GRID))
+        logs_imm = np.zeros(len(IMM_CANDIDATES))
         used = 0
         for design in designs():
-            sq, n = np.zeros(len(Q_GRID)), 0
+            sq, sq_imm, n = np.zeros(len(Q_GRID)), np.zeros(len(IMM_CANDIDATES)), 0
             for profile in PROFILES:
                 if profile.role == "train" and profile.preset == preset:
                     runs = _runs_for(profile, design, seeds, quick)
                     sq += q_scan(runs, design)
+                    sq_imm += imm_scan(runs, design, IMM_CANDIDATES)
                     n += scored(runs)
             if n:
                 logs += 0.5 * np.log(sq / n)
+                logs_imm += 0.5 * np.log(sq_imm / n)
                 used += 1
         if used:
             scores = [math.exp(x) for x in logs / used]
-            out[preset] = (Q_GRID[int(np.argmin(scores))], scores)
+            scores_imm = [math.exp(x) for x in logs_imm / used]
+            best_imm = IMM_CANDIDATES[int(np.argmin(scores_imm))]
+            out[preset] = (Q_GRID[int(np.argmin(scores))], scores, best_imm, scores_imm)
     return out
 
 
-def evaluate(
-    seeds: int, quick: bool
-) -> tuple[list[Row], dict[str, dict[float, float]], dict[str, dict[str, float]]]:
+def evaluate(seeds: int, quick: bool) -> tuple[list[Row], dict[str, dict[float, float]], dict[str, float]]:
     """Rows for every validation profile × design × method, the lag curves and the hindsight q's."""
     rows: list[Row] = []
     curves: dict[str, dict[float, float]] = {}
-    hindsight_q: dict[str, dict[str, float]] = {}
+    imm_rms: dict[str, float] = {}
     methods = [m for m in LIVE_ESTIMATORS]
     for design in designs():
         lag_sq: dict[float, list[np.ndarray]] = {lag: [] for lag in LAGS}
-        hindsight_q[design.name] = {}
+        imm_sq: list[np.ndarray] = []
         for profile in PROFILES:
             if profile.role != "validate":
                 continue
@@ -355,6 +391,10 @@ def evaluate(
                 opts = preset_opts if method == "kalman" else {}
                 outs = [make_estimator(method, **design.settings(), **opts).batch(r.t, r.theta) for r in runs]  # type: ignore[arg-type]
                 by[method] = Score.of(runs, outs, design.rate_hz)
+                if method == "kalman":
+                    imm_sq += [
+                        ((a - r.accel)[r.t >= WARMUP]) ** 2 for r, (a, _) in zip(runs, outs, strict=True)
+                    ]
                 rows.append(
                     Row(
                         design.name,
@@ -391,12 +431,15 @@ def evaluate(
             ]  # type: ignore[arg-type]
             smooth_score = Score.of(runs, smooth, design.rate_hz)
             # The bound: q with hindsight.
-            scan = list(q_scan(runs, design))
-            q_best = Q_GRID[int(np.argmin(scan))]
-            hindsight_q[design.name][profile.name] = q_best
+            grid = Q_GRID[::2] if quick else Q_GRID
+            scan = list(q_scan(runs, design, grid))
+            q_best = grid[int(np.argmin(scan))]
             best = kalman_q(design, q_best)
             ekf_score = Score.of(runs, [best.batch(r.t, r.theta) for r in runs], design.rate_hz)
-            rts_score = Score.of(runs, [best.smoothed(r.t, r.theta) for r in runs], design.rate_hz)
+            rts_grid = Q_GRID[::4] if quick else Q_GRID[::2]
+            q_rts = rts_grid[int(np.argmin(rts_scan(runs, design, rts_grid)))]
+            best_rts = kalman_q(design, q_rts)
+            rts_score = Score.of(runs, [best_rts.smoothed(r.t, r.theta) for r in runs], design.rate_hz)
             rows.append(
                 Row(
                     design.name,
@@ -418,18 +461,28 @@ def evaluate(
                     math.nan,
                 )
             )
-            rows.append(Row(design.name, profile.name, profile.role, "rts_hindsight", rts_score, math.nan))
+            rows.append(
+                Row(
+                    design.name,
+                    profile.name,
+                    profile.role,
+                    f"rts_hindsight q={q_rts:.2g}",
+                    rts_score,
+                    math.nan,
+                )
+            )
             for row in rows:
                 if (
                     row.design == design.name
                     and row.profile == profile.name
                     and row.ratio is None
-                    and row.method != "rts_hindsight"
+                    and not row.method.startswith("rts_")
                     and not row.method.startswith("ekf_")
                 ):
                     row.ratio = row.score.rms / ekf_score.rms
         curves[design.name] = {lag: float(np.sqrt(np.mean(np.concatenate(v)))) for lag, v in lag_sq.items()}
-    return rows, curves, hindsight_q
+        imm_rms[design.name] = float(np.sqrt(np.mean(np.concatenate(imm_sq))))
+    return rows, curves, imm_rms
 
 
 def _fmt(x: float, digits: int = 3) -> str:
@@ -437,84 +490,116 @@ def _fmt(x: float, digits: int = 3) -> str:
     return "—" if not math.isfinite(x) else f"{x:.{digits}g}"
 
 
-def markdown(rows: Sequence[Row], curves: dict[str, dict[float, float]], quick: bool, seeds: int) -> str:
-    """The report: header (machine, date, split), the table, the lag curve table."""
+def targets(rows: Sequence[Row]) -> list[str]:
+    """The issue's done-when checks per design over the validation profiles, one Markdown line each."""
+    out = []
+    for design in dict.fromkeys(r.design for r in rows):
+        mine = [r for r in rows if r.design == design]
+        profiles = list(dict.fromkeys(r.profile for r in mine))
+        worst_ratio, worst_tan, beyond_s, beyond_a, smooth = 0.0, 0.0, [], [], 0.0
+        for prof in profiles:
+            by = {r.method.split(" ")[0]: r for r in mine if r.profile == prof}
+            k = by["kalman"]
+            worst_ratio = max(worst_ratio, k.ratio or math.nan)
+            worst_tan = max(worst_tan, k.score.rms / by["instant"].score.rms)
+            beyond_s.append((k.score.beyond_steady, k.score.n_steady))
+            beyond_a.append((k.score.beyond_after, k.score.n_after))
+            smooth = max(smooth, by["smoother"].ratio or math.nan)
+
+        def pooled(parts: list[tuple[float, int]]) -> float:
+            n = sum(c for _, c in parts)
+            return sum(f * c for f, c in parts if c) / n if n else math.nan
+
+        out.append(
+            f"- {design}: kalman RMS ≤ {worst_ratio:.2f}× ekf_hindsight (target ≤ 1.1) and ≤ {worst_tan:.2f}× "
+            f"g·tanθ (target ≤ 1) on every validation profile; beyond 2σ {100 * pooled(beyond_s):.1f} % steady, "
+            f"{100 * pooled(beyond_a):.1f} % after changes (target 1–12 %); smoother ≤ {smooth:.2f}× "
+            "rts_hindsight (target ≤ 1.5)."
+        )
+    return out
+
+
+def markdown(
+    rows: Sequence[Row], curves: dict[str, dict[float, float]], imm: dict[str, float], quick: bool, seeds: int
+) -> str:
+    """The report: header (machine, date, split), the targets, the table, the lag curve table."""
     head = [
         "# Real-motion benchmark",
         "",
-        f"`python -m benchmarks.real_motion{' --quick' if quick else ''}` — {dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC, "
-        f"{platform.machine()} {platform.processor() or platform.system()}, Python {platform.python_version()}, "
-        f"seeds 0-{seeds - 1}{', quick (first 60 s of each profile)' if quick else ''}.",
+        f"`python -m benchmarks.real_motion{' --quick' if quick else ''}` — {dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} "
+        f"UTC, {platform.machine()} {platform.processor() or platform.system()}, {os.cpu_count()} CPUs, "
+        f"Python {platform.python_version()}, seeds 0-{seeds - 1}"
+        f"{', quick (first 60 s of each profile)' if quick else ''}.",
         "",
         "Validation profiles only (training: "
         + ", ".join(p.name for p in PROFILES if p.role == "train")
-        + "). "
-        "ratio: RMS over ekf_hindsight (smoother: over rts_hindsight). NEES and >2σ from the published variance.",
+        + "). kalman: the live default (IMM over the profile's preset); kalman lag: its fixed-lag smoother; "
+        "smoother: RTS with q_a fitted to the recording (ML). ratio: RMS over ekf_hindsight (smoother: over "
+        "rts_hindsight). NEES and >2σ from the published variance; µs/sample of streaming update.",
+        "",
+        "Targets (issue 24), pooled over the validation profiles and seeds:",
+        "",
+        *targets(rows),
         "",
     ]
-    cols = [
-        "design",
-        "profile",
-        "method",
-        "RMS",
-        "ratio",
-        "max |e|",
-        "delay s",
-        "NEES",
-        ">2σ steady",
-        ">2σ after",
-        "µs/sample",
-    ]
+    cols = ["design", "profile", "method", "RMS", "ratio", "max |e|", "delay s", "NEES", ">2σ steady",
+            ">2σ after", "µs/sample"]  # fmt: skip
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
-        s = r.score
-        lines.append(
-            "| "
-            + " | ".join(
-                [
-                    r.design,
-                    r.profile,
-                    r.method,
-                    _fmt(s.rms),
-                    _fmt(r.ratio if r.ratio is not None else math.nan),
-                    _fmt(s.max_err),
-                    f"{s.delay:.3f}",
-                    _fmt(s.nees),
-                    f"{100 * s.beyond_steady:.1f} %",
-                    f"{100 * s.beyond_after:.1f} %" if math.isfinite(s.beyond_after) else "—",
-                    _fmt(r.us),
-                ]
-            )
-            + " |"
-        )
+        sc = r.score
+        cells = [
+            r.design,
+            r.profile,
+            r.method,
+            _fmt(sc.rms),
+            _fmt(r.ratio if r.ratio is not None else math.nan),
+            _fmt(sc.max_err),
+            f"{sc.delay:.3f}",
+            _fmt(sc.nees),
+            f"{100 * sc.beyond_steady:.1f} %" if math.isfinite(sc.beyond_steady) else "—",
+            f"{100 * sc.beyond_after:.1f} %" if math.isfinite(sc.beyond_after) else "—",
+            _fmt(r.us),
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
     lag_lines = [
         "",
-        "Latency–accuracy (kalman fixed-lag smoother, RMS m/s² over the validation profiles):",
+        "Latency–accuracy (RMS m/s² over the validation profiles): the single-model fixed-lag smoother at the "
+        "preset's q_a against its lag, and the live IMM filter (lag 0):",
         "",
+        "| design | IMM (lag 0) | " + " | ".join(f"lag {lag:g} s" for lag in LAGS) + " |",
+        "|" + "---|" * (len(LAGS) + 2),
     ]
-    lag_lines.append("| design | " + " | ".join(f"lag {lag:g} s" for lag in LAGS) + " |")
-    lag_lines.append("|" + "---|" * (len(LAGS) + 1))
     for name, curve in curves.items():
-        lag_lines.append(f"| {name} | " + " | ".join(_fmt(curve[lag]) for lag in LAGS) + " |")
+        lag_lines.append(
+            f"| {name} | {_fmt(imm[name])} | " + " | ".join(_fmt(curve[lag]) for lag in LAGS) + " |"
+        )
     return "\n".join(head + lines + lag_lines) + "\n"
 
 
-def plot(curves: dict[str, dict[float, float]], rows: Sequence[Row], path: Path) -> None:
-    """The latency–accuracy curve per design, with g·tanθ and the hindsight bounds as lines."""
+def plot(
+    curves: dict[str, dict[float, float]], imm: dict[str, float], rows: Sequence[Row], path: Path
+) -> None:
+    """The latency–accuracy curve per design, with the IMM filter, g·tanθ and the hindsight bounds as lines."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(curves), figsize=(5 * len(curves), 4), constrained_layout=True)
+    fig, axes = plt.subplots(1, len(curves), figsize=(5.5 * len(curves), 4), constrained_layout=True)
     for ax, (name, curve) in zip(np.atleast_1d(axes), curves.items(), strict=True):
-        ax.plot(list(curve), list(curve.values()), "o-", label="kalman, fixed lag")
-        ax.set_xlabel("lag (s)")
+        ax.plot(list(curve), list(curve.values()), "o-", label="kalman fixed-lag smoother (preset q_a)")
+        ax.plot([0.0], [imm[name]], "s", color="tab:red", label="kalman live (IMM, lag 0)")
+        for method, style in (("instant", "k--"), ("smoother", "g:")):
+            sel = [r for r in rows if r.design == name and r.method == method]
+            if sel:
+                pooled = math.sqrt(sum(r.score.rms**2 for r in sel) / len(sel))
+                ax.axhline(pooled, ls=style[1:], color=style[0], label=f"{method} (mean over profiles)")
+        ax.set_xlabel("lag = latency (s)")
         ax.set_ylabel("RMS error (m/s²)")
         ax.set_yscale("log")
         ax.set_title(f"{name}: latency against accuracy")
         ax.grid(alpha=0.3, which="both")
-        ax.legend()
+        ax.legend(fontsize=8)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -531,18 +616,29 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     seeds = 1 if args.quick else max(1, args.seeds)
     if args.fit:
-        for preset, (q, scores) in fit_presets(seeds, args.quick).items():
+        for preset, (q, scores, imm, scores_imm) in fit_presets(seeds, args.quick).items():
             curve = ", ".join(f"{g:.2g}:{s:.3g}" for g, s in zip(Q_GRID, scores, strict=True))
-            print(f"{preset}: q_a = {q:.3g} (m/s²)²/s   [geometric-mean RMS per q: {curve}]")
+            print(f"{preset}: single q_a = {q:.3g} (m/s²)²/s   [geometric-mean RMS per q: {curve}]")
+            cands = ", ".join(f"{c}:{s:.3g}" for c, s in zip(IMM_CANDIDATES, scores_imm, strict=True))
+            print(f"{preset}: IMM modes {imm[0]}, switch_time {imm[1]} s   [per candidate: {cands}]")
         return 0
-    rows, curves, _ = evaluate(seeds, args.quick)
-    text = markdown(rows, curves, args.quick, seeds)
-    print(text)
-    args.out_md.parent.mkdir(parents=True, exist_ok=True)
-    args.out_md.write_text(text)
-    plot(curves, rows, args.out_img / "bench_real_motion_lag.png")
-    print(f"wrote {args.out_md}, {args.out_img / 'bench_real_motion_lag.png'}")
+    report(seeds, args.quick, args.out_md, args.out_img)
     return 0
+
+
+def report(
+    seeds: int, quick: bool, out_md: Path, out_img: Path
+) -> tuple[list[Row], dict[str, dict[float, float]], dict[str, float]]:
+    """Evaluate, print and write the Markdown report and the latency–accuracy plot; the figures."""
+    rows, curves, imm = evaluate(seeds, quick)
+    text = markdown(rows, curves, imm, quick, seeds)
+    print(text)
+    out_md.parent.mkdir(parents=True, exist_ok=True)
+    out_md.write_text(text)
+    png = out_img / "bench_real_motion_lag.png"
+    plot(curves, imm, rows, png)
+    print(f"wrote {out_md}, {png}")
+    return rows, curves, imm
 
 
 if __name__ == "__main__":

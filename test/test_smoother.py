@@ -46,12 +46,14 @@ def test_smoother_beats_the_filter_and_its_variance_is_smaller() -> None:
     """Using later data too, the smoother's RMS is below the filter's, and on the same q_a so is its variance:
     Pˢ = P⁺ + G (Pˢ₊ − P⁻₊) Gᵀ with Pˢ₊ ≤ P⁻₊ never exceeds P⁺ (1e-9 relative for the recursion's rounding)."""
     t, theta, truth = drive()
-    a_f, v_f = estimate_batch("kalman", t, theta, **CFG)
     q = make_estimator("kalman", **CFG).q_accel  # type: ignore[attr-defined]
+    a_f, v_f = estimate_batch("kalman", t, theta, **CFG, q_accel=q)  # the single model at that q_a
     a_s, v_s = estimate_batch("smoother", t, theta, **CFG, q_accel=q)
     assert np.all(v_s <= v_f * (1.0 + 1e-9))  # same model: the smoothed variance never exceeds the filtered
-    a_s, v_s = estimate_batch("smoother", t, theta, **CFG)  # q_a fitted to the recording
     assert rms(a_s, truth, t) < rms(a_f, truth, t)
+    a_imm, _ = estimate_batch("kalman", t, theta, **CFG)  # the live default (IMM)
+    a_s, v_s = estimate_batch("smoother", t, theta, **CFG)  # q_a fitted to the recording
+    assert rms(a_s, truth, t) < rms(a_imm, truth, t)
     assert np.all(np.isfinite(a_s)) and np.all(v_s > 0.0)
 
 

@@ -507,3 +507,18 @@ def log_likelihood(t: np.ndarray, y: np.ndarray, params: np.ndarray) -> float:
             total += -0.5 * (nu * nu / s + math.log(s))
         state[0], state[1] = t[i], state[1] + 1.0
     return total
+
+
+def warm() -> None:
+    """Compile (or load from the cache) every pass: a few samples through each."""
+    t = np.arange(30) / 100.0
+    y = np.zeros(30)
+    params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
+    _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, np.array([0, 5], dtype=np.int64), True)
+    rts(xpr, ppr, xpo, ppo, fk, starts)
+    run_imm(t, y, params, np.array([1e-3, 0.1]), 5.0)
+    log_likelihood(t, y, params)
+
+
+if __name__ == "__main__":
+    warm()

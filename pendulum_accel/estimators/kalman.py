@@ -42,21 +42,29 @@ from pendulum_accel.physics.params import require_finite, require_positive
 
 @dataclass(frozen=True)
 class MotionPreset:
-    """A process model of a(t): q_a ((m/s²)²/s), q_ω ((rad/s)²/s) and the data they were fitted on."""
+    """A process model of a(t) and the data it was fitted on.
 
+    ``modes``: the IMM's q_a per mode ((m/s²)²/s), ``switch_time``: mean time (s) between mode changes;
+    ``q_accel``: the single-model q_a of the fixed-lag smoother (lag > 0); q_ω ((rad/s)²/s) on θ'.
+    """
+
+    modes: tuple[float, ...]
+    switch_time: float
     q_accel: float
     q_rate: float
     fitted_on: str
 
 
-# Fitted by ``python -m benchmarks.real_motion --fit --seeds 3``: the q_a of a grid (3 per decade) with the
-# least RMS of the filter over the preset's training profiles only, geometric mean over the two sensor
-# designs (teaching l = 1 m, 100 Hz; short damped l = 5 cm, 200 Hz), seeds 0-2. No q_ω: with the
-# damping known, adding one never lowered the training RMS. See docs/estimators.md, "Presets".
+# Fitted by ``python -m benchmarks.real_motion --fit``: on a grid, the values with the least RMS of the
+# filter over the preset's training profiles only, geometric mean over the two sensor designs (teaching
+# l = 1 m, 100 Hz; short damped l = 5 cm, 200 Hz), seeds 0-1 (modes, switch_time: the IMM; q_accel: the
+# single model). q_ω = 0: with the damping known there is no unmodelled torque to absorb.
 PRESETS: dict[str, MotionPreset] = {
-    "car": MotionPreset(0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-2"),
-    "robot": MotionPreset(0.00464, 0.0, "Husky odometry 0-195 s, both designs, seeds 0-2"),
-    "lab_steps": MotionPreset(0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-2"),
+    "car": MotionPreset((1e-3, 0.1), 2.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"),
+    "robot": MotionPreset((1e-3, 0.03), 2.0, 0.00464, 0.0, "Husky odometry 0-195 s, both designs, seeds 0-1"),
+    "lab_steps": MotionPreset(
+        (1e-4, 1.0), 2.0, 0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-1"
+    ),
 }
 DEFAULT_PRESET = "car"
 
@@ -99,6 +107,11 @@ class KalmanEstimator(Estimator):
         if self.lag < 0.0:
             raise ParameterError(f"lag must be >= 0 s, got {self.lag!r}")
         self.lag_n = lag_samples(self.lag, config.rate_hz)
+        # The live filter (no lag, no fixed q_a asked for) is the IMM over the preset's modes; a lag or a
+        # given q_a runs the single model, whose fixed-lag smoother is exact (ekf_kernels).
+        self.modes: tuple[float, ...] = chosen.modes if q_accel is None and self.lag_n == 0 else ()
+        self.switch_time = chosen.switch_time
+        self._qs = np.array(self.modes, dtype=float)
         self._a_max = config.gravity * math.tan(config.clamp_angle)
         self._params = np.array(
             [
@@ -140,6 +153,10 @@ class KalmanEstimator(Estimator):
         self._ring_c = np.zeros((size, 3))
         self._ring_t = [0.0] * size
         self._state = np.array([math.nan, 0.0])
+        m = max(len(self.modes), 1)
+        self._xs = np.zeros((m, 3))
+        self._ps = np.zeros((m, 3, 3))
+        self._mu = np.full(m, 1.0 / m)
         self._first_t: float | None = None  # sensor turn-on, for the bias variance
 
     def update(self, t: float, theta: float) -> Estimate | None:
@@ -148,6 +165,21 @@ class KalmanEstimator(Estimator):
             return None
         if self._first_t is None:
             self._first_t = t
+        if self.modes:
+            kern.imm_step(
+                self._xs,
+                self._ps,
+                self._mu,
+                self._x,
+                self._p,
+                self._state,
+                t,
+                theta,
+                self._params,
+                self._qs,
+                self.switch_time,
+            )
+            return self._estimate(float(self._x[2]), float(self._p[2, 2]), t)
         kern.step(
             self._x,
             self._p,
@@ -201,13 +233,23 @@ class KalmanEstimator(Estimator):
         there is, and a sample a divergence restart lost gets the filter's value.
         """
         t, theta = check_batch_input(t, theta)
+        if self.modes:
+            a_imm, v_imm, _ = kern.run_imm(t, theta, self._params, self._qs, self.switch_time)
+            return self._publish(t, a_imm, v_imm)
         a, var = self.lagged(t, theta, (self.lag_n,))
         return a[:, 0], var[:, 0]
+
+    def mode_probabilities(self, t: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """μ (n × modes): the IMM's probability of each mode after each sample (one column without modes)."""
+        t, theta = check_batch_input(t, theta)
+        qs = self._qs if self.modes else np.array([self.q_accel])
+        return kern.run_imm(t, theta, self._params, qs, self.switch_time)[2]
 
     def lagged(
         self, t: np.ndarray, theta: np.ndarray, lags: tuple[int, ...]
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(â, var) with one column per lag (in samples), each aligned to the sample it describes."""
+        """(â, var) of the single model (q_accel) with one column per lag (in samples), each aligned to the
+        sample it describes."""
         lag_arr = np.array((0, *lags), dtype=np.int64)
         a, var, *_ = kern.run_pass(t, theta, self._params, lag_arr, False)
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
@@ -282,9 +324,14 @@ class KalmanEstimator(Estimator):
         return moment / total / self.config.rate_hz - self.lag_n / self.config.rate_hz
 
     def describe(self) -> str:
-        """The base line plus the preset, q_a and the latency (the lag)."""
+        """The base line plus the preset, the process model and the latency (the lag)."""
+        model = (
+            f"IMM q_a={'/'.join(f'{q:.3g}' for q in self.modes)} (m/s²)²/s, switching every {self.switch_time:g} s"
+            if self.modes
+            else f"q_a={self.q_accel:.3g} (m/s²)²/s"
+        )
         return (
-            f"{super().describe()}; preset {self.preset} (q_a={self.q_accel:.3g} (m/s²)²/s), "
+            f"{super().describe()}; preset {self.preset} ({model}), "
             f"latency {self.lag_n / self.config.rate_hz:.3f} s (lag)"
         )
 
