@@ -22,7 +22,7 @@ from pendulum_accel.estimators import (
     make_estimator,
     method_options,
 )
-from pendulum_accel.estimators.base import cramer_rao_std, wrap_clamp, wrap_clamp_array
+from pendulum_accel.estimators.base import wrap_clamp, wrap_clamp_array
 from pendulum_accel.estimators.lowpass import LowpassEstimator
 from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.estimators.swing import swing_amplitude
@@ -227,7 +227,9 @@ def test_noise_equivalent_samples_match_their_definitions() -> None:
     # kalman: N = (Σw)²/Σw² of its steady gain's impulse response, long (EWMA-like) for a slow q_a and
     # shrinking as q_a grows (a faster filter averages fewer samples).
     n_eff = [
-        make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE, q_accel=q).noise_equivalent_samples(3.0)
+        make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE, q_accel=q).noise_equivalent_samples(
+            3.0
+        )
         for q in (1e-5, 1e-3, 1e-1)
     ]
     assert n_eff[0] > 5.0 and n_eff[0] > n_eff[1] > n_eff[2]

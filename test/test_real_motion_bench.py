@@ -28,7 +28,9 @@ def test_report_covers_every_validation_profile_design_and_method(quick: tuple) 
     assert {r.profile for r in rows} == validation
     for design in rm.designs():
         for profile in validation:
-            methods = {r.method.split(" ")[0] for r in rows if r.design == design.name and r.profile == profile}
+            methods = {
+                r.method.split(" ")[0] for r in rows if r.design == design.name and r.profile == profile
+            }
             assert {*rm.LIVE_ESTIMATORS, "kalman", "smoother", "ekf_hindsight", "rts_hindsight"} <= methods
     text = (out / "real_motion.md").read_text()
     assert "| design | profile | method | RMS |" in text and "Targets (issue 24)" in text

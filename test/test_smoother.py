@@ -22,7 +22,9 @@ CFG = {"length": L, "damping": C, "noise_std": SIGMA, "rate_hz": RATE}
 @cache
 def drive() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, noisy θ, true a): 30 s of smooth pull-away, cruise and braking, seed 3."""
-    profile = Table(times=(0.0, 3.0, 6.0, 12.0, 15.0, 20.0, 24.0, 30.0), accels=(0.0, 1.5, 1.2, 0.0, 0.0, -2.0, 0.0, 0.0))
+    profile = Table(
+        times=(0.0, 3.0, 6.0, 12.0, 15.0, 20.0, 24.0, 30.0), accels=(0.0, 1.5, 1.2, 0.0, 0.0, -2.0, 0.0, 0.0)
+    )
     t = np.arange(round(30.0 * RATE)) / RATE
     theta = simulate(Pendulum(length=L, damping=C), profile, t, theta0=0.0, rtol=1e-10, atol=1e-12).theta
     noisy = np.asarray(theta) + SIGMA * np.random.default_rng(3).standard_normal(t.size)
@@ -43,8 +45,8 @@ def test_smoother_is_offline_only() -> None:
 
 
 def test_smoother_beats_the_filter_and_its_variance_is_smaller() -> None:
-    """Using later data too, the smoother's RMS is below the filter's, and on the same q_a so is its variance:
-    Pˢ = P⁺ + G (Pˢ₊ − P⁻₊) Gᵀ with Pˢ₊ ≤ P⁻₊ never exceeds P⁺ (1e-9 relative for the recursion's rounding)."""
+    """Using later data too, the smoother's RMS is below the filter's; on the same q_a so is its variance:
+    Pˢ = P⁺ + G (Pˢ₊ − P⁻₊) Gᵀ with Pˢ₊ ≤ P⁻₊ never exceeds P⁺ (1e-9 relative: the recursion's rounding)."""
     t, theta, truth = drive()
     q = make_estimator("kalman", **CFG).q_accel  # type: ignore[attr-defined]
     a_f, v_f = estimate_batch("kalman", t, theta, **CFG, q_accel=q)  # the single model at that q_a

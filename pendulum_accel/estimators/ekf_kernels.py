@@ -168,7 +168,7 @@ def step(
     The prior x⁻, P⁻ of the sample is left in prior_x, prior_p and the transition from the last in f.
     """
     g, length, c, r = params[0], params[1], params[2], params[3]
-    q_rate, q_accel, reset_gap, clamp, amp = params[4], params[5], params[6], params[7], params[8]
+    q_rate, q_accel, reset_gap = params[4], params[5], params[6]
     size = ring_a.size
     last_t = state[0]
     if needs_restart(state, t, reset_gap):
@@ -209,7 +209,7 @@ def step(
 def needs_restart(state: np.ndarray, t: float, reset_gap: float) -> bool:
     """True before the first sample and after a gap longer than reset_gap."""
     last_t = state[0]
-    return not (last_t == last_t) or t - last_t > reset_gap
+    return last_t != last_t or t - last_t > reset_gap  # NaN != NaN: no sample yet
 
 
 @njit(cache=True)
@@ -465,7 +465,7 @@ def _imm_start(
 def run_imm(
     t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, switch_time: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(â, P_aa, μ) of the IMM filter over a recording (``imm_step`` per sample); μ has one column per mode."""
+    """(â, P_aa, μ) of the IMM filter over a recording (``imm_step`` per sample); μ: a column per mode."""
     n = t.size
     m = qs.size
     a = np.empty(n)

@@ -60,7 +60,9 @@ class MotionPreset:
 # l = 1 m, 100 Hz; short damped l = 5 cm, 200 Hz), seeds 0-1 (modes, switch_time: the IMM; q_accel: the
 # single model). q_ω = 0: with the damping known there is no unmodelled torque to absorb.
 PRESETS: dict[str, MotionPreset] = {
-    "car": MotionPreset((1e-3, 0.1), 2.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"),
+    "car": MotionPreset(
+        (1e-3, 0.1), 2.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"
+    ),
     "robot": MotionPreset((1e-3, 0.03), 2.0, 0.00464, 0.0, "Husky odometry 0-195 s, both designs, seeds 0-1"),
     "lab_steps": MotionPreset(
         (1e-4, 1.0), 2.0, 0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-1"
@@ -273,7 +275,8 @@ class KalmanEstimator(Estimator):
         return self._publish(t, a, var)
 
     def steady_state(self, accel: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(F, K, P⁺) at rest at θ_eq(a): DARE prior P⁻, K = P⁻Hᵀ/S, P⁺ = (I − KH)P⁻ (Q as ekf_kernels)."""
+        """(F, K, P⁺) at rest at θ_eq(a): DARE prior P⁻, K = P⁻Hᵀ/S, P⁺ = (I − KH)P⁻ (Q as ekf_kernels),
+        at q_a = q_accel, or the quiet mode's for the IMM (at rest the quiet mode holds nearly all μ)."""
         cfg = self.config
         dt = 1.0 / cfg.rate_hz
         th = math.atan2(accel, cfg.gravity)
@@ -286,7 +289,7 @@ class KalmanEstimator(Estimator):
             ]
         )
         F = linalg.expm(jac * dt)
-        qa = self.q_accel
+        qa = self.modes[0] if self.modes else self.q_accel  # the IMM at rest: its quiet mode
         Q = qa * np.array(
             [
                 [j12 * j12 * dt**5 / 20.0, j12 * j12 * dt**4 / 8.0, j12 * dt**3 / 6.0],
@@ -326,7 +329,8 @@ class KalmanEstimator(Estimator):
     def describe(self) -> str:
         """The base line plus the preset, the process model and the latency (the lag)."""
         model = (
-            f"IMM q_a={'/'.join(f'{q:.3g}' for q in self.modes)} (m/s²)²/s, switching every {self.switch_time:g} s"
+            f"IMM q_a={'/'.join(f'{q:.3g}' for q in self.modes)} (m/s²)²/s, "
+            f"switching every {self.switch_time:g} s"
             if self.modes
             else f"q_a={self.q_accel:.3g} (m/s²)²/s"
         )
@@ -385,7 +389,7 @@ class SmootherEstimator(KalmanEstimator):
         init_angle_std: float = 0.3,
         reset_gap: float = 1.0,
     ) -> None:
-        """As KalmanEstimator (no lag: it has the whole recording); without ``q_accel``, q_a is fitted (ML)."""
+        """As KalmanEstimator (no lag: it has the whole recording); without ``q_accel``, q_a is fitted."""
         super().__init__(
             config,
             preset=preset,
@@ -405,5 +409,5 @@ class SmootherEstimator(KalmanEstimator):
         return self.smoothed(t, theta)
 
     def nominal_delay(self, accel: float) -> float:
-        """0: a fixed-interval smoother has no lag (it sees the whole recording; its latency is the recording)."""
+        """0: a fixed-interval smoother has no lag (its latency is the whole recording)."""
         return 0.0

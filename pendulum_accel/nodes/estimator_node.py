@@ -134,7 +134,7 @@ class EstimatorNode(ChainNode):
         return parameter_values(self, ("method", "lag", *(spec.name for spec in ESTIMATOR_CONFIG)), changes)
 
     def _build(self, values: dict[str, Any]) -> Estimator:
-        """make_estimator(method, length, gravity, noise_std, rate_hz, damping[, lag]) (ParameterError if bad)."""
+        """make_estimator(method, l, g, noise_std, rate_hz, damping[, lag]); ParameterError if bad."""
         cfg = {k: float(v) for k, v in values.items() if k not in ("method", "lag")}
         if not all(math.isfinite(v) for v in cfg.values()):
             raise PendulumAccelError("estimator parameters must be finite")
