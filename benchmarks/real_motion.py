@@ -29,10 +29,11 @@ state and within 2 s after a change (|a(t) − a(t − 1 s)| > 0.2 m/s²), and �
 design for the least RMS over a grid (with the truth: hindsight), and ``rts_hindsight``, the RTS
 smoother on that same model; ``rts_best`` is a tighter bound, the RTS at its own hindsight q (every
 other grid point). Ratios: kalman / ekf_hindsight, smoother / rts_hindsight (and / rts_best). The
-latency–accuracy curve is the RMS of kalman's fixed-lag smoother against its lag (0 … 2 s), per design, over the validation profiles, beside the live IMM filter at lag 0.
+latency–accuracy curve is the RMS of kalman's fixed-lag smoother against its lag (0 … 2 s), per design,
+over the validation profiles, beside the live IMM filter at lag 0.
 
-``--fit`` fits each preset's q_a on its training profiles only (least mean log RMS over both designs and
-the seeds, on the same grid) and prints the values to put in ``estimators.kalman.PRESETS``.
+``--fit`` fits each preset's q_a and IMM on its training profiles only (least RMS, geometric mean over
+both designs, pooled over the seeds, on grids) and prints the values to put in ``estimators.kalman.PRESETS``.
 """
 
 from __future__ import annotations
