@@ -4,16 +4,20 @@ from __future__ import annotations
 
 import math
 from functools import cache
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import estimate_batch, make_estimator
 from pendulum_accel.estimators.kalman import KalmanEstimator
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Table
 from pendulum_accel.physics.simulate import simulate
+from pendulum_accel.recording.analyze import analyze_bag
+from test.conftest import REPO
 
 L, C, SIGMA, RATE = 0.05, 19.8, 2e-3, 200.0  # the short damped design (scene udds)
 CFG = {"length": L, "damping": C, "noise_std": SIGMA, "rate_hz": RATE}
@@ -115,3 +119,22 @@ def test_lag_is_checked_and_only_kalman_has_it() -> None:
         make_estimator("smoother", **CFG, lag=0.5)  # it has the whole recording
     with pytest.raises(ParameterError, match="unknown preset"):
         make_estimator("kalman", **CFG, preset="boat")
+
+
+def test_export_and_analyze_offer_the_smoother_and_the_lag(tmp_path: Path) -> None:
+    """``export`` adds the smoother's series on the angle's stamps (finite, one per angle); ``analyze`` runs
+    ``--estimator smoother`` and ``--lag``, and refuses a lag for a method without one in one line."""
+    pytest.importorskip("pandas")
+    golden = REPO / "bags" / "step_start"
+    assert main(["export", str(golden), "--out", str(tmp_path), "--merged"]) == 0
+    merged = (tmp_path / "merged.csv").read_text().splitlines()
+    header = merged[0].split(",")
+    col = header.index("/car/accel/smoothed/a")
+    values = [float(row.split(",")[col]) for row in merged[1:]]
+    assert len(values) == len(merged) - 1 and all(math.isfinite(v) for v in values)
+    smooth = analyze_bag(golden, estimator="smoother")
+    lagged = analyze_bag(golden, estimator="kalman", lag=0.3)
+    assert lagged.config["lag"] == 0.3 and np.isfinite(lagged.accel_est).all()
+    assert smooth.stats.rms <= lagged.stats.rms * 1.05  # the whole bag vs 0.3 s of it: no worse (5 % slack:
+    # the smoother fits its own q_a, the lag runs the preset's)
+    assert main(["analyze", str(golden), "--estimator", "instant", "--lag", "0.3"]) == 2
