@@ -132,3 +132,28 @@ def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
     assert stamps == pytest.approx([t for t, _ in feed], abs=1e-9)  # one estimate per input, in order
     for _, accel, _ in result["estimates"]:
         assert accel == pytest.approx(2.0, rel=1e-12)  # g tan(atan(2/g)); the other joint reads 0.5 rad
+
+
+def test_lag_stamps_each_estimate_with_the_sample_it_describes(spawn: Spawn) -> None:
+    """lag = 0.2 s at the scene's 100 Hz is N = 20 samples: the node states its latency (log, /diagnostics),
+    gives nothing for the first 20 inputs, then one estimate per input stamped with the input 20 back."""
+    estimator = start_node(
+        spawn, "estimator_node", {"scene": "lecture_constant", "lag": 0.2, "diagnostics_period": 0.2}
+    )
+    estimator.wait_for(r"latency 0\.200 s", timeout=60)
+    fed = [[0.01 * i, THETA_2] for i in range(1, 61)]
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/car/accel/estimate", "/diagnostics"],
+            "wait_subscribers": 1,
+            "feed": fed,
+            "linger": 1.5,
+        },
+    )
+    stamps = [round(t, 9) for t, _, _ in result["estimates"]]
+    assert stamps == [round(t, 9) for t, _ in fed[: len(fed) - 20]]
+    assert all(math.isfinite(a) and var > 0.0 for _, a, var in result["estimates"])
+    assert {values.get("latency_s") for _, _, values in result["diagnostics"]} == {"0.2"}
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=20) == 0
