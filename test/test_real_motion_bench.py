@@ -31,7 +31,7 @@ def test_report_covers_every_validation_profile_design_and_method(quick: tuple) 
             methods = {
                 r.method.split(" ")[0] for r in rows if r.design == design.name and r.profile == profile
             }
-            assert {*rm.LIVE_ESTIMATORS, "kalman", "smoother", "ekf_hindsight", "rts_hindsight"} <= methods
+            assert {*rm.LIVE_ESTIMATORS, "smoother", "ekf_hindsight", "rts_hindsight", "rts_best"} <= methods
     text = (out / "real_motion.md").read_text()
     assert "| design | profile | method | RMS |" in text and "Targets (issue 24)" in text
     assert (out / "bench_real_motion_lag.png").stat().st_size > 0
@@ -49,7 +49,9 @@ def test_figures_are_finite_and_bounds_order_as_theory_says(quick: tuple) -> Non
         assert math.isnan(s.beyond_after) or 0.0 <= s.beyond_after <= 1.0
     for design in rm.designs():
         for profile in {r.profile for r in rows}:
-            by = {r.method.split(" ")[0]: r for r in rows if r.design == design.name and r.profile == profile}
+            by = {
+                r.method.split(" q=")[0]: r for r in rows if r.design == design.name and r.profile == profile
+            }
             assert by["rts_hindsight"].score.rms <= by["ekf_hindsight"].score.rms
             assert by["smoother"].score.rms <= by["kalman"].score.rms
             assert by["kalman"].ratio is not None and by["kalman"].ratio > 0.0
