@@ -51,22 +51,20 @@ def predict(
     """In place: x ← RK4 sub-steps (a held), P ← F_h P F_hᵀ + Q_h per sub-step, f ← Π F_h (module doc)."""
     steps = max(1, math.ceil(dt / MAX_STEP))
     h = dt / steps
-    fh = np.empty((3, 3))
-    tmp = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
             f[i, j] = 1.0 if i == j else 0.0
+    # Scalars only (F_h's third row is e₃): no temporary arrays in the per-sample path.
     for _ in range(steps):
         th, om, ac = x[0], x[1], x[2]
         cos_th, sin_th = math.cos(th), math.sin(th)
         j10 = -(g * cos_th + ac * sin_th) * linv
         j12 = cos_th * linv
         h2 = 0.5 * h * h
-        fh[0, 0], fh[0, 1], fh[0, 2] = 1.0 + j10 * h2, h - c * h2, j12 * h2
-        fh[1, 0] = j10 * h - c * j10 * h2
-        fh[1, 1] = 1.0 - c * h + (j10 + c * c) * h2
-        fh[1, 2] = j12 * h - c * j12 * h2
-        fh[2, 0], fh[2, 1], fh[2, 2] = 0.0, 0.0, 1.0
+        f00, f01, f02 = 1.0 + j10 * h2, h - c * h2, j12 * h2
+        f10 = j10 * h - c * j10 * h2
+        f11 = 1.0 - c * h + (j10 + c * c) * h2
+        f12 = j12 * h - c * j12 * h2
         half = 0.5 * h
         w1 = _accel(th, om, ac, g, linv, c)
         th2, om2 = th + half * om, om + half * w1
@@ -78,28 +76,34 @@ def predict(
         sixth = h / 6.0
         x[0] = th + sixth * (om + 2.0 * om2 + 2.0 * om3 + om4)
         x[1] = om + sixth * (w1 + 2.0 * w2 + 2.0 * w3 + w4)
-        # P ← F_h P F_hᵀ
-        for i in range(3):
-            for j in range(3):
-                tmp[i, j] = fh[i, 0] * p[0, j] + fh[i, 1] * p[1, j] + fh[i, 2] * p[2, j]
-        for i in range(3):
-            for j in range(3):
-                p[i, j] = tmp[i, 0] * fh[j, 0] + tmp[i, 1] * fh[j, 1] + tmp[i, 2] * fh[j, 2]
+        # A = F_h P (row 2 of A is row 2 of P), then P ← A F_hᵀ.
+        a00 = f00 * p[0, 0] + f01 * p[1, 0] + f02 * p[2, 0]
+        a01 = f00 * p[0, 1] + f01 * p[1, 1] + f02 * p[2, 1]
+        a02 = f00 * p[0, 2] + f01 * p[1, 2] + f02 * p[2, 2]
+        a10 = f10 * p[0, 0] + f11 * p[1, 0] + f12 * p[2, 0]
+        a11 = f10 * p[0, 1] + f11 * p[1, 1] + f12 * p[2, 1]
+        a12 = f10 * p[0, 2] + f11 * p[1, 2] + f12 * p[2, 2]
+        a20, a21, a22 = p[2, 0], p[2, 1], p[2, 2]
+        p00 = a00 * f00 + a01 * f01 + a02 * f02
+        p01 = a00 * f10 + a01 * f11 + a02 * f12
+        p11 = a10 * f10 + a11 * f11 + a12 * f12
+        p20 = a20 * f00 + a21 * f01 + a22 * f02
+        p21 = a20 * f10 + a21 * f11 + a22 * f12
         # + Q_h: the random walk of a integrated through θ'' ≈ j₁₂ a, and q_ω on θ'.
         qa = q_accel
         h3 = h * h * h
-        p[0, 0] += qa * j12 * j12 * h3 * h * h / 20.0
-        p[0, 1] += qa * j12 * j12 * h3 * h / 8.0
-        p[0, 2] += qa * j12 * h3 / 6.0
-        p[1, 1] += qa * j12 * j12 * h3 / 3.0 + q_rate * h
-        p[1, 2] += qa * j12 * h * h / 2.0
-        p[2, 2] += qa * h
+        p[0, 0] = p00 + qa * j12 * j12 * h3 * h * h / 20.0
+        p[0, 1] = p01 + qa * j12 * j12 * h3 * h / 8.0
+        p[0, 2] = p20 + qa * j12 * h3 / 6.0
+        p[1, 1] = p11 + qa * j12 * j12 * h3 / 3.0 + q_rate * h
+        p[1, 2] = p21 + qa * j12 * h * h / 2.0
+        p[2, 2] = a22 + qa * h
         p[1, 0], p[2, 0], p[2, 1] = p[0, 1], p[0, 2], p[1, 2]
         # f ← F_h f
-        for i in range(3):
-            for j in range(3):
-                tmp[i, j] = fh[i, 0] * f[0, j] + fh[i, 1] * f[1, j] + fh[i, 2] * f[2, j]
-        f[:, :] = tmp
+        for j in range(3):
+            r0, r1, r2 = f[0, j], f[1, j], f[2, j]
+            f[0, j] = f00 * r0 + f01 * r1 + f02 * r2
+            f[1, j] = f10 * r0 + f11 * r1 + f12 * r2
 
 
 @njit(cache=True)
@@ -343,14 +347,44 @@ def rts(
     v = np.empty(n)
     xs = np.zeros(3)
     ps = np.zeros((3, 3))
+    pf = np.empty((3, 3))
+    gain = np.empty((3, 3))
+    dx = np.empty(3)
+    dp = np.empty((3, 3))
+    tmp = np.empty((3, 3))
     for k in range(n - 1, -1, -1):
         if k == n - 1 or starts[k + 1]:
             xs[:] = xpo[k]
             ps[:, :] = ppo[k]
         else:
-            g = ppo[k] @ fk[k + 1].T @ _inverse3(ppr[k + 1])
-            xs = xpo[k] + g @ (xs - xpr[k + 1])
-            ps = ppo[k] + g @ (ps - ppr[k + 1]) @ g.T
+            inv = _inverse3(ppr[k + 1])
+            for i in range(3):  # P⁺ Fᵀ
+                for j in range(3):
+                    pf[i, j] = (
+                        ppo[k, i, 0] * fk[k + 1, j, 0]
+                        + ppo[k, i, 1] * fk[k + 1, j, 1]
+                        + ppo[k, i, 2] * fk[k + 1, j, 2]
+                    )
+            for i in range(3):
+                for j in range(3):
+                    gain[i, j] = pf[i, 0] * inv[0, j] + pf[i, 1] * inv[1, j] + pf[i, 2] * inv[2, j]
+            for i in range(3):
+                dx[i] = xs[i] - xpr[k + 1, i]
+                for j in range(3):
+                    dp[i, j] = ps[i, j] - ppr[k + 1, i, j]
+            for i in range(3):
+                xs[i] = xpo[k, i] + gain[i, 0] * dx[0] + gain[i, 1] * dx[1] + gain[i, 2] * dx[2]
+            for i in range(3):
+                for j in range(3):
+                    tmp[i, j] = gain[i, 0] * dp[0, j] + gain[i, 1] * dp[1, j] + gain[i, 2] * dp[2, j]
+            for i in range(3):
+                for j in range(3):
+                    ps[i, j] = (
+                        ppo[k, i, j]
+                        + tmp[i, 0] * gain[j, 0]
+                        + tmp[i, 1] * gain[j, 1]
+                        + tmp[i, 2] * gain[j, 2]
+                    )
         a[k] = xs[2]
         v[k] = ps[2, 2]
     return a, v

@@ -340,28 +340,32 @@ class KalmanEstimator(Estimator):
         )
 
 
-# q_a tried by the smoother's maximum-likelihood fit: 1e-4 … 10 (m/s²)²/s, 4 per decade, which spans every
-# preset and every hindsight optimum of the real-motion corpus (0.002-2.2) with a margin on both sides.
-ML_Q_GRID = tuple(float(q) for q in np.logspace(-4.0, 1.0, 21))
+# q_a tried by the smoother's maximum-likelihood fit: 1e-4 … 10 (m/s²)²/s, one per decade, spanning every
+# preset and every hindsight optimum of the real-motion corpus (0.0001-2.2), then refined around the best.
+ML_Q_GRID = tuple(float(q) for q in np.logspace(-4.0, 1.0, 6))
+_ML_REFINE = 0.5  # decades: the refinement's half-step
 
 
 def max_likelihood_q(params: np.ndarray, t: np.ndarray, theta: np.ndarray) -> float:
-    """argmax over ML_Q_GRID of the innovations' log-likelihood Σ −½(ν²/S + ln S) (ekf_kernels), refined by
-    a parabola through the best grid point and its neighbours in log q."""
+    """argmax of the innovations' log-likelihood Σ −½(ν²/S + ln S) (ekf_kernels) over log q_a: the best of
+    ML_Q_GRID, then the vertex of the parabola through it and its neighbours half a decade either side
+    (kept within that bracket); 8 filter passes in all."""
     trial = params.copy()
-    logs = np.log(ML_Q_GRID)
-    scores = np.empty(len(ML_Q_GRID))
-    for i, q in enumerate(ML_Q_GRID):
-        trial[5] = q
-        scores[i] = kern.log_likelihood(t, theta, trial)
-    best = int(np.argmax(scores))
-    if 0 < best < len(ML_Q_GRID) - 1:
-        y0, y1, y2 = scores[best - 1 : best + 2]
-        curve = y0 - 2.0 * y1 + y2
-        if curve < 0.0:
-            step = logs[1] - logs[0]
-            return float(np.exp(logs[best] + 0.5 * step * (y0 - y2) / curve))
-    return ML_Q_GRID[best]
+
+    def score(log_q: float) -> float:
+        trial[5] = 10.0**log_q
+        return float(kern.log_likelihood(t, theta, trial))
+
+    logs = np.log10(ML_Q_GRID)
+    best = float(logs[int(np.argmax([score(x) for x in logs]))])
+    y0, y1, y2 = score(best - _ML_REFINE), score(best), score(best + _ML_REFINE)
+    curve = y0 - 2.0 * y1 + y2
+    if curve < 0.0:
+        shift = 0.5 * _ML_REFINE * (y0 - y2) / curve
+        best += min(max(shift, -_ML_REFINE), _ML_REFINE)
+    elif y0 > y1 or y2 > y1:
+        best += -_ML_REFINE if y0 > y2 else _ML_REFINE
+    return 10.0**best
 
 
 class SmootherEstimator(KalmanEstimator):
