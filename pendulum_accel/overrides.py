@@ -58,6 +58,19 @@ OVERRIDES: tuple[Override, ...] = (
 OVERRIDE_BY_NAME: dict[str, Override] = {o.name: o for o in OVERRIDES}
 
 
+SENSOR_DESIGNS: dict[str, dict[str, float]] = {
+    # l = 5 cm: ω0 = √(g/l) = 14.0 rad/s (f0 = 2.23 Hz); c = √2 ω0 = 19.8 /s: ζ = c/(2ω0) = 0.71, for which
+    # the −3 dB bandwidth of θ/a equals f0. A few cm of damped pendulum, as a real sensor is built.
+    "short_damped": {"length": 0.05, "damping": 19.8, "rate_hz": 200.0, "noise_std": 2e-3},
+    # l = 1 m: f0 = 0.50 Hz, ζ = 0.008 (it rings for minutes): the lecture's pendulum.
+    "teaching": {"length": 1.0, "damping": 0.05, "rate_hz": 100.0, "noise_std": 1e-3},
+}
+"""The bundled sensor designs as override values (docs/real_motion.md): ``apply_overrides(scene,
+SENSOR_DESIGNS[name])`` puts any scene's motion on that design. The real-motion scenes ship in both
+(``udds`` in short_damped, ``udds_teaching`` in teaching); on the command line the same is
+``--set length=1 --set damping=0.05 --set rate_hz=100 --set noise_std=1e-3``."""
+
+
 def apply_overrides(scene: Scene, values: Mapping[str, float]) -> Scene:
     """The scene with every field named in ``values`` replaced (range-checked; the scene re-validates)."""
     for name, value in values.items():

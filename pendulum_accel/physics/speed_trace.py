@@ -8,8 +8,10 @@ it is, away from the ends, the zero-phase low-pass filter
 
 so a stated −3 dB cut-off f_c (H = 1/√2) sets λ = (√2 − 1) / (h (2π f_c)⁴). a(t) = s'(t) then has the
 gain 2π f · H(f) of a differentiator below f_c and falls as f⁻³ above it, which keeps the trace's
-quantisation (0.1 mph in the EPA schedules) from turning into acceleration noise. Unless a scene states
-``cutoff_hz``, f_c is half the trace's Nyquist frequency, 1 / (4 h).
+quantisation (0.1 mph in the EPA schedules) and an odometer's noise from turning into acceleration
+noise. Unless a scene states ``cutoff_hz``, f_c = min(1 / (4 h), 1 Hz): half the trace's Nyquist
+frequency, and at most the 1 Hz below which a car's or a wheeled robot's own accelerations lie (above
+it are drivetrain and body modes, and the noise of differentiated odometry, which grows as f).
 
 s'(t) is a quadratic spline; the profile is its samples joined linearly (a ``Table``), every ``h/2`` s
 or closer, so the simulator and the closed forms take it as any other table. The step is chosen from
@@ -39,8 +41,8 @@ MAX_GAP_STEPS = 5.0
 invent the motion across it."""
 
 TABLE_TOLERANCE = 2e-3
-"""m/s²: the most the piecewise-linear table may differ from the spline's derivative s'(t); a quarter of
-the ≈ 8 mm/s² that the EPA schedules' 0.1 mph rounding leaves in s'(t) at their 0.25 Hz cut-off."""
+"""m/s²: the most the piecewise-linear table may differ from the spline's derivative s'(t); a fifth of
+the 10 mm/s² RMS that the EPA schedules' 0.1 mph rounding leaves in s'(t) at their 0.25 Hz cut-off."""
 
 TABLE_MIN_STEPS = 2
 """At least this many table points per trace step h, whatever |a''| is."""
@@ -61,14 +63,14 @@ def check_trace(
     for label, column in (("time", times), (name, values)):
         bad = np.flatnonzero(~np.isfinite(column))
         if bad.size:
-            raise ParameterError(f"{where(int(bad[0]))}: {label} is not a finite number ({column[bad[0]]!r})")
+            value = float(column[bad[0]])
+            raise ParameterError(f"{where(int(bad[0]))}: {label} is not a finite number ({value!r})")
     steps = np.diff(times)
     back = np.flatnonzero(steps <= 0.0)
     if back.size:
         i = int(back[0]) + 1
-        raise ParameterError(
-            f"{where(i)}: times must be strictly increasing, got {times[i]!r} after {times[i - 1]!r}"
-        )
+        now, before = float(times[i]), float(times[i - 1])
+        raise ParameterError(f"{where(i)}: times must be strictly increasing, got {now!r} after {before!r}")
     median = float(np.median(steps))
     gaps = np.flatnonzero(steps > MAX_GAP_STEPS * median)
     if gaps.size:
@@ -84,14 +86,72 @@ def median_step(times: np.ndarray) -> float:
     return float(np.median(np.diff(times)))
 
 
+DEFAULT_MAX_CUTOFF_HZ = 1.0
+"""Hz: the default cut-off never exceeds this (see the module docstring)."""
+
+
 def default_cutoff_hz(times: np.ndarray) -> float:
-    """f_c = 1 / (4 h), half the Nyquist frequency of samples a median step h apart."""
-    return 0.25 / median_step(times)
+    """f_c = min(1 / (4 h), 1 Hz): half the Nyquist of samples a median step h apart, at most 1 Hz."""
+    return min(0.25 / median_step(times), DEFAULT_MAX_CUTOFF_HZ)
 
 
 def spline_lambda(cutoff_hz: float, step: float) -> float:
     """λ = (√2 − 1) / (h (2π f_c)⁴): the smoothing spline's gain is 1/√2 (−3 dB) at f_c."""
     return (math.sqrt(2.0) - 1.0) / (step * (2.0 * math.pi * cutoff_hz) ** 4)
+
+
+def _window_bounds(t: np.ndarray, start: float | None, end: float | None) -> tuple[float, float]:
+    """(lo, hi) of the window on the shifted axis; ParameterError unless 0 ≤ lo < hi ≤ t[-1]."""
+    lo = 0.0 if start is None else start
+    hi = float(t[-1]) if end is None else end
+    if not (0.0 <= lo < hi <= t[-1]):
+        raise ParameterError(
+            f"window start/end must satisfy 0 <= start < end <= {t[-1]:.6g} s (the trace's length), "
+            f"got start={lo!r}, end={hi!r}",
+            path="start" if not 0.0 <= lo < t[-1] else "end",
+        )
+    return lo, hi
+
+
+def spline_table(
+    times: np.ndarray,
+    values: np.ndarray,
+    cutoff_hz: float,
+    *,
+    order: int = 1,
+    start: float | None = None,
+    end: float | None = None,
+    origin: str = "",
+    recipe: Mapping[str, object] | None = None,
+) -> Table:
+    """Table of s⁽ᵒʳᵈᵉʳ⁾(t) from t = 0, s the smoothing spline of ``values`` (−3 dB at ``cutoff_hz``).
+
+    order 1 differentiates a speed into a(t); order 0 only low-passes an acceleration. ``times`` are
+    shifted so the first sample is t = 0; ``start``/``end`` (s, on that shifted axis) keep a window,
+    which then starts at t = 0 too. The spline is fitted to the whole trace, so a window has no end
+    effects of its own.
+    """
+    t = np.asarray(times, dtype=float) - float(times[0])
+    step = median_step(t)
+    nyquist = 0.5 / step
+    if not (math.isfinite(cutoff_hz) and 0.0 < cutoff_hz <= nyquist):
+        raise ParameterError(
+            f"cutoff_hz must be > 0 and at most the trace's Nyquist frequency {nyquist:.6g} Hz, "
+            f"got {cutoff_hz!r}",
+            path="cutoff_hz",
+        )
+    lo, hi = _window_bounds(t, start, end)
+    spline = make_smoothing_spline(t, np.asarray(values, dtype=float), lam=spline_lambda(cutoff_hz, step))
+    fitted = spline.derivative(order) if order else spline
+    # f'' of the fitted curve is piecewise linear (order 0) or constant (order 1) between the knots t,
+    # so its largest magnitude is at a knot.
+    curvature = float(np.max(np.abs(spline.derivative(order + 2)(t))))
+    table_step = step / TABLE_MIN_STEPS
+    if curvature > 0.0:
+        table_step = min(table_step, math.sqrt(8.0 * TABLE_TOLERANCE / curvature))
+    count = max(2, math.ceil((hi - lo) / table_step) + 1)
+    grid = np.linspace(lo, hi, count)
+    return Table(tuple((grid - lo).tolist()), tuple(fitted(grid).tolist()), origin=origin, recipe=recipe)
 
 
 def differentiate(
@@ -104,45 +164,24 @@ def differentiate(
     origin: str = "",
     recipe: Mapping[str, object] | None = None,
 ) -> Table:
-    """a(t) = s'(t), s the smoothing spline of v (−3 dB at ``cutoff_hz``), as a Table from t = 0.
+    """a(t) = s'(t), s the smoothing spline of v (−3 dB at ``cutoff_hz``): ``spline_table`` of order 1."""
+    return spline_table(times, speeds, cutoff_hz, order=1, start=start, end=end, origin=origin, recipe=recipe)
 
-    ``times`` are shifted so the first sample is t = 0; ``start``/``end`` (s, on that shifted axis)
-    keep a window, which then starts at t = 0 too. The spline is fitted to the whole trace, so a window
-    has no end effects of its own.
-    """
+
+def windowed_table(
+    times: np.ndarray, values: np.ndarray, *, start: float | None, end: float | None, origin: str
+) -> Table:
+    """The samples themselves joined linearly, shifted to t = 0, cut to [start, end] (ends interpolated)."""
     t = np.asarray(times, dtype=float) - float(times[0])
-    v = np.asarray(speeds, dtype=float)
-    step = median_step(t)
-    nyquist = 0.5 / step
-    if not (math.isfinite(cutoff_hz) and 0.0 < cutoff_hz <= nyquist):
-        raise ParameterError(
-            f"cutoff_hz must be > 0 and at most the trace's Nyquist frequency {nyquist:.6g} Hz, "
-            f"got {cutoff_hz!r}",
-            path="cutoff_hz",
-        )
-    lo = 0.0 if start is None else start
-    hi = float(t[-1]) if end is None else end
-    if not (0.0 <= lo < hi <= t[-1]):
-        raise ParameterError(
-            f"window start/end must satisfy 0 <= start < end <= {t[-1]:.6g} s (the trace's length), "
-            f"got start={lo!r}, end={hi!r}",
-            path="start" if not 0.0 <= lo < t[-1] else "end",
-        )
-    spline = make_smoothing_spline(t, v, lam=spline_lambda(cutoff_hz, step))
-    accel = spline.derivative(1)
-    jerk_rate = accel.derivative(2)  # a''(t), piecewise linear: its extremes are at the knots
-    curvature = float(np.max(np.abs(jerk_rate(t))))
-    table_step = step / TABLE_MIN_STEPS
-    if curvature > 0.0:
-        table_step = min(table_step, math.sqrt(8.0 * TABLE_TOLERANCE / curvature))
-    count = max(2, math.ceil((hi - lo) / table_step) + 1)
-    grid = np.linspace(lo, hi, count)
-    return Table(tuple((grid - lo).tolist()), tuple(accel(grid).tolist()), origin=origin, recipe=recipe)
+    lo, hi = _window_bounds(t, start, end)
+    inside = (t > lo) & (t < hi)
+    grid = np.concatenate(([lo], t[inside], [hi]))
+    return Table(tuple((grid - lo).tolist()), tuple(np.interp(grid, t, values).tolist()), origin=origin)
 
 
 def describe_differentiation(cutoff_hz: float, step: float, default: bool) -> str:
-    """'smoothing spline, −3 dB cut-off f_c Hz (default: half the Nyquist of h = … s)' for plan lines."""
-    rule = f" (default: half the Nyquist of the {step:.3g} s samples)" if default else ""
+    """'a = d/dt of a smoothing spline of v, -3 dB cut-off f_c Hz (default: …)' for plan lines."""
+    rule = f" (default: min(half the Nyquist of the {step:.3g} s samples, 1 Hz))" if default else ""
     return f"a = d/dt of a smoothing spline of v, -3 dB cut-off {cutoff_hz:.3g} Hz{rule}"
 
 
@@ -199,8 +238,8 @@ def read_columns(
     return np.array(times), np.array(values), lines
 
 
-def _window(kind: str, d: Mapping[str, object]) -> tuple[float | None, float | None]:
-    """The optional 'start' and 'end' fields, s."""
+def window_fields(kind: str, d: Mapping[str, object]) -> tuple[float | None, float | None]:
+    """The optional 'start' and 'end' fields of a profile mapping, s (None when absent)."""
     start = field_number(kind, "start", d["start"]) if "start" in d else None
     end = field_number(kind, "end", d["end"]) if "end" in d else None
     return start, end
@@ -237,12 +276,12 @@ def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
         if negative.size:
             i = int(negative[0])
             raise ParameterError(
-                f"{where(i)}: speed {values[i]!r} {units} is negative (set signed: true for a trace "
+                f"{where(i)}: speed {float(values[i])!r} {units} is negative (set signed: true for a trace "
                 "that reverses)"
             )
     default = "cutoff_hz" not in d
     cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
-    start, end = _window(kind, d)
+    start, end = window_fields(kind, d)
     recipe: dict[str, object] = {
         "type": "speed_table",
         "units": units,

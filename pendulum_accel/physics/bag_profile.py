@@ -1,0 +1,144 @@
+"""The ``bag_topic`` profile: a(t) from one topic of a recorded bag (ROS 1, rosbag2 sqlite3 or MCAP).
+
+The bag is read with ``rosbags.highlevel.AnyReader`` (pure Python, no ROS). What a(t) is depends on the
+topic's type:
+
+=======================================  ========================  =====================================
+type                                     field read                a(t)
+=======================================  ========================  =====================================
+nav_msgs/msg/Odometry                    twist.twist.linear.x      speed, differentiated (speed_trace)
+geometry_msgs/msg/TwistStamped           twist.linear.x            speed, differentiated (speed_trace)
+sensor_msgs/msg/Imu                      linear_acceleration.x     used as recorded (low-passed by the
+geometry_msgs/msg/AccelStamped           accel.linear.x            smoothing spline only when the
+geometry_msgs/msg/AccelWithCovarianceSt. accel.accel.linear.x      profile states cutoff_hz)
+=======================================  ========================  =====================================
+
+Times are the messages' header stamps, shifted so the first is t = 0 (the bag's log times when every
+stamp is zero, i.e. never set). Stamps that go back, gaps, NaN: one-line errors naming the message.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.physics.profiles import Table, field_number, field_path, field_text
+from pendulum_accel.physics.speed_trace import (
+    check_trace,
+    default_cutoff_hz,
+    describe_differentiation,
+    differentiate,
+    median_step,
+    spline_table,
+    window_fields,
+    windowed_table,
+)
+
+SPEED_FIELDS: dict[str, Callable[[Any], float]] = {
+    "nav_msgs/msg/Odometry": lambda m: m.twist.twist.linear.x,
+    "geometry_msgs/msg/TwistStamped": lambda m: m.twist.linear.x,
+}
+"""Types whose forward speed (m/s) is differentiated into a(t)."""
+
+ACCEL_FIELDS: dict[str, Callable[[Any], float]] = {
+    "sensor_msgs/msg/Imu": lambda m: m.linear_acceleration.x,
+    "geometry_msgs/msg/AccelStamped": lambda m: m.accel.linear.x,
+    "geometry_msgs/msg/AccelWithCovarianceStamped": lambda m: m.accel.accel.linear.x,
+}
+"""Types whose forward acceleration (m/s²) is a(t) itself."""
+
+
+def _bag_source(path: Path) -> Path:
+    """What AnyReader opens: a ROS 1 .bag file, or the rosbag2 directory (also when given its .mcap/.db3)."""
+    if path.is_file() and path.suffix in (".mcap", ".db3") and (path.parent / "metadata.yaml").is_file():
+        return path.parent
+    return path
+
+
+def read_topic(path: Path, topic: str) -> tuple[str, np.ndarray, np.ndarray, bool]:
+    """(msgtype, t in s, x values, stamped) of every message on ``topic``, in the bag's log order.
+
+    ``stamped`` is False when every header stamp is zero and the log times were used instead.
+    """
+    from rosbags.highlevel import AnyReader  # a heavy import, needed only for this profile type
+    from rosbags.typesys import Stores, get_typestore
+
+    source = _bag_source(path)
+    if not source.exists():
+        raise ParameterError(f"cannot read bag {path}: no such file or directory", path="path")
+    stamps: list[int] = []
+    logs: list[int] = []
+    values: list[float] = []
+    try:
+        # The default typestore decodes rosbag2 sqlite3 bags that carry no message definitions.
+        with AnyReader([source], default_typestore=get_typestore(Stores.LATEST)) as reader:
+            connections = [c for c in reader.connections if c.topic == topic]
+            if not connections:
+                listed = ", ".join(sorted({c.topic for c in reader.connections})) or "none"
+                raise ParameterError(f"bag {path} has no topic {topic!r} (topics: {listed})", path="topic")
+            msgtypes = {c.msgtype for c in connections}
+            msgtype = connections[0].msgtype
+            if len(msgtypes) > 1:
+                raise ParameterError(
+                    f"bag {path} topic {topic} has several types: {', '.join(sorted(msgtypes))}"
+                )
+            read = SPEED_FIELDS.get(msgtype) or ACCEL_FIELDS.get(msgtype)
+            if read is None:
+                raise ParameterError(
+                    f"bag {path} topic {topic} is {msgtype}; bag_topic reads "
+                    f"{', '.join([*SPEED_FIELDS, *ACCEL_FIELDS])}",
+                    path="topic",
+                )
+            for connection, log_ns, raw in reader.messages(connections=connections):
+                message: Any = reader.deserialize(raw, connection.msgtype)
+                stamps.append(
+                    int(message.header.stamp.sec) * 1_000_000_000 + int(message.header.stamp.nanosec)
+                )
+                logs.append(int(log_ns))
+                values.append(float(read(message)))
+    except ParameterError:
+        raise
+    except Exception as exc:  # rosbags raises many types (its own, struct.error, KeyError) on a bad bag
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ParameterError(f"cannot read bag {path}: {first}", path="path") from None
+    stamped = any(stamps)
+    ns = np.array(stamps if stamped else logs, dtype=np.int64)
+    # Integer nanoseconds relative to the first, then seconds: no float rounding of 1.4e9 s epochs.
+    return msgtype, (ns - ns[0]).astype(float) * 1e-9, np.array(values), stamped
+
+
+def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
+    """Table of a(t) from a bag_topic mapping (field names checked by profiles.profile_from_dict)."""
+    kind = "bag_topic"
+    path = field_path(kind, d["path"], base_dir)
+    topic = field_text(kind, "topic", d["topic"])
+    msgtype, times, values, stamped = read_topic(path, topic)
+    where: Callable[[int], str] = lambda i: f"bag {path.name} {topic} message {i}"  # noqa: E731
+    check_trace(times, values, where, name="speed" if msgtype in SPEED_FIELDS else "acceleration")
+    start, end = window_fields(kind, d)
+    clock = "header stamps" if stamped else "log times (header stamps unset)"
+    label = f"bag_topic {path.name} {topic} ({msgtype}, {times.size} messages, {clock})"
+    if msgtype in SPEED_FIELDS:
+        default = "cutoff_hz" not in d
+        cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
+        origin = f"{label}: " + describe_differentiation(cutoff, median_step(times), default)
+        # A standalone copy (the scene stored in a bag): the speeds themselves, as a speed_table.
+        recipe: dict[str, object] = {
+            "type": "speed_table",
+            "units": "m/s",
+            "times": times.tolist(),
+            "speeds": values.tolist(),
+            "cutoff_hz": cutoff,
+            "signed": True,
+        }
+        recipe |= {k: v for k, v in (("start", start), ("end", end)) if v is not None}
+        return differentiate(times, values, cutoff, start=start, end=end, origin=origin, recipe=recipe)
+    if "cutoff_hz" in d:
+        cutoff = field_number(kind, "cutoff_hz", d["cutoff_hz"])
+        origin = f"{label}: a as recorded, smoothing spline -3 dB cut-off {cutoff:.3g} Hz"
+        return spline_table(times, values, cutoff, order=0, start=start, end=end, origin=origin)
+    return windowed_table(times, values, start=start, end=end, origin=f"{label}: a as recorded")

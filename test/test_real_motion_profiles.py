@@ -1,0 +1,401 @@
+"""Real motion as input: speed_csv / speed_table / bag_topic profiles, the bundled drive cycles and robot.
+
+The differentiation is a smoothing spline whose gain is H(f) = 1 / (1 + (√2 − 1)(f/f_c)⁴) in its
+continuous limit (physics/speed_trace.py); the tolerances below come from that H, from the table's
+chord bound TABLE_TOLERANCE, and from the spline's end effects, which the checks keep clear of.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pendulum_accel.cli.main import main
+from pendulum_accel.errors import ParameterError, SceneError
+from pendulum_accel.overrides import OVERRIDE_BY_NAME, SENSOR_DESIGNS, apply_overrides
+from pendulum_accel.physics.profiles import Table, profile_from_dict
+from pendulum_accel.physics.speed_trace import (
+    DEFAULT_MAX_CUTOFF_HZ,
+    SPEED_UNITS,
+    TABLE_TOLERANCE,
+    default_cutoff_hz,
+    differentiate,
+    read_columns,
+)
+from pendulum_accel.scene import (
+    BUNDLED_SCENE_NAMES,
+    REAL_MOTION_SCENE_NAMES,
+    SCENE_NAMES,
+    SCENES_DIR,
+    load_scene,
+    scene_from_yaml,
+    scene_to_yaml,
+)
+
+DATA = SCENES_DIR / "real_motion"
+
+
+def gain(f: float, cutoff: float) -> float:
+    """H(f) of the smoothing spline in its continuous limit, −3 dB at ``cutoff``."""
+    return 1.0 / (1.0 + (math.sqrt(2.0) - 1.0) * (f / cutoff) ** 4)
+
+
+def table_of(spec: dict[str, object], base_dir: Path | None = None) -> Table:
+    """profile_from_dict(spec), which for every real-motion type is a Table."""
+    profile = profile_from_dict(spec, base_dir=base_dir)
+    assert isinstance(profile, Table)
+    return profile
+
+
+def write_speed_csv(path: Path, rows: list[tuple[float, float]], header: str = "t,v") -> Path:
+    """A speed CSV with a comment, a header and ``rows``."""
+    lines = ["# test trace", header, *(f"{t!r},{v!r}" for t, v in rows)]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+# ---------------------------------------------------------------- units and differentiation
+
+
+@pytest.mark.parametrize("units", list(SPEED_UNITS))
+def test_units_convert_a_straight_speed_ramp(units: str) -> None:
+    """v = 3 + 0.7 t in each unit gives a = 0.7 × (m/s per unit) everywhere.
+
+    A straight line has ∫ s''² = 0, so the spline reproduces it exactly; what is left is the rounding of
+    its banded solve, a few hundred ulps of v/h ≈ 100 m/s / 1 s (≤ 1e-11 m/s²), far below 1e-9.
+    """
+    times = [float(i) for i in range(60)]
+    profile = table_of(
+        {"type": "speed_table", "units": units, "times": times, "speeds": [3.0 + 0.7 * t for t in times]}
+    )
+    assert isinstance(profile, Table)
+    expected = 0.7 * SPEED_UNITS[units]
+    assert np.max(np.abs(np.array(profile.accels) - expected)) <= 1e-9
+    assert SPEED_UNITS["mph"] == 0.44704 and SPEED_UNITS["km/h"] == pytest.approx(1 / 3.6, rel=1e-15)
+
+
+def test_differentiation_of_a_slow_sinusoid_matches_the_analytic_derivative() -> None:
+    """v = 20 + 10 sin(2π f t), f = f_c / 5, 1 Hz samples (as the EPA schedules): a = H(f) · v'(t).
+
+    Bound: the table's chord error (≤ TABLE_TOLERANCE by construction) plus how far the discrete
+    spline is from its continuous-limit H at 2π f h = 0.31, which is O((2π f h)⁴ (f/f_c)⁴) of the
+    amplitude: 0.1 % of 3.1 m/s² covers it with a margin. Compared with v' itself, the difference is
+    the stated (1 − H) = 6.6e-4 relative: the cut-off is where the spline says it is.
+    """
+    cutoff, f, amplitude = 0.25, 0.05, 10.0
+    t = np.arange(0.0, 600.0, 1.0)
+    profile = differentiate(t, 20.0 + amplitude * np.sin(2 * np.pi * f * t), cutoff)
+    times, accels = np.array(profile.times), np.array(profile.accels)
+    exact = amplitude * 2 * np.pi * f * np.cos(2 * np.pi * f * times)
+    inside = (times > 4 / cutoff) & (times < times[-1] - 4 / cutoff)  # clear of the spline's end effects
+    peak = amplitude * 2 * np.pi * f
+    error = np.abs(accels[inside] - gain(f, cutoff) * exact[inside])
+    assert np.max(error) <= TABLE_TOLERANCE + 1e-3 * peak
+    assert (
+        np.max(np.abs(accels[inside] - exact[inside]))
+        <= (1 - gain(f, cutoff)) * peak + TABLE_TOLERANCE + 1e-3 * peak
+    )
+
+
+def test_the_stated_cutoff_is_the_minus_3_db_point() -> None:
+    """A sinusoid at f = f_c comes out with gain 1/√2 and no phase shift (the spline is symmetric).
+
+    Samples 50 Hz, f_c = 1 Hz: 2π f h = 0.13, where the continuous-limit H is within 1e-4 of the
+    discrete spline's gain. A λ off by a factor 2 would move the gain to 0.58 or 0.82, so 1 % is a test.
+    """
+    cutoff = 1.0
+    t = np.arange(0.0, 60.0, 0.02)
+    profile = differentiate(t, 5.0 + np.sin(2 * np.pi * cutoff * t), cutoff)
+    times, accels = np.array(profile.times), np.array(profile.accels)
+    inside = (times > 4 / cutoff) & (times < times[-1] - 4 / cutoff)
+    basis = np.c_[np.cos(2 * np.pi * cutoff * times[inside]), np.sin(2 * np.pi * cutoff * times[inside])]
+    (c, s), *_ = np.linalg.lstsq(basis, accels[inside], rcond=None)
+    assert math.hypot(c, s) / (2 * np.pi * cutoff) == pytest.approx(1 / math.sqrt(2), rel=1e-2)
+    assert abs(math.atan2(s, c)) <= 1e-3  # rad: a cosine in, a cosine out
+
+
+def test_default_cutoff_is_half_nyquist_at_most_one_hz() -> None:
+    """1 Hz samples → 0.25 Hz; 50 Hz samples → capped at 1 Hz."""
+    assert default_cutoff_hz(np.arange(10.0)) == 0.25
+    assert default_cutoff_hz(np.arange(0.0, 2.0, 0.02)) == DEFAULT_MAX_CUTOFF_HZ == 1.0
+
+
+def test_window_starts_at_zero_and_keeps_the_whole_trace_fit(tmp_path: Path) -> None:
+    """start/end cut the table to [start, end], shifted to t = 0; the values are the full fit's.
+
+    Same spline, same evaluation points up to the grids' spacing: the two tables agree to their chord
+    error, 2 × TABLE_TOLERANCE.
+    """
+    t = np.arange(100.0, 400.0, 1.0)  # a trace that does not start at 0
+    v = 10 + 5 * np.sin(2 * np.pi * 0.03 * t)
+    whole = differentiate(t, v, 0.25)
+    part = differentiate(t, v, 0.25, start=50.0, end=120.0)
+    assert part.times[0] == 0.0 and part.times[-1] == pytest.approx(70.0, abs=1e-9)
+    probe = np.linspace(0.0, 70.0, 301)
+    assert np.max(np.abs(part(probe) - whole(probe + 50.0))) <= 2 * TABLE_TOLERANCE
+
+
+def test_speed_csv_reads_named_columns_and_round_trips(tmp_path: Path) -> None:
+    """Named columns in any order; to_dict is a standalone speed_table that reads back equal."""
+    rows = [(float(i), 3.6 * (2.0 + 0.5 * i)) for i in range(40)]
+    lines = ["speed_kmh,time_s", *(f"{v},{t}" for t, v in rows)]
+    (tmp_path / "trace.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    spec = {"type": "speed_csv", "path": "trace.csv", "units": "km/h", "time_column": "time_s",
+            "speed_column": "speed_kmh", "cutoff_hz": 0.2}  # fmt: skip
+    profile = table_of(spec, base_dir=tmp_path)
+    assert np.max(np.abs(np.array(profile.accels) - 0.5)) <= 1e-9  # a straight line, as above
+    assert isinstance(profile, Table) and "cut-off 0.2 Hz" in profile.origin
+    again = profile_from_dict(profile.to_dict())
+    assert again == profile and profile.to_dict()["type"] == "speed_table"
+
+
+# ---------------------------------------------------------------- errors: one line each
+
+
+@pytest.mark.parametrize(
+    ("rows", "extra", "message"),
+    [
+        (
+            [(0.0, 1.0), (1.0, 1.0), (1.0, 2.0), (2.0, 2.0), (3.0, 2.0)],
+            {},
+            ":5: times must be strictly increasing",
+        ),
+        (
+            [(0.0, 1.0), (1.0, 1.0), (0.5, 2.0), (2.0, 2.0), (3.0, 2.0)],
+            {},
+            ":5: times must be strictly increasing",
+        ),
+        ([(0.0, 1.0), (1.0, math.nan), (2.0, 2.0), (3.0, 2.0)], {}, ":4: speed is not a finite number"),
+        ([(0.0, 1.0), (1.0, 1.0), (2.0, 1.0), (30.0, 2.0), (31.0, 2.0)], {}, ":6: gap of 28 s"),
+        ([(0.0, 1.0), (1.0, -0.5), (2.0, 1.0), (3.0, 1.0)], {}, ":4: speed -0.5 mph is negative"),
+        ([(0.0, 1.0), (1.0, 1.0), (2.0, 1.0)], {}, "at least 4 samples"),
+        ([(float(i), 1.0) for i in range(8)], {"cutoff_hz": 0.9}, "Nyquist frequency 0.5 Hz"),
+        ([(float(i), 1.0) for i in range(8)], {"end": 9.0}, "start < end <= 7 s"),
+        ([(float(i), 1.0) for i in range(8)], {"units": "knots"}, "'units' must be one of m/s, km/h, mph"),
+        ([(float(i), 1.0) for i in range(8)], {"speed_column": "speed"}, "no column 'speed' in header"),
+        ([(float(i), 1.0) for i in range(8)], {"signed": "yes"}, "'signed' must be true or false"),
+    ],
+)
+def test_bad_speed_traces_give_one_line_naming_the_row(
+    rows: list[tuple[float, float]], extra: dict[str, object], message: str, tmp_path: Path
+) -> None:
+    """Each bad trace: one ParameterError line, naming file and line where a row is at fault."""
+    path = write_speed_csv(tmp_path / "bad.csv", rows)
+    spec: dict[str, object] = {"type": "speed_csv", "path": str(path), "units": "mph", **extra}
+    with pytest.raises(ParameterError) as info:
+        profile_from_dict(spec)
+    text = str(info.value)
+    assert message in text and "\n" not in text, text
+
+
+def test_units_are_required_and_a_bad_scene_is_one_cli_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """No default unit: a scene without 'units' fails; the CLI prints one line and exits 2."""
+    write_speed_csv(tmp_path / "trace.csv", [(float(i), 1.0) for i in range(8)])
+    text = (SCENES_DIR / "hwfet.yaml").read_text(encoding="utf-8")
+    text = text.replace("path: real_motion/hwfet.csv", "path: trace.csv").replace("  units: mph\n", "")
+    text = text.replace("  time_column: t_s\n", "").replace("  speed_column: speed_mph\n", "")
+    scene_file = tmp_path / "mine.yaml"
+    scene_file.write_text(text, encoding="utf-8")
+    with pytest.raises(SceneError, match="speed_csv profile is missing field 'units'"):
+        load_scene(scene_file)
+    assert main(["simulate", str(scene_file), "--duration", "1", "--out", str(tmp_path / "o.csv")]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1 and "units" in captured.err
+
+
+# ---------------------------------------------------------------- the bundled recordings
+
+CYCLES = {
+    # name: (file, units, last time s, rows, max speed in its units)
+    "udds": ("udds.csv", "mph", 1369.0, 1370, 56.7),
+    "hwfet": ("hwfet.csv", "mph", 765.0, 766, 59.9),
+    "ftp75": ("ftp75.csv", "mph", 1874.0, 1875, 56.7),  # the driving phases; the hot soak is left out
+    "husky_odom": ("husky_odom.csv", "m/s", 395.30373, 3952, 1.0166270273318876),
+}
+
+
+@pytest.mark.parametrize("name", list(CYCLES))
+def test_bundled_recordings_have_their_stated_duration_and_maximum(name: str) -> None:
+    """Each file: its rows, span and top speed as documented; both designs' scenes load it whole."""
+    filename, units, last, rows, top = CYCLES[name]
+    times, speeds, _ = read_columns(DATA / filename, "t_s", "speed_mph" if units == "mph" else "speed_mps")
+    assert times.size == rows and times[0] == 0.0
+    assert times[-1] == pytest.approx(last, abs=1e-6) and np.max(speeds) == top
+    for scene_name in (name, f"{name}_teaching"):
+        scene = load_scene(scene_name)
+        assert isinstance(scene.profile, Table) and scene.profile.times[-1] == pytest.approx(last, abs=1e-6)
+        assert scene.duration <= last and scene.profile.origin.startswith(f"speed_csv {filename} ({units})")
+        # The scene stored in a bag stands alone: the speeds inline, read back to an equal profile.
+        assert scene_from_yaml(scene_to_yaml(scene)) == scene
+
+
+def test_drive_cycles_are_real_motion_not_core_scenes() -> None:
+    """Every recording comes in both designs, listed after the core scenes, which stay seconds long."""
+    assert BUNDLED_SCENE_NAMES == SCENE_NAMES + REAL_MOTION_SCENE_NAMES
+    assert set(REAL_MOTION_SCENE_NAMES) == {n for c in CYCLES for n in (c, f"{c}_teaching")}
+    short = load_scene("udds")
+    p = short.pendulum
+    omega0 = math.sqrt(p.gravity / p.length)
+    assert p.length == 0.05 and 0.5 <= p.damping / (2 * omega0) <= 0.75  # ζ = c / (2 ω0)
+    assert short.sensor.rate_hz == 200.0 and short.sensor.noise_std == 2e-3
+    teaching = load_scene("udds_teaching")
+    assert teaching.pendulum.length == 1.0 and teaching.profile == short.profile
+
+
+@pytest.mark.parametrize("name", list(CYCLES))
+def test_scenes_ship_the_two_sensor_designs_of_the_override_table(name: str) -> None:
+    """NAME is the short damped design and NAME_teaching the 1 m one, exactly as SENSOR_DESIGNS says."""
+    short, teaching = load_scene(name), load_scene(f"{name}_teaching")
+    for scene, design in ((short, "short_damped"), (teaching, "teaching")):
+        values = SENSOR_DESIGNS[design]
+        assert {key: OVERRIDE_BY_NAME[key].get(scene) for key in values} == values
+    moved = apply_overrides(short, SENSOR_DESIGNS["teaching"])
+    assert (
+        moved.pendulum.length == teaching.pendulum.length and moved.sensor.rate_hz == teaching.sensor.rate_hz
+    )
+    assert moved.profile == teaching.profile and moved.duration == teaching.duration
+
+
+@pytest.mark.parametrize("name", list(CYCLES))
+def test_each_recording_runs_through_simulate(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`simulate NAME --duration 3`: the plan line and its a(t) origin, 601 rows, θ finite."""
+    out = tmp_path / f"{name}.csv"
+    assert main(["simulate", name, "--duration", "3", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("acceleration: speed_csv ") and "cut-off" in err and "\nplan: " in err
+    data = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert data.shape[0] == 601 and np.all(np.isfinite(data))
+
+
+# ---------------------------------------------------------------- bag_topic
+
+
+def odometry(typestore: object, stamp_ns: int, vx: float) -> object:
+    """nav_msgs/Odometry with twist.twist.linear.x = vx, of ``typestore``'s classes."""
+    types = typestore.types  # type: ignore[attr-defined]
+    time = types["builtin_interfaces/msg/Time"](sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
+    ros1 = "seq" in types["std_msgs/msg/Header"].__dataclass_fields__  # ROS 1 headers count messages
+    header = types["std_msgs/msg/Header"](stamp=time, frame_id="odom", **({"seq": 0} if ros1 else {}))
+    vec = types["geometry_msgs/msg/Vector3"]
+    twist = types["geometry_msgs/msg/Twist"](linear=vec(x=vx, y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=0.0))
+    pose = types["geometry_msgs/msg/Pose"](
+        position=types["geometry_msgs/msg/Point"](x=0.0, y=0.0, z=0.0),
+        orientation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+    )
+    return types["nav_msgs/msg/Odometry"](
+        header=header,
+        child_frame_id="base_link",
+        pose=types["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
+        twist=types["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)),
+    )
+
+
+EPOCH_NS = 1_700_000_000 * 10**9  # a recorded bag's stamps are wall-clock times
+TIMES = np.arange(0.0, 30.0, 0.05)  # 20 Hz odometry
+SPEEDS = 1.0 + 0.4 * TIMES  # a straight ramp: a = 0.4 m/s² exactly (see the units test's bound)
+
+
+def write_odometry(path: Path, storage: str, stamps_s: np.ndarray = TIMES) -> Path:
+    """A bag of /odom (nav_msgs/Odometry, v = SPEEDS) written with rosbags' own writers."""
+    from rosbags.rosbag1 import Writer as Writer1
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Writer2
+    from rosbags.typesys import Stores, get_typestore
+
+    ros1 = storage == "ros1"
+    typestore = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    msgtype = "nav_msgs/msg/Odometry"
+    if ros1:
+        writer: object = Writer1(path)
+    else:
+        plugin = StoragePlugin.SQLITE3 if storage == "sqlite3" else StoragePlugin.MCAP
+        writer = Writer2(path, version=9, storage_plugin=plugin)
+    with writer as w:  # type: ignore[attr-defined]
+        conn = w.add_connection("/odom", msgtype, typestore=typestore)
+        # Logged in order at TIMES; the header stamps are ``stamps_s``, which may go back.
+        for log_s, t, v in zip(TIMES, stamps_s, SPEEDS, strict=True):
+            ns = EPOCH_NS + round(t * 1e9)
+            msg = odometry(typestore, ns, float(v))
+            raw = typestore.serialize_ros1(msg, msgtype) if ros1 else typestore.serialize_cdr(msg, msgtype)
+            w.write(conn, EPOCH_NS + round(log_s * 1e9), raw)
+    return path
+
+
+@pytest.mark.parametrize("storage", ["ros1", "sqlite3", "mcap"])
+def test_bag_topic_differentiates_odometry_from_any_bag(storage: str, tmp_path: Path) -> None:
+    """ROS 1 bag, rosbag2 sqlite3 and MCAP (rosbags' writers): v = 1 + 0.4 t gives a = 0.4 from t = 0."""
+    path = write_odometry(tmp_path / ("odom.bag" if storage == "ros1" else "odom"), storage)
+    profile = table_of({"type": "bag_topic", "path": str(path), "topic": "/odom"})
+    assert profile.times[0] == 0.0 and profile.times[-1] == pytest.approx(TIMES[-1], abs=1e-9)
+    assert np.max(np.abs(np.array(profile.accels) - 0.4)) <= 1e-9  # a straight line (units test's bound)
+    assert "nav_msgs/msg/Odometry, 600 messages, header stamps" in profile.origin
+    assert profile_from_dict(profile.to_dict()) == profile  # a standalone speed_table
+
+
+def test_bag_topic_reads_the_projects_own_mcap_truth(tmp_path: Path) -> None:
+    """AccelStamped written by pendulum_accel's BagWriter: a(t) is the samples as recorded, t from 0."""
+    from pendulum_accel.bag import messages as bm
+    from pendulum_accel.bag.writer import BagWriter
+
+    accels = np.sin(TIMES)
+    with BagWriter(tmp_path / "truth") as writer:
+        writer.add_topic("/car/accel/true", bm.ACCEL_STAMPED)
+        for t, a in zip(TIMES, accels, strict=True):
+            ns = EPOCH_NS + round(t * 1e9)
+            writer.write(
+                "/car/accel/true", ns, bm.serialize(bm.accel_stamped(ns, float(a)), bm.ACCEL_STAMPED)
+            )
+    for path in (tmp_path / "truth", next((tmp_path / "truth").glob("*.mcap"))):
+        profile = table_of({"type": "bag_topic", "path": str(path), "topic": "/car/accel/true"})
+        assert np.array_equal(np.array(profile.accels), accels)  # copied, not computed
+        assert np.max(np.abs(np.array(profile.times) - TIMES)) <= 1e-9  # ns stamps, exact to 1 ns
+    window = table_of(
+        {
+            "type": "bag_topic",
+            "path": str(tmp_path / "truth"),
+            "topic": "/car/accel/true",
+            "start": 10.0,
+            "end": 20.0,
+        }
+    )
+    # Window ends interpolated linearly between 50 ms samples of sin: error ≤ (0.05)²/8 × max|sin''|.
+    assert window.times[0] == 0.0 and window.times[-1] == pytest.approx(10.0, abs=1e-9)
+    assert window.accels[0] == pytest.approx(math.sin(10.0), abs=0.05**2 / 8)
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        ({"topic": "/nope"}, "has no topic '/nope' (topics: /odom)"),
+        ({"topic": "/odom", "path": "missing.bag"}, "no such file or directory"),
+        ({"topic": "/odom", "cutoff_hz": 50.0}, "Nyquist frequency 10 Hz"),
+    ],
+)
+def test_bag_topic_errors_are_one_line(spec: dict[str, object], message: str, tmp_path: Path) -> None:
+    """Unknown topic, missing bag, cut-off beyond Nyquist: one line each."""
+    write_odometry(tmp_path / "odom.bag", "ros1")
+    full = {"type": "bag_topic", "path": "odom.bag", **spec}
+    with pytest.raises(ParameterError) as info:
+        profile_from_dict(full, base_dir=tmp_path)
+    assert message in str(info.value) and "\n" not in str(info.value)
+
+
+def test_bag_topic_refuses_stamps_that_go_back_and_gaps(tmp_path: Path) -> None:
+    """A header stamp before the previous one, or a hole of 5+ median steps: the message is named."""
+    back = TIMES.copy()
+    back[100] = back[98]
+    write_odometry(tmp_path / "back.bag", "ros1", back)
+    with pytest.raises(ParameterError, match=r"/odom message 100: times must be strictly increasing"):
+        profile_from_dict({"type": "bag_topic", "path": str(tmp_path / "back.bag"), "topic": "/odom"})
+    holed = TIMES.copy()
+    holed[300:] += 2.0
+    write_odometry(tmp_path / "holed.bag", "ros1", holed)
+    with pytest.raises(ParameterError, match=r"/odom message 300: gap of 2.05 s"):
+        profile_from_dict({"type": "bag_topic", "path": str(tmp_path / "holed.bag"), "topic": "/odom"})
