@@ -602,8 +602,12 @@ def plot(
         for method, style in (("instant", "k--"), ("smoother", "g:")):
             sel = [r for r in rows if r.design == name and r.method == method]
             if sel:
-                pooled = math.sqrt(sum(r.score.rms**2 for r in sel) / len(sel))
-                ax.axhline(pooled, ls=style[1:], color=style[0], label=f"{method} (mean over profiles)")
+                # Pooled over samples, as the curve is: each profile weighs by its scored samples.
+                counts = [r.score.n_steady + r.score.n_after for r in sel]
+                pooled = math.sqrt(
+                    sum(r.score.rms**2 * n for r, n in zip(sel, counts, strict=True)) / sum(counts)
+                )
+                ax.axhline(pooled, ls=style[1:], color=style[0], label=f"{method} (pooled over profiles)")
         ax.set_xlabel("lag = latency (s)")
         ax.set_ylabel("RMS error (m/s²)")
         ax.set_yscale("log")
