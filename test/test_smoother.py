@@ -11,7 +11,7 @@ import pytest
 
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.estimators import estimate_batch, make_estimator
+from pendulum_accel.estimators import estimate_batch, estimator_line, make_estimator
 from pendulum_accel.estimators.kalman import KalmanEstimator
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Table
@@ -138,3 +138,10 @@ def test_export_and_analyze_offer_the_smoother_and_the_lag(tmp_path: Path) -> No
     assert smooth.stats.rms <= lagged.stats.rms * 1.05  # the whole bag vs 0.3 s of it: no worse (5 % slack:
     # the smoother fits its own q_a, the lag runs the preset's)
     assert main(["analyze", str(golden), "--estimator", "instant", "--lag", "0.3"]) == 2
+
+
+def test_the_summary_line_explains_the_estimator() -> None:
+    """The run summary's estimator line says why the default was chosen, and that another one was chosen."""
+    assert estimator_line("kalman").startswith("estimator: kalman (the pendulum EKF")
+    assert "real-motion validation" in estimator_line("kalman")
+    assert estimator_line("instant") == "estimator: instant (chosen; the default is kalman)"

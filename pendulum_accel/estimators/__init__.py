@@ -42,8 +42,20 @@ ESTIMATORS: Mapping[str, type[Estimator]] = {
 LIVE_ESTIMATORS: tuple[str, ...] = tuple(
     name for name, cls in ESTIMATORS.items() if not getattr(cls, "offline_only", False)
 )
-# Best accuracy/latency trade in ``python -m benchmarks.estimators`` (see the README).
+# Lowest RMS of the live methods on every validation profile of ``python -m benchmarks.real_motion`` for
+# both sensor designs, within 1.1× of the hindsight fixed-q EKF (docs/estimators.md, "The default").
 DEFAULT_ESTIMATOR = "kalman"
+DEFAULT_REASON = (
+    "the pendulum EKF (IMM, car preset): lowest RMS of the live methods on every real-motion validation "
+    "profile, both sensor designs (docs/benchmarks/real_motion.md)"
+)
+
+
+def estimator_line(name: str) -> str:
+    """'estimator: <name> (<why>)': the one line a run's summary gives for the method it ran."""
+    why = DEFAULT_REASON if name == DEFAULT_ESTIMATOR else f"chosen; the default is {DEFAULT_ESTIMATOR}"
+    return f"estimator: {name} ({why})"
+
 
 _CONFIG_FIELDS = ("damping", "clamp_angle", "max_gap", *BIAS_FIELDS)
 
@@ -113,6 +125,7 @@ __all__ = [
     "EstimatorConfig",
     "cramer_rao_std",
     "estimate_batch",
+    "estimator_line",
     "make_estimator",
     "method_options",
 ]
