@@ -47,7 +47,7 @@ $(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.x
 	$(BIN)/python -m pip install -q --disable-pip-version-check --no-deps -e .
 	@echo "compiling the stepping kernels and the estimators' loops into numba's cache (once, about 20 s)"
 	$(BIN)/python -m pendulum_accel.physics.kernels
-	$(BIN)/python -c 'from pendulum_accel.estimators import onset, dynamic; onset.warm_cache(); dynamic.warm_cache()'
+	$(BIN)/python -c 'from pendulum_accel.estimators import ekf_kernels, dynamic; ekf_kernels.warm(); dynamic.warm_cache()'
 	@touch $(STAMP)
 
 demo: $(STAMP)

@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 from benchmarks.work_precision import mp_theta_ddot
-from pendulum_accel.estimators.base import EstimatorConfig
-from pendulum_accel.estimators.kalman import KalmanEstimator
+from pendulum_accel.estimators.ekf_kernels import predict
 from pendulum_accel.physics.kernels import Kernel, _rigid_rhs
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Constant
@@ -63,20 +62,19 @@ def test_sweep_batch_rhs_with_a_shared_profile_is_theta_ddot() -> None:
             assert f[1, i] == pytest.approx(expected, abs=1e-13 * _scale(q, y[1, i], a))
 
 
-def _kalman(p: Pendulum) -> KalmanEstimator:
-    """A Kalman filter for pendulum ``p`` with no process noise, so a prediction is the model alone."""
-    filt = KalmanEstimator(EstimatorConfig(length=p.length, gravity=p.gravity, damping=p.damping), q_rate=0.0)
-    filt._q_now = 0.0
-    return filt
+def _predict(p: Pendulum, x: np.ndarray, cov: np.ndarray, dt: float) -> np.ndarray:
+    """The Kalman filter's compiled prediction (ekf_kernels.predict) without process noise; returns F."""
+    f = np.empty((3, 3))
+    predict(x, cov, f, dt, p.gravity, 1.0 / p.length, p.damping, 0.0, 0.0)
+    return f
 
 
 def test_kalman_prediction_is_an_rk4_step_of_theta_ddot() -> None:
     """The filter's state prediction is one classic RK4 step of [θ', theta_ddot(θ, θ', a)], a held."""
-    dt = 5e-3
+    dt = 5e-3  # one sub-step (≤ MAX_STEP)
     for p, th, w, a in _states(3):
-        filt = _kalman(p)
-        filt._x = [th, w, a]
-        filt._predict(dt)
+        x = np.array([th, w, a])
+        _predict(p, x, np.zeros((3, 3)), dt)
 
         def f(y: np.ndarray, p: Pendulum = p, a: float = a) -> np.ndarray:
             return np.array([y[1], float(theta_ddot(p, y[0], y[1], a))])
@@ -87,28 +85,27 @@ def test_kalman_prediction_is_an_rk4_step_of_theta_ddot() -> None:
         k3 = f(y0 + 0.5 * dt * k2)
         k4 = f(y0 + dt * k3)
         expected = y0 + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        np.testing.assert_allclose(filt._x[:2], expected, rtol=0, atol=1e-13 * (1.0 + _scale(p, w, a)))
-        assert filt._x[2] == a
+        np.testing.assert_allclose(x[:2], expected, rtol=0, atol=1e-13 * (1.0 + _scale(p, w, a)))
+        assert x[2] == a
 
 
 def test_kalman_jacobian_is_that_of_theta_ddot() -> None:
     """From P = I without noise, the prediction gives F Fᵀ, F = I + J dt + J² dt²/2, J from theta_ddot."""
     dt, eps = 5e-3, 1e-6
     for p, th, w, a in _states(4)[:50]:
-        filt = _kalman(p)
-        filt._x = [th, w, a]
-        filt._p = [1.0, 0.0, 0.0, 1.0, 0.0, 1.0]
-        filt._predict(dt)
+        x = np.array([th, w, a])
+        cov = np.eye(3)
+        f = _predict(p, x, cov, dt)
         row = [
-            (float(theta_ddot(p, *(x + eps * e))) - float(theta_ddot(p, *(x - eps * e)))) / (2.0 * eps)
-            for x in [np.array([th, w, a])]
+            (float(theta_ddot(p, *(x0 + eps * e))) - float(theta_ddot(p, *(x0 - eps * e)))) / (2.0 * eps)
+            for x0 in [np.array([th, w, a])]
             for e in np.eye(3)
         ]
         jac = np.array([[0.0, 1.0, 0.0], row, [0.0, 0.0, 0.0]])
         step = np.eye(3) + jac * dt + jac @ jac * (0.5 * dt * dt)
-        cov = step @ step.T
-        expected = [cov[0, 0], cov[0, 1], cov[0, 2], cov[1, 1], cov[1, 2], cov[2, 2]]
-        np.testing.assert_allclose(filt._p, expected, rtol=0, atol=1e-8)
+        # Central differences of theta_ddot (|∂²/∂x²| ≲ (g + |a|)/l, eps = 1e-6) are good to ~1e-10: 1e-8.
+        np.testing.assert_allclose(f, step, rtol=0, atol=1e-8)
+        np.testing.assert_allclose(cov, step @ step.T, rtol=0, atol=1e-8)
 
 
 def test_benchmark_mpmath_reference_rhs_is_theta_ddot() -> None:

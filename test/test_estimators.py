@@ -17,11 +17,12 @@ from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import (
     DEFAULT_ESTIMATOR,
     ESTIMATORS,
+    LIVE_ESTIMATORS,
     estimate_batch,
     make_estimator,
     method_options,
 )
-from pendulum_accel.estimators.base import cramer_rao_std, wrap_clamp, wrap_clamp_array
+from pendulum_accel.estimators.base import wrap_clamp, wrap_clamp_array
 from pendulum_accel.estimators.lowpass import LowpassEstimator
 from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.estimators.swing import swing_amplitude
@@ -33,7 +34,8 @@ G = STANDARD_GRAVITY
 L = 0.5
 SIGMA = 1e-3
 RATE = 200.0
-METHODS = tuple(ESTIMATORS)
+# The streaming methods; the offline-only smoother has its own tests (test_smoother.py).
+METHODS = LIVE_ESTIMATORS
 EPS = float(np.finfo(float).eps)
 
 
@@ -198,17 +200,26 @@ def test_swing_amplitude_from_the_variance_of_an_exact_swing(amplitude: float, t
 
 
 def test_default_is_a_known_method_and_meets_its_targets() -> None:
-    """The default settles to 2 % of a 0 → 3 m/s² step within 2 s; steady RMS within 1.5× of its bound."""
+    """With the lab_steps preset the default follows a 0 → 3 m/s² step to 2 % within 2 s: from then on its
+    RMS is below that band and at most 2 % of samples leave it (the IMM's manoeuvre mode keeps a few % of
+    probability, whose noise crosses the band now and then: 0.5 % measured). Its steady RMS is no larger
+    than g·tanθ's nor than 1.5× the standard deviation it publishes."""
     assert DEFAULT_ESTIMATOR in ESTIMATORS
     t, theta, truth = step_record(14.0)
-    a_hat, _ = estimate_batch(DEFAULT_ESTIMATOR, t, theta, length=L, noise_std=SIGMA, rate_hz=RATE)
+    cfg = {"length": L, "noise_std": SIGMA, "rate_hz": RATE}
+    a_hat, var = estimate_batch(DEFAULT_ESTIMATOR, t, theta, **cfg, preset="lab_steps")
     err = a_hat - truth
-    outside = np.flatnonzero((t >= 2.0) & (np.abs(err) > 0.02 * 3.0))
-    assert outside.size and t[outside[-1]] - 2.0 < 2.0
-    est = make_estimator(DEFAULT_ESTIMATOR, length=L, noise_std=SIGMA, rate_hz=RATE)
-    bound = cramer_rao_std(3.0, SIGMA, est.noise_equivalent_samples(3.0))
-    rms = math.sqrt(float(np.mean(err[t > 7.0] ** 2)))
-    assert rms < 1.5 * bound
+    band = 0.02 * 3.0
+    settled = t >= 4.0
+    assert math.sqrt(float(np.mean(err[settled] ** 2))) < band
+    assert float(np.mean(np.abs(err[settled]) > band)) < 0.02
+    steady = t > 7.0
+    rms = math.sqrt(float(np.mean(err[steady] ** 2)))
+    # The random-walk model expects a to wander, so on a constant a P_aa is an upper bound of the error
+    # variance; 1.5× leaves room for the 1000-sample RMS's own scatter (a few % at N_eff ≈ 10 samples).
+    assert rms < 1.5 * math.sqrt(float(np.mean(var[steady])))
+    a_tan, _ = estimate_batch("instant", t, theta, **cfg)
+    assert rms < math.sqrt(float(np.mean((a_tan - truth)[steady] ** 2)))
 
 
 def test_kalman_is_exact_without_noise() -> None:
@@ -243,8 +254,15 @@ def test_noise_equivalent_samples_match_their_definitions() -> None:
     pm = make_estimator("period_mean", length=L, noise_std=SIGMA, rate_hz=RATE)
     assert pm.noise_equivalent_samples(0.0) == pytest.approx(2 * math.pi * math.sqrt(L / G) * RATE)
     assert make_estimator("instant", length=L).noise_equivalent_samples(3.0) == 1.0
-    kalman = make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE)
-    assert kalman.noise_equivalent_samples(3.0) > 5.0
+    # kalman: N = (Σw)²/Σw² of its steady gain's impulse response, long (EWMA-like) for a slow q_a and
+    # shrinking as q_a grows (a faster filter averages fewer samples).
+    n_eff = [
+        make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE, q_accel=q).noise_equivalent_samples(
+            3.0
+        )
+        for q in (1e-5, 1e-3, 1e-1)
+    ]
+    assert n_eff[0] > 5.0 and n_eff[0] > n_eff[1] > n_eff[2]
 
 
 @pytest.mark.parametrize("name", METHODS)

@@ -150,3 +150,28 @@ def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
     assert result["estimates"] == []
     errors = [values for level, _, values in result["diagnostics"] if level == 2]
     assert errors and int(errors[-1]["dropped_wrong_joint"]) == 50, result["diagnostics"]
+
+
+def test_lag_stamps_each_estimate_with_the_sample_it_describes(spawn: Spawn) -> None:
+    """lag = 0.2 s at the scene's 100 Hz is N = 20 samples: the node states its latency (log, /diagnostics),
+    gives nothing for the first 20 inputs, then one estimate per input stamped with the input 20 back."""
+    estimator = start_node(
+        spawn, "estimator_node", {"scene": "lecture_constant", "lag": 0.2, "diagnostics_period": 0.2}
+    )
+    estimator.wait_for(r"latency 0\.200 s", timeout=60)
+    fed = [[0.01 * i, THETA_2] for i in range(1, 61)]
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/car/accel/estimate", "/diagnostics"],
+            "wait_subscribers": 1,
+            "feed": fed,
+            "linger": 1.5,
+        },
+    )
+    stamps = [round(t, 9) for t, _, _ in result["estimates"]]
+    assert stamps == [round(t, 9) for t, _ in fed[: len(fed) - 20]]
+    assert all(math.isfinite(a) and var > 0.0 for _, a, var in result["estimates"])
+    assert {values.get("latency_s") for _, _, values in result["diagnostics"]} == {"0.2"}
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=20) == 0

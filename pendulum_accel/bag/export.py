@@ -13,7 +13,7 @@ for Parquet) are the optional ``export`` extra, imported only here.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING
@@ -154,15 +154,33 @@ def merged_table(bag: Bag, topics: Sequence[str]) -> DataFrame:
     return base.reset_index(drop=True)
 
 
+def derived_table(name: str, columns: Mapping[str, NDArray[np.float64]]) -> DataFrame:
+    """DataFrame of a derived series (not a topic; e.g. the smoother's): t, then ``name/<column>``."""
+    pd = _pandas()
+    data = {"t": np.asarray(columns["t"], dtype=np.float64)}
+    data.update({column_name(name, k): np.asarray(v) for k, v in columns.items() if k != "t"})
+    return pd.DataFrame(data)
+
+
 def file_stem(topic: str) -> str:
     """File name of a topic's table: the topic without its leading "/", "/" → "__"."""
     return topic.strip("/").replace("/", "__")
 
 
 def export_bag(
-    bag: Bag, out: Path | str, *, fmt: str = "csv", merged: bool = False, topics: Sequence[str] = ()
+    bag: Bag,
+    out: Path | str,
+    *,
+    fmt: str = "csv",
+    merged: bool = False,
+    topics: Sequence[str] = (),
+    derived: Mapping[str, Mapping[str, NDArray[np.float64]]] | None = None,
 ) -> list[Path]:
-    """Write ``topics`` (default: all) of ``bag`` under directory ``out`` as CSV or Parquet; the paths."""
+    """Write ``topics`` (default: all) of ``bag`` under directory ``out`` as CSV or Parquet; the paths.
+
+    ``derived``: {name: {"t": stamps, column: values}} series computed from the bag (the smoother's
+    acceleration), merged on the angle's stamps like a per-sample topic, or written as their own tables.
+    """
     if fmt not in FORMATS:
         raise ExportError(f"unknown format {fmt!r}; use {' or '.join(FORMATS)}")
     _pandas()
@@ -183,6 +201,12 @@ def export_bag(
         if merged
         else {file_stem(t): topic_table(bag, t) for t in chosen}
     )
+    for name, columns in (derived or {}).items():
+        extra = derived_table(name, columns)
+        if merged:
+            tables[MERGED_NAME] = tables[MERGED_NAME].merge(extra, on="t", how="left")
+        else:
+            tables[file_stem(name)] = extra
     directory = Path(out)
     try:
         directory.mkdir(parents=True, exist_ok=True)

@@ -43,6 +43,14 @@ def register(subparsers: Any) -> None:
         help="save angle / recorded and re-run acceleration / error plot",
     )
     parser.add_argument("--skip", type=float, default=0.0, metavar="S", help="ignore the first S seconds")
+    parser.add_argument(
+        "--lag",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="re-run as a fixed-lag smoother: each estimate uses S s of later data (kalman; 0: the filter; "
+        "--estimator smoother: the whole bag)",
+    )
     parser.add_argument("--tolerance", type=float, default=None, metavar="A", help="settling band, m/s²")
     for name in ESTIMATOR_OVERRIDES:
         spec = OVERRIDE_BY_NAME[name]
@@ -84,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     if args.seeds and scene is None:
         raise BagError(f"--seeds re-simulates the bag's scene, and {bag.path} stores none")
     result = analyze_bag(
-        bag, estimator=args.estimator, config=config, skip=args.skip, tolerance=args.tolerance
+        bag, estimator=args.estimator, config=config, skip=args.skip, tolerance=args.tolerance, lag=args.lag
     )
     spread = (
         None if scene is None else seed_spread(scene, result.estimator, result.config, args.seeds, args.skip)

@@ -8,6 +8,10 @@ from typing import Any
 from pendulum_accel.bag.export import FORMATS, export_bag
 from pendulum_accel.cli.output import check_output_dir, output_directory
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.recording.analyze import smoothed_estimate
+
+SMOOTHED = "/car/accel/smoothed"
+"""Name of the derived smoother series (not a topic in the bag): columns a and variance."""
 
 
 def register(subparsers: Any) -> None:
@@ -27,6 +31,12 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--merged", action="store_true", help="one table on the angle's stamps")
     parser.add_argument("--topics", nargs="+", default=[], metavar="TOPIC", help="only these topics")
     add_salvage_flag(parser)
+    parser.add_argument(
+        "--no-smoothed",
+        action="store_true",
+        help=f"leave out {SMOOTHED}/a and /variance, the RTS smoother's acceleration over the whole bag "
+        "(written by default when the bag stores its scene)",
+    )
     parser.set_defaults(func=run)
 
 
@@ -41,8 +51,10 @@ def run(args: argparse.Namespace) -> int:
     out = check_output_dir(args.out)
     bag = read_intact(args.bag, args.salvage)
     check_chain_contract(bag)
+    smoothed = None if args.no_smoothed else smoothed_estimate(bag)
+    derived = {} if smoothed is None else {SMOOTHED: smoothed}
     with output_directory(out):
-        paths = export_bag(bag, out, fmt=args.format, merged=args.merged, topics=args.topics)
+        paths = export_bag(bag, out, fmt=args.format, merged=args.merged, topics=args.topics, derived=derived)
     for path in paths:
         print(path)
     return warn_salvaged("export", bag)

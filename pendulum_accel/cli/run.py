@@ -128,6 +128,7 @@ def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
     from pendulum_accel.bag import messages as bm
     from pendulum_accel.bag.reader import read_bag
     from pendulum_accel.bag.writer import CUSTOM_PLAN
+    from pendulum_accel.estimators import estimator_line
     from pendulum_accel.recording.analyze import analyze_bag
 
     bag = read_bag(bag_path)
@@ -156,6 +157,7 @@ def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
         )
     plan = bag.custom_data.get(CUSTOM_PLAN, "plan: (none stored)")
     lines.append(plan if plan.startswith("plan:") else f"plan: {plan}")
+    lines.append(estimator_line(analysis.estimator))
     lines.append(f"bag: {bag.path}")
     return lines
 

@@ -22,17 +22,40 @@ from pendulum_accel.estimators.base import (
 )
 from pendulum_accel.estimators.dynamic import DynamicEstimator
 from pendulum_accel.estimators.instant import InstantEstimator
-from pendulum_accel.estimators.kalman import KalmanEstimator
+from pendulum_accel.estimators.kalman import KalmanEstimator, SmootherEstimator
 from pendulum_accel.estimators.lowpass import LowpassEstimator
 from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY
 
 ESTIMATORS: Mapping[str, type[Estimator]] = {
     cls.name: cls
-    for cls in (InstantEstimator, PeriodMeanEstimator, LowpassEstimator, DynamicEstimator, KalmanEstimator)
+    for cls in (
+        InstantEstimator,
+        PeriodMeanEstimator,
+        LowpassEstimator,
+        DynamicEstimator,
+        KalmanEstimator,
+        SmootherEstimator,
+    )
 }
-# Best accuracy/latency trade in ``python -m benchmarks.estimators`` (see the README).
+# What a live node can run: every estimator but the offline-only ones (the smoother needs the whole bag).
+LIVE_ESTIMATORS: tuple[str, ...] = tuple(
+    name for name, cls in ESTIMATORS.items() if not getattr(cls, "offline_only", False)
+)
+# Lowest RMS of the live methods on every validation profile of ``python -m benchmarks.real_motion`` for
+# both sensor designs, within 1.1× of the hindsight fixed-q EKF (docs/estimators.md, "The default").
 DEFAULT_ESTIMATOR = "kalman"
+DEFAULT_REASON = (
+    "the pendulum EKF (IMM, car preset): lowest RMS of the live methods on every real-motion validation "
+    "profile, both sensor designs (docs/benchmarks/real_motion.md)"
+)
+
+
+def estimator_line(name: str) -> str:
+    """'estimator: <name> (<why>)': the one line a run's summary gives for the method it ran."""
+    why = DEFAULT_REASON if name == DEFAULT_ESTIMATOR else f"chosen; the default is {DEFAULT_ESTIMATOR}"
+    return f"estimator: {name} ({why})"
+
 
 _CONFIG_FIELDS = ("damping", "clamp_angle", "max_gap", *BIAS_FIELDS)
 
@@ -96,11 +119,13 @@ __all__ = [
     "BIAS_FIELDS",
     "DEFAULT_ESTIMATOR",
     "ESTIMATORS",
+    "LIVE_ESTIMATORS",
     "Estimate",
     "Estimator",
     "EstimatorConfig",
     "cramer_rao_std",
     "estimate_batch",
+    "estimator_line",
     "make_estimator",
     "method_options",
 ]

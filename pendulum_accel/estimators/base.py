@@ -37,11 +37,13 @@ DEFAULT_CLAMP_ANGLE = math.radians(89.0)
 
 @dataclass(frozen=True, slots=True)
 class Estimate:
-    """â (m/s²) and its variance ((m/s²)²) for one input sample; ``clamped`` when |θ| hit the clamp."""
+    """â (m/s²) and its variance ((m/s²)²); ``clamped`` when |θ| hit the clamp; ``time``: the sample it
+    describes (s), when that is not the latest input (a fixed-lag smoother's estimate describes the past)."""
 
     a: float
     variance: float
     clamped: bool = False
+    time: float | None = None
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from collections.abc import Sequence
 from typing import Any
 
@@ -61,14 +62,18 @@ _DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
 _DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
 
 
-def diagnostic_array(report: GuardReport, method: str, stamp: Time) -> DiagnosticArray:
-    """DiagnosticArray with one status: level and message from the guard, counters + method as values."""
+def diagnostic_array(report: GuardReport, method: str, stamp: Time, latency: float = 0.0) -> DiagnosticArray:
+    """DiagnosticArray with one status: level and message from the guard, counters, method and latency (s)."""
     status = DiagnosticStatus(
         level=bytes([report.level]),
         name=DIAGNOSTIC_NAME,
         message=f"{report.state.value}: {report.message}",
         hardware_id=HARDWARE_ID,
-        values=[KeyValue(key="method", value=method), KeyValue(key="state", value=report.state.value)]
+        values=[
+            KeyValue(key="method", value=method),
+            KeyValue(key="latency_s", value=f"{latency:g}"),
+            KeyValue(key="state", value=report.state.value),
+        ]
         + [KeyValue(key=k, value=v) for k, v in report.values],
     )
     msg = DiagnosticArray(status=[status])
@@ -103,6 +108,8 @@ class EstimatorNode(ManagedNode):
         self.estimates = 0
         self.unpublished = 0  # estimates computed but not sent (a second stop request while blocked)
         self._last_stamp: tuple[int, int] | None = None  # (sec, nanosec) of the latest input
+        # (t, sec, nanosec) of the inputs a lagged estimate may describe: its stamp is the described sample's.
+        self._stamps: deque[tuple[float, int, int]] = deque()
         # Per message: our own JointState shape read at fixed offsets, the estimate written into a
         # template (Layout.reader/writer); anything else goes through rclpy's deserializer.
         self._read_input = bm.Layout.of(
@@ -181,15 +188,22 @@ class EstimatorNode(ManagedNode):
     # -- configuration --------------------------------------------------------------------------
 
     def _config_values(self, changes: Sequence[Parameter] = ()) -> dict[str, Any]:
-        """method and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
-        return parameter_values(self, ("method", *(spec.name for spec in ESTIMATOR_CONFIG)), changes)
+        """method, lag and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
+        return parameter_values(self, ("method", "lag", *(spec.name for spec in ESTIMATOR_CONFIG)), changes)
 
     def _build(self, values: dict[str, Any]) -> Estimator:
-        """make_estimator(method, length, gravity, noise_std, rate_hz, damping) (ParameterError if bad)."""
-        cfg = {k: float(v) for k, v in values.items() if k != "method"}
+        """make_estimator(method, l, g, noise_std, rate_hz, damping[, lag]); ParameterError if bad."""
+        cfg = {k: float(v) for k, v in values.items() if k not in ("method", "lag")}
         if not all(math.isfinite(v) for v in cfg.values()):
             raise PendulumAccelError("estimator parameters must be finite")
-        return make_estimator(str(values["method"]), **cfg, **self._sensor_bias())
+        lag = float(values["lag"])
+        opts = {"lag": lag} if lag > 0.0 else {}  # lag = 0 is every method's own (causal) estimate
+        return make_estimator(str(values["method"]), **cfg, **opts, **self._sensor_bias())
+
+    def latency(self) -> float:
+        """Seconds between a sample and the estimate that describes it: the method's fixed lag (0: none)."""
+        est = self.guarded.estimator
+        return getattr(est, "lag_n", 0) / est.config.rate_hz
 
     def _own_scene(self) -> Scene | None:
         """The scene the ``scene`` parameter names, None when it does not load (no sensor figures then)."""
@@ -241,6 +255,7 @@ class EstimatorNode(ManagedNode):
         self.guarded.estimator = self._build(values)
         self._build_writers()
         self.get_logger().info(f"estimator rebuilt: {self.guarded.estimator.describe()}")
+        self.get_logger().info(f"latency {self.latency():.3f} s")
 
     # -- data flow ------------------------------------------------------------------------------
 
@@ -266,6 +281,9 @@ class EstimatorNode(ManagedNode):
                 JointState, bm.JOINT_STATES, self._on_joint_state, DATA_QOS, raw=True
             )
             self.get_logger().info(f"estimating with {self.guarded.estimator.describe()}")
+            self.get_logger().info(
+                f"latency {self.latency():.3f} s: each estimate is stamped with the sample it describes"
+            )
             # Status from the start, not one diagnostics period later: a short or fast run still
             # records how its estimator was doing.
             self._publish_diagnostics()
@@ -291,9 +309,18 @@ class EstimatorNode(ManagedNode):
         else:
             sec, nanosec, theta = fields
         self._last_stamp = (sec, nanosec)
-        estimate = self.guarded.update(stamp_seconds(sec, nanosec), theta, now, names, frame_id)
+        t = stamp_seconds(sec, nanosec)
+        self._stamps.append((t, sec, nanosec))
+        estimate = self.guarded.update(t, theta, now, names, frame_id)
         if estimate is None:
+            self._trim_stamps()
             return
+        if estimate.time is not None and estimate.time != t:  # a lagged estimate: the sample it describes
+            while self._stamps and self._stamps[0][0] < estimate.time:
+                self._stamps.popleft()
+            if self._stamps and self._stamps[0][0] == estimate.time:
+                sec, nanosec = self._stamps[0][1], self._stamps[0][2]
+        self._trim_stamps()
         out = self._write_estimate(sec, nanosec, estimate.a, estimate.variance)
         imu = self._write_imu(sec, nanosec, estimate.a, estimate.variance)
         if publish_blocking(self.estimate_publisher, out, self._stopping) and publish_blocking(
@@ -309,6 +336,12 @@ class EstimatorNode(ManagedNode):
             marker = self._write_marker(sec, nanosec, estimate.a)
             publish_blocking(self.marker_publisher, marker, self._stopping)
 
+    def _trim_stamps(self) -> None:
+        """Keep only the stamps a lagged estimate can still describe (the lag plus a margin)."""
+        keep = getattr(self.guarded.estimator, "lag_n", 0) + 2
+        while len(self._stamps) > keep:
+            self._stamps.popleft()
+
     def _publish_diagnostics(self) -> None:
         """One DiagnosticArray with the worst input state since the previous one (STALE checked first)."""
         guard = self.guarded.guard
@@ -320,7 +353,7 @@ class EstimatorNode(ManagedNode):
             guard.check_stale(time.monotonic())
             report = guard.report()
             stamp = Time(sec=self._last_stamp[0], nanosec=self._last_stamp[1])
-        self.diagnostics_publisher.publish(diagnostic_array(report, self.method, stamp))
+        self.diagnostics_publisher.publish(diagnostic_array(report, self.method, stamp, self.latency()))
 
     def _tick(self) -> None:
         """Subscribe when ready; during a stop, finish once the input has been idle (queue drained)."""

@@ -365,15 +365,19 @@ def analyze_bag(
     config: dict[str, float] | None = None,
     skip: float = 0.0,
     tolerance: float | None = None,
+    lag: float = 0.0,
 ) -> Analysis:
     """Re-run ``estimator`` (default: the one the bag was recorded with, else the package default) on the
     bag's angles; compare it and the recorded estimate with the truth.
 
     ``config`` overrides the estimator configuration taken from the bag's scene (length, gravity,
-    noise_std, rate_hz); without a stored scene, ``length`` must be given.
+    noise_std, rate_hz); without a stored scene, ``length`` must be given. ``lag`` > 0 s re-runs the
+    estimator as a fixed-lag smoother (kalman), each estimate aligned to the sample it describes.
     """
     if not skip >= 0.0:
         raise BagError(f"skip must be >= 0 s, got {skip!r}")
+    if not (math.isfinite(lag) and lag >= 0.0):
+        raise BagError(f"lag must be >= 0 s, got {lag!r}")
     if tolerance is not None and not tolerance > 0.0:
         raise BagError(f"tolerance must be > 0 m/s², got {tolerance!r}")
     data = bag if isinstance(bag, Bag) else read_bag(bag)
@@ -403,6 +407,8 @@ def analyze_bag(
     if "length" not in cfg:
         raise BagError(f"bag {data.path} stores no scene: give the pendulum length (--length)")
     name = estimator or recorded_estimator(data) or DEFAULT_ESTIMATOR
+    if lag > 0.0:
+        cfg["lag"] = lag
     a_est, variance = estimate_batch(name, t, theta, **cfg)
     a_est = np.asarray(a_est, dtype=np.float64)
     variance = np.asarray(variance, dtype=np.float64)
@@ -497,6 +503,25 @@ def _recorded_figures(
     method = recorded_estimator(bag) or "unknown"
     truth = np.interp(te, t_truth, a_truth)
     return estimate_figures("recorded", method, angle_t, te, ae, truth, tolerance, skip_until)
+
+
+def smoothed_estimate(bag: Bag) -> dict[str, NDArray[np.float64]] | None:
+    """{t, a, variance}: the RTS smoother (``smoother``) over the bag's angles, configured from its stored
+    scene; None when the bag stores no scene or fewer than 2 angles (nothing to configure or smooth)."""
+    if TOPIC_JOINT_STATES not in bag.topics or not bag.custom_data.get(CUSTOM_SCENE):
+        return None
+    js = bag.decode(
+        TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
+    )
+    if len(js) < 2:
+        return None
+    t = js.stamp
+    order = np.argsort(t, kind="stable")
+    t, theta = t[order], js["position[0]"][order]
+    keep = np.concatenate(([True], np.diff(t) > 0.0))  # a repeated stamp: the first sample only
+    t, theta = t[keep], theta[keep]
+    a, var = estimate_batch("smoother", t, theta, **estimator_config(bag, t))
+    return {"t": t, "a": np.asarray(a, dtype=np.float64), "variance": np.asarray(var, dtype=np.float64)}
 
 
 def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:

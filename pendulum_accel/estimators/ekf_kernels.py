@@ -1,0 +1,558 @@
+"""Compiled (numba) passes of the pendulum EKF on x = [θ, θ', a]: filter, fixed-lag smoother, RTS smoother.
+
+Model (physics.rigid.theta_ddot written out in scalar form, as in physics.kernels):
+
+    θ'' = (a cos θ − g sin θ)/l − c θ',   a' = w_a, E[w_a w_a] = q_a δ (a random walk of a),
+    θ''' noise: E[w_ω w_ω] = q_ω δ on θ' (unmodelled torque),   y = θ + v, E[v²] = r.
+
+Prediction over Δt: sub-steps h ≤ ``MAX_STEP``; per sub-step x ← one classic RK4 step with a held,
+F_h = I + J h + J² h²/2 (J the Jacobian at the prior state), P ← F_h P F_hᵀ + Q_h with Q_h the
+integrated random walk of a through θ'' ≈ j₁₂ a (j₁₂ = cos θ / l): q_a [h⁵j²/20, h⁴j²/8, h³j/6; ·, h³j²/3,
+h²j/2; ·, ·, h] plus q_ω h on θ'θ'. The transition kept for the smoothers is the product of the F_h.
+
+Fixed-lag smoothing (Anderson & Moore's augmented state, for a only): for every buffered sample i ≤ k
+the pass keeps â_{i|k}, its variance and the cross-covariance row c_i = Cov(a_i, x_k | y_{..k}).
+A measurement with innovation ν, S = P⁻₀₀ + r, gain K moves â_i by c_i[0] ν/S and its variance by
+−c_i[0]²/S, then c_i ← c_i − c_i[0] K; a prediction maps c_i ← F c_i. One pass gives every lag at once
+(O(N) per sample for a lag of N samples). The RTS pass is the fixed-interval limit.
+
+The first call compiles (≈ 20 s) into numba's on-disk cache beside this file (``make setup`` warms it:
+``python -m pendulum_accel.estimators.ekf_kernels``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+MAX_STEP = 0.01  # s; longer intervals are propagated in sub-steps so RK4 and F stay accurate
+
+
+@njit(cache=True, inline="always")
+def _accel(th: float, om: float, ac: float, g: float, linv: float, c: float) -> float:
+    """θ'' = (a cos θ − g sin θ)/l − c θ'."""
+    return (ac * math.cos(th) - g * math.sin(th)) * linv - c * om
+
+
+@njit(cache=True)
+def predict(
+    x: np.ndarray,
+    p: np.ndarray,
+    f: np.ndarray,
+    dt: float,
+    g: float,
+    linv: float,
+    c: float,
+    q_rate: float,
+    q_accel: float,
+) -> None:
+    """In place: x ← RK4 sub-steps (a held), P ← F_h P F_hᵀ + Q_h per sub-step, f ← Π F_h (module doc)."""
+    steps = max(1, math.ceil(dt / MAX_STEP))
+    h = dt / steps
+    for i in range(3):
+        for j in range(3):
+            f[i, j] = 1.0 if i == j else 0.0
+    # Scalars only (F_h's third row is e₃): no temporary arrays in the per-sample path.
+    for _ in range(steps):
+        th, om, ac = x[0], x[1], x[2]
+        cos_th, sin_th = math.cos(th), math.sin(th)
+        j10 = -(g * cos_th + ac * sin_th) * linv
+        j12 = cos_th * linv
+        h2 = 0.5 * h * h
+        f00, f01, f02 = 1.0 + j10 * h2, h - c * h2, j12 * h2
+        f10 = j10 * h - c * j10 * h2
+        f11 = 1.0 - c * h + (j10 + c * c) * h2
+        f12 = j12 * h - c * j12 * h2
+        half = 0.5 * h
+        w1 = _accel(th, om, ac, g, linv, c)
+        th2, om2 = th + half * om, om + half * w1
+        w2 = _accel(th2, om2, ac, g, linv, c)
+        th3, om3 = th + half * om2, om + half * w2
+        w3 = _accel(th3, om3, ac, g, linv, c)
+        th4, om4 = th + h * om3, om + h * w3
+        w4 = _accel(th4, om4, ac, g, linv, c)
+        sixth = h / 6.0
+        x[0] = th + sixth * (om + 2.0 * om2 + 2.0 * om3 + om4)
+        x[1] = om + sixth * (w1 + 2.0 * w2 + 2.0 * w3 + w4)
+        # A = F_h P (row 2 of A is row 2 of P), then P ← A F_hᵀ.
+        a00 = f00 * p[0, 0] + f01 * p[1, 0] + f02 * p[2, 0]
+        a01 = f00 * p[0, 1] + f01 * p[1, 1] + f02 * p[2, 1]
+        a02 = f00 * p[0, 2] + f01 * p[1, 2] + f02 * p[2, 2]
+        a10 = f10 * p[0, 0] + f11 * p[1, 0] + f12 * p[2, 0]
+        a11 = f10 * p[0, 1] + f11 * p[1, 1] + f12 * p[2, 1]
+        a12 = f10 * p[0, 2] + f11 * p[1, 2] + f12 * p[2, 2]
+        a20, a21, a22 = p[2, 0], p[2, 1], p[2, 2]
+        p00 = a00 * f00 + a01 * f01 + a02 * f02
+        p01 = a00 * f10 + a01 * f11 + a02 * f12
+        p11 = a10 * f10 + a11 * f11 + a12 * f12
+        p20 = a20 * f00 + a21 * f01 + a22 * f02
+        p21 = a20 * f10 + a21 * f11 + a22 * f12
+        # + Q_h: the random walk of a integrated through θ'' ≈ j₁₂ a, and q_ω on θ'.
+        qa = q_accel
+        h3 = h * h * h
+        p[0, 0] = p00 + qa * j12 * j12 * h3 * h * h / 20.0
+        p[0, 1] = p01 + qa * j12 * j12 * h3 * h / 8.0
+        p[0, 2] = p20 + qa * j12 * h3 / 6.0
+        p[1, 1] = p11 + qa * j12 * j12 * h3 / 3.0 + q_rate * h
+        p[1, 2] = p21 + qa * j12 * h * h / 2.0
+        p[2, 2] = a22 + qa * h
+        p[1, 0], p[2, 0], p[2, 1] = p[0, 1], p[0, 2], p[1, 2]
+        # f ← F_h f
+        for j in range(3):
+            r0, r1, r2 = f[0, j], f[1, j], f[2, j]
+            f[0, j] = f00 * r0 + f01 * r1 + f02 * r2
+            f[1, j] = f10 * r0 + f11 * r1 + f12 * r2
+
+
+@njit(cache=True)
+def correct(x: np.ndarray, p: np.ndarray, k: np.ndarray, y: float, r: float) -> tuple[float, float]:
+    """In place: K = P Hᵀ/S, x ← x + K ν, P ← P − K Kᵀ S (H = [1, 0, 0], S = P₀₀ + r); returns (ν, S)."""
+    s = p[0, 0] + r
+    nu = y - x[0]
+    for i in range(3):
+        k[i] = p[i, 0] / s
+    for i in range(3):
+        x[i] += k[i] * nu
+    for i in range(3):
+        for j in range(3):
+            p[i, j] -= k[i] * k[j] * s
+    return nu, s
+
+
+@njit(cache=True)
+def initialise(
+    x: np.ndarray, p: np.ndarray, y: float, g: float, length: float, r: float, clamp: float, amp: float
+) -> None:
+    """x = [θ, 0, g tan θ_c]; P = diag(r, (ω₀ A)², (g sec²θ_c A)²), θ_c = θ clipped to ±clamp, A = amp."""
+    th = min(max(y, -clamp), clamp)
+    x[0], x[1], x[2] = y, 0.0, g * math.tan(th)
+    for i in range(3):
+        for j in range(3):
+            p[i, j] = 0.0
+    cos_th = math.cos(th)
+    p[0, 0] = r
+    p[1, 1] = (math.sqrt(g / length) * amp) ** 2
+    p[2, 2] = (g / (cos_th * cos_th) * amp) ** 2
+
+
+@njit(cache=True)
+def _finite(x: np.ndarray, p: np.ndarray) -> bool:
+    """True when every entry of x and P is finite."""
+    total = 0.0
+    for i in range(3):
+        total += x[i]
+        for j in range(3):
+            total += p[i, j]
+    return math.isfinite(total)
+
+
+@njit(cache=True)
+def step(
+    x: np.ndarray,
+    p: np.ndarray,
+    f: np.ndarray,
+    k: np.ndarray,
+    prior_x: np.ndarray,
+    prior_p: np.ndarray,
+    ring_a: np.ndarray,
+    ring_v: np.ndarray,
+    ring_c: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+) -> bool:
+    """One sample into the filter and the fixed-lag buffer; True when the filter (re)started here.
+
+    ``state`` = [last t (NaN before the first sample), samples in the current segment]; ``params`` =
+    [g, l, c, r, q_ω, q_a, reset_gap, clamp, init amplitude]. The buffer (size N + 1) holds â, var and
+    c for the last N + 1 samples, sample i at slot i mod (N + 1); a restart empties it (state[1] = 1).
+    The prior x⁻, P⁻ of the sample is left in prior_x, prior_p and the transition from the last in f.
+    """
+    g, length, c, r = params[0], params[1], params[2], params[3]
+    q_rate, q_accel, reset_gap = params[4], params[5], params[6]
+    size = ring_a.size
+    last_t = state[0]
+    if needs_restart(state, t, reset_gap):
+        _start(x, p, f, prior_x, prior_p, ring_a, ring_v, ring_c, state, t, y, params)
+        return True
+    predict(x, p, f, t - last_t, g, 1.0 / length, c, q_rate, q_accel)
+    prior_x[:] = x
+    prior_p[:, :] = p
+    count = int(state[1])
+    held = min(count, size - 1)
+    # Cross-covariances of the buffered a's with the new state: c ← F c.
+    for j in range(1, held + 1):
+        slot = (count - j) % size
+        c0, c1, c2 = ring_c[slot, 0], ring_c[slot, 1], ring_c[slot, 2]
+        for i in range(3):
+            ring_c[slot, i] = f[i, 0] * c0 + f[i, 1] * c1 + f[i, 2] * c2
+    slot = count % size
+    ring_a[slot], ring_v[slot] = x[2], p[2, 2]
+    for i in range(3):
+        ring_c[slot, i] = p[2, i]
+    nu, s = correct(x, p, k, y, r)
+    for j in range(0, held + 1):
+        slot = (count - j) % size
+        c0 = ring_c[slot, 0]
+        ring_a[slot] += c0 * nu / s
+        ring_v[slot] -= c0 * c0 / s
+        for i in range(3):
+            ring_c[slot, i] -= c0 * k[i]
+    if _finite(x, p):
+        state[0], state[1] = t, count + 1
+        return False
+    # A diverged filter restarts rather than publish inf/NaN.
+    _start(x, p, f, prior_x, prior_p, ring_a, ring_v, ring_c, state, t, y, params)
+    return True
+
+
+@njit(cache=True)
+def needs_restart(state: np.ndarray, t: float, reset_gap: float) -> bool:
+    """True before the first sample and after a gap longer than reset_gap."""
+    last_t = state[0]
+    return last_t != last_t or t - last_t > reset_gap  # NaN != NaN: no sample yet
+
+
+@njit(cache=True)
+def _start(
+    x: np.ndarray,
+    p: np.ndarray,
+    f: np.ndarray,
+    prior_x: np.ndarray,
+    prior_p: np.ndarray,
+    ring_a: np.ndarray,
+    ring_v: np.ndarray,
+    ring_c: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+) -> None:
+    """Initialise the filter from y (``initialise``) and the buffer with it as sample 0 of a segment."""
+    initialise(x, p, y, params[0], params[1], params[3], params[7], params[8])
+    prior_x[:] = x
+    prior_p[:, :] = p
+    for i in range(3):
+        for j in range(3):
+            f[i, j] = 1.0 if i == j else 0.0
+    ring_a[0], ring_v[0] = x[2], p[2, 2]
+    for i in range(3):
+        ring_c[0, i] = p[2, i]
+    state[0], state[1] = t, 1.0
+
+
+@njit(cache=True)
+def _flush(
+    out_a: np.ndarray,
+    out_v: np.ndarray,
+    ring_a: np.ndarray,
+    ring_v: np.ndarray,
+    last: int,
+    count: int,
+    lags: np.ndarray,
+) -> None:
+    """At a segment's end (sample ``last``): samples whose lag reaches past it get their latest â, var."""
+    size = ring_a.size
+    for j in range(min(count, size)):
+        slot = (count - 1 - j) % size
+        for m in range(lags.size):
+            if lags[m] > j:
+                out_a[last - j, m] = ring_a[slot]
+                out_v[last - j, m] = ring_v[slot]
+
+
+@njit(cache=True)
+def run_pass(
+    t: np.ndarray, y: np.ndarray, params: np.ndarray, lags: np.ndarray, keep: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Filter and fixed-lag pass over a recording (``step`` per sample).
+
+    Returns (â_lag, var_lag) of shape (n, len(lags)): column m holds â_{i | i + lags[m]}, aligned to the
+    sample i it describes (NaN where a divergence restart lost it; the last lags[m] samples of a segment
+    use all the data there is), and, when ``keep``, what the RTS pass needs: priors x⁻, P⁻, posteriors
+    x⁺, P⁺, transitions F (from the previous sample) and the restart flags.
+    """
+    n = t.size
+    size = int(lags.max()) + 1 if lags.size else 1
+    out_a = np.full((n, lags.size), np.nan)
+    out_v = np.full((n, lags.size), np.nan)
+    m_keep = n if keep else 0
+    xpr = np.empty((m_keep, 3))
+    ppr = np.empty((m_keep, 3, 3))
+    xpo = np.empty((m_keep, 3))
+    ppo = np.empty((m_keep, 3, 3))
+    fk = np.empty((m_keep, 3, 3))
+    starts = np.zeros(m_keep, dtype=np.bool_)
+    x = np.zeros(3)
+    p = np.zeros((3, 3))
+    f = np.eye(3)
+    k = np.zeros(3)
+    prior_x = np.zeros(3)
+    prior_p = np.zeros((3, 3))
+    ring_a = np.zeros(size)
+    ring_v = np.zeros(size)
+    ring_c = np.zeros((size, 3))
+    state = np.array([np.nan, 0.0])
+    reset_gap = params[6]
+    for i in range(n):
+        if i > 0 and needs_restart(state, t[i], reset_gap):
+            _flush(out_a, out_v, ring_a, ring_v, i - 1, int(state[1]), lags)
+        restarted = step(x, p, f, k, prior_x, prior_p, ring_a, ring_v, ring_c, state, t[i], y[i], params)
+        if keep:
+            starts[i] = restarted
+            xpo[i] = x
+            ppo[i] = p
+            fk[i] = f
+            xpr[i] = prior_x
+            ppr[i] = prior_p
+        count = int(state[1])
+        for m in range(lags.size):
+            lag = lags[m]
+            if lag < count:
+                slot = (count - 1 - lag) % size
+                out_a[i - lag, m] = ring_a[slot]
+                out_v[i - lag, m] = ring_v[slot]
+    _flush(out_a, out_v, ring_a, ring_v, n - 1, int(state[1]), lags)
+    return out_a, out_v, xpr, ppr, xpo, ppo, fk, starts
+
+
+@njit(cache=True)
+def _inverse3(m: np.ndarray) -> np.ndarray:
+    """M⁻¹ of a 3×3 matrix by cofactors (adjugate / determinant)."""
+    inv = np.empty((3, 3))
+    inv[0, 0] = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
+    inv[0, 1] = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
+    inv[0, 2] = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
+    inv[1, 0] = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
+    inv[1, 1] = m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]
+    inv[1, 2] = m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]
+    inv[2, 0] = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
+    inv[2, 1] = m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
+    inv[2, 2] = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+    det = m[0, 0] * inv[0, 0] + m[0, 1] * inv[1, 0] + m[0, 2] * inv[2, 0]
+    return inv / det
+
+
+@njit(cache=True)
+def rts(
+    xpr: np.ndarray, ppr: np.ndarray, xpo: np.ndarray, ppo: np.ndarray, fk: np.ndarray, starts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rauch-Tung-Striebel pass, per segment: G = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹,
+    xˢ_k = x⁺_k + G (xˢ_{k+1} − x⁻_{k+1}), Pˢ_k = P⁺_k + G (Pˢ_{k+1} − P⁻_{k+1}) Gᵀ; returns (âˢ, var âˢ)."""
+    n = xpo.shape[0]
+    a = np.empty(n)
+    v = np.empty(n)
+    xs = np.zeros(3)
+    ps = np.zeros((3, 3))
+    pf = np.empty((3, 3))
+    gain = np.empty((3, 3))
+    dx = np.empty(3)
+    dp = np.empty((3, 3))
+    tmp = np.empty((3, 3))
+    for k in range(n - 1, -1, -1):
+        if k == n - 1 or starts[k + 1]:
+            xs[:] = xpo[k]
+            ps[:, :] = ppo[k]
+        else:
+            inv = _inverse3(ppr[k + 1])
+            for i in range(3):  # P⁺ Fᵀ
+                for j in range(3):
+                    pf[i, j] = (
+                        ppo[k, i, 0] * fk[k + 1, j, 0]
+                        + ppo[k, i, 1] * fk[k + 1, j, 1]
+                        + ppo[k, i, 2] * fk[k + 1, j, 2]
+                    )
+            for i in range(3):
+                for j in range(3):
+                    gain[i, j] = pf[i, 0] * inv[0, j] + pf[i, 1] * inv[1, j] + pf[i, 2] * inv[2, j]
+            for i in range(3):
+                dx[i] = xs[i] - xpr[k + 1, i]
+                for j in range(3):
+                    dp[i, j] = ps[i, j] - ppr[k + 1, i, j]
+            for i in range(3):
+                xs[i] = xpo[k, i] + gain[i, 0] * dx[0] + gain[i, 1] * dx[1] + gain[i, 2] * dx[2]
+            for i in range(3):
+                for j in range(3):
+                    tmp[i, j] = gain[i, 0] * dp[0, j] + gain[i, 1] * dp[1, j] + gain[i, 2] * dp[2, j]
+            for i in range(3):
+                for j in range(3):
+                    ps[i, j] = (
+                        ppo[k, i, j]
+                        + tmp[i, 0] * gain[j, 0]
+                        + tmp[i, 1] * gain[j, 1]
+                        + tmp[i, 2] * gain[j, 2]
+                    )
+        a[k] = xs[2]
+        v[k] = ps[2, 2]
+    return a, v
+
+
+@njit(cache=True)
+def imm_step(
+    xs: np.ndarray,
+    ps: np.ndarray,
+    mu: np.ndarray,
+    x: np.ndarray,
+    p: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+    qs: np.ndarray,
+    switch_time: float,
+) -> bool:
+    """One sample into the interacting-multiple-model filter (Blom & Bar-Shalom); True when it (re)started.
+
+    Model j is the EKF above with q_a = qs[j]; the mode follows a Markov chain that leaves each mode at
+    rate 1/switch_time to any other (Π_ij = e^{−Δt/τ} on the diagonal, the rest shared evenly). Per sample:
+    mix (c_j = Σ_i Π_ij μ_i, x⁰_j = Σ_i Π_ij μ_i x_i / c_j, P⁰_j likewise plus the spread of the x_i), predict
+    and correct each model, μ_j ∝ c_j N(ν_j; 0, S_j), and combine: x = Σ μ_j x_j,
+    P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ). ``state``, ``params``: as ``step``; x, p receive the combination.
+    """
+    g, length, c, r = params[0], params[1], params[2], params[3]
+    q_rate, reset_gap = params[4], params[6]
+    m = qs.size
+    if needs_restart(state, t, reset_gap):
+        _imm_start(xs, ps, mu, x, p, state, t, y, params)
+        return True
+    dt = t - state[0]
+    stay = math.exp(-dt / switch_time)
+    move = (1.0 - stay) / (m - 1) if m > 1 else 0.0
+    cj = np.zeros(m)
+    for j in range(m):
+        for i in range(m):
+            cj[j] += (stay if i == j else move) * mu[i]
+    x0 = np.zeros((m, 3))
+    p0 = np.zeros((m, 3, 3))
+    for j in range(m):
+        for i in range(m):
+            w = (stay if i == j else move) * mu[i] / cj[j]
+            for a in range(3):
+                x0[j, a] += w * xs[i, a]
+        for i in range(m):
+            w = (stay if i == j else move) * mu[i] / cj[j]
+            for a in range(3):
+                da = xs[i, a] - x0[j, a]
+                for b in range(3):
+                    p0[j, a, b] += w * (ps[i, a, b] + da * (xs[i, b] - x0[j, b]))
+    f = np.empty((3, 3))
+    k = np.empty(3)
+    logl = np.empty(m)
+    for j in range(m):
+        xj = x0[j]
+        pj = p0[j]
+        predict(xj, pj, f, dt, g, 1.0 / length, c, q_rate, qs[j])
+        nu, s = correct(xj, pj, k, y, r)
+        xs[j] = xj
+        ps[j] = pj
+        logl[j] = -0.5 * (nu * nu / s + math.log(s)) + math.log(cj[j])
+    top = logl.max()
+    total = 0.0
+    for j in range(m):
+        mu[j] = math.exp(logl[j] - top)
+        total += mu[j]
+    for j in range(m):
+        mu[j] = max(mu[j] / total, 1e-12)  # a floor keeps every mode revivable (and no 0/0 in the mixing)
+    for a in range(3):
+        x[a] = 0.0
+        for j in range(m):
+            x[a] += mu[j] * xs[j, a]
+    for a in range(3):
+        for b in range(3):
+            acc = 0.0
+            for j in range(m):
+                acc += mu[j] * (ps[j, a, b] + (xs[j, a] - x[a]) * (xs[j, b] - x[b]))
+            p[a, b] = acc
+    if _finite(x, p):
+        state[0], state[1] = t, state[1] + 1.0
+        return False
+    _imm_start(xs, ps, mu, x, p, state, t, y, params)  # diverged: restart rather than publish inf/NaN
+    return True
+
+
+@njit(cache=True)
+def _imm_start(
+    xs: np.ndarray,
+    ps: np.ndarray,
+    mu: np.ndarray,
+    x: np.ndarray,
+    p: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+) -> None:
+    """Every mode initialised from y (``initialise``), equally likely."""
+    m = mu.size
+    initialise(x, p, y, params[0], params[1], params[3], params[7], params[8])
+    for j in range(m):
+        xs[j] = x
+        ps[j] = p
+        mu[j] = 1.0 / m
+    state[0], state[1] = t, 1.0
+
+
+@njit(cache=True)
+def run_imm(
+    t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, switch_time: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(â, P_aa, μ) of the IMM filter over a recording (``imm_step`` per sample); μ: a column per mode."""
+    n = t.size
+    m = qs.size
+    a = np.empty(n)
+    v = np.empty(n)
+    mus = np.empty((n, m))
+    xs = np.zeros((m, 3))
+    ps = np.zeros((m, 3, 3))
+    mu = np.full(m, 1.0 / m)
+    x = np.zeros(3)
+    p = np.zeros((3, 3))
+    state = np.array([np.nan, 0.0])
+    for i in range(n):
+        imm_step(xs, ps, mu, x, p, state, t[i], y[i], params, qs, switch_time)
+        a[i] = x[2]
+        v[i] = p[2, 2]
+        mus[i] = mu
+    return a, v, mus
+
+
+@njit(cache=True)
+def log_likelihood(t: np.ndarray, y: np.ndarray, params: np.ndarray) -> float:
+    """Σ_k −½ (ν_k²/S_k + ln S_k) of the single-model filter at params (the first 10 samples of each
+    segment left out: they hold the start-up, whatever q_a)."""
+    x = np.zeros(3)
+    p = np.zeros((3, 3))
+    f = np.eye(3)
+    k = np.zeros(3)
+    state = np.array([np.nan, 0.0])
+    total = 0.0
+    g, length, c, r = params[0], params[1], params[2], params[3]
+    for i in range(t.size):
+        if needs_restart(state, t[i], params[6]):
+            initialise(x, p, y[i], g, length, r, params[7], params[8])
+            state[0], state[1] = t[i], 1.0
+            continue
+        predict(x, p, f, t[i] - state[0], g, 1.0 / length, c, params[4], params[5])
+        nu, s = correct(x, p, k, y[i], r)
+        if state[1] >= 10.0:
+            total += -0.5 * (nu * nu / s + math.log(s))
+        state[0], state[1] = t[i], state[1] + 1.0
+    return total
+
+
+def warm() -> None:
+    """Compile (or load from the cache) every pass: a few samples through each."""
+    t = np.arange(30) / 100.0
+    y = np.zeros(30)
+    params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
+    _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, np.array([0, 5], dtype=np.int64), True)
+    rts(xpr, ppr, xpo, ppo, fk, starts)
+    run_imm(t, y, params, np.array([1e-3, 0.1]), 5.0)
+    log_likelihood(t, y, params)
+
+
+if __name__ == "__main__":
+    warm()

@@ -1,0 +1,65 @@
+"""benchmarks.real_motion --quick: the report's structure and the properties its figures must have."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from benchmarks import real_motion as rm
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[rm.Row], dict, dict, Path]:
+    """One --quick run (first 60 s of each profile, one seed), written under a temporary directory."""
+    out = tmp_path_factory.mktemp("real_motion")
+    rows, curves, imm = rm.report(1, True, out / "real_motion.md", out)
+    return rows, curves, imm, out
+
+
+def test_report_covers_every_validation_profile_design_and_method(quick: tuple) -> None:
+    """Rows for every validation profile × design × live method, the lag row, the smoother and both bounds;
+    no training profile is reported; the Markdown and the plot are written."""
+    rows, _, _, out = quick
+    validation = {p.name for p in rm.PROFILES if p.role == "validate"}
+    training = {p.name for p in rm.PROFILES if p.role == "train"}
+    assert validation and training and not validation & training
+    assert {r.profile for r in rows} == validation
+    for design in rm.designs():
+        for profile in validation:
+            methods = {
+                r.method.split(" ")[0] for r in rows if r.design == design.name and r.profile == profile
+            }
+            assert {*rm.LIVE_ESTIMATORS, "smoother", "ekf_hindsight", "rts_hindsight", "rts_best"} <= methods
+    text = (out / "real_motion.md").read_text()
+    assert "| design | profile | method | RMS |" in text and "Targets (issue 24)" in text
+    assert (out / "bench_real_motion_lag.png").stat().st_size > 0
+
+
+def test_figures_are_finite_and_bounds_order_as_theory_says(quick: tuple) -> None:
+    """Every RMS, NEES and share is finite and in range; on the same data the RTS bound is below the
+    filter bound, and the smoother (ML q_a) below the live filter: later data can only help."""
+    rows, _, _, _ = quick
+    for r in rows:
+        s = r.score
+        assert math.isfinite(s.rms) and s.rms > 0.0 and s.max_err >= s.rms
+        assert math.isfinite(s.nees) and s.nees > 0.0
+        assert 0.0 <= s.beyond_steady <= 1.0
+        assert math.isnan(s.beyond_after) or 0.0 <= s.beyond_after <= 1.0
+    for design in rm.designs():
+        for profile in {r.profile for r in rows}:
+            by = {
+                r.method.split(" q=")[0]: r for r in rows if r.design == design.name and r.profile == profile
+            }
+            assert by["rts_hindsight"].score.rms <= by["ekf_hindsight"].score.rms
+            assert by["smoother"].score.rms <= by["kalman"].score.rms
+            assert by["kalman"].ratio is not None and by["kalman"].ratio > 0.0
+
+
+def test_latency_buys_accuracy(quick: tuple) -> None:
+    """The fixed-lag smoother's RMS at the longest lag is below its RMS at lag 0, for every design."""
+    _, curves, imm, _ = quick
+    for name, curve in curves.items():
+        assert curve[rm.LAGS[-1]] < curve[0.0]
+        assert math.isfinite(imm[name]) and imm[name] > 0.0

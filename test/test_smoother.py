@@ -1,0 +1,147 @@
+"""The RTS smoother and the fixed-lag knob: offline only, never worse than the filter, lag → smoother."""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pendulum_accel.cli.main import main
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.estimators import estimate_batch, estimator_line, make_estimator
+from pendulum_accel.estimators.kalman import KalmanEstimator
+from pendulum_accel.physics.params import Pendulum
+from pendulum_accel.physics.profiles import Table
+from pendulum_accel.physics.simulate import simulate
+from pendulum_accel.recording.analyze import analyze_bag
+from test.conftest import REPO
+
+L, C, SIGMA, RATE = 0.05, 19.8, 2e-3, 200.0  # the short damped design (scene udds)
+CFG = {"length": L, "damping": C, "noise_std": SIGMA, "rate_hz": RATE}
+
+
+@cache
+def drive() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t, noisy θ, true a): 30 s of smooth pull-away, cruise and braking, seed 3."""
+    profile = Table(
+        times=(0.0, 3.0, 6.0, 12.0, 15.0, 20.0, 24.0, 30.0), accels=(0.0, 1.5, 1.2, 0.0, 0.0, -2.0, 0.0, 0.0)
+    )
+    t = np.arange(round(30.0 * RATE)) / RATE
+    theta = simulate(Pendulum(length=L, damping=C), profile, t, theta0=0.0, rtol=1e-10, atol=1e-12).theta
+    noisy = np.asarray(theta) + SIGMA * np.random.default_rng(3).standard_normal(t.size)
+    return t, noisy, np.asarray(profile(t))
+
+
+def rms(a: np.ndarray, truth: np.ndarray, t: np.ndarray) -> float:
+    """RMS of â − a for t ≥ 2 s (after the start-up)."""
+    keep = t >= 2.0
+    return math.sqrt(float(np.mean((a - truth)[keep] ** 2)))
+
+
+def test_smoother_is_offline_only() -> None:
+    """Streaming update of the smoother is refused with a one-line ParameterError naming the live knob."""
+    est = make_estimator("smoother", **CFG)
+    with pytest.raises(ParameterError, match="smoother is offline only; use lag for live"):
+        est.update(0.0, 0.0)
+
+
+def test_smoother_beats_the_filter_and_its_variance_is_smaller() -> None:
+    """Using later data too, the smoother's RMS is below the filter's; on the same q_a so is its variance:
+    Pˢ = P⁺ + G (Pˢ₊ − P⁻₊) Gᵀ with Pˢ₊ ≤ P⁻₊ never exceeds P⁺ (1e-9 relative: the recursion's rounding)."""
+    t, theta, truth = drive()
+    q = make_estimator("kalman", **CFG).q_accel  # type: ignore[attr-defined]
+    a_f, v_f = estimate_batch("kalman", t, theta, **CFG, q_accel=q)  # the single model at that q_a
+    a_s, v_s = estimate_batch("smoother", t, theta, **CFG, q_accel=q)
+    assert np.all(v_s <= v_f * (1.0 + 1e-9))  # same model: the smoothed variance never exceeds the filtered
+    assert rms(a_s, truth, t) < rms(a_f, truth, t)
+    a_imm, _ = estimate_batch("kalman", t, theta, **CFG)  # the live default (IMM)
+    a_s, v_s = estimate_batch("smoother", t, theta, **CFG)  # q_a fitted to the recording
+    assert rms(a_s, truth, t) < rms(a_imm, truth, t)
+    assert np.all(np.isfinite(a_s)) and np.all(v_s > 0.0)
+
+
+def test_fixed_lag_over_the_whole_record_is_the_rts_smoother() -> None:
+    """A lag as long as the recording gives every sample all the data: the fixed-interval RTS result.
+
+    Both are the same linear-Gaussian algebra on the same linearisation (F, K); they differ in rounding only,
+    which the RTS gain's (P⁻)⁻¹ (condition ≈ P_aa/P_θθ ≈ 1e7 here) magnifies to ~1e-9 relative: 1e-6 m/s²
+    is far above that and far below any modelling difference (the smoother gains ~1e-2 m/s² on the filter).
+    """
+    t, theta, _ = drive()
+    q = make_estimator("kalman", **CFG).q_accel  # type: ignore[attr-defined]
+    a_s, v_s = estimate_batch("smoother", t, theta, **CFG, q_accel=q)
+    a_l, v_l = estimate_batch("kalman", t, theta, **CFG, lag=float(t[-1] + 1.0))
+    np.testing.assert_allclose(a_l, a_s, rtol=0.0, atol=1e-6)
+    np.testing.assert_allclose(v_l, v_s, rtol=1e-6, atol=0.0)
+
+
+def test_lag_trades_latency_for_accuracy() -> None:
+    """RMS falls as the lag grows from 0 (the filter) to 0.5 s, and a 0.5 s lag is within 10 % of the smoother
+    (the smoother's memory at this q_a is ≈ 0.2 s: past ~2 memories the rest of the data adds < 10 %)."""
+    t, theta, truth = drive()
+    est = make_estimator("kalman", **CFG)
+    assert isinstance(est, KalmanEstimator)
+    lags = (0, 10, 40, 100)  # samples: 0, 0.05, 0.2, 0.5 s
+    a, _ = est.lagged(t, theta, lags)
+    errors = [rms(a[:, m], truth, t) for m in range(len(lags))]
+    assert errors[0] > errors[1] > errors[2] >= errors[3]
+    a_s, _ = estimate_batch("smoother", t, theta, **CFG, q_accel=est.q_accel)
+    assert errors[3] < 1.1 * rms(a_s, truth, t)
+
+
+def test_lagged_streaming_equals_batch_and_is_stamped_with_the_described_sample() -> None:
+    """Streaming with lag N emits nothing for N samples, then â of sample k − N stamped t[k − N], equal to the
+    batch column (same compiled step: equal to rounding, 1e-12 m/s² of headroom)."""
+    t, theta, _ = drive()
+    lag = 0.25
+    est = make_estimator("kalman", **CFG, lag=lag)
+    out = [est.update(ti, yi) for ti, yi in zip(t.tolist(), theta.tolist(), strict=True)]
+    n = round(lag * RATE)
+    assert all(o is None for o in out[:n]) and all(o is not None for o in out[n:])
+    emitted = [o for o in out if o is not None]
+    times = np.array([o.time for o in emitted])
+    np.testing.assert_array_equal(times, t[: t.size - n])
+    a_b, v_b = estimate_batch("kalman", t, theta, **CFG, lag=lag)
+    np.testing.assert_allclose([o.a for o in emitted], a_b[: t.size - n], rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose([o.variance for o in emitted], v_b[: t.size - n], rtol=1e-12, atol=0.0)
+
+
+def test_lag_is_checked_and_only_kalman_has_it() -> None:
+    """A negative lag and a lag for a method without one are refused with a one-line ParameterError."""
+    with pytest.raises(ParameterError, match="lag must be >= 0"):
+        make_estimator("kalman", **CFG, lag=-0.1)
+    with pytest.raises(ParameterError, match="has no option 'lag'"):
+        make_estimator("instant", **CFG, lag=0.5)
+    with pytest.raises(ParameterError, match="has no option 'lag'"):
+        make_estimator("smoother", **CFG, lag=0.5)  # it has the whole recording
+    with pytest.raises(ParameterError, match="unknown preset"):
+        make_estimator("kalman", **CFG, preset="boat")
+
+
+def test_export_and_analyze_offer_the_smoother_and_the_lag(tmp_path: Path) -> None:
+    """``export`` adds the smoother's series on the angle's stamps (finite, one per angle); ``analyze`` runs
+    ``--estimator smoother`` and ``--lag``, and refuses a lag for a method without one in one line."""
+    pytest.importorskip("pandas")
+    golden = REPO / "bags" / "step_start"
+    assert main(["export", str(golden), "--out", str(tmp_path), "--merged"]) == 0
+    merged = (tmp_path / "merged.csv").read_text().splitlines()
+    header = merged[0].split(",")
+    col = header.index("/car/accel/smoothed/a")
+    values = [float(row.split(",")[col]) for row in merged[1:]]
+    assert len(values) == len(merged) - 1 and all(math.isfinite(v) for v in values)
+    smooth = analyze_bag(golden, estimator="smoother")
+    lagged = analyze_bag(golden, estimator="kalman", lag=0.3)
+    assert lagged.config["lag"] == 0.3 and np.isfinite(lagged.accel_est).all()
+    assert smooth.stats.rms <= lagged.stats.rms * 1.05  # the whole bag vs 0.3 s of it: no worse (5 % slack:
+    # the smoother fits its own q_a, the lag runs the preset's)
+    assert main(["analyze", str(golden), "--estimator", "instant", "--lag", "0.3"]) == 2
+
+
+def test_the_summary_line_explains_the_estimator() -> None:
+    """The run summary's estimator line says why the default was chosen, and that another one was chosen."""
+    assert estimator_line("kalman").startswith("estimator: kalman (the pendulum EKF")
+    assert "real-motion validation" in estimator_line("kalman")
+    assert estimator_line("instant") == "estimator: instant (chosen; the default is kalman)"
