@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks import report
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.writer import BagWriter, Stream
 
@@ -114,6 +115,7 @@ def measure(path: str) -> dict[str, object]:
         "seek_median_ms": 1e3 * float(np.median(seeks)),
         "seek_max_ms": 1e3 * float(np.max(seeks)),
         "chunks": len(source.chunks),
+        "rss_samples": samples,
     }
 
 
@@ -124,6 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--gib", type=float, default=1.05, help="bag size to write, GiB (default 1.05)")
     parser.add_argument("--keep", action="store_true", help="keep the bag")
     parser.add_argument("--child", help=argparse.SUPPRESS)
+    report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     if args.child:
         print(json.dumps(measure(args.child)))
@@ -150,6 +153,7 @@ def main(argv: list[str] | None = None) -> int:
             shutil.rmtree(tmp, ignore_errors=True)
     result.update({"bag_gib": size / 2**30, "written": written, "write_s": write_s})
     args.out.mkdir(parents=True, exist_ok=True)
+    samples = result.pop("rss_samples")
     with (args.out / "player_memory.csv").open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(list(result))
@@ -165,7 +169,36 @@ def main(argv: list[str] | None = None) -> int:
     ]
     (args.out / "player_memory.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
+    plot = plot_rss(samples, args.out / "player_memory.png")
+    report.write_page(
+        "player_memory",
+        "Player memory: RSS and seek time on a bag over 1 GiB",
+        ["\n".join(lines)],
+        [(plot, "the player's resident memory against the messages read")],
+        intro=__doc__ or "",
+        docs=args.docs,
+        argv=argv,
+    )
     return 0
+
+
+def plot_rss(samples: list[tuple[int, float]], path: Path) -> Path:
+    """RSS (MiB) against messages read: flat when the player streams."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    ax.plot([n / 1e6 for n, _ in samples], [r for _, r in samples], marker=".")
+    ax.set_xlabel("messages read (millions)")
+    ax.set_ylabel("RSS (MiB)")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
 
 
 if __name__ == "__main__":

@@ -51,7 +51,9 @@ def requirement_name(spec: str) -> str:
 
 
 def imports(files: Iterable[Path]) -> dict[str, set[str]]:
-    """Top-level third-party import names (absolute imports, in functions too) → the files importing them."""
+    """Top-level third-party import names (absolute imports, in functions too, and the string constants
+    given to ``importlib.import_module``/``lazy_module``, which import on first use) → the files importing
+    them."""
     found: dict[str, set[str]] = {}
     for path in files:
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
@@ -59,6 +61,15 @@ def imports(files: Iterable[Path]) -> dict[str, set[str]]:
                 names = [alias.name for alias in node.names]
             elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
                 names = [node.module]
+            elif (
+                isinstance(node, ast.Call)
+                and getattr(node.func, "id", getattr(node.func, "attr", ""))
+                in ("import_module", "lazy_module")
+                and node.args
+                and isinstance(node.args[0], ast.Constant)
+                and isinstance(node.args[0].value, str)
+            ):
+                names = [node.args[0].value]
             else:
                 continue
             for name in names:

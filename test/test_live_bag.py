@@ -26,9 +26,10 @@ import pytest
 from PIL import Image
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.export import column_name, export_bag, file_stem
+from pendulum_accel.bag.export import VISUAL_ROLES, column_name, export_bag, file_stem
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import BagWriter
+from pendulum_accel.cli.export import SMOOTHED
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording.generate import generate_bag
 from test.chain_helpers import Output
@@ -168,15 +169,19 @@ def test_export_every_topic(live_bag: Path, tmp_path: Path, fmt: str) -> None:
     result = cli("export", str(live_bag), "--out", str(out), "--format", fmt)
     _no_traceback(result)
     bag = read_bag(live_bag)
-    assert sorted(p.name for p in out.iterdir()) == sorted(f"{file_stem(t)}.{fmt}" for t in bag.topics)
+    # Every topic but the visual ones (markers, URDF: exported only when named), plus the smoother's series.
+    tabled = [t for t in bag.topics if bm.role_of(t) not in VISUAL_ROLES]
+    assert len(tabled) == len(bag.topics) - len(VISUAL_ROLES)
+    expected = sorted(f"{file_stem(t)}.{fmt}" for t in [*tabled, SMOOTHED])
+    assert sorted(p.name for p in out.iterdir()) == expected
     tables = {
         t: pd.read_csv(out / f"{file_stem(t)}.{fmt}")
         if fmt == "csv"
         else pd.read_parquet(out / f"{file_stem(t)}.{fmt}")
-        for t in bag.topics
+        for t in tabled
     }
-    for topic, info in bag.topics.items():
-        assert len(tables[topic]) == info.count, topic  # /diagnostics included: no message dropped
+    for topic in tabled:
+        assert len(tables[topic]) == bag.topics[topic].count, topic  # /diagnostics included: none dropped
     imu, est = tables[bm.TOPIC_IMU], tables[bm.TOPIC_ACCEL_ESTIMATE]
     # The Imu carries the estimate as specific force x: the same float64, through the same writer.
     np.testing.assert_array_equal(

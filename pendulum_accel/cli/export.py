@@ -8,7 +8,6 @@ from typing import Any
 from pendulum_accel.bag.export import FORMATS, export_bag
 from pendulum_accel.cli.output import check_output_dir, output_directory
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
-from pendulum_accel.recording.analyze import smoothed_estimate
 
 SMOOTHED = "/car/accel/smoothed"
 """Name of the derived smoother series (not a topic in the bag): columns a and variance."""
@@ -51,6 +50,8 @@ def run(args: argparse.Namespace) -> int:
     out = check_output_dir(args.out)
     bag = read_intact(args.bag, args.salvage)
     check_chain_contract(bag)
+    from pendulum_accel.recording.analyze import smoothed_estimate  # estimators: loaded when used
+
     smoothed = None if args.no_smoothed else smoothed_estimate(bag)
     derived = {} if smoothed is None else {SMOOTHED: smoothed}
     with output_directory(out):

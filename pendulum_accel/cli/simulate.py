@@ -70,7 +70,9 @@ def register(subparsers: Any) -> None:
     step = solver.add_mutually_exclusive_group()
     step.add_argument("--dt", type=float, metavar="S", help="fixed step (fixed-step methods)")
     step.add_argument("--rtol", type=float, metavar="R", help="relative tolerance (adaptive methods)")
-    parser.add_argument("--out", type=Path, metavar="FILE.csv", help="write the CSV here (default: stdout)")
+    parser.add_argument(
+        "--out", type=Path, metavar="FILE.csv", help="write the CSV here (default, or '-': stdout)"
+    )
     parser.add_argument(
         "--plot",
         type=Path,
@@ -142,7 +144,8 @@ def run(args: argparse.Namespace) -> int:
     from pendulum_accel.planner import plan_with
     from pendulum_accel.scene_run import simulate_plan
 
-    out = check_output_file(args.out, (".csv",)) if args.out is not None else None
+    to_stdout = args.out is None or str(args.out) == "-"  # '-' is stdout, as for most Unix tools
+    out = None if to_stdout else check_output_file(args.out, (".csv",))
     plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     scene = scene_from_args(args)
     interval = scene.sensor.period

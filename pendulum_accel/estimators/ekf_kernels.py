@@ -25,7 +25,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from pendulum_accel.physics.lazy import njit
 
 MAX_STEP = 0.01  # s; longer intervals are propagated in sub-steps so RK4 and F stay accurate
 

@@ -25,7 +25,6 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from scipy import linalg
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import ekf_kernels as kern
@@ -37,7 +36,10 @@ from pendulum_accel.estimators.base import (
     bias_variance_array,
     check_batch_input,
 )
+from pendulum_accel.physics.lazy import lazy_module
 from pendulum_accel.physics.params import require_finite, require_positive
+
+linalg = lazy_module("scipy.linalg")  # imported on first use: start-up (docs/portability.md)
 
 
 @dataclass(frozen=True)
