@@ -28,9 +28,14 @@ class GoldenBag:
     analysis: Analysis
 
 
+def golden_scenes() -> dict[str, float]:
+    """Name → duration (s) of the bundled scenes (one golden bag each)."""
+    return {s.name: s.duration for s in list_scenes()}
+
+
 def golden_scene_names() -> list[str]:
     """Names of the bundled scenes (one golden bag each)."""
-    return [s.name for s in list_scenes()]
+    return list(golden_scenes())
 
 
 def write_golden_bags(folder: Path | str, *, max_duration: float = GOLDEN_MAX_DURATION) -> list[GoldenBag]:
@@ -38,9 +43,11 @@ def write_golden_bags(folder: Path | str, *, max_duration: float = GOLDEN_MAX_DU
     root = Path(folder)
     root.mkdir(parents=True, exist_ok=True)
     bags = []
-    for name in golden_scene_names():
+    for name, scene_duration in golden_scenes().items():
+        # generate refuses a duration past the scene's end: cut only the scenes longer than max_duration.
+        duration = min(max_duration, scene_duration)
         result = generate_bag(
-            name, root / name, overwrite=True, duration=max_duration, compression=GOLDEN_COMPRESSION
+            name, root / name, overwrite=True, duration=duration, compression=GOLDEN_COMPRESSION
         )
         size = sum(p.stat().st_size for p in (root / name).iterdir())
         bags.append(GoldenBag(name, result, size, analyze_bag(root / name)))
