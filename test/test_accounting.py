@@ -92,3 +92,14 @@ def test_info_says_complete_only_where_the_publishers_counts_agree(tmp_path: Pat
     captured = capsys.readouterr()  # type: ignore[attr-defined]
     assert "[INCOMPLETE: /car/accel/estimate: 11 of 211 published not recorded]" in captured.out
     assert "11 of 211 published not recorded" in captured.err
+
+
+def test_a_namespaced_chain_is_accounted_under_its_own_names() -> None:
+    """The table and the losses name the topics as the run resolved them (/car1/...), not the root names."""
+    published = {"/car1/pendulum/joint_states": 100, "/car1/car/accel/truth": 100, "/clock": 100}
+    recorded = {**published, "/car1/car/accel/truth": 90, "/car1/car/accel/estimate": 97}
+    ns = Accounting({"published": published}, _estimator(100, 97, 3), {"written": recorded})
+    table = "\n".join(ns.table())
+    assert "/car1/pendulum/joint_states" in table and "/car1/car/accel/estimate" in table
+    assert " /pendulum/joint_states" not in table
+    assert "/car1/car/accel/truth: 10 of 100 not recorded" in ns.losses(recording=True)

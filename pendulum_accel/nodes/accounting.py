@@ -79,6 +79,16 @@ class Accounting:
         """Messages the recorder wrote on ``topic``'s role (the bag holds the resolved names)."""
         return _by_role(self.recorder.get("written", {}), bm.role_of(topic))
 
+    def shown_name(self, topic: str) -> str:
+        """The name ``topic``'s role had in this run (``/car1/pendulum/joint_states`` in a namespaced chain):
+        the recorder's or the simulator's resolved name for it, else ``topic`` as given."""
+        role = bm.role_of(topic)
+        for counts in (self.recorder.get("written", {}), self.simulator.get("published", {})):
+            for name in counts:
+                if role is not None and bm.role_of(name) == role:
+                    return str(name)
+        return topic
+
     def explained_without_estimate(self) -> int:
         """Angles the estimator received that rightly have no estimate: warm-up plus dropped inputs."""
         return sum(int(self.estimator.get(key, 0)) for key, _ in _EXPLAINED)
@@ -105,8 +115,9 @@ class Accounting:
                 received, estimated = str(self.estimator["inputs"]), str(self.estimator["estimates"])
                 if self.reasons():
                     notes.append(f"no estimate: {self.reasons()}")
+            name = self.shown_name(topic)
             lines.append(
-                f"  {topic:<24} {_text(published):>9} {received:>8} {estimated:>9} {_text(recorded):>9}  "
+                f"  {name:<24} {_text(published):>9} {received:>8} {estimated:>9} {_text(recorded):>9}  "
                 + "; ".join(notes)
             )
         return lines
@@ -120,7 +131,9 @@ class Accounting:
         for topic in (*bm.TOPIC_TYPES, bm.TOPIC_IMU):
             published, recorded = self.published(topic), self.recorded(topic)
             if published is not None and recorded is not None and recorded < published:
-                out.append(f"{topic}: {published - recorded} of {published} published not recorded")
+                out.append(
+                    f"{self.shown_name(topic)}: {published - recorded} of {published} published not recorded"
+                )
         return out
 
     @property
@@ -146,7 +159,9 @@ class Accounting:
             for topic in (*bm.TOPIC_TYPES, bm.TOPIC_IMU):
                 published, recorded = self.published(topic), self.recorded(topic)
                 if published is not None and (recorded or 0) < published:
-                    out.append(f"{topic}: {published - (recorded or 0)} of {published} not recorded")
+                    out.append(
+                        f"{self.shown_name(topic)}: {published - (recorded or 0)} of {published} not recorded"
+                    )
         for topic in self.simulator.get("unacknowledged", []):
             out.append(f"{topic}: a reader did not acknowledge within 10 s")
         return out
