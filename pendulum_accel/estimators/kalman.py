@@ -61,11 +61,11 @@ class MotionPreset:
 # single model). q_ω = 0: with the damping known there is no unmodelled torque to absorb.
 PRESETS: dict[str, MotionPreset] = {
     "car": MotionPreset(
-        (1e-3, 0.03), 50.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"
+        (1e-4, 0.03), 50.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"
     ),
     "robot": MotionPreset((1e-3, 0.03), 10.0, 0.00464, 0.0, "Husky odometry 0-195 s, both designs, seeds 0-1"),
     "lab_steps": MotionPreset(
-        (1e-4, 1.0), 2.0, 0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-1"
+        (1e-4, 1.0), 200.0, 0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-1"
     ),
 }
 DEFAULT_PRESET = "car"
