@@ -66,7 +66,9 @@ PRESETS: dict[str, MotionPreset] = {
     "car": MotionPreset(
         (1e-4, 0.03), 50.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"
     ),
-    "robot": MotionPreset((1e-3, 0.03), 10.0, 0.00464, 0.0, "Husky odometry 0-195 s, both designs, seeds 0-1"),
+    "robot": MotionPreset(
+        (1e-3, 0.03), 10.0, 0.00464, 0.0, "Husky odometry 0-195 s, both designs, seeds 0-1"
+    ),
     "lab_steps": MotionPreset(
         (1e-4, 1.0), 200.0, 0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-1"
     ),
