@@ -343,7 +343,7 @@ GAUSS_2SIGMA = math.erfc(2.0 / math.sqrt(2.0))  # 0.0455: P(|z| > 2) of a standa
 SHARE_FLOOR = 1e-4  # a share of 0 counts as 0.01 % (the log stays finite; 0 is as wrong as 0.01 %)
 
 
-def calibration_miss(counts: np.ndarray) -> float:
+def calibration_miss(counts: Sequence[float] | np.ndarray) -> float:
     """Σ |ln(share / GAUSS_2SIGMA)| over the steady and after-change shares of an imm_scan row."""
     miss = 0.0
     for beyond, n in ((counts[1], counts[2]), (counts[3], counts[4])):
