@@ -63,3 +63,18 @@ def test_latency_buys_accuracy(quick: tuple) -> None:
     for name, curve in curves.items():
         assert curve[rm.LAGS[-1]] < curve[0.0]
         assert math.isfinite(imm[name]) and imm[name] > 0.0
+
+
+def test_calibration_miss_is_zero_for_a_gaussian_share_and_grows_both_ways() -> None:
+    """The IMM fit's criterion: Σ |ln(share/4.55 %)| over steady and after-change; 0 at a Gaussian's
+    share (P(|z| > 2) = erfc(√2)), ln 2 per factor 2 either way, a share of 0 floored, empty parts skipped."""
+    n = 1e6  # samples: the shares below are exact fractions of it
+    gauss = rm.GAUSS_2SIGMA * n
+    assert abs(rm.GAUSS_2SIGMA - 0.0455) <= 5e-5  # the textbook 4.55 %, to its printed digits
+    assert rm.calibration_miss([0.0, gauss, n, gauss, n]) == pytest.approx(0.0, abs=1e-12)
+    # ln 2 each way: 1e-12 covers the round-off of a log of a ratio of doubles
+    both = rm.calibration_miss([0.0, 2 * gauss, n, gauss / 2, n])
+    assert both == pytest.approx(2 * math.log(2.0), abs=1e-12)
+    assert rm.calibration_miss([0.0, gauss, n, 0.0, 0.0]) == pytest.approx(0.0, abs=1e-12)
+    floored = rm.calibration_miss([0.0, 0.0, n, gauss, n])
+    assert floored == pytest.approx(math.log(rm.GAUSS_2SIGMA / rm.SHARE_FLOOR), abs=1e-12)
