@@ -4,7 +4,8 @@ python -m test.player_control SPEC_JSON   (from the repository root)
 
 SPEC keys:
   "node": name                    the player's node name (default bag_player)
-  "listen": {topic: type, ...}    record (wall time, stamp, value) of every message on these topics;
+  "listen": {topic: type, ...}    record (wall time, stamp, value) of every message on these topics
+                                  (stamp None for a type without header or clock);
   "matched": [topic, ...]         listened topics whose publisher must be matched before the first step;
                                   value: accel.accel.linear.x of an estimate, position[0] of a joint state
   "steps": [step, ...]            run in order, each recording one result:
@@ -40,10 +41,11 @@ from test.node_probe import call, spin_for
 _WAIT_LIMIT = 30.0  # s
 
 
-def stamp_of(msg: Any) -> float:
-    """header.stamp (or clock) of a message, in seconds."""
-    stamp = msg.clock if hasattr(msg, "clock") else msg.header.stamp
-    return time_to_seconds(stamp)
+def stamp_of(msg: Any) -> float | None:
+    """header.stamp (or clock) of a message, in seconds; None for a type with neither (String, markers)."""
+    if hasattr(msg, "clock"):
+        return time_to_seconds(msg.clock)
+    return time_to_seconds(msg.header.stamp) if hasattr(msg, "header") else None
 
 
 def value_of(msg: Any) -> float | None:

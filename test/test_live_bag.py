@@ -2,7 +2,8 @@
 
 One bag is recorded per test module: step_start for 3 s over the real ROS chain, with a stranger
 subscribed to the angles first. Then info, analyze, export (every topic, the Imu included, CSV and
-Parquet), allan, animate and repair run on it as a user runs them. rclpy pads each CDR payload to a
+Parquet), allan, animate and repair run on it as a user runs them, and bag_player plays it (through its
+chunk index) to a plain subscriber, seeking inside and outside it. rclpy pads each CDR payload to a
 multiple of 4 bytes and leaves padding bytes uninitialised, so its /diagnostics messages do not
 re-serialise byte for byte: the reader must keep them because they decode correctly. The ROS-free
 tests at the end build such payloads by hand and check the same rule, and that bytes that do not
@@ -14,11 +15,13 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -32,8 +35,8 @@ from pendulum_accel.bag.writer import BagWriter
 from pendulum_accel.cli.export import SMOOTHED
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording.generate import generate_bag
-from test.chain_helpers import Output
-from test.conftest import PYTHON, REPO, rclpy_available
+from test.chain_helpers import Output, start_node
+from test.conftest import PYTHON, REPO, Spawn, rclpy_available
 
 DURATION = 3.0  # s of step_start recorded live
 SAMPLES = 301  # 100 Hz over [0, 3] s
@@ -236,6 +239,78 @@ def test_repair(live_bag: Path, tmp_path: Path) -> None:
     _no_traceback(result)
     fixed = read_bag(copy, salvage=False)
     assert 0 < fixed.message_count < total
+
+
+SEEK_TO = 2.0  # s of bag time: where the first pass starts, after the refused seeks
+
+
+@pytest.mark.ros
+def test_player(live_bag: Path, spawn: Spawn) -> None:
+    """bag_player plays every topic of the live bag to a plain subscriber (player_control): started paused,
+    seeks past the end and before the start are refused, a seek to 2 s plays [2, 3] s, a seek back to 0 at
+    the end plays the whole bag; each message arrives exactly once per pass, in order, stamps unchanged."""
+    bag = read_bag(live_bag)
+    listen = {topic: info.msgtype for topic, info in bag.topics.items()}
+    first_pass = {  # messages logged at or after the seek target (the player seeks on log time)
+        topic: int(np.count_nonzero(bag.raw(topic)[0] >= round(SEEK_TO * 1e9))) for topic in listen
+    }
+    total = {topic: first_pass[topic] + bag.topics[topic].count for topic in listen}
+    player = start_node(
+        spawn,
+        "player_node",
+        {
+            "path": str(live_bag),
+            "start_paused": True,
+            "rate": 2.0,  # 0.5 s + 1.5 s of wall time: KEEP_ALL QoS makes a slow listener slow it, not lose
+            "exit_on_end": False,  # stays at the end so the seek back can play the bag again
+            # By name, on every topic: no message goes out before the listener below has matched it.
+            "recorder_node": "player_control",
+        },
+    )
+    player.wait_for("paused", timeout=60)
+    end = bag.end_ns * 1e-9
+    steps: list[list[Any]] = [
+        ["set", {"seek_time": end + 0.5}],
+        ["call", "seek"],
+        ["set", {"seek_time": -0.5}],
+        ["call", "seek"],
+        ["set", {"seek_time": SEEK_TO}],
+        ["call", "seek"],
+        ["call", "resume"],
+        *(["wait_count", topic, n] for topic, n in first_pass.items()),  # the first pass is over
+        ["set", {"seek_time": 0.0}],
+        ["call", "seek"],
+        *(["wait_count", topic, n] for topic, n in total.items()),
+    ]
+    proc = spawn(
+        [PYTHON, "-m", "test.player_control", json.dumps({"listen": listen, "steps": steps, "linger": 0.5})]
+    )
+    out, err = proc.communicate(timeout=180)
+    assert proc.returncode == 0, err
+    result = json.loads(out.strip().splitlines()[-1])
+    player.proc.send_signal(signal.SIGINT)
+    assert player.finish(timeout=30) == 0, player.text
+    r = result["results"]
+    assert r[1][0] is False and "outside the bag" in r[1][1], r[1]
+    assert r[3][0] is False and "outside the bag" in r[3][1], r[3]
+    assert r[5] == [True, f"seek to t={SEEK_TO:.3f} s"] and r[6] == [True, "playing"]
+    assert r[7 + len(listen) + 1] == [True, "seek to t=0.000 s"]  # after the 7 steps and one wait per topic
+    got = result["messages"]
+    # Every topic, once per pass: nothing lost, nothing doubled (the linger would have caught a late extra).
+    assert {topic: len(got[topic]) for topic in listen} == total
+    played = re.search(r"played (\d+) messages in 1 pass", player.text)
+    assert played is not None and int(played.group(1)) == sum(first_pass.values()), player.text
+    for topic in (bm.TOPIC_JOINT_STATES, bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_CLOCK):
+        recorded = bag.decode(topic)
+        # The raw CDR is republished: the stamps come back bit for bit, [2, 3] s then the whole bag.
+        expected = np.concatenate(
+            [recorded.stamp[recorded.log_time_ns >= round(SEEK_TO * 1e9)], recorded.stamp]
+        )
+        np.testing.assert_array_equal([m[1] for m in got[topic]], expected, err_msg=topic)
+    angles = bag.decode(bm.TOPIC_JOINT_STATES)["position[0]"]
+    np.testing.assert_array_equal(
+        [m[2] for m in got[bm.TOPIC_JOINT_STATES]][first_pass[bm.TOPIC_JOINT_STATES] :], angles
+    )
 
 
 # --- ROS-free: rclpy's byte layout built by hand ---------------------------------------------------
