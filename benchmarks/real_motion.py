@@ -42,10 +42,10 @@ least RMS.
 from __future__ import annotations
 
 import argparse
-import datetime as dt
 import math
 import os
 import platform
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -54,6 +54,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from benchmarks import report as bench_report
 from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
@@ -568,13 +569,8 @@ def markdown(
 ) -> str:
     """The report: header (machine, date, split), the targets, the table, the lag curve table."""
     head = [
-        "# Real-motion benchmark",
-        "",
-        f"`python -m benchmarks.real_motion{' --quick' if quick else ''}` — "
-        f"{dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC, {platform.machine()} "
-        f"{platform.processor() or platform.system()}, {os.cpu_count()} CPUs, "
-        f"Python {platform.python_version()}, seeds 0-{seeds - 1}"
-        f"{', quick (first 60 s of each profile)' if quick else ''}.",
+        f"Seeds 0-{seeds - 1}{', quick (first 60 s of each profile)' if quick else ''}. "
+        + f"{platform.machine()}, {os.cpu_count()} CPUs.",
         "",
         "Validation profiles only (training: "
         + ", ".join(p.name for p in PROFILES if p.role == "train")
@@ -662,8 +658,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="first 60 s of each profile, 1 seed")
     parser.add_argument("--seeds", type=int, default=3, help="sensor noise seeds 0 … N−1")
     parser.add_argument("--fit", action="store_true", help="fit the presets' q_a on the training split")
-    parser.add_argument("--out-md", type=Path, default=Path("docs/benchmarks/real_motion.md"))
-    parser.add_argument("--out-img", type=Path, default=Path("docs/img"))
+    bench_report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     seeds = 1 if args.quick else max(1, args.seeds)
     if args.fit:
@@ -675,22 +670,31 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
             print(f"{preset}: IMM modes {imm[0]}, switch_time {imm[1]} s   [per candidate: {cands}]")
         return 0
-    report(seeds, args.quick, args.out_md, args.out_img)
+    report(seeds, args.quick, args.docs, argv)
     return 0
 
 
 def report(
-    seeds: int, quick: bool, out_md: Path, out_img: Path
+    seeds: int, quick: bool, docs: Path = bench_report.DOCS_DIR, argv: Sequence[str] | None = None
 ) -> tuple[list[Row], dict[str, dict[float, float]], dict[str, float]]:
-    """Evaluate, print and write the Markdown report and the latency–accuracy plot; the figures."""
+    """Evaluate, print, and write the page docs/benchmarks/real_motion.md with the latency–accuracy plot
+    (benchmarks.report.write_page); the figures."""
     rows, curves, imm = evaluate(seeds, quick)
     text = markdown(rows, curves, imm, quick, seeds)
     print(text)
-    out_md.parent.mkdir(parents=True, exist_ok=True)
-    out_md.write_text(text)
-    png = out_img / "bench_real_motion_lag.png"
-    plot(curves, imm, rows, png)
-    print(f"wrote {out_md}, {png}")
+    with tempfile.TemporaryDirectory() as tmp:
+        png = Path(tmp) / "lag.png"
+        plot(curves, imm, rows, png)
+        page = bench_report.write_page(
+            "real_motion",
+            "Real-motion benchmark",
+            [text],
+            [(png, "RMS error against the fixed-lag smoother's lag, for each sensor design")],
+            intro=(__doc__ or "").split("\n\n")[0],
+            docs=docs,
+            argv=argv,
+        )
+    print(f"wrote {page}")
     return rows, curves, imm
 
 

@@ -122,6 +122,9 @@ class KalmanEstimator(Estimator):
         self.switch_time = chosen.switch_time
         self._qs = np.array(self.modes, dtype=float)
         self._a_max = config.gravity * math.tan(config.clamp_angle)
+        # The compiled passes load (from numba's cache) here, not at the first sample: a live chain's first
+        # angles must not wait behind the loader (the node builds its estimator before it subscribes).
+        kern.warm()
         self._params = np.array(
             [
                 config.gravity,

@@ -277,10 +277,13 @@ class EstimatorNode(ManagedNode):
         if self._subscription is not None or not self._active:
             return
         if not self._missing_readers():
+            # The description may solve the filter's steady state (scipy): before subscribing, so the
+            # first angles do not queue behind it.
+            description = self.guarded.estimator.describe()
             self._subscription = self.create_subscription(
                 JointState, bm.JOINT_STATES, self._on_joint_state, DATA_QOS, raw=True
             )
-            self.get_logger().info(f"estimating with {self.guarded.estimator.describe()}")
+            self.get_logger().info(f"estimating with {description}")
             self.get_logger().info(
                 f"latency {self.latency():.3f} s: each estimate is stamped with the sample it describes"
             )
