@@ -658,6 +658,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="first 60 s of each profile, 1 seed")
     parser.add_argument("--seeds", type=int, default=3, help="sensor noise seeds 0 … N−1")
     parser.add_argument("--fit", action="store_true", help="fit the presets' q_a on the training split")
+    parser.add_argument(
+        "--out", type=Path, default=Path("out/bench"), help="where the table's Markdown also goes"
+    )
     bench_report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     seeds = 1 if args.quick else max(1, args.seeds)
@@ -670,7 +673,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
             print(f"{preset}: IMM modes {imm[0]}, switch_time {imm[1]} s   [per candidate: {cands}]")
         return 0
-    report(seeds, args.quick, args.docs, argv)
+    rows, curves, imm = report(seeds, args.quick, args.docs, argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "real_motion.md").write_text(markdown(rows, curves, imm, args.quick, seeds))
     return 0
 
 
