@@ -673,9 +673,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
             print(f"{preset}: IMM modes {imm[0]}, switch_time {imm[1]} s   [per candidate: {cands}]")
         return 0
-    rows, curves, imm = report(seeds, args.quick, args.docs, argv)
+    rows, curves, imm_rms = report(seeds, args.quick, args.docs, argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "real_motion.md").write_text(markdown(rows, curves, imm, args.quick, seeds))
+    (args.out / "real_motion.md").write_text(markdown(rows, curves, imm_rms, args.quick, seeds))
     return 0
 
 
