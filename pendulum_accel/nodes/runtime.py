@@ -351,6 +351,7 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
     it takes about ten times as many messages per second in Python, which the 1 kHz chain needs.
     """
     node: Node | None = None
+    executor: Any = None
     code = 0
     stops = 0
 
@@ -407,6 +408,12 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
     finally:
         if isinstance(node, ChainNode):
             node.close()
+        if executor is not None and node is not None:
+            # The EventsExecutor holds the node's entities and their event handlers: destroying them while it
+            # still does can end the process in SIGSEGV (rclpy#1644, seen here once in ~30 chains). Hand the
+            # node back and stop the executor first.
+            executor.remove_node(node)
+            executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
