@@ -72,7 +72,7 @@ pytest: $(STAMP)
 NUMERICS_TESTS := $(addprefix test/test_,$(addsuffix .py, \
   physics_properties equation_of_motion rigid elastic multiplier grade linear exact variational \
   integrators dop853_tableau kernels profiles simulate extremes planner error_bounds \
-  estimators estimator_guard onset fit_onset calibration seed_spread sensor allan \
+  estimators estimator_guard fit_onset smoother calibration seed_spread sensor allan accel_csv real_motion_profiles \
   lecture sweep scene_run plan_honesty bag_golden figures cpu_emulation))
 
 pytest-emulated: $(STAMP)

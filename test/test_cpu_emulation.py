@@ -100,3 +100,20 @@ def test_numba_compiles_for_generic_and_never_loads_the_host_cache(tmp_path: Pat
     for env in (host, generic):
         _, log = _run_cached(tmp_path, env)
         assert "data loaded" in log and "data saved" not in log
+
+
+def test_every_numerics_test_the_makefile_names_exists() -> None:
+    """`make pytest-emulated` runs the files NUMERICS_TESTS names: a renamed or deleted one would stop it
+    with 'file or directory not found' only in CI, after the whole suite."""
+    import re
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "Makefile").read_text(encoding="utf-8")
+    block = re.search(
+        r"NUMERICS_TESTS := \$\(addprefix test/test_,\$\(addsuffix \.py, \\\n(.*?)\)\)", text, re.S
+    )
+    assert block, "NUMERICS_TESTS not found in the Makefile"
+    names = block.group(1).replace("\\", " ").split()
+    assert len(names) > 20, names
+    missing = [n for n in names if not (root / "test" / f"test_{n}.py").is_file()]
+    assert missing == [], missing
