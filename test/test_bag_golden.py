@@ -92,16 +92,30 @@ def test_golden_bag_settles_within_tolerance(name: str) -> None:
     assert settled.rms <= RMS
 
 
+# resonant_drive is driven at the swing's own frequency and is chaotic (the butterfly lecture: λ ≈ 0.5 /s);
+# past its first swing over the top (|θ| > π/2, sample 412 of 3001) the bob is above the pivot, where
+# a = g tan θ has no meaning, and the filter's last-bit differences between CPUs (libm's sin/cos with or
+# without FMA, `make pytest-emulated`) grew there to 0.9 m/s² by 18 s. Sample-for-sample equality holds
+# up to that first pass; after it the re-run must still cover every sample with a finite estimate.
+CHAOTIC = {"resonant_drive"}
+
+
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_golden_bag_replays_offline(name: str) -> None:
-    """The offline re-run is the estimate the bag recorded, sample for sample."""
+    """The offline re-run is the estimate the bag recorded, sample for sample (CHAOTIC: up to the bob's
+    first pass over the top, finite after it)."""
     result = analyze_bag(BAGS / name)
     est = read_bag(BAGS / name).decode(bm.TOPIC_ACCEL_ESTIMATE, bm.ACCEL_WITH_COVARIANCE_STAMPED)
     at = np.searchsorted(result.t, est.stamp)
     np.testing.assert_allclose(result.t[at], est.stamp, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(
-        est["accel.accel.linear.x"], result.accel_est[at], rtol=0, atol=REPLAY_ATOL, err_msg=STALE
-    )
+    recorded, rerun = est["accel.accel.linear.x"], result.accel_est[at]
+    compared = rerun.size
+    if name in CHAOTIC:
+        over = np.abs(result.theta[at]) > np.pi / 2
+        compared = int(np.argmax(over)) if over.any() else rerun.size
+        assert compared >= 100, compared  # the check still covers the first seconds
+        assert np.all(np.isfinite(rerun))
+    np.testing.assert_allclose(recorded[:compared], rerun[:compared], rtol=0, atol=REPLAY_ATOL, err_msg=STALE)
 
 
 def test_hill_bag_reads_g_tan_beta_where_the_truth_is_zero() -> None:
