@@ -112,3 +112,14 @@ def spawn() -> Iterator[Spawn]:
 
 
 PYTHON = sys.executable
+
+
+def cli(*args: str, timeout: float = 180.0) -> subprocess.CompletedProcess[str]:
+    """``pendulum-accel ARGS`` in a subprocess (captured), from the repository (the tests' one CLI runner)."""
+    return subprocess.run(
+        [PYTHON, "-m", "pendulum_accel.cli.main", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=REPO,
+    )

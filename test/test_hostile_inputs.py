@@ -35,19 +35,8 @@ from pendulum_accel.physics import kernels
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Sinusoid
 from pendulum_accel.recording.generate import generate_bag
-from test.conftest import PYTHON, REPO
+from test.conftest import PYTHON, REPO, cli
 from test.test_bag_io import _write_chain_bag
-
-
-def cli(*args: str, timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
-    """``pendulum-accel ARGS`` in a subprocess (captured)."""
-    return subprocess.run(
-        [PYTHON, "-m", "pendulum_accel.cli.main", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        cwd=REPO,
-    )
 
 
 def one_line_error(result: subprocess.CompletedProcess[str], *words: str) -> str:

@@ -36,7 +36,7 @@ from pendulum_accel.cli.export import SMOOTHED
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording.generate import generate_bag
 from test.chain_helpers import Output, start_node
-from test.conftest import PYTHON, REPO, Spawn, rclpy_available
+from test.conftest import PYTHON, REPO, Spawn, cli, rclpy_available
 
 DURATION = 3.0  # s of step_start recorded live
 SAMPLES = 301  # 100 Hz over [0, 3] s
@@ -48,17 +48,6 @@ SAMPLED_TOPICS = (
     bm.TOPIC_CLOCK,
     bm.TOPIC_IMU,
 )
-
-
-def cli(*args: str, timeout: float = 180.0) -> subprocess.CompletedProcess[str]:
-    """``pendulum-accel ARGS`` in a subprocess (captured)."""
-    return subprocess.run(
-        [PYTHON, "-m", "pendulum_accel.cli.main", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        cwd=REPO,
-    )
 
 
 @contextlib.contextmanager
