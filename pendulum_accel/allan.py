@@ -192,7 +192,7 @@ def scene_series(scene_name: str, duration: float, estimator: str | None = None)
 
     from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
     from pendulum_accel.physics.profiles import Constant
-    from pendulum_accel.recording.settings import estimator_settings
+    from pendulum_accel.recording.settings import estimator_options
     from pendulum_accel.scene import load_scene
     from pendulum_accel.scene_run import run_scene
 
@@ -211,7 +211,7 @@ def scene_series(scene_name: str, duration: float, estimator: str | None = None)
     )
     run = run_scene(scene)
     method = estimator or DEFAULT_ESTIMATOR
-    accel, _ = estimate_batch(method, run.t, run.theta_measured, **estimator_settings(scene))
+    accel, _ = estimate_batch(method, run.t, run.theta_measured, **estimator_options(scene, method))
     return StaticSeries(
         f"scene {base.name}, static for {duration:g} s",
         scene.sensor.rate_hz,

@@ -31,7 +31,7 @@ from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.recording.analyze import analyze_bag
-from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import Scene, scene_from_yaml
 from pendulum_accel.scene_run import run_scene
 
@@ -253,7 +253,7 @@ def swing_from_scene(scene: Scene, estimator: str | None = None) -> SwingData:
     measured θ with the scene's estimator settings."""
     run = run_scene(scene)
     name = estimator or DEFAULT_ESTIMATOR
-    a_est, _ = estimate_batch(name, run.t, run.theta_measured, **estimator_settings(scene))
+    a_est, _ = estimate_batch(name, run.t, run.theta_measured, **estimator_options(scene, name))
     return SwingData(
         t=run.t,
         theta=run.theta_true,

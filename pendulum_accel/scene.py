@@ -8,6 +8,8 @@ File layout (every key is checked; unknown keys are errors so a typo never passe
     gravity: 9.80665                # m/s², > 0 (optional, default standard gravity)
     grade: 0.0                      # rad, |β| < π/2 (optional, 0): the road's constant pitch, nose-up
                                     # (climbing) > 0; a 10 % grade is atan(0.10) = 0.0997 rad
+    motion: car                     # optional: kalman's preset, car, robot or lab_steps (default: chosen
+                                    # from the acceleration's source, estimators.motion)
     pendulum:
       length: 1.0                   # m, > 0
       mass: 1.0                     # kg, > 0 (optional, 1)
@@ -57,6 +59,7 @@ from typing import Any
 import yaml
 
 from pendulum_accel.errors import ParameterError, SceneError
+from pendulum_accel.estimators.motion import MOTIONS
 from pendulum_accel.physics.integrators import METHODS
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, profile_from_dict
@@ -135,7 +138,8 @@ class Scene:
 
     ``grade`` is the road's constant pitch β (rad, nose-up > 0); the motion on it is that of
     ``on_level()``, while ``pendulum`` and ``profile`` stay the physical g and the car's own a(t).
-    ``accuracy`` is the max |θ_simulated − θ_true| allowed, rad. ``model``/``method`` force the planner's
+    ``accuracy`` is the max |θ_simulated − θ_true| allowed, rad. ``motion`` names kalman's preset (None:
+    chosen from a(t)'s source, ``estimators.motion``). ``model``/``method`` force the planner's
     choice (None: the planner decides). ``source`` is the file it came from (None when built in code).
     Construction re-checks the fields that depend on each other (SceneError naming the field).
     """
@@ -153,6 +157,7 @@ class Scene:
     model: str | None = None
     method: str | None = None
     grade: float = 0.0
+    motion: str | None = None
     source: Path | None = field(default=None, compare=False)
     theta0_given: float | None = field(default=None, compare=False)  # θ0 as given when it was wrapped
 
@@ -211,6 +216,8 @@ def _check_scene(scene: Scene) -> None:
         raise SceneError(f"duration: expected a number of seconds > 0, got {scene.duration!r}")
     if not _finite(scene.grade) or not abs(scene.grade) < 0.5 * math.pi:
         raise SceneError(f"grade: expected a number of rad with |grade| < pi/2, got {scene.grade!r}")
+    if scene.motion is not None and scene.motion not in MOTIONS:
+        raise SceneError(f"motion: expected one of {', '.join(MOTIONS)}, got {_show(scene.motion)}")
     for name in ("theta0", "theta_dot0"):
         if not _finite(getattr(scene, name)):
             raise SceneError(f"pendulum.{name}: expected a finite number, got {getattr(scene, name)!r}")
@@ -331,8 +338,8 @@ def _show(value: object) -> str:
     return f"{text} ({type(value).__name__})"
 
 
-_TOP = ("name", "description", "duration", "gravity", "grade", "pendulum", "acceleration", "sensor",
-        "outputs", "accuracy", "force")  # fmt: skip
+_TOP = ("name", "description", "duration", "gravity", "grade", "motion", "pendulum", "acceleration",
+        "sensor", "outputs", "accuracy", "force")  # fmt: skip
 _PENDULUM = ("length", "mass", "damping", "theta0", "theta_dot0", "stiffness")
 _SENSOR = ("rate_hz", "noise_std", "noise_density", "bias", "bias_random_walk", "quantization", "seed",
            "bias_mean", "bias_stddev", "dynamic_bias_stddev", "dynamic_bias_correlation_time",
@@ -413,6 +420,7 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
     duration = top.number("duration", low=0.0, strict=True)
     gravity = top.number("gravity", STANDARD_GRAVITY, low=0.0, strict=True)
     grade = top.number("grade", 0.0)
+    motion = top.text("motion", choices=MOTIONS) if top.has("motion") else None
 
     pend = _Fields(top.raw("pendulum", "a mapping with length, ..."), "pendulum", _PENDULUM)
     length = pend.number("length", low=0.0, strict=True)
@@ -455,6 +463,7 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
         model=model,
         method=method,
         grade=grade,
+        motion=motion,
     )
 
 
@@ -553,6 +562,7 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
         "duration": float(scene.duration),
         "gravity": p.gravity,
         **({"grade": float(scene.grade)} if scene.grade != 0.0 else {}),
+        **({"motion": scene.motion} if scene.motion is not None else {}),
         "pendulum": pendulum,
         "acceleration": _plain(scene.profile.to_dict()),
         "sensor": {

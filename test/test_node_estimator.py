@@ -175,3 +175,26 @@ def test_lag_stamps_each_estimate_with_the_sample_it_describes(spawn: Spawn) -> 
     assert {values.get("latency_s") for _, _, values in result["diagnostics"]} == {"0.2"}
     estimator.proc.send_signal(signal.SIGINT)
     assert estimator.finish(timeout=20) == 0
+
+
+def test_preset_comes_from_the_scene_and_can_be_set(spawn: Spawn) -> None:
+    """preset 'scene' (the default): husky_odom's speed trace never exceeds 1.02 m/s, so the node runs and
+    names the robot preset; preset = car rebuilds with it; an unknown preset is refused, saying why."""
+    estimator = start_node(spawn, "estimator_node", {"scene": "husky_odom"})
+    estimator.wait_for(r"preset robot: a recorded speed trace never above 1\.02 m/s", timeout=60)
+    result = run_probe(
+        spawn,
+        {"set": {"node": "accel_estimator", "params": {"preset": "car"}}},
+    )
+    ((ok, reason),) = result["set"]
+    assert ok, reason
+    estimator.wait_for(r"estimator rebuilt: .*preset car", timeout=20)
+    result = run_probe(
+        spawn,
+        {"set": {"node": "accel_estimator", "params": {"preset": "bogus"}}},
+    )
+    ((ok, reason),) = result["set"]
+    assert not ok and "motion must be one of car, robot, lab_steps" in reason
+    assert result["get"] == {"preset": "car"}
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=20) == 0

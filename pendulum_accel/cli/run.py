@@ -157,7 +157,7 @@ def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
         )
     plan = bag.custom_data.get(CUSTOM_PLAN, "plan: (none stored)")
     lines.append(plan if plan.startswith("plan:") else f"plan: {plan}")
-    lines.append(estimator_line(analysis.estimator))
+    lines.append(estimator_line(analysis.estimator, analysis.motion))
     lines.append(f"bag: {bag.path}")
     return lines
 

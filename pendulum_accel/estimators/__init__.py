@@ -24,6 +24,7 @@ from pendulum_accel.estimators.dynamic import DynamicEstimator
 from pendulum_accel.estimators.instant import InstantEstimator
 from pendulum_accel.estimators.kalman import KalmanEstimator, SmootherEstimator
 from pendulum_accel.estimators.lowpass import LowpassEstimator
+from pendulum_accel.estimators.motion import MotionChoice
 from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY
 
@@ -46,15 +47,16 @@ LIVE_ESTIMATORS: tuple[str, ...] = tuple(
 # both sensor designs, within 1.1× of the hindsight fixed-q EKF (docs/estimators.md, "The default").
 DEFAULT_ESTIMATOR = "kalman"
 DEFAULT_REASON = (
-    "the pendulum EKF (IMM, car preset): lowest RMS of the live methods on every real-motion validation "
+    "the pendulum EKF (IMM): lowest RMS of the live methods on every real-motion validation "
     "profile, both sensor designs (docs/benchmarks/real_motion.md)"
 )
 
 
-def estimator_line(name: str) -> str:
-    """'estimator: <name> (<why>)': the one line a run's summary gives for the method it ran."""
+def estimator_line(name: str, motion: MotionChoice | None = None) -> str:
+    """'estimator: <name> (<why>)[; preset <p>: <why>]': the one line a run's summary gives for the method
+    it ran, with the motion preset it ran with (``estimators.motion``) when it takes one."""
     why = DEFAULT_REASON if name == DEFAULT_ESTIMATOR else f"chosen; the default is {DEFAULT_ESTIMATOR}"
-    return f"estimator: {name} ({why})"
+    return f"estimator: {name} ({why})" + (f"; {motion.line()}" if motion is not None else "")
 
 
 _CONFIG_FIELDS = ("damping", "clamp_angle", "max_gap", *BIAS_FIELDS)

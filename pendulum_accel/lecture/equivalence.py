@@ -27,7 +27,7 @@ from pendulum_accel.physics.profiles import Constant
 from pendulum_accel.physics.rigid import level_equivalent
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.physics.trajectory import Trajectory
-from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import load_scene
 from pendulum_accel.scene_run import run_scene
 
@@ -82,7 +82,7 @@ def run(quick: bool = False) -> LectureReport:
 
     scene = load_scene("hill")
     scene_run = run_scene(scene)
-    settings = estimator_settings(scene)
+    settings = estimator_options(scene, ESTIMATOR)
     estimate, _ = estimate_batch(ESTIMATOR, scene_run.t, scene_run.theta_measured, **settings)
     tail = scene_run.t >= scene_run.t[-1] - SETTLED
     reading = float(np.mean(estimate[tail]))

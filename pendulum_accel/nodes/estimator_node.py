@@ -38,9 +38,11 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.estimators import Estimator, make_estimator
 from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, GuardState, InputGuard
+from pendulum_accel.estimators.kalman import DEFAULT_PRESET
+from pendulum_accel.estimators.motion import MotionChoice, stated_motion
 from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
 from pendulum_accel.nodes.graph import missing_readers, node_names
-from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOPIC
+from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOPIC, SCENE_PRESET
 from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
 from pendulum_accel.nodes.runtime import (
     ManagedNode,
@@ -52,7 +54,12 @@ from pendulum_accel.nodes.runtime import (
     write_summary,
 )
 from pendulum_accel.recording import visual
-from pendulum_accel.recording.settings import estimator_settings, sensor_bias_settings
+from pendulum_accel.recording.settings import (
+    estimator_settings,
+    motion_choice,
+    sensor_bias_settings,
+    uses_preset,
+)
 from pendulum_accel.scene import Scene, load_scene
 
 NODE_NAME = "accel_estimator"
@@ -188,17 +195,30 @@ class EstimatorNode(ManagedNode):
     # -- configuration --------------------------------------------------------------------------
 
     def _config_values(self, changes: Sequence[Parameter] = ()) -> dict[str, Any]:
-        """method, lag and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
-        return parameter_values(self, ("method", "lag", *(spec.name for spec in ESTIMATOR_CONFIG)), changes)
+        """method, lag, preset and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
+        names = ("method", "lag", "preset", *(spec.name for spec in ESTIMATOR_CONFIG))
+        return parameter_values(self, names, changes)
 
     def _build(self, values: dict[str, Any]) -> Estimator:
-        """make_estimator(method, l, g, noise_std, rate_hz, damping[, lag]); ParameterError if bad."""
-        cfg = {k: float(v) for k, v in values.items() if k not in ("method", "lag")}
+        """make_estimator(method, l, g, noise_std, rate_hz, damping[, lag, preset]); ParameterError if bad."""
+        cfg = {k: float(v) for k, v in values.items() if k not in ("method", "lag", "preset")}
         if not all(math.isfinite(v) for v in cfg.values()):
             raise PendulumAccelError("estimator parameters must be finite")
         lag = float(values["lag"])
-        opts = {"lag": lag} if lag > 0.0 else {}  # lag = 0 is every method's own (causal) estimate
-        return make_estimator(str(values["method"]), **cfg, **opts, **self._sensor_bias())
+        method = str(values["method"])
+        opts: dict[str, object] = {"lag": lag} if lag > 0.0 else {}  # lag = 0: every method's own estimate
+        if uses_preset(method):
+            opts["preset"] = self.motion(str(values["preset"])).preset
+        return make_estimator(method, **cfg, **opts, **self._sensor_bias())  # type: ignore[arg-type]
+
+    def motion(self, preset: str) -> MotionChoice:
+        """kalman's preset: the ``preset`` parameter, or with 'scene' the scene's (recording.settings)."""
+        if preset != SCENE_PRESET:
+            return stated_motion(preset)
+        scene = getattr(self, "_scene", None)
+        if scene is None:
+            return MotionChoice(DEFAULT_PRESET, "the scene does not load: the default preset")
+        return motion_choice(scene)
 
     def latency(self) -> float:
         """Seconds between a sample and the estimate that describes it: the method's fixed lag (0: none)."""
@@ -284,6 +304,8 @@ class EstimatorNode(ManagedNode):
                 JointState, bm.JOINT_STATES, self._on_joint_state, DATA_QOS, raw=True
             )
             self.get_logger().info(f"estimating with {description}")
+            if uses_preset(self.method):
+                self.get_logger().info(self.motion(str(self.get_parameter("preset").value)).line())
             self.get_logger().info(
                 f"latency {self.latency():.3f} s: each estimate is stamped with the sample it describes"
             )

@@ -13,9 +13,13 @@ from typing import Literal
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, LIVE_ESTIMATORS
+from pendulum_accel.estimators.motion import MOTIONS
 from pendulum_accel.overrides import OVERRIDE_BY_NAME, OVERRIDES, Override
 from pendulum_accel.recording.generate import DEFAULT_CLOCK_RATE_HZ
 from pendulum_accel.scene import DEFAULT_SCENE
+
+SCENE_PRESET = "scene"
+"""The ``preset`` parameter's value that takes kalman's preset from the scene (estimators.motion)."""
 
 ParamType = Literal["bool", "integer", "double", "string", "string_array"]
 ParamValue = bool | int | float | str | tuple[str, ...]
@@ -173,6 +177,10 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
     ParamSpec("lag", "double", 0.0,
               "latency (s) of a fixed-lag smoother: each estimate describes, and is stamped with, the sample "
               "this long ago, using the data since (0: the filter; kalman only)", low=0.0, high=10.0),
+    ParamSpec("preset", "string", SCENE_PRESET,
+              "kalman's process model of a(t), fitted on real motion: car, robot or lab_steps; 'scene' "
+              "chooses it from the scene (its motion key, else where its a(t) comes from)",
+              choices=(SCENE_PRESET, *MOTIONS)),
     *(override_param(spec, "default: the scene's") for spec in ESTIMATOR_CONFIG),
     _fixed("warn_angle_deg", "double", 80.0,
            "|θ| from which the input is flagged ill-conditioned (WARN), degrees", low=1.0, high=89.9),

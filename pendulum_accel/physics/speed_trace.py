@@ -53,13 +53,13 @@ def check_trace(
 ) -> None:
     """Raise ParameterError (one line, naming the row by ``where(i)``) unless the trace is usable.
 
-    Usable: at least 4 samples, every value finite, times strictly increasing, and no step longer
-    than ``MAX_GAP_STEPS`` × the median step.
+    Usable: at least 5 samples (scipy's smoothing spline needs 5), every value finite, times strictly
+    increasing, and no step longer than ``MAX_GAP_STEPS`` × the median step.
     """
     if times.size != values.size:
         raise ParameterError(f"{name} trace has {times.size} times but {values.size} values")
-    if times.size < 4:
-        raise ParameterError(f"{name} trace needs at least 4 samples to differentiate, got {times.size}")
+    if times.size < 5:
+        raise ParameterError(f"{name} trace needs at least 5 samples to differentiate, got {times.size}")
     for label, column in (("time", times), (name, values)):
         bad = np.flatnonzero(~np.isfinite(column))
         if bad.size:

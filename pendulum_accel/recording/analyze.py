@@ -10,6 +10,7 @@ figures over the settled samples. The re-run uses the estimator the bag was reco
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,8 +35,10 @@ from pendulum_accel.bag.reader import Bag, read_bag, scene_name
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
+from pendulum_accel.estimators.kalman import DEFAULT_PRESET
+from pendulum_accel.estimators.motion import MotionChoice
 from pendulum_accel.recording.contract import check_chain_contract
-from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.recording.settings import estimator_settings, motion_choice, uses_preset
 from pendulum_accel.scene import Scene, scene_from_yaml
 
 DEFAULT_REL_TOLERANCE = 0.02
@@ -272,6 +275,8 @@ class Analysis:
     recorded_figures: EstimateFigures | None
     calibration: Calibration | None = None
     recorded_calibration: Calibration | None = None
+    motion: MotionChoice | None = None
+    """kalman's preset and why, for a method that takes one (None otherwise)."""
 
     @property
     def error(self) -> NDArray[np.float64]:
@@ -288,6 +293,8 @@ class Analysis:
             + f"; settling band ±{self.tolerance:.4f} m/s²",
             f"re-run:     {self.estimator}  ({cfg})",
         ]
+        if self.motion is not None:
+            out.append(f"            {self.motion.line()}")
         columns = [f for f in (self.recorded_figures, self.offline_figures) if f is not None]
         if self.recorded_figures is None:
             out.append("recorded:   the bag holds no /car/accel/estimate")
@@ -409,7 +416,9 @@ def analyze_bag(
     name = estimator or recorded_estimator(data) or DEFAULT_ESTIMATOR
     if lag > 0.0:
         cfg["lag"] = lag
-    a_est, variance = estimate_batch(name, t, theta, **cfg)
+    motion = bag_motion(data) if uses_preset(name) else None
+    options: dict[str, object] = {} if motion is None else {"preset": motion.preset}
+    a_est, variance = estimate_batch(name, t, theta, **cfg, **options)
     a_est = np.asarray(a_est, dtype=np.float64)
     variance = np.asarray(variance, dtype=np.float64)
     tol = default_tolerance(a_true) if tolerance is None else float(tolerance)
@@ -438,6 +447,7 @@ def analyze_bag(
         recorded_figures=recorded,
         calibration=calibration(t, a_est - a_true, variance, truth_t, truth_a, t[0] + skip),
         recorded_calibration=_recorded_calibration(data, truth_t, truth_a, t[0] + skip),
+        motion=motion,
     )
 
 
@@ -520,8 +530,17 @@ def smoothed_estimate(bag: Bag) -> dict[str, NDArray[np.float64]] | None:
     t, theta = t[order], js["position[0]"][order]
     keep = np.concatenate(([True], np.diff(t) > 0.0))  # a repeated stamp: the first sample only
     t, theta = t[keep], theta[keep]
-    a, var = estimate_batch("smoother", t, theta, **estimator_config(bag, t))
+    a, var = estimate_batch("smoother", t, theta, **estimator_config(bag, t), preset=bag_motion(bag).preset)
     return {"t": t, "a": np.asarray(a, dtype=np.float64), "variance": np.asarray(var, dtype=np.float64)}
+
+
+def bag_motion(bag: Bag) -> MotionChoice:
+    """kalman's preset for the bag's re-run: its stored scene's (recording.settings.motion_choice), which is
+    the one its recording chose; without a stored scene, the default preset."""
+    scene = stored_scene(bag)
+    if scene is None:
+        return MotionChoice(DEFAULT_PRESET, "the bag stores no scene: the default preset")
+    return motion_choice(scene)
 
 
 def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
@@ -542,6 +561,7 @@ def _scene_config(text: str) -> dict[str, float]:
     return estimator_settings(_stored_scene(text))
 
 
+@functools.lru_cache(maxsize=4)
 def _stored_scene(text: str) -> Scene:
     """The scene a bag stores as YAML text; BagError when it no longer loads."""
     try:

@@ -33,7 +33,7 @@ from pendulum_accel.bag.writer import (
 from pendulum_accel.errors import BagError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.estimators.guard import InputGuard
-from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import Scene, load_scene, scene_to_yaml
 from pendulum_accel.scene_run import SceneRun, run_scene
 
@@ -287,7 +287,7 @@ def generate_bag(
     # The estimator sees the stamps as a subscriber does: rounded to ns, t = sec + nanosec·1e-9.
     t = bm.stamp_seconds(*bm.split_stamp(bm.seconds_to_ns(run.t)))
     theta = np.asarray(run.theta_measured, dtype=np.float64)
-    a_est, variance = estimate_batch(method, t, theta, **estimator_settings(scene))
+    a_est, variance = estimate_batch(method, t, theta, **estimator_options(scene, method))
     t2 = time.perf_counter()
     streams = chain_streams(
         t,
