@@ -1,0 +1,36 @@
+"""benchmarks.heldout on a speed trace made here: every design gets a row, and the verdict follows the
+figures in its own row."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks import heldout
+
+
+def test_heldout_page_has_a_row_per_design_and_a_verdict_from_its_figures(tmp_path: Path) -> None:
+    t = np.arange(0.0, 41.0)
+    v = np.clip(np.minimum(t, 40.0 - t) * 1.2, 0.0, None)  # a 1.2 m/s² pull-away and a stop, peak 24 m/s
+    rows = "".join(f"{a:g},{b:g}\n" for a, b in zip(t, v, strict=True))
+    (tmp_path / "trace.csv").write_text("t,v\n" + rows)
+    (tmp_path / "trace.yaml").write_text(
+        "name: trace\ndescription: made-up pull-away\nduration: 40\n"
+        "pendulum: {length: 0.1, damping: 9.9}\n"
+        "acceleration: {type: speed_csv, path: trace.csv, units: m/s}\n"
+        "sensor: {rate_hz: 100.0, noise_std: 1.0e-3}\naccuracy: {max_angle_error: 1.0e-6}\n"
+    )
+    results = heldout.evaluate(tmp_path / "trace.yaml", seeds=1)
+    assert len(results) == 2 + len(heldout.HELDOUT_DESIGNS) + 1
+    assert {r.preset for r in results} == {"car"}  # 24 m/s: a road vehicle's
+    for r in results:
+        k = r.kalman
+        shares = [s for s in (k.beyond_steady, k.beyond_after) if s == s]
+        expected = k.rms <= min(r.gtan.rms, 1.1 * r.hindsight.rms) and all(0.01 <= s <= 0.12 for s in shares)
+        assert r.meets == expected
+        assert np.isfinite(k.rms) and k.rms > 0.0
+    assert heldout.main([str(tmp_path / "trace.yaml"), "--seeds", "1", "--docs", str(tmp_path / "docs")]) == 0
+    page = (tmp_path / "docs" / "benchmarks" / "heldout.md").read_text()
+    assert page.count("| trace | car |") == len(results)
+    assert (tmp_path / "docs" / "img" / "bench_heldout.png").stat().st_size > 0
