@@ -15,6 +15,7 @@ import numpy as np
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators.base import (
     BIAS_FIELDS,
+    TEACHING_NOTE,
     Estimate,
     Estimator,
     EstimatorConfig,
@@ -42,6 +43,8 @@ ESTIMATORS: Mapping[str, type[Estimator]] = {
 LIVE_ESTIMATORS: tuple[str, ...] = tuple(
     name for name, cls in ESTIMATORS.items() if not getattr(cls, "offline_only", False)
 )
+# Noise-plus-bias variance only, dominated on the real-motion corpus: kept to teach (docs/estimators.md).
+TEACHING_ESTIMATORS: tuple[str, ...] = tuple(name for name, cls in ESTIMATORS.items() if cls.teaching)
 # Lowest RMS of the live methods on every validation profile of ``python -m benchmarks.real_motion`` for
 # both sensor designs, within 1.1× of the hindsight fixed-q EKF (docs/estimators.md, "The default").
 DEFAULT_ESTIMATOR = "kalman"
@@ -52,8 +55,14 @@ DEFAULT_REASON = (
 
 
 def estimator_line(name: str) -> str:
-    """'estimator: <name> (<why>)': the one line a run's summary gives for the method it ran."""
-    why = DEFAULT_REASON if name == DEFAULT_ESTIMATOR else f"chosen; the default is {DEFAULT_ESTIMATOR}"
+    """'estimator: <name> (<why>)': the one line a run's summary gives for the method it ran; a teaching
+    estimator's line says its σ counts noise and bias only."""
+    if name == DEFAULT_ESTIMATOR:
+        why = DEFAULT_REASON
+    elif name in ESTIMATORS and ESTIMATORS[name].teaching:
+        why = f"{TEACHING_NOTE}; the default is {DEFAULT_ESTIMATOR}"
+    else:
+        why = f"chosen; the default is {DEFAULT_ESTIMATOR}"
     return f"estimator: {name} ({why})"
 
 
@@ -120,6 +129,8 @@ __all__ = [
     "DEFAULT_ESTIMATOR",
     "ESTIMATORS",
     "LIVE_ESTIMATORS",
+    "TEACHING_ESTIMATORS",
+    "TEACHING_NOTE",
     "Estimate",
     "Estimator",
     "EstimatorConfig",
