@@ -33,7 +33,7 @@ from pendulum_accel.bag.messages import (
 from pendulum_accel.bag.reader import Bag, read_bag, scene_name
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
-from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, TEACHING_NOTE, estimate_batch
 from pendulum_accel.recording.contract import check_chain_contract
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import Scene, scene_from_yaml
@@ -288,6 +288,8 @@ class Analysis:
             + f"; settling band ±{self.tolerance:.4f} m/s²",
             f"re-run:     {self.estimator}  ({cfg})",
         ]
+        if self.estimator in ESTIMATORS and ESTIMATORS[self.estimator].teaching:
+            out.append(f"            {TEACHING_NOTE}")
         columns = [f for f in (self.recorded_figures, self.offline_figures) if f is not None]
         if self.recorded_figures is None:
             out.append("recorded:   the bag holds no /car/accel/estimate")
