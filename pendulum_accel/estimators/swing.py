@@ -45,21 +45,26 @@ def window_means(
     window: np.ndarray | float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(mean θ, mean θ², n) over (t_k − T, t_k] for every k; over [t₀, t_k] while t_k − T < t₀."""
-    k = np.arange(t.size)
+    size = t.size
+    if size < 2:
+        return theta.astype(float, copy=True), theta * theta, np.ones(size)
     start = t - window
-    partial = start < t[0]
-    j = np.clip(np.searchsorted(t, start, side="right") - 1, 0, max(t.size - 2, 0))
-    jn = np.minimum(j + 1, t.size - 1)
-    d = start - t[j]
-    h = np.where(jn > j, t[jn] - t[j], 1.0)
-    sq = theta * theta
-    full1 = (i1 - interp_integral(i1[j], theta[j], theta[jn], d, h)) / window
-    full2 = (i2 - interp_integral(i2[j], sq[j], sq[jn], d, h)) / window
-    span = np.where(k > 0, t - t[0], 1.0)
-    part1 = np.where(k > 0, (i1 - i1[0]) / span, theta)
-    part2 = np.where(k > 0, (i2 - i2[0]) / span, sq)
-    count = np.where(partial, k + 1, k - j).astype(float)
-    return np.where(partial, part1, full1), np.where(partial, part2, full2), count
+    j = np.searchsorted(t, start, side="right") - 1
+    np.clip(j, 0, size - 2, out=j)
+    tj, y, yn = t[j], theta[j], theta[j + 1]
+    d, h = start - tj, t[j + 1] - tj
+    mean1 = (i1 - interp_integral(i1[j], y, yn, d, h)) / window
+    mean2 = (i2 - interp_integral(i2[j], y * y, yn * yn, d, h)) / window
+    count = np.arange(size, dtype=float) - j
+    # While the window reaches before t₀ (the first ~T·f samples): the mean over [t₀, t_k] instead.
+    partial = np.flatnonzero(start < t[0])
+    later = partial[partial > 0]
+    span = t[later] - t[0]
+    mean1[later] = (i1[later] - i1[0]) / span
+    mean2[later] = (i2[later] - i2[0]) / span
+    mean1[0], mean2[0] = theta[0], theta[0] * theta[0]
+    count[partial] = partial + 1.0
+    return mean1, mean2, count
 
 
 def swing_amplitude(variance: Num) -> Num:
