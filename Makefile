@@ -47,7 +47,7 @@ $(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.x
 	$(BIN)/python -m pip install -q --disable-pip-version-check --no-deps -e .
 	@echo "compiling the stepping kernels and the estimators' loops into numba's cache (once, about 20 s)"
 	$(BIN)/python -m pendulum_accel.physics.kernels
-	$(BIN)/python -c 'from pendulum_accel.estimators import ekf_kernels, dynamic; ekf_kernels.warm(); dynamic.warm_cache()'
+	$(BIN)/python -c 'from pendulum_accel.estimators import ekf_kernels; ekf_kernels.warm()'
 	@touch $(STAMP)
 
 demo: $(STAMP)
@@ -72,7 +72,7 @@ pytest: $(STAMP)
 NUMERICS_TESTS := $(addprefix test/test_,$(addsuffix .py, \
   physics_properties equation_of_motion rigid elastic multiplier grade linear exact variational \
   integrators dop853_tableau kernels profiles simulate extremes planner error_bounds \
-  estimators estimator_guard fit_onset smoother calibration seed_spread sensor allan accel_csv real_motion_profiles \
+  estimators estimator_guard smoother calibration seed_spread sensor allan accel_csv real_motion_profiles \
   lecture sweep scene_run plan_honesty bag_golden figures cpu_emulation))
 
 pytest-emulated: $(STAMP)

@@ -8,18 +8,28 @@ from functools import cache
 
 import numpy as np
 import pytest
+from scipy import signal
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.estimators import ESTIMATORS, EstimatorConfig, estimate_batch
-from pendulum_accel.estimators.swing import SwingWindow, period_changes
+from pendulum_accel.estimators import (
+    ESTIMATORS,
+    TEACHING_ESTIMATORS,
+    Estimate,
+    EstimatorConfig,
+    estimate_batch,
+    make_estimator,
+)
+from pendulum_accel.estimators.base import accel_gain_array
+from pendulum_accel.estimators.dynamic import DynamicEstimator
+from pendulum_accel.estimators.lowpass import LowpassEstimator
+from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import Constant, Table
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.recording.analyze import calibration, nees_split
-from pendulum_accel.recording.seed_spread import with_seed
 from pendulum_accel.recording.settings import estimator_settings
-from pendulum_accel.scene import Scene, load_scene
-from pendulum_accel.scene_run import SceneRun, run_scene
+from pendulum_accel.scene import load_scene
+from pendulum_accel.scene_run import run_scene
 from test.rounding import EPS
 
 SEEDS = (100, 101, 102, 103)
@@ -34,31 +44,154 @@ def generated(length: float, rate: float, swinging: bool, seed: int) -> tuple[np
     return t, traj.theta + 1e-3 * np.random.default_rng(seed).standard_normal(t.size)
 
 
-# kalman and smoother publish their own covariance, whose random-walk model of a over-covers a constant a
-# (test_kalman_covers_a_constant_a); their calibration is tested where the model fits
-# (test_kalman_is_consistent_when_its_model_fits) and on real motion (benchmarks.real_motion).
-HEURISTIC = [name for name in ESTIMATORS if name not in ("kalman", "smoother")]
+# The teaching estimators publish noise gain × σ² + sensor bias, nothing else (docs/estimators.md). Where
+# that is the whole error, a bob settled at θ_eq(a) under a constant a, each error is Gaussian with exactly
+# that variance to first order in the noise (tan's curvature adds ~σ tan θ_eq / sec²θ_eq ≈ 2e-4 relative).
+AT_REST_RUNS = 1500  # independent runs, one NEES each
+AT_REST_ACCEL = 2.0  # m/s²
 
 
-@pytest.mark.parametrize(("length", "rate"), [(0.5, 200.0), (1.0, 100.0)])
-@pytest.mark.parametrize("swinging", [False, True], ids=["at_rest", "swinging"])
-@pytest.mark.parametrize("name", HEURISTIC)
-def test_every_method_is_calibrated_at_constant_a(
-    name: str, swinging: bool, length: float, rate: float
-) -> None:
-    """Constant a, t ≥ 2 s, pooled over four seeds: mean NEES in [0.5, 2], at rest and swinging.
+def at_rest_nees(name: str, bias_stddev: float) -> np.ndarray:
+    """NEES of ``name``'s last estimate in each of AT_REST_RUNS independent 3 s runs (l = 0.5 m, 200 Hz,
+    σ = 1 mrad): θ = θ_eq + b + white noise, b ~ N(0, bias_stddev²) the turn-on bias of each run (μ = 0)."""
+    rng = np.random.default_rng(2024)
+    t = np.arange(600) / 200.0
+    theta_eq = math.atan(AT_REST_ACCEL / STANDARD_GRAVITY)
+    out = np.empty(AT_REST_RUNS)
+    opts = {"length": 0.5, "noise_std": 1e-3, "rate_hz": 200.0, "bias_stddev": bias_stddev}
+    est = make_estimator(name, **opts)
+    for k in range(AT_REST_RUNS):
+        theta = theta_eq + bias_stddev * rng.standard_normal() + 1e-3 * rng.standard_normal(t.size)
+        a, var = est.batch(t, theta)
+        out[k] = (a[-1] - AT_REST_ACCEL) ** 2 / var[-1]
+    return out
 
-    Swinging, the error of instant and lowpass is mostly the swing itself, a sinusoid: their mean NEES
-    is 1 but hardly any error exceeds 2σ (√2 σ at most), so no 2σ share is asserted.
-    """
-    nees = []
-    for seed in SEEDS:
-        t, theta = generated(length, rate, swinging, seed)
-        a, var = estimate_batch(name, t, theta, length=length, noise_std=1e-3, rate_hz=rate)
-        assert np.isfinite(var).all() and (var > 0.0).all()
-        keep = t >= 2.0
-        nees.append((a[keep] - 2.0) ** 2 / var[keep])
-    assert 0.5 <= float(np.concatenate(nees).mean()) <= 2.0
+
+@pytest.mark.parametrize("bias_stddev", [0.0, 2e-3], ids=["no_bias", "turn_on_bias"])
+@pytest.mark.parametrize("name", TEACHING_ESTIMATORS)
+def test_teaching_variance_is_calibrated_at_rest(name: str, bias_stddev: float) -> None:
+    """Settled bob, constant a, one estimate from each of 1500 independent runs (so the NEES are
+    independent whatever the method's memory): if the variance is the error's, each NEES is χ²₁ (mean 1,
+    variance 2) and the share beyond 2σ is Bernoulli(p = 4.55 %). Over K = 1500 draws the mean NEES has
+    standard deviation √(2/K) = 0.037 and the share √(p(1 − p)/K) = 0.54 %: the bounds are 4 of those
+    either side (a Gaussian tail of 6e-5; the seeds are fixed, so the test is deterministic anyway),
+    plus the first-order slack (≤ 1 %: tan's curvature, the trapezoid weights of period_mean's window
+    against 1/n). A variance 20 % off moves the mean NEES by 0.2, over 5 of its standard deviations."""
+    nees = at_rest_nees(name, bias_stddev)
+    spread = math.sqrt(2.0 / AT_REST_RUNS)
+    assert 1.0 - 4.0 * spread - 0.01 <= float(nees.mean()) <= 1.0 + 4.0 * spread + 0.01
+    p = 2.0 * 0.5 * math.erfc(2.0 / math.sqrt(2.0))  # P(|z| > 2) = 4.55 %
+    share_spread = math.sqrt(p * (1.0 - p) / AT_REST_RUNS)
+    assert abs(float(np.mean(nees > 4.0)) - p) <= 4.0 * share_spread + 0.01 * p
+
+
+def _bias_second_moment(cfg: EstimatorConfig, t: np.ndarray) -> np.ndarray:
+    """E[b²](t), recomputed: b² + σ_rw² t + e^{−2t/τ}(μ² + s²) + σ_b² τ/2 (1 − e^{−2t/τ})."""
+    decay = np.exp(-2.0 * t / cfg.dynamic_bias_correlation_time)
+    return (
+        cfg.bias**2
+        + cfg.bias_random_walk**2 * t
+        + decay * (cfg.bias_mean**2 + cfg.bias_stddev**2)
+        + 0.5 * cfg.dynamic_bias_correlation_time * cfg.dynamic_bias_stddev**2 * (1.0 - decay)
+    )
+
+
+def _noise_gain(est: object, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(θ the estimate linearises about, its noise gain G so that var = (g sec²θ)² σ² G + bias, the
+    condition number κ of G's sum), each recomputed here from the method's definition, not its code."""
+    if isinstance(est, PeriodMeanEstimator):
+        mean, _, n, _ = est._swing.batch(t, theta)  # staged window means: test_estimators and test_swing
+        return mean, 1.0 / n, np.ones(t.size)
+    if isinstance(est, LowpassEstimator):
+        b, a = signal.butter(est.order, est.cutoff_hz, fs=est.config.rate_hz)
+        filtered = signal.lfilter(b, a, theta, zi=signal.lfilter_zi(b, a) * theta[0])[0]
+        impulse = np.zeros(t.size)
+        impulse[0] = 1.0
+        # the first sample weighs (1 − S_{k−1}) (lfilter_zi extends it into the past), the others h_{k−j}
+        first = signal.lfilter(b, a, impulse, zi=signal.lfilter_zi(b, a))[0]
+        h = signal.lfilter(b, a, impulse)
+        return filtered, first**2 + np.concatenate(([0.0], np.cumsum(h * h)[:-1])), np.ones(t.size)
+    assert isinstance(est, DynamicEstimator)
+    cfg, width = est.config, est.width
+    windows = np.lib.stride_tricks.sliding_window_view(theta, width)
+    fitted = np.concatenate((theta[: width - 1], windows @ est._c0))
+    lever = cfg.length / np.cos(fitted[width - 1 :])
+    slope = accel_gain_array(fitted[width - 1 :], cfg.gravity)
+    # w = (l/cos θ)(c₂ + c c₁) + g sec²θ c₀, summed sample by sample (the method uses the Gram matrix)
+    w = lever[:, None] * (est._c2 + cfg.damping * est._c1)[None, :] + slope[:, None] * est._c0[None, :]
+    gain = np.concatenate((np.ones(width - 1), np.sum(w * w, axis=1) / slope**2))
+    # κ = Σ_j (Σ_i |v_i c_ij|)² / Σ_j w_j²: how much the method's Gram form vᵀGv may cancel
+    size = (
+        lever[:, None] * (np.abs(est._c2) + cfg.damping * np.abs(est._c1))[None, :]
+        + slope[:, None] * np.abs(est._c0)[None, :]
+    )
+    cond = np.concatenate((np.ones(width - 1), np.sum(size * size, axis=1) / np.sum(w * w, axis=1)))
+    return fitted, gain, cond
+
+
+@pytest.mark.parametrize("name", TEACHING_ESTIMATORS)
+def test_teaching_variance_is_noise_gain_plus_bias(name: str) -> None:
+    """var = (g sec²θ)² (σ² G + E[b²](t − t₀)), G the method's noise gain (1; 1/n; w_k; Σw²/(g sec²θ)²),
+    for a swinging, damped bob with every bias field set: nothing else is added, swing or no swing.
+
+    Each side is a sum of ≤ W + 6 terms (Σw² here, W = the fit's width or 1; the Gram form vᵀGv in the
+    method, G's entries sums of W products) and ≤ 10 products, divisions and exp: within (W + 16) ε κ
+    relative of exact, κ = Σ_j (Σ_i |v_i c_ij|)² / Σ_j w_j² ≥ 1 bounding the cancellation in vᵀGv (1 for
+    the sums of positive terms). Two such paths: rtol = 2 (W + 16) ε κ per sample."""
+    rate, length = 200.0, 0.5
+    t = np.arange(1200) / rate
+    theta = (
+        0.2
+        + 0.15 * np.exp(-0.1 * t) * np.cos(4.5 * t)
+        + 1e-3 * np.random.default_rng(5).standard_normal(t.size)
+    )
+    opts = {
+        "length": length,
+        "noise_std": 1e-3,
+        "rate_hz": rate,
+        "damping": 0.2,
+        "bias": 1e-3,
+        "bias_mean": 2e-3,
+        "bias_stddev": 1e-3,
+        "bias_random_walk": 1e-4,
+        "dynamic_bias_stddev": 1e-4,
+        "dynamic_bias_correlation_time": 30.0,
+    }
+    est = make_estimator(name, **opts)
+    _, var = est.batch(t, theta)
+    if name == "instant":
+        angle, gain, cond = theta, np.ones(t.size), np.ones(t.size)
+    else:
+        angle, gain, cond = _noise_gain(est, t, theta)
+    slope = accel_gain_array(angle, STANDARD_GRAVITY)
+    expected = slope**2 * (1e-6 * gain + _bias_second_moment(est.config, t - t[0]))
+    rtol = 2.0 * (getattr(est, "width", 1) + 16) * EPS * cond
+    streamed = np.array([out.variance for out in _stream(name, opts, t, theta)])
+    for published in (var, streamed):
+        assert np.all(np.abs(published - expected) <= rtol * expected)
+
+
+def _stream(name: str, opts: dict[str, float], t: np.ndarray, theta: np.ndarray) -> list[Estimate]:
+    """Every sample through a fresh estimator's ``update``; each must give an estimate."""
+    est = make_estimator(name, **opts)
+    out = [est.update(ti, yi) for ti, yi in zip(t.tolist(), theta.tolist(), strict=True)]
+    assert all(o is not None for o in out)
+    return [o for o in out if o is not None]
+
+
+@pytest.mark.parametrize("scene", ["stop_and_go", "braking"])
+@pytest.mark.parametrize("name", TEACHING_ESTIMATORS)
+def test_teaching_variance_is_over_confident_in_motion(name: str, scene: str) -> None:
+    """What docs/estimators.md says of them: their σ leaves out the swing and the lag, so in motion
+    (a lab scene with changes of a, its own sensor seed, t ≥ 2 s) far more than a calibrated Gaussian's
+    4.6 % of errors lie beyond 2σ: over 12 % (the real-motion benchmark's upper target); measured
+    33–100 %."""
+    base = load_scene(scene)
+    run = run_scene(base)
+    a, var = estimate_batch(name, run.t, run.theta_measured, **estimator_settings(base))
+    keep = run.t >= 2.0
+    nees = (a - run.accel_true)[keep] ** 2 / var[keep]
+    assert float(np.mean(nees > 4.0)) > 0.12
 
 
 @pytest.mark.parametrize("name", list(ESTIMATORS))
@@ -194,159 +327,3 @@ def test_calibration_splits_steady_and_after_change() -> None:
     cal = calibration(t, error, np.ones(t.size), t, truth, t_from=1.0)
     assert cal.after_change.n == 5 and cal.after_change.mean == 9.0 and cal.after_change.share_2sigma == 1.0
     assert cal.steady.n == t.size - 2 - 5 and cal.steady.mean == 1.0 and cal.steady.share_2sigma == 0.0
-
-
-@cache
-def seeded_runs(name: str, seeds: int = 10) -> tuple[Scene, list[SceneRun]]:
-    """(scene, [run for sensor seeds 0 … seeds − 1]) of a bundled scene, shared by the tests below."""
-    base = load_scene(name)
-    scenes = [
-        dataclasses.replace(base, sensor=dataclasses.replace(base.sensor, seed=k)) for k in range(seeds)
-    ]
-    return base, [run_scene(scene) for scene in scenes]
-
-
-@pytest.mark.parametrize(
-    ("name", "scene", "most_after", "most_steady"),
-    [
-        ("instant", "braking", 0.08, 0.08),
-        ("instant", "stop_and_go", 0.08, 0.08),
-        ("instant", "resonant_drive", 0.12, None),
-        ("lowpass", "braking", 0.08, 0.08),
-        ("lowpass", "stop_and_go", 0.08, 0.08),
-        ("lowpass", "resonant_drive", 0.08, None),
-        ("period_mean", "braking", 0.08, 0.12),
-        ("period_mean", "stop_and_go", 0.11, 0.08),
-        ("period_mean", "resonant_drive", 0.08, None),
-        ("dynamic", "braking", 0.08, 0.08),
-        ("dynamic", "stop_and_go", 0.16, 0.08),
-        ("dynamic", "resonant_drive", 0.15, None),
-    ],
-)
-def test_other_methods_variance_follows_a_change_over_seeds(
-    name: str, scene: str, most_after: float, most_steady: float | None
-) -> None:
-    """Pooled over sensor seeds 0–9, t ≥ 2 s: at most ``most_after`` beyond 2σ in the 2 s after a change
-    (15–50 % for most of these before the change terms; what is left is the first ~0.1–0.5 s, see
-    test_other_methods_miss_only_while_the_bob_has_not_moved) and
-    steady state still calibrated: mean NEES in [0.5, 2], at most ``most_steady`` beyond 2σ
-    (period_mean's 10 % on braking, from the large swing the stop leaves, predates the change terms)."""
-    base, runs = seeded_runs(scene)
-    steady, after = [], []
-    for run in runs:
-        a, var = estimate_batch(name, run.t, run.theta_measured, **estimator_settings(base))
-        s, c = nees_split(run.t, a - run.accel_true, var, run.t, run.accel_true, 2.0)
-        steady.append(s)
-        after.append(c)
-    nees = np.concatenate(after)
-    assert float(np.mean(nees > 4.0)) <= most_after
-    if most_steady is not None:
-        quiet = np.concatenate(steady)
-        assert 0.5 <= float(quiet.mean()) <= 2.0
-        assert float(np.mean(quiet > 4.0)) <= most_steady
-
-
-def since_onset(t: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """Seconds since the latest onset of a change of a(t) (a sample where a starts to move after ≥ 0.1 s
-    at rest); inf before the first."""
-    moving = np.concatenate(([False], np.abs(np.diff(a)) > 1e-9))
-    quiet = ~moving
-    onsets = []
-    still_since = t[0]
-    for k in range(t.size):
-        if quiet[k]:
-            continue
-        if quiet[k - 1] and t[k - 1] - still_since >= 0.1:
-            onsets.append(t[k])
-        still_since = t[k]
-    onset = np.asarray(onsets)
-    idx = np.searchsorted(onset, t, side="right") - 1
-    return np.where(idx >= 0, t - onset[np.maximum(idx, 0)], np.inf)
-
-
-@pytest.mark.parametrize("name", ["instant", "lowpass", "period_mean", "dynamic"])
-@pytest.mark.parametrize(
-    ("scene", "unavoidable", "until", "most"), [("braking", 0.15, 1.0, 0.01), ("stop_and_go", 0.5, 1.0, 0.05)]
-)
-def test_other_methods_miss_only_while_the_bob_has_not_moved(
-    name: str, scene: str, unavoidable: float, until: float, most: float
-) -> None:
-    """The misses left after a change are its start: braking's steps of a are beyond 2σ for the first
-    ~0.1 s (the angle has not moved yet; kalman misses them too) and stop_and_go's ramps for up to
-    0.5 s (dynamic; 0.3 s the others); from then until ``until`` s in, at most ``most`` beyond 2σ."""
-    base, runs = seeded_runs(scene)
-    misses, total = 0, 0
-    for run in runs:
-        a, var = estimate_batch(name, run.t, run.theta_measured, **estimator_settings(base))
-        age = since_onset(run.t, run.accel_true)
-        window = (run.t >= 2.0) & (age >= unavoidable) & (age < until)
-        misses += int(np.sum((a - run.accel_true)[window] ** 2 / var[window] > 4.0))
-        total += int(window.sum())
-    assert total > 0
-    assert misses <= most * total
-
-
-def test_period_change_cancels_a_damped_swing_and_measures_a_ramp() -> None:
-    """d and q (swing.period_change): a steady swing damped as the bob's, e^{−ct/2}, leaves them at
-    < 1 % of its amplitude; a ramp of θ_eq at r rad/s gives d = r T (1 + ρ)/2 − (1 − ρ) r w and
-    q = (1 − ρ) r T (ρ = e^{−cT/2}, w = T/16: exact for a line); streaming equals batch."""
-    cfg = EstimatorConfig(length=1.0, rate_hz=200.0, damping=0.05)
-    swing = SwingWindow(cfg, stages=3)
-    t = np.arange(0.0, 12.0, 1.0 / cfg.rate_hz)
-    theta0, amplitude, rate = 0.1, 0.05, 0.01
-    omega = math.sqrt(cfg.omega(cfg.gravity * math.tan(theta0)) ** 2 - cfg.damping**2 / 4.0)
-    swinging = theta0 + amplitude * np.exp(-0.5 * cfg.damping * t) * np.cos(omega * t)
-    ramp = theta0 + rate * t
-    late = t > 5.0
-    for theta, is_ramp in ((swinging, False), (ramp, True)):
-        mean, _, _, window = swing.batch(t, theta)
-        d, q, _, _ = period_changes(t, theta, mean, window, swing)
-        swing.reset()
-        hints = [0] * 5
-        streamed = []
-        for ti, xi in zip(t.tolist(), theta.tolist(), strict=True):
-            means, _ = swing.push(ti, xi)
-            streamed.append(swing.period_change(means.mean, means.window, hints))
-        swing.reset()
-        # Both form the same window means (sums of ≤ N samples |θ| ≤ Θ: each within N ε Θ, test.rounding's
-        # argument); q = (T/w)·(four means) with T/w = 16 carries 64 of them, d three: 64 N ε Θ covers both.
-        atol = 64.0 * t.size * EPS * float(np.max(np.abs(theta)))
-        np.testing.assert_allclose(np.array(streamed)[:, :2], np.column_stack([d, q]), rtol=0.0, atol=atol)
-        period = window[late]
-        rho = np.exp(-0.5 * cfg.damping * period)
-        d_line = rate * period * (1.0 + rho) / 2.0 - (1.0 - rho) * rate * period / 16.0
-        q_line = (1.0 - rho) * rate * period
-        if is_ramp:
-            np.testing.assert_allclose(d[late], d_line, rtol=1e-9)
-            np.testing.assert_allclose(q[late], q_line, rtol=1e-6)
-        else:
-            assert np.abs(d[late]).max() < 0.01 * amplitude
-            assert np.abs(q[late]).max() < 0.01 * amplitude
-    assert (d[:400] == 0.0).all()  # no period change before the history holds T + 2w
-
-
-def _mean_nees(name: str, method: str, seeds: int, t_from: float, t_to: float) -> float:
-    """Mean NEES of ``method`` on scene ``name`` over t_from ≤ t < t_to, sensor seeds 0 … seeds − 1."""
-    base = load_scene(name)
-    nees = []
-    for seed in range(seeds):
-        scene = with_seed(base, seed)
-        run = run_scene(scene)
-        a, var = estimate_batch(method, run.t, run.theta_measured, **estimator_settings(scene))
-        keep = (run.t >= t_from) & (run.t < t_to)
-        nees.append((a - run.accel_true)[keep] ** 2 / var[keep])
-    return float(np.mean(np.concatenate(nees)))
-
-
-def test_lowpass_does_not_count_its_start_up_noise_twice() -> None:
-    """at_rest, t = 2–6 s, seeds 0–19: the first sample still weighs in θ_f; its noise is in the noise gain
-    w_k, and the lag term's threshold now allows for it too, so mean NEES is 0.6–1.5 (0.36 when the lag
-    term read that start-up noise as lag)."""
-    assert 0.6 <= _mean_nees("at_rest", "lowpass", 20, 2.0, 6.0) <= 1.5
-
-
-def test_dynamic_does_not_read_its_residual_swing_as_lag() -> None:
-    """braking after the car stops (7.5–12 s), seeds 0–4: the bob swings 0.4–0.8 rad and â carries a residual
-    swing the fit-error term already counts; the lag term counts beyond 8 × that term, so mean NEES is
-    0.8–1.5 (0.62 when â − mean(â) read that residual as lag)."""
-    assert 0.8 <= _mean_nees("braking", "dynamic", 5, 7.5, math.inf) <= 1.5

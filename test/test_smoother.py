@@ -144,4 +144,4 @@ def test_the_summary_line_explains_the_estimator() -> None:
     """The run summary's estimator line says why the default was chosen, and that another one was chosen."""
     assert estimator_line("kalman").startswith("estimator: kalman (the pendulum EKF")
     assert "real-motion validation" in estimator_line("kalman")
-    assert estimator_line("instant") == "estimator: instant (chosen; the default is kalman)"
+    assert estimator_line("smoother") == "estimator: smoother (chosen; the default is kalman)"

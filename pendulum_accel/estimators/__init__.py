@@ -15,6 +15,7 @@ import numpy as np
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators.base import (
     BIAS_FIELDS,
+    TEACHING_NOTE,
     Estimate,
     Estimator,
     EstimatorConfig,
@@ -43,6 +44,8 @@ ESTIMATORS: Mapping[str, type[Estimator]] = {
 LIVE_ESTIMATORS: tuple[str, ...] = tuple(
     name for name, cls in ESTIMATORS.items() if not getattr(cls, "offline_only", False)
 )
+# Noise-plus-bias variance only, dominated on the real-motion corpus: kept to teach (docs/estimators.md).
+TEACHING_ESTIMATORS: tuple[str, ...] = tuple(name for name, cls in ESTIMATORS.items() if cls.teaching)
 # Lowest RMS of the live methods on every validation profile of ``python -m benchmarks.real_motion`` for
 # both sensor designs, within 1.1× of the hindsight fixed-q EKF (docs/estimators.md, "The default").
 DEFAULT_ESTIMATOR = "kalman"
@@ -54,8 +57,14 @@ DEFAULT_REASON = (
 
 def estimator_line(name: str, motion: MotionChoice | None = None) -> str:
     """'estimator: <name> (<why>)[; preset <p>: <why>]': the one line a run's summary gives for the method
-    it ran, with the motion preset it ran with (``estimators.motion``) when it takes one."""
-    why = DEFAULT_REASON if name == DEFAULT_ESTIMATOR else f"chosen; the default is {DEFAULT_ESTIMATOR}"
+    it ran, with the motion preset it ran with (``estimators.motion``) when it takes one; a teaching
+    estimator's line says its σ counts noise and bias only."""
+    if name == DEFAULT_ESTIMATOR:
+        why = DEFAULT_REASON
+    elif name in ESTIMATORS and ESTIMATORS[name].teaching:
+        why = f"{TEACHING_NOTE}; the default is {DEFAULT_ESTIMATOR}"
+    else:
+        why = f"chosen; the default is {DEFAULT_ESTIMATOR}"
     return f"estimator: {name} ({why})" + (f"; {motion.line()}" if motion is not None else "")
 
 
@@ -122,6 +131,8 @@ __all__ = [
     "DEFAULT_ESTIMATOR",
     "ESTIMATORS",
     "LIVE_ESTIMATORS",
+    "TEACHING_ESTIMATORS",
+    "TEACHING_NOTE",
     "Estimate",
     "Estimator",
     "EstimatorConfig",

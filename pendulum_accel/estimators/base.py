@@ -1,10 +1,9 @@
 """What every estimator shares: configuration, the Estimate record, angle conditioning and input checks.
 
 The accelerometer relation is a = g tan θ, so an angle error dθ becomes an acceleration error
-da = g sec²θ dθ. Every method's published variance starts from (g sec²θ)² σ² / N, where N is the
-number of independent angle samples its averaging is worth (its noise-equivalent sample count), and
-adds the sensor bias (:func:`bias_variance`) and a term for what the method leaves out of its own
-model (the swing, its lag while a changes), estimated from its own data (each module says how).
+da = g sec²θ dθ. The teaching estimators (``Estimator.teaching``: instant, period_mean, lowpass, dynamic)
+publish their linearised noise gain times σ² plus the sensor bias (:func:`bias_variance`), nothing else;
+kalman and smoother publish their own covariance plus the same bias.
 """
 
 from __future__ import annotations
@@ -31,6 +30,8 @@ BIAS_FIELDS = (
     "dynamic_bias_stddev",
     "dynamic_bias_correlation_time",
 )
+# What a teaching estimator's σ leaves out, said wherever the user meets it (run summary, node start-up).
+TEACHING_NOTE = "teaching: its σ counts sensor noise and bias only, not the swing or lag"
 # tan θ is undefined at 90°; beyond this the angle is clamped and the estimate flagged.
 DEFAULT_CLAMP_ANGLE = math.radians(89.0)
 
@@ -123,11 +124,6 @@ class EstimatorConfig:
         return total + decay * turn_on + 0.5 * tau * self.dynamic_bias_stddev**2 * (1.0 - decay)
 
     @property
-    def error_cap(self) -> float:
-        """(2 g tan θ_max)² ((m/s²)²): â is clamped to ±g tan θ_max, so no error is larger than twice that."""
-        return (2.0 * self.gravity * math.tan(self.clamp_angle)) ** 2
-
-    @property
     def sigma(self) -> float:
         """σ used in variances: max(noise_std, MIN_NOISE_STD) rad."""
         return max(self.noise_std, MIN_NOISE_STD)
@@ -189,16 +185,6 @@ def bias_variance_array(config: EstimatorConfig, theta: np.ndarray, elapsed: np.
     return accel_gain_array(theta, config.gravity) ** 2 * config.bias_second_moment_array(elapsed)
 
 
-def capped(term: float, cap: float) -> float:
-    """min(term, cap), and cap for NaN: a model-error term no larger than any error can be."""
-    return term if term <= cap else cap
-
-
-def capped_array(term: np.ndarray, cap: float) -> np.ndarray:
-    """Vectorised :func:`capped`: min(term, cap), cap where NaN."""
-    return np.where(term <= cap, term, cap)
-
-
 def cramer_rao_std(accel: float, sigma: float, samples: float, gravity: float = STANDARD_GRAVITY) -> float:
     """σ_a ≥ σ (g² + a²)/(g √N): the bound for a static a from N independent angle samples of noise σ."""
     return sigma * (gravity * gravity + accel * accel) / (gravity * math.sqrt(samples))
@@ -240,6 +226,9 @@ class Estimator(ABC):
 
     name: ClassVar[str]
     summary: ClassVar[str]
+    # A teaching estimator publishes noise gain × σ² + sensor bias only: it does not count the swing or its
+    # lag, so in motion it is over-confident (docs/estimators.md, "Teaching estimators").
+    teaching: ClassVar[bool] = False
 
     def __init__(self, config: EstimatorConfig) -> None:
         """Keep the shared configuration; subclasses build their filters from it."""
@@ -269,10 +258,11 @@ class Estimator(ABC):
         """One line: method name, its settings, N and the steady-state group delay at a = 0."""
         # "steady-state": for the adaptive Kalman filter this is its quiet-mode memory, far longer than
         # the time it takes to follow a change in a (0.67 s for a 0 → 3 m/s² step), which "delay" hid.
-        return (
+        line = (
             f"{self.name}: {self.summary}; N_eff={self.noise_equivalent_samples(0.0):.1f}, "
             f"steady-state group delay {self.nominal_delay(0.0):.3f} s"
         )
+        return f"{line}; {TEACHING_NOTE}" if self.teaching else line
 
     def _accepts(self, t: float, theta: float, last_t: float | None) -> bool:
         """True when θ is finite and t finite and later than last_t."""

@@ -2,27 +2,12 @@
 
 The bob oscillates about θ_eq = atan(a/g) with period T = 2π/ω, ω² = √(g² + a²)/l, lengthened by
 1/AGM(1, cos(A/2)) for a swing of amplitude A (from var θ, ``swing_amplitude``). T depends on a, so the
-window is found
-in stages: T₀ = 2π√(l/g) gives a₁ = g tan(mean θ) and A₁, T(a₁, A₁) gives a₂ and A₂, and so on. The
-means are exact integrals of the piecewise-linear θ(t) and θ²(t) over (t − T, t], accumulated by the
-trapezoid rule, so irregular sampling is handled; a hole of a quarter of T₀ (or ``max_gap``) restarts.
+window is found in stages: T₀ = 2π√(l/g) gives a₁ = g tan(mean θ) and A₁, T(a₁, A₁) gives a₂ and A₂,
+and so on. The means are exact integrals of the piecewise-linear θ(t) and θ²(t) over (t − T, t],
+accumulated by the trapezoid rule, so irregular sampling is handled; a hole of a quarter of T₀ (or
+``max_gap``) restarts.
 
-Over one period the swing averages out of the mean, and var θ = mean θ² − (mean θ)² is the swing's
-mean square (A²/2) plus the angle noise σ²: ``period_mean`` publishes g tan(mean θ), the other
-methods use the variance to size the swing they leave in their estimate. :class:`Trail` also keeps
-any other signal's window mean (an estimator's own output, for its lag).
-
-What a change leaves: the swing repeats after one period, shrunk by ρ = e^{−cT/2} (damping c), so
-comparing the angle now with the angle one period ago cancels it and leaves what θ_eq did, seen as
-soon as the angle moves (a window mean's own output sees it only a period later). With θ_w(t) the
-mean angle over (t − w, t], w = T/16 (tuned on the bundled scenes: shorter reacts sooner, noisier):
-* d = θ_2w(t) − ρ θ_2w(t − T) − (1 − ρ) θ̄: how far θ_eq moved over the last period (for a θ_eq
-  monotone over the period, ≥ the lag of a one-period mean; twice it for a ramp);
-* q = (T/w)[θ_w(t) − θ_w(t − w) − ρ(θ_w(t − T) − θ_w(t − T − w))]: T × the change of the angular
-  rate over the period. Right after a step of θ_eq by Δ the bob swings out, θ' = Δω sin ωt, so
-  q = 2πΔ sin ωt passes Δ at ωt ≈ 0.16 (plus its delay of ~w), when d = Δ(1 − cos ωt) is 1 % of Δ;
-both 0 until the history reaches t − T − 2w. :func:`change_excess` gives max(|d| − 3σ_d, |q| − 4.5σ_q)⁺,
-the amount beyond their white-noise spread, for the estimators' lag terms.
+Over one period the swing averages out of the mean: ``period_mean`` publishes g tan(mean θ).
 """
 
 from __future__ import annotations
@@ -37,12 +22,6 @@ from pendulum_accel.estimators.base import EstimatorConfig, segments, wrap_clamp
 _AGM_STEPS = 6  # quadratic convergence: exact to rounding for cos(A/2) ≥ 0.5
 HORIZON = 1.25  # history kept, in T₀: the longest window a large swing can ask for
 _PRUNE_EVERY = 32  # samples between looks at what the history can drop
-_CHANGE_WIDTH = 1.0 / 16.0  # w, the averaging width of the change terms, in swing periods
-# d counts beyond 3 × its noise-only spread; q, whose spread at the default w = T/16 is ~30 × d's,
-# beyond 4.5 ×, where noise alone adds E[(|z| − 4.5)⁺²] ≈ 5e-7 of σ_q² to the variance on average
-# (at 3 × it would be 4e-4, several times period_mean's own noise variance at rest).
-_CHANGE_SIGMAS_D, _CHANGE_SIGMAS_Q = 3.0, 4.5
-_MIN_WIDTH = 0.01  # below this w (in T; a swing so large that T nears the horizon) d and q are not formed
 
 
 Num = TypeVar("Num", float, np.ndarray)
@@ -66,21 +45,26 @@ def window_means(
     window: np.ndarray | float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(mean θ, mean θ², n) over (t_k − T, t_k] for every k; over [t₀, t_k] while t_k − T < t₀."""
-    k = np.arange(t.size)
+    size = t.size
+    if size < 2:
+        return theta.astype(float, copy=True), theta * theta, np.ones(size)
     start = t - window
-    partial = start < t[0]
-    j = np.clip(np.searchsorted(t, start, side="right") - 1, 0, max(t.size - 2, 0))
-    jn = np.minimum(j + 1, t.size - 1)
-    d = start - t[j]
-    h = np.where(jn > j, t[jn] - t[j], 1.0)
-    sq = theta * theta
-    full1 = (i1 - interp_integral(i1[j], theta[j], theta[jn], d, h)) / window
-    full2 = (i2 - interp_integral(i2[j], sq[j], sq[jn], d, h)) / window
-    span = np.where(k > 0, t - t[0], 1.0)
-    part1 = np.where(k > 0, (i1 - i1[0]) / span, theta)
-    part2 = np.where(k > 0, (i2 - i2[0]) / span, sq)
-    count = np.where(partial, k + 1, k - j).astype(float)
-    return np.where(partial, part1, full1), np.where(partial, part2, full2), count
+    j = np.searchsorted(t, start, side="right") - 1
+    np.clip(j, 0, size - 2, out=j)
+    tj, y, yn = t[j], theta[j], theta[j + 1]
+    d, h = start - tj, t[j + 1] - tj
+    mean1 = (i1 - interp_integral(i1[j], y, yn, d, h)) / window
+    mean2 = (i2 - interp_integral(i2[j], y * y, yn * yn, d, h)) / window
+    count = np.arange(size, dtype=float) - j
+    # While the window reaches before t₀ (the first ~T·f samples): the mean over [t₀, t_k] instead.
+    partial = np.flatnonzero(start < t[0])
+    later = partial[partial > 0]
+    span = t[later] - t[0]
+    mean1[later] = (i1[later] - i1[0]) / span
+    mean2[later] = (i2[later] - i2[0]) / span
+    mean1[0], mean2[0] = theta[0], theta[0] * theta[0]
+    count[partial] = partial + 1.0
+    return mean1, mean2, count
 
 
 def swing_amplitude(variance: Num) -> Num:
@@ -111,7 +95,7 @@ def agm_cos_half_array(amplitude: np.ndarray) -> np.ndarray:
 
 
 class Trail:
-    """Streaming samples (t, x), trapezoid integrals of x and x²: means over (t_k − T, t_k], T ≤ horizon."""
+    """Streaming samples (t, θ), trapezoid integrals of θ and θ²: means over (t_k − T, t_k], T ≤ horizon."""
 
     def __init__(self, horizon: float) -> None:
         """Keep at least ``horizon`` s of history."""
@@ -132,21 +116,6 @@ class Trail:
     def last_t(self) -> float | None:
         """Stamp of the newest sample, None when empty."""
         return self._t[-1] if self._t else None
-
-    @property
-    def first_t(self) -> float:
-        """Stamp of the first sample since the last reset."""
-        return self._first_t
-
-    @property
-    def newest(self) -> int:
-        """Absolute index of the newest sample (−1 when empty)."""
-        return self._base + len(self._t) - 1
-
-    @property
-    def newest_integral(self) -> float:
-        """∫ x from t₀ to the newest sample (trapezoid rule)."""
-        return self._i1[-1]
 
     def append(self, t: float, x: float) -> int:
         """Add sample (t, x), t later than the last; return its absolute index k."""
@@ -181,15 +150,6 @@ class Trail:
         mean2 = (i2k - interp_integral(self._i2[p], y * y, yn * yn, d, h)) / window
         return mean1, mean2, float(k - j), j
 
-    def integral_at(self, k: int, start: float, hint: int) -> tuple[float, int]:
-        """(∫ x from t₀ to ``start``, j): the trapezoid integral interpolated as in :meth:`means`.
-
-        k is the newest sample (not t₀'s), t₀ ≤ start ≤ t_k in the kept history; j = the sample at or
-        before start, searched from hint (a hint from before a reset is pulled back into the history).
-        """
-        p, d, h, j = self._locate(k, start, max(min(hint, k - 1), self._base))
-        return interp_integral(self._i1[p], self._x[p], self._x[p + 1], d, h), j
-
     def _locate(self, k: int, start: float, j: int) -> tuple[int, float, float, int]:
         """(p, d, h, j): j the sample at or before ``start`` (searched from j, below k), p its place in the
         kept history, d = start − t_j and h = t_{j+1} − t_j for the interpolation."""
@@ -219,11 +179,6 @@ class SwingMeans(NamedTuple):
     mean_sq: float
     n: float
     window: float
-
-    @property
-    def variance(self) -> float:
-        """var θ = mean θ² − (mean θ)², ≥ 0."""
-        return max(self.mean_sq - self.mean * self.mean, 0.0)
 
 
 class SwingWindow:
@@ -273,32 +228,6 @@ class SwingWindow:
         trail.prune(k)
         return SwingMeans(mean, sq, n, window), restarted
 
-    def period_change(self, mean: float, window: float, hints: list[int]) -> tuple[float, float, float]:
-        """(d, q, n_w) at the newest sample, T = ``window``, θ̄ = ``mean`` (module doc: What a change leaves).
-
-        ``hints`` (5 sample indices) are kept by the caller; call after :meth:`push`.
-        """
-        trail = self.trail
-        last = trail.last_t
-        assert last is not None
-        width = min(_CHANGE_WIDTH * window, 0.5 * (self.horizon - window))
-        if width < _MIN_WIDTH * window or last - window - 2.0 * width < trail.first_t:
-            return 0.0, 0.0, 1.0
-        k = trail.newest
-        ends = (
-            last - width,
-            last - 2.0 * width,
-            last - window,
-            last - window - width,
-            last - window - 2.0 * width,
-        )
-        i = [trail.newest_integral]
-        for n, end in enumerate(ends):
-            value, hints[n] = trail.integral_at(k, end, hints[n])
-            i.append(value)
-        rho = math.exp(-0.5 * self.config.damping * window)
-        return change_terms(i, rho, mean, window, width, self.config.rate_hz)
-
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, ...]:
         """(mean θ, mean θ², n, T) arrays, per stretch between restarts; the same formulas as ``push``."""
         out = tuple(np.empty(t.size) for _ in range(4))
@@ -323,75 +252,3 @@ class SwingWindow:
                     window = window / agm_cos_half_array(np.minimum(amplitude, 2.0))
                 window = np.minimum(window, self.horizon)
         return mean, mean_sq, n, np.broadcast_to(window, t.shape)
-
-
-def change_terms(
-    i: list[Num], rho: Num, mean: Num, window: Num, width: Num, rate: float
-) -> tuple[Num, Num, Num]:
-    """(d, q, n_w) from the integrals I(t), I(t − w), I(t − 2w), I(t − T), I(t − T − w), I(t − T − 2w).
-
-    d = [I(t) − I(t − 2w) − ρ(I(t − T) − I(t − T − 2w))]/2w − (1 − ρ)θ̄,
-    q = (T/w)[I(t) − 2I(t − w) + I(t − 2w) − ρ(I(t − T) − 2I(t − T − w) + I(t − T − 2w))]/w,
-    n_w = w × the nominal rate: the samples in each mean of width w.
-    """
-    i0, i1, i2, j0, j1, j2 = i
-    d = ((i0 - i2) - rho * (j0 - j2)) / (2.0 * width) - (1.0 - rho) * mean
-    q = (window / width) * ((i0 - 2.0 * i1 + i2) - rho * (j0 - 2.0 * j1 + j2)) / width
-    return d, q, width * rate
-
-
-def change_excess(d: Num, q: Num, n_w: Num, rho: Num, sigma: float) -> Num:
-    """max(|d| − 3σ_d, |q| − 4.5σ_q, 0) (rad): the change terms beyond their white-noise spread.
-
-    σ_d² = (1 + ρ²)σ²/(2n_w), σ_q² = (T/w)² · 2(1 + ρ²)σ²/n_w = 512(1 + ρ²)σ²/n_w (T/w = 16).
-    """
-    spread = (1.0 + rho * rho) * sigma * sigma / n_w
-    bound_d = abs(d) - _CHANGE_SIGMAS_D * np.sqrt(0.5 * spread)
-    bound_q = abs(q) - _CHANGE_SIGMAS_Q * np.sqrt(2.0 / _CHANGE_WIDTH**2 * spread)
-    return np.maximum(np.maximum(bound_d, bound_q), 0.0)
-
-
-def period_changes(
-    t: np.ndarray, theta: np.ndarray, mean: np.ndarray, window: np.ndarray, swing: SwingWindow
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Batch :meth:`SwingWindow.period_change` for every sample: (d, q, n_w, ρ) arrays, the same formulas."""
-    out = [np.zeros(t.size), np.zeros(t.size), np.ones(t.size)]
-    rho = np.exp(-0.5 * swing.config.damping * window)
-    for seg in segments(t, swing.restart_gap):
-        ts, xs, win = t[seg], theta[seg], window[seg]
-        if ts.size < 2:
-            continue
-        i1 = integrals(ts, xs)
-        width = np.minimum(_CHANGE_WIDTH * win, 0.5 * (swing.horizon - win))
-        ok = (width >= _MIN_WIDTH * win) & (ts - win - 2.0 * width >= ts[0])
-        safe = np.where(ok, width, 1.0)
-
-        def at(
-            start: np.ndarray, ts: np.ndarray = ts, xs: np.ndarray = xs, i1: np.ndarray = i1
-        ) -> np.ndarray:
-            j = np.clip(np.searchsorted(ts, start, side="right") - 1, 0, ts.size - 2)
-            return interp_integral(i1[j], xs[j], xs[j + 1], start - ts[j], ts[j + 1] - ts[j])
-
-        starts = (ts - safe, ts - 2.0 * safe, ts - win, ts - win - safe, ts - win - 2.0 * safe)
-        ints = [i1, *(at(s) for s in starts)]
-        terms = change_terms(ints, rho[seg], mean[seg], win, safe, swing.config.rate_hz)
-        for dst, src, empty in zip(out, terms, (0.0, 0.0, 1.0), strict=True):
-            dst[seg] = np.where(ok, src, empty)
-    return out[0], out[1], out[2], rho
-
-
-def trail_moments(
-    t: np.ndarray, x: np.ndarray, window: np.ndarray | float, max_gap: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Batch :class:`Trail` (mean x, mean x²) over (t_k − T, t_k], restarting after holes over max_gap."""
-    out1, out2 = np.empty(t.size), np.empty(t.size)
-    win = np.broadcast_to(np.asarray(window, dtype=float), t.shape)
-    for seg in segments(t, max_gap):
-        ts, xs = t[seg], x[seg]
-        out1[seg], out2[seg], _ = window_means(ts, xs, integrals(ts, xs), integrals(ts, xs * xs), win[seg])
-    return out1, out2
-
-
-def trail_means(t: np.ndarray, x: np.ndarray, window: np.ndarray | float, max_gap: float) -> np.ndarray:
-    """Batch :class:`Trail` mean of x over (t_k − T, t_k], restarting after holes longer than max_gap."""
-    return trail_moments(t, x, window, max_gap)[0]

@@ -34,7 +34,7 @@ from pendulum_accel.bag.messages import (
 from pendulum_accel.bag.reader import Bag, read_bag, scene_name
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
-from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, TEACHING_NOTE, estimate_batch
 from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice
 from pendulum_accel.recording.contract import check_chain_contract
@@ -295,6 +295,8 @@ class Analysis:
         ]
         if self.motion is not None:
             out.append(f"            {self.motion.line()}")
+        if self.estimator in ESTIMATORS and ESTIMATORS[self.estimator].teaching:
+            out.append(f"            {TEACHING_NOTE}")
         columns = [f for f in (self.recorded_figures, self.offline_figures) if f is not None]
         if self.recorded_figures is None:
             out.append("recorded:   the bag holds no /car/accel/estimate")
