@@ -26,7 +26,10 @@ from test.figures import assert_same_figures
 BAGS = Path(__file__).resolve().parent.parent / "bags"
 SCENES = {scene.name: scene for scene in list_scenes()}
 MAX_TOTAL_BYTES = 5_000_000
-SETTLE_S = 1.0
+# The estimator benchmark's target (issue 7): the default settles within 2 s of a 0 → 3 m/s² step. The lab
+# scenes' preset, lab_steps, settles step_start in 1.49 s where car took 0.49 s: its manoeuvre mode keeps
+# some weight for a second after a step, for a lower RMS (0.30 against 0.38 m/s²) and an honest variance.
+SETTLE_S = 2.0
 BIAS = 0.01
 RMS = 0.03
 REPLAY_ATOL = 1e-9
