@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.estimators import DEFAULT_ESTIMATOR, LIVE_ESTIMATORS
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, LIVE_ESTIMATORS, TEACHING_ESTIMATORS
 from pendulum_accel.estimators.motion import MOTIONS
 from pendulum_accel.overrides import OVERRIDE_BY_NAME, OVERRIDES, Override
 from pendulum_accel.recording.generate import DEFAULT_CLOCK_RATE_HZ
@@ -173,7 +173,9 @@ SIMULATOR: tuple[ParamSpec, ...] = (
 
 ESTIMATOR: tuple[ParamSpec, ...] = (
     _fixed("scene", "string", DEFAULT_SCENE, "scene whose pendulum and sensor configure the method"),
-    ParamSpec("method", "string", DEFAULT_ESTIMATOR, "estimation method", choices=LIVE_ESTIMATORS),
+    ParamSpec("method", "string", DEFAULT_ESTIMATOR,
+              f"estimation method; {', '.join(TEACHING_ESTIMATORS)} are teaching methods whose σ counts "
+              "sensor noise and bias only", choices=LIVE_ESTIMATORS),
     ParamSpec("lag", "double", 0.0,
               "latency (s) of a fixed-lag smoother: each estimate describes, and is stamped with, the sample "
               "this long ago, using the data since (0: the filter; kalman only)", low=0.0, high=10.0),
