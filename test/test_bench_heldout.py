@@ -27,7 +27,11 @@ def test_heldout_page_has_a_row_per_design_and_a_verdict_from_its_figures(tmp_pa
     for r in results:
         k = r.kalman
         shares = [s for s in (k.beyond_steady, k.beyond_after) if s == s]
-        expected = k.rms <= min(r.gtan.rms, 1.1 * r.hindsight.rms) and all(0.01 <= s <= 0.12 for s in shares)
+        expected = (
+            k.rms <= min(r.gtan.rms, 1.1 * r.hindsight.rms)
+            and all(0.01 <= s <= 0.12 for s in shares)
+            and r.smoother <= 1.5 * r.rts_hindsight
+        )
         assert r.meets == expected
         assert np.isfinite(k.rms) and k.rms > 0.0
     assert heldout.main([str(tmp_path / "trace.yaml"), "--seeds", "1", "--docs", str(tmp_path / "docs")]) == 0
