@@ -89,7 +89,8 @@ def evaluate(scene_path: Path, seeds: int) -> list[Result]:
     scene = load_scene(scene_path)
     preset = motion_choice(scene).preset
     own = Design(
-        "the scene's own",
+        f"the scene's (l {scene.pendulum.length:g} m, c {scene.pendulum.damping:g} /s, "
+        f"{scene.sensor.rate_hz:g} Hz, {scene.sensor.noise_std * 1e3:g} mrad)",
         scene.pendulum.length,
         scene.pendulum.damping,
         scene.sensor.noise_std,
