@@ -67,6 +67,28 @@ def test_bulk_cdr_equals_typestore_byte_for_byte(case: int) -> None:
     assert layout.matches(rows).all()
 
 
+@pytest.mark.parametrize("case", range(5))
+def test_matches_is_the_bytewise_shape_test(case: int) -> None:
+    """Layout.matches (8-byte words) == its definition, byte by byte: a row matches when every non-field
+    byte equals the template's. One row per byte position with that byte flipped, plus an intact row and
+    rows one byte short: exactly the flips of non-field bytes fail."""
+    msgtype, template, columns = _layouts()[case]
+    layout = bm.Layout.of(template, msgtype)
+    base = layout.encode(1, {path: col[:1] for path, col in columns.items()})[0]
+    flipped = np.repeat(base[None, :], layout.size + 1, axis=0)
+    positions = np.arange(layout.size)
+    flipped[positions, positions] ^= RNG.integers(1, 256, layout.size).astype(np.uint8)
+    bytewise = np.all(flipped[:, layout.mask] == layout.template[layout.mask], axis=1)
+    np.testing.assert_array_equal(layout.matches(flipped), bytewise)
+    np.testing.assert_array_equal(bytewise[:-1], ~layout.mask)
+    assert bytewise[-1]
+    # A view with a row stride other than its width (columns of a wider matrix) gives the same answer.
+    wide = np.zeros((flipped.shape[0], layout.size + 3), dtype=np.uint8)
+    wide[:, 1 : 1 + layout.size] = flipped
+    np.testing.assert_array_equal(layout.matches(wide[:, 1 : 1 + layout.size]), bytewise)
+    assert not layout.matches(flipped[:, :-1]).any()
+
+
 def test_encode_refuses_nan() -> None:
     """A NaN field is a one-line BagError, never written."""
     layout = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)

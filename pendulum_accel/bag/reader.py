@@ -60,6 +60,12 @@ _OPCODES = {int(op) for op in Opcode}
 _RECORD_ERRORS = (ValueError, struct.error, UnicodeDecodeError, KeyError, IndexError)
 
 
+_Shape = tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]
+"""One shape of a topic's messages: (layout, first message, message indices, rows)."""
+_TopicShapes = tuple[NDArray[np.int64], list[_Shape], int]
+"""(sorted log times, shapes, count of messages that do not decode) of one topic."""
+
+
 @dataclass(frozen=True)
 class TopicInfo:
     """One topic of a bag: name, message type, serialization, offered QoS (YAML text), message count."""
@@ -100,6 +106,22 @@ class TopicArrays:
         return self.log_time_ns.astype(np.float64) * 1e-9
 
 
+@dataclass(frozen=True)
+class _Slices:
+    """Equal-size payloads left in their verified chunk: ``data[s : s + size]`` for each start s.
+
+    Copied out into (n, size) rows only when their topic is asked for: a topic nobody reads costs no copy.
+    """
+
+    data: NDArray[np.uint8]
+    starts: NDArray[np.int64]
+    size: int
+
+    def rows(self) -> NDArray[np.uint8]:
+        """(n, size) rows, one per payload."""
+        return _gather(self.data, self.starts, self.size)
+
+
 @dataclass
 class _ChannelData:
     """Messages of one MCAP channel in file order."""
@@ -108,8 +130,10 @@ class _ChannelData:
     msgtype: str
     encoding: str
     qos: str
-    # Blocks in file order: (log times, payloads as (n, size) rows or a list of bytes).
-    blocks: list[tuple[NDArray[np.int64], NDArray[np.uint8] | list[bytes]]] = field(default_factory=list)
+    # Blocks in file order: (log times, payloads as (n, size) rows, slices of a chunk, or a list of bytes).
+    blocks: list[tuple[NDArray[np.int64], NDArray[np.uint8] | _Slices | list[bytes]]] = field(
+        default_factory=list
+    )
     # Messages found by walking records one by one, not yet sealed into a block.
     times: list[int] = field(default_factory=list)
     payloads: list[bytes] = field(default_factory=list)
@@ -120,10 +144,17 @@ class _ChannelData:
             self.blocks.append((np.array(self.times, dtype=np.int64), self.payloads))
             self.times, self.payloads = [], []
 
-    def add_block(self, times: NDArray[np.int64], payloads: NDArray[np.uint8] | list[bytes]) -> None:
+    def add_block(self, times: NDArray[np.int64], payloads: _Slices | list[bytes]) -> None:
         """Append a bulk-read block after the walked messages so far."""
         self.seal()
         self.blocks.append((times, payloads))
+
+    def payload_blocks(self) -> list[tuple[NDArray[np.int64], NDArray[np.uint8] | list[bytes]]]:
+        """Every block in file order, slices copied out into rows (once)."""
+        self.seal()
+        blocks = [(t, p.rows() if isinstance(p, _Slices) else p) for t, p in self.blocks]
+        self.blocks = list(blocks)
+        return blocks
 
     @property
     def count(self) -> int:
@@ -155,6 +186,8 @@ class Bag:
         self.damage: list[ChunkDamage] = []
         """Damaged chunks (and damage between chunks) in file order; empty when every CRC matched."""
         self._channels: dict[int, _ChannelData] = {}
+        # topic -> _shapes result: the contract check and every decode of a topic share one shape search.
+        self._shape_cache: dict[str, _TopicShapes] = {}
 
     @property
     def topics(self) -> dict[str, TopicInfo]:
@@ -218,8 +251,7 @@ class Bag:
         """Blocks of every channel of ``topic`` (type-checked), in channel then file order."""
         blocks = []
         for ch in self._channels_of(topic, msgtype):
-            ch.seal()
-            blocks += ch.blocks
+            blocks += ch.payload_blocks()
         return blocks
 
     def raw(self, topic: str, msgtype: str | None = None) -> tuple[NDArray[np.int64], list[bytes]]:
@@ -265,9 +297,7 @@ class Bag:
             return times[order], [(rank[idx], rows) for idx, rows in groups]
         return times, groups
 
-    def _shapes(
-        self, topic: str, msgtype: str | None
-    ) -> tuple[NDArray[np.int64], list[tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]], int]:
+    def _shapes(self, topic: str, msgtype: str | None) -> _TopicShapes:
         """(sorted log times, [(layout, first message, message indices, rows)] per shape, skipped count).
 
         A message is kept when its CDR decodes correctly: the typestore consumes the whole payload, up to
@@ -279,8 +309,15 @@ class Bag:
         """
         chans = self._channels_of(topic, msgtype)
         mtype = chans[0].msgtype
-        times, groups = self._shape_groups(topic, msgtype)
-        shapes: list[tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]] = []
+        cached = self._shape_cache.get(topic)
+        if cached is None:
+            cached = self._shape_cache[topic] = self._find_shapes(topic, mtype)
+        return cached
+
+    def _find_shapes(self, topic: str, mtype: str) -> _TopicShapes:
+        """Uncached _shapes of ``topic`` (of type ``mtype``, already checked)."""
+        times, groups = self._shape_groups(topic, mtype)
+        shapes: list[_Shape] = []
         stray: list[tuple[NDArray[np.int64], NDArray[np.uint8]]] = []
         for idx, rows in groups:
             todo = np.ones(idx.size, dtype=bool)
@@ -297,7 +334,10 @@ class Bag:
                     # Decodes, but not as the typestore writes it: the rest of this size, one by one.
                     stray.append((idx[todo], rows[todo]))
                     break
-                shapes.append((layout, msg, idx[ok], rows[ok]))
+                if ok.all():  # the usual case: every row of this size has one shape (no copy)
+                    shapes.append((layout, msg, idx, rows))
+                else:
+                    shapes.append((layout, msg, idx[ok], rows[ok]))
                 todo &= ~ok
         if stray:
             shapes += self._canonical_shapes(mtype, stray)
@@ -307,7 +347,7 @@ class Bag:
     @staticmethod
     def _canonical_shapes(
         mtype: str, stray: list[tuple[NDArray[np.int64], NDArray[np.uint8]]]
-    ) -> list[tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]]:
+    ) -> list[_Shape]:
         """Shapes of messages decoded one by one, each row replaced by its typestore re-serialisation."""
         by_key: dict[bytes, tuple[Layout, object, list[int], list[bytes]]] = {}
         for idx, rows in stray:
@@ -438,10 +478,13 @@ def _load_yaml(path: Path) -> Any:
         return None
 
 
-def _decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes:
-    """Uncompressed chunk records (none or zstd; lz4 when installed); ValueError when they do not inflate."""
+def _decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes | memoryview:
+    """Uncompressed chunk records (none or zstd; lz4 when installed); ValueError when they do not inflate.
+
+    An uncompressed chunk's records are ``packed`` itself (a view of the file's bytes, not a copy).
+    """
     if head.compression == "":
-        return bytes(packed)
+        return packed
     try:
         if head.compression == "zstd":
             return bytes(
@@ -463,7 +506,7 @@ class _Scanner:
         """Scan state for ``bag``."""
         self.bag = bag
         self.schemas: dict[int, Schema] = {}
-        self.pending: tuple[bytes, list[tuple[int, NDArray[np.uint64]]]] | None = None
+        self.pending: tuple[bytes | memoryview, list[tuple[int, NDArray[np.uint64]]]] | None = None
         self.pending_at = 0  # file offset of the pending chunk
         # The pending chunk's number and head, and its damage (None: its CRC matched).
         self.pending_head: tuple[int, ChunkHead | None] = (0, None)
@@ -490,7 +533,7 @@ class _Scanner:
         if rec.id not in self.bag._channels:
             self.bag._channels[rec.id] = _ChannelData(rec.topic, msgtype, rec.message_encoding, qos)
 
-    def walk(self, data: bytes, start: int, stop: int) -> None:
+    def walk(self, data: bytes | memoryview, start: int, stop: int) -> None:
         """Walk the records of data[start:stop] (inside one chunk); ValueError at the first malformed one."""
         channels = self.bag._channels
         view = memoryview(data)
@@ -511,7 +554,7 @@ class _Scanner:
                 if ch is None:
                     raise ValueError(f"message at chunk byte {pos} on unknown channel {cid}")
                 ch.times.append(log_time)
-                ch.payloads.append(data[pos + _MESSAGE_DATA_OFFSET : end])
+                ch.payloads.append(bytes(data[pos + _MESSAGE_DATA_OFFSET : end]))
             elif op == Opcode.SCHEMA:
                 self.schema(view[pos + 9 : end])
             elif op == Opcode.CHANNEL:
@@ -520,7 +563,7 @@ class _Scanner:
                 raise ValueError(f"opcode 0x{op:02x} at chunk byte {pos} does not belong in a chunk")
             pos = end
 
-    def chunk(self, data: bytes, indexes: list[tuple[int, NDArray[np.uint64]]]) -> None:
+    def chunk(self, data: bytes | memoryview, indexes: list[tuple[int, NDArray[np.uint64]]]) -> None:
         """Read one uncompressed chunk, in bulk where its message index tiles it, by walking elsewhere.
 
         The index offsets are checked against the records themselves (opcode, channel, lengths,
@@ -539,8 +582,8 @@ class _Scanner:
         if offs.size == 0 or offs[0] < 0 or offs[-1] + _MESSAGE_DATA_OFFSET > end:
             self.walk(data, 0, end)
             return
-        lengths = _gather(arr, offs + 1, 8).view("<u8")[:, 0].astype(np.int64)
-        rec_cids = _gather(arr, offs + 9, 2).view("<u2")[:, 0].astype(np.int64)
+        lengths = _unaligned(data, "<u8")[offs + 1].astype(np.int64)
+        rec_cids = _unaligned(data, "<u2")[offs + 9].astype(np.int64)
         ends = offs + 9 + lengths
         if (
             np.any(arr[offs] != Opcode.MESSAGE)
@@ -555,21 +598,23 @@ class _Scanner:
         gap_stops = np.concatenate((offs, [end]))
         for g in np.flatnonzero(gap_stops > gap_starts).tolist():
             self.walk(data, int(gap_starts[g]), int(gap_stops[g]))
-        log_times = _gather(arr, offs + 15, 8).view("<u8")[:, 0].astype(np.int64)
+        log_times = _unaligned(data, "<u8")[offs + 15].astype(np.int64)
         channels = self.bag._channels
-        for cid in np.unique(cids).tolist():
+        for cid in sorted({cid for cid, _ in indexes}):
             ch = channels.get(cid)
             if ch is None:
                 raise ValueError(f"message index refers to unknown channel {cid}")
             sel = np.flatnonzero(cids == cid)
+            if sel.size == 0:
+                continue
             sizes = lengths[sel] - 22
             starts = offs[sel] + _MESSAGE_DATA_OFFSET
             if np.all(sizes == sizes[0]):
-                ch.add_block(log_times[sel], _gather(arr, starts, int(sizes[0])))
+                ch.add_block(log_times[sel], _Slices(arr, starts, int(sizes[0])))
             else:
                 ch.add_block(
                     log_times[sel],
-                    [data[a : a + z] for a, z in zip(starts.tolist(), sizes.tolist(), strict=True)],
+                    [bytes(data[a : a + z]) for a, z in zip(starts.tolist(), sizes.tolist(), strict=True)],
                 )
 
     def scan(self, data: bytes) -> None:
@@ -601,7 +646,7 @@ class _Scanner:
             damage, self.pending_damage = self.pending_damage, None
             number, head = self.pending_head
             if damage is not None and head is not None:
-                self._recover(data, indexes, number, head, damage)
+                self._recover(bytes(data), indexes, number, head, damage)
                 return
             try:
                 self.chunk(data, indexes)
@@ -635,7 +680,7 @@ class _Scanner:
             ch.payloads.append(payload)
         self.bag.damage.append(ChunkDamage(number, head.start_ns, head.end_ns, reason, len(kept), dropped))
 
-    def _open_chunk(self, body: memoryview | bytes, at: int, number: int) -> bytes | None:
+    def _open_chunk(self, body: memoryview | bytes, at: int, number: int) -> bytes | memoryview | None:
         """Uncompressed data of the Chunk record ``body`` (chunk ``number``) at file offset ``at``.
 
         Its CRC is checked (and folded into the data section CRC); a damaged chunk becomes the pending
@@ -855,6 +900,13 @@ def _gather(arr: NDArray[np.uint8], starts: NDArray[np.int64], width: int) -> ND
         rows: NDArray[np.uint8] = sliding_window_view(arr, width)[starts]
         return rows
     return arr[starts[:, None] + np.arange(width)]
+
+
+def _unaligned(data: bytes | memoryview, dtype: str) -> NDArray[Any]:
+    """View v of ``data`` with v[i] = the ``dtype`` value in data[i : i + itemsize] (any byte offset i)."""
+    width = np.dtype(dtype).itemsize
+    view: NDArray[Any] = np.ndarray((max(len(data) - width + 1, 0),), dtype=dtype, buffer=data, strides=(1,))
+    return view
 
 
 def _message_index(body: memoryview) -> tuple[int, NDArray[np.uint64]] | None:
