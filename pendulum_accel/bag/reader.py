@@ -117,6 +117,11 @@ class _Slices:
     starts: NDArray[np.int64]
     size: int
 
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(n, size), the shape of ``rows()``."""
+        return (int(self.starts.size), self.size)
+
     def rows(self) -> NDArray[np.uint8]:
         """(n, size) rows, one per payload."""
         return _gather(self.data, self.starts, self.size)
@@ -270,14 +275,17 @@ class Bag:
         self, topic: str, msgtype: str | None
     ) -> tuple[NDArray[np.int64], list[tuple[NDArray[np.int64], NDArray[np.uint8]]]]:
         """(log times sorted, [(message indices, (n, size) rows)] one group per payload size)."""
-        blocks = self._blocks(topic, msgtype)
+        blocks: list[tuple[NDArray[np.int64], NDArray[np.uint8] | _Slices | list[bytes]]] = []
+        for ch in self._channels_of(topic, msgtype):
+            ch.seal()
+            blocks += ch.blocks
         times = np.concatenate([t for t, _ in blocks]) if blocks else np.zeros(0, dtype=np.int64)
-        by_size: dict[int, list[tuple[NDArray[np.int64], NDArray[np.uint8]]]] = {}
+        by_size: dict[int, list[tuple[NDArray[np.int64], NDArray[np.uint8] | _Slices]]] = {}
         start = 0
         for t, data in blocks:
             idx = np.arange(start, start + t.size)
             start += t.size
-            if isinstance(data, np.ndarray):
+            if isinstance(data, (np.ndarray, _Slices)):
                 by_size.setdefault(data.shape[1], []).append((idx, data))
                 continue
             lengths = np.fromiter(map(len, data), dtype=np.int64, count=len(data))
@@ -285,11 +293,17 @@ class Bag:
                 sel = np.flatnonzero(lengths == size)
                 by_size.setdefault(size, []).append((idx[sel], rows_from_bytes([data[i] for i in sel])))
         groups = []
-        for parts in by_size.values():
-            if len(parts) == 1:
-                groups.append(parts[0])
-            else:
-                groups.append((np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])))
+        for size, parts in by_size.items():
+            if len(parts) == 1 and isinstance(parts[0][1], np.ndarray):
+                groups.append((parts[0][0], parts[0][1]))
+                continue
+            # One matrix for the size, each chunk's payloads copied straight into their rows.
+            rows = np.empty((sum(i.size for i, _ in parts), size), dtype=np.uint8)
+            at = 0
+            for i, part in parts:
+                rows[at : at + i.size] = part.rows() if isinstance(part, _Slices) else part
+                at += i.size
+            groups.append((np.concatenate([i for i, _ in parts]), rows))
         if times.size > 1 and np.any(np.diff(times) < 0):
             order = np.argsort(times, kind="stable")
             rank = np.empty_like(order)
@@ -896,10 +910,9 @@ def load_yaml(text: str) -> Any:
 
 def _gather(arr: NDArray[np.uint8], starts: NDArray[np.int64], width: int) -> NDArray[np.uint8]:
     """(n, width) bytes arr[s : s + width] for each start s."""
-    if width > 32:  # copying whole rows of a window view beats an element-wise index here
-        rows: NDArray[np.uint8] = sliding_window_view(arr, width)[starts]
-        return rows
-    return arr[starts[:, None] + np.arange(width)]
+    # Copying whole rows of a window view beats an element-wise index (2x at 12 bytes, 25x at 364).
+    rows: NDArray[np.uint8] = sliding_window_view(arr, width)[starts]
+    return rows
 
 
 def _unaligned(data: bytes | memoryview, dtype: str) -> NDArray[Any]:
