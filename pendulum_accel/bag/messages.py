@@ -587,8 +587,11 @@ class Layout:
                 raise BagError(f"{self.msgtype} messages have no field {path!r}")
             offset, dtype = self.fields[path]
             width = np.dtype(dtype).itemsize
-            block = np.ascontiguousarray(rows[:, offset : offset + width])
-            out[path] = block.view(dtype).reshape(-1).astype(np.dtype(dtype).newbyteorder("="))
+            block = rows[:, offset : offset + width]
+            if block.strides[1] != 1:  # a dtype view needs contiguous bytes within a row
+                block = np.ascontiguousarray(block)
+            # One copy: the (n, 1) dtype view of the field's bytes, converted to native order.
+            out[path] = block.view(dtype)[:, 0].astype(np.dtype(dtype).newbyteorder("="))
         return out
 
 

@@ -142,17 +142,21 @@ class _ChannelData:
     # Messages found by walking records one by one, not yet sealed into a block.
     times: list[int] = field(default_factory=list)
     payloads: list[bytes] = field(default_factory=list)
+    sealed: int = 0
+    """Messages in ``blocks``."""
 
     def seal(self) -> None:
         """Move the walked messages into a block (keeps file order with later blocks)."""
         if self.times:
             self.blocks.append((np.array(self.times, dtype=np.int64), self.payloads))
+            self.sealed += len(self.times)
             self.times, self.payloads = [], []
 
     def add_block(self, times: NDArray[np.int64], payloads: _Slices | list[bytes]) -> None:
         """Append a bulk-read block after the walked messages so far."""
         self.seal()
         self.blocks.append((times, payloads))
+        self.sealed += int(times.size)
 
     def payload_blocks(self) -> list[tuple[NDArray[np.int64], NDArray[np.uint8] | list[bytes]]]:
         """Every block in file order, slices copied out into rows (once)."""
@@ -164,7 +168,7 @@ class _ChannelData:
     @property
     def count(self) -> int:
         """Messages held."""
-        return sum(t.size for t, _ in self.blocks) + len(self.times)
+        return self.sealed + len(self.times)
 
     def all_times(self) -> NDArray[np.int64]:
         """Log times of every message in file order."""
