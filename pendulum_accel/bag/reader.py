@@ -25,6 +25,7 @@ import os
 import struct
 import zlib
 from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
@@ -534,6 +535,8 @@ class _Scanner:
         self.chunks_seen = 0  # chunk records met in the scan: the 1-based number of the current one
         self.data_crc = 0  # crc32 of data[:crc_upto], the data section as far as the scan has hashed it
         self.crc_upto = 0
+        # (file offset of a Chunk record, records length) -> crc32 of its records, hashed ahead.
+        self.crcs: dict[tuple[int, int], Future[int]] = {}
 
     def schema(self, body: memoryview) -> None:
         """Register a Schema record."""
@@ -638,9 +641,15 @@ class _Scanner:
     def scan(self, data: bytes) -> None:
         """Read every top-level record, skipping damaged chunks; then indexed chunks past broken framing."""
         bag = self.bag
+        # The CRCs of uncompressed chunks are hashed in a thread (zlib releases the GIL) while this one
+        # parses the chunks before them; each is still checked before its chunk is read.
+        pool = ThreadPoolExecutor(max_workers=1)
         try:
+            self.crcs = _hash_chunks_ahead(pool, data)
             stop = self._scan(data)
         finally:
+            pool.shutdown(wait=False, cancel_futures=True)
+            self.crcs = {}
             self._flush_chunk()
             for ch in bag._channels.values():
                 ch.seal()
@@ -721,7 +730,8 @@ class _Scanner:
             data = _decompress(head, packed)
             if len(data) != head.uncompressed_size:
                 raise ValueError(f"inflates to {len(data)} bytes, declared {head.uncompressed_size}")
-            crc = zlib.crc32(data)
+            ahead = self.crcs.pop((at, len(data)), None)
+            crc = ahead.result() if ahead is not None else zlib.crc32(data)
             if head.crc and crc != head.crc:
                 raise ValueError("CRC mismatch")
         except _RECORD_ERRORS as err:
@@ -924,6 +934,27 @@ def _unaligned(data: bytes | memoryview, dtype: str) -> NDArray[Any]:
     width = np.dtype(dtype).itemsize
     view: NDArray[Any] = np.ndarray((max(len(data) - width + 1, 0),), dtype=dtype, buffer=data, strides=(1,))
     return view
+
+
+def _hash_chunks_ahead(pool: ThreadPoolExecutor, data: bytes) -> dict[tuple[int, int], Future[int]]:
+    """{(file offset, records length): crc32 of the records} of the uncompressed Chunk records met by
+    walking the top-level framing from the magic; the walk stops at the footer or at anything that does
+    not frame (the scan then hashes what is left itself)."""
+    view = memoryview(data)
+    found: dict[tuple[int, int], Future[int]] = {}
+    pos, size = len(_MAGIC), len(data)
+    while pos + 9 <= size:
+        op, length = _RECORD_HEAD.unpack_from(data, pos)
+        stop = pos + 9 + length
+        if stop > size or op == Opcode.FOOTER:
+            break
+        if op == Opcode.CHUNK:
+            head = chunk_head(view[pos + 9 : stop])
+            if head is not None and head.compression == "":
+                records = view[pos + 9 + head.records_at : stop]
+                found[(pos, len(records))] = pool.submit(zlib.crc32, records)
+        pos = stop
+    return found
 
 
 def _message_index(body: memoryview) -> tuple[int, NDArray[np.uint64]] | None:
