@@ -180,8 +180,7 @@ def step(
         _start(x, p, f, prior_x, prior_p, ring_a, ring_v, ring_c, state, t, y, params)
         return True
     predict(x, p, f, t - last_t, g, 1.0 / length, c, q_rate, q_accel)
-    prior_x[:] = x
-    prior_p[:, :] = p
+    _copy3(x, p, prior_x, prior_p)
     count = int(state[1])
     held = min(count, size - 1)
     # Cross-covariances of the buffered a's with the new state: c ← F c.
@@ -304,11 +303,11 @@ def run_pass(
         restarted = step(x, p, f, k, prior_x, prior_p, ring_a, ring_v, ring_c, state, t[i], y[i], params)
         if keep:
             starts[i] = restarted
-            xpo[i] = x
-            ppo[i] = p
-            fk[i] = f
-            xpr[i] = prior_x
-            ppr[i] = prior_p
+            _copy3(x, p, xpo[i], ppo[i])
+            _copy3(prior_x, prior_p, xpr[i], ppr[i])
+            for r in range(3):
+                for col in range(3):
+                    fk[i, r, col] = f[r, col]
         count = int(state[1])
         for m in range(lags.size):
             lag = lags[m]
@@ -321,9 +320,17 @@ def run_pass(
 
 
 @njit(cache=True)
-def _inverse3(m: np.ndarray) -> np.ndarray:
-    """M⁻¹ of a 3×3 matrix by cofactors (adjugate / determinant)."""
-    inv = np.empty((3, 3))
+def _copy3(x: np.ndarray, p: np.ndarray, x_out: np.ndarray, p_out: np.ndarray) -> None:
+    """x_out ← x (3), p_out ← p (3×3), element by element (a slice assignment costs more per sample)."""
+    for i in range(3):
+        x_out[i] = x[i]
+        for j in range(3):
+            p_out[i, j] = p[i, j]
+
+
+@njit(cache=True)
+def _inverse3(m: np.ndarray, inv: np.ndarray) -> None:
+    """inv ← M⁻¹ of a 3×3 matrix by cofactors (adjugate / determinant), into a buffer (no allocation)."""
     inv[0, 0] = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
     inv[0, 1] = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
     inv[0, 2] = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
@@ -334,7 +341,9 @@ def _inverse3(m: np.ndarray) -> np.ndarray:
     inv[2, 1] = m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
     inv[2, 2] = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
     det = m[0, 0] * inv[0, 0] + m[0, 1] * inv[1, 0] + m[0, 2] * inv[2, 0]
-    return inv / det
+    for i in range(3):
+        for j in range(3):
+            inv[i, j] = inv[i, j] / det
 
 
 @njit(cache=True)
@@ -353,12 +362,13 @@ def rts(
     dx = np.empty(3)
     dp = np.empty((3, 3))
     tmp = np.empty((3, 3))
+    inv = np.empty((3, 3))
     for k in range(n - 1, -1, -1):
         if k == n - 1 or starts[k + 1]:
             xs[:] = xpo[k]
             ps[:, :] = ppo[k]
         else:
-            inv = _inverse3(ppr[k + 1])
+            _inverse3(ppr[k + 1], inv)
             for i in range(3):  # P⁺ Fᵀ
                 for j in range(3):
                     pf[i, j] = (
