@@ -423,6 +423,33 @@ def imm_step(
     and correct each model, μ_j ∝ c_j N(ν_j; 0, S_j), and combine: x = Σ μ_j x_j,
     P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ). ``state``, ``params``: as ``step``; x, p receive the combination.
     """
+    m = qs.size
+    return _imm_step_into(xs, ps, mu, x, p, state, t, y, params, qs, switch_time, _imm_scratch(m))
+
+
+@njit(cache=True)
+def _imm_scratch(m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Work arrays of one imm_step for m modes: (c, x⁰, P⁰, F, K, log-likelihoods)."""
+    return np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3, 3)), np.empty((3, 3)), np.empty(3), np.empty(m)
+
+
+@njit(cache=True)
+def _imm_step_into(
+    xs: np.ndarray,
+    ps: np.ndarray,
+    mu: np.ndarray,
+    x: np.ndarray,
+    p: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+    qs: np.ndarray,
+    switch_time: float,
+    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+) -> bool:
+    """imm_step with its work arrays given (``_imm_scratch``): a recording's pass allocates them once."""
+    cj, x0, p0, f, k, logl = scratch
     g, length, c, r = params[0], params[1], params[2], params[3]
     q_rate, reset_gap = params[4], params[6]
     m = qs.size
@@ -432,12 +459,15 @@ def imm_step(
     dt = t - state[0]
     stay = math.exp(-dt / switch_time)
     move = (1.0 - stay) / (m - 1) if m > 1 else 0.0
-    cj = np.zeros(m)
+    for j in range(m):
+        cj[j] = 0.0
+        for a in range(3):
+            x0[j, a] = 0.0
+            for b in range(3):
+                p0[j, a, b] = 0.0
     for j in range(m):
         for i in range(m):
             cj[j] += (stay if i == j else move) * mu[i]
-    x0 = np.zeros((m, 3))
-    p0 = np.zeros((m, 3, 3))
     for j in range(m):
         for i in range(m):
             w = (stay if i == j else move) * mu[i] / cj[j]
@@ -449,16 +479,12 @@ def imm_step(
                 da = xs[i, a] - x0[j, a]
                 for b in range(3):
                     p0[j, a, b] += w * (ps[i, a, b] + da * (xs[i, b] - x0[j, b]))
-    f = np.empty((3, 3))
-    k = np.empty(3)
-    logl = np.empty(m)
     for j in range(m):
         xj = x0[j]
         pj = p0[j]
         predict(xj, pj, f, dt, g, 1.0 / length, c, q_rate, qs[j])
         nu, s = correct(xj, pj, k, y, r)
-        xs[j] = xj
-        ps[j] = pj
+        _copy3(xj, pj, xs[j], ps[j])
         logl[j] = -0.5 * (nu * nu / s + math.log(s)) + math.log(cj[j])
     top = logl.max()
     total = 0.0
@@ -522,8 +548,9 @@ def run_imm(
     x = np.zeros(3)
     p = np.zeros((3, 3))
     state = np.array([np.nan, 0.0])
+    scratch = _imm_scratch(m)
     for i in range(n):
-        imm_step(xs, ps, mu, x, p, state, t[i], y[i], params, qs, switch_time)
+        _imm_step_into(xs, ps, mu, x, p, state, t[i], y[i], params, qs, switch_time, scratch)
         a[i] = x[2]
         v[i] = p[2, 2]
         mus[i] = mu
