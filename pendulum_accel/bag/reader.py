@@ -12,6 +12,8 @@ with a damaged opcode or length), the scan stops there, and the chunks after the
 through the chunk index of the MCAP summary when the file still has its footer. A bag whose
 recorder was killed (no summary) reads up to its last flushed chunk. Fixed-layout topics are then
 decoded column-wise with :class:`pendulum_accel.bag.messages.Layout` (numpy over all messages at once).
+Equal-size payloads stay in their verified chunk until their topic is asked for (a topic nobody reads
+is never copied out), so a Bag holds its chunks' bytes meanwhile; a topic's shapes are found once.
 
 A metadata.yaml naming its file outside the bag directory (absolute, ``..``, a symlink leading
 out) is refused: nothing outside the bag is ever read, renamed or deleted through it.
