@@ -14,7 +14,7 @@ from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 
 from pendulum_accel import __version__
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag.reader import _read_file, read_bag
 from pendulum_accel.bag.repair import repair_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.errors import BagError
@@ -65,6 +65,28 @@ def test_bulk_cdr_equals_typestore_byte_for_byte(case: int) -> None:
     for path, col in columns.items():
         np.testing.assert_array_equal(decoded[path], col)
     assert layout.matches(rows).all()
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_matches_is_the_bytewise_shape_test(case: int) -> None:
+    """Layout.matches (8-byte words) == its definition, byte by byte: a row matches when every non-field
+    byte equals the template's. One row per byte position with that byte flipped, plus an intact row and
+    rows one byte short: exactly the flips of non-field bytes fail."""
+    msgtype, template, columns = _layouts()[case]
+    layout = bm.Layout.of(template, msgtype)
+    base = layout.encode(1, {path: col[:1] for path, col in columns.items()})[0]
+    flipped = np.repeat(base[None, :], layout.size + 1, axis=0)
+    positions = np.arange(layout.size)
+    flipped[positions, positions] ^= RNG.integers(1, 256, layout.size).astype(np.uint8)
+    bytewise = np.all(flipped[:, layout.mask] == layout.template[layout.mask], axis=1)
+    np.testing.assert_array_equal(layout.matches(flipped), bytewise)
+    np.testing.assert_array_equal(bytewise[:-1], ~layout.mask)
+    assert bytewise[-1]
+    # A view with a row stride other than its width (columns of a wider matrix) gives the same answer.
+    wide = np.zeros((flipped.shape[0], layout.size + 3), dtype=np.uint8)
+    wide[:, 1 : 1 + layout.size] = flipped
+    np.testing.assert_array_equal(layout.matches(wide[:, 1 : 1 + layout.size]), bytewise)
+    assert not layout.matches(flipped[:, :-1]).any()
 
 
 def test_encode_refuses_nan() -> None:
@@ -243,6 +265,32 @@ def test_reader_matches_rosbags_deserializer(tmp_path: Path) -> None:
     assert len(diag) == counts[bm.TOPIC_DIAGNOSTICS]
     times = [t for _, t, _ in bag.iter_raw()]
     assert times == sorted(times) and len(times) == sum(counts.values())
+
+
+def test_raw_payloads_equal_rosbags_in_any_order_of_use(tmp_path: Path) -> None:
+    """Payloads left in their chunk until asked for: raw() equals rosbags' bytes per topic whether the
+    topic was decoded first or not, and decoding after raw() gives the same columns."""
+    streams, types = _chain_streams(3000)
+    with BagWriter(tmp_path / "bag") as w:
+        for topic, msgtype in types.items():
+            w.add_topic(topic, msgtype)
+        w.write_sorted(streams)
+    expected: dict[str, list[tuple[int, bytes]]] = {}
+    with Reader(tmp_path / "bag") as reader:
+        for conn, log_time, raw in reader.messages():
+            expected.setdefault(conn.topic, []).append((log_time, bytes(raw)))
+    mcap = next((tmp_path / "bag").glob("*.mcap"))
+    assert bytes(_read_file(mcap)) == mcap.read_bytes()
+    decoded_first, raw_first = read_bag(tmp_path / "bag"), read_bag(tmp_path / "bag")
+    before = decoded_first.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)
+    for bag in (decoded_first, raw_first):
+        for topic, messages in expected.items():
+            times, payloads = bag.raw(topic)
+            assert times.tolist() == [t for t, _ in messages]
+            assert payloads == [d for _, d in messages]
+    after = raw_first.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)
+    for path, column in before.fields.items():
+        np.testing.assert_array_equal(after[path], column)
 
 
 def test_never_overwrites(tmp_path: Path) -> None:

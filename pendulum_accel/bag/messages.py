@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import re
 import struct
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -503,11 +504,38 @@ class Layout:
         return out
 
     def matches(self, rows: NDArray[np.uint8]) -> NDArray[np.bool_]:
-        """Per row: True when every non-field byte equals the template (the row has this shape)."""
+        """Per row: True when every non-field byte equals the template (the row has this shape).
+
+        Row r matches when (word(r) AND m) = (word(template) AND m) for every 8-byte word holding a
+        non-field byte (m: 0xFF on those bytes), and byte for byte outside the words.
+        """
         if rows.ndim != 2 or rows.shape[1] != self.size:
             return np.zeros(rows.shape[0] if rows.ndim else 0, dtype=bool)
-        result: NDArray[np.bool_] = np.all(rows[:, self.mask] == self.template[self.mask], axis=1)
+        start, stop, words, mask_words, template_words, loose = self._word_plan
+        rows = np.ascontiguousarray(rows)
+        # Words from byte 4, where the CDR body starts: its 8-byte fields fill whole words, skipped.
+        picked = rows[:, start:stop].view("<u8")[:, words]
+        result: NDArray[np.bool_] = ~np.any((picked & mask_words) != template_words, axis=1)
+        if loose.size:
+            result &= np.all(rows[:, loose] == self.template[loose], axis=1)
         return result
+
+    @functools.cached_property
+    def _word_plan(
+        self,
+    ) -> tuple[int, int, NDArray[np.intp], NDArray[np.uint64], NDArray[np.uint64], NDArray[np.intp]]:
+        """(start, stop, words with a non-field byte, their masks, template AND mask, non-field bytes
+        outside data[start:stop]) for ``matches``: 8-byte words over data[start:stop]."""
+        start = min(4, self.size)
+        stop = start + (self.size - start) // 8 * 8
+        byte_mask = np.where(self.mask, 0xFF, 0).astype(np.uint8)
+        mask_words = byte_mask[start:stop].view("<u8")
+        words = np.flatnonzero(mask_words)
+        template_words = self.template[start:stop].view("<u8")[words] & mask_words[words]
+        outside = np.ones(self.size, dtype=bool)
+        outside[start:stop] = False
+        loose = np.flatnonzero(self.mask & outside)
+        return start, stop, words, mask_words[words], template_words, loose
 
     def reader(self, paths: Sequence[str]) -> Callable[[bytes], tuple[float, ...] | None]:
         """For one message at a time: bytes ↦ the values at ``paths`` if the bytes have this shape, else None.
@@ -559,8 +587,11 @@ class Layout:
                 raise BagError(f"{self.msgtype} messages have no field {path!r}")
             offset, dtype = self.fields[path]
             width = np.dtype(dtype).itemsize
-            block = np.ascontiguousarray(rows[:, offset : offset + width])
-            out[path] = block.view(dtype).reshape(-1).astype(np.dtype(dtype).newbyteorder("="))
+            block = rows[:, offset : offset + width]
+            if block.strides[1] != 1:  # a dtype view needs contiguous bytes within a row
+                block = np.ascontiguousarray(block)
+            # One copy: the (n, 1) dtype view of the field's bytes, converted to native order.
+            out[path] = block.view(dtype)[:, 0].astype(np.dtype(dtype).newbyteorder("="))
         return out
 
 

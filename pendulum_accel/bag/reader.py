@@ -12,6 +12,8 @@ with a damaged opcode or length), the scan stops there, and the chunks after the
 through the chunk index of the MCAP summary when the file still has its footer. A bag whose
 recorder was killed (no summary) reads up to its last flushed chunk. Fixed-layout topics are then
 decoded column-wise with :class:`pendulum_accel.bag.messages.Layout` (numpy over all messages at once).
+Equal-size payloads stay in their verified chunk until their topic is asked for (a topic nobody reads
+is never copied out), so a Bag holds its chunks' bytes meanwhile; a topic's shapes are found once.
 
 A metadata.yaml naming its file outside the bag directory (absolute, ``..``, a symlink leading
 out) is refused: nothing outside the bag is ever read, renamed or deleted through it.
@@ -21,10 +23,12 @@ from __future__ import annotations
 
 import contextlib
 import heapq
+import mmap
 import os
 import struct
 import zlib
 from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
@@ -58,6 +62,12 @@ _MESSAGE_DATA_OFFSET = 31  # opcode 1 + length 8 + channel 2 + sequence 4 + log 
 _OPCODES = {int(op) for op in Opcode}
 # What a malformed record makes the parsers raise.
 _RECORD_ERRORS = (ValueError, struct.error, UnicodeDecodeError, KeyError, IndexError)
+
+
+_Shape = tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]
+"""One shape of a topic's messages: (layout, first message, message indices, rows)."""
+_TopicShapes = tuple[NDArray[np.int64], list[_Shape], int]
+"""(sorted log times, shapes, count of messages that do not decode) of one topic."""
 
 
 @dataclass(frozen=True)
@@ -100,6 +110,27 @@ class TopicArrays:
         return self.log_time_ns.astype(np.float64) * 1e-9
 
 
+@dataclass(frozen=True)
+class _Slices:
+    """Equal-size payloads left in their verified chunk: ``data[s : s + size]`` for each start s.
+
+    Copied out into (n, size) rows only when their topic is asked for: a topic nobody reads costs no copy.
+    """
+
+    data: NDArray[np.uint8]
+    starts: NDArray[np.int64]
+    size: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(n, size), the shape of ``rows()``."""
+        return (int(self.starts.size), self.size)
+
+    def rows(self) -> NDArray[np.uint8]:
+        """(n, size) rows, one per payload."""
+        return _gather(self.data, self.starts, self.size)
+
+
 @dataclass
 class _ChannelData:
     """Messages of one MCAP channel in file order."""
@@ -108,27 +139,40 @@ class _ChannelData:
     msgtype: str
     encoding: str
     qos: str
-    # Blocks in file order: (log times, payloads as (n, size) rows or a list of bytes).
-    blocks: list[tuple[NDArray[np.int64], NDArray[np.uint8] | list[bytes]]] = field(default_factory=list)
+    # Blocks in file order: (log times, payloads as (n, size) rows, slices of a chunk, or a list of bytes).
+    blocks: list[tuple[NDArray[np.int64], NDArray[np.uint8] | _Slices | list[bytes]]] = field(
+        default_factory=list
+    )
     # Messages found by walking records one by one, not yet sealed into a block.
     times: list[int] = field(default_factory=list)
     payloads: list[bytes] = field(default_factory=list)
+    sealed: int = 0
+    """Messages in ``blocks``."""
 
     def seal(self) -> None:
         """Move the walked messages into a block (keeps file order with later blocks)."""
         if self.times:
             self.blocks.append((np.array(self.times, dtype=np.int64), self.payloads))
+            self.sealed += len(self.times)
             self.times, self.payloads = [], []
 
-    def add_block(self, times: NDArray[np.int64], payloads: NDArray[np.uint8] | list[bytes]) -> None:
+    def add_block(self, times: NDArray[np.int64], payloads: _Slices | list[bytes]) -> None:
         """Append a bulk-read block after the walked messages so far."""
         self.seal()
         self.blocks.append((times, payloads))
+        self.sealed += int(times.size)
+
+    def payload_blocks(self) -> list[tuple[NDArray[np.int64], NDArray[np.uint8] | list[bytes]]]:
+        """Every block in file order, slices copied out into rows (once)."""
+        self.seal()
+        blocks = [(t, p.rows() if isinstance(p, _Slices) else p) for t, p in self.blocks]
+        self.blocks = list(blocks)
+        return blocks
 
     @property
     def count(self) -> int:
         """Messages held."""
-        return sum(t.size for t, _ in self.blocks) + len(self.times)
+        return self.sealed + len(self.times)
 
     def all_times(self) -> NDArray[np.int64]:
         """Log times of every message in file order."""
@@ -155,6 +199,8 @@ class Bag:
         self.damage: list[ChunkDamage] = []
         """Damaged chunks (and damage between chunks) in file order; empty when every CRC matched."""
         self._channels: dict[int, _ChannelData] = {}
+        # topic -> _shapes result: the contract check and every decode of a topic share one shape search.
+        self._shape_cache: dict[str, _TopicShapes] = {}
 
     @property
     def topics(self) -> dict[str, TopicInfo]:
@@ -218,8 +264,7 @@ class Bag:
         """Blocks of every channel of ``topic`` (type-checked), in channel then file order."""
         blocks = []
         for ch in self._channels_of(topic, msgtype):
-            ch.seal()
-            blocks += ch.blocks
+            blocks += ch.payload_blocks()
         return blocks
 
     def raw(self, topic: str, msgtype: str | None = None) -> tuple[NDArray[np.int64], list[bytes]]:
@@ -238,14 +283,17 @@ class Bag:
         self, topic: str, msgtype: str | None
     ) -> tuple[NDArray[np.int64], list[tuple[NDArray[np.int64], NDArray[np.uint8]]]]:
         """(log times sorted, [(message indices, (n, size) rows)] one group per payload size)."""
-        blocks = self._blocks(topic, msgtype)
+        blocks: list[tuple[NDArray[np.int64], NDArray[np.uint8] | _Slices | list[bytes]]] = []
+        for ch in self._channels_of(topic, msgtype):
+            ch.seal()
+            blocks += ch.blocks
         times = np.concatenate([t for t, _ in blocks]) if blocks else np.zeros(0, dtype=np.int64)
-        by_size: dict[int, list[tuple[NDArray[np.int64], NDArray[np.uint8]]]] = {}
+        by_size: dict[int, list[tuple[NDArray[np.int64], NDArray[np.uint8] | _Slices]]] = {}
         start = 0
         for t, data in blocks:
             idx = np.arange(start, start + t.size)
             start += t.size
-            if isinstance(data, np.ndarray):
+            if isinstance(data, (np.ndarray, _Slices)):
                 by_size.setdefault(data.shape[1], []).append((idx, data))
                 continue
             lengths = np.fromiter(map(len, data), dtype=np.int64, count=len(data))
@@ -253,11 +301,17 @@ class Bag:
                 sel = np.flatnonzero(lengths == size)
                 by_size.setdefault(size, []).append((idx[sel], rows_from_bytes([data[i] for i in sel])))
         groups = []
-        for parts in by_size.values():
-            if len(parts) == 1:
-                groups.append(parts[0])
-            else:
-                groups.append((np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])))
+        for size, parts in by_size.items():
+            if len(parts) == 1 and isinstance(parts[0][1], np.ndarray):
+                groups.append((parts[0][0], parts[0][1]))
+                continue
+            # One matrix for the size, each chunk's payloads copied straight into their rows.
+            rows = np.empty((sum(i.size for i, _ in parts), size), dtype=np.uint8)
+            at = 0
+            for i, part in parts:
+                rows[at : at + i.size] = part.rows() if isinstance(part, _Slices) else part
+                at += i.size
+            groups.append((np.concatenate([i for i, _ in parts]), rows))
         if times.size > 1 and np.any(np.diff(times) < 0):
             order = np.argsort(times, kind="stable")
             rank = np.empty_like(order)
@@ -265,9 +319,7 @@ class Bag:
             return times[order], [(rank[idx], rows) for idx, rows in groups]
         return times, groups
 
-    def _shapes(
-        self, topic: str, msgtype: str | None
-    ) -> tuple[NDArray[np.int64], list[tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]], int]:
+    def _shapes(self, topic: str, msgtype: str | None) -> _TopicShapes:
         """(sorted log times, [(layout, first message, message indices, rows)] per shape, skipped count).
 
         A message is kept when its CDR decodes correctly: the typestore consumes the whole payload, up to
@@ -279,8 +331,15 @@ class Bag:
         """
         chans = self._channels_of(topic, msgtype)
         mtype = chans[0].msgtype
-        times, groups = self._shape_groups(topic, msgtype)
-        shapes: list[tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]] = []
+        cached = self._shape_cache.get(topic)
+        if cached is None:
+            cached = self._shape_cache[topic] = self._find_shapes(topic, mtype)
+        return cached
+
+    def _find_shapes(self, topic: str, mtype: str) -> _TopicShapes:
+        """Uncached _shapes of ``topic`` (of type ``mtype``, already checked)."""
+        times, groups = self._shape_groups(topic, mtype)
+        shapes: list[_Shape] = []
         stray: list[tuple[NDArray[np.int64], NDArray[np.uint8]]] = []
         for idx, rows in groups:
             todo = np.ones(idx.size, dtype=bool)
@@ -297,7 +356,10 @@ class Bag:
                     # Decodes, but not as the typestore writes it: the rest of this size, one by one.
                     stray.append((idx[todo], rows[todo]))
                     break
-                shapes.append((layout, msg, idx[ok], rows[ok]))
+                if ok.all():  # the usual case: every row of this size has one shape (no copy)
+                    shapes.append((layout, msg, idx, rows))
+                else:
+                    shapes.append((layout, msg, idx[ok], rows[ok]))
                 todo &= ~ok
         if stray:
             shapes += self._canonical_shapes(mtype, stray)
@@ -307,7 +369,7 @@ class Bag:
     @staticmethod
     def _canonical_shapes(
         mtype: str, stray: list[tuple[NDArray[np.int64], NDArray[np.uint8]]]
-    ) -> list[tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]]:
+    ) -> list[_Shape]:
         """Shapes of messages decoded one by one, each row replaced by its typestore re-serialisation."""
         by_key: dict[bytes, tuple[Layout, object, list[int], list[bytes]]] = {}
         for idx, rows in stray:
@@ -383,11 +445,19 @@ class Bag:
 
 def _find_mcap(path: Path) -> tuple[Path, Path]:
     """(bag directory or file, .mcap path) for a bag directory or a bare .mcap file."""
+    root, mcap_path, _ = _locate(path)
+    return root, mcap_path
+
+
+def _locate(path: Path) -> tuple[Path, Path, Any]:
+    """(bag directory or file, .mcap path, parsed metadata.yaml or None) for a bag directory or a bare
+    .mcap file; the metadata is parsed here once, for the file name and for read_bag."""
     if path.is_file():
-        return path, path
+        return path, path, None
     if not path.is_dir():
         raise BagError(f"bag {path} does not exist")
     meta = path / "metadata.yaml"
+    doc = None
     if meta.is_file():
         doc = _load_yaml(meta)
         info = doc.get("rosbag2_bagfile_information") if isinstance(doc, dict) else None
@@ -403,11 +473,11 @@ def _find_mcap(path: Path) -> tuple[Path, Path]:
             if inside.is_file():
                 if not files[0].endswith(".mcap"):
                     raise BagError(f"bag {path} uses storage {files[0]!r}; only MCAP bags are supported")
-                return path, inside
+                return path, inside, doc
     found = sorted(f for f in path.glob("*.mcap") if not f.is_symlink() or _within(path, f))
     if len(found) != 1:
         raise BagError(f"bag {path} has {len(found)} .mcap files, expected 1")
-    return path, found[0]
+    return path, found[0], doc
 
 
 def inside_bag(root: Path, name: str) -> Path:
@@ -438,10 +508,13 @@ def _load_yaml(path: Path) -> Any:
         return None
 
 
-def _decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes:
-    """Uncompressed chunk records (none or zstd; lz4 when installed); ValueError when they do not inflate."""
+def _decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes | memoryview:
+    """Uncompressed chunk records (none or zstd; lz4 when installed); ValueError when they do not inflate.
+
+    An uncompressed chunk's records are ``packed`` itself (a view of the file's bytes, not a copy).
+    """
     if head.compression == "":
-        return bytes(packed)
+        return packed
     try:
         if head.compression == "zstd":
             return bytes(
@@ -463,16 +536,18 @@ class _Scanner:
         """Scan state for ``bag``."""
         self.bag = bag
         self.schemas: dict[int, Schema] = {}
-        self.pending: tuple[bytes, list[tuple[int, NDArray[np.uint64]]]] | None = None
+        self.pending: tuple[bytes | memoryview, list[tuple[int, NDArray[np.uint64]]]] | None = None
         self.pending_at = 0  # file offset of the pending chunk
         # The pending chunk's number and head, and its damage (None: its CRC matched).
         self.pending_head: tuple[int, ChunkHead | None] = (0, None)
         self.pending_damage: str | None = None
-        self.file = b""  # the whole file, for the data section CRC
+        self.file: bytes | mmap.mmap = b""  # the whole file, for the data section CRC
         self.read_chunks: set[int] = set()  # file offsets of chunks read (or skipped as damaged)
         self.chunks_seen = 0  # chunk records met in the scan: the 1-based number of the current one
         self.data_crc = 0  # crc32 of data[:crc_upto], the data section as far as the scan has hashed it
         self.crc_upto = 0
+        # (file offset of a Chunk record, records length) -> crc32 of its records, hashed ahead.
+        self.crcs: dict[tuple[int, int], Future[int]] = {}
 
     def schema(self, body: memoryview) -> None:
         """Register a Schema record."""
@@ -490,7 +565,7 @@ class _Scanner:
         if rec.id not in self.bag._channels:
             self.bag._channels[rec.id] = _ChannelData(rec.topic, msgtype, rec.message_encoding, qos)
 
-    def walk(self, data: bytes, start: int, stop: int) -> None:
+    def walk(self, data: bytes | memoryview, start: int, stop: int) -> None:
         """Walk the records of data[start:stop] (inside one chunk); ValueError at the first malformed one."""
         channels = self.bag._channels
         view = memoryview(data)
@@ -511,7 +586,7 @@ class _Scanner:
                 if ch is None:
                     raise ValueError(f"message at chunk byte {pos} on unknown channel {cid}")
                 ch.times.append(log_time)
-                ch.payloads.append(data[pos + _MESSAGE_DATA_OFFSET : end])
+                ch.payloads.append(bytes(data[pos + _MESSAGE_DATA_OFFSET : end]))
             elif op == Opcode.SCHEMA:
                 self.schema(view[pos + 9 : end])
             elif op == Opcode.CHANNEL:
@@ -520,7 +595,7 @@ class _Scanner:
                 raise ValueError(f"opcode 0x{op:02x} at chunk byte {pos} does not belong in a chunk")
             pos = end
 
-    def chunk(self, data: bytes, indexes: list[tuple[int, NDArray[np.uint64]]]) -> None:
+    def chunk(self, data: bytes | memoryview, indexes: list[tuple[int, NDArray[np.uint64]]]) -> None:
         """Read one uncompressed chunk, in bulk where its message index tiles it, by walking elsewhere.
 
         The index offsets are checked against the records themselves (opcode, channel, lengths,
@@ -539,8 +614,8 @@ class _Scanner:
         if offs.size == 0 or offs[0] < 0 or offs[-1] + _MESSAGE_DATA_OFFSET > end:
             self.walk(data, 0, end)
             return
-        lengths = _gather(arr, offs + 1, 8).view("<u8")[:, 0].astype(np.int64)
-        rec_cids = _gather(arr, offs + 9, 2).view("<u2")[:, 0].astype(np.int64)
+        lengths = _unaligned(data, "<u8")[offs + 1].astype(np.int64)
+        rec_cids = _unaligned(data, "<u2")[offs + 9].astype(np.int64)
         ends = offs + 9 + lengths
         if (
             np.any(arr[offs] != Opcode.MESSAGE)
@@ -555,29 +630,37 @@ class _Scanner:
         gap_stops = np.concatenate((offs, [end]))
         for g in np.flatnonzero(gap_stops > gap_starts).tolist():
             self.walk(data, int(gap_starts[g]), int(gap_stops[g]))
-        log_times = _gather(arr, offs + 15, 8).view("<u8")[:, 0].astype(np.int64)
+        log_times = _unaligned(data, "<u8")[offs + 15].astype(np.int64)
         channels = self.bag._channels
-        for cid in np.unique(cids).tolist():
+        for cid in sorted({cid for cid, _ in indexes}):
             ch = channels.get(cid)
             if ch is None:
                 raise ValueError(f"message index refers to unknown channel {cid}")
             sel = np.flatnonzero(cids == cid)
+            if sel.size == 0:
+                continue
             sizes = lengths[sel] - 22
             starts = offs[sel] + _MESSAGE_DATA_OFFSET
             if np.all(sizes == sizes[0]):
-                ch.add_block(log_times[sel], _gather(arr, starts, int(sizes[0])))
+                ch.add_block(log_times[sel], _Slices(arr, starts, int(sizes[0])))
             else:
                 ch.add_block(
                     log_times[sel],
-                    [data[a : a + z] for a, z in zip(starts.tolist(), sizes.tolist(), strict=True)],
+                    [bytes(data[a : a + z]) for a, z in zip(starts.tolist(), sizes.tolist(), strict=True)],
                 )
 
-    def scan(self, data: bytes) -> None:
+    def scan(self, data: bytes | mmap.mmap) -> None:
         """Read every top-level record, skipping damaged chunks; then indexed chunks past broken framing."""
         bag = self.bag
+        # The CRCs of uncompressed chunks are hashed in a thread (zlib releases the GIL) while this one
+        # parses the chunks before them; each is still checked before its chunk is read.
+        pool = ThreadPoolExecutor(max_workers=1)
         try:
+            self.crcs = _hash_chunks_ahead(pool, data)
             stop = self._scan(data)
         finally:
+            pool.shutdown(wait=False, cancel_futures=True)
+            self.crcs = {}
             self._flush_chunk()
             for ch in bag._channels.values():
                 ch.seal()
@@ -601,7 +684,7 @@ class _Scanner:
             damage, self.pending_damage = self.pending_damage, None
             number, head = self.pending_head
             if damage is not None and head is not None:
-                self._recover(data, indexes, number, head, damage)
+                self._recover(bytes(data), indexes, number, head, damage)
                 return
             try:
                 self.chunk(data, indexes)
@@ -635,7 +718,7 @@ class _Scanner:
             ch.payloads.append(payload)
         self.bag.damage.append(ChunkDamage(number, head.start_ns, head.end_ns, reason, len(kept), dropped))
 
-    def _open_chunk(self, body: memoryview | bytes, at: int, number: int) -> bytes | None:
+    def _open_chunk(self, body: memoryview | bytes, at: int, number: int) -> bytes | memoryview | None:
         """Uncompressed data of the Chunk record ``body`` (chunk ``number``) at file offset ``at``.
 
         Its CRC is checked (and folded into the data section CRC); a damaged chunk becomes the pending
@@ -658,7 +741,8 @@ class _Scanner:
             data = _decompress(head, packed)
             if len(data) != head.uncompressed_size:
                 raise ValueError(f"inflates to {len(data)} bytes, declared {head.uncompressed_size}")
-            crc = zlib.crc32(data)
+            ahead = self.crcs.pop((at, len(data)), None)
+            crc = ahead.result() if ahead is not None else zlib.crc32(data)
             if head.crc and crc != head.crc:
                 raise ValueError("CRC mismatch")
         except _RECORD_ERRORS as err:
@@ -689,7 +773,7 @@ class _Scanner:
             )
             self.bag.damage.append(ChunkDamage(None, 0, 0, reason))
 
-    def _scan(self, data: bytes) -> int | None:
+    def _scan(self, data: bytes | mmap.mmap) -> int | None:
         """The record loop of scan(); the offset where the framing broke, None when it held to the end."""
         bag = self.bag
         size = len(data)
@@ -757,7 +841,7 @@ class _Scanner:
         self.pending_damage = f"cut off by the end of the file at byte {at + 9 + len(body)}"
         self._flush_chunk()
 
-    def _indexed_chunks(self, data: bytes, broken_at: int) -> int:
+    def _indexed_chunks(self, data: bytes | mmap.mmap, broken_at: int) -> int:
         """Read the chunks the summary's chunk index places past ``broken_at``; how many were read.
 
         Needs the footer (last 37 bytes) and a summary section; the schemas and channels it repeats are
@@ -803,7 +887,7 @@ class _Scanner:
             read += 1
         return read
 
-    def _summary(self, data: bytes, start: int, stop: int) -> list[ChunkIndex]:
+    def _summary(self, data: bytes | mmap.mmap, start: int, stop: int) -> list[ChunkIndex]:
         """Chunk indexes of the summary section data[start:stop]; registers its schemas and channels."""
         view = memoryview(data)
         found: list[ChunkIndex] = []
@@ -851,10 +935,39 @@ def load_yaml(text: str) -> Any:
 
 def _gather(arr: NDArray[np.uint8], starts: NDArray[np.int64], width: int) -> NDArray[np.uint8]:
     """(n, width) bytes arr[s : s + width] for each start s."""
-    if width > 32:  # copying whole rows of a window view beats an element-wise index here
-        rows: NDArray[np.uint8] = sliding_window_view(arr, width)[starts]
-        return rows
-    return arr[starts[:, None] + np.arange(width)]
+    # Copying whole rows of a window view beats an element-wise index (2x at 12 bytes, 25x at 364).
+    rows: NDArray[np.uint8] = sliding_window_view(arr, width)[starts]
+    return rows
+
+
+def _unaligned(data: bytes | memoryview, dtype: str) -> NDArray[Any]:
+    """View v of ``data`` with v[i] = the ``dtype`` value in data[i : i + itemsize] (any byte offset i)."""
+    width = np.dtype(dtype).itemsize
+    view: NDArray[Any] = np.ndarray((max(len(data) - width + 1, 0),), dtype=dtype, buffer=data, strides=(1,))
+    return view
+
+
+def _hash_chunks_ahead(
+    pool: ThreadPoolExecutor, data: bytes | mmap.mmap
+) -> dict[tuple[int, int], Future[int]]:
+    """{(file offset, records length): crc32 of the records} of the uncompressed Chunk records met by
+    walking the top-level framing from the magic; the walk stops at the footer or at anything that does
+    not frame (the scan then hashes what is left itself)."""
+    view = memoryview(data)
+    found: dict[tuple[int, int], Future[int]] = {}
+    pos, size = len(_MAGIC), len(data)
+    while pos + 9 <= size:
+        op, length = _RECORD_HEAD.unpack_from(data, pos)
+        stop = pos + 9 + length
+        if stop > size or op == Opcode.FOOTER:
+            break
+        if op == Opcode.CHUNK:
+            head = chunk_head(view[pos + 9 : stop])
+            if head is not None and head.compression == "":
+                records = view[pos + 9 + head.records_at : stop]
+                found[(pos, len(records))] = pool.submit(zlib.crc32, records)
+        pos = stop
+    return found
 
 
 def _message_index(body: memoryview) -> tuple[int, NDArray[np.uint64]] | None:
@@ -874,21 +987,18 @@ def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
     A truncated or corrupt file keeps what precedes the damage and sets ``bag.problem``; with
     ``salvage=False`` that is a BagError instead. Missing, empty or non-MCAP input: BagError.
     """
-    root, mcap_path = _find_mcap(Path(path))
+    root, mcap_path, doc = _locate(Path(path))
     bag = Bag(root, mcap_path)
     try:
-        data = mcap_path.read_bytes()
+        data = _read_file(mcap_path)
     except OSError as err:
         raise BagError(f"cannot read {mcap_path}: {err.strerror}") from None
-    meta_path = root / "metadata.yaml" if root.is_dir() else None
-    if meta_path is not None and meta_path.is_file():
-        doc = _load_yaml(meta_path)
-        if isinstance(doc, dict):
-            bag.metadata = doc
-            info = doc.get("rosbag2_bagfile_information")
-            custom = info.get("custom_data") if isinstance(info, dict) else None
-            if isinstance(custom, dict):
-                bag.custom_data.update({str(k): str(v) for k, v in custom.items()})
+    if isinstance(doc, dict):
+        bag.metadata = doc
+        info = doc.get("rosbag2_bagfile_information")
+        custom = info.get("custom_data") if isinstance(info, dict) else None
+        if isinstance(custom, dict):
+            bag.custom_data.update({str(k): str(v) for k, v in custom.items()})
     _Scanner(bag).scan(data)
     if bag.problem is not None and not salvage:
         raise BagError(
@@ -896,6 +1006,29 @@ def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
             f"to use only its intact records, or run `pendulum-accel repair {bag.path}`"
         )
     return bag
+
+
+def _read_file(path: Path) -> bytes | mmap.mmap:
+    """The file's bytes, read into anonymous memory that the kernel maps in one go (MAP_POPULATE) rather
+    than page by page on first touch: ~30 % faster for a large bag. Anonymous, not a mapping of the file:
+    the file changing or shrinking afterwards cannot touch what was read. Slices give bytes, as for bytes.
+    """
+    with path.open("rb", buffering=0) as handle:
+        size = os.fstat(handle.fileno()).st_size
+        populate = getattr(mmap, "MAP_POPULATE", None)
+        if size == 0 or populate is None:
+            return handle.read()
+        buffer = mmap.mmap(-1, size, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS | populate)
+        got = 0
+        with memoryview(buffer) as view:
+            while got < size:
+                n = handle.readinto(view[got:])
+                if not n:
+                    break
+                got += n
+        if got < size:  # the file shrank since its size was taken: keep what was read
+            return buffer[:got]
+        return buffer
 
 
 def salvage_note(bag: Bag) -> str | None:

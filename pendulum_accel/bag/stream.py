@@ -129,7 +129,7 @@ class StreamedBag:
             if opcode == _OP_MESSAGE and length >= 22:
                 channel, _sequence, log_time = message(data, body)
                 if channel in wanted and first_ns <= log_time <= last_ns:
-                    out.append((log_time, wanted[channel], data[body + 22 : body + length]))
+                    out.append((log_time, wanted[channel], bytes(data[body + 22 : body + length])))
             at = body + length
         if any(out[i][0] > out[i + 1][0] for i in range(len(out) - 1)):
             out.sort(key=lambda m: m[0])

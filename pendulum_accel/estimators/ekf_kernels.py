@@ -180,8 +180,7 @@ def step(
         _start(x, p, f, prior_x, prior_p, ring_a, ring_v, ring_c, state, t, y, params)
         return True
     predict(x, p, f, t - last_t, g, 1.0 / length, c, q_rate, q_accel)
-    prior_x[:] = x
-    prior_p[:, :] = p
+    _copy3(x, p, prior_x, prior_p)
     count = int(state[1])
     held = min(count, size - 1)
     # Cross-covariances of the buffered a's with the new state: c ← F c.
@@ -304,11 +303,11 @@ def run_pass(
         restarted = step(x, p, f, k, prior_x, prior_p, ring_a, ring_v, ring_c, state, t[i], y[i], params)
         if keep:
             starts[i] = restarted
-            xpo[i] = x
-            ppo[i] = p
-            fk[i] = f
-            xpr[i] = prior_x
-            ppr[i] = prior_p
+            _copy3(x, p, xpo[i], ppo[i])
+            _copy3(prior_x, prior_p, xpr[i], ppr[i])
+            for r in range(3):
+                for col in range(3):
+                    fk[i, r, col] = f[r, col]
         count = int(state[1])
         for m in range(lags.size):
             lag = lags[m]
@@ -321,9 +320,17 @@ def run_pass(
 
 
 @njit(cache=True)
-def _inverse3(m: np.ndarray) -> np.ndarray:
-    """M⁻¹ of a 3×3 matrix by cofactors (adjugate / determinant)."""
-    inv = np.empty((3, 3))
+def _copy3(x: np.ndarray, p: np.ndarray, x_out: np.ndarray, p_out: np.ndarray) -> None:
+    """x_out ← x (3), p_out ← p (3×3), element by element (a slice assignment costs more per sample)."""
+    for i in range(3):
+        x_out[i] = x[i]
+        for j in range(3):
+            p_out[i, j] = p[i, j]
+
+
+@njit(cache=True)
+def _inverse3(m: np.ndarray, inv: np.ndarray) -> None:
+    """inv ← M⁻¹ of a 3×3 matrix by cofactors (adjugate / determinant), into a buffer (no allocation)."""
     inv[0, 0] = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
     inv[0, 1] = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
     inv[0, 2] = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
@@ -334,7 +341,9 @@ def _inverse3(m: np.ndarray) -> np.ndarray:
     inv[2, 1] = m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
     inv[2, 2] = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
     det = m[0, 0] * inv[0, 0] + m[0, 1] * inv[1, 0] + m[0, 2] * inv[2, 0]
-    return inv / det
+    for i in range(3):
+        for j in range(3):
+            inv[i, j] = inv[i, j] / det
 
 
 @njit(cache=True)
@@ -353,12 +362,13 @@ def rts(
     dx = np.empty(3)
     dp = np.empty((3, 3))
     tmp = np.empty((3, 3))
+    inv = np.empty((3, 3))
     for k in range(n - 1, -1, -1):
         if k == n - 1 or starts[k + 1]:
             xs[:] = xpo[k]
             ps[:, :] = ppo[k]
         else:
-            inv = _inverse3(ppr[k + 1])
+            _inverse3(ppr[k + 1], inv)
             for i in range(3):  # P⁺ Fᵀ
                 for j in range(3):
                     pf[i, j] = (
@@ -413,6 +423,33 @@ def imm_step(
     and correct each model, μ_j ∝ c_j N(ν_j; 0, S_j), and combine: x = Σ μ_j x_j,
     P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ). ``state``, ``params``: as ``step``; x, p receive the combination.
     """
+    m = qs.size
+    return _imm_step_into(xs, ps, mu, x, p, state, t, y, params, qs, switch_time, _imm_scratch(m))
+
+
+@njit(cache=True)
+def _imm_scratch(m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Work arrays of one imm_step for m modes: (c, x⁰, P⁰, F, K, log-likelihoods)."""
+    return np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3, 3)), np.empty((3, 3)), np.empty(3), np.empty(m)
+
+
+@njit(cache=True)
+def _imm_step_into(
+    xs: np.ndarray,
+    ps: np.ndarray,
+    mu: np.ndarray,
+    x: np.ndarray,
+    p: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+    qs: np.ndarray,
+    switch_time: float,
+    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+) -> bool:
+    """imm_step with its work arrays given (``_imm_scratch``): a recording's pass allocates them once."""
+    cj, x0, p0, f, k, logl = scratch
     g, length, c, r = params[0], params[1], params[2], params[3]
     q_rate, reset_gap = params[4], params[6]
     m = qs.size
@@ -422,12 +459,15 @@ def imm_step(
     dt = t - state[0]
     stay = math.exp(-dt / switch_time)
     move = (1.0 - stay) / (m - 1) if m > 1 else 0.0
-    cj = np.zeros(m)
+    for j in range(m):
+        cj[j] = 0.0
+        for a in range(3):
+            x0[j, a] = 0.0
+            for b in range(3):
+                p0[j, a, b] = 0.0
     for j in range(m):
         for i in range(m):
             cj[j] += (stay if i == j else move) * mu[i]
-    x0 = np.zeros((m, 3))
-    p0 = np.zeros((m, 3, 3))
     for j in range(m):
         for i in range(m):
             w = (stay if i == j else move) * mu[i] / cj[j]
@@ -439,16 +479,12 @@ def imm_step(
                 da = xs[i, a] - x0[j, a]
                 for b in range(3):
                     p0[j, a, b] += w * (ps[i, a, b] + da * (xs[i, b] - x0[j, b]))
-    f = np.empty((3, 3))
-    k = np.empty(3)
-    logl = np.empty(m)
     for j in range(m):
         xj = x0[j]
         pj = p0[j]
         predict(xj, pj, f, dt, g, 1.0 / length, c, q_rate, qs[j])
         nu, s = correct(xj, pj, k, y, r)
-        xs[j] = xj
-        ps[j] = pj
+        _copy3(xj, pj, xs[j], ps[j])
         logl[j] = -0.5 * (nu * nu / s + math.log(s)) + math.log(cj[j])
     top = logl.max()
     total = 0.0
@@ -512,8 +548,9 @@ def run_imm(
     x = np.zeros(3)
     p = np.zeros((3, 3))
     state = np.array([np.nan, 0.0])
+    scratch = _imm_scratch(m)
     for i in range(n):
-        imm_step(xs, ps, mu, x, p, state, t[i], y[i], params, qs, switch_time)
+        _imm_step_into(xs, ps, mu, x, p, state, t[i], y[i], params, qs, switch_time, scratch)
         a[i] = x[2]
         v[i] = p[2, 2]
         mus[i] = mu

@@ -367,8 +367,11 @@ def max_likelihood_q(params: np.ndarray, t: np.ndarray, theta: np.ndarray) -> fl
         return float(kern.log_likelihood(t, theta, trial))
 
     logs = np.log10(ML_Q_GRID)
-    best = float(logs[int(np.argmax([score(x) for x in logs]))])
-    y0, y1, y2 = score(best - _ML_REFINE), score(best), score(best + _ML_REFINE)
+    scores = [score(x) for x in logs]
+    top = int(np.argmax(scores))
+    best = float(logs[top])
+    # The best grid point's score is scores[top]: the pass is deterministic, no need to run it again.
+    y0, y1, y2 = score(best - _ML_REFINE), scores[top], score(best + _ML_REFINE)
     curve = y0 - 2.0 * y1 + y2
     if curve < 0.0:
         shift = 0.5 * _ML_REFINE * (y0 - y2) / curve
