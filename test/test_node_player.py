@@ -19,7 +19,7 @@ from pendulum_accel.bag.messages import ACCEL_STAMPED, ACCEL_WITH_COVARIANCE_STA
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.estimators import estimate_batch
 from pendulum_accel.nodes.launcher import ParamValue, node_command
-from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import load_scene
 from test.chain_helpers import PROBE, Output, start_node
 from test.conftest import PYTHON, REPO, Spawn
@@ -71,7 +71,7 @@ def test_golden_bag_through_live_estimator_matches_offline_estimates(spawn: Spaw
     golden = read_bag(GOLDEN)
     angles = golden.decode("/pendulum/joint_states")
     offline, offline_var = estimate_batch(
-        "kalman", angles.stamp, angles["position[0]"], **estimator_settings(load_scene("step_start"))
+        "kalman", angles.stamp, angles["position[0]"], **estimator_options(load_scene("step_start"), "kalman")
     )
     live = read_bag(out)
     replayed = live.decode("/car/accel/estimate")
@@ -177,7 +177,7 @@ def _offline(angles_from: int) -> np.ndarray:
         "kalman",
         angles.stamp[angles_from:],
         angles["position[0]"][angles_from:],
-        **estimator_settings(load_scene("step_start")),
+        **estimator_options(load_scene("step_start"), "kalman"),
     )
     return np.asarray(estimates)
 

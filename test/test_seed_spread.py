@@ -14,7 +14,7 @@ from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.recording.analyze import NeesStats, analyze_bag, nees_split, stored_scene
 from pendulum_accel.recording.generate import chain_streams, write_chain_bag
 from pendulum_accel.recording.seed_spread import WindowSpread, seed_spread, with_seed
-from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene_run import run_scene
 
 AT_REST = Path(__file__).resolve().parent.parent / "bags" / "at_rest"
@@ -50,7 +50,8 @@ def test_the_scene_stored_in_a_bag_reproduces_it_at_its_own_seed() -> None:
     run = run_scene(with_seed(scene, scene.sensor.seed))
     np.testing.assert_array_equal(run.theta_measured, analysis.theta)  # the very same noise draw
     np.testing.assert_allclose(run.t, analysis.t, rtol=0, atol=1e-9)  # stamps: whole nanoseconds in the bag
-    a, var = estimate_batch(DEFAULT_ESTIMATOR, run.t, run.theta_measured, **estimator_settings(scene))
+    options = estimator_options(scene, DEFAULT_ESTIMATOR)
+    a, var = estimate_batch(DEFAULT_ESTIMATOR, run.t, run.theta_measured, **options)
     steady, _ = nees_split(run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + SKIP)
     # The nanosecond stamps may tip a threshold of the adaptive filter on a sample or two.
     mine = NeesStats.of(steady)
@@ -67,7 +68,7 @@ def test_analyze_seeds_prints_the_pooled_figures_and_one_seeds_range(
     spread = json.loads(capsys.readouterr().out)["seed_spread"]
     scene = stored_scene(read_bag(AT_REST))
     assert scene is not None
-    expected = seed_spread(scene, DEFAULT_ESTIMATOR, estimator_settings(scene), 3, SKIP)
+    expected = seed_spread(scene, DEFAULT_ESTIMATOR, estimator_options(scene, DEFAULT_ESTIMATOR), 3, SKIP)
     assert expected.steady is not None and expected.after_change is None
     assert spread["seeds"] == 3 and spread["after_change"] is None
     assert spread["steady"]["share_2sigma"] == expected.steady.pooled.share_2sigma

@@ -95,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         bag, estimator=args.estimator, config=config, skip=args.skip, tolerance=args.tolerance, lag=args.lag
     )
     spread = (
-        None if scene is None else seed_spread(scene, result.estimator, result.config, args.seeds, args.skip)
+        None if scene is None else seed_spread(scene, result.estimator, result.options, args.seeds, args.skip)
     )
     if args.json:
         print(json.dumps({**analysis_dict(result), "seed_spread": _spread_dict(spread)}))

@@ -279,6 +279,11 @@ class Analysis:
     """kalman's preset and why, for a method that takes one (None otherwise)."""
 
     @property
+    def options(self) -> dict[str, object]:
+        """What the re-run was given: the configuration, and the motion preset for a method that takes one."""
+        return {**self.config, **({"preset": self.motion.preset} if self.motion is not None else {})}
+
+    @property
     def error(self) -> NDArray[np.float64]:
         """e = â − a at every joint-state sample (NaN where the estimator gave nothing yet)."""
         return self.accel_est - self.accel_true

@@ -12,6 +12,7 @@ bag's own.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,7 +84,7 @@ class SeedSpread:
 
 
 def seed_spread(
-    scene: Scene, estimator: str, config: dict[str, float], seeds: int, skip: float
+    scene: Scene, estimator: str, config: Mapping[str, object], seeds: int, skip: float
 ) -> SeedSpread:
     """Simulate ``scene`` with sensor seeds 0 … seeds − 1, run ``estimator`` (``config``) in batch on each,
     and split NEES = e²/var at t ≥ t₀ + skip (recording.analyze.nees_split) into the two windows."""
