@@ -27,11 +27,13 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import make_smoothing_spline
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.physics.lazy import lazy_module
 from pendulum_accel.physics.profiles import Table, field_number, field_numbers, field_path, field_text
 from pendulum_accel.textfile import read_text_file
+
+interpolate = lazy_module("scipy.interpolate")  # imported on first use: start-up (docs/portability.md)
 
 SPEED_UNITS: dict[str, float] = {"m/s": 1.0, "km/h": 1.0 / 3.6, "mph": 0.44704}
 """Metres per second in one unit of each accepted speed unit (1 mph = 0.44704 m/s exactly)."""
@@ -141,7 +143,8 @@ def spline_table(
             path="cutoff_hz",
         )
     lo, hi = _window_bounds(t, start, end)
-    spline = make_smoothing_spline(t, np.asarray(values, dtype=float), lam=spline_lambda(cutoff_hz, step))
+    lam = spline_lambda(cutoff_hz, step)
+    spline = interpolate.make_smoothing_spline(t, np.asarray(values, dtype=float), lam=lam)
     fitted = spline.derivative(order) if order else spline
     # f'' of the fitted curve is piecewise linear (order 0) or constant (order 1) between the knots t,
     # so its largest magnitude is at a knot.
