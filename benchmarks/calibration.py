@@ -27,7 +27,7 @@ from benchmarks import report
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
 from pendulum_accel.recording.analyze import nees_split
 from pendulum_accel.recording.seed_spread import WindowSpread, with_seed
-from pendulum_accel.recording.settings import estimator_settings
+from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import SCENE_NAMES, load_scene
 from pendulum_accel.scene_run import SceneRun, run_scene
 
@@ -63,14 +63,14 @@ def table(seeds: int = SEEDS) -> tuple[list[str], dict[str, tuple[SceneRun, np.n
             steady: list[np.ndarray] = []
             after: list[np.ndarray] = []
             for run in sims[name]:
-                a, var = estimate_batch(method, run.t, run.theta_measured, **estimator_settings(scene))
+                a, var = estimate_batch(method, run.t, run.theta_measured, **estimator_options(scene, method))
                 s, c = nees_split(run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + SKIP)
                 steady.append(s)
                 after.append(c)
             rows.append("| " + " | ".join([method, name, *_cells(steady), *_cells(after)]) + " |")
             if method == DEFAULT_ESTIMATOR:
                 own = run_scene(scene)
-                a, var = estimate_batch(method, own.t, own.theta_measured, **estimator_settings(scene))
+                a, var = estimate_batch(method, own.t, own.theta_measured, **estimator_options(scene, method))
                 runs[name] = (own, a, var)
     return rows, runs
 
