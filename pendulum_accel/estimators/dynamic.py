@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from functools import cache
-from typing import ClassVar
+from typing import ClassVar, TypeVar
 
 import numpy as np
 
@@ -95,6 +95,20 @@ def sliding_fits(x: np.ndarray, weights: np.ndarray, width: int, block: int) -> 
     return (rows @ weights).reshape(-1, sets)[:outputs]
 
 
+Num = TypeVar("Num", float, np.ndarray)
+
+
+def _quad_form(v0: Num, v1: Num, v2: Num, g: np.ndarray) -> Num:
+    """vᵀGv for v = (v0, v1, v2) and the symmetric 3×3 G: Σw² of w = v0 c₀ + v1 c₁ + v2 c₂, G their Gram
+    matrix (for one θ or an array of them: the same operations, so streaming and batch agree)."""
+    return (
+        v0 * v0 * g[0, 0]
+        + v1 * v1 * g[1, 1]
+        + v2 * v2 * g[2, 2]
+        + 2.0 * (v0 * v1 * g[0, 1] + v0 * v2 * g[0, 2] + v1 * v2 * g[1, 2])
+    )
+
+
 class DynamicEstimator(Estimator):
     """a = (l(θ'' + c θ') + g sin θ)/cos θ from a centred Savitzky-Golay fit; var = σ²Σw² + bias."""
 
@@ -134,27 +148,13 @@ class DynamicEstimator(Estimator):
         """Σw² = vᵀGv, w = v₀c₀ + v₁c₁ + v₂c₂, v = (g sec²θ, (l/cos θ) c, l/cos θ), G the Gram matrix."""
         cfg = self.config
         lever = cfg.length / math.cos(theta)
-        v0, v1, v2 = accel_gain(theta, cfg.gravity), lever * cfg.damping, lever
-        g = self._gram
-        return (
-            v0 * v0 * g[0, 0]
-            + v1 * v1 * g[1, 1]
-            + v2 * v2 * g[2, 2]
-            + 2.0 * (v0 * v1 * g[0, 1] + v0 * v2 * g[0, 2] + v1 * v2 * g[1, 2])
-        )
+        return _quad_form(accel_gain(theta, cfg.gravity), lever * cfg.damping, lever, self._gram)
 
     def _noise_gain_array(self, theta: np.ndarray) -> np.ndarray:
         """Vectorised :meth:`_noise_gain`, the same operations."""
         cfg = self.config
         lever = cfg.length / np.cos(theta)
-        v0, v1, v2 = accel_gain_array(theta, cfg.gravity), lever * cfg.damping, lever
-        g = self._gram
-        return (
-            v0 * v0 * g[0, 0]
-            + v1 * v1 * g[1, 1]
-            + v2 * v2 * g[2, 2]
-            + 2.0 * (v0 * v1 * g[0, 1] + v0 * v2 * g[0, 2] + v1 * v2 * g[1, 2])
-        )
+        return _quad_form(accel_gain_array(theta, cfg.gravity), lever * cfg.damping, lever, self._gram)
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """Push θ; once full, fit and invert, var = σ²Σw² + (g sec²θ)²E[b²]; g tan θ and its var before."""
