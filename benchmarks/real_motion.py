@@ -286,13 +286,17 @@ def kalman_q(design: Design, q: float, lag: float = 0.0) -> KalmanEstimator:
     return est
 
 
-def q_scan(runs: Sequence[Run], design: Design, grid: Sequence[float] = Q_GRID) -> np.ndarray:
-    """Σ (â − a)² over the runs (t ≥ WARMUP) of the fixed-q filter at every q of the grid."""
+def q_scan(
+    runs: Sequence[Run], design: Design, grid: Sequence[float] = Q_GRID, *, smoothed: bool = False
+) -> np.ndarray:
+    """Σ (â − a)² over the runs (t ≥ WARMUP) of the fixed-q filter (``smoothed``: its RTS smoother) at every
+    q of the grid."""
     out = np.zeros(len(grid))
     for i, q in enumerate(grid):
         est = kalman_q(design, q)
+        run_pass = est.smoothed if smoothed else est.batch
         for r in runs:
-            out[i] += float(np.sum(((est.batch(r.t, r.theta)[0] - r.accel)[r.t >= WARMUP]) ** 2))
+            out[i] += float(np.sum(((run_pass(r.t, r.theta)[0] - r.accel)[r.t >= WARMUP]) ** 2))
     return out
 
 
@@ -317,16 +321,6 @@ def imm_scan(
                 np.count_nonzero(beyond & after),
                 np.count_nonzero(after),
             )
-    return out
-
-
-def rts_scan(runs: Sequence[Run], design: Design, grid: Sequence[float]) -> np.ndarray:
-    """Σ (âˢ − a)² over the runs (t ≥ WARMUP) of the RTS smoother at every q of the grid."""
-    out = np.zeros(len(grid))
-    for i, q in enumerate(grid):
-        est = kalman_q(design, q)
-        for r in runs:
-            out[i] += float(np.sum(((est.smoothed(r.t, r.theta)[0] - r.accel)[r.t >= WARMUP]) ** 2))
     return out
 
 
@@ -482,7 +476,7 @@ def evaluate(seeds: int, quick: bool) -> tuple[list[Row], dict[str, dict[float, 
             # The RTS smoother on the same model (the issue's bound), and at its own hindsight q (tighter).
             rts_score = Score.of(runs, [best.smoothed(r.t, r.theta) for r in runs], design.rate_hz)
             rts_grid = Q_GRID[::4] if quick else Q_GRID[::2]
-            q_rts = rts_grid[int(np.argmin(rts_scan(runs, design, rts_grid)))]
+            q_rts = rts_grid[int(np.argmin(q_scan(runs, design, rts_grid, smoothed=True)))]
             best_rts = kalman_q(design, q_rts)
             rts_own = Score.of(runs, [best_rts.smoothed(r.t, r.theta) for r in runs], design.rate_hz)
             smooth_row = Row(

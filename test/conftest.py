@@ -96,16 +96,19 @@ def spawn() -> Iterator[Spawn]:
         return proc
 
     yield _spawn
+    stop_processes(procs)
+
+
+def stop_processes(procs: list[subprocess.Popen[str]]) -> None:
+    """Stop each process started in its own group: SIGINT to the group (nodes close their bags), up to 10 s,
+    then SIGKILL to the whole group (it may hold children of the child), so nothing is left running."""
     for proc in procs:
         if proc.poll() is None:
-            try:
+            with contextlib.suppress(ProcessLookupError):
                 os.killpg(proc.pid, signal.SIGINT)
-            except ProcessLookupError:
-                continue
     for proc in procs:
         with contextlib.suppress(subprocess.TimeoutExpired):
             proc.wait(timeout=10)
-        # The group may hold children of the child.
         with contextlib.suppress(ProcessLookupError, PermissionError):
             os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import re
 import shutil
 import signal
@@ -36,7 +35,7 @@ from pendulum_accel.cli.export import SMOOTHED
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording.generate import generate_bag
 from test.chain_helpers import Output, start_node
-from test.conftest import PYTHON, REPO, Spawn, cli, rclpy_available
+from test.conftest import PYTHON, REPO, Spawn, cli, rclpy_available, stop_processes
 
 DURATION = 3.0  # s of step_start recorded live
 SAMPLES = 301  # 100 Hz over [0, 3] s
@@ -52,22 +51,13 @@ SAMPLED_TOPICS = (
 
 @contextlib.contextmanager
 def _processes() -> Iterator[list[subprocess.Popen[str]]]:
-    """Processes started into the list, each in its own group, stopped at exit as conftest's ``spawn``
-    stops them (SIGINT, then SIGKILL to the group): a module-scoped fixture cannot use ``spawn``."""
+    """Processes started into the list, each in its own group, stopped at exit by conftest's
+    ``stop_processes`` as ``spawn`` stops them: a module-scoped fixture cannot use ``spawn``."""
     procs: list[subprocess.Popen[str]] = []
     try:
         yield procs
     finally:
-        for proc in procs:
-            if proc.poll() is None:
-                with contextlib.suppress(ProcessLookupError):
-                    os.killpg(proc.pid, signal.SIGINT)
-        for proc in procs:
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                proc.wait(timeout=10)
-            with contextlib.suppress(ProcessLookupError, PermissionError):
-                os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        stop_processes(procs)
 
 
 def _start(procs: list[subprocess.Popen[str]], args: list[str]) -> Output:
