@@ -51,9 +51,9 @@ def check_motion(value: str) -> str:
     return value
 
 
-def stated_motion(preset: str) -> MotionChoice:
-    """The choice a scene's ``motion:`` key (or a node's ``preset`` parameter) states."""
-    return MotionChoice(check_motion(preset), f"stated by the scene ({PRESETS[preset].fitted_on})")
+def stated_motion(preset: str, by: str = "the scene") -> MotionChoice:
+    """The choice ``by`` states: a scene's ``motion:`` key, or a node's ``preset`` parameter."""
+    return MotionChoice(check_motion(preset), f"stated by {by} ({PRESETS[preset].fitted_on})")
 
 
 def motion_of(profile: AccelProfile) -> MotionChoice:

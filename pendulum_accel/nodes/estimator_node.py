@@ -214,7 +214,7 @@ class EstimatorNode(ManagedNode):
     def motion(self, preset: str) -> MotionChoice:
         """kalman's preset: the ``preset`` parameter, or with 'scene' the scene's (recording.settings)."""
         if preset != SCENE_PRESET:
-            return stated_motion(preset)
+            return stated_motion(preset, by="the preset parameter")
         scene = getattr(self, "_scene", None)
         if scene is None:
             return MotionChoice(DEFAULT_PRESET, "the scene does not load: the default preset")
