@@ -1,8 +1,10 @@
 """ROS 2 launch description of the chain: ``ros2 launch pendulum_accel chain.launch.py scene:=step_start``.
 
 Launch arguments: scene, record (a bag directory; empty: no recorder), estimator (method), fast,
-time_source (sim or wall; empty: sim with fast or record, else wall, as ``pendulum-accel run``)
-and namespace. Every node reads ``config/pendulum_accel.params.yaml`` first; the arguments then
+time_source (sim or wall; empty: sim with fast or record, else wall, as ``pendulum-accel run``),
+namespace, namespace_clock (true: a namespaced chain runs on ``<namespace>/clock``), remap (FROM:=TO
+rules for every node, separated by spaces) and autostart (false: the managed nodes wait for
+``ros2 lifecycle set``). Every node reads ``config/pendulum_accel.params.yaml`` first; the arguments then
 override it. The same start-up rules as the launcher: the simulator publishes once
 accel_estimator (and bag_recorder, when recording) subscribe, by name.
 
@@ -24,6 +26,15 @@ ARGUMENTS: dict[str, tuple[str, str]] = {
     "fast": ("false", "true: as fast as possible, on sim time"),
     "time_source": ("", "sim or wall (empty: sim when fast or recording, else wall)"),
     "namespace": ("", "namespace of every node: the chain's relative topics resolve under it"),
+    "namespace_clock": (
+        "true",
+        "true: a namespaced chain publishes and follows <namespace>/clock, not /clock",
+    ),
+    "remap": (
+        "",
+        "topic remaps for every node, FROM:=TO separated by spaces (e.g. pendulum/joint_states:=angle)",
+    ),
+    "autostart": ("true", "false: the simulator and estimator wait, unconfigured, for ros2 lifecycle set"),
 }
 
 
@@ -32,9 +43,29 @@ def _true(text: str) -> bool:
     return text.strip().lower() in ("true", "1", "yes")
 
 
-def chain_nodes(scene: str, record: str, estimator: str, fast: str, time_source: str) -> list[dict[str, Any]]:
+def remappings(namespace: str, namespace_clock: str, remap: str) -> list[tuple[str, str]]:
+    """Every node's (from, to) remaps: the user's rules, then ``/clock`` to ``<namespace>/clock`` for a
+    namespaced chain unless namespace_clock is false (rcl applies the first matching rule)."""
+    from pendulum_accel.nodes.launcher import clock_remap
+
+    rules = remap.split() + (clock_remap(namespace) if _true(namespace_clock) else [])
+    pairs = [rule.partition(":=") for rule in rules]
+    bad = [
+        rule
+        for rule, (source, sep, target) in zip(rules, pairs, strict=True)
+        if not (sep and source and target)
+    ]
+    if bad:
+        raise ValueError(f"remap {bad[0]!r} must read FROM:=TO")
+    return [(source, target) for source, _, target in pairs]
+
+
+def chain_nodes(
+    scene: str, record: str, estimator: str, fast: str, time_source: str, autostart: str = "true"
+) -> list[dict[str, Any]]:
     """What to run: one {executable, name, parameters} per node, recorder first (if recording)."""
     realtime = not _true(fast)
+    managed = {"autostart": _true(autostart)}
     source = time_source or ("sim" if (not realtime or record) else "wall")
     if source not in ("sim", "wall"):
         raise ValueError(f"time_source must be sim or wall, got {time_source!r}")
@@ -59,6 +90,7 @@ def chain_nodes(scene: str, record: str, estimator: str, fast: str, time_source:
                 "method": estimator,
                 "time_source": source,
                 "recorder_node": recorder,
+                **managed,
             },
         }
     )
@@ -72,6 +104,7 @@ def chain_nodes(scene: str, record: str, estimator: str, fast: str, time_source:
                 "time_source": source,
                 "reader_nodes": ["accel_estimator"],
                 "recorder_node": recorder,
+                **managed,
             },
             "ends_launch": True,  # its exit (the scene's end) shuts the launch down: the bag closes
         }
@@ -93,12 +126,14 @@ def generate_launch_description() -> Any:
         """The Node actions for the arguments' values in ``context``."""
         values = {name: LaunchConfiguration(name).perform(context) for name in ARGUMENTS}
         namespace = values.pop("namespace")
+        remaps = remappings(namespace, values.pop("namespace_clock"), values.pop("remap"))
         return [
             Node(
                 package=PACKAGE,
                 executable=spec["executable"],
                 name=spec["name"],
                 namespace=namespace,
+                remappings=remaps,
                 parameters=[params_file, spec["parameters"]],
                 output="screen",
                 on_exit=[Shutdown(reason="scene finished")] if spec.get("ends_launch") else None,

@@ -59,11 +59,37 @@ def test_launch_file_parses_and_declares_the_arguments() -> None:
     functions = {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
     assert "generate_launch_description" in functions
     module = _launch_module()
-    assert set(module.ARGUMENTS) == {"scene", "record", "estimator", "fast", "time_source", "namespace"}
+    assert set(module.ARGUMENTS) == {
+        "scene",
+        "record",
+        "estimator",
+        "fast",
+        "time_source",
+        "namespace",
+        "namespace_clock",
+        "remap",
+        "autostart",
+    }
     # launch_ros.actions.Node's keyword arguments, as its source names them.
     source = LAUNCH.read_text()
-    for keyword in ("package=", "executable=", "name=", "namespace=", "parameters=", "output="):
+    keywords = ("package=", "executable=", "name=", "namespace=", "remappings=", "parameters=", "output=")
+    for keyword in keywords:
         assert keyword in source
+
+
+def test_launch_remaps_give_a_namespaced_chain_its_own_clock() -> None:
+    module = _launch_module()
+    assert module.remappings("", "true", "") == []  # the root namespace keeps /clock
+    assert module.remappings("car1", "true", "") == [("/clock", "/car1/clock")]
+    assert module.remappings("/car1", "false", "") == []
+    # The user's rules come first: rcl applies the first rule that matches a name.
+    rules = module.remappings("car1", "true", "pendulum/joint_states:=angle /clock:=/shared")
+    assert rules == [("pendulum/joint_states", "angle"), ("/clock", "/shared"), ("/clock", "/car1/clock")]
+    with pytest.raises(ValueError, match="FROM:=TO"):
+        module.remappings("car1", "true", "angle")
+    for spec in module.chain_nodes("step_start", "", "kalman", "true", "", autostart="false"):
+        if spec["executable"] != "bag_recorder":
+            assert spec["parameters"]["autostart"] is False
 
 
 def test_every_node_parameter_and_executable_of_the_launch_file_is_real() -> None:

@@ -2,7 +2,8 @@
 
 step_start runs in /car1 (a steps to 3 m/s² at t = 1 s) and at_rest in /car2 (a = 0) at once, with a
 stranger subscribed to the root-namespace angles before either starts. Each estimate must follow its
-own truth, every angle must have its estimate, and each bag must hold only its own chain's topics.
+own truth, every angle must have its estimate, and each bag must hold only its own chain's messages:
+its clock (``/car1/clock``, not the other chain's) and its own estimator's /diagnostics statuses.
 """
 
 from __future__ import annotations
@@ -33,9 +34,25 @@ def _chain(spawn: Spawn, scene: str, namespace: str, bag: Path, *extra: str) -> 
 
 
 def _own_topics_only(bag: Bag, namespace: str) -> None:
-    """Every topic of ``bag`` is under /namespace, except the global /clock and /diagnostics."""
+    """Every topic of ``bag`` is under /namespace (its clock included), except the global /diagnostics,
+    whose statuses all come from this namespace's estimator (named by its full name)."""
     for topic in bag.topics:
-        assert topic in (bm.TOPIC_CLOCK, bm.TOPIC_DIAGNOSTICS) or topic.startswith(f"/{namespace}/"), topic
+        assert topic == bm.TOPIC_DIAGNOSTICS or topic.startswith(f"/{namespace}/"), topic
+    assert bm.TOPIC_CLOCK not in bag.topics and f"/{namespace}/clock" in bag.topics
+    names = {
+        status.name
+        for raw in bag.raw(bm.TOPIC_DIAGNOSTICS)[1]
+        for status in bm.deserialize_as(raw, bm.DIAGNOSTIC_ARRAY, bm.DiagnosticArrayMsg).status
+    }
+    assert names == {f"/{namespace}/accel_estimator"}, names
+
+
+def _info_figures(path: Path, topic: str) -> tuple[float, float]:
+    """(duration s, rate Hz of ``topic``) parsed from ``info``'s lines."""
+    lines, _ = info_lines(str(path))
+    duration = float(next(line for line in lines if line.startswith("duration:")).split()[1])
+    row = next(line for line in lines if line.split()[:1] == [topic])
+    return duration, float(row.split()[-2])
 
 
 def test_two_namespaced_chains_on_one_domain_do_not_cross_talk(spawn: Spawn, tmp_path: Path) -> None:
@@ -60,6 +77,12 @@ def test_two_namespaced_chains_on_one_domain_do_not_cross_talk(spawn: Spawn, tmp
         assert result.recorded is not None and result.recorded.n == angles.size
         lines, note = info_lines(str(bag.path))  # info finds the namespaced chain: every angle estimated
         assert note is None and "[complete]" in lines[0], lines
+        # The scene's duration and rate: the other chain's clock, recorded too, made them 12 s and 83 Hz.
+        # 1e-6 s: stamps are whole nanoseconds of 10 ms steps, and info prints 3 decimals.
+        duration, rate = _info_figures(bag.path, joint)
+        assert abs(duration - DURATION) < 1e-3 and abs(rate - 100.0) < 0.1, lines
+        # The chain's own clock only: one tick per 100 Hz sample (the default clock rate is 100 Hz).
+        assert bag.topics[f"/{namespace}/clock"].count == angles.size, namespace
         assert bag_series(str(bag.path)).accel is not None  # allan finds the namespaced estimate too
         # The recorded estimate follows its own truth: after settling, the other car's truth (3 m/s²
         # apart) would put the mean error near ±1.5 m/s²; 0.3 m/s² is 10 times the settled kalman bias

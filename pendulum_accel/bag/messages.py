@@ -109,18 +109,21 @@ ROLE_TYPES: dict[str, str] = {
     TOPIC_CLOCK: CLOCK,
     TOPIC_DIAGNOSTICS: DIAGNOSTIC_ARRAY,
 }
-"""Every topic of a live chain by role (a relative name, or the global /clock and /diagnostics)."""
+"""Every topic of a live chain by role (a relative name, or /clock and the global /diagnostics). A namespaced
+chain's clock is remapped to ``<ns>/clock``, which plays the /clock role (role_of)."""
 
 CHAIN_ROLES: tuple[str, ...] = tuple(ROLE_TYPES)
 """What the recorder records by default: every role, resolved in the recorder's namespace."""
 
 
 def role_of(name: str) -> str | None:
-    """The chain role of a topic name: a global role as is, else the relative role ``name`` ends with
-    ('pendulum/joint_states', '/pendulum/joint_states', '/car1/pendulum/joint_states' → the same role);
-    None for any other name."""
+    """The chain role of a topic name: a global role as is, a chain's own clock (``/car1/clock``) as
+    /clock, else the relative role ``name`` ends with ('pendulum/joint_states', '/pendulum/joint_states',
+    '/car1/pendulum/joint_states' → the same role); None for any other name."""
     if name in (TOPIC_CLOCK, TOPIC_DIAGNOSTICS):
         return name
+    if name.startswith("/") and name.endswith(TOPIC_CLOCK):
+        return TOPIC_CLOCK
     bare = name.lstrip("/")
     for role in ROLE_TYPES:
         if not role.startswith("/") and (bare == role or bare.endswith("/" + role)):

@@ -56,7 +56,15 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
         default="",
         metavar="NS",
         help="run every node in this namespace (the chain's relative topics resolve under it, so two "
-        "chains on one domain stay apart); /clock and /diagnostics stay global",
+        "chains on one domain stay apart); the chain's clock is NS/clock (see --global-clock), its "
+        "diagnostics go to the global /diagnostics under the node's full name",
+    )
+    parser.add_argument(
+        "--global-clock",
+        dest="namespace_clock",
+        action="store_false",
+        help="with --namespace: publish and follow the global /clock instead of NS/clock (one chain per "
+        "domain only: two chains would interleave their timelines)",
     )
     parser.add_argument(
         "--remap",
@@ -101,6 +109,7 @@ def chain_config(args: argparse.Namespace) -> ChainConfig:
         time_source=args.time_source,
         namespace=str(getattr(args, "namespace", "") or ""),
         remaps=[_remap(text) for text in getattr(args, "remaps", [])],
+        namespace_clock=bool(getattr(args, "namespace_clock", True)),
     )
 
 

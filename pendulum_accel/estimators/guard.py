@@ -4,7 +4,7 @@ Each input sample gets a decision:
 
 * ACCEPT — finite θ, t later than the last accepted t;
 * DROP   — NaN/inf θ or t (state ERROR), a sample that is not the pendulum's angle by
-  ``joint_state_problem`` (another joint, extra joints, another frame: state ERROR), or t ≤ last t by
+  ``joint_state_problem`` (no pendulum joint among its names, another frame: state ERROR), or t ≤ last t by
   less than ``reset_jump`` (a small reorder or a duplicate, state WARN);
 * RESET  — t jumped back by more than ``reset_jump`` (a looping bag): the estimator must restart
   (state RESET), then the sample is used.
@@ -43,17 +43,18 @@ def frame_problem(frame_id: str) -> str | None:
 def joint_state_problem(
     names: Sequence[str] | None, frame_id: str | None = None, joint: str = PENDULUM_JOINT
 ) -> str | None:
-    """None when a JointState is the pendulum's angle, else why not (a phrase): the one rule of the
+    """None when a JointState carries the pendulum's angle, else why not (a phrase): the one rule of the
     estimator node (per message) and of the offline commands (per bag).
 
-    The pendulum's: ``names`` None or empty (a bare angle) or exactly ``[joint]``; ``frame_id`` None
-    (not known) or one of PENDULUM_FRAMES. Another joint, or more joints than the pendulum's, are
-    another robot's JointState on the topic: which position is θ would be a guess.
+    The pendulum's: ``names`` None or empty (a bare angle) or naming ``joint`` among any others (robots
+    aggregate their joints in one message: θ is taken by name, the other joints are ignored);
+    ``frame_id`` None (not known) or one of PENDULUM_FRAMES. Joints without the pendulum's are another
+    robot's JointState on the topic: which position is θ would be a guess.
     """
-    if names and list(names) != [joint]:
+    if names and joint not in names:
         shown = ", ".join(repr(str(n)[:40]) for n in list(names)[:3])
         more = f" (+{len(names) - 3} more)" if len(names) > 3 else ""
-        return f"names joint(s) {shown}{more}, not only {joint!r}"
+        return f"names joint(s) {shown}{more}, not {joint!r}"
     return None if frame_id is None else frame_problem(frame_id)
 
 
@@ -134,6 +135,7 @@ class InputGuard:
         self.dropped_nonfinite = 0
         self.dropped_out_of_order = 0
         self.dropped_wrong_joint = 0
+        self.ignored_joints = 0  # values of other joints in the pendulum's messages, not used
         self.joint = joint
         self.resets = 0
         self.ill_conditioned = 0
@@ -172,6 +174,8 @@ class InputGuard:
             self.dropped_wrong_joint += 1
             self.note(GuardState.ERROR, f"dropped input: {problem}")
             return Decision.DROP
+        if names and len(names) > 1:
+            self.ignored_joints += len(names) - 1
         if not (math.isfinite(t) and math.isfinite(theta)):
             self.dropped_nonfinite += 1
             self.note(GuardState.ERROR, f"dropped non-finite input t={t!r}, θ={theta!r}")
@@ -225,6 +229,7 @@ class InputGuard:
             ("dropped_nonfinite", str(self.dropped_nonfinite)),
             ("dropped_out_of_order", str(self.dropped_out_of_order)),
             ("dropped_wrong_joint", str(self.dropped_wrong_joint)),
+            ("ignored_joints", str(self.ignored_joints)),
             ("resets", str(self.resets)),
             ("ill_conditioned", str(self.ill_conditioned)),
             ("saturated", str(self.saturated)),

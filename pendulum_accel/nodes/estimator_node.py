@@ -63,19 +63,26 @@ from pendulum_accel.recording.settings import (
 from pendulum_accel.scene import Scene, load_scene
 
 NODE_NAME = "accel_estimator"
-DIAGNOSTIC_NAME = "accel_estimator"
 HARDWARE_ID = "pendulum_accel"
 _DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
 _DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
 
 
-def diagnostic_array(report: GuardReport, method: str, stamp: Time, latency: float = 0.0) -> DiagnosticArray:
-    """DiagnosticArray with one status: level and message from the guard, counters, method and latency (s)."""
+def hardware_id_of(parameter: str, namespace: str) -> str:
+    """The status's hardware_id: the parameter, else 'pendulum_accel' followed by a namespace ('/car1')."""
+    return parameter or HARDWARE_ID + (namespace if namespace != "/" else "")
+
+
+def diagnostic_array(
+    report: GuardReport, method: str, stamp: Time, latency: float, name: str, hardware_id: str
+) -> DiagnosticArray:
+    """DiagnosticArray with one status named ``name`` (the node's fully qualified name, so an aggregator
+    tells two chains apart): level and message from the guard, counters, method and latency (s)."""
     status = DiagnosticStatus(
         level=bytes([report.level]),
-        name=DIAGNOSTIC_NAME,
+        name=name,
         message=f"{report.state.value}: {report.message}",
-        hardware_id=HARDWARE_ID,
+        hardware_id=hardware_id,
         values=[
             KeyValue(key="method", value=method),
             KeyValue(key="latency_s", value=f"{latency:g}"),
@@ -109,6 +116,7 @@ class EstimatorNode(ManagedNode):
         self.reader_nodes = node_names(values["reader_nodes"], namespace)
         self.recorder_node = node_names([str(values["recorder_node"])], namespace)
         self.summary_file = str(values["summary_file"])
+        self.hardware_id = hardware_id_of(str(values["hardware_id"]), namespace)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
         self.inputs = 0
@@ -378,7 +386,11 @@ class EstimatorNode(ManagedNode):
             guard.check_stale(time.monotonic())
             report = guard.report()
             stamp = Time(sec=self._last_stamp[0], nanosec=self._last_stamp[1])
-        self.diagnostics_publisher.publish(diagnostic_array(report, self.method, stamp, self.latency()))
+        self.diagnostics_publisher.publish(
+            diagnostic_array(
+                report, self.method, stamp, self.latency(), self.get_fully_qualified_name(), self.hardware_id
+            )
+        )
 
     def _tick(self) -> None:
         """Subscribe when ready; during a stop, finish once the input has been idle (queue drained)."""

@@ -93,6 +93,13 @@ def node_command(
     return cmd
 
 
+def clock_remap(namespace: str) -> list[str]:
+    """['/clock:=/ns/clock'] for a namespaced chain (none in the root namespace): every node of the chain then
+    publishes, records and follows its own clock, so two chains on one domain keep two timelines apart."""
+    ns = namespace.strip("/")
+    return [f"/clock:=/{ns}/clock"] if ns else []
+
+
 @dataclass
 class ChainConfig:
     """What to run: scene (+ overrides of its fields), recording, pacing and estimator."""
@@ -109,6 +116,7 @@ class ChainConfig:
     time_source: str | None = None  # sim or wall; None: sim for --fast and recordings, else wall
     namespace: str = ""  # every node's namespace: the chain's relative topics resolve under it
     remaps: list[str] = field(default_factory=list)  # from:=to rules given to every node
+    namespace_clock: bool = True  # a namespaced chain runs on <ns>/clock (false: the global /clock)
 
     @property
     def effective_time_source(self) -> str:
@@ -226,8 +234,11 @@ class Chain:
         return out
 
     def _names(self) -> dict[str, Any]:
-        """node_command's namespace and remaps for every node of this chain."""
-        return {"namespace": self.config.namespace, "remaps": list(self.config.remaps)}
+        """node_command's namespace and remaps for every node of this chain (the user's rules before
+        the chain's own clock: rcl applies the first rule that matches, so a user's rule for /clock wins)."""
+        cfg = self.config
+        own_clock = clock_remap(cfg.namespace) if cfg.namespace_clock else []
+        return {"namespace": cfg.namespace, "remaps": [*cfg.remaps, *own_clock]}
 
     def _start(self, role: str, command: list[str]) -> None:
         """Start one node in its own process group (a terminal's Ctrl-C reaches only the launcher)."""

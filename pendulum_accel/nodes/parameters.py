@@ -190,6 +190,9 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
            "STALE after this long without input, s (0: 20 periods, at least 0.5 s)", low=0.0, high=3600.0),
     _fixed("diagnostics_period", "double", 1.0, "seconds between /diagnostics messages (wall clock)",
            low=0.01, high=60.0),
+    _fixed("hardware_id", "string", "",
+           "hardware_id of the /diagnostics status, whose name is the node's full name (empty: "
+           "pendulum_accel followed by the node's namespace, e.g. pendulum_accel/car1)"),
     time_source_param(),
     _fixed("frame_id", "string", bm.FRAME_ID, "frame_id of the estimate and the Imu (the car, REP-103)"),
     _fixed("imu_frame_id", "string", "",

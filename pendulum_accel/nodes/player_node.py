@@ -45,7 +45,7 @@ from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import message_class
 from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import PLAYER
-from pendulum_accel.nodes.qos import qos_for
+from pendulum_accel.nodes.qos import make_publisher, qos_for
 from pendulum_accel.nodes.runtime import (
     ThreadedNode,
     acked_within,
@@ -215,12 +215,12 @@ class PlayerNode(ThreadedNode):
         if self.clock:
             wanted = [t for t in wanted if t != bm.TOPIC_CLOCK]
         self._outputs: dict[str, Publisher] = {
-            topic: self.create_publisher(message_class(available[topic]), topic, qos_for(topic))
+            topic: make_publisher(self, message_class(available[topic]), topic, qos_for(topic))
             for topic in wanted
         }
         if self.clock:
-            self._outputs[bm.TOPIC_CLOCK] = self.create_publisher(
-                message_class(bm.CLOCK), bm.TOPIC_CLOCK, qos_for(bm.TOPIC_CLOCK)
+            self._outputs[bm.TOPIC_CLOCK] = make_publisher(
+                self, message_class(bm.CLOCK), bm.TOPIC_CLOCK, qos_for(bm.TOPIC_CLOCK)
             )
         first, last = play_window(
             source,

@@ -1,8 +1,33 @@
-"""QoS profiles shared by every node of the chain, so publishers and subscribers always match."""
+"""QoS profiles shared by every node of the chain, so publishers and subscribers always match; the
+``qos_overrides`` parameters every publisher and subscription accepts; one log line per incompatible peer.
+
+Every entity is created with ``qos_options()`` (rclpy's QoSOverridingOptions): its history, depth,
+reliability and durability can be set at start-up, by the parameter
+``qos_overrides.<resolved topic>.<publisher|subscription>.<policy>`` (a params file or ``-p``), as in
+every ROS 2 node that supports overrides. Subscriptions to data ask for ``best_available``
+reliability: reliable (and lossless, as the chain needs) when every publisher is, best-effort when
+one is not, as a hardware driver's SensorDataQoS publisher.
+"""
 
 from __future__ import annotations
 
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+import copy
+from collections.abc import Callable
+from typing import Any
+
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.node import Node
+from rclpy.publisher import Publisher
+from rclpy.qos import (
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSPolicyKind,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_policy_name_from_kind,
+)
+from rclpy.qos_overriding_options import QoSOverridingOptions
+from rclpy.subscription import Subscription
 
 from pendulum_accel.bag.messages import ROBOT_DESCRIPTION, TOPIC_DIAGNOSTICS, role_of
 
@@ -44,3 +69,110 @@ def qos_for(topic: str) -> QoSProfile:
     if role == ROBOT_DESCRIPTION:
         return DESCRIPTION_QOS
     return DATA_QOS
+
+
+OVERRIDABLE = (
+    QoSPolicyKind.HISTORY,
+    QoSPolicyKind.DEPTH,
+    QoSPolicyKind.RELIABILITY,
+    QoSPolicyKind.DURABILITY,
+)
+"""The policies each publisher and subscription exposes as qos_overrides parameters."""
+
+
+def qos_options() -> QoSOverridingOptions:
+    """QoSOverridingOptions declaring a ``qos_overrides`` parameter for each OVERRIDABLE policy."""
+    return QoSOverridingOptions(OVERRIDABLE)
+
+
+def subscription_qos(profile: QoSProfile) -> QoSProfile:
+    """``profile`` with best_available reliability: a subscription that matches reliable and best-effort
+    publishers alike (reliable when every publisher on the graph at its creation is)."""
+    out = copy.copy(profile)
+    out.reliability = ReliabilityPolicy.BEST_AVAILABLE
+    return out
+
+
+def override_parameter(topic: str, entity: str, policy: str) -> str:
+    """'qos_overrides.<topic>.<entity>.<policy>': the parameter that sets ``policy`` of an entity
+    (publisher or subscription) on the resolved ``topic``."""
+    return f"qos_overrides.{topic}.{entity}.{policy}"
+
+
+def incompatible_line(topic: str, entity: str, policy_kind: int) -> str:
+    """The one line a node logs when a peer's QoS is incompatible with its ``entity`` on ``topic``: which
+    policy, and the parameter that changes it (or, for a policy not exposed, that the peer must)."""
+    policy = qos_policy_name_from_kind(policy_kind).lower()
+    peer = "subscription" if entity == "publisher" else "publisher"
+    exposed = policy in {kind.name.lower() for kind in OVERRIDABLE}
+    fix = (
+        f"set the parameter {override_parameter(topic, entity, policy)} to match it (e.g. in a params file)"
+        if exposed
+        else f"this node does not expose {policy}: the {peer}'s must change"
+    )
+    return f"{topic}: a {peer} with incompatible QoS ({policy}) gets no messages from this {entity}; {fix}"
+
+
+def _once(node: Node, topic: str, entity: str) -> Callable[[Any], None]:
+    """An incompatible-QoS callback logging ``incompatible_line`` once per policy (discovery repeats it)."""
+    said: set[int] = set()
+
+    def callback(event: Any) -> None:
+        kind = int(event.last_policy_kind)
+        if kind not in said:
+            said.add(kind)
+            node.get_logger().warning(incompatible_line(topic, entity, kind))
+
+    return callback
+
+
+def publisher_events(node: Node, topic: str) -> PublisherEventCallbacks:
+    """Event callbacks of a publisher on ``topic``: one line per incompatible subscription's policy."""
+    return PublisherEventCallbacks(incompatible_qos=_once(node, node.resolve_topic_name(topic), "publisher"))
+
+
+def subscription_events(
+    node: Node,
+    topic: str,
+    incompatible: Callable[[Any], None] | None = None,
+    message_lost: Callable[[Any], None] | None = None,
+) -> SubscriptionEventCallbacks:
+    """Event callbacks of a subscription on ``topic``: one line per incompatible publisher's policy (or
+    ``incompatible(event)`` instead, when given), and ``message_lost(event)`` when the middleware reports
+    losses."""
+    on_incompatible = incompatible or _once(node, node.resolve_topic_name(topic), "subscription")
+    return SubscriptionEventCallbacks(incompatible_qos=on_incompatible, message_lost=message_lost)
+
+
+def make_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile) -> Publisher:
+    """node.create_publisher with the qos_overrides parameters and the one-line incompatible-QoS report."""
+    return node.create_publisher(
+        msg_type,
+        topic,
+        qos,
+        event_callbacks=publisher_events(node, topic),
+        qos_overriding_options=qos_options(),
+    )
+
+
+def make_subscription(
+    node: Node,
+    msg_type: Any,
+    topic: str,
+    callback: Callable[[Any], None],
+    qos: QoSProfile,
+    *,
+    incompatible: Callable[[Any], None] | None = None,
+    message_lost: Callable[[Any], None] | None = None,
+) -> Subscription:
+    """node.create_subscription (raw CDR) with ``subscription_qos(qos)``, the qos_overrides parameters and
+    the event callbacks of ``subscription_events``."""
+    return node.create_subscription(
+        msg_type,
+        topic,
+        callback,
+        subscription_qos(qos),
+        raw=True,
+        event_callbacks=subscription_events(node, topic, incompatible, message_lost),
+        qos_overriding_options=qos_options(),
+    )

@@ -1,5 +1,9 @@
 """``bag_recorder``: records the chain's topics, as raw CDR, into a rosbag2 MCAP bag (``bag.writer``).
 
+Only its own chain: relative names and the chain's clock (``<ns>/clock`` in a namespaced chain) resolve
+in the recorder's namespace, and of the global /diagnostics it keeps the statuses of nodes in that
+namespace (a status is named by its node's full name), so two chains on one domain record apart.
+
 Subscriptions are raw (no deserialisation) and reliable keep-all, so a slow disk pushes back on the
 publishers instead of losing messages. Log time is the message's own stamp by default (simulation
 time, as ``pendulum-accel generate`` writes it), so a bag replays on the scene's timeline whatever
@@ -8,6 +12,7 @@ the pacing of the recording was. The first SIGINT/SIGTERM drains the queues, the
 
 from __future__ import annotations
 
+import functools
 import json
 import struct
 import time
@@ -31,7 +36,7 @@ from pendulum_accel.errors import ParameterError
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING
 from pendulum_accel.nodes.conversions import bag_qos, message_class, stamp_offset
 from pendulum_accel.nodes.parameters import LOG_TIMES, RECORDER
-from pendulum_accel.nodes.qos import qos_for
+from pendulum_accel.nodes.qos import make_subscription, qos_for
 from pendulum_accel.nodes.runtime import ChainNode, declare_parameters, run_node, write_summary
 
 NODE_NAME = "bag_recorder"
@@ -45,6 +50,15 @@ def stamp_ns(data: bytes, offset: int) -> int:
     # struct, not numpy: this runs for every recorded message, and numpy costs ~7x more per call.
     sec, nanosec = _STAMP.unpack_from(data, offset)
     return int(sec) * 1_000_000_000 + int(nanosec)
+
+
+def status_namespace(name: str) -> str:
+    """The namespace of the node a DiagnosticStatus name gives ('/car1/accel_estimator' → '/car1'; a name
+    without a '/', such as diagnostic_updater's 'node: task', is taken as the root namespace '/')."""
+    node = name.split(":", 1)[0].strip()
+    if not node.startswith("/"):
+        return "/"
+    return node.rsplit("/", 1)[0] or "/"
 
 
 def custom_data_for(scene_name: str) -> dict[str, str]:
@@ -98,6 +112,7 @@ class RecorderNode(ChainNode):
         self._offsets = {topic: stamp_offset(self.types[topic]) for topic in topics}
         self._first_stamp_ns: int | None = None
         self._unstamped: list[tuple[str, bytes]] = []
+        self.foreign_statuses = 0  # /diagnostics statuses of nodes outside this namespace: not recorded
 
         # Messages wait here (log times, CDR payloads) until the next flush writes them in one bulk call:
         # a per-message write through rosbags cost more CPU than the rest of the recorder.
@@ -106,12 +121,12 @@ class RecorderNode(ChainNode):
         self._stopping_since: float | None = None
         self._closed = False
         for topic in topics:
-            self.create_subscription(
+            make_subscription(
+                self,
                 message_class(self.types[topic]),
                 topic,
-                lambda data, topic=topic: self._on_message(topic, data),
+                functools.partial(self._on_message, topic),
                 qos_for(topic),
-                raw=True,
             )
         self.create_timer(0.1, self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f"recording {len(topics)} topics to {path}")
@@ -147,6 +162,11 @@ class RecorderNode(ChainNode):
         self._last_message = time.monotonic()
         if self._closed:
             return
+        if self.types[topic] == bm.DIAGNOSTIC_ARRAY:
+            own = self._own_statuses(data)
+            if own is None:
+                return
+            data = own
         if self.received[topic] == 0:
             self._add_topic(topic)
         self.received[topic] += 1
@@ -166,6 +186,23 @@ class RecorderNode(ChainNode):
         else:  # receive time, or an unstamped message later on: the node's clock, on the run's time base
             log_ns = self.get_clock().now().nanoseconds
         self._queue(topic, log_ns, data)
+
+    def _own_statuses(self, data: bytes) -> bytes | None:
+        """The DiagnosticArray ``data`` with only the statuses of this namespace's nodes (as is when all are),
+        None when none is; the others are counted in ``foreign_statuses``."""
+        from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.serialization import deserialize_message, serialize_message
+
+        msg = deserialize_message(data, DiagnosticArray)
+        namespace = self.get_namespace()
+        own = [status for status in msg.status if status_namespace(status.name) == namespace]
+        self.foreign_statuses += len(msg.status) - len(own)
+        if len(own) == len(msg.status):
+            return data
+        if not own:
+            return None
+        msg.status = own
+        return bytes(serialize_message(msg))
 
     def _queue(self, topic: str, log_ns: int, data: bytes) -> None:
         """Buffer one message for the next write at log time ``log_ns`` (clamped at 0)."""
@@ -233,7 +270,12 @@ class RecorderNode(ChainNode):
         self._closed = True
         # The roles whose counters were expected: one missing from the accounting died without closing.
         expected = [Path(name).stem for name in self.chain_summaries]
-        own = {"received": self.received, "written": dict(self.writer.counts), "expected": expected}
+        own = {
+            "received": self.received,
+            "written": dict(self.writer.counts),
+            "expected": expected,
+            "foreign_statuses": self.foreign_statuses,
+        }
         for topic, data in self._unstamped:  # no stamped message ever came: log them at the clock
             self._queue(topic, self.get_clock().now().nanoseconds, data)
         self._unstamped = []

@@ -44,7 +44,7 @@ from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import restamp, stamp_offset
 from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import SIMULATOR
-from pendulum_accel.nodes.qos import DATA_QOS, DESCRIPTION_QOS
+from pendulum_accel.nodes.qos import DATA_QOS, DESCRIPTION_QOS, make_publisher
 from pendulum_accel.nodes.runtime import (
     ManagedNode,
     acked_within,
@@ -118,13 +118,13 @@ class SimulatorNode(ManagedNode):
             )
         self.scene = self._scene_from(self._override_values())
         self._outputs = {
-            bm.JOINT_STATES: self.create_publisher(JointState, bm.JOINT_STATES, DATA_QOS),
-            bm.ACCEL_TRUTH: self.create_publisher(AccelStamped, bm.ACCEL_TRUTH, DATA_QOS),
+            bm.JOINT_STATES: make_publisher(self, JointState, bm.JOINT_STATES, DATA_QOS),
+            bm.ACCEL_TRUTH: make_publisher(self, AccelStamped, bm.ACCEL_TRUTH, DATA_QOS),
         }
         if self.time_source == "sim":
-            self._outputs[bm.TOPIC_CLOCK] = self.create_publisher(Clock, bm.TOPIC_CLOCK, DATA_QOS)
-        self._markers = self.create_publisher(MarkerArray, bm.MARKERS, DATA_QOS)
-        self._description = self.create_publisher(String, bm.ROBOT_DESCRIPTION, DESCRIPTION_QOS)
+            self._outputs[bm.TOPIC_CLOCK] = make_publisher(self, Clock, bm.TOPIC_CLOCK, DATA_QOS)
+        self._markers = make_publisher(self, MarkerArray, bm.MARKERS, DATA_QOS)
+        self._description = make_publisher(self, String, bm.ROBOT_DESCRIPTION, DESCRIPTION_QOS)
         self._extra = [self._markers, self._description]
         self._publish_description()
 
@@ -253,7 +253,7 @@ class SimulatorNode(ManagedNode):
                     f"{frames.plan}"
                 )
                 if bm.TOPIC_STRING in frames.rows and bm.STRING not in self._outputs:
-                    self._outputs[bm.STRING] = self.create_publisher(JointState, bm.STRING, DATA_QOS)
+                    self._outputs[bm.STRING] = make_publisher(self, JointState, bm.STRING, DATA_QOS)
                 if not self._wait_for_subscribers():
                     if not self._stop.is_set():  # timed out (a stop is a deactivate or a signal)
                         self.finish(1)

@@ -1,9 +1,10 @@
 """Is a bag the pendulum chain's? The offline commands ask the same question the estimator node asks of
 each message (estimators.guard.joint_state_problem), once per shape of message in the bag.
 
-A bag whose angles name another joint, more joints than the pendulum's, or whose angle, truth or estimate
-carry another frame is refused with one line (analyze, allan, animate, export): figures computed
-from another robot's data would look like figures of this one.
+A bag whose angles name another joint and not the pendulum's, name the pendulum's joint after another
+(the offline readers take position[0]), or whose angle, truth or estimate carry another frame is refused
+with one line (analyze, allan, animate, export): figures computed from another robot's data would look
+like figures of this one.
 """
 
 from __future__ import annotations
@@ -34,7 +35,12 @@ def check_chain_contract(bag: Bag) -> None:
             header = getattr(msg, "header", None)
             frame = str(header.frame_id) if header is not None else None
             if root == bm.TOPIC_JOINT_STATES:
-                problem = joint_state_problem([str(n) for n in getattr(msg, "name", [])], frame)
+                names = [str(n) for n in getattr(msg, "name", [])]
+                problem = joint_state_problem(names, frame)
+                if problem is None and names and names[0] != bm.PENDULUM_JOINT:
+                    problem = (
+                        f"{bm.PENDULUM_JOINT!r} is not the first joint: the offline commands read position[0]"
+                    )
             else:
                 problem = frame_problem(frame) if frame is not None else None
             if problem is not None:
