@@ -229,7 +229,6 @@ def bag_series(path: str | Bag) -> StaticSeries:
         JOINT_STATE,
         TOPIC_ACCEL_ESTIMATE,
         TOPIC_JOINT_STATES,
-        chain_topic,
     )
     from pendulum_accel.bag.reader import Bag, read_bag
     from pendulum_accel.recording.contract import check_chain_contract
@@ -238,7 +237,7 @@ def bag_series(path: str | Bag) -> StaticSeries:
     path = str(bag.path)
     check_chain_contract(bag)
     js = bag.decode(
-        chain_topic(bag.topics, TOPIC_JOINT_STATES),
+        bag.chain_topic(TOPIC_JOINT_STATES),
         JOINT_STATE,
         fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"],
     )
@@ -251,7 +250,7 @@ def bag_series(path: str | Bag) -> StaticSeries:
     dt = np.diff(t[order])
     rate = float(1.0 / np.median(dt[dt > 0])) if np.any(dt > 0) else 0.0
     accel = None
-    estimate = chain_topic(bag.topics, TOPIC_ACCEL_ESTIMATE)
+    estimate = bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
     if estimate in bag.topics and bag.topics[estimate].count >= MIN_SAMPLES:
         est = bag.decode(
             estimate,

@@ -4,15 +4,24 @@ python test/node_probe.py SPEC_JSON
 
 SPEC keys (all optional):
   "listen": [topic, ...]          record /car/accel/estimate and /diagnostics messages
+  "listen_transient_local": topic subscribe to this AccelWithCovarianceStamped topic asking transient-local
+                                  durability (an incompatible subscriber for a volatile publisher)
   "wait_subscribers": n           before feeding, wait until /pendulum/joint_states has n subscribers
   "feed": [[t, theta] | ["pause", seconds] | ["until", state, seconds], ...]  joint states at 100 Hz
                                   wall pace, theta null = NaN; "until" waits (at most seconds) for a
                                   /diagnostics status whose state is ``state`` (needs "listen")
   "joints": [name, ...]           publish these joints (θ on the last, 0.5 on the others), no velocity
+  "others": value                 with "joints": the other joints' value (null = NaN; default 0.5)
+  "burst": [n, t0, theta]         after "feed": n angles stamped t0 + i/1000 s, as fast as publish goes
+  "sensor_data": true             publish with rclpy's SensorDataQoS (best-effort, keep last 5)
+  "endpoints": [topic, ...]       at the end, each topic's subscriptions and publishers as the graph
+                                  lists them: {topic: {"subscriptions"|"publishers": [[node, reliability,
+                                  durability]]}} (discovery carries no history or depth)
   "set": {"node": name, "params": {name: value}}  call SetParameters, then GetParameters
   "linger": seconds               keep listening after feeding
 Prints one JSON object: {"estimates": [[t, a, var], ...], "diagnostics": [[level, message, values]],
-"set": [[successful, reason], ...], "get": {name: value}}.
+"set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s, "diagnostics_after": [[s, state]]}
+(diagnostics_after: each /diagnostics status's arrival, seconds after the feed and burst ended).
 """
 
 from __future__ import annotations
@@ -30,6 +39,7 @@ from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 
 from pendulum_accel.nodes.conversions import joint_state, time_from_ns, time_to_seconds
@@ -57,7 +67,8 @@ def main() -> None:
     spec = json.loads(sys.argv[1])
     rclpy.init()
     node = Node("node_probe")
-    out: dict[str, Any] = {"estimates": [], "diagnostics": [], "set": [], "get": {}}
+    out: dict[str, Any] = {"estimates": [], "diagnostics": [], "set": [], "get": {}, "diagnostics_after": []}
+    fed_at: list[float] = []  # when the feed and burst ended (monotonic)
 
     def on_estimate(msg: AccelWithCovarianceStamped) -> None:
         """Keep (t, â, var)."""
@@ -70,13 +81,21 @@ def main() -> None:
         for status in msg.status:
             values = {kv.key: kv.value for kv in status.values}
             out["diagnostics"].append([int.from_bytes(status.level, "little"), status.message, values])
+            if fed_at:
+                out["diagnostics_after"].append([time.monotonic() - fed_at[0], values.get("state")])
 
     listen = spec.get("listen", [])
     if "/car/accel/estimate" in listen:
         node.create_subscription(AccelWithCovarianceStamped, "/car/accel/estimate", on_estimate, DATA_QOS)
+    if "listen_transient_local" in spec:
+        asking = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        node.create_subscription(
+            AccelWithCovarianceStamped, spec["listen_transient_local"], on_estimate, asking
+        )
     if "/diagnostics" in listen:
         node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, DIAGNOSTICS_QOS)
-    publisher = node.create_publisher(JointState, "/pendulum/joint_states", DATA_QOS)
+    qos = qos_profile_sensor_data if spec.get("sensor_data") else DATA_QOS
+    publisher = node.create_publisher(JointState, "/pendulum/joint_states", qos)
     deadline = time.monotonic() + 30.0
     while (
         publisher.get_subscription_count() < spec.get("wait_subscribers", 0) and time.monotonic() < deadline
@@ -98,10 +117,18 @@ def main() -> None:
         msg = joint_state(time_from_ns(round(t * 1e9)), theta, 0.0)
         if "joints" in spec:  # another publisher's shape: several joints, ours among them
             msg.name = list(spec["joints"])
-            msg.position = [theta if name == msg.name[-1] else 0.5 for name in msg.name]
+            other = math.nan if spec.get("others", 0.5) is None else float(spec.get("others", 0.5))
+            msg.position = [theta if name == msg.name[-1] else other for name in msg.name]
             msg.velocity = []
         publisher.publish(msg)
         spin_for(node, 0.01)
+    if "burst" in spec:
+        count, t0, theta = int(spec["burst"][0]), float(spec["burst"][1]), float(spec["burst"][2])
+        for i in range(count):
+            publisher.publish(joint_state(time_from_ns(round((t0 + i / 1000.0) * 1e9)), theta, 0.0))
+            if i % 200 == 0:
+                rclpy.spin_once(node, timeout_sec=0.0)
+    fed_at.append(time.monotonic())
     if "set" in spec:
         target = spec["set"]["node"]
         params = spec["set"]["params"]
@@ -110,12 +137,31 @@ def main() -> None:
         request = SetParameters.Request()
         for name, value in params.items():
             request.parameters.append(Parameter(name, value=value).to_parameter_msg())
+        asked = time.monotonic()
         response = call(node, setter, request)
+        out["set_seconds"] = time.monotonic() - asked
         out["set"] = [[r.successful, r.reason] for r in response.results]
         reply = call(node, getter, GetParameters.Request(names=list(params)))
         for name, value in zip(params, reply.values, strict=True):
             out["get"][name] = Parameter.from_parameter_msg(ParameterMsg(name=name, value=value)).value
     spin_for(node, float(spec.get("linger", 0.0)))
+    out["endpoints"] = {
+        topic: {
+            kind: [
+                [
+                    info.node_name,
+                    info.qos_profile.reliability.name.lower(),
+                    info.qos_profile.durability.name.lower(),
+                ]
+                for info in infos(topic)
+            ]
+            for kind, infos in (
+                ("subscriptions", node.get_subscriptions_info_by_topic),
+                ("publishers", node.get_publishers_info_by_topic),
+            )
+        }
+        for topic in spec.get("endpoints", [])
+    }
     print(json.dumps(out), flush=True)
     node.destroy_node()
     rclpy.try_shutdown()

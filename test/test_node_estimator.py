@@ -112,9 +112,9 @@ def test_invalid_parameters_are_rejected_with_a_reason(spawn: Spawn) -> None:
 
 
 def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
-    """Our joint without velocity: not our fixed layout, so rclpy deserializes it and â = g tan θ. The
-    same with another joint besides ours is another robot's JointState (guard.joint_state_problem, the
-    rule the offline commands apply too): dropped, counted, no estimate."""
+    """Our joint without velocity: not our fixed layout, so rclpy deserializes it and â = g tan θ. Joints
+    without ours are another robot's JointState (guard.joint_state_problem, the rule the offline commands
+    apply too): dropped, counted, no estimate."""
     estimator = start_node(
         spawn, "estimator_node", {"scene": "lecture_constant", "method": "instant", "diagnostics_period": 0.2}
     )
@@ -142,7 +142,7 @@ def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
         {
             "listen": ["/car/accel/estimate", "/diagnostics"],
             "wait_subscribers": 1,
-            "joints": ["wheel", "pendulum_joint"],
+            "joints": ["wheel", "elbow_joint"],
             "feed": later,
             "linger": 1.0,
         },

@@ -141,7 +141,7 @@ def merged_table(bag: Bag, topics: Sequence[str]) -> DataFrame:
     """One DataFrame on the angle's stamps: a per-sample topic's row with the same stamp (truth, estimate,
     string), any other topic's (/clock, /diagnostics) latest row at or before the stamp."""
     pd = _pandas()
-    joint = bm.chain_topic(bag.topics, bm.TOPIC_JOINT_STATES)
+    joint = bag.chain_topic(bm.TOPIC_JOINT_STATES)
     base = topic_table(bag, joint).drop(columns=["log_time"]).sort_values("t", kind="stable")
     for topic in topics:
         if topic == joint:
@@ -194,7 +194,7 @@ def export_bag(
     unknown = [t for t in chosen if t not in bag.topics]
     if unknown:
         raise ExportError(f"bag {bag.path} has no topic {unknown[0]} (it has {', '.join(bag.topics)})")
-    if merged and bm.chain_topic(bag.topics, bm.TOPIC_JOINT_STATES) not in bag.topics:
+    if merged and bag.chain_topic(bm.TOPIC_JOINT_STATES) not in bag.topics:
         raise ExportError(f"bag {bag.path} has no {bm.TOPIC_JOINT_STATES} to merge on")
     tables = (
         {MERGED_NAME: merged_table(bag, chosen)}

@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import functools
+import json
 import re
 import struct
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -137,24 +138,78 @@ def topic_type(name: str) -> str | None:
     return None if role is None else ROLE_TYPES[role]
 
 
-def find_topic(names: Iterable[str], role: str) -> str | None:
-    """The one name in ``names`` (a bag's topics) that plays ``role`` under any namespace, None when none
-    does; BagError when several do (a bag holding two chains: name the topics to use)."""
+CUSTOM_TOPICS = "pendulum_accel.topics"
+"""custom_data key of a recording's topic map: JSON {role: recorded name} (a remap or a namespace applied)."""
+
+
+@dataclass
+class TopicChoice:
+    """Which of a bag's topics plays each chain role: ``roles`` (role -> name: the recording's stored map,
+    then the user's ``--topic ROLE=NAME`` on top), and ``namespace`` ('' or '/car1': of a bag holding
+    several chains, the one to read)."""
+
+    roles: dict[str, str] = field(default_factory=dict)
+    namespace: str = ""
+
+
+def stored_roles(custom_data: Mapping[str, str]) -> dict[str, str]:
+    """{role: topic} of a recording's stored topic map (CUSTOM_TOPICS); {} when it has none or it is not
+    a JSON object of strings."""
+    try:
+        doc = json.loads(custom_data.get(CUSTOM_TOPICS, "{}"))
+    except ValueError:
+        return {}
+    if not isinstance(doc, dict):
+        return {}
+    return {str(k): str(v) for k, v in doc.items() if isinstance(v, str) and role_of(str(k)) == str(k)}
+
+
+def role_name(text: str) -> str:
+    """The chain role ``text`` names ('/pendulum/joint_states' or 'pendulum/joint_states' → the latter);
+    ValueError listing the roles when it names none."""
+    role = role_of(text)
+    if role is None or text.lstrip("/") != role.lstrip("/"):
+        raise ValueError(f"{text!r} is not a chain role: one of {', '.join(CHAIN_ROLES)}")
+    return role
+
+
+def namespace_of(name: str, role: str) -> str:
+    """The namespace a topic ``name`` playing ``role`` is in ('/car1/car/accel/truth' → '/car1'; '/')."""
+    cut = len(role) if role.startswith("/") else len(role) + 1
+    return name[:-cut] or "/"
+
+
+def in_namespace(name: str, namespace: str) -> bool:
+    """True when topic ``name`` belongs to ``namespace`` ('/car1'), or is the global /diagnostics."""
+    return name == TOPIC_DIAGNOSTICS or name.startswith(namespace.rstrip("/") + "/")
+
+
+def find_topic(names: Iterable[str], role: str, choice: TopicChoice | None = None) -> str | None:
+    """The one name in ``names`` (a bag's topics) that plays ``role``, None when none does: the one the
+    ``choice`` maps it to, else the one whose name ends with the role, under any namespace (under the
+    choice's namespace, when it names one); BagError when several do (a bag holding two chains)."""
+    names = list(names)
+    if choice is not None and choice.roles.get(role) in names:
+        return choice.roles[role]
     found = [name for name in names if role_of(name) == role]
+    if choice is not None and choice.namespace:
+        found = [name for name in found if in_namespace(name, choice.namespace)]
     if len(found) > 1:
+        spaces = sorted({namespace_of(name, role) for name in found})
         raise BagError(
             f"{len(found)} topics play the role {role} ({', '.join(sorted(found))}): the bag holds "
-            "several chains; record or export one namespace at a time"
+            f"several chains; pick one with --namespace ({' or '.join(spaces)}) or name the topic with "
+            f"--topic {role}=NAME"
         )
     return found[0] if found else None
 
 
-def chain_topic(names: Iterable[str], topic: str) -> str:
+def chain_topic(names: Iterable[str], topic: str, choice: TopicChoice | None = None) -> str:
     """The name among ``names`` (a bag's topics) of a chain topic given by its root name
-    (``/pendulum/joint_states``): the topic that plays its role under any namespace
-    (``/car1/pendulum/joint_states``), else ``topic`` itself, so a missing one is reported by its usual
-    name; BagError when several namespaces hold it (see find_topic)."""
-    found = find_topic(names, role_of(topic) or topic)
+    (``/pendulum/joint_states``): the topic that plays its role (find_topic: the ``choice``'s, else
+    under any namespace, ``/car1/pendulum/joint_states``), else ``topic`` itself, so a missing one is
+    reported by its usual name; BagError when several namespaces hold it (see find_topic)."""
+    found = find_topic(names, role_of(topic) or topic, choice)
     return topic if found is None else found
 
 

@@ -52,7 +52,17 @@ from pendulum_accel.bag.integrity import (
     inflate_prefix,
     recover_messages,
 )
-from pendulum_accel.bag.messages import Layout, canonical_cdr, deserialize, rows_from_bytes, stamp_seconds
+from pendulum_accel.bag.messages import (
+    Layout,
+    TopicChoice,
+    canonical_cdr,
+    chain_topic,
+    deserialize,
+    find_topic,
+    rows_from_bytes,
+    stamp_seconds,
+    stored_roles,
+)
 from pendulum_accel.errors import BagError
 
 _MAGIC = b"\x89MCAP0\r\n"
@@ -201,6 +211,17 @@ class Bag:
         self._channels: dict[int, _ChannelData] = {}
         # topic -> _shapes result: the contract check and every decode of a topic share one shape search.
         self._shape_cache: dict[str, _TopicShapes] = {}
+        self.choice = TopicChoice()
+        """Which topic plays each chain role: the recording's stored map (read_bag), the user's on top."""
+
+    def chain_topic(self, topic: str) -> str:
+        """This bag's name for the chain topic ``topic`` (its root name, /pendulum/joint_states), by
+        messages.chain_topic under ``choice``."""
+        return chain_topic(self.topics, topic, self.choice)
+
+    def find_topic(self, role: str) -> str | None:
+        """This bag's topic playing ``role`` (None: none), by messages.find_topic under ``choice``."""
+        return find_topic(self.topics, role, self.choice)
 
     @property
     def topics(self) -> dict[str, TopicInfo]:
@@ -1000,6 +1021,7 @@ def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
         if isinstance(custom, dict):
             bag.custom_data.update({str(k): str(v) for k, v in custom.items()})
     _Scanner(bag).scan(data)
+    bag.choice.roles.update(stored_roles(bag.custom_data))
     if bag.problem is not None and not salvage:
         raise BagError(
             f"bag {bag.path} is damaged ({bag.problem}); refusing to compute from it: pass --salvage "

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.cli.topics import add_topic_flags, choose_topics
 from pendulum_accel.errors import ParameterError
 
 if TYPE_CHECKING:
@@ -44,6 +45,7 @@ def register(subparsers: Any) -> None:
         "--plot", default=None, metavar="PNG", help="save the log-log plot with the slopes marked"
     )
     add_salvage_flag(parser)
+    add_topic_flags(parser)
     parser.set_defaults(func=run)
 
 
@@ -60,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from pendulum_accel.allan import allan_deviation, bag_series, plot_allan, scene_series
 
     plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
-    bag = read_intact(args.source, args.salvage) if _is_bag(args.source) else None
+    bag = choose_topics(read_intact(args.source, args.salvage), args) if _is_bag(args.source) else None
     series = bag_series(bag) if bag is not None else scene_series(args.source, args.duration, args.estimator)
     results: list[AllanResult] = [allan_deviation(series.theta, series.rate_hz, label="angle θ", unit="rad")]
     note = None

@@ -8,6 +8,7 @@ from typing import Any
 
 from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.cli.topics import add_topic_flags, choose_topics
 from pendulum_accel.errors import BagError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME
 from pendulum_accel.recording.analyze import analysis_dict, analyze_bag, plot_analysis, stored_scene
@@ -70,6 +71,7 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     add_salvage_flag(parser)
+    add_topic_flags(parser)
     parser.set_defaults(func=run)
 
 
@@ -77,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     """Print the report (and plot); a damaged bag is refused, or with --salvage analysed from its intact
     records, with a warning, exit 1."""
     plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
-    bag = read_intact(args.bag, args.salvage)
+    bag = choose_topics(read_intact(args.bag, args.salvage), args)
     if args.skip > 0 and not args.skip < bag.duration_s:
         # Nothing would be left to average: the report would be NaN figures.
         raise BagError(f"--skip {args.skip:g} s leaves no samples: {bag.path} spans {bag.duration_s:.3f} s")

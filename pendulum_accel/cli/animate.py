@@ -11,6 +11,7 @@ from tqdm import tqdm
 
 from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.cli.topics import add_topic_flags, choose_topics
 from pendulum_accel.errors import ParameterError
 
 DEFAULT_FPS = 20
@@ -44,6 +45,7 @@ def register(subparsers: Any) -> None:
         "--estimator", "-e", default=None, help="estimator method (default: the package default)"
     )
     add_salvage_flag(parser)
+    add_topic_flags(parser)
     parser.set_defaults(func=run)
 
 
@@ -65,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     check_output_path(out_path)
     if args.fps < 1:
         raise ParameterError(f"--fps must be an integer >= 1, got {args.fps}")
-    bag = read_intact(args.source, args.salvage) if _is_bag(args.source) else None
+    bag = choose_topics(read_intact(args.source, args.salvage), args) if _is_bag(args.source) else None
     if bag is not None:
         data = swing_from_bag(bag, args.estimator)
     else:

@@ -5,9 +5,11 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pendulum_accel.bag.export import FORMATS, export_bag
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.export import FORMATS, VISUAL_ROLES, export_bag
 from pendulum_accel.cli.output import check_output_dir, output_directory
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.cli.topics import add_topic_flags, choose_topics, namespace_topics
 
 SMOOTHED = "/car/accel/smoothed"
 """Name of the derived smoother series (not a topic in the bag): columns a and variance."""
@@ -30,6 +32,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--merged", action="store_true", help="one table on the angle's stamps")
     parser.add_argument("--topics", nargs="+", default=[], metavar="TOPIC", help="only these topics")
     add_salvage_flag(parser)
+    add_topic_flags(parser)
     parser.add_argument(
         "--no-smoothed",
         action="store_true",
@@ -48,14 +51,17 @@ def run(args: argparse.Namespace) -> int:
     from pendulum_accel.recording.contract import check_chain_contract  # estimators: loaded when used
 
     out = check_output_dir(args.out)
-    bag = read_intact(args.bag, args.salvage)
+    bag = choose_topics(read_intact(args.bag, args.salvage), args)
     check_chain_contract(bag)
     from pendulum_accel.recording.analyze import smoothed_estimate  # estimators: loaded when used
 
     smoothed = None if args.no_smoothed else smoothed_estimate(bag)
     derived = {} if smoothed is None else {SMOOTHED: smoothed}
     with output_directory(out):
-        paths = export_bag(bag, out, fmt=args.format, merged=args.merged, topics=args.topics, derived=derived)
+        # With --namespace, by default that chain's topics (but the visual ones, as export_bag leaves them).
+        in_ns = [t for t in namespace_topics(bag) if bm.role_of(t) not in VISUAL_ROLES]
+        topics = args.topics or (in_ns if bag.choice.namespace else [])
+        paths = export_bag(bag, out, fmt=args.format, merged=args.merged, topics=topics, derived=derived)
     for path in paths:
         print(path)
     return warn_salvaged("export", bag)

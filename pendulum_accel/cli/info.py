@@ -40,8 +40,8 @@ def missing_estimates(bag: Bag, accounting: Accounting | None) -> int:
     """Angles in ``bag`` without an estimate that neither warm-up nor a dropped input explains (the chain's
     ``accounting`` stored in it, if any)."""
     topics = bag.topics
-    joint = bm.chain_topic(topics, bm.TOPIC_JOINT_STATES)
-    estimate = bm.chain_topic(topics, bm.TOPIC_ACCEL_ESTIMATE)
+    joint = bag.chain_topic(bm.TOPIC_JOINT_STATES)
+    estimate = bag.chain_topic(bm.TOPIC_ACCEL_ESTIMATE)
     if joint not in topics or estimate not in topics:
         return 0
     angles = bag.decode(joint, fields=_STAMP_FIELDS).stamp

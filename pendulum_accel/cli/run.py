@@ -143,10 +143,7 @@ def summary_lines(bag_path: Path, estimator: str | None) -> list[str]:
     bag = read_bag(bag_path)
     width = max([22, *(len(name) for name in bag.topics)])
     lines = ["messages:"] + [f"  {name:<{width}} {info.count:>8}" for name, info in bag.topics.items()]
-    if (
-        bm.find_topic(bag.topics, bm.JOINT_STATES) is None
-        or bm.find_topic(bag.topics, bm.ACCEL_TRUTH) is None
-    ):
+    if bag.find_topic(bm.JOINT_STATES) is None or bag.find_topic(bm.ACCEL_TRUTH) is None:
         # Remapped away from the chain's names: the bag is whole, the comparison has nothing to go on.
         lines.append("estimate vs truth: not computed (the angles or the truth were remapped to other names)")
         lines.append(f"bag: {bag.path}")

@@ -15,6 +15,7 @@ velocity are not measured: zeros, with covariance[0] = -1 as sensor_msgs/Imu ask
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections import deque
 from collections.abc import Sequence
@@ -28,6 +29,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
+from rclpy.qos import QoSPolicyKind
 from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 from rclpy.timer import Timer
@@ -43,7 +45,14 @@ from pendulum_accel.estimators.motion import MotionChoice, stated_motion
 from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
 from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOPIC, SCENE_PRESET
-from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
+from pendulum_accel.nodes.qos import (
+    DATA_QOS,
+    DIAGNOSTICS_QOS,
+    incompatible_line,
+    make_publisher,
+    make_subscription,
+    override_parameter,
+)
 from pendulum_accel.nodes.runtime import (
     ManagedNode,
     change_result,
@@ -66,6 +75,10 @@ NODE_NAME = "accel_estimator"
 HARDWARE_ID = "pendulum_accel"
 _DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
 _DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
+# Angles taken but not yet estimated. Taking is cheap, so the executor keeps serving the parameter
+# services between messages; at this many, taking waits for the worker: the back-pressure (through
+# the reliable keep-all input) that keeps a fast chain lossless and this queue a few seconds of work.
+_BACKLOG_LIMIT = 5000
 
 
 def hardware_id_of(parameter: str, namespace: str) -> str:
@@ -74,10 +87,11 @@ def hardware_id_of(parameter: str, namespace: str) -> str:
 
 
 def diagnostic_array(
-    report: GuardReport, method: str, stamp: Time, latency: float, name: str, hardware_id: str
+    report: GuardReport, method: str, stamp: Time, latency: float, name: str, hardware_id: str, lost: int = 0
 ) -> DiagnosticArray:
     """DiagnosticArray with one status named ``name`` (the node's fully qualified name, so an aggregator
-    tells two chains apart): level and message from the guard, counters, method and latency (s)."""
+    tells two chains apart): level and message from the guard, counters, method, latency (s) and the
+    angles the middleware reported lost (a best-effort input)."""
     status = DiagnosticStatus(
         level=bytes([report.level]),
         name=name,
@@ -87,6 +101,7 @@ def diagnostic_array(
             KeyValue(key="method", value=method),
             KeyValue(key="latency_s", value=f"{latency:g}"),
             KeyValue(key="state", value=report.state.value),
+            KeyValue(key="lost", value=str(lost)),
         ]
         + [KeyValue(key=k, value=v) for k, v in report.values],
     )
@@ -131,12 +146,21 @@ class EstimatorNode(ManagedNode):
             bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE
         ).reader(("header.stamp.sec", "header.stamp.nanosec", "position[0]"))
         self._last_input = time.monotonic()
+        # (arrival, CDR) of the angles taken by the executor, estimated in order by the worker thread.
+        self._backlog: deque[tuple[float, bytes]] = deque()
+        self._queue_changed = threading.Condition()
+        self._work_lock = threading.Lock()  # one estimator update, or its rebuild, at a time
+        self._diagnostics_due = 0.0  # monotonic time of the next /diagnostics (0: at once)
         self._stopping_since: float | None = None
         self._subscription: Subscription | None = None
         self._publishers: list[Publisher] = []
         self._timers: list[Timer] = []
         self._active = False
         self._marker_tick = -1
+        self._best_effort = False  # the angles come best-effort (a best-effort publisher was seen)
+        self._resubscribe = False  # subscribe again, best-effort, at the next tick
+        self._incompatible_said: set[int] = set()
+        self.lost = 0  # angles the middleware reports lost (best-effort input)
         self.start(bool(values["autostart"]))
 
     # -- lifecycle --------------------------------------------------------------------------------
@@ -151,14 +175,14 @@ class EstimatorNode(ManagedNode):
         # The scene parameter is read-only: load it once for the sensor's bias and range.
         self._scene = self._own_scene()
         self.guarded = GuardedEstimator(self._build(self._config_values()), self._new_guard())
-        self.estimate_publisher = self.create_publisher(
-            AccelWithCovarianceStamped, bm.ACCEL_ESTIMATE, DATA_QOS
+        self.estimate_publisher = make_publisher(
+            self, AccelWithCovarianceStamped, bm.ACCEL_ESTIMATE, DATA_QOS
         )
-        self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, bm.TOPIC_DIAGNOSTICS, DIAGNOSTICS_QOS
+        self.diagnostics_publisher = make_publisher(
+            self, DiagnosticArray, bm.TOPIC_DIAGNOSTICS, DIAGNOSTICS_QOS
         )
-        self.imu_publisher = self.create_publisher(Imu, IMU_TOPIC, DATA_QOS)
-        self.marker_publisher = self.create_publisher(MarkerArray, bm.MARKERS, DATA_QOS)
+        self.imu_publisher = make_publisher(self, Imu, IMU_TOPIC, DATA_QOS)
+        self.marker_publisher = make_publisher(self, MarkerArray, bm.MARKERS, DATA_QOS)
         self._publishers = [
             self.estimate_publisher,
             self.diagnostics_publisher,
@@ -175,22 +199,26 @@ class EstimatorNode(ManagedNode):
                 f"--frame-id {self.frame_id} --child-frame-id {self.imu_frame_id}`"
             )
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._timers = [
-            self.create_timer(self.diagnostics_period, self._publish_diagnostics, clock=steady),
-            self.create_timer(0.05, self._tick, clock=steady),
-        ]
+        self._timers = [self.create_timer(0.05, self._tick, clock=steady)]
 
     def activate(self) -> None:
-        """Subscribe to the angles as soon as the named readers of the outputs are there."""
+        """Start the worker (estimates and /diagnostics); subscribe to the angles as soon as the named
+        readers of the outputs are there."""
         self._active = True
+        self._diagnostics_due = 0.0
+        self.start_thread(self._work, "accel_estimator_worker")
         self._subscribe_when_ready()
 
     def deactivate(self) -> None:
-        """Unsubscribe from the angles: no more estimates until activated again."""
+        """Unsubscribe from the angles and stop the worker: no more estimates, and no /diagnostics (an
+        inactive lifecycle node publishes nothing), until activated again."""
         self._active = False
         if self._subscription is not None:
             self.destroy_subscription(self._subscription)
             self._subscription = None
+        with self._queue_changed:
+            self._queue_changed.notify_all()
+        self.stop_thread()
 
     def cleanup(self) -> None:
         """Destroy the publishers and timers configure made."""
@@ -280,8 +308,9 @@ class EstimatorNode(ManagedNode):
         self.method = str(values["method"])
         if not hasattr(self, "guarded"):  # not configured yet: configure builds it from these values
             return
-        self.guarded.estimator = self._build(values)
-        self._build_writers()
+        with self._work_lock:
+            self.guarded.estimator = self._build(values)
+            self._build_writers()
         self.get_logger().info(f"estimator rebuilt: {self.guarded.estimator.describe()}")
         self.get_logger().info(f"latency {self.latency():.3f} s")
 
@@ -308,8 +337,15 @@ class EstimatorNode(ManagedNode):
             # The description may solve the filter's steady state (scipy): before subscribing, so the
             # first angles do not queue behind it.
             description = self.guarded.estimator.describe()
-            self._subscription = self.create_subscription(
-                JointState, bm.JOINT_STATES, self._on_joint_state, DATA_QOS, raw=True
+            self._subscription = make_subscription(
+                self,
+                JointState,
+                bm.JOINT_STATES,
+                self._on_joint_state,
+                DATA_QOS,
+                incompatible=self._on_incompatible_angles,
+                message_lost=self._on_lost,
+                best_effort=self._best_effort,
             )
             self.get_logger().info(f"estimating with {description}")
             if uses_preset(self.method):
@@ -319,17 +355,74 @@ class EstimatorNode(ManagedNode):
             )
             # Status from the start, not one diagnostics period later: a short or fast run still
             # records how its estimator was doing.
-            self._publish_diagnostics()
+            with self._queue_changed:
+                self._diagnostics_due = 0.0
+                self._queue_changed.notify_all()
+
+    def _on_incompatible_angles(self, event: Any) -> None:
+        """A publisher of the angles whose QoS this subscription refuses. A best-effort one (a hardware
+        driver's SensorDataQoS) while reliability is left at best_available: subscribe again best-effort
+        (the next tick), counting what is lost. Anything else: one line naming the parameter to set."""
+        topic = self.resolve_topic_name(bm.JOINT_STATES)
+        kind = int(event.last_policy_kind)
+        parameter = override_parameter(topic, "subscription", "reliability")
+        asked = self.get_parameter(parameter).value if self.has_parameter(parameter) else ""
+        if kind == int(QoSPolicyKind.RELIABILITY) and asked == "best_available" and not self._best_effort:
+            self._best_effort = True
+            self._resubscribe = True
+            self.get_logger().warning(
+                f"{topic}: a best-effort publisher: taking its angles best-effort from now on (losses are "
+                f"counted: 'lost' on /diagnostics); {parameter}:=reliable refuses it instead"
+            )
+        elif kind not in self._incompatible_said:
+            self._incompatible_said.add(kind)
+            self.get_logger().warning(incompatible_line(topic, "subscription", kind))
+
+    def _on_lost(self, event: Any) -> None:
+        """Angles the middleware reports lost (a best-effort stream): counted, shown on /diagnostics."""
+        self.lost += int(event.total_count_change)
 
     def _stopping(self) -> bool:
         """True once a second stop request made the node finish."""
         return self.finished.done()
 
+    def _halted(self) -> bool:
+        """True once the node finished or the worker is asked to stop (a deactivate)."""
+        return self._stop.is_set() or self.finished.done()
+
     def _on_joint_state(self, data: bytes) -> None:
-        """â for one angle sample (CDR), stamped like it; nothing when the guard drops it or it warms up."""
+        """Take one angle sample (CDR) into the backlog, with its arrival time; wait while the backlog is
+        full (back-pressure), unless the node is stopping."""
         now = time.monotonic()
         self._last_input = now
         self.inputs += 1
+        with self._queue_changed:
+            while len(self._backlog) >= _BACKLOG_LIMIT and not (self._stop.is_set() or self._stopping()):
+                self._queue_changed.wait(0.05)
+            self._backlog.append((now, data))
+            self._queue_changed.notify_all()
+
+    def _work(self) -> None:
+        """Worker thread: estimate the backlog in order and publish /diagnostics every diagnostics_period
+        (also while a backlog is worked off, and while the input is silent), until the node deactivates."""
+        while not self._stop.is_set():
+            with self._queue_changed:
+                if not self._backlog:
+                    self._queue_changed.wait(max(0.0, self._diagnostics_due - time.monotonic()))
+                item = self._backlog.popleft() if self._backlog else None
+                if item is not None:
+                    self._queue_changed.notify_all()
+            if item is not None:
+                with self._work_lock:
+                    self._estimate(*item)
+            if time.monotonic() >= self._diagnostics_due and not self._stop.is_set():
+                self._diagnostics_due = time.monotonic() + self.diagnostics_period
+                with self._work_lock:
+                    self._publish_diagnostics()
+
+    def _estimate(self, now: float, data: bytes) -> None:
+        """â for one angle sample (CDR) that arrived at ``now``, stamped like it; nothing when the guard
+        drops it or it warms up."""
         fields = self._read_input(data)
         # The fast path's shape names pendulum_joint in base_link already; any other shape (no velocity,
         # more joints, another frame) goes through rclpy and the guard's joint_state_problem.
@@ -356,8 +449,8 @@ class EstimatorNode(ManagedNode):
         self._trim_stamps()
         out = self._write_estimate(sec, nanosec, estimate.a, estimate.variance)
         imu = self._write_imu(sec, nanosec, estimate.a, estimate.variance)
-        if publish_blocking(self.estimate_publisher, out, self._stopping) and publish_blocking(
-            self.imu_publisher, imu, self._stopping
+        if publish_blocking(self.estimate_publisher, out, self._halted) and publish_blocking(
+            self.imu_publisher, imu, self._halted
         ):
             self.estimates += 1
         else:
@@ -367,7 +460,7 @@ class EstimatorNode(ManagedNode):
         if tick != self._marker_tick:  # the estimate's arrow at MARKER_RATE_HZ of stamp time
             self._marker_tick = tick
             marker = self._write_marker(sec, nanosec, estimate.a)
-            publish_blocking(self.marker_publisher, marker, self._stopping)
+            publish_blocking(self.marker_publisher, marker, self._halted)
 
     def _trim_stamps(self) -> None:
         """Keep only the stamps a lagged estimate can still describe (the lag plus a margin)."""
@@ -383,22 +476,35 @@ class EstimatorNode(ManagedNode):
             report = GuardReport(GuardState.STALE, "waiting for input", guard.values())
             stamp = self.get_clock().now().to_msg()
         else:
-            guard.check_stale(time.monotonic())
+            if not self._backlog:  # angles still waiting are input: not stale
+                guard.check_stale(time.monotonic())
             report = guard.report()
             stamp = Time(sec=self._last_stamp[0], nanosec=self._last_stamp[1])
         self.diagnostics_publisher.publish(
             diagnostic_array(
-                report, self.method, stamp, self.latency(), self.get_fully_qualified_name(), self.hardware_id
+                report,
+                self.method,
+                stamp,
+                self.latency(),
+                self.get_fully_qualified_name(),
+                self.hardware_id,
+                self.lost,
             )
         )
 
     def _tick(self) -> None:
-        """Subscribe when ready; during a stop, finish once the input has been idle (queue drained)."""
+        """Subscribe when ready (again, best-effort, after a best-effort publisher showed up); during a stop,
+        finish once the input has been idle (queue drained)."""
+        if self._resubscribe and self._subscription is not None:
+            self._resubscribe = False
+            self.destroy_subscription(self._subscription)
+            self._subscription = None
         self._subscribe_when_ready()
         if self._stopping_since is None:
             return
         now = time.monotonic()
-        if now - self._last_input > _DRAIN_IDLE or now - self._stopping_since > _DRAIN_LIMIT:
+        idle = now - self._last_input > _DRAIN_IDLE and not self._backlog
+        if idle or now - self._stopping_since > _DRAIN_LIMIT:
             self.finish(0)
 
     def request_stop(self) -> None:
@@ -419,12 +525,18 @@ class EstimatorNode(ManagedNode):
             "dropped_nonfinite": guard.dropped_nonfinite,
             "dropped_out_of_order": guard.dropped_out_of_order,
             "dropped_wrong_joint": guard.dropped_wrong_joint,
+            "ignored_joints": guard.ignored_joints,
+            "lost": self.lost,
             "unpublished": self.unpublished,
             "resets": guard.resets,
         }
 
     def close(self) -> None:
-        """Deliver what was published, then log the counts and write them to summary_file."""
+        """Stop the worker (angles it did not reach count as unpublished), deliver what was published, then
+        log the counts and write them to summary_file."""
+        self.stop_thread()
+        self.unpublished += len(self._backlog)
+        self._backlog.clear()
         if not hasattr(self, "guarded"):  # never configured: nothing was estimated
             return
         if self._publishers:  # configured (cleanup destroys them)

@@ -164,15 +164,20 @@ def make_subscription(
     *,
     incompatible: Callable[[Any], None] | None = None,
     message_lost: Callable[[Any], None] | None = None,
+    best_effort: bool = False,
 ) -> Subscription:
     """node.create_subscription (raw CDR) with ``subscription_qos(qos)``, the qos_overrides parameters and
-    the event callbacks of ``subscription_events``."""
+    the event callbacks of ``subscription_events``; ``best_effort``: best-effort reliability instead,
+    which no parameter overrides (the switch a best-effort publisher asked for, see the estimator)."""
+    profile = subscription_qos(qos)
+    if best_effort:
+        profile.reliability = ReliabilityPolicy.BEST_EFFORT
     return node.create_subscription(
         msg_type,
         topic,
         callback,
-        subscription_qos(qos),
+        profile,
         raw=True,
         event_callbacks=subscription_events(node, topic, incompatible, message_lost),
-        qos_overriding_options=qos_options(),
+        qos_overriding_options=None if best_effort else qos_options(),
     )

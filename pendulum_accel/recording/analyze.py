@@ -28,7 +28,6 @@ from pendulum_accel.bag.messages import (
     TOPIC_DIAGNOSTICS,
     TOPIC_JOINT_STATES,
     DiagnosticArrayMsg,
-    chain_topic,
     deserialize_as,
 )
 from pendulum_accel.bag.reader import Bag, read_bag, scene_name
@@ -397,12 +396,12 @@ def analyze_bag(
     data = bag if isinstance(bag, Bag) else read_bag(bag)
     check_chain_contract(data)
     js = data.decode(
-        chain_topic(data.topics, TOPIC_JOINT_STATES),
+        data.chain_topic(TOPIC_JOINT_STATES),
         JOINT_STATE,
         fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"],
     )
     truth = data.decode(
-        chain_topic(data.topics, TOPIC_ACCEL_TRUTH),
+        data.chain_topic(TOPIC_ACCEL_TRUTH),
         ACCEL_STAMPED,
         fields=["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"],
     )
@@ -462,7 +461,7 @@ def _recorded_calibration(
     bag: Bag, t_truth: NDArray[np.float64], a_truth: NDArray[np.float64], t_from: float
 ) -> Calibration | None:
     """NEES figures of the recorded estimate and its covariance[0]; None without that topic."""
-    topic = chain_topic(bag.topics, TOPIC_ACCEL_ESTIMATE)
+    topic = bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
     if topic not in bag.topics or bag.topics[topic].count == 0:
         return None
     est = bag.decode(
@@ -481,7 +480,7 @@ def recorded_estimator(bag: Bag) -> str | None:
     stored = bag.custom_data.get(CUSTOM_ESTIMATOR)
     if stored in ESTIMATORS:
         return stored
-    topic = chain_topic(bag.topics, TOPIC_DIAGNOSTICS)
+    topic = bag.chain_topic(TOPIC_DIAGNOSTICS)
     if topic not in bag.topics:
         return None
     _, payloads = bag.raw(topic)
@@ -506,7 +505,7 @@ def _recorded_figures(
     skip_until: float,
 ) -> EstimateFigures | None:
     """Figures of the estimate recorded in the bag (the live estimator), None without that topic."""
-    topic = chain_topic(bag.topics, TOPIC_ACCEL_ESTIMATE)
+    topic = bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
     if topic not in bag.topics or bag.topics[topic].count == 0:
         return None
     est = bag.decode(

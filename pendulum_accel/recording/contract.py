@@ -27,7 +27,7 @@ def check_chain_contract(bag: Bag) -> None:
         (topic, bm.topic_type(topic)) for topic in FRAMED_TOPICS
     ]
     for root, msgtype in checks:
-        topic = bm.chain_topic(bag.topics, root)
+        topic = bag.chain_topic(root)
         if topic not in bag.topics or bag.topics[topic].count == 0:
             continue
         total = bag.topics[topic].count

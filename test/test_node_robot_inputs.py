@@ -1,0 +1,166 @@
+"""The estimator fed as a real robot feeds it: a best-effort (SensorDataQoS) driver, QoS set by
+``qos_overrides`` from a params file, a JointState aggregating several joints (one of them NaN), and a
+burst of 20,000 angles followed by silence.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+from pathlib import Path
+
+import pytest
+import yaml
+
+from test.chain_helpers import Output, run_probe, start_node
+from test.conftest import PYTHON, Spawn
+
+pytestmark = [pytest.mark.ros]
+
+G = 9.80665
+SCENE = "lecture_constant"
+JOINT_TOPIC = "/pendulum/joint_states"
+
+
+def _own(endpoints: list[list[object]]) -> list[object]:
+    """The one endpoint of the estimator (node accel_estimator) among a topic's ``endpoints``."""
+    (own,) = [e for e in endpoints if e[0] == "accel_estimator"]
+    return own
+
+
+def _last_values(diagnostics: list[list[object]]) -> dict[str, str]:
+    """The key/values of the last /diagnostics status the probe heard."""
+    assert diagnostics, "no /diagnostics heard"
+    values = diagnostics[-1][2]
+    assert isinstance(values, dict)
+    return values
+
+
+def test_a_best_effort_publisher_is_estimated_not_refused(spawn: Spawn) -> None:
+    """A SensorDataQoS (best-effort) publisher, as hardware drivers use: the estimator, subscribed
+    reliable-if-possible (best_available), switches to best-effort and estimates every angle it gets."""
+    estimator = start_node(
+        spawn, "estimator_node", {"scene": SCENE, "method": "instant", "diagnostics_period": 0.2}
+    )
+    estimator.wait_for(r"estimating with", timeout=90)
+    theta = math.atan2(1.0, G)
+    feed = [[0.01 * i, theta] for i in range(1, 101)]
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/car/accel/estimate", "/diagnostics"],
+            "sensor_data": True,
+            "wait_subscribers": 1,  # counts matched subscriptions: only the best-effort one matches
+            "feed": feed,
+            "linger": 1.0,
+            "endpoints": [JOINT_TOPIC],
+        },
+        timeout=120,
+    )
+    estimator.wait_for(r"a best-effort publisher: taking its angles best-effort", timeout=10)
+    values = _last_values(result["diagnostics"])
+    stamps = [t for t, _, _ in result["estimates"]]
+    # instant has no warm-up: one estimate per accepted angle, each stamped as its angle. Over loopback at
+    # 100 Hz nothing is lost; were anything lost, the middleware's count says how much.
+    assert len(stamps) == int(values["accepted"]) == len(feed) - int(values["lost"]), values
+    assert stamps == pytest.approx([t for t, _ in feed][: len(stamps)], abs=1e-9)
+    (subscription,) = [
+        s for s in result["endpoints"][JOINT_TOPIC]["subscriptions"] if s[0] == "accel_estimator"
+    ]
+    assert subscription[1] == "best_effort"
+
+
+def test_qos_overrides_from_a_params_file_take_effect(spawn: Spawn, tmp_path: Path) -> None:
+    """qos_overrides for the estimator's input (best_effort) and its estimate publisher (transient_local),
+    set in a params file as any ROS 2 node takes them: the graph shows both."""
+    params = tmp_path / "qos.yaml"
+    overrides = {
+        JOINT_TOPIC: {"subscription": {"reliability": "best_effort"}},
+        "/car/accel/estimate": {"publisher": {"durability": "transient_local"}},
+    }
+    params.write_text(
+        yaml.safe_dump(
+            {"/**/accel_estimator": {"ros__parameters": {"qos_overrides": overrides, "scene": SCENE}}}
+        )
+    )
+    cmd = [PYTHON, "-m", "pendulum_accel.nodes.estimator_node", "--ros-args", "--params-file", str(params)]
+    estimator = Output(spawn(cmd))
+    estimator.wait_for(r"estimating with", timeout=90)
+    # The linger lets discovery list the estimator's endpoints in the probe's graph.
+    result = run_probe(spawn, {"endpoints": [JOINT_TOPIC, "/car/accel/estimate"], "linger": 2.0})
+    angles = _own(result["endpoints"][JOINT_TOPIC]["subscriptions"])
+    estimate = _own(result["endpoints"]["/car/accel/estimate"]["publishers"])
+    assert angles[1] == "best_effort"
+    assert estimate[1:] == ["reliable", "transient_local"]  # durability overridden, reliability as it was
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=30) == 0, estimator.text
+
+
+def test_an_incompatible_subscriber_gets_one_line_naming_the_parameter(spawn: Spawn) -> None:
+    """A subscriber asking transient-local durability of the volatile estimate publisher: the node says
+    which qos_overrides parameter to set, once."""
+    estimator = start_node(spawn, "estimator_node", {"scene": SCENE})
+    estimator.wait_for(r"estimating with", timeout=90)
+    run_probe(spawn, {"listen_transient_local": "/car/accel/estimate", "linger": 1.5})
+    line = estimator.wait_for(r".*incompatible QoS \(durability\).*", timeout=10).group(0)
+    assert "qos_overrides./car/accel/estimate.publisher.durability" in line
+    assert estimator.text.count("incompatible QoS (durability)") == 1
+
+
+def test_a_multi_joint_message_gives_the_pendulum_joint_and_ignores_the_others(spawn: Spawn) -> None:
+    """A robot's aggregated JointState: wheel and arm (both NaN) besides pendulum_joint. θ is taken by
+    name, every angle is estimated, and the ignored values are counted on /diagnostics."""
+    estimator = start_node(
+        spawn, "estimator_node", {"scene": SCENE, "method": "instant", "diagnostics_period": 0.2}
+    )
+    estimator.wait_for(r"estimating with", timeout=90)
+    theta = math.atan2(2.0, G)
+    feed = [[0.01 * i, theta] for i in range(1, 51)]
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/car/accel/estimate", "/diagnostics"],
+            "wait_subscribers": 1,
+            "joints": ["wheel", "arm", "pendulum_joint"],  # θ on the last; the others NaN
+            "others": None,
+            "feed": feed,
+            "linger": 1.0,
+        },
+    )
+    assert [t for t, _, _ in result["estimates"]] == pytest.approx([t for t, _ in feed], abs=1e-9)
+    for _, accel, _ in result["estimates"]:
+        # g tan(atan(2/g)): atan then tan, each ≤ 1 ulp, amplified by tan's condition 2θ/sin 2θ ≈ 1.0: ~4 ε
+        assert accel == pytest.approx(2.0, rel=1e-12)
+    values = _last_values(result["diagnostics"])
+    assert values["ignored_joints"] == str(2 * len(feed)) and values["dropped_nonfinite"] == "0", values
+    assert result["diagnostics"][-1][0] in (0, 3), result["diagnostics"][-1]  # OK, or STALE once silent
+
+
+def test_after_a_burst_the_silent_input_goes_stale_and_parameters_are_served(spawn: Spawn) -> None:
+    """20,000 angles as fast as they go, then silence: /diagnostics keeps coming while the backlog is
+    worked off, says STALE once the input has been silent for stale_after (1 s; the probe listens for
+    3 s), and a SetParameters call right after the burst is answered."""
+    estimator = start_node(
+        spawn, "estimator_node", {"scene": SCENE, "stale_after": 1.0, "diagnostics_period": 0.2}
+    )
+    estimator.wait_for(r"estimating with", timeout=90)
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/diagnostics"],
+            "wait_subscribers": 1,
+            "burst": [20000, 1.0, 0.2],
+            "set": {"node": "accel_estimator", "params": {"noise_std": 0.002}},
+            "linger": 3.0,
+        },
+        timeout=300,
+    )
+    assert result["set"] == [[True, ""]] and result["get"] == {"noise_std": 0.002}
+    after = result["diagnostics_after"]
+    stale = [at for at, state in after if state == "STALE"]
+    # STALE is due stale_after (1 s) after the last angle, and shows at the next diagnostics period (0.2 s);
+    # the 3 s window leaves the rest for the scheduling of a shared machine.
+    assert stale and stale[0] < 3.0, after
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=60) == 0, estimator.text
+    assert "20000 inputs, 20000 estimates published" in estimator.text
