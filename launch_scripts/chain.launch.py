@@ -102,6 +102,7 @@ def chain_nodes(
                 "scene": scene,
                 "realtime": realtime,
                 "time_source": source,
+                "publish_clock": source == "sim",
                 "reader_nodes": ["accel_estimator"],
                 "recorder_node": recorder,
                 **managed,

@@ -33,6 +33,15 @@ class BagError(PendulumAccelError):
     """A bag that cannot be read, written or repaired."""
 
 
+class SeveralChainsError(BagError):
+    """A bag holding several chains where one chain's topic is asked for; ``namespaces``: theirs."""
+
+    def __init__(self, message: str, namespaces: list[str]) -> None:
+        """BagError(message), remembering the chains' namespaces."""
+        super().__init__(message)
+        self.namespaces = namespaces
+
+
 class RosMissingError(PendulumAccelError):
     """rclpy is not importable: the live chain cannot start."""
 

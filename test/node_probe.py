@@ -18,6 +18,7 @@ SPEC keys (all optional):
                                   lists them: {topic: {"subscriptions"|"publishers": [[node, reliability,
                                   durability]]}} (discovery carries no history or depth)
   "set": {"node": name, "params": {name: value}}  call SetParameters, then GetParameters
+  "get": {"node": name, "names": [name, ...]}     call GetParameters only
   "linger": seconds               keep listening after feeding
 Prints one JSON object: {"estimates": [[t, a, var], ...], "diagnostics": [[level, message, values]],
 "set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s, "diagnostics_after": [[s, state]]}
@@ -143,6 +144,12 @@ def main() -> None:
         out["set"] = [[r.successful, r.reason] for r in response.results]
         reply = call(node, getter, GetParameters.Request(names=list(params)))
         for name, value in zip(params, reply.values, strict=True):
+            out["get"][name] = Parameter.from_parameter_msg(ParameterMsg(name=name, value=value)).value
+    if "get" in spec:
+        getter = node.create_client(GetParameters, f"/{spec['get']['node']}/get_parameters")
+        names = list(spec["get"]["names"])
+        reply = call(node, getter, GetParameters.Request(names=names))
+        for name, value in zip(names, reply.values, strict=True):
             out["get"][name] = Parameter.from_parameter_msg(ParameterMsg(name=name, value=value)).value
     spin_for(node, float(spec.get("linger", 0.0)))
     out["endpoints"] = {

@@ -95,7 +95,13 @@ def test_sigkilled_recorder_node_loses_at_most_a_second(tmp_path: Path, spawn: S
     sim = start_node(
         spawn,
         "simulator_node",
-        {"scene": "lecture_constant", "rate_hz": 1000.0, "duration": 60.0, "reader_nodes": ["bag_recorder"]},
+        {
+            "scene": "lecture_constant",
+            "rate_hz": 1000.0,
+            "duration": 60.0,
+            "reader_nodes": ["bag_recorder"],
+            "publish_clock": True,
+        },
     )
     sim.wait_for("subscribers matched", timeout=60)
     time.sleep(3.0)

@@ -49,6 +49,19 @@ def test_clock_follows_rate_and_freezes_while_paused() -> None:
         playback.set_rate(0.0)
 
 
+def test_position_is_the_next_message_when_the_schedule_runs_ahead() -> None:
+    playback, wall = _playback()
+    stop = threading.Event()
+    playback.take_due(stop)  # message 0 out; the next is at 1 s
+    wall.now += 0.5
+    assert playback.position_ns() == playback.bag_now_ns() == NS // 2  # on schedule: the schedule
+    wall.now += 1000.0  # nothing taken meanwhile: the schedule is at 1000.5 s, the player at 1 s
+    assert playback.bag_now_ns() == 1000 * NS + NS // 2 and playback.position_ns() == NS
+    while playback.take_due(stop) is not None:
+        pass
+    assert playback.position_ns() == 9 * NS  # at the end: the last message, not the schedule
+
+
 def test_take_due_returns_messages_once_due_and_none_at_the_end() -> None:
     playback, wall = _playback()
     stop = threading.Event()

@@ -8,6 +8,8 @@ its clock (``/car1/clock``, not the other chain's) and its own estimator's /diag
 
 from __future__ import annotations
 
+import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -16,10 +18,11 @@ import pytest
 from pendulum_accel.allan import bag_series
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import Bag, read_bag
+from pendulum_accel.bag.writer import CUSTOM_SCENE, BagWriter
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.recording.analyze import analyze_bag
 from test.chain_helpers import Output
-from test.conftest import PYTHON, REPO, Spawn
+from test.conftest import PYTHON, REPO, Spawn, cli
 
 pytestmark = [pytest.mark.ros]
 
@@ -45,6 +48,11 @@ def _own_topics_only(bag: Bag, namespace: str) -> None:
         for status in bm.deserialize_as(raw, bm.DIAGNOSTIC_ARRAY, bm.DiagnosticArrayMsg).status
     }
     assert names == {f"/{namespace}/accel_estimator"}, names
+
+
+def _namespace(namespace: str) -> argparse.Namespace:
+    """The --topic and --namespace arguments of a command, as parsed, for ``namespace``."""
+    return argparse.Namespace(topic_roles=[], namespace=namespace)
 
 
 def _info_figures(path: Path, topic: str) -> tuple[float, float]:
@@ -95,15 +103,77 @@ def test_two_namespaced_chains_on_one_domain_do_not_cross_talk(spawn: Spawn, tmp
         late = recorded.stamp > 2.0
         assert abs(float(np.mean(recorded["accel.accel.linear.x"][late])) - scene_truth) < 0.3, namespace
     assert "received 0" in stranger.text or stranger.proc.poll() is None  # the stranger heard no chain
+    _one_bag_of_two_chains(tmp_path)
 
 
-def test_recorder_records_a_remapped_topic(spawn: Spawn, tmp_path: Path) -> None:
-    run = _chain(
-        spawn, "step_start", "car3", tmp_path / "remapped", "--remap", "pendulum/joint_states:=angles"
+def _one_bag_of_two_chains(tmp_path: Path) -> None:
+    """Both chains' topics in one bag (what `ros2 bag record -a` would hold): the commands refuse to guess
+    which chain to read, say how to pick one, and read the one --namespace picks."""
+    both = tmp_path / "both"
+    # Without a topic map or counters (another recorder's bag), with at_rest's scene, which car2 ran.
+    custom = {k: v for k, v in read_bag(tmp_path / "car2").custom_data.items() if k == CUSTOM_SCENE}
+    with BagWriter(both, custom_data=custom) as writer:
+        for namespace in ("car1", "car2"):
+            bag = read_bag(tmp_path / namespace)
+            for name, info in bag.topics.items():
+                if name not in writer.counts:
+                    writer.add_topic(name, info.msgtype)
+            for name, ns, data in bag.iter_raw():
+                writer.write(name, ns, data)
+    listed = cli("info", str(both))  # listed, its state left to a --namespace
+    assert listed.returncode == 0 and "several chains (/car1, /car2)" in listed.stdout, listed.stderr
+    lines, note = info_lines(str(both), _namespace("car1"))
+    assert note is None and "[complete]" in lines[0], lines
+    refused = cli("analyze", str(both))
+    assert refused.returncode == 2 and "--namespace (/car1 or /car2)" in refused.stderr, refused.stderr
+    assert "Traceback" not in refused.stderr and len(refused.stderr.strip().splitlines()) == 1
+    car2 = cli("analyze", str(both), "--namespace", "car2", "--json")
+    assert car2.returncode == 0, car2.stderr
+    export = cli("export", str(both), "--namespace", "/car1", "--out", str(tmp_path / "t1"), "--no-smoothed")
+    assert export.returncode == 0, export.stderr
+    written = {Path(line).name for line in export.stdout.split()}
+    assert written and all("car2" not in name for name in written), written
+    topics = ["--topics", "/car1/pendulum/joint_states", "/car1/car/accel/estimate"]
+    merged = cli(
+        "export", str(both), "--namespace", "car1", "--merged", *topics, "--out", str(tmp_path / "t2")
     )
+    assert merged.returncode == 0, merged.stderr
+    wrong = cli("analyze", str(both), "--namespace", "car9")
+    assert wrong.returncode == 2 and "no topic under /car9/" in wrong.stderr, wrong.stderr
+
+
+def test_a_remapped_recording_is_read_by_every_tool(spawn: Spawn, tmp_path: Path) -> None:
+    """A live chain run with its angles remapped: the bag stores the chain's topic map, and analyze,
+    allan, export --merged and animate read the remapped angles by it; --topic names them by hand."""
+    path = tmp_path / "remapped"
+    run = _chain(spawn, "step_start", "car3", path, "--remap", "pendulum/joint_states:=angles")
     assert run.finish(timeout=240) == 0, run.text
-    bag = read_bag(tmp_path / "remapped")
+    bag = read_bag(path)
+    samples = round(DURATION * 100) + 1
     assert "/car3/angles" in bag.topics and f"/car3/{bm.JOINT_STATES}" not in bag.topics
     assert bag.topics["/car3/angles"].msgtype == bm.JOINT_STATE
-    assert bag.topics["/car3/angles"].count == round(DURATION * 100) + 1
-    assert bm.find_topic(bag.topics, bm.JOINT_STATES) is None  # the remapped name plays no role
+    assert bag.topics["/car3/angles"].count == samples
+    assert bm.find_topic(bag.topics, bm.JOINT_STATES) is None  # by its name alone, it plays no role
+    assert bag.find_topic(bm.JOINT_STATES) == "/car3/angles"  # by the stored map, it does
+    assert bag.find_topic("/clock") == "/car3/clock"
+    analysis = cli("analyze", str(path), "--json")
+    assert analysis.returncode == 0, analysis.stderr
+    assert json.loads(analysis.stdout)["recorded"]["estimates"] == samples
+    allan = cli("allan", str(path))
+    assert allan.returncode == 0 and f"{samples} samples at 100 Hz" in allan.stdout, allan.stderr
+    export = cli("export", str(path), "--merged", "--out", str(tmp_path / "tables"))
+    assert export.returncode == 0, export.stderr
+    (table,) = export.stdout.split()
+    assert len(Path(table).read_text().splitlines()) == samples + 1  # a header, then one row per angle
+    animation = cli("animate", str(path), "--duration", "1", "--fps", "5", "--out", str(tmp_path / "a.gif"))
+    assert animation.returncode == 0 and (tmp_path / "a.gif").stat().st_size > 0, animation.stderr
+    # Named by hand: the same figures; a wrong rule is one line, exit 2.
+    by_hand = cli("analyze", str(path), "--json", "--topic", "pendulum/joint_states=/car3/angles")
+    assert json.loads(by_hand.stdout)["recorded"] == json.loads(analysis.stdout)["recorded"]
+    for rule, says in (
+        ("joint_states=/car3/angles", "is not a chain role"),
+        ("pendulum/joint_states=/nope", "has no topic /nope"),
+        ("pendulum/joint_states", "must read ROLE=NAME"),
+    ):
+        bad = cli("analyze", str(path), "--topic", rule)
+        assert bad.returncode == 2 and says in bad.stderr and len(bad.stderr.strip().splitlines()) == 1

@@ -164,3 +164,21 @@ def test_after_a_burst_the_silent_input_goes_stale_and_parameters_are_served(spa
     estimator.proc.send_signal(signal.SIGINT)
     assert estimator.finish(timeout=60) == 0, estimator.text
     assert "20000 inputs, 20000 estimates published" in estimator.text
+
+
+def test_an_explicit_use_sim_time_wins_over_time_source(spawn: Spawn) -> None:
+    """time_source sim would set use_sim_time true; -p use_sim_time:=false given explicitly wins (and is
+    said once); without it, time_source decides."""
+    explicit = start_node(
+        spawn, "estimator_node", {"scene": SCENE, "time_source": "sim", "use_sim_time": False}
+    )
+    explicit.wait_for(r"use_sim_time false given explicitly: it wins over time_source sim", timeout=90)
+    explicit.wait_for(r"estimating with", timeout=30)
+    result = run_probe(spawn, {"get": {"node": "accel_estimator", "names": ["use_sim_time", "time_source"]}})
+    assert result["get"] == {"use_sim_time": False, "time_source": "sim"}
+    explicit.proc.send_signal(signal.SIGINT)
+    assert explicit.finish(timeout=30) == 0, explicit.text
+    implied = start_node(spawn, "estimator_node", {"scene": SCENE, "time_source": "sim"})
+    implied.wait_for(r"estimating with", timeout=90)
+    result = run_probe(spawn, {"get": {"node": "accel_estimator", "names": ["use_sim_time"]}})
+    assert result["get"] == {"use_sim_time": True}

@@ -92,7 +92,9 @@ def _diagnostic_columns(
             continue
         row: dict[str, object] = {}
         for status in msg.status:
-            prefix = "/".join(p for p in (topic, status.hardware_id, status.name) if p)
+            # A status named by its node's full name (/car1/accel_estimator) joins without a double slash.
+            parts = (status.hardware_id.strip("/"), status.name.strip("/"))
+            prefix = "/".join([topic, *(p for p in parts if p)])
             row[f"{prefix}/level"] = int(status.level)
             row[f"{prefix}/message"] = status.message
             for kv in status.values:

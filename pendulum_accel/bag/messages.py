@@ -52,7 +52,7 @@ from rosbags.typesys.stores.ros2_kilted import sensor_msgs__msg__Imu as ImuMsg
 from rosbags.typesys.stores.ros2_kilted import sensor_msgs__msg__JointState as JointStateMsg
 from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as HeaderMsg
 
-from pendulum_accel.errors import BagError
+from pendulum_accel.errors import BagError, SeveralChainsError
 
 TYPESTORE: Typestore = get_typestore(Stores.ROS2_KILTED)
 
@@ -196,10 +196,11 @@ def find_topic(names: Iterable[str], role: str, choice: TopicChoice | None = Non
         found = [name for name in found if in_namespace(name, choice.namespace)]
     if len(found) > 1:
         spaces = sorted({namespace_of(name, role) for name in found})
-        raise BagError(
+        raise SeveralChainsError(
             f"{len(found)} topics play the role {role} ({', '.join(sorted(found))}): the bag holds "
             f"several chains; pick one with --namespace ({' or '.join(spaces)}) or name the topic with "
-            f"--topic {role}=NAME"
+            f"--topic {role}=NAME",
+            spaces,
         )
     return found[0] if found else None
 

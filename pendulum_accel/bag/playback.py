@@ -128,6 +128,13 @@ class Playback:
         with self._cond:
             return self._now_ns()
 
+    def position_ns(self) -> int:
+        """Where the playback is: the schedule (bag_now_ns), but never past the next message still to go
+        out (or the last one): a player that falls behind shows its position, not its schedule."""
+        with self._cond:
+            upcoming = self.timeline.peek_ns()
+            return min(self._now_ns(), self.last_ns if upcoming is None else upcoming)
+
     def _now_ns(self) -> int:
         """bag_now_ns without taking the lock (callers hold it)."""
         if self.paused:

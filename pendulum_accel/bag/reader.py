@@ -1002,6 +1002,18 @@ def _message_index(body: memoryview) -> tuple[int, NDArray[np.uint64]] | None:
     return cid, entries
 
 
+def _custom_data(doc: Any) -> dict[str, str]:
+    """custom_data of a metadata.yaml document ({} when it has none)."""
+    info = doc.get("rosbag2_bagfile_information") if isinstance(doc, dict) else None
+    custom = info.get("custom_data") if isinstance(info, dict) else None
+    return {str(k): str(v) for k, v in custom.items()} if isinstance(custom, dict) else {}
+
+
+def stored_choice(path: Path | str) -> TopicChoice:
+    """The TopicChoice of the recording's stored topic map (metadata.yaml), without reading the MCAP."""
+    return TopicChoice(stored_roles(_custom_data(_locate(Path(path))[2])))
+
+
 def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
     """Read every message of a bag directory (or .mcap file) into memory.
 
@@ -1016,10 +1028,7 @@ def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
         raise BagError(f"cannot read {mcap_path}: {err.strerror}") from None
     if isinstance(doc, dict):
         bag.metadata = doc
-        info = doc.get("rosbag2_bagfile_information")
-        custom = info.get("custom_data") if isinstance(info, dict) else None
-        if isinstance(custom, dict):
-            bag.custom_data.update({str(k): str(v) for k, v in custom.items()})
+        bag.custom_data.update(_custom_data(doc))
     _Scanner(bag).scan(data)
     bag.choice.roles.update(stored_roles(bag.custom_data))
     if bag.problem is not None and not salvage:

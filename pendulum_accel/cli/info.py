@@ -13,6 +13,8 @@ from pendulum_accel.bag.integrity import damage_origin
 from pendulum_accel.bag.reader import Bag, read_bag, salvage_note, scene_name
 from pendulum_accel.bag.repair import CUSTOM_REPAIRED
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_VERSION
+from pendulum_accel.cli.topics import add_topic_flags, choose_topics
+from pendulum_accel.errors import SeveralChainsError
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting, unexplained_missing
 
 
@@ -24,6 +26,7 @@ def register(subparsers: Any) -> None:
         description="Summarise a rosbag2 MCAP bag without ROS. A damaged bag is summarised up to the damage.",
     )
     parser.add_argument("bag", help="bag directory (or .mcap file)")
+    add_topic_flags(parser)
     parser.set_defaults(func=run)
 
 
@@ -96,11 +99,17 @@ def bag_state(bag: Bag) -> tuple[str, list[str]]:
     return "complete", []
 
 
-def info_lines(path: str) -> tuple[list[str], str | None]:
-    """(report lines, damage note or None) for the bag at ``path``."""
+def info_lines(path: str, args: argparse.Namespace | None = None) -> tuple[list[str], str | None]:
+    """(report lines, damage note or None) for the bag at ``path``, its chain chosen by ``args``'s
+    --topic and --namespace (cli.topics); a bag of several chains without a choice is listed unchecked."""
     bag = read_bag(path)
+    if args is not None:
+        choose_topics(bag, args)
     size = bag.mcap_path.stat().st_size
-    state, losses = bag_state(bag)
+    try:
+        state, losses = bag_state(bag)
+    except SeveralChainsError as err:
+        state, losses = f"several chains ({', '.join(err.namespaces)}): --namespace NS checks one", []
     lines = [
         f"bag:       {bag.path}  [{state}]",
         f"file:      {bag.mcap_path.name}  {size / 1e6:.2f} MB",
@@ -127,7 +136,7 @@ def info_lines(path: str) -> tuple[list[str], str | None]:
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary; a damaged bag also prints one warning line on stderr and exits 1."""
-    lines, note = info_lines(args.bag)
+    lines, note = info_lines(args.bag, args)
     print("\n".join(lines))
     if note is not None:
         print(f"pendulum-accel info: warning: {note}", file=sys.stderr)

@@ -225,6 +225,7 @@ class Chain:
             "scene": scene_arg,
             "realtime": cfg.realtime,
             "time_source": time_source,
+            "publish_clock": time_source == "sim",
             "reader_nodes": [ESTIMATOR_NODE],
             "recorder_node": recorder,
             "summary_file": str(summaries / "simulator.json"),

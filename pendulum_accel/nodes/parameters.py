@@ -31,9 +31,10 @@ LOG_TIMES: tuple[str, ...] = ("stamp", "receive")
 """The recorder's log_time choices: the message stamp (sim time) or its receive time."""
 
 TIME_SOURCES: tuple[str, ...] = ("sim", "wall")
-"""One time base per run. sim: stamps from the scene's t = 0, /clock published, use_sim_time on every
-node (Gazebo's convention). wall: stamps are the ROS (system) clock at each sample's due time, no
-/clock, use_sim_time off (what a hardware driver does)."""
+"""One time base per run. sim: stamps from the scene's t = 0, /clock published (publish_clock), use_sim_time
+on every node (Gazebo's convention). wall: stamps are the ROS (system) clock at each sample's due time, no
+/clock, use_sim_time off (what a hardware driver does). The rule: time_source sets use_sim_time unless
+use_sim_time is given explicitly (-p use_sim_time:=false, a params file): the explicit value wins."""
 
 IMU_TOPIC = "imu/data_raw"
 """The estimator's sensor_msgs/Imu output: a relative name, so a namespace or a remap applies."""
@@ -109,7 +110,7 @@ def time_source_param(default: str = "sim") -> ParamSpec:
         "string",
         default,
         "time base of every stamp: sim (scene time from 0, on /clock, use_sim_time true) or wall "
-        "(the ROS system clock, use_sim_time false)",
+        "(the ROS system clock, use_sim_time false); an explicit use_sim_time wins over it",
         read_only=True,
         choices=TIME_SOURCES,
     )
@@ -160,6 +161,10 @@ SIMULATOR: tuple[ParamSpec, ...] = (
     *(override_param(spec, "overrides the scene's") for spec in OVERRIDES),
     _fixed("realtime", "bool", True, "pace by the wall clock (else as fast as possible)"),
     time_source_param(),
+    _fixed("publish_clock", "bool", False,
+           "publish /clock from the scene's time (time_source sim only), as `ros2 bag play --clock` does; "
+           "pendulum-accel run and chain.launch.py set it for a sim-time chain, so a standalone simulator "
+           "leaves the graph's clock alone unless asked"),
     ParamSpec("exit_on_end", "bool", True, "exit when the scene ends (else stay idle)"),
     _readers("pendulum/joint_states"),
     _recorder("every topic this node publishes"),

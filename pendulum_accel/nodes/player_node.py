@@ -39,7 +39,7 @@ from std_srvs.srv import Trigger
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.playback import ArrayTimeline, Playback, Taken, Timeline
-from pendulum_accel.bag.reader import Bag, read_bag, salvage_note
+from pendulum_accel.bag.reader import Bag, read_bag, salvage_note, stored_choice
 from pendulum_accel.bag.stream import NotIndexedError, StreamedBag
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import message_class
@@ -231,7 +231,9 @@ class PlayerNode(ThreadedNode):
         timeline = make_timeline(source, wanted, first, last)
         if timeline.size == 0:
             raise ParameterError(f"bag {path} has no messages in the chosen time range")
-        self._joint_topic = bm.find_topic(wanted, bm.JOINT_STATES)
+        # The angles the readers wait for: by the recording's topic map (a remapped chain's), else by name.
+        choice = source.choice if isinstance(source, Bag) else stored_choice(path)
+        self._joint_topic = bm.find_topic(wanted, bm.JOINT_STATES, choice)
         self.playback = Playback(timeline, rate=float(values["rate"]), paused=bool(values["start_paused"]))
         self._clock_origin = timeline.first_ns
         self._last_tick: int | None = None
@@ -381,14 +383,18 @@ class PlayerNode(ThreadedNode):
         return f"rate {self.playback.rate:g}" if result.successful else f"rate unchanged: {result.reason}"
 
     def progress_line(self) -> str:
-        """'[state] bag time t s (i/n messages), rate r'."""
+        """'[state] bag time t s of end s (i/n messages), rate r', t the position (Playback.position_ns), with
+        '; behind by d s' when the schedule ran ahead of it."""
         playback = self.playback
         state = "paused" if playback.paused else "playing"
-        t = playback.bag_now_ns() * 1e-9
+        schedule, position = playback.bag_now_ns(), playback.position_ns()
         end = playback.last_ns * 1e-9
+        behind = (schedule - position) * 1e-9
+        # Behind by less than a second of bag time is the pacing's ordinary slack, not worth a word.
+        lag = f"; behind by {behind:.3f} s" if behind >= 1.0 and not playback.at_end() else ""
         return (
-            f"bag_player [{state}] bag time {t:.3f} s of {end:.3f} s "
-            f"({playback.index}/{playback.size} messages), rate {playback.rate:g}"
+            f"bag_player [{state}] bag time {position * 1e-9:.3f} s of {end:.3f} s "
+            f"({playback.index}/{playback.size} messages), rate {playback.rate:g}{lag}"
         )
 
     def _progress(self) -> None:

@@ -61,6 +61,17 @@ def status_namespace(name: str) -> str:
     return node.rsplit("/", 1)[0] or "/"
 
 
+def topic_map(asked: Sequence[str], resolved: Sequence[str]) -> dict[str, str]:
+    """{role: recorded name} of the chain roles among the ``asked`` topics, each under the name it resolved
+    to (namespace and remaps applied): the map the offline commands read a remapped bag by."""
+    out: dict[str, str] = {}
+    for name, final in zip(asked, resolved, strict=True):
+        role = bm.role_of(name)
+        if role is not None and name.lstrip("/") == role.lstrip("/"):
+            out[role] = final
+    return out
+
+
 def custom_data_for(scene_name: str) -> dict[str, str]:
     """Bag custom_data for a scene: its YAML and the planner's one-line explanation (empty name: none)."""
     if not scene_name:
@@ -107,7 +118,8 @@ class RecorderNode(ChainNode):
         if unknown:
             types.update(self._graph_types(unknown))
         self.types: dict[str, str] = {t: str(msgtype) for t, msgtype in types.items()}
-        self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data_for(scene))
+        custom_data = {**custom_data_for(scene), bm.CUSTOM_TOPICS: json.dumps(topic_map(asked, resolved))}
+        self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data)
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
         self._offsets = {topic: stamp_offset(self.types[topic]) for topic in topics}
         self._first_stamp_ns: int | None = None

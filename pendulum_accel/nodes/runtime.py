@@ -226,10 +226,21 @@ def declare_parameters(
 
 
 def apply_time_source(node: Node, time_source: str) -> None:
-    """use_sim_time = (time_source == 'sim'): every node of a run on the one time base it names."""
+    """use_sim_time = (time_source == 'sim'): every node of a run on the one time base it names, unless
+    use_sim_time was given explicitly (a -p rule or a params file): an explicit value wins, and a
+    contradiction is said in one line."""
     if time_source not in TIME_SOURCES:
         raise ParameterError(f"time_source must be one of {', '.join(TIME_SOURCES)}, got {time_source!r}")
-    node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, time_source == "sim")])
+    wanted = time_source == "sim"
+    # rclpy keeps the node's command-line and params-file values here: the only record of an explicit one.
+    explicit = getattr(node, "_parameter_overrides", {}).get("use_sim_time")
+    if explicit is None:
+        node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, wanted)])
+    elif bool(explicit.value) != wanted:
+        node.get_logger().info(
+            f"use_sim_time {str(bool(explicit.value)).lower()} given explicitly: it wins over time_source "
+            f"{time_source} (this node's clock is the {'/clock topic' if explicit.value else 'system clock'})"
+        )
 
 
 def write_summary(path: str, counters: Mapping[str, Any]) -> None:

@@ -15,8 +15,9 @@ MarkerArray in base_link (string, bob, true-acceleration arrow) at 30 Hz of simu
 A managed node (rclpy.lifecycle): configure builds the scene and the publishers, activate starts
 publishing, deactivate stops it; ``autostart`` (default true) runs both at start-up.
 
-``time_source``: ``sim`` stamps from the scene's t = 0 and publishes /clock; ``wall`` (real time
-only) stamps each sample with the ROS clock at its due time and publishes no /clock. Publishing
+``time_source``: ``sim`` stamps from the scene's t = 0 and, with ``publish_clock`` (which ``run`` and the
+launch file set, as ``ros2 bag play --clock``), publishes /clock; ``wall`` (real time only) stamps each
+sample with the ROS clock at its due time and publishes no /clock. Publishing
 starts once the nodes named in ``reader_nodes`` and ``recorder_node`` subscribe (by name: other
 subscribers change nothing), and the first sample is acknowledged by every matched reader.
 """
@@ -91,6 +92,7 @@ class SimulatorNode(ManagedNode):
         self.realtime = bool(values["realtime"])
         self.exit_on_end = bool(values["exit_on_end"])
         self.time_source = str(values["time_source"])
+        self.publish_clock = bool(values["publish_clock"])
         namespace = self.get_namespace()
         self.reader_nodes = node_names(values["reader_nodes"], namespace)
         self.recorder_node = node_names([str(values["recorder_node"])], namespace)
@@ -104,6 +106,8 @@ class SimulatorNode(ManagedNode):
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
         self._restart = threading.Event()
+        self._frames: Frames | None = None  # the scene's samples, built once per scene (not per activation)
+        self._next_sample = 0
         self.published = 0
         self.start(bool(values["autostart"]))
 
@@ -121,7 +125,7 @@ class SimulatorNode(ManagedNode):
             bm.JOINT_STATES: make_publisher(self, JointState, bm.JOINT_STATES, DATA_QOS),
             bm.ACCEL_TRUTH: make_publisher(self, AccelStamped, bm.ACCEL_TRUTH, DATA_QOS),
         }
-        if self.time_source == "sim":
+        if self.time_source == "sim" and self.publish_clock:
             self._outputs[bm.TOPIC_CLOCK] = make_publisher(self, Clock, bm.TOPIC_CLOCK, DATA_QOS)
         self._markers = make_publisher(self, MarkerArray, bm.MARKERS, DATA_QOS)
         self._description = make_publisher(self, String, bm.ROBOT_DESCRIPTION, DESCRIPTION_QOS)
@@ -137,11 +141,13 @@ class SimulatorNode(ManagedNode):
         self.start_thread(self._publish_loop, "pendulum_sim_publisher")
 
     def deactivate(self) -> None:
-        """Stop the publishing thread (a later activate starts the scene over)."""
+        """Stop the publishing thread; a later activate goes on from the next sample (time never jumps
+        back: /clock and the stamps continue)."""
         self.stop_thread()
 
     def cleanup(self) -> None:
-        """Destroy the publishers configure made."""
+        """Destroy the publishers configure made, and forget the scene's samples (configure starts over)."""
+        self._frames, self._next_sample = None, 0
         for publisher in [*self._outputs.values(), *self._extra]:
             self.destroy_publisher(publisher)
         self._outputs, self._extra = {}, []
@@ -243,15 +249,23 @@ class SimulatorNode(ManagedNode):
 
         try:
             while not self._stop.is_set():
-                self._restart.clear()
-                scene = self.scene
-                wall0 = time.perf_counter()
-                frames = serialise_run(run_scene(scene), self.clock_rate_hz)
-                self.get_logger().info(
-                    f"scene {scene.name}: {frames.size} samples over "
-                    f"{frames.t[-1] - frames.t[0]:.3f} s simulated in {time.perf_counter() - wall0:.2f} s; "
-                    f"{frames.plan}"
-                )
+                if self._restart.is_set() or self._frames is None:
+                    self._restart.clear()
+                    scene = self.scene
+                    wall0 = time.perf_counter()
+                    self._frames = serialise_run(run_scene(scene), self.clock_rate_hz)
+                    self._next_sample = 0
+                    self.get_logger().info(
+                        f"scene {scene.name}: {self._frames.size} samples over "
+                        f"{self._frames.t[-1] - self._frames.t[0]:.3f} s simulated in "
+                        f"{time.perf_counter() - wall0:.2f} s; {self._frames.plan}"
+                    )
+                elif self._next_sample:  # re-activated: go on where the deactivation stopped it
+                    self.get_logger().info(
+                        f"resuming at sample {self._next_sample} of {self._frames.size} "
+                        f"(t = {self._frames.t[min(self._next_sample, self._frames.size - 1)]:.3f} s)"
+                    )
+                frames = self._frames
                 if bm.TOPIC_STRING in frames.rows and bm.STRING not in self._outputs:
                     self._outputs[bm.STRING] = make_publisher(self, JointState, bm.STRING, DATA_QOS)
                 if not self._wait_for_subscribers():
@@ -259,7 +273,7 @@ class SimulatorNode(ManagedNode):
                         self.finish(1)
                     return
                 self.get_logger().info(f"subscribers matched: publishing ({self.time_source} time)")
-                completed = self._publish_frames(frames)
+                completed = self._publish_frames(frames, self._next_sample)
                 if completed:
                     self._acknowledged()
                 if self._restart.is_set():
@@ -304,8 +318,9 @@ class SimulatorNode(ManagedNode):
             ns, self._theta[self._marker_mask], self._accel[self._marker_mask], self._length
         )
 
-    def _publish_frames(self, frames: Frames) -> bool:
-        """Publish every sample in order, paced by the wall clock in real-time mode; True when all went."""
+    def _publish_frames(self, frames: Frames, first: int = 0) -> bool:
+        """Publish the samples from ``first`` on in order, paced by the wall clock in real-time mode; True
+        when all went. ``_next_sample`` follows, so a re-activation goes on from there."""
         joint = frames.rows[bm.TOPIC_JOINT_STATES]
         # frames hold the root-namespace names; the publishers are keyed by role (relative names).
         others = [
@@ -319,11 +334,11 @@ class SimulatorNode(ManagedNode):
         with_clock = bm.TOPIC_CLOCK in self._outputs
         lateness = np.empty(frames.size)
         t_rel = frames.t - frames.t[0]
-        start = time.perf_counter()
+        start = time.perf_counter() - float(t_rel[first])  # sample ``first`` is due now
         if self.time_source == "wall":
-            self._stamp_wall(frames, start, 0)
+            self._stamp_wall(frames, start, first)
         sent = 0
-        for i in range(frames.size):
+        for i in range(first, frames.size):
             if self._stop.is_set() or self._restart.is_set():
                 break
             if self.realtime:
@@ -345,7 +360,8 @@ class SimulatorNode(ManagedNode):
                     self._markers, self._marker_rows[marker_index[i]].tobytes(), self._stop.is_set
                 )
             sent += 1
-            if i == 0:
+            self._next_sample = i + 1
+            if i == first:
                 # Handshake: readers acknowledge only once their side of discovery has matched this
                 # writer. Until then a keep-all writer fills up and blocks, which stalled the first
                 # seconds of fast runs; one acknowledged sample proves every reader is ready.
@@ -354,14 +370,14 @@ class SimulatorNode(ManagedNode):
                 self.get_logger().info(
                     f"first sample acknowledged by every reader after {time.perf_counter() - start:.2f} s"
                 )
-                start = time.perf_counter() - float(t_rel[0])
+                start = time.perf_counter() - float(t_rel[first])
                 if self.time_source == "wall":
-                    self._stamp_wall(frames, start, 1)
+                    self._stamp_wall(frames, start, first + 1)
         for topic in frames.rows:
             self._count(str(bm.role_of(topic)), sent)
         self.published += sent
         wall = time.perf_counter() - start
-        span = float(t_rel[sent - 1]) if sent else 0.0
+        span = float(t_rel[first + sent - 1] - t_rel[first]) if sent else 0.0
         factor = f"{span / wall:.1f}" if wall > 0 else "inf"
         mode = "real time" if self.realtime else "as fast as possible"
         line = (
@@ -369,9 +385,9 @@ class SimulatorNode(ManagedNode):
             f"{mode}: real-time factor {factor}"
         )
         if self.realtime:
-            line += "; " + jitter_summary(lateness[:sent])
+            line += "; " + jitter_summary(lateness[first : first + sent])
         self.get_logger().info(line)
-        return sent == frames.size
+        return self._next_sample == frames.size
 
     def close(self) -> None:
         """Stop publishing, then write the counters (published per topic) to summary_file."""
