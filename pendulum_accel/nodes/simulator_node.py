@@ -114,7 +114,7 @@ class SimulatorNode(ManagedNode):
     # -- lifecycle --------------------------------------------------------------------------------
 
     def configure(self) -> None:
-        """Build the scene and the publishers; publish the URDF on robot_description."""
+        """Build the scene, its samples and the publishers; publish the URDF on robot_description."""
         if self.time_source == "wall" and not self.realtime:
             raise ParameterError(
                 "time_source wall needs realtime true: a sample's wall stamp is its due time on the "
@@ -131,6 +131,8 @@ class SimulatorNode(ManagedNode):
         self._description = make_publisher(self, String, bm.ROBOT_DESCRIPTION, DESCRIPTION_QOS)
         self._extra = [self._markers, self._description]
         self._publish_description()
+        # The heavy work belongs to configure: activate then only publishes.
+        self._frames, self._next_sample = self._simulate(), 0
 
     def _publish_description(self) -> None:
         """The URDF of the current scene's pendulum, once (transient local keeps it for late joiners)."""
@@ -251,15 +253,8 @@ class SimulatorNode(ManagedNode):
             while not self._stop.is_set():
                 if self._restart.is_set() or self._frames is None:
                     self._restart.clear()
-                    scene = self.scene
-                    wall0 = time.perf_counter()
-                    self._frames = serialise_run(run_scene(scene), self.clock_rate_hz)
+                    self._frames = self._simulate()
                     self._next_sample = 0
-                    self.get_logger().info(
-                        f"scene {scene.name}: {self._frames.size} samples over "
-                        f"{self._frames.t[-1] - self._frames.t[0]:.3f} s simulated in "
-                        f"{time.perf_counter() - wall0:.2f} s; {self._frames.plan}"
-                    )
                 elif self._next_sample:  # re-activated: go on where the deactivation stopped it
                     self.get_logger().info(
                         f"resuming at sample {self._next_sample} of {self._frames.size} "
@@ -291,6 +286,17 @@ class SimulatorNode(ManagedNode):
         except PendulumAccelError as err:
             self.get_logger().error(str(err))
             self.finish(2)
+
+    def _simulate(self) -> Frames:
+        """The scene's samples, serialised (logged with the time they took)."""
+        scene = self.scene
+        wall0 = time.perf_counter()
+        frames = serialise_run(run_scene(scene), self.clock_rate_hz)
+        self.get_logger().info(
+            f"scene {scene.name}: {frames.size} samples over {frames.t[-1] - frames.t[0]:.3f} s simulated "
+            f"in {time.perf_counter() - wall0:.2f} s; {frames.plan}"
+        )
+        return frames
 
     def _stamp_wall(self, frames: Frames, start: float, first: int) -> None:
         """Stamp samples first.. with the ROS clock at their due time start + t − t0 (perf_counter)."""
