@@ -435,3 +435,27 @@ def test_layout_reader_and_writer_per_message() -> None:
     assert write(3, 9, 2.5, 0.04) == bm.serialize(expected, bm.ACCEL_WITH_COVARIANCE_STAMPED)
     with pytest.raises(BagError, match=r"no numeric field 'accel\.linear\.y'"):
         estimate.writer(["accel.linear.y"])
+
+
+def test_a_stored_topic_map_names_the_chain_topics_of_a_remapped_bag(tmp_path: Path) -> None:
+    """The recorder's topic map in custom_data: read_bag and the player's stored_choice (metadata only)
+    find the remapped angles by it; a malformed map is ignored, leaving the names to speak."""
+    from pendulum_accel.bag.reader import stored_choice
+
+    def bag_with(name: str, custom: dict[str, str]) -> Path:
+        path = tmp_path / name
+        with BagWriter(path, custom_data=custom) as writer:
+            writer.add_topic("/angle", bm.JOINT_STATE)
+            writer.write(
+                "/angle",
+                0,
+                bm.serialize(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.1], [0.0]), bm.JOINT_STATE),
+            )
+        return path
+
+    mapped = bag_with("mapped", {bm.CUSTOM_TOPICS: '{"pendulum/joint_states": "/angle"}'})
+    assert read_bag(mapped).find_topic(bm.JOINT_STATES) == "/angle"
+    assert bm.find_topic(["/angle"], bm.JOINT_STATES, stored_choice(mapped)) == "/angle"
+    for text in ("not json", "[1, 2]", '{"pendulum/joint_states": 3, "nonsense": "/angle"}'):
+        broken = bag_with(f"broken{len(text)}", {bm.CUSTOM_TOPICS: text})
+        assert read_bag(broken).find_topic(bm.JOINT_STATES) is None, text

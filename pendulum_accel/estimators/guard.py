@@ -206,11 +206,16 @@ class InputGuard:
         self.last_t, self.last_theta = t, theta
         return decision
 
-    def check_stale(self, now: float) -> bool:
-        """True (and state STALE) when no input arrived for more than stale_after seconds before ``now``."""
+    def check_stale(self, now: float, last_arrival: float | None = None) -> bool:
+        """True (and state STALE) when no input arrived for more than stale_after seconds before ``now``.
+
+        ``last_arrival``: when the latest input arrived, if the caller knows better than the samples
+        checked so far (a node working off a backlog took later ones already): staleness is the input's
+        silence, not the estimator's."""
         if self._first_check is None:
             self._first_check = now
-        since = now - (self._last_arrival if self._last_arrival is not None else self._first_check)
+        arrivals = [a for a in (self._last_arrival, last_arrival) if a is not None]
+        since = now - max(arrivals, default=self._first_check)
         if since > self.stale_after:
             self._stale_for = since
             self.note(GuardState.STALE, f"no input for {since:.2f} s (limit {self.stale_after:.2f} s)")

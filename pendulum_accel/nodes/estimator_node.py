@@ -216,6 +216,11 @@ class EstimatorNode(ManagedNode):
         if self._subscription is not None:
             self.destroy_subscription(self._subscription)
             self._subscription = None
+        self._halt_worker()
+
+    def _halt_worker(self) -> None:
+        """Stop the worker thread now (it may be waiting for work) and wait for it."""
+        self._stop.set()
         with self._queue_changed:
             self._queue_changed.notify_all()
         self.stop_thread()
@@ -404,18 +409,23 @@ class EstimatorNode(ManagedNode):
 
     def _work(self) -> None:
         """Worker thread: estimate the backlog in order and publish /diagnostics every diagnostics_period
-        (also while a backlog is worked off, and while the input is silent), until the node deactivates."""
+        once subscribed to the angles (also while a backlog is worked off, and while the input is silent),
+        until the node deactivates."""
         while not self._stop.is_set():
+            subscribed = self._subscription is not None
             with self._queue_changed:
                 if not self._backlog:
-                    self._queue_changed.wait(max(0.0, self._diagnostics_due - time.monotonic()))
+                    # Until subscribed nothing is due: wait for the subscription's notify (or a stop).
+                    due = self._diagnostics_due - time.monotonic() if subscribed else self.diagnostics_period
+                    self._queue_changed.wait(max(0.0, due))
                 item = self._backlog.popleft() if self._backlog else None
                 if item is not None:
                     self._queue_changed.notify_all()
             if item is not None:
                 with self._work_lock:
                     self._estimate(*item)
-            if time.monotonic() >= self._diagnostics_due and not self._stop.is_set():
+            # From the subscription on: before it, the node waits for its own readers, not for input.
+            if subscribed and time.monotonic() >= self._diagnostics_due:
                 self._diagnostics_due = time.monotonic() + self.diagnostics_period
                 with self._work_lock:
                     self._publish_diagnostics()
@@ -476,8 +486,8 @@ class EstimatorNode(ManagedNode):
             report = GuardReport(GuardState.STALE, "waiting for input", guard.values())
             stamp = self.get_clock().now().to_msg()
         else:
-            if not self._backlog:  # angles still waiting are input: not stale
-                guard.check_stale(time.monotonic())
+            # The input's silence since its latest arrival, even while a backlog is being worked off.
+            guard.check_stale(time.monotonic(), self._last_input)
             report = guard.report()
             stamp = Time(sec=self._last_stamp[0], nanosec=self._last_stamp[1])
         self.diagnostics_publisher.publish(
@@ -534,7 +544,7 @@ class EstimatorNode(ManagedNode):
     def close(self) -> None:
         """Stop the worker (angles it did not reach count as unpublished), deliver what was published, then
         log the counts and write them to summary_file."""
-        self.stop_thread()
+        self._halt_worker()
         self.unpublished += len(self._backlog)
         self._backlog.clear()
         if not hasattr(self, "guarded"):  # never configured: nothing was estimated

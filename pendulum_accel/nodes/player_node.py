@@ -212,8 +212,8 @@ class PlayerNode(ThreadedNode):
         )
         if not wanted:
             raise ParameterError(f"no topic of bag {path} is left to play after the topic filters")
-        if self.clock:
-            wanted = [t for t in wanted if t != bm.TOPIC_CLOCK]
+        if self.clock:  # the player's own /clock replaces the recorded one (a namespaced chain's too)
+            wanted = [t for t in wanted if bm.role_of(t) != bm.TOPIC_CLOCK]
         self._outputs: dict[str, Publisher] = {
             topic: make_publisher(self, message_class(available[topic]), topic, qos_for(topic))
             for topic in wanted
