@@ -45,6 +45,7 @@ from sensor_msgs.msg import JointState
 
 from pendulum_accel.nodes.conversions import joint_state, time_from_ns, time_to_seconds
 from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
+from pendulum_accel.nodes.runtime import publish_blocking
 
 
 def spin_for(node: Node, seconds: float) -> None:
@@ -126,7 +127,9 @@ def main() -> None:
     if "burst" in spec:
         count, t0, theta = int(spec["burst"][0]), float(spec["burst"][1]), float(spec["burst"][2])
         for i in range(count):
-            publisher.publish(joint_state(time_from_ns(round((t0 + i / 1000.0) * 1e9)), theta, 0.0))
+            msg = joint_state(time_from_ns(round((t0 + i / 1000.0) * 1e9)), theta, 0.0)
+            # A keep-all writer whose reader pushes back refuses a sample: wait, as the chain's nodes do.
+            publish_blocking(publisher, msg, lambda: False)
             if i % 200 == 0:
                 rclpy.spin_once(node, timeout_sec=0.0)
     fed_at.append(time.monotonic())

@@ -4,6 +4,12 @@ Each angle goes through ``estimators.guard.GuardedEstimator`` (drops NaN/inf, re
 back, flags |θ| near 90°), then the chosen method; the estimate carries the input's stamp and its
 variance in covariance[0]. Nothing non-finite is ever published.
 
+The executor only takes each angle into a backlog (with its arrival time); a worker thread estimates
+them in order and publishes /diagnostics every ``diagnostics_period``, so the parameter services and
+the health report are served while a burst is worked off, and a silent input goes STALE
+``stale_after`` after its last arrival. The angles are taken by name (``pendulum_joint`` among any
+other joints), from a reliable or a best-effort publisher (``nodes.qos``).
+
 Beside it, a ``sensor_msgs/Imu`` on ``imu/data_raw`` (REP-145): linear_acceleration is the specific
 force in the car frame (REP-103), as an accelerometer at rest on a level road reads it: x = â (on
 a level road the specific force along x is the car's acceleration), y = 0, z = +g (the pendulum
