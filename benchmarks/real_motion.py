@@ -578,7 +578,8 @@ def markdown(
         *targets(rows),
         "",
     ]
-    cols = ["design", "profile", "method", "RMS", "ratio", "max |e|", "delay s", "NEES", ">2σ steady",
+    # The pipes of |e| are escaped: a bare one would split the header and the page would show no table.
+    cols = ["design", "profile", "method", "RMS", "ratio", r"max \|e\|", "delay s", "NEES", ">2σ steady",
             ">2σ after", "µs/sample"]  # fmt: skip
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
