@@ -2,6 +2,7 @@
 #                          make test  (set up, lint, type-check, run every test)
 # Both create .venv on first use and reuse it afterwards.
 # For students:                make lab   (a light venv, .venv-lab: the ROS-free core + Jupyter; docs/lab/)
+# For the docs site:           make docs  (a light venv, .venv-docs: MkDocs and its theme only)
 
 PYTHON ?= python3
 VENV   ?= .venv
@@ -23,7 +24,7 @@ endif
 
 setup: $(STAMP)
 
-$(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.xml Makefile
+$(STAMP): requirements-dev.txt requirements-docs.txt requirements-ros.txt setup.py setup.cfg package.xml Makefile
 	@if [ ! -x $(BIN)/python ]; then \
 	  $(PYTHON) -m venv $(VENV_FLAGS) $(VENV) 2>/dev/null || { \
 	    echo "python3 -m venv failed; installing Debian's python3-venv"; \
@@ -83,9 +84,16 @@ test: lint typecheck pytest pytest-emulated
 bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags
 
-# The docs site (mkdocs.yml) into site/; strict, so a broken link or a missing page fails.
-docs: $(STAMP)
-	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
+# The docs site (mkdocs.yml) into site/; strict, so a broken link or a missing page fails. It needs only
+# the docs extra's tools (requirements-docs.txt), in their own venv: not the package, not the dev tools.
+DOCS_VENV ?= .venv-docs
+docs: $(DOCS_VENV)/.installed
+	NO_MKDOCS_2_WARNING=1 $(DOCS_VENV)/bin/mkdocs build --strict --site-dir site
+
+$(DOCS_VENV)/.installed: requirements-docs.txt
+	$(PYTHON) -m venv $(DOCS_VENV)
+	$(DOCS_VENV)/bin/python -m pip install -q --disable-pip-version-check -r requirements-docs.txt
+	@touch $@
 
 # The reference pages generated from the code (node parameters, scene fields, CLI); test_docs checks them.
 docs-reference: $(STAMP)

@@ -70,6 +70,9 @@ setup(
         "lab": ["jupyterlab>=4.0", "ipykernel>=7.4.0"],
         # `pendulum-accel export`: pandas for the tables, pyarrow for Parquet.
         "export": ["pandas>=3.1.1", "pyarrow>=26.0.1"],
+        # The docs site (mkdocs.yml: the material theme, pymdownx extensions); `make docs` installs only
+        # these (pinned in requirements-docs.txt) into .venv-docs.
+        "docs": ["mkdocs>=1.6.1", "mkdocs-material>=9.8.2", "pymdown-extensions>=13.1.2"],
         "test": [
             "pytest>=9.2.0",
             "pytest-timeout>=2.4.0",

@@ -192,3 +192,30 @@ def test_the_check_catches_a_missing_distribution() -> None:
     by_pip = colcon_pip_line(ROOT / "README.md") - {"allantools"}
     assert "allantools" in required and required - by_rosdep - by_pip == {"allantools"}
     assert "allantools" in {distribution_of(m) for m in runtime_imports()}
+
+
+def test_the_docs_extra_is_what_make_docs_installs_and_covers_mkdocs_yml() -> None:
+    """setup.py's `docs` extra names exactly the distributions requirements-docs.txt pins (what `make docs`
+    installs into .venv-docs), and those, or mkdocs' own dependencies, provide mkdocs.yml's theme and every
+    Markdown extension it names (a bare name is Python-Markdown's markdown.extensions.<name>)."""
+    import yaml
+
+    _, extras = setup_requirements()
+    pinned = {
+        requirement_name(line)
+        for line in (ROOT / "requirements-docs.txt").read_text(encoding="utf-8").splitlines()
+        if line.strip() and not line.startswith("#")
+    }
+    assert extras["docs"] == pinned
+    assert "-r requirements-docs.txt" in (ROOT / "requirements-dev.txt").read_text(encoding="utf-8")
+    config = yaml.safe_load((ROOT / "mkdocs.yml").read_text(encoding="utf-8"))
+    requires = importlib.metadata.requires("mkdocs") or []
+    with_mkdocs = {requirement_name(r) for r in requires if "extra" not in r}
+    modules = {str(config["theme"]["name"])} | {
+        (name if "." in name else f"markdown.extensions.{name}").split(".")[0]
+        for entry in config["markdown_extensions"]
+        for name in ([entry] if isinstance(entry, str) else list(entry))
+    }
+    missing = {m: distribution_of(m) for m in modules if distribution_of(m) not in pinned | with_mkdocs}
+    assert missing == {}, f"mkdocs.yml needs these, which the docs extra does not install: {missing}"
+    assert "material" in modules and distribution_of("material") == "mkdocs-material"
