@@ -66,7 +66,7 @@ class Rules:
 # A docs page: a column is a ratio only when it says so (its cells' × figures are found by their unit);
 # an RMS column that divides ("RMS / hindsight EKF") holds ratios, not RMS in m/s².
 DOCS_RULES = Rules(
-    us_header=re.compile(r"µs|μs|us_per_sample|us/sample"),
+    us_header=re.compile(r"[µμu]s(?:/| per |_per_)sample"),
     ratio_header=re.compile(r"ratio|×", re.IGNORECASE),
     rms_header=re.compile(r"^(?!.*/)(?:.*\bRMS\b|.*(?<![a-z])rms(?![a-z]))", re.IGNORECASE),
     ratio_sentences=False,
@@ -74,7 +74,7 @@ DOCS_RULES = Rules(
 # A benchmark page: every way its scripts head a ratio ("ratio", "x real time", "speed-up",
 # "ss_over_crb", "/ hindsight EKF").
 BENCHMARK_RULES = Rules(
-    us_header=re.compile(r"µs/sample|μs/sample|us_per_sample"),
+    us_header=re.compile(r"[µμu]s(?:/| per |_per_)sample"),
     ratio_header=re.compile(r"ratio|×|\bx\b|speed-up|_over_|/", re.IGNORECASE),
     rms_header=RMS_WORD,
     ratio_sentences=True,
