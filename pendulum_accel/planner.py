@@ -313,8 +313,9 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
     is still its method error (its rounding carried through the same growth). Past the linear regime the
     run's error is decided by how its rounding falls and no tight bound exists: the prediction becomes
     max(method error, floor, SPREAD_SAFETY × the spread of five runs one ulp apart). A θ0 the scene
-    wrapped into (-π, π] is said first in the reason.
-    """
+    wrapped into (-π, π] is said first in the reason, and the wrap's rounding, an input error this run has
+    and an unwrapped reference has not, is added to the prediction through the run's response to θ0
+    (wrap_effect)."""
     if plan.sensitivity is None:
         # only a fixed step without a pilot adds the measured round-off (_with_roundoff): a closed form's
         # bound is a priori, an adaptive plan's K holds its rounding
@@ -332,8 +333,22 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
         predicted = max(predicted, sensitivity.floor, SPREAD_SAFETY * sensitivity.spread)
     driven = scene.profile.constant_pieces(0.0, scene.duration) is None
     note = scene.wrap_note()
+    wrap = wrap_effect(scene, sensitivity)
+    if note:  # the run starts from the wrapped θ0: its rounding is an input error of this run
+        predicted += wrap
+        note = f"{note}, its rounding moves θ by ≤ {wrap:.1e} rad"
     reason = f"{note}; {plan.reason}" if note and not plan.reason.startswith(note) else plan.reason
     return replace(plan, predicted_error=predicted, driven=driven, reason=reason)
+
+
+def wrap_effect(scene: Scene, sensitivity: Sensitivity) -> float:
+    """max_t |∂θ/∂θ0| |δθ0| = S_θ0 · |δθ0| / ulp(θ0): the wrap's rounding δθ0 (Scene.wrap_error, ≤ ½ ulp)
+    carried through the run's measured response to θ0 (peaks[0] per units[0]); 0 when θ0 was not wrapped.
+    Past the linear regime S is the one-ulp runs' own difference, still the response to a shift ≤ 1 ulp."""
+    shift = scene.wrap_error()
+    if shift == 0.0:
+        return 0.0
+    return sensitivity.peaks[0] * shift / sensitivity.units[0]
 
 
 def stepping_roundoff(scene: Scene, dt: float) -> float:

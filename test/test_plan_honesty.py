@@ -18,6 +18,7 @@ from pendulum_accel.physics.profiles import Table
 from pendulum_accel.planner import plan_scene, stepping_roundoff
 from pendulum_accel.scene import THETA0_MAX, Scene, load_scene, wrap_angle
 from pendulum_accel.sensor import SensorModel
+from test.figures import assert_figure
 
 
 @pytest.mark.parametrize(
@@ -40,7 +41,8 @@ def test_a_start_past_pi_is_wrapped_and_the_plan_line_says_so() -> None:
     wrapped = apply_overrides(scene, {"theta0": theta0})
     assert wrapped.theta0 == wrap_angle(theta0) and wrapped.theta0_given == theta0
     text = plan_scene(wrapped).explain()
-    assert f"θ0 = {theta0:.6g} rad wrapped to {wrapped.theta0:.6g} rad" in text
+    assert_figure(text, "θ0 = ", theta0, rel=0.0)  # both printed to 6 digits, compared as numbers
+    assert_figure(text, "rad wrapped to ", wrapped.theta0, rel=0.0)
     # a later change of θ0 drops the note; other changes keep it
     assert replace(wrapped, theta0=0.1).wrap_note() == ""
     assert replace(wrapped, duration=1.0).wrap_note() != ""
@@ -61,7 +63,9 @@ def test_simulate_cli_wraps_theta0() -> None:
          "--out", "-"], capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
-    assert "θ0 = 3.2 rad wrapped to -3.08319 rad" in done.stderr
+    # 3.2 − 2π: the wrap subtracts the double nearest 2π, within 1e-15 of the exact difference
+    assert_figure(done.stderr, "θ0 = ", 3.2, rel=0.0)
+    assert_figure(done.stderr, "rad wrapped to ", 3.2 - 2.0 * math.pi, rel=1e-15)
 
 
 def test_a_table_denser_than_half_a_step_is_never_predicted_exact() -> None:
