@@ -48,8 +48,8 @@ def test_a_start_past_pi_is_wrapped_and_the_plan_line_says_so() -> None:
     assert replace(wrapped, duration=1.0).wrap_note() != ""
 
 
-def test_theta0_beyond_eight_turns_is_refused_in_one_line() -> None:
-    """|θ0| > 16π: beyond that the wrap's own error grows with the turns; one ParameterError."""
+def test_theta0_beyond_sixteen_turns_is_refused_in_one_line() -> None:
+    """|θ0| > 32π: past it the given value's own ulp (≥ 1.4e-14 rad) dwarfs the run's rounding; one line."""
     with pytest.raises(ParameterError, match="theta0 must be in"):
         apply_overrides(load_scene("lecture_constant"), {"theta0": THETA0_MAX * 1.01})
     with pytest.raises(SceneError, match="theta0"):
