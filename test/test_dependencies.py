@@ -186,9 +186,20 @@ def test_rosdep_keys_and_the_readme_pip_line_install_all_of_install_requires() -
 
 
 def test_the_check_catches_a_missing_distribution() -> None:
-    """The comparison above is not vacuous: allantools, dropped from the pip line, is reported missing."""
+    """The comparison above is not vacuous: rosbags, dropped from the pip line, is reported missing."""
     required, _ = setup_requirements()
     by_rosdep = {ROSDEP_TO_DIST[k] for k in package_xml().get("exec_depend", set()) if k in ROSDEP_TO_DIST}
-    by_pip = colcon_pip_line(ROOT / "README.md") - {"allantools"}
-    assert "allantools" in required and required - by_rosdep - by_pip == {"allantools"}
-    assert "allantools" in {distribution_of(m) for m in runtime_imports()}
+    by_pip = colcon_pip_line(ROOT / "README.md") - {"rosbags"}
+    assert "rosbags" in required and required - by_rosdep - by_pip == {"rosbags"}
+    assert "rosbags" in {distribution_of(m) for m in runtime_imports()}
+
+
+def test_the_core_install_pulls_no_test_tools() -> None:
+    """No test or docs tool (pytest, sphinx) is a core requirement, nor anything the package imports at run
+    time: allantools, which requires both, is a test dependency (test_allan checks the package's own ADEV
+    against it)."""
+    required, extras = setup_requirements()
+    tools = {"pytest", "sphinx", "numpydoc", "allantools", "hypothesis"}
+    assert required & tools == set()
+    assert "allantools" in extras["test"]
+    assert {distribution_of(m) for m in runtime_imports()} & tools == set()
