@@ -1,8 +1,8 @@
-"""The environment of `make test`'s CPU-emulation step: numpy at its baseline, libm and numba without
+"""The environment of `make test`'s CPU-emulation step: numpy at its baseline, libm, numba and BLAS without
 AVX-512, AVX2 or FMA.
 
 ``python -m test.cpu_emulation COMMAND...`` runs COMMAND in that environment (the Makefile's
-``pytest-emulated``); without a command it prints the assignments. Three libraries pick their code by
+``pytest-emulated``); without a command it prints the assignments. Four libraries pick their code by
 the CPU they run on, and each is switched off its AVX-512, AVX2 and FMA paths its own way:
 
 * numpy: ``NPY_DISABLE_CPU_FEATURES`` lists dispatch targets. numpy ≥ 2.3 dispatches by level (X86_V3 =
@@ -18,6 +18,10 @@ the CPU they run on, and each is switched off its AVX-512, AVX2 and FMA paths it
   environment cannot leak in), so the kernels compile for baseline x86-64. numba's cache index keys each
   entry on (signature, target triple, CPU name, CPU features), so the host-compiled entries are never
   loaded under ``generic``: the step compiles its own once and keeps both (test_cpu_emulation checks it).
+* BLAS/LAPACK (the OpenBLAS numpy and scipy each bundle, built DYNAMIC_ARCH): it picks its kernels by CPU
+  (Haswell here, SkylakeX on an AVX-512 Intel, …), and a matrix product's rounding follows the kernel;
+  ``OPENBLAS_CORETYPE=Prescott`` makes both take their oldest x86-64 kernels (OpenBLAS reports them as
+  Katmai: SSE only), which round differently from the host's.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import os
 import sys
 
 GLIBC_HWCAPS = "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F"
+OPENBLAS_CORE = "Prescott"
 
 
 def numpy_disabled_targets() -> list[str]:
@@ -53,6 +58,7 @@ def environment() -> dict[str, str]:
         "NUMBA_CPU_NAME": "generic",
         "NUMBA_CPU_FEATURES": "",
         "GLIBC_TUNABLES": tunables,
+        "OPENBLAS_CORETYPE": OPENBLAS_CORE,
     }
 
 

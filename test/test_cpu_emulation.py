@@ -44,6 +44,16 @@ def test_numpy_takes_the_list_and_runs_only_its_baseline() -> None:
     assert current and all(t.startswith("baseline(") for t in current), current
 
 
+def test_blas_takes_its_oldest_kernels() -> None:
+    """numpy's and scipy's OpenBLAS both report the SSE-only core under the emulation (OPENBLAS_VERBOSE
+    prints the core each library loads)."""
+    script = "import numpy as np, scipy.linalg as la; la.solve(np.eye(3), np.ones(3)); np.eye(2) @ np.eye(2)"
+    env = {**_host_env(), **environment(), "OPENBLAS_VERBOSE": "2"}
+    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=60)
+    cores = [line for line in done.stderr.splitlines() if line.startswith("Core: ")]
+    assert done.returncode == 0 and cores == ["Core: Katmai", "Core: Katmai"], done.stderr
+
+
 def test_the_list_follows_the_cpu_and_numpys_naming() -> None:
     """numpy 2.x levels on an AVX2 machine without AVX-512: only X86_V3; numpy 1.x names on an AVX-512
     machine: every target above its SSE3 baseline; targets the CPU lacks and baseline ones never."""
