@@ -111,7 +111,8 @@ _TWO_PI_DD_ERROR = 1e-31  # |2π − (fl(2π) + TWO_PI_LO)| (2.4e-16 · 2⁻⁵�
 
 def wrap_angle(theta: float) -> float:
     """θ − 2πk in (-π, π], rounded once: r = remainder(θ, fl(2π)) = θ − k fl(2π) exactly (IEEE), then
-    r − k (2π − fl(2π)); a result just outside (-π, π] moves one turn (r ± fl(2π) is exact there)."""
+    r − k (2π − fl(2π)); a result just outside (-π, π] moves one turn (r ± fl(2π) is exact there), and one
+    that rounds past ±fl(π) (θ = −fl(π): π + 2.4e-16) is held at the bound (1 ulp at most, in wrap_error)."""
     two_pi = 2.0 * math.pi
     r = math.remainder(theta, two_pi)
     k = round((theta - r) / two_pi)
@@ -120,7 +121,7 @@ def wrap_angle(theta: float) -> float:
         wrapped = (r + two_pi) - (k - 1) * TWO_PI_LO
     elif wrapped > math.pi:
         wrapped = (r - two_pi) - (k + 1) * TWO_PI_LO
-    return wrapped
+    return min(max(wrapped, math.nextafter(-math.pi, 0.0)), math.pi)
 
 
 def wrap_error(given: float, wrapped: float) -> float:
@@ -203,8 +204,8 @@ class Scene:
         return f"θ0 = {self.theta0_given:.6g} rad wrapped to {self.theta0:.6g} rad (the angle is periodic)"
 
     def wrap_error(self) -> float:
-        """How far the wrap's rounding moved θ0 (rad, ≤ ½ ulp of θ0; module function wrap_error); 0 when
-        θ0 was not wrapped."""
+        """How far the wrap's rounding moved θ0 (rad, ≤ ½ ulp of θ0, 1 ulp at ±π; module function
+        wrap_error); 0 when θ0 was not wrapped."""
         return 0.0 if self.theta0_given is None else wrap_error(self.theta0_given, self.theta0)
 
     def on_level(self) -> Scene:

@@ -27,8 +27,8 @@ from test.figures import assert_figure
      (7.0, 7.0 - 2 * math.pi), (0.5, 0.5)],
 )  # fmt: skip
 def test_wrap_angle_lands_in_the_half_open_interval(given: float, wrapped: float) -> None:
-    """θ − 2πk in (-π, π]; math.remainder by fl(2π) is exact, so only the subtraction 2πk rounds
-    (≤ 1 ulp of |given| ≤ 8.9e-16 rad here)."""
+    """θ − 2πk in (-π, π]; the wrap rounds once (≤ 1 ulp of the result) and ``wrapped`` here is formed
+    with fl(2π), 2.4e-16 rad per turn off: within 2 ulp of |given| ≥ 2 ulp of π, 8.9e-16 rad."""
     got = wrap_angle(given)
     assert -math.pi < got <= math.pi
     assert got == pytest.approx(wrapped, abs=2 * math.ulp(abs(given)))

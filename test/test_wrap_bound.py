@@ -20,8 +20,8 @@ import pytest
 from pendulum_accel.cli.main import main
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Constant
-from pendulum_accel.planner import plan_scene, plan_with
-from pendulum_accel.scene import Scene, load_scene
+from pendulum_accel.planner import level_effect, plan_scene, plan_with
+from pendulum_accel.scene import THETA0_MAX, Scene, load_scene, wrap_angle, wrap_error
 from pendulum_accel.scene_run import simulate_plan
 from test.figures import figure_after, half_unit
 
@@ -29,10 +29,15 @@ G = 9.80665
 DIGITS = 30  # the reference's precision: its own error ~1e-28 rad, nothing against targets ≥ 1e-9
 
 
-def reference_theta(theta0: float, accel: float, length: float, t: np.ndarray) -> list[mpmath.mpf]:
-    """θ(t) of the module docstring's closed form, from the double θ0 unwrapped and exact, in 30 digits."""
+def reference_theta(
+    theta0: float, accel: float, length: float, t: np.ndarray, grade: float = 0.0
+) -> list[mpmath.mpf]:
+    """θ(t) of the module docstring's closed form, from the double θ0 unwrapped and exact, in 30 digits;
+    on a grade β the level problem g cos β, a + g sin β formed exactly (Scene.on_level rounds it)."""
     with mpmath.workdps(DIGITS):
-        g, a = mpmath.mpf(G), mpmath.mpf(accel)
+        beta = mpmath.mpf(grade)
+        g = mpmath.mpf(G) * mpmath.cos(beta)
+        a = mpmath.mpf(accel) + mpmath.mpf(G) * mpmath.sin(beta)
         eq = mpmath.atan2(a, g)
         two_pi = 2 * mpmath.pi
         phi0 = mpmath.mpf(theta0) - eq
@@ -61,11 +66,14 @@ def max_error(theta: np.ndarray, reference: list[mpmath.mpf], stride: int) -> fl
         return float(worst)
 
 
-def _scene(theta0: float, accel: float, target: float, duration: float, rate: float) -> Scene:
+def _scene(
+    theta0: float, accel: float, target: float, duration: float, rate: float, grade: float = 0.0
+) -> Scene:
     """l = 1 m, standard g, constant a, released from rest at θ0 (wrapped by Scene), no sensor noise."""
     base = load_scene("lecture_constant")
     return replace(
         base,
+        grade=grade,
         pendulum=Pendulum(1.0, gravity=G),
         profile=Constant(accel),
         theta0=theta0,
@@ -74,6 +82,25 @@ def _scene(theta0: float, accel: float, target: float, duration: float, rate: fl
         accuracy=target,
         sensor=replace(base.sensor, rate_hz=rate, noise_std=0.0),
     )
+
+
+def test_the_wrap_rounds_once_whatever_the_turns() -> None:
+    """2001 starts over ±32π (both bounds and ±π included): the wrapped angle lies in (-π, π], and its
+    distance to θ − 2πk in 50 digits (1e-48 of 100 rad) is wrap_error's, at most ½ ulp of it (1 ulp where
+    ±π holds it) plus 6e-33 rad per turn, fl(2π) + TWO_PI_LO's own distance to 2π (1e-31 allowed)."""
+    starts = [*np.linspace(-THETA0_MAX, THETA0_MAX, 1997), math.pi, -math.pi, 3 * math.pi, -3 * math.pi]
+    with mpmath.workdps(50):
+        two_pi = 2 * mpmath.pi
+        for given in starts:
+            wrapped = wrap_angle(given)
+            assert -math.pi < wrapped <= math.pi, given
+            k = mpmath.nint((mpmath.mpf(given) - wrapped) / two_pi)
+            shift = float(abs(mpmath.mpf(wrapped) - (mpmath.mpf(given) - two_pi * k)))
+            turns = abs(int(k))
+            # wrap_error: the shift against fl(2π) + TWO_PI_LO, plus its bound 1e-31 per turn on the rest
+            assert shift <= wrap_error(given, wrapped) <= shift + 2e-31 * turns + 1e-45, given
+            held = abs(wrapped) == math.pi or wrapped == math.nextafter(-math.pi, 0.0)
+            assert shift <= (1.0 if held else 0.5) * math.ulp(wrapped) + turns * 1e-31, (given, shift)
 
 
 # (turns k, φ0 − θ_eq): an ordinary swing, and one 1e-3 rad short of the separatrix (m1 = cos²(A/2) ≈ 2.5e-7,
@@ -100,6 +127,22 @@ def test_wrapped_start_prediction_bounds_the_error(turns: int, phi: float, targe
     measured = max_error(run.theta, reference, STRIDE)
     assert measured <= plan.predicted_error, f"{plan.explain()}: measured {measured:.2e}"
     assert "wrapped to" in plan.explain() and "its rounding moves θ by" in plan.explain()
+
+
+@pytest.mark.parametrize(("accel", "turns"), [(0.0, 0), (1.5, 0), (1.5, 3)])
+def test_a_graded_road_prediction_bounds_the_error(accel: float, turns: int) -> None:
+    """A 10 % grade (hill's β = atan 0.1): the run solves the rounded level problem, the reference the exact
+    one; measured ≤ predicted, the prediction holding the level transform's rounding (level_effect)."""
+    beta = math.atan(0.1)
+    with mpmath.workdps(DIGITS):
+        theta0 = float(2 * mpmath.pi * turns + 0.3)
+    scene = _scene(theta0, accel, 1e-9, duration=20.0, rate=50.0, grade=beta)
+    plan = plan_scene(scene)
+    assert plan.sensitivity is not None and level_effect(scene, plan.sensitivity) > 0.0
+    t = scene.sensor.sample_times(scene.duration)
+    run = simulate_plan(scene, plan, t)
+    measured = max_error(run.theta, reference_theta(theta0, accel, 1.0, t[::STRIDE], beta), STRIDE)
+    assert measured <= plan.predicted_error, f"{plan.explain()}: measured {measured:.2e}"
 
 
 def test_a_stepped_plan_from_a_wrapped_start_bounds_its_error() -> None:
