@@ -68,18 +68,27 @@ pytest: $(STAMP)
 # The numerics tests: every test whose figures come from floating-point arithmetic that numpy, libm or
 # numba may do differently on another x86-64 CPU (physics, integrators, kernels, closed forms, planner
 # and conditioning, estimators and calibration, Allan deviation, sweeps, golden bags). pytest-emulated
-# runs them once more with numpy, glibc's libm and numba kept off AVX-512, AVX2 and FMA
-# (test/cpu_emulation.py; docs/portability.md), so a machine-dependent assertion fails here first.
+# runs them once more with numpy at its baseline (NPY_DISABLE_CPU_FEATURES), glibc's libm off AVX2 and
+# FMA, numba compiling for NUMBA_CPU_NAME=generic NUMBA_CPU_FEATURES= and OpenBLAS on its oldest
+# kernels (OPENBLAS_CORETYPE=Prescott; test/cpu_emulation.py;
+# docs/portability.md), so a machine-dependent assertion fails here first.
 NUMERICS_TESTS := $(addprefix test/test_,$(addsuffix .py, \
   physics_properties equation_of_motion rigid elastic multiplier grade linear exact variational \
   integrators dop853_tableau kernels profiles simulate extremes planner error_bounds \
   estimators estimator_guard smoother calibration seed_spread sensor allan accel_csv real_motion_profiles \
-  lecture sweep scene_run plan_honesty bag_golden figures cpu_emulation))
+  lecture lab sweep scene_run plan_honesty wrap_bound bag_golden figures cpu_emulation))
 
 pytest-emulated: $(STAMP)
 	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pytest $(NUMERICS_TESTS)
 
-test: lint typecheck pytest pytest-emulated
+# Every step runs even after one fails (the CPU-emulation pass most of all: it is what shows a machine-
+# dependent assertion), then make test fails naming the steps that failed.
+TEST_STEPS := lint typecheck pytest pytest-emulated
+test: $(STAMP)
+	@failed=""; for step in $(TEST_STEPS); do \
+	  $(MAKE) --no-print-directory $$step || failed="$$failed $$step"; \
+	done; \
+	if [ -n "$$failed" ]; then echo "make test failed:$$failed"; exit 1; fi
 
 bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags

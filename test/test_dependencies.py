@@ -186,12 +186,12 @@ def test_rosdep_keys_and_the_readme_pip_line_install_all_of_install_requires() -
 
 
 def test_the_check_catches_a_missing_distribution() -> None:
-    """The comparison above is not vacuous: allantools, dropped from the pip line, is reported missing."""
+    """The comparison above is not vacuous: rosbags, dropped from the pip line, is reported missing."""
     required, _ = setup_requirements()
     by_rosdep = {ROSDEP_TO_DIST[k] for k in package_xml().get("exec_depend", set()) if k in ROSDEP_TO_DIST}
-    by_pip = colcon_pip_line(ROOT / "README.md") - {"allantools"}
-    assert "allantools" in required and required - by_rosdep - by_pip == {"allantools"}
-    assert "allantools" in {distribution_of(m) for m in runtime_imports()}
+    by_pip = colcon_pip_line(ROOT / "README.md") - {"rosbags"}
+    assert "rosbags" in required and required - by_rosdep - by_pip == {"rosbags"}
+    assert "rosbags" in {distribution_of(m) for m in runtime_imports()}
 
 
 def test_the_docs_extra_is_what_make_docs_installs_and_covers_mkdocs_yml() -> None:
@@ -219,3 +219,14 @@ def test_the_docs_extra_is_what_make_docs_installs_and_covers_mkdocs_yml() -> No
     missing = {m: distribution_of(m) for m in modules if distribution_of(m) not in pinned | with_mkdocs}
     assert missing == {}, f"mkdocs.yml needs these, which the docs extra does not install: {missing}"
     assert "material" in modules and distribution_of("material") == "mkdocs-material"
+
+
+def test_the_core_install_pulls_no_test_tools() -> None:
+    """No test or docs tool (pytest, sphinx) is a core requirement, nor anything the package imports at run
+    time: allantools, which requires both, is a test dependency (test_allan checks the package's own ADEV
+    against it)."""
+    required, extras = setup_requirements()
+    tools = {"pytest", "sphinx", "numpydoc", "allantools", "hypothesis"}
+    assert required & tools == set()
+    assert "allantools" in extras["test"]
+    assert {distribution_of(m) for m in runtime_imports()} & tools == set()

@@ -58,9 +58,14 @@ def _check_directory(directory: Path, shown: str, option: str) -> None:
 
 
 def _given(path: Path | str, option: str) -> Path:
-    """``path`` as a Path; OutputError for an empty one (``--out ""`` would mean the current directory)."""
+    """``path`` as a Path; OutputError for an empty one (``--out ""`` would mean the current directory) and
+    for '-', standard output, where the command writes a file or a directory."""
     if str(path).strip() == "":
         raise OutputError(f"{option} is empty: give a path; nothing written")
+    if str(path) == "-":  # commands that can write to stdout take '-' before they call this
+        raise OutputError(
+            f"{option} '-' (standard output) is not possible here: give a path; nothing written"
+        )
     return Path(path)
 
 
