@@ -1,0 +1,69 @@
+"""``pendulum-accel lab make-class``: a teacher writes a class's lab data (one folder and zip per group)
+and its key from a secret. The code that measures the answers lives in the repository's ``lab_teacher/``,
+which the installed package does not hold: the command runs from a clone (or with ``--teacher DIR``)."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from pathlib import Path
+from typing import Any
+
+from pendulum_accel.errors import ParameterError
+
+TEACHER_PACKAGE = "lab_teacher"
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``lab`` subcommand and its ``make-class`` action."""
+    parser = subparsers.add_parser(
+        "lab",
+        help="teachers: make a class's lab data and key from a secret (needs a clone's lab_teacher/)",
+        description="Teachers' commands for the lab (docs/lab/).",
+    )
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    make = actions.add_parser(
+        "make-class",
+        help="write one data folder and zip per group, and the teacher key, from a secret",
+        description=(
+            "Write DIR/group_NN/ (data/ with the group's recordings and params.json, the worksheet and the "
+            "student notebook), DIR/group_NN.zip to hand out, and DIR/teacher_key.md. Each group's hidden "
+            "parameters are drawn from HMAC-SHA256(secret, CLASS/group_NN): without the secret nobody can "
+            "regenerate them."
+        ),
+    )
+    make.add_argument("--secret", type=Path, required=True, metavar="FILE", help="at least 16 random bytes")
+    make.add_argument("--groups", type=int, required=True, metavar="N", help="number of groups")
+    make.add_argument("--out", type=Path, required=True, metavar="DIR", help="a new directory")
+    make.add_argument("--class", dest="class_name", default="class", metavar="NAME", help="the class's name")
+    make.add_argument(
+        "--teacher",
+        type=Path,
+        metavar="DIR",
+        help="the clone holding lab_teacher/ (default: the clone this package runs from, or the current one)",
+    )
+    make.set_defaults(func=run)
+
+
+def _teacher_module(where: Path | None) -> Any:
+    """lab_teacher.key, imported from ``where``, the clone this package sits in, or the working directory."""
+    candidates = [where] if where else [Path(__file__).resolve().parents[2], Path.cwd()]
+    for root in candidates:
+        if (root / TEACHER_PACKAGE / "key.py").is_file():
+            if str(root) not in sys.path:
+                sys.path.insert(0, str(root))
+            return importlib.import_module(f"{TEACHER_PACKAGE}.key")
+    raise ParameterError(
+        "make-class needs the teacher material (lab_teacher/ in a clone of the repository); "
+        "run it from the clone or give --teacher DIR"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Make the class and print where its key and zips are."""
+    key = _teacher_module(args.teacher).make_class(args.secret, args.groups, args.out, args.class_name)
+    zips = sorted(args.out.glob("*.zip"))
+    print(f"wrote {len(zips)} group folders and zips in {args.out} (hand out the zips)")
+    print(f"teacher key: {key} (keep it, and the secret, to yourself)")
+    return 0
