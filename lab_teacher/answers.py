@@ -214,7 +214,6 @@ def measure_bias(
     sigma_noise /= math.sqrt(int(inside.sum()))
     ends = np.interp([t1, t2], t, raw) - mean
     sigma_window = math.hypot(ends[0] * sigmas[0], ends[1] * sigmas[-1]) / (t2 - t1)
-    spacing = np.diff(times)
     maxima = np.interp(times, t, theta)  # the parabola vertex's height ≈ the sample there, to σ_θ
     mins_times, _ = turning_points(t, -theta, period_guess)
     minima = np.interp(mins_times, t, theta)
@@ -264,23 +263,17 @@ def exercise2(folder: Path, period_guess: float | None = None) -> list[Answer]:
 def delay_and_rms(t: FloatArray, est: FloatArray, accel: FloatArray, settle: float) -> tuple[float, float]:
     """(delay τ, RMS error) of an estimate against the recorded a, both over t ≥ settle.
 
-    τ minimises RMS(est(t) − a(t − τ)) over whole-sample lags from MIN_LAG to MAX_LAG, refined by the
-    parabola through the three lags about the minimum: τ* = τ_k − Δ (e₊ − e₋)/(2 (e₊ − 2 e₀ + e₋)).
+    τ = the whole-sample lag, from MIN_LAG to MAX_LAG, that minimises RMS(est(t) − a(t − τ)).
     """
     dt = float(t[1] - t[0])
     lags = np.arange(round(MIN_LAG / dt), round(MAX_LAG / dt) + 1)
-    i0 = int(np.searchsorted(t, t[0] + settle))
-    i0 = max(i0, int(lags[-1]))
+    i0 = max(int(np.searchsorted(t, t[0] + settle)), int(lags[-1]))
     idx = np.arange(i0, t.size - max(0, -int(lags[0])))
     err = np.array([np.sqrt(np.mean((est[idx] - accel[idx - m]) ** 2)) for m in lags])
-    k = int(np.argmin(err))
-    delay = float(lags[k]) * dt
-    if 0 < k < err.size - 1:
-        den = err[k + 1] - 2.0 * err[k] + err[k - 1]
-        if den > 0:
-            delay -= dt * (err[k + 1] - err[k - 1]) / (2.0 * den)
     settled = t >= t[0] + settle
-    return delay, float(np.sqrt(np.mean((est[settled] - accel[settled]) ** 2)))
+    return float(lags[int(np.argmin(err))]) * dt, float(
+        np.sqrt(np.mean((est[settled] - accel[settled]) ** 2))
+    )
 
 
 def mean_and_sem(values: list[float]) -> tuple[float, float]:
@@ -314,7 +307,18 @@ def exercise3(folder: Path) -> list[Answer]:
     out = [Answer("ex3_rms_a", "RMS of the recorded a itself", *mean_and_sem(rms_a), "m/s²")]
     for est_name, (rms_list, delays) in per.items():
         out.append(Answer(f"ex3_rms_{est_name}", f"RMS error of {est_name}", *mean_and_sem(rms_list), "m/s²"))
-        out.append(Answer(f"ex3_delay_{est_name}", f"delay of {est_name}", *mean_and_sem(delays), "s"))
+        # A whole-sample lag rounds by up to Δt/2 the same way on every stretch (one delay): σ adds Δt/√12.
+        delay, sem = mean_and_sem(delays)
+        step = 1.0 / params["rate_hz"]
+        out.append(
+            Answer(
+                f"ex3_delay_{est_name}",
+                f"delay of {est_name}",
+                delay,
+                math.hypot(sem, step / math.sqrt(12)),
+                "s",
+            )
+        )
     return out
 
 

@@ -43,8 +43,8 @@ TEMPLATE = Template(
 
 Written by `pendulum-accel lab make-class` with the class's secret: do not hand this file out. Each group's
 folder (`${groups_list}`) holds only its measured data and `data/params.json`; the hidden parameters
-below (the car's acceleration in exercise 1, the release angle in exercise 2, the stretches of the city
-cycle in exercise 3, the noise seeds) come from HMAC-SHA256(secret, "${class_name}/group"), so the
+below (the car's acceleration in exercise one, the release angle in exercise two, the stretches of the city
+cycle in exercise three, the noise seeds) come from HMAC-SHA256(secret, "${class_name}/group"), so the
 folders cannot be regenerated without the secret.
 
 ## How to grade
@@ -67,7 +67,8 @@ ${groups}
 ## Notes for the discussion
 
 - **Exercise one.** The fit's σ comes from the residual (the sensor's noise); the finite amplitude
-  lowers ω by a sixteenth of A² (relative), below σ here but the first systematic error a quieter sensor would meet.
+  lowers ω by a sixteenth of A² (relative), below σ here but the first systematic error a quieter
+  sensor would meet.
 - **Exercise two.** The average runs from the first to the last maximum of θ found in the data, so both
   ends sit at the same phase and the period read off the plot only tells where to look: in group
   `${first_group}`, a period off by ${period_error} s moves the bias by ${period_shift} m/s² (its σ:
@@ -80,8 +81,8 @@ ${groups}
 
 ## Extensions (optional, not graded)
 
-- **A. A stiffer string.** As k grows the angle converges to the rigid pendulum's like 1/k, the stretch's
-  departure from T_rigid/k like 1/k²; the planner's fixed-step RK4 costs the same until the radial mode
+- **A. A stiffer string.** As k grows the angle converges to the rigid pendulum's like k⁻¹, the stretch's
+  departure from T_rigid/k like k⁻²; the planner's fixed-step RK4 costs the same until the radial mode
   √(k/m) reaches its stability limit, then grows like √k; an adaptive method grows from the start.
 - **B. Road grade.** On the `hill` scene (grade β, constant speed, true a zero) every estimator reads
   g tan β = ${hill_reading} m/s². The period (ratio √(cos β) = ${hill_period_ratio}, hill over level at

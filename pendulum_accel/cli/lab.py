@@ -1,6 +1,8 @@
-"""``pendulum-accel lab make-class``: a teacher writes a class's lab data (one folder and zip per group)
-and its key from a secret. The code that measures the answers lives in the repository's ``lab_teacher/``,
-which the installed package does not hold: the command runs from a clone (or with ``--teacher DIR``)."""
+"""``pendulum-accel lab check``: a student proves the install works (and warms numba's cache) before
+class. ``pendulum-accel lab make-class``: a teacher writes a class's lab data (one folder and zip per
+group) and its key from a secret. The code that measures the answers lives in the repository's
+``lab_teacher/``, which the installed package does not hold: make-class runs from a clone (or with
+``--teacher DIR``)."""
 
 from __future__ import annotations
 
@@ -23,6 +25,16 @@ def register(subparsers: Any) -> None:
         description="Teachers' commands for the lab (docs/lab/).",
     )
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    check = actions.add_parser(
+        "check",
+        help="students, before class: check the install and compile the simulator's kernels (once)",
+        description=(
+            "Simulate a short swing, run the lab's four estimators on it, draw a plot and look for Jupyter; "
+            "the first run compiles numba's kernels into its on-disk cache (about 20 s), later runs take "
+            "seconds. Ends with 'install OK', or names what is missing (exit 2)."
+        ),
+    )
+    check.set_defaults(func=run_check)
     make = actions.add_parser(
         "make-class",
         help="write one data folder and zip per group, and the teacher key, from a secret",
@@ -58,6 +70,47 @@ def _teacher_module(where: Path | None) -> Any:
         "make-class needs the teacher material (lab_teacher/ in a clone of the repository); "
         "run it from the clone or give --teacher DIR"
     )
+
+
+LAB_ESTIMATORS = ("instant", "period_mean", "kalman", "dynamic")  # the estimators the lab's notebook runs
+LAB_MODULES = ("jupyterlab", "ipykernel")  # the lab extra: the notebook needs them, the package does not
+
+
+def run_check(args: argparse.Namespace) -> int:
+    """Run what the lab's notebook runs, once, and report each step's time; 'install OK' at the end."""
+    import dataclasses
+    import importlib.util
+    import io
+    import time
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pendulum_accel.estimators import estimate_batch
+    from pendulum_accel.scene import load_scene
+    from pendulum_accel.scene_run import run_scene
+
+    missing = [name for name in LAB_MODULES if importlib.util.find_spec(name) is None]
+    if missing:
+        raise ParameterError(f'missing {", ".join(missing)}: install the lab extra (pip install ".[lab]")')
+    start = time.perf_counter()
+    run = run_scene(dataclasses.replace(load_scene("lecture_constant"), duration=5.0))
+    print(f"simulator: {run.t.size} samples ({time.perf_counter() - start:.1f} s, compiles once)")
+    p, s = run.scene.pendulum, run.scene.sensor
+    cfg = {"length": p.length, "gravity": p.gravity, "noise_std": s.noise_std, "rate_hz": s.rate_hz}
+    start = time.perf_counter()
+    for name in LAB_ESTIMATORS:
+        estimate_batch(name, run.t, run.theta_measured, **cfg)
+    print(f"estimators: {', '.join(LAB_ESTIMATORS)} ({time.perf_counter() - start:.1f} s, compile once)")
+    fig, ax = plt.subplots()
+    ax.plot(run.t, run.theta_measured)
+    fig.savefig(io.BytesIO(), format="png")
+    plt.close(fig)
+    print("plot: matplotlib draws; Jupyter: " + ", ".join(LAB_MODULES) + " found")
+    print("install OK")
+    return 0
 
 
 def run(args: argparse.Namespace) -> int:
