@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from string import Template
 
@@ -152,7 +152,7 @@ def render_group(runs: GroupRuns, found: Mapping[str, Answer]) -> str:
     )
 
 
-def render_key(class_name: str, groups: list[tuple[GroupRuns, Path, Mapping[str, Answer]]]) -> str:
+def render_key(class_name: str, groups: Sequence[tuple[GroupRuns, Path, Mapping[str, Answer]]]) -> str:
     """The whole key: the class's header and grading rule, one section per group, the discussion notes."""
     from lab_teacher.answers import exercise2, load_csv
 

@@ -162,3 +162,19 @@ def test_fit_recovers_a_known_swing_within_its_stated_sigma() -> None:
     # The formula's identity: a² + g² = (ω² l)² to rounding (a few ulp of ω⁴ ≈ 100).
     assert math.isclose(math.hypot(a, g), fit.omega**2, rel_tol=1e-12)
     assert s_a > 0 and s_g > 0
+
+
+def test_lab_check_proves_the_install_or_names_what_is_missing(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`pendulum-accel lab check` runs the simulator, the four estimators and a plot, and ends with
+    'install OK'; a missing Jupyter module is one line on stderr and exit 2."""
+    from pendulum_accel.cli import lab
+
+    monkeypatch.setattr(lab, "LAB_MODULES", ("ipykernel",))
+    assert main(["lab", "check"]) == 0
+    assert capsys.readouterr().out.rstrip().endswith("install OK")
+    monkeypatch.setattr(lab, "LAB_MODULES", ("ipykernel", "no_such_module_for_the_lab"))
+    assert main(["lab", "check"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no_such_module_for_the_lab" in err

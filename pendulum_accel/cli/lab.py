@@ -21,8 +21,12 @@ def register(subparsers: Any) -> None:
     """Add the ``lab`` subcommand and its ``make-class`` action."""
     parser = subparsers.add_parser(
         "lab",
-        help="teachers: make a class's lab data and key from a secret (needs a clone's lab_teacher/)",
-        description="Teachers' commands for the lab (docs/lab/).",
+        help="the lab: check a student's install; make a class's data and key from a secret (teachers)",
+        description=(
+            "The lab (docs/lab/). 'lab check': students, before class, prove the install works and compile "
+            "the simulator's kernels once. 'lab make-class --secret FILE --groups N --out DIR': teachers "
+            "write a folder and zip per group and the key (from a clone, which holds lab_teacher/)."
+        ),
     )
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     check = actions.add_parser(
