@@ -71,7 +71,8 @@ def test_the_draw_needs_the_secret() -> None:
 
 
 def test_make_class_refuses_bad_input_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """A missing or short secret, no groups, an existing --out: exit 2, one line, nothing written."""
+    """A missing or short secret, no groups, an existing --out, no teacher material: exit 2, one line,
+    nothing written."""
     short = tmp_path / "short.txt"
     short.write_bytes(b"too short")
     good = tmp_path / "secret.txt"
@@ -87,6 +88,10 @@ def test_make_class_refuses_bad_input_in_one_line(tmp_path: Path, capsys: pytest
         code = main(["lab", "make-class", "--secret", str(secret), "--groups", groups, "--out", str(out)])
         err = capsys.readouterr().err
         assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    # A student's install has no lab_teacher/: the command says so instead of making anything.
+    argv = ["lab", "make-class", "--secret", str(good), "--groups", "1", "--out", str(tmp_path / "d")]
+    assert main([*argv, "--teacher", str(tmp_path)]) == 2
+    assert "lab_teacher" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["exists", "secret.txt", "short.txt"]
 
 
