@@ -60,7 +60,8 @@ The "hidden truth" column is what the simulator was set to. The key's value shou
 its σ of it; the column "off" gives (key − truth)/σ. Exercise three has no hidden truth: the RMS errors
 and delays are properties of the estimators, measured on the group's ${runs} stretches of ${window} s
 of the drive (the first ${settle} s of each cut: the bob starts hanging and the estimators start
-from nothing), and σ is the standard error over the stretches.
+from nothing), and σ is the standard error over the stretches (for a delay, with beside it the
+${lag_rounding} s rms rounding of a lag read in whole samples, alike on every stretch).
 
 ${groups}
 
@@ -182,6 +183,7 @@ def render_key(class_name: str, groups: Sequence[tuple[GroupRuns, Path, Mapping[
         bias_sigma=f"{bias.sigma:.1e}",
         bias_all=f"{whole - first_runs.draw.bias_accel:+.3f}",
         zeta=f"{drive.damping / (2.0 * math.sqrt(drive.gravity / drive.length)):.3f}",
+        lag_rounding=f"{1.0 / (first_runs.drives[0].scene.sensor.rate_hz * math.sqrt(12.0)):.4f}",  # Δt/√12
         **hill,
     )
 
