@@ -86,8 +86,9 @@ ${groups}
   departure from T_rigid/k like k⁻²; the planner's fixed-step RK4 costs the same until the radial mode
   √(k/m) reaches its stability limit, then grows like √k; an adaptive method grows from the start.
 - **B. Road grade.** On the `hill` scene (grade β, constant speed, true a zero) every estimator reads
-  g tan β = ${hill_reading} m/s². The period (ratio √(cos β) = ${hill_period_ratio}, hill over level at
-  the same reading) and the tension (ratio sec β = ${hill_tension_ratio}) tell the hill from a level car.
+  g tan β = ${hill_reading} m/s². A level car accelerating at g tan β reads the same; its period and
+  tension tell it from the hill (level over hill: period √(cos β) = ${hill_period_ratio}, tension
+  sec β = ${hill_tension_ratio}).
 - **C. The exact period.** The period grows with amplitude as the complete elliptic integral says;
   `pendulum-accel lecture frequency` checks a group's own measurement afterwards.
 - **D. Chaos.** Two runs of `resonant_drive` a hair apart in θ0 part after about a minute: from then on
@@ -179,7 +180,7 @@ def render_key(class_name: str, groups: Sequence[tuple[GroupRuns, Path, Mapping[
         groups="\n".join(render_group(r, found) for r, _, found in groups),
         first_group=first_runs.draw.group,
         period_error=f"{PERIOD_ERROR:g}",
-        period_shift=f"{abs(shifted['ex2_bias'].value - bias.value):.1e}",
+        period_shift=f"{abs(shifted['ex2_bias'].value - bias.value):.2g}",
         bias_sigma=f"{bias.sigma:.1e}",
         bias_all=f"{whole - first_runs.draw.bias_accel:+.3f}",
         zeta=f"{drive.damping / (2.0 * math.sqrt(drive.gravity / drive.length)):.3f}",
