@@ -20,7 +20,7 @@ VENV_FLAGS :=
 ROS_REQS   := -r requirements-ros.txt
 endif
 
-.PHONY: demo test setup lint typecheck pytest pytest-emulated bags bench docs docs-reference clean lab
+.PHONY: demo test setup lint typecheck pytest pytest-emulated bags bench docs docs-reference clean lab lab-handout
 
 setup: $(STAMP)
 
@@ -123,7 +123,15 @@ clean:
 # Without make (e.g. Windows): python -m venv .venv-lab, then pip install ".[lab]" inside it.
 LAB_VENV ?= .venv-lab
 lab: $(LAB_VENV)/.installed
-	@echo "start the lab with:  $(LAB_VENV)/bin/jupyter lab docs/lab/student.ipynb"
+	@echo "check it before class:  $(LAB_VENV)/bin/pendulum-accel lab check"
+
+# Teachers: a class's handout from a secret, e.g. make lab-handout SECRET=secret.txt GROUPS=8 OUT=class_a:
+# a zip per group, the teacher key and the package's wheel for students without a clone (docs/lab/).
+lab-handout: $(LAB_VENV)/.installed
+	@test -n "$(SECRET)" -a -n "$(GROUPS)" -a -n "$(OUT)" || \
+		{ echo "usage: make lab-handout SECRET=FILE GROUPS=N OUT=DIR" >&2; exit 2; }
+	$(LAB_VENV)/bin/pendulum-accel lab make-class --secret "$(SECRET)" --groups "$(GROUPS)" --out "$(OUT)"
+	$(LAB_VENV)/bin/python -m pip wheel -q --no-deps -w "$(OUT)" .
 
 $(LAB_VENV)/.installed: setup.py package.xml
 	$(PYTHON) -m venv $(LAB_VENV)

@@ -39,6 +39,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "repair": ("repair", "rebuild a damaged bag (killed recorder) from what its MCAP file holds"),
     "golden-bags": ("golden_bags", "regenerate the small golden bags of the bundled scenes (make bags)"),
     "run": ("run", "run the live ROS 2 chain on a scene and record it"),
+    "lab": (
+        "lab",
+        "the lab: check a student's install; make a class's data and key from a secret (teachers)",
+    ),
 }
 
 
