@@ -3,17 +3,18 @@
 Each entry is a bundled scene's a(t), optionally cut to a window, with the recording it comes from, so a
 split can hold out whole recordings. Sources, licences and conversions: scenes/real_motion/README.md.
 
-| kind | train | validate |
-|---|---|---|
-| car (speed trace) | udds_p1 | hwfet, udds_p2, comma2k19_speed |
-| robot (odometry) | husky_1, f1tenth_ds1, f1tenth_ds3, jackal (sim.) | husky_2, f1tenth_ds2, _ds4, _ds5 |
-| accel_table (a logged IMU) | husky_imu_1, f1tenth_ds1_imu | husky_imu_2, f1tenth_ds5_imu, comma2k19_imu |
-| lab (made up) | stop_and_go, step | braking |
+- car (a speed trace): train udds_p1; validate hwfet, udds_p2, comma2k19_speed.
+- robot (wheel odometry): train husky_1, f1tenth_ds1, f1tenth_ds3, jackal (simulated); validate husky_2,
+  f1tenth_ds2, f1tenth_ds4, f1tenth_ds5.
+- accel_table (a logged IMU, accel_csv): train husky_imu_1, f1tenth_ds1_imu, phone_trip1; validate
+  husky_imu_2, f1tenth_ds5_imu, comma2k19_imu, phone_trip2.
+- lab (made up): train stop_and_go, step; validate braking.
 
 Held out whole: the F1TENTH runs DS2, DS4, DS5 (their odometry and IMU), the comma2k19 minute (its CAN
-speed and IMU) and HWFET; no part of them is in training. The Husky's one drive and the UDDS are split in
-time (train on the first part, validate on the rest), as the benchmark did before the corpus grew. The
-Jackal is a Gazebo simulation (its bag's stamps are simulation time), so it trains and is never reported.
+speed and IMU), the dashboard phone's return trip and HWFET; no part of them is in training. The Husky's
+one drive and the UDDS are split in time (train on the first part, validate on the rest), as the
+benchmark did before the corpus grew. The Jackal is a Gazebo simulation (its bag's stamps are simulation
+time), so it trains and is never reported.
 """
 
 from __future__ import annotations
@@ -87,6 +88,7 @@ CORPUS: tuple[Entry, ...] = (
     _scene_entry("jackal", "robot", "train", "jackal_sim", "jackal_odom", 61.0),
     _scene_entry("husky_imu_1", "accel_table", "train", "husky", "husky_imu", 195.0, 0.0, 195.0),
     _scene_entry("f1tenth_ds1_imu", "accel_table", "train", "f1tenth_ds1", "f1tenth_ds1_imu", 43.0),
+    _scene_entry("phone_trip1", "accel_table", "train", "phone_trip1", "phone_corolla_trip1", 355.0),
     _scene_entry("stop_and_go", "lab", "train", "stop_and_go", "stop_and_go", 30.0),
     Entry("step", "lab", "train", "step", 20.0, lambda: Step(8.0, 0.0, 3.0)),
     # validate
@@ -100,10 +102,12 @@ CORPUS: tuple[Entry, ...] = (
     _scene_entry("husky_imu_2", "accel_table", "validate", "husky", "husky_imu", 195.0, 200.0, 395.0),
     _scene_entry("f1tenth_ds5_imu", "accel_table", "validate", "f1tenth_ds5", "f1tenth_ds5_imu", 56.0),
     _scene_entry("comma2k19_imu", "accel_table", "validate", "comma2k19", "comma2k19_imu", 59.0),
+    _scene_entry("phone_trip2", "accel_table", "validate", "phone_trip2", "phone_corolla_trip2", 357.0),
     Entry("braking", "lab", "validate", "braking", 20.0, lambda: Braking(14.0, 4.0, 6.0)),
 )
 """Every corpus profile, train first. Real recordings in validation: robots husky_2 and F1TENTH DS2, DS4,
-DS5; acceleration tables husky_imu_2, f1tenth_ds5_imu, comma2k19_imu; cars hwfet, udds_p2, comma2k19."""
+DS5; acceleration tables husky_imu_2, f1tenth_ds5_imu, comma2k19_imu, phone_trip2; cars hwfet, udds_p2,
+comma2k19_speed."""
 
 SPLIT_IN_TIME = ("udds", "husky")
 """Recordings split in time rather than held out whole (their train and validate windows do not overlap)."""

@@ -94,6 +94,8 @@ CORPUS_SCENE_NAMES: tuple[str, ...] = (
     "f1tenth_ds5_imu",
     "comma2k19_speed",
     "comma2k19_imu",
+    "phone_corolla_trip1",
+    "phone_corolla_trip2",
 )
 """Recorded robots, a car's CAN speed and logged accelerations (accel_csv) that widen the real-motion
 corpus (scenes/real_motion/README.md names each one's source, licence and conversion)."""

@@ -45,10 +45,9 @@ def test_corpus_scene_matches_its_readme_row(name: str) -> None:
     file, cutoff, duration, low, high = readme_rows()[name]
     scene = load_scene(name)
     assert scene.duration == duration and scene.motion is None
-    assert f" {file} (" in scene.profile.origin
-    assert f"cut-off {cutoff:g} Hz" in scene.profile.origin
     profile = scene.profile
     assert isinstance(profile, Table)
+    assert f" {file} (" in profile.origin and f"cut-off {cutoff:g} Hz" in profile.origin
     times, accels = np.array(profile.times), np.array(profile.accels)
     assert times[0] == 0.0 and times[-1] >= duration  # the recording covers the scene
     inside = accels[times <= duration]
