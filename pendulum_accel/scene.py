@@ -96,6 +96,7 @@ CORPUS_SCENE_NAMES: tuple[str, ...] = (
     "comma2k19_imu",
     "phone_corolla_trip1",
     "phone_corolla_trip2",
+    "bus_gps_speed",
 )
 """Recorded robots, a car's CAN speed and logged accelerations (accel_csv) that widen the real-motion
 corpus (scenes/real_motion/README.md names each one's source, licence and conversion)."""
