@@ -3,12 +3,15 @@ row states; the benchmark corpus holds out whole recordings and names only bundl
 
 from __future__ import annotations
 
+import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from benchmarks.corpus import CORPUS, KINDS, SPLIT_IN_TIME, SPLITS, entries
+from pendulum_accel.cli.main import main
 from pendulum_accel.physics.profiles import Table
 from pendulum_accel.scene import BUNDLED_SCENE_NAMES, CORPUS_SCENE_NAMES, SCENES_DIR, load_scene
 
@@ -54,6 +57,10 @@ def test_corpus_scene_matches_its_readme_row(name: str) -> None:
     assert abs(float(inside.min()) - low) <= 0.005 + 1e-6
     assert abs(float(inside.max()) - high) <= 0.005 + 1e-6
     assert np.all(np.isfinite(accels))
+    # The recording starts mid-motion, so the bob starts at rest at θ_eq = atan(a(0)/g), written to 6
+    # decimals: within 5e-7 rad of it.
+    theta_eq = math.atan2(float(accels[0]), scene.pendulum.gravity)
+    assert abs(scene.theta0 - theta_eq) <= 5e-7 + 1e-12 and scene.theta_dot0 == 0.0
 
 
 @pytest.mark.parametrize("name", CORPUS_SCENE_NAMES)
@@ -95,3 +102,12 @@ def test_corpus_entries_build_their_stated_span(entry: object) -> None:
     assert np.all(np.isfinite(profile(t)))
     if isinstance(profile, Table):
         assert profile.times[0] == 0.0 and profile.times[-1] >= entry.duration - 1e-6  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("name", CORPUS_SCENE_NAMES)
+def test_each_corpus_scene_runs_through_simulate(name: str, tmp_path: Path) -> None:
+    """`simulate NAME --duration 3`: exit 0, 601 rows (200 Hz), θ finite."""
+    out = tmp_path / f"{name}.csv"
+    assert main(["simulate", name, "--duration", "3", "--out", str(out)]) == 0
+    data = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert data.shape[0] == 601 and np.all(np.isfinite(data))
