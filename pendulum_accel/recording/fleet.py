@@ -231,22 +231,47 @@ def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
                 client.close(timeout=CLOSE_TIMEOUT)
         return
     n = workers or len(os.sched_getaffinity(0))
-    cluster = LocalCluster(
-        n_workers=n,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=None,
-        silence_logs=40,  # logging.ERROR: a fleet run's terminal shows the bar and the errors only
-    )
-    client = Client(cluster)
+    # multiprocessing's resource tracker (a child started with the first worker) cleans up what a
+    # worker killed on Ctrl-C held, and would print a warning about it after the one-line message.
+    quiet = "ignore::UserWarning:multiprocessing.resource_tracker"
+    os.environ["PYTHONWARNINGS"] = ",".join(w for w in (os.environ.get("PYTHONWARNINGS"), quiet) if w)
+    try:
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=40,  # logging.ERROR: a fleet run's terminal shows the bar and the errors only
+        )
+        client = Client(cluster)
+    except KeyboardInterrupt:
+        _kill_local_workers()
+        raise
+    timeout = CLOSE_TIMEOUT
     try:
         yield client
+    except KeyboardInterrupt:
+        # Ctrl-C: the user wants the terminal back now, not after a graceful drain. The local workers
+        # are this process's children; killing them ends their tasks at once (nothing they hold is
+        # written anywhere: the table is written only after every task has returned).
+        _kill_local_workers()
+        timeout = 0.2
+        raise
     finally:
         # A slow shutdown (a loaded machine) must not turn a finished table into a traceback.
         with contextlib.suppress(TimeoutError, OSError, RuntimeError):
-            client.close(timeout=CLOSE_TIMEOUT)
+            client.close(timeout=timeout)
         with contextlib.suppress(TimeoutError, OSError, RuntimeError):
-            cluster.close(timeout=CLOSE_TIMEOUT)
+            cluster.close(timeout=timeout)
+
+
+def _kill_local_workers() -> None:
+    """SIGKILL every child process of this one (the local cluster's nannies and workers)."""
+    import multiprocessing
+
+    for child in multiprocessing.active_children():
+        with contextlib.suppress(OSError, ValueError):
+            child.kill()
 
 
 def _distributed(
