@@ -17,6 +17,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from typing import Any
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -232,3 +233,40 @@ def _no_leftover_workers() -> Iterator[None]:
     import multiprocessing
 
     assert not multiprocessing.active_children()
+
+
+def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path) -> None:
+    """Two designs × one profile × two seeds: a row per design with the asked lags, RMS falling (not
+    rising) with the lag beyond rounding, the front monotone; a LocalCluster gives the same rows (exact,
+    for the reason given in test_local_cluster_gives_the_serial_table)."""
+    from pendulum_accel.recording import design_study as ds
+
+    designs = ds.design_grid([0.2, 1.0], [0.7], [100.0], [1e-3])
+    kwargs: dict[str, Any] = {"seeds": 2, "duration": 20.0, "lags": (0.0, 0.5)}
+    rows = ds.study(designs, ["husky_odom"], distributed=False, **kwargs)
+    assert [r["design"] for r in rows] == [d.name for d in designs]
+    for r in rows:
+        assert r["cases"] == 2
+        assert 0.0 < r["rms_lag_0.5"] < r["rms_lag_0"], r  # half a second of hindsight helps on real motion
+        assert 0.0 <= r["share_2sigma_steady"] <= 1.0
+    pts = ds.front(rows)
+    assert all(a[0] <= b[0] and a[1] > b[1] for a, b in zip(pts, pts[1:], strict=False))
+    assert ds.study(designs, ["husky_odom"], workers=2, distributed=True, **kwargs) == rows
+
+
+def test_design_cli_table_plot_and_one_line_refusals(tmp_path: Path) -> None:
+    """The command writes its table and plot; a bad grid or scene is one line, exit 2, nothing written."""
+    out, png = tmp_path / "d.csv", tmp_path / "d.png"
+    done = cli("design", "--out", str(out), "--plot", str(png), "--lengths", "0.2", "--damping-ratios", "0.7",
+               "--rates", "100", "--noises", "1e-3", "--profiles", "husky_odom", "--duration", "10",
+               "--seeds", "1", "--lags", "0,0.25")  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    header = out.read_text().splitlines()[0].split(",")
+    assert "rms_lag_0.25" in header and "share_2sigma_after_change" in header
+    assert png.stat().st_size > 0
+    for bad in (["--lengths", "-1"], ["--profiles", "no_such_scene"], ["--lags", "x"], ["--seeds", "0"]):
+        target = tmp_path / "bad.csv"
+        refused = cli("design", "--out", str(target), "--duration", "5", *bad)
+        assert refused.returncode == 2, (bad, refused.stderr)
+        assert len(refused.stderr.strip().splitlines()) == 1 and "Traceback" not in refused.stderr
+        assert not target.exists()

@@ -3,22 +3,20 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.errors import BagError, ParameterError
 from pendulum_accel.recording.fleet import (
+    COLUMNS,
     Job,
     analyze_many,
     find_bags,
     is_bag_dir,
     stderr_progress,
     write_csv,
-    write_table,
+    write_rows,
 )
 
 TABLE_SUFFIXES = (".parquet", ".csv")
@@ -73,7 +71,7 @@ def run_fleet(args: argparse.Namespace) -> int:
     if out is None:
         write_csv(rows, sys.stdout)
     else:
-        write_output(out, lambda target: _atomic(target, rows))
+        write_output(out, lambda target: write_rows(rows, target, COLUMNS))
     failed = sorted({r["bag"] for r in rows if r["error"]})
     where = "standard output" if out is None else str(out)
     print(
@@ -82,20 +80,3 @@ def run_fleet(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     return 1 if failed else 0
-
-
-def _atomic(target: Path, rows: list[dict[str, object]]) -> None:
-    """The table written beside ``target`` under a temporary name, then renamed onto it: an interrupted
-    or failed write leaves nothing under the asked name."""
-    if not target.is_file() and target.exists():  # a device or FIFO: written as it is
-        write_table(rows, target)
-        return
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent)
-    os.close(fd)
-    try:
-        write_table(rows, Path(tmp))
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise

@@ -11,10 +11,13 @@ same paths (one machine, a shared filesystem or a mounted object store).
 from __future__ import annotations
 
 import contextlib
+import csv
+import functools
 import glob
 import math
 import os
 import sys
+import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.cluster import Progress, map_tasks
 from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.recording.analyze import Analysis, analyze_bag
 from pendulum_accel.recording.delay import group_delay
@@ -188,112 +192,6 @@ def find_bags(inputs: Sequence[str]) -> list[Path]:
     return list(found)
 
 
-Progress = Callable[[int], None]
-
-CLOSE_TIMEOUT = 10.0  # s given to Dask to close a client or cluster; past it the processes are left to exit
-
-
-def _serial(paths: Sequence[Path], job: Job, progress: Progress) -> list[list[dict[str, Any]]]:
-    """bag_rows of each path, in this process."""
-    out = []
-    for path in paths:
-        out.append(bag_rows(str(path), job))
-        progress(1)
-    return out
-
-
-def scheduler_address(given: str | None) -> str | None:
-    """The Dask scheduler to use: ``given``, else $DASK_SCHEDULER_ADDRESS, else None (an embedded
-    LocalCluster)."""
-    return given or os.environ.get("DASK_SCHEDULER_ADDRESS") or None
-
-
-@contextlib.contextmanager
-def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
-    """A distributed.Client on the scheduler at ``address``, or on an embedded LocalCluster of
-    ``workers`` single-threaded worker processes (default: one per CPU this process may use)."""
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:
-        raise PendulumAccelError(
-            "analysing several bags runs on Dask distributed, which is not installed: "
-            "pip install 'pendulum_accel[fleet]'"
-        ) from None
-    if address is not None:
-        try:
-            client = Client(address, timeout=10)
-        except (OSError, TimeoutError) as err:
-            raise PendulumAccelError(f"cannot reach the Dask scheduler at {address}: {err}") from None
-        try:
-            yield client
-        finally:
-            with contextlib.suppress(TimeoutError, OSError, RuntimeError):
-                client.close(timeout=CLOSE_TIMEOUT)
-        return
-    n = workers or len(os.sched_getaffinity(0))
-    # multiprocessing's resource tracker (a child started with the first worker) cleans up what a
-    # worker killed on Ctrl-C held, and would print a warning about it after the one-line message.
-    quiet = "ignore::UserWarning:multiprocessing.resource_tracker"
-    os.environ["PYTHONWARNINGS"] = ",".join(w for w in (os.environ.get("PYTHONWARNINGS"), quiet) if w)
-    try:
-        cluster = LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            silence_logs=40,  # logging.ERROR: a fleet run's terminal shows the bar and the errors only
-        )
-        client = Client(cluster)
-    except KeyboardInterrupt:
-        _kill_local_workers()
-        raise
-    timeout = CLOSE_TIMEOUT
-    try:
-        yield client
-    except KeyboardInterrupt:
-        # Ctrl-C: the user wants the terminal back now, not after a graceful drain. The local workers
-        # are this process's children; killing them ends their tasks at once (nothing they hold is
-        # written anywhere: the table is written only after every task has returned).
-        _kill_local_workers()
-        timeout = 0.2
-        raise
-    finally:
-        # A slow shutdown (a loaded machine) must not turn a finished table into a traceback.
-        with contextlib.suppress(TimeoutError, OSError, RuntimeError):
-            client.close(timeout=timeout)
-        with contextlib.suppress(TimeoutError, OSError, RuntimeError):
-            cluster.close(timeout=timeout)
-
-
-def _kill_local_workers() -> None:
-    """SIGKILL every child process of this one (the local cluster's nannies and workers)."""
-    import multiprocessing
-
-    for child in multiprocessing.active_children():
-        with contextlib.suppress(OSError, ValueError):
-            child.kill()
-
-
-def _distributed(
-    paths: Sequence[Path], job: Job, client: Any, progress: Progress
-) -> list[list[dict[str, Any]]]:
-    """bag_rows of each path as one Dask task per bag; results in the order of ``paths``. On
-    KeyboardInterrupt the tasks not yet finished are cancelled before it propagates."""
-    from distributed import as_completed
-
-    futures = client.map(bag_rows, [str(p) for p in paths], job=job, pure=False)
-    index = {f.key: i for i, f in enumerate(futures)}
-    out: list[list[dict[str, Any]]] = [[] for _ in paths]
-    try:
-        for future in as_completed(futures):
-            out[index[future.key]] = future.result()
-            progress(1)
-    except BaseException:
-        client.cancel(futures, force=True)
-        raise
-    return out
-
-
 def analyze_many(
     paths: Sequence[Path],
     job: Job,
@@ -303,49 +201,70 @@ def analyze_many(
     progress: Progress | None = None,
     distributed: bool | None = None,
 ) -> list[dict[str, Any]]:
-    """Rows (:data:`COLUMNS`) of every bag × estimator, in the order of ``paths``.
-
-    ``distributed`` None: one bag runs in this process (no cluster start-up cost), several on Dask
-    (``scheduler`` or $DASK_SCHEDULER_ADDRESS, else a LocalCluster of ``workers``)."""
-    tick = progress or (lambda n: None)
-    address = scheduler_address(scheduler)
-    if distributed is None:
-        distributed = address is not None or len(paths) > 1
-    if not distributed:
-        parts = _serial(paths, job, tick)
-    else:
-        with dask_client(address, workers) as client:
-            parts = _distributed(paths, job, client, tick)
+    """Rows (:data:`COLUMNS`) of every bag × estimator, in the order of ``paths``: one task per bag
+    (cluster.map_tasks: one bag in this process, several on Dask)."""
+    parts = map_tasks(
+        functools.partial(bag_rows, job=job),
+        [str(p) for p in paths],
+        scheduler=scheduler,
+        workers=workers,
+        progress=progress,
+        distributed=distributed,
+    )
     return [row for part in parts for row in part]
 
 
-def write_table(rows: Sequence[dict[str, Any]], path: Path) -> None:
-    """Write ``rows`` to ``path`` as Parquet (.parquet) or CSV (.csv), columns in :data:`COLUMNS` order
-    (the caller makes the write atomic)."""
+def write_rows(
+    rows: Sequence[dict[str, Any]], path: Path, columns: Sequence[tuple[str, str, str]] | None = None
+) -> None:
+    """Write ``rows`` to ``path`` as Parquet (.parquet) or CSV (.csv): under a temporary name beside it,
+    then renamed onto it, so an interrupted or failed write leaves nothing under the asked name (a
+    device or FIFO is written as it is). ``columns`` (name, Arrow type, meaning) fixes the order and
+    types; None takes the first row's keys and lets Arrow infer the types."""
+    names = [c[0] for c in columns] if columns is not None else list(rows[0]) if rows else []
+    if path.exists() and not path.is_file():
+        _write_rows(rows, path, names, columns)
+        return
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        _write_rows(rows, Path(tmp), names, columns)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _write_rows(
+    rows: Sequence[dict[str, Any]],
+    path: Path,
+    names: Sequence[str],
+    columns: Sequence[tuple[str, str, str]] | None,
+) -> None:
+    """The table in the format its suffix names."""
     if path.suffix.lower() == ".parquet":
         import pyarrow as pa
         import pyarrow.parquet as pq
 
-        schema = pa.schema([(name, pa.type_for_alias(kind)) for name, kind, _ in COLUMNS])
+        schema = None if columns is None else pa.schema([(n, pa.type_for_alias(k)) for n, k, _ in columns])
         pq.write_table(pa.Table.from_pylist(list(rows), schema=schema), path)
         return
     with path.open("w", newline="", encoding="utf-8") as handle:
-        write_csv(rows, handle)
+        write_csv(rows, handle, names)
 
 
-def write_csv(rows: Sequence[dict[str, Any]], handle: Any) -> None:
+def write_csv(rows: Sequence[dict[str, Any]], handle: Any, names: Sequence[str] = COLUMN_NAMES) -> None:
     """``rows`` as CSV with a header line; a null is an empty field."""
-    import csv
-
-    writer = csv.DictWriter(handle, fieldnames=COLUMN_NAMES, lineterminator="\n")
+    writer = csv.DictWriter(handle, fieldnames=list(names), lineterminator="\n")
     writer.writeheader()
     for row in rows:
         writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
 
 
-def stderr_progress(total: int) -> tuple[Progress, Callable[[], None]]:
+def stderr_progress(total: int, unit: str = "bag") -> tuple[Progress, Callable[[], None]]:
     """(tick, close) of a tqdm bar on standard error when it is a terminal, silent otherwise."""
     from tqdm import tqdm
 
-    bar = tqdm(total=total, unit="bag", disable=not sys.stderr.isatty(), file=sys.stderr, leave=False)
+    bar = tqdm(total=total, unit=unit, disable=not sys.stderr.isatty(), file=sys.stderr, leave=False)
     return bar.update, bar.close
