@@ -9,6 +9,7 @@ test starts is stopped at its end.
 from __future__ import annotations
 
 import io
+import itertools
 import math
 import os
 import shutil
@@ -17,8 +18,8 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
-from typing import Any
 from pathlib import Path
+from typing import Any
 
 import pyarrow.parquet as pq
 import pytest
@@ -250,7 +251,7 @@ def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path)
         assert 0.0 < r["rms_lag_0.5"] < r["rms_lag_0"], r  # half a second of hindsight helps on real motion
         assert 0.0 <= r["share_2sigma_steady"] <= 1.0
     pts = ds.front(rows)
-    assert all(a[0] <= b[0] and a[1] > b[1] for a, b in zip(pts, pts[1:], strict=False))
+    assert all(a[0] <= b[0] and a[1] > b[1] for a, b in itertools.pairwise(pts))
     assert ds.study(designs, ["husky_odom"], workers=2, distributed=True, **kwargs) == rows
 
 
