@@ -124,12 +124,15 @@ def map_tasks(
     workers: int | None = None,
     progress: Progress | None = None,
     distributed: bool | None = None,
+    client: Any | None = None,
 ) -> list[R]:
     """[fn(x) for x in items], one task per item. ``distributed`` None: one item runs in this process,
     several on Dask (``scheduler`` or $DASK_SCHEDULER_ADDRESS, else a LocalCluster of ``workers``
-    processes); True or False forces the choice. ``fn`` and the items must pickle (a module-level
-    function, a functools.partial of one)."""
+    processes); True or False forces the choice; a ``client`` given (dask_client's) is used as it is.
+    ``fn`` and the items must pickle (a module-level function, a functools.partial of one)."""
     tick = progress or (lambda n: None)
+    if client is not None:
+        return _on_client(fn, items, client, tick)
     address = scheduler_address(scheduler)
     if distributed is None:
         distributed = address is not None or len(items) > 1

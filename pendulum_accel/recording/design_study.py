@@ -84,6 +84,23 @@ DEFAULT_DESIGNS = design_grid(
 """24 designs: a 5 cm to 1 m bob, lightly or well damped, 50 or 200 Hz, 1 or 5 mrad of noise."""
 
 
+DESIGN_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("design", "string", "the design in words: length, damping, rate, noise, quantisation"),
+    ("length", "double", "pendulum length l (m)"),
+    ("damping", "double", "damping c (1/s): 2 ζ √(g/l) for the damping ratio ζ asked"),
+    ("rate_hz", "double", "angle sample rate (Hz)"),
+    ("noise_std", "double", "white angle noise σ (rad)"),
+    ("quantization", "double", "angle quantisation step (rad; 0: none)"),
+    ("cases", "int64", "profiles × seeds pooled in the row"),
+    ("rms_lag_LAG", "double", "√(Σe²/n) of the default estimator with a fixed lag of LAG s (0: live), m/s²"),
+    ("delay", "double", "median over the cases of the live filter's cross-correlation delay (s)"),
+    ("share_2sigma_steady", "double", "share of the live filter's steady-state errors beyond 2σ"),
+    ("share_2sigma_after_change", "double", "the same within 2 s after a change of a(t)"),
+    ("nees_mean", "double", "mean e²/σ² of the live filter (1 when σ tells the truth)"),
+)
+"""The design table: (column, Arrow type, meaning); one rms_lag_LAG column per asked lag."""
+
+
 @dataclass(frozen=True)
 class Case:
     """One task: a design, a profile (a bundled scene name or a scene YAML path), a seed."""
@@ -129,7 +146,7 @@ def run_case(case: Case) -> dict[str, Any]:
     out: dict[str, Any] = {"sq": {}, "n": int(keep.sum())}
     after = change_mask(t, accel)[keep]
     for lag in case.lags:
-        est, var = make_estimator(DEFAULT_ESTIMATOR, **settings, lag=lag).batch(t, theta)  # type: ignore[arg-type]
+        est, var = make_estimator(DEFAULT_ESTIMATOR, **settings, lag=lag).batch(t, theta)
         e = (np.asarray(est) - accel)[keep]
         out["sq"][lag] = float(np.sum(e * e))
         if lag == 0.0:
