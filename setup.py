@@ -65,6 +65,8 @@ setup(
     # The work-precision benchmark's 30-digit reference, and the test tools.
     extras_require={
         "bench": ["mpmath>=1.4.1"],
+        # `analyze` over many bags and `design` on Dask distributed; the table as Parquet.
+        "fleet": ["dask>=2026.8.0", "distributed>=2026.8.0", "pyarrow>=26.0.1"],
         # The student lab (docs/lab/): Jupyter on top of the ROS-free core; matplotlib is already core.
         "lab": ["jupyterlab>=4.0", "ipykernel>=7.4.0"],
         # `pendulum-accel export`: pandas for the tables, pyarrow for Parquet.
@@ -83,6 +85,7 @@ setup(
             "mcap-ros2-support>=0.6.0",
             "pandas>=3.1.1",
             "pyarrow>=26.0.1",
+            "distributed>=2026.8.0",
         ],
     },
     python_requires=">=3.10",

@@ -144,7 +144,7 @@ def test_every_runtime_import_is_in_setup_py() -> None:
     deps = package_xml()
     ros_keys = {k for k in deps.get("exec_depend", set()) if not k.startswith("python3-")}
     pypi, _ = split_ros(found, ros_keys)
-    optional = extras["export"] | extras.get("bench", set())
+    optional = extras["export"] | extras.get("bench", set()) | extras.get("fleet", set())
     missing = {
         f"{m} ({d}, imported by {sorted(found[m])[0]})"
         for m, d in pypi.items()

@@ -233,7 +233,36 @@ def cli_page() -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-PAGES = {"parameters.md": parameters_page, "scenes.md": scenes_page, "cli.md": cli_page}
+def tables_page() -> str:
+    """docs/reference/tables.md: the columns of the tables ``analyze`` (many bags) and ``design`` write."""
+    from pendulum_accel.recording.design_study import DESIGN_COLUMNS
+    from pendulum_accel.recording.fleet import COLUMNS
+
+    lines = [
+        GENERATED.format(
+            source="`recording/fleet.py` COLUMNS and `recording/design_study.py` DESIGN_COLUMNS"
+        ),
+        "",
+        "# Result tables",
+        "",
+        "Written as Parquet or CSV by the output's suffix; a missing figure is a null (an empty CSV field), "
+        "never NaN. How to run them: [Many bags and designs](../fleet.md).",
+    ]
+    for title, columns in (
+        ("`analyze` over many bags: one row per bag × estimator", COLUMNS),
+        ("`design`: one row per sensor design", DESIGN_COLUMNS),
+    ):
+        lines += ["", f"## {title}", "", "| column | type | meaning |", "|---|---|---|"]
+        lines += [f"| `{name}` | {kind} | {meaning} |" for name, kind, meaning in columns]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+PAGES = {
+    "parameters.md": parameters_page,
+    "scenes.md": scenes_page,
+    "cli.md": cli_page,
+    "tables.md": tables_page,
+}
 """Each reference page (under docs/reference/) and the function that writes it."""
 
 
