@@ -271,3 +271,39 @@ def test_design_cli_table_plot_and_one_line_refusals(tmp_path: Path) -> None:
         assert refused.returncode == 2, (bad, refused.stderr)
         assert len(refused.stderr.strip().splitlines()) == 1 and "Traceback" not in refused.stderr
         assert not target.exists()
+
+
+def test_progress_bar_on_a_terminal_and_not_in_a_pipe(corpus: Path, tmp_path: Path) -> None:
+    """With standard error on a terminal (a pseudo-terminal here) the run draws tqdm's bar, counting
+    bags; into a pipe (the other tests) it prints only its closing line."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+
+    master, slave = pty.openpty()
+    # A fresh pseudo-terminal is 0 columns wide, and tqdm draws nothing in 0 columns; a user's is not.
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
+    try:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "pendulum_accel.cli.main", "analyze", str(corpus / "site_a"),
+             str(corpus / "site_b" / "braking"), "--out", str(tmp_path / "t.csv"), "--workers", "1"],
+            cwd=REPO, stdout=subprocess.DEVNULL, stderr=slave, start_new_session=True,
+        )  # fmt: skip
+        os.close(slave)
+        chunks = []
+        while True:
+            try:
+                data = os.read(master, 4096)
+            except OSError:  # EIO: the child closed the terminal
+                break
+            if not data:
+                break
+            chunks.append(data)
+        proc.wait(timeout=300)
+    finally:
+        os.close(master)
+    text = b"".join(chunks).decode("utf-8", "replace")
+    assert proc.returncode == 0, text
+    assert "/2 [" in text and "bag" in text, text  # tqdm's "n/2 [elapsed<remaining, rate bag/s]"
+    assert "analyzed 2 bag(s)" in text
