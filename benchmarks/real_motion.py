@@ -3,7 +3,7 @@ reported on a validation split, beside the bound (hindsight fixed-q EKF and RTS 
 
     python -m benchmarks.real_motion [--quick] [--seeds N] [--out-md PATH] [--out-img DIR] [--fit]
 
-Profiles (a(t) from the bundled speed traces, differentiated by ``physics.speed_trace``, and bundled scenes):
+Profiles (a(t) from the bundled speed traces, differentiated by ``motion_input.trace``, and bundled scenes):
 
 | profile | split | preset | why there |
 |---|---|---|---|
@@ -58,8 +58,9 @@ from benchmarks import report as bench_report
 from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
+from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
-from pendulum_accel.physics.profiles import AccelProfile, Braking, Step, profile_from_dict
+from pendulum_accel.physics.profiles import AccelProfile, Braking, Step
 from pendulum_accel.scene import load_scene
 
 SCENES_DIR = Path(__file__).resolve().parents[1] / "pendulum_accel" / "scenes"

@@ -1,7 +1,7 @@
 """Real motion as input: speed_csv / speed_table / bag_topic profiles, the bundled drive cycles and robot.
 
 The differentiation is a smoothing spline whose gain is H(f) = 1 / (1 + (√2 − 1)(f/f_c)⁴) in its
-continuous limit (physics/speed_trace.py); the tolerances below come from that H, from the table's
+continuous limit (motion_input/trace.py); the tolerances below come from that H, from the table's
 chord bound TABLE_TOLERANCE, and from the spline's end effects, which the checks keep clear of.
 """
 
@@ -15,16 +15,17 @@ import pytest
 
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError, SceneError
-from pendulum_accel.overrides import OVERRIDE_BY_NAME, SENSOR_DESIGNS, apply_overrides
-from pendulum_accel.physics.profiles import Table, profile_from_dict
-from pendulum_accel.physics.speed_trace import (
+from pendulum_accel.motion_input import profile_from_dict
+from pendulum_accel.motion_input.columns import read_columns
+from pendulum_accel.motion_input.speed_trace import SPEED_UNITS
+from pendulum_accel.motion_input.trace import (
     DEFAULT_MAX_CUTOFF_HZ,
-    SPEED_UNITS,
     TABLE_TOLERANCE,
     default_cutoff_hz,
     differentiate,
-    read_columns,
 )
+from pendulum_accel.overrides import OVERRIDE_BY_NAME, SENSOR_DESIGNS, apply_overrides
+from pendulum_accel.physics.profiles import Table
 from pendulum_accel.scene import (
     BUNDLED_SCENE_NAMES,
     REAL_MOTION_SCENE_NAMES,

@@ -18,9 +18,9 @@ from pathlib import Path
 
 from pendulum_accel import scene as scene_module
 from pendulum_accel.cli.main import build_parser
+from pendulum_accel.motion_input import PROFILE_CLASSES, PROFILE_FIELDS
 from pendulum_accel.nodes.parameters import FROM_SCENE, NODE_PARAMETERS, ParamSpec
 from pendulum_accel.overrides import OVERRIDES
-from pendulum_accel.physics.profiles import PROFILE_CLASSES, PROFILE_FIELDS
 from pendulum_accel.scene import DEFAULT_SCENE, list_scenes
 
 GENERATED = (
@@ -115,7 +115,7 @@ def _layout_block() -> list[str]:
 def scenes_page() -> str:
     """docs/reference/scenes.md: the scene file's fields, acceleration profiles, overrides, bundled scenes."""
     lines = [
-        GENERATED.format(source="`pendulum_accel/scene.py`, `physics/profiles.py` and `overrides.py`"),
+        GENERATED.format(source="`pendulum_accel/scene.py`, `motion_input/registry.py` and `overrides.py`"),
         "",
         "# Scene reference",
         "",

@@ -6,8 +6,8 @@ topic's type:
 =======================================  ========================  =====================================
 type                                     field read                a(t)
 =======================================  ========================  =====================================
-nav_msgs/msg/Odometry                    twist.twist.linear.x      speed, differentiated (speed_trace)
-geometry_msgs/msg/TwistStamped           twist.linear.x            speed, differentiated (speed_trace)
+nav_msgs/msg/Odometry                    twist.twist.linear.x      speed, differentiated (trace)
+geometry_msgs/msg/TwistStamped           twist.linear.x            speed, differentiated (trace)
 sensor_msgs/msg/Imu                      linear_acceleration.x     used as recorded (low-passed by the
 geometry_msgs/msg/AccelStamped           accel.linear.x            smoothing spline only when the
 geometry_msgs/msg/AccelWithCovarianceSt. accel.accel.linear.x      profile states cutoff_hz)
@@ -26,16 +26,16 @@ from typing import Any
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.physics.profiles import Table, field_number, field_path, field_text
-from pendulum_accel.physics.speed_trace import (
+from pendulum_accel.motion_input.fields import field_number, field_path, field_text, window_fields
+from pendulum_accel.motion_input.trace import (
     check_trace,
     default_cutoff_hz,
     describe_differentiation,
     differentiate,
     median_step,
     recorded_acceleration,
-    window_fields,
 )
+from pendulum_accel.physics.profiles import Table
 
 SPEED_FIELDS: dict[str, Callable[[Any], float]] = {
     "nav_msgs/msg/Odometry": lambda m: m.twist.twist.linear.x,
@@ -111,7 +111,7 @@ def read_topic(path: Path, topic: str) -> tuple[str, np.ndarray, np.ndarray, boo
 
 
 def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
-    """Table of a(t) from a bag_topic mapping (field names checked by profiles.profile_from_dict)."""
+    """Table of a(t) from a bag_topic mapping (field names checked by registry.profile_from_dict)."""
     kind = "bag_topic"
     path = field_path(kind, d["path"], base_dir)
     topic = field_text(kind, "topic", d["topic"])

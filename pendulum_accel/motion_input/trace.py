@@ -1,4 +1,4 @@
-"""Speed traces v(t) → car acceleration a(t): checks, units, and the stated differentiation.
+"""A sampled trace (speed or acceleration) → a(t): its checks, windows, and the stated differentiation.
 
 A measured or scheduled speed is differentiated by a cubic smoothing spline (scipy's
 ``make_smoothing_spline``), which minimises Σ (v_i − s(t_i))² + λ ∫ s''(t)² dt. On samples ``h`` apart
@@ -21,22 +21,17 @@ the largest |a''| so that the straight segments stay within ``TABLE_TOLERANCE`` 
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Callable, Mapping
-from pathlib import Path
 
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.motion_input.fields import field_number, window_fields
 from pendulum_accel.physics.lazy import lazy_module
-from pendulum_accel.physics.profiles import Table, field_number, field_numbers, field_path, field_text
-from pendulum_accel.textfile import read_text_file
+from pendulum_accel.physics.profiles import Table
 
 interpolate = lazy_module("scipy.interpolate")  # imported on first use: start-up (docs/portability.md)
-
-SPEED_UNITS: dict[str, float] = {"m/s": 1.0, "km/h": 1.0 / 3.6, "mph": 0.44704}
-"""Metres per second in one unit of each accepted speed unit (1 mph = 0.44704 m/s exactly)."""
 
 MAX_GAP_STEPS = 5.0
 """A step longer than this many median steps is a gap in the recording, refused: the spline would
@@ -188,118 +183,6 @@ def describe_differentiation(cutoff_hz: float, step: float, default: bool) -> st
     return f"a = d/dt of a smoothing spline of v, -3 dB cut-off {cutoff_hz:.3g} Hz{rule}"
 
 
-def read_columns(
-    path: Path, time_column: str | None, value_column: str | None, *, what: str = "speed"
-) -> tuple[np.ndarray, np.ndarray, list[int]]:
-    """(t, v, line numbers) from a CSV file: ``#`` comments and blank lines skipped.
-
-    A first row that is not all numbers is the header; the named columns are read from it (the first
-    and second column when unnamed; quoted names such as phyphox's "Time (s)" work). Every failure is one
-    ParameterError naming file and line; ``what`` (speed, accel) names the file and the column field.
-    """
-    try:
-        text = read_text_file(path)
-    except OSError as exc:
-        raise ParameterError(f"cannot read {what} CSV {path}: {exc.strerror or exc}", path="path") from None
-    except ValueError as exc:
-        raise ParameterError(f"cannot read {what} CSV {path}: {exc}", path="path") from None
-    header: list[str] | None = None
-    columns = [0, 1]
-    times: list[float] = []
-    values: list[float] = []
-    lines: list[int] = []
-    for line_no, row in enumerate(csv.reader(text.splitlines()), start=1):
-        cells = [c.strip() for c in row]
-        if not cells or not any(cells) or cells[0].startswith("#"):
-            continue
-        if header is None and not times:
-            try:
-                [float(c) for c in cells]
-            except ValueError:
-                header = cells
-                for k, name in enumerate((time_column, value_column)):
-                    if name is not None:
-                        if name not in cells:
-                            raise ParameterError(
-                                f"{path}:{line_no}: no column {name!r} in header {','.join(cells)!r}",
-                                path="time_column" if k == 0 else f"{what}_column",
-                            ) from None
-                        columns[k] = cells.index(name)
-                continue
-        if not times and header is None and (time_column is not None or value_column is not None):
-            raise ParameterError(f"{path}:{line_no}: column names are given but the file has no header row")
-        if len(cells) <= max(columns):
-            raise ParameterError(f"{path}:{line_no}: expected {max(columns) + 1} columns, got {len(cells)}")
-        try:
-            t_value, v_value = float(cells[columns[0]]), float(cells[columns[1]])
-        except ValueError:
-            raise ParameterError(f"{path}:{line_no}: not a number in {','.join(cells)!r}") from None
-        times.append(t_value)
-        values.append(v_value)
-        lines.append(line_no)
-    if not times:
-        raise ParameterError(f"{path}: no (t, v) rows found", path="path")
-    return np.array(times), np.array(values), lines
-
-
-def window_fields(kind: str, d: Mapping[str, object]) -> tuple[float | None, float | None]:
-    """The optional 'start' and 'end' fields of a profile mapping, s (None when absent)."""
-    start = field_number(kind, "start", d["start"]) if "start" in d else None
-    end = field_number(kind, "end", d["end"]) if "end" in d else None
-    return start, end
-
-
-def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
-    """Table of a(t) from a speed_table or speed_csv mapping (field names checked by profile_from_dict).
-
-    Its ``recipe`` is the speed_table mapping (the speeds inline, in the declared units), so a scene
-    written back to YAML (the copy stored in a bag) stands alone and reads back into an equal profile.
-    """
-    kind = str(d["type"])
-    units = field_text(kind, "units", d["units"], tuple(SPEED_UNITS))
-    signed = d.get("signed", False)
-    if not isinstance(signed, bool):
-        raise ParameterError(
-            f"{kind} profile field 'signed' must be true or false, got {signed!r}", path="signed"
-        )
-    if kind == "speed_csv":
-        path = field_path(kind, d["path"], base_dir)
-        time_column = field_text(kind, "time_column", d["time_column"]) if "time_column" in d else None
-        speed_column = field_text(kind, "speed_column", d["speed_column"]) if "speed_column" in d else None
-        times, values, lines = read_columns(path, time_column, speed_column)
-        where: Callable[[int], str] = lambda i: f"{path}:{lines[i]}"  # noqa: E731
-        label = f"speed_csv {path.name}"
-    else:
-        times = np.array(field_numbers(kind, "times", d["times"]))
-        values = np.array(field_numbers(kind, "speeds", d["speeds"]))
-        where = lambda i: f"speeds[{i}]"  # noqa: E731
-        label = "speed_table"
-    check_trace(times, values, where)
-    if not signed:
-        negative = np.flatnonzero(values < 0.0)
-        if negative.size:
-            i = int(negative[0])
-            raise ParameterError(
-                f"{where(i)}: speed {float(values[i])!r} {units} is negative (set signed: true for a trace "
-                "that reverses)"
-            )
-    default = "cutoff_hz" not in d
-    cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
-    start, end = window_fields(kind, d)
-    recipe: dict[str, object] = {
-        "type": "speed_table",
-        "units": units,
-        "times": times.tolist(),
-        "speeds": values.tolist(),
-        "cutoff_hz": cutoff,
-    }
-    recipe |= {k: v for k, v in (("start", start), ("end", end)) if v is not None}
-    recipe |= {"signed": True} if signed else {}
-    origin = f"{label} ({units}): " + describe_differentiation(cutoff, median_step(times), default)
-    speeds = values * SPEED_UNITS[units]
-    return differentiate(times, speeds, cutoff, start=start, end=end, origin=origin, recipe=recipe)
-
-
 def recorded_acceleration(
     kind: str, d: Mapping[str, object], times: np.ndarray, values: np.ndarray, label: str
 ) -> Table:
@@ -311,29 +194,3 @@ def recorded_acceleration(
         origin = f"{label}: a as recorded, smoothing spline -3 dB cut-off {cutoff:.3g} Hz"
         return spline_table(times, values, cutoff, order=0, start=start, end=end, origin=origin)
     return windowed_table(times, values, start=start, end=end, origin=f"{label}: a as recorded")
-
-
-PHYPHOX_TIME_COLUMN = "Time (s)"
-"""phyphox's "Acceleration (without g)" CSV export: "Time (s)", then "Acceleration x (m/s^2)", y, z (and,
-in some versions, "Absolute acceleration (m/s^2)"); x across the screen, y along it, z out of it."""
-
-
-def accel_csv_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
-    """Table of a(t) from an accel_csv mapping: a column of a logged acceleration, times scale.
-
-    a(t) = scale × the column (default the second), t from the time column (default the first) shifted
-    to start at 0; checked as any trace (check_trace), then used as recorded (recorded_acceleration).
-    """
-    kind = "accel_csv"
-    path = field_path(kind, d["path"], base_dir)
-    time_column = field_text(kind, "time_column", d["time_column"]) if "time_column" in d else None
-    accel_column = field_text(kind, "accel_column", d["accel_column"]) if "accel_column" in d else None
-    scale = field_number(kind, "scale", d["scale"]) if "scale" in d else 1.0
-    if scale == 0.0:
-        raise ParameterError(f"{kind} profile field 'scale' must not be 0", path="scale")
-    times, values, lines = read_columns(path, time_column, accel_column, what="accel")
-    check_trace(times, values, lambda i: f"{path}:{lines[i]}", name="acceleration")
-    column = accel_column if accel_column is not None else "column 2"
-    scaled = f", x {scale:g}" if scale != 1.0 else ""
-    label = f"accel_csv {path.name} ({column}{scaled}, {times.size} samples)"
-    return recorded_acceleration(kind, d, times, values * scale, label)
