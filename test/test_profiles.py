@@ -10,8 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.motion_input import PROFILE_TYPES, profile_from_dict
+from pendulum_accel.motion_input import PROFILE_FIELDS, PROFILE_TYPES, profile_from_dict
 from pendulum_accel.motion_input.accel_log import csv_table
+from pendulum_accel.motion_input.registry import PROFILE_FIELD_DOCS
 from pendulum_accel.physics.profiles import (
     AccelProfile,
     Braking,
@@ -152,6 +153,12 @@ def test_csv_errors_name_file_and_line(tmp_path: Path, text: str, needle: str):
         csv_table(path)
     assert "bad.csv" in str(info.value)
     assert needle in str(info.value)
+
+
+def test_every_profile_field_is_documented() -> None:
+    """The scene reference's field table (PROFILE_FIELD_DOCS) covers every field of every type."""
+    fields = {name for required, optional in PROFILE_FIELDS.values() for name in required + optional}
+    assert fields == set(PROFILE_FIELD_DOCS)
 
 
 def test_csv_missing_file(tmp_path: Path):

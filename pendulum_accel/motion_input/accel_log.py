@@ -6,12 +6,12 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.motion_input.columns import read_columns
-from pendulum_accel.motion_input.fields import field_number, field_path, field_text
-from pendulum_accel.motion_input.trace import check_trace, recorded_acceleration
+from pendulum_accel.motion_input.fields import field_number, field_text
+from pendulum_accel.motion_input.trace import csv_trace, recorded_acceleration
 from pendulum_accel.physics.profiles import Table
 from pendulum_accel.textfile import read_text_file
 
@@ -27,18 +27,15 @@ def accel_csv_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     to start at 0; checked as any trace (check_trace), then used as recorded (recorded_acceleration).
     """
     kind = "accel_csv"
-    path = field_path(kind, d["path"], base_dir)
-    time_column = field_text(kind, "time_column", d["time_column"]) if "time_column" in d else None
     accel_column = field_text(kind, "accel_column", d["accel_column"]) if "accel_column" in d else None
     scale = field_number(kind, "scale", d["scale"]) if "scale" in d else 1.0
     if scale == 0.0:
         raise ParameterError(f"{kind} profile field 'scale' must not be 0", path="scale")
-    times, values, lines = read_columns(path, time_column, accel_column, what="accel")
-    check_trace(times, values, lambda i: f"{path}:{lines[i]}", name="acceleration")
+    stretch, _, path = csv_trace(kind, d, base_dir, "accel_column", name="acceleration")
     column = accel_column if accel_column is not None else "column 2"
     scaled = f", x {scale:g}" if scale != 1.0 else ""
-    label = f"accel_csv {path.name} ({column}{scaled}, {times.size} samples)"
-    return recorded_acceleration(kind, d, times, values * scale, label)
+    label = f"accel_csv {path.name} ({column}{scaled}, {stretch.times.size} samples)"
+    return recorded_acceleration(kind, d, replace(stretch, values=stretch.values * scale), label)
 
 
 def csv_table(path: str | Path) -> Table:

@@ -27,6 +27,7 @@ import numpy as np
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.motion_input.fields import field_number, field_path, field_text, window_fields
+from pendulum_accel.motion_input.speed_trace import speed_recipe
 from pendulum_accel.motion_input.trace import (
     check_trace,
     default_cutoff_hz,
@@ -104,6 +105,8 @@ def read_topic(path: Path, topic: str) -> tuple[str, np.ndarray, np.ndarray, boo
     except Exception as exc:  # rosbags raises many types (its own, struct.error, KeyError) on a bad bag
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise ParameterError(f"cannot read bag {path}: {first}", path="path") from None
+    if not values:
+        raise ParameterError(f"bag {path} topic {topic} has no messages", path="topic")
     stamped = any(stamps)
     ns = np.array(stamps if stamped else logs, dtype=np.int64)
     # Integer nanoseconds relative to the first, then seconds: no float rounding of 1.4e9 s epochs.
@@ -117,23 +120,26 @@ def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     topic = field_text(kind, "topic", d["topic"])
     msgtype, times, values, stamped = read_topic(path, topic)
     where: Callable[[int], str] = lambda i: f"bag {path.name} {topic} message {i}"  # noqa: E731
-    check_trace(times, values, where, name="speed" if msgtype in SPEED_FIELDS else "acceleration")
     start, end = window_fields(kind, d)
+    name = "speed" if msgtype in SPEED_FIELDS else "acceleration"
+    stretch = check_trace(times, values, where, name=name, start=start, end=end)
     clock = "header stamps" if stamped else "log times (header stamps unset)"
-    label = f"bag_topic {path.name} {topic} ({msgtype}, {times.size} messages, {clock})"
+    label = f"bag_topic {path.name} {topic} ({msgtype}, {stretch.times.size} messages, {clock})"
     if msgtype in SPEED_FIELDS:
         default = "cutoff_hz" not in d
-        cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
-        origin = f"{label}: " + describe_differentiation(cutoff, median_step(times), default)
+        cutoff = (
+            default_cutoff_hz(stretch.times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
+        )
+        origin = f"{label}: " + describe_differentiation(cutoff, median_step(stretch.times), default)
         # A standalone copy (the scene stored in a bag): the speeds themselves, as a speed_table.
-        recipe: dict[str, object] = {
-            "type": "speed_table",
-            "units": "m/s",
-            "times": times.tolist(),
-            "speeds": values.tolist(),
-            "cutoff_hz": cutoff,
-            "signed": True,
-        }
-        recipe |= {k: v for k, v in (("start", start), ("end", end)) if v is not None}
-        return differentiate(times, values, cutoff, start=start, end=end, origin=origin, recipe=recipe)
-    return recorded_acceleration(kind, d, times, values, label)
+        recipe = speed_recipe("m/s", stretch, cutoff, d, signed=True)
+        return differentiate(
+            stretch.times,
+            stretch.values,
+            cutoff,
+            start=stretch.lo,
+            end=stretch.hi,
+            origin=origin,
+            recipe=recipe,
+        )
+    return recorded_acceleration(kind, d, stretch, label)

@@ -3,10 +3,12 @@ ParameterError naming the field."""
 
 from __future__ import annotations
 
+import datetime as dt
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.motion_input.columns import is_number, parse_datetime, since
 from pendulum_accel.physics.params import require_finite
 
 
@@ -50,8 +52,55 @@ def field_numbers(kind: str, name: str, value: object) -> tuple[float, ...]:
         raise ParameterError(str(err), path=name) from None
 
 
-def window_fields(kind: str, d: Mapping[str, object]) -> tuple[float | None, float | None]:
-    """The optional 'start' and 'end' fields of a profile mapping, s (None when absent)."""
-    start = field_number(kind, "start", d["start"]) if "start" in d else None
-    end = field_number(kind, "end", d["end"]) if "end" in d else None
-    return start, end
+def window_fields(
+    kind: str, d: Mapping[str, object], epoch: dt.datetime | None = None, time_format: str | None = None
+) -> tuple[float | None, float | None]:
+    """The optional 'start' and 'end' fields of a profile mapping, s after the trace's first sample (None
+    when absent).
+
+    Each is a number of seconds, or, when the trace's times are date-times from ``epoch`` on, a date-time:
+    text in ``time_format`` or ISO 8601, or the datetime YAML reads from an unquoted one.
+    """
+    bounds: list[float | None] = []
+    for name in ("start", "end"):
+        value = d.get(name)
+        if value is None:
+            bounds.append(None)
+        elif isinstance(value, dt.date) or (isinstance(value, str) and not is_number(value)):
+            bounds.append(_moment_field(kind, name, value, epoch, time_format))
+        else:
+            bounds.append(field_number(kind, name, value))
+    return bounds[0], bounds[1]
+
+
+def _moment_field(
+    kind: str, name: str, value: str | dt.date, epoch: dt.datetime | None, time_format: str | None
+) -> float:
+    """Date-time field ``name`` as s after ``epoch`` (value − epoch), else ParameterError naming it."""
+    if epoch is None:
+        raise ParameterError(
+            f"{kind} profile field '{name}' is a date-time ({value!s}) but the trace's times are seconds: "
+            "give it in s after the first sample",
+            path=name,
+        )
+    if isinstance(value, dt.datetime):
+        moment = value
+    elif isinstance(value, dt.date):
+        moment = dt.datetime.combine(value, dt.time())
+    else:
+        try:
+            moment = parse_datetime(value, time_format)
+        except ValueError:
+            try:
+                moment = parse_datetime(value, None)
+            except ValueError:
+                layout = f"time_format {time_format!r} or ISO 8601" if time_format else "ISO 8601"
+                raise ParameterError(
+                    f"{kind} profile field '{name}' must be a number of s or a date-time in {layout}, "
+                    f"got {value!r}",
+                    path=name,
+                ) from None
+    try:
+        return since(moment, epoch)
+    except ValueError as exc:
+        raise ParameterError(f"{kind} profile field '{name}' {value!s}: {exc}", path=name) from None

@@ -9,16 +9,11 @@ from pathlib import Path
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.motion_input.columns import read_columns
-from pendulum_accel.motion_input.fields import (
-    field_number,
-    field_numbers,
-    field_path,
-    field_text,
-    window_fields,
-)
+from pendulum_accel.motion_input.fields import field_number, field_numbers, field_text, window_fields
 from pendulum_accel.motion_input.trace import (
+    Stretch,
     check_trace,
+    csv_trace,
     default_cutoff_hz,
     describe_differentiation,
     differentiate,
@@ -44,38 +39,49 @@ def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
             f"{kind} profile field 'signed' must be true or false, got {signed!r}", path="signed"
         )
     if kind == "speed_csv":
-        path = field_path(kind, d["path"], base_dir)
-        time_column = field_text(kind, "time_column", d["time_column"]) if "time_column" in d else None
-        speed_column = field_text(kind, "speed_column", d["speed_column"]) if "speed_column" in d else None
-        times, values, lines = read_columns(path, time_column, speed_column)
-        where: Callable[[int], str] = lambda i: f"{path}:{lines[i]}"  # noqa: E731
+        stretch, columns, path = csv_trace(kind, d, base_dir, "speed_column", name="speed")
+        where: Callable[[int], str] = lambda i: columns.where(i, path)  # noqa: E731
         label = f"speed_csv {path.name}"
     else:
         times = np.array(field_numbers(kind, "times", d["times"]))
         values = np.array(field_numbers(kind, "speeds", d["speeds"]))
         where = lambda i: f"speeds[{i}]"  # noqa: E731
         label = "speed_table"
-    check_trace(times, values, where)
+        start, end = window_fields(kind, d)
+        stretch = check_trace(times, values, where, start=start, end=end)
     if not signed:
-        negative = np.flatnonzero(values < 0.0)
+        negative = np.flatnonzero(stretch.values < 0.0)
         if negative.size:
             i = int(negative[0])
             raise ParameterError(
-                f"{where(i)}: speed {float(values[i])!r} {units} is negative (set signed: true for a trace "
-                "that reverses)"
+                f"{where(stretch.first + i)}: speed {float(stretch.values[i])!r} {units} is negative (set "
+                "signed: true for a trace that reverses)"
             )
+    times, values = stretch.times, stretch.values
     default = "cutoff_hz" not in d
     cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
-    start, end = window_fields(kind, d)
+    recipe = speed_recipe(units, stretch, cutoff, d, signed=signed)
+    origin = f"{label} ({units}): " + describe_differentiation(cutoff, median_step(times), default)
+    speeds = values * SPEED_UNITS[units]
+    return differentiate(
+        times, speeds, cutoff, start=stretch.lo, end=stretch.hi, origin=origin, recipe=recipe
+    )
+
+
+def speed_recipe(
+    units: str, stretch: Stretch, cutoff: float, d: Mapping[str, object], *, signed: bool
+) -> dict[str, object]:
+    """The speed_table mapping that rebuilds a speed profile: the stretch's speeds inline, its window
+    (when one was stated or the stretch is not the whole trace), the cut-off."""
     recipe: dict[str, object] = {
         "type": "speed_table",
         "units": units,
-        "times": times.tolist(),
-        "speeds": values.tolist(),
+        "times": stretch.times.tolist(),
+        "speeds": stretch.values.tolist(),
         "cutoff_hz": cutoff,
     }
-    recipe |= {k: v for k, v in (("start", start), ("end", end)) if v is not None}
-    recipe |= {"signed": True} if signed else {}
-    origin = f"{label} ({units}): " + describe_differentiation(cutoff, median_step(times), default)
-    speeds = values * SPEED_UNITS[units]
-    return differentiate(times, speeds, cutoff, start=start, end=end, origin=origin, recipe=recipe)
+    if "start" in d or not stretch.whole:
+        recipe["start"] = stretch.lo
+    if "end" in d or not stretch.whole:
+        recipe["end"] = stretch.hi
+    return recipe | ({"signed": True} if signed else {})

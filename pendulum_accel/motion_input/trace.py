@@ -23,11 +23,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.motion_input.fields import field_number, window_fields
+from pendulum_accel.motion_input.columns import Columns, read_columns
+from pendulum_accel.motion_input.fields import field_number, field_path, field_text, window_fields
 from pendulum_accel.physics.lazy import lazy_module
 from pendulum_accel.physics.profiles import Table
 
@@ -45,37 +48,116 @@ TABLE_MIN_STEPS = 2
 """At least this many table points per trace step h, whatever |a''| is."""
 
 
-def check_trace(
-    times: np.ndarray, values: np.ndarray, where: Callable[[int], str], *, name: str = "speed"
-) -> None:
-    """Raise ParameterError (one line, naming the row by ``where(i)``) unless the trace is usable.
+@dataclass(frozen=True)
+class Stretch:
+    """The part of a trace a profile is built from: the samples of the gap-free stretch that holds the
+    window, and the window [lo, hi] on their own axis (s since the stretch's first sample)."""
 
-    Usable: at least 5 samples (scipy's smoothing spline needs 5), every value finite, times strictly
-    increasing, and no step longer than ``MAX_GAP_STEPS`` × the median step.
+    times: np.ndarray
+    values: np.ndarray
+    lo: float
+    hi: float
+    first: int
+    """Index of the stretch's first sample in the whole trace."""
+    whole: bool
+    """True when the stretch is the whole trace."""
+
+
+def check_trace(
+    times: np.ndarray,
+    values: np.ndarray,
+    where: Callable[[int], str],
+    *,
+    name: str = "speed",
+    start: float | None = None,
+    end: float | None = None,
+    stamp: Callable[[int], str] | None = None,
+) -> Stretch:
+    """The usable stretch of a trace around the window [start, end] (s after its first sample), or one
+    ParameterError line naming the row by ``where(i)`` (and its time by ``stamp(i)`` when given).
+
+    The window is cut before the gap check, so one trip can be cut from a day-long log with gaps:
+
+    - every time finite and strictly increasing, over the whole trace (a time that steps back is
+      refused, not sorted);
+    - 0 ≤ start < end ≤ the trace's length;
+    - no step longer than ``MAX_GAP_STEPS`` × the median step (of the whole trace) between the samples
+      that bracket the window;
+    - the stretch is the window widened on both sides up to the nearest gap or end, so the spline's end
+      effects fall outside the window; it holds at least 5 samples (scipy's smoothing spline needs 5),
+      every value finite.
     """
     if times.size != values.size:
         raise ParameterError(f"{name} trace has {times.size} times but {values.size} values")
     if times.size < 5:
         raise ParameterError(f"{name} trace needs at least 5 samples to differentiate, got {times.size}")
-    for label, column in (("time", times), (name, values)):
-        bad = np.flatnonzero(~np.isfinite(column))
-        if bad.size:
-            value = float(column[bad[0]])
-            raise ParameterError(f"{where(int(bad[0]))}: {label} is not a finite number ({value!r})")
+    shown = stamp or (lambda i: repr(float(times[i])))
+    bad = np.flatnonzero(~np.isfinite(times))
+    if bad.size:
+        raise ParameterError(f"{where(int(bad[0]))}: time is not a finite number ({float(times[bad[0]])!r})")
     steps = np.diff(times)
     back = np.flatnonzero(steps <= 0.0)
     if back.size:
         i = int(back[0]) + 1
-        now, before = float(times[i]), float(times[i - 1])
-        raise ParameterError(f"{where(i)}: times must be strictly increasing, got {now!r} after {before!r}")
+        raise ParameterError(
+            f"{where(i)}: times must be strictly increasing, got {shown(i)} after {shown(i - 1)}"
+        )
+    t = times - times[0]
+    lo, hi = _window_bounds(t, start, end)
+    first = int(np.searchsorted(t, lo, side="right")) - 1  # the samples that bracket [lo, hi]
+    last = int(np.searchsorted(t, hi, side="left"))
     median = float(np.median(steps))
-    gaps = np.flatnonzero(steps > MAX_GAP_STEPS * median)
-    if gaps.size:
-        i = int(gaps[0]) + 1
+    gaps = np.flatnonzero(steps > MAX_GAP_STEPS * median)  # gap k lies between samples k and k + 1
+    inside = gaps[(gaps >= first) & (gaps < last)]
+    if inside.size:
+        i = int(inside[0]) + 1
+        hint = "" if start is not None or end is not None else "; start/end can cut a window without it"
         raise ParameterError(
             f"{where(i)}: gap of {steps[i - 1]:.6g} s before this sample, more than {MAX_GAP_STEPS:g} × "
-            f"the median step {median:.6g} s"
+            f"the median step {median:.6g} s{hint}"
         )
+    before, after = gaps[gaps < first], gaps[gaps >= last]
+    s0 = int(before[-1]) + 1 if before.size else 0
+    s1 = int(after[0]) if after.size else times.size - 1
+    if s1 - s0 + 1 < 5:
+        raise ParameterError(
+            f"{where(s0)}: the gap-free stretch around the window has {s1 - s0 + 1} samples; the {name} "
+            "trace needs at least 5 to differentiate"
+        )
+    bad = np.flatnonzero(~np.isfinite(values[s0 : s1 + 1]))
+    if bad.size:
+        i = s0 + int(bad[0])
+        raise ParameterError(f"{where(i)}: {name} is not a finite number ({float(values[i])!r})")
+    span = times[s0 : s1 + 1] - times[s0]
+    # On the stretch's own axis; clipped because t[j] − t[s0] and times[j] − times[s0] may differ by an ulp.
+    lo_s = min(max(lo - float(t[s0]), 0.0), float(span[-1]))
+    hi_s = min(max(hi - float(t[s0]), lo_s), float(span[-1]))
+    whole = s0 == 0 and s1 == times.size - 1
+    return Stretch(times[s0 : s1 + 1], values[s0 : s1 + 1], lo_s, hi_s, s0, whole)
+
+
+def csv_trace(
+    kind: str, d: Mapping[str, object], base_dir: Path | None, value_field: str, *, name: str
+) -> tuple[Stretch, Columns, Path]:
+    """A profile's CSV file read (its path, ``time_column``, ``value_field`` column and ``time_format``
+    fields), and checked and cut to its ``start``/``end`` window by check_trace."""
+    path = field_path(kind, d["path"], base_dir)
+    time_column = field_text(kind, "time_column", d["time_column"]) if "time_column" in d else None
+    value_column = field_text(kind, value_field, d[value_field]) if value_field in d else None
+    time_format = field_text(kind, "time_format", d["time_format"]) if "time_format" in d else None
+    what = value_field.removesuffix("_column")
+    columns = read_columns(path, time_column, value_column, what=what, time_format=time_format)
+    start, end = window_fields(kind, d, columns.epoch, time_format)
+    stretch = check_trace(
+        columns.times,
+        columns.values,
+        lambda i: columns.where(i, path),
+        name=name,
+        start=start,
+        end=end,
+        stamp=lambda i: repr(columns.stamp(i)),
+    )
+    return stretch, columns, path
 
 
 def median_step(times: np.ndarray) -> float:
@@ -125,8 +207,8 @@ def spline_table(
 
     order 1 differentiates a speed into a(t); order 0 only low-passes an acceleration. ``times`` are
     shifted so the first sample is t = 0; ``start``/``end`` (s, on that shifted axis) keep a window,
-    which then starts at t = 0 too. The spline is fitted to the whole trace, so a window has no end
-    effects of its own.
+    which then starts at t = 0 too. The spline is fitted to all of ``times`` (check_trace's stretch,
+    reaching past the window up to the nearest gap), so a window has no end effects of its own.
     """
     t = np.asarray(times, dtype=float) - float(times[0])
     step = median_step(t)
@@ -183,14 +265,12 @@ def describe_differentiation(cutoff_hz: float, step: float, default: bool) -> st
     return f"a = d/dt of a smoothing spline of v, -3 dB cut-off {cutoff_hz:.3g} Hz{rule}"
 
 
-def recorded_acceleration(
-    kind: str, d: Mapping[str, object], times: np.ndarray, values: np.ndarray, label: str
-) -> Table:
-    """a(t) used as recorded: the samples joined linearly, or with ``cutoff_hz`` the order-0 smoothing
-    spline (low-passed, not differentiated); the optional ``start``/``end`` window of ``d`` applies."""
-    start, end = window_fields(kind, d)
+def recorded_acceleration(kind: str, d: Mapping[str, object], stretch: Stretch, label: str) -> Table:
+    """a(t) used as recorded over the stretch's window: the samples joined linearly, or with ``cutoff_hz``
+    the order-0 smoothing spline (low-passed, not differentiated)."""
+    times, values, lo, hi = stretch.times, stretch.values, stretch.lo, stretch.hi
     if "cutoff_hz" in d:
         cutoff = field_number(kind, "cutoff_hz", d["cutoff_hz"])
         origin = f"{label}: a as recorded, smoothing spline -3 dB cut-off {cutoff:.3g} Hz"
-        return spline_table(times, values, cutoff, order=0, start=start, end=end, origin=origin)
-    return windowed_table(times, values, start=start, end=end, origin=f"{label}: a as recorded")
+        return spline_table(times, values, cutoff, order=0, start=lo, end=hi, origin=origin)
+    return windowed_table(times, values, start=lo, end=hi, origin=f"{label}: a as recorded")
