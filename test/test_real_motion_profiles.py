@@ -329,8 +329,10 @@ def test_accel_csv_reads_date_times_and_cuts_a_window_before_the_gap_check(tmp_p
     for t in [*np.arange(0.0, 60.0, 0.5), *np.arange(600.0, 660.0, 0.5)]:
         rows.append(f"{(DAY + dt.timedelta(seconds=float(t))).isoformat()},{math.sin(0.1 * t)!r}")
     (tmp_path / "imu.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
-    spec: dict[str, object] = {"type": "accel_csv", "path": "imu.csv", "time_column": "stamp", "accel_column": "ax",
-            "start": "2007-03-28T07:00:10", "end": "2007-03-28T07:00:50"}  # fmt: skip
+    spec: dict[str, object] = {
+        "type": "accel_csv", "path": "imu.csv", "time_column": "stamp", "accel_column": "ax",
+        "start": "2007-03-28T07:00:10", "end": "2007-03-28T07:00:50",
+    }  # fmt: skip
     profile = table_of(spec, base_dir=tmp_path)
     assert profile.times[0] == 0.0 and profile.times[-1] == pytest.approx(40.0, abs=1e-9)
     # The window's ends fall on samples, which are copied as recorded.
