@@ -19,6 +19,18 @@ _KINDS = {
 }
 
 
+def not_a_file_or_directory(path: Path) -> str | None:
+    """What ``path`` is when it exists but is neither a regular file nor a directory ("a FIFO (named
+    pipe)", "a character device", ...), else None; a reader that opens it would block or never end."""
+    try:
+        kind = stat.S_IFMT(os.stat(path).st_mode)
+    except OSError:
+        return None
+    if kind in (stat.S_IFREG, stat.S_IFDIR):
+        return None
+    return _KINDS.get(kind, "not a regular file")
+
+
 def read_text_file(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
     """UTF-8 text of regular file ``path`` (≤ ``limit`` bytes); OSError when unreadable, else ValueError.
 

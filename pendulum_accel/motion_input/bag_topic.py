@@ -37,6 +37,7 @@ from pendulum_accel.motion_input.trace import (
     recorded_acceleration,
 )
 from pendulum_accel.physics.profiles import Table
+from pendulum_accel.textfile import not_a_file_or_directory
 
 SPEED_FIELDS: dict[str, Callable[[Any], float]] = {
     "nav_msgs/msg/Odometry": lambda m: m.twist.twist.linear.x,
@@ -70,6 +71,17 @@ def read_topic(path: Path, topic: str) -> tuple[str, np.ndarray, np.ndarray, boo
     source = _bag_source(path)
     if not source.exists():
         raise ParameterError(f"cannot read bag {path}: no such file or directory", path="path")
+    # AnyReader opens the file (or every file of a rosbag2 directory) and would wait forever on a FIFO.
+    try:
+        members = [source, *(sorted(source.iterdir()) if source.is_dir() else [])]
+    except OSError as exc:
+        raise ParameterError(f"cannot read bag {path}: {exc.strerror or exc}", path="path") from None
+    for member in members:
+        kind = not_a_file_or_directory(member)
+        if kind is not None:
+            raise ParameterError(
+                f"cannot read bag {path}: {member.name} is {kind}, not a bag file", path="path"
+            )
     stamps: list[int] = []
     logs: list[int] = []
     values: list[float] = []

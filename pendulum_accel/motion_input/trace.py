@@ -47,6 +47,15 @@ the 10 mm/s² RMS that the EPA schedules' 0.1 mph rounding leaves in s'(t) at th
 TABLE_MIN_STEPS = 2
 """At least this many table points per trace step h, whatever |a''| is."""
 
+MAX_TABLE_POINTS = 5_000_000
+"""A table longer than this (about 0.4 GB) is refused: a day at 1 Hz needs 172,800 points (h/2 apart), and
+more comes only from an |a''| no vehicle reaches (wrong units, or a corrupt value)."""
+
+MAX_SMOOTHING_STEPS = 2000
+"""cutoff_hz ≥ 1/(MAX_SMOOTHING_STEPS h): the spline's solve loses digits as λ/h³ = (√2 − 1)/(2π f_c h)⁴
+grows. On a sinusoid at f_c/4 its derivative's error, relative to the continuous-limit gain H, measured
+6.6e-8 at 1/(f_c h) = 1000 samples, 2.3e-5 at 3000, 1.0e-3 at 10,000 and 6.8e-2 at 30,000."""
+
 
 @dataclass(frozen=True)
 class Stretch:
@@ -175,8 +184,17 @@ def default_cutoff_hz(times: np.ndarray) -> float:
 
 
 def spline_lambda(cutoff_hz: float, step: float) -> float:
-    """λ = (√2 − 1) / (h (2π f_c)⁴): the smoothing spline's gain is 1/√2 (−3 dB) at f_c."""
-    return (math.sqrt(2.0) - 1.0) / (step * (2.0 * math.pi * cutoff_hz) ** 4)
+    """λ = (√2 − 1) / (h (2π f_c)⁴): the smoothing spline's gain is 1/√2 (−3 dB) at f_c.
+
+    Outside floating-point range it is inf (the denominator underflows to 0) or 0 (it overflows);
+    spline_table refuses both.
+    """
+    try:
+        return (math.sqrt(2.0) - 1.0) / (step * (2.0 * math.pi * cutoff_hz) ** 4)
+    except ZeroDivisionError:
+        return math.inf
+    except OverflowError:
+        return 0.0
 
 
 def _window_bounds(t: np.ndarray, start: float | None, end: float | None) -> tuple[float, float]:
@@ -219,19 +237,42 @@ def spline_table(
             f"got {cutoff_hz!r}",
             path="cutoff_hz",
         )
+    lowest = 1.0 / (MAX_SMOOTHING_STEPS * step)
+    if cutoff_hz < lowest:
+        raise ParameterError(
+            f"cutoff_hz must be at least {lowest:.6g} Hz, 1/({MAX_SMOOTHING_STEPS} × the {step:.6g} s step): "
+            f"a lower cut-off smooths over more samples than the spline resolves, got {cutoff_hz!r}",
+            path="cutoff_hz",
+        )
     lo, hi = _window_bounds(t, start, end)
     lam = spline_lambda(cutoff_hz, step)
+    if not 0.0 < lam < math.inf:
+        raise ParameterError(
+            f"time steps of {step:.6g} s put the smoothing spline's λ = (√2 − 1)/(h (2π f_c)⁴) out of "
+            "floating-point range: are the times in seconds?"
+        )
     spline = interpolate.make_smoothing_spline(t, np.asarray(values, dtype=float), lam=lam)
     fitted = spline.derivative(order) if order else spline
     # f'' of the fitted curve is piecewise linear (order 0) or constant (order 1) between the knots t,
     # so its largest magnitude is at a knot.
-    curvature = float(np.max(np.abs(spline.derivative(order + 2)(t))))
+    with np.errstate(over="ignore", invalid="ignore"):
+        curvature = float(np.max(np.abs(spline.derivative(order + 2)(t))))
     table_step = step / TABLE_MIN_STEPS
     if curvature > 0.0:
         table_step = min(table_step, math.sqrt(8.0 * TABLE_TOLERANCE / curvature))
-    count = max(2, math.ceil((hi - lo) / table_step) + 1)
-    grid = np.linspace(lo, hi, count)
-    return Table(tuple((grid - lo).tolist()), tuple(fitted(grid).tolist()), origin=origin, recipe=recipe)
+    steps = (hi - lo) / table_step if table_step > 0.0 else math.inf
+    if not steps < MAX_TABLE_POINTS:
+        raise ParameterError(
+            f"a(t) varies too fast to tabulate: its largest |a''| {curvature:.3g} m/s⁴ needs more than "
+            f"{MAX_TABLE_POINTS:g} points to stay within {TABLE_TOLERANCE:g} m/s² (check the units, or "
+            "state a lower cutoff_hz)"
+        )
+    grid = np.linspace(lo, hi, max(2, math.ceil(steps) + 1))
+    with np.errstate(over="ignore", invalid="ignore"):
+        accels = fitted(grid)
+    if not np.all(np.isfinite(accels)):
+        raise ParameterError("a(t) of this trace overflows floating point: check its values and units")
+    return Table(tuple((grid - lo).tolist()), tuple(accels.tolist()), origin=origin, recipe=recipe)
 
 
 def differentiate(
