@@ -14,7 +14,7 @@ from pendulum_accel.errors import SceneError
 from pendulum_accel.estimators import estimate_batch, estimator_line
 from pendulum_accel.estimators.kalman import PRESETS
 from pendulum_accel.estimators.motion import MOTIONS, ROBOT_MAX_SPEED, motion_of
-from pendulum_accel.physics.profiles import profile_from_dict
+from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.generate import generate_bag
 from pendulum_accel.recording.settings import estimator_options, motion_choice
