@@ -59,7 +59,6 @@ from benchmarks.corpus import CORPUS
 from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
-from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile
 from pendulum_accel.recording.changes import after_change

@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.physics.profiles import Constant, profile_from_dict
+from pendulum_accel.motion_input import profile_from_dict
+from pendulum_accel.physics.profiles import Constant
 from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import SceneRun, run_scene
 
