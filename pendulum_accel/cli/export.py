@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.export import FORMATS, VISUAL_ROLES, export_bag
+from pendulum_accel.bag.export import FORMATS, VISUAL_ROLES, export_bag, export_tables, write_csv_table
 from pendulum_accel.cli.output import check_output_dir, output_directory
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 from pendulum_accel.cli.topics import add_topic_flags, choose_topics, namespace_topics
+from pendulum_accel.errors import OutputError
 
 SMOOTHED = "/car/accel/smoothed"
 """Name of the derived smoother series (not a topic in the bag): columns a and variance."""
@@ -27,7 +29,12 @@ def register(subparsers: Any) -> None:
         ),
     )
     parser.add_argument("bag", help="bag directory (or .mcap file)")
-    parser.add_argument("--out", required=True, metavar="DIR", help="directory for the tables")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="directory for the tables, or '-': the one --merged CSV table to standard output",
+    )
     parser.add_argument("--format", choices=FORMATS, default="csv", help="file format (default csv)")
     parser.add_argument("--merged", action="store_true", help="one table on the angle's stamps")
     parser.add_argument("--topics", nargs="+", default=[], metavar="TOPIC", help="only these topics")
@@ -50,17 +57,27 @@ def run(args: argparse.Namespace) -> int:
     """
     from pendulum_accel.recording.contract import check_chain_contract  # estimators: loaded when used
 
-    out = check_output_dir(args.out)
+    to_stdout = args.out == "-"
+    if to_stdout and not (args.merged and args.format == "csv"):
+        raise OutputError(
+            "--out '-' (standard output) takes one CSV table: add --merged (and --format csv), or give a "
+            "directory; nothing written"
+        )
+    out = None if to_stdout else check_output_dir(args.out)
     bag = choose_topics(read_intact(args.bag, args.salvage), args)
     check_chain_contract(bag)
     from pendulum_accel.recording.analyze import smoothed_estimate  # estimators: loaded when used
 
     smoothed = None if args.no_smoothed else smoothed_estimate(bag)
     derived = {} if smoothed is None else {SMOOTHED: smoothed}
+    # With --namespace, by default that chain's topics (but the visual ones, as export_bag leaves them).
+    in_ns = [t for t in namespace_topics(bag) if bm.role_of(t) not in VISUAL_ROLES]
+    topics = args.topics or (in_ns if bag.choice.namespace else [])
+    if out is None:
+        (table,) = export_tables(bag, merged=True, topics=topics, derived=derived).values()
+        write_csv_table(table, sys.stdout)
+        return warn_salvaged("export", bag)
     with output_directory(out):
-        # With --namespace, by default that chain's topics (but the visual ones, as export_bag leaves them).
-        in_ns = [t for t in namespace_topics(bag) if bm.role_of(t) not in VISUAL_ROLES]
-        topics = args.topics or (in_ns if bag.choice.namespace else [])
         paths = export_bag(bag, out, fmt=args.format, merged=args.merged, topics=topics, derived=derived)
     for path in paths:
         print(path)
