@@ -25,6 +25,7 @@ import contextlib
 import heapq
 import mmap
 import os
+import stat
 import struct
 import zlib
 from collections.abc import Iterator, Sequence
@@ -452,10 +453,15 @@ def _find_mcap(path: Path) -> tuple[Path, Path]:
 def _locate(path: Path) -> tuple[Path, Path, Any]:
     """(bag directory or file, .mcap path, parsed metadata.yaml or None) for a bag directory or a bare
     .mcap file; the metadata is parsed here once, for the file name and for read_bag."""
-    if path.is_file():
+    kind = _file_kind(path)
+    if kind == "file":
+        _check_magic(path)
         return path, path, None
-    if not path.is_dir():
+    if kind is None:
         raise BagError(f"bag {path} does not exist")
+    if kind != "directory":
+        # Opening a FIFO for reading would wait for a writer forever; a device is no bag either.
+        raise BagError(f"bag {path} is a {kind}, not a bag directory or an .mcap file")
     meta = path / "metadata.yaml"
     doc = None
     if meta.is_file():
@@ -474,10 +480,46 @@ def _locate(path: Path) -> tuple[Path, Path, Any]:
                 if not files[0].endswith(".mcap"):
                     raise BagError(f"bag {path} uses storage {files[0]!r}; only MCAP bags are supported")
                 return path, inside, doc
-    found = sorted(f for f in path.glob("*.mcap") if not f.is_symlink() or _within(path, f))
+    named = sorted(f for f in path.glob("*.mcap") if not f.is_symlink() or _within(path, f))
+    found = [f for f in named if _file_kind(f) == "file"]
+    if not found and named:
+        raise BagError(f"bag {path}: {named[0].name} is a {_file_kind(named[0])}, not an MCAP file")
+    if not found:
+        raise BagError(f"bag {path} holds no .mcap file: not a bag directory")
     if len(found) != 1:
         raise BagError(f"bag {path} has {len(found)} .mcap files, expected 1")
     return path, found[0], doc
+
+
+def _file_kind(path: Path) -> str | None:
+    """'file', 'directory', 'FIFO (named pipe)', 'socket', 'character device', 'block device', or None
+    when nothing is there (symbolic links followed)."""
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return None
+    for test, kind in (
+        (stat.S_ISREG, "file"),
+        (stat.S_ISDIR, "directory"),
+        (stat.S_ISFIFO, "FIFO (named pipe)"),
+        (stat.S_ISSOCK, "socket"),
+        (stat.S_ISCHR, "character device"),
+        (stat.S_ISBLK, "block device"),
+    ):
+        if test(mode):
+            return kind
+    return "special file"
+
+
+def _check_magic(path: Path) -> None:
+    """BagError unless the regular file ``path`` starts with the MCAP magic bytes (or cannot be read)."""
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(len(_MAGIC))
+    except OSError as err:
+        raise BagError(f"cannot read {path}: {err.strerror or err}") from None
+    if head != _MAGIC:
+        raise BagError(f"{path} is not an MCAP file (bad magic bytes)")
 
 
 def inside_bag(root: Path, name: str) -> Path:
