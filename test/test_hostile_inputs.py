@@ -443,6 +443,9 @@ RED_TEAM: list[tuple[str, str, int]] = [
     ("generate lecture_constant --out {ws}/missing/b", "does not exist", 2),
     ("generate lecture_constant --out /dev/full", "is not a directory", 2),
     ("generate lecture_constant --out {ws}/b --duration 1000", "lecture_constant lasts 20 s", 2),
+    # analysis options out of range: refused before the estimator allocates anything
+    ("analyze {bag} --lag 1e300", "longer than the recording", 2),
+    ("analyze {bag} --lag inf", "lag must be a finite number", 2),
     # hostile scene inputs
     *[(f"simulate {{huge_{name}}}", f"sensor.{name} must be in [", 2) for name in HUGE_SENSOR],
     *[(f"generate {{huge_{name}}} --out {{ws}}/b", f"sensor.{name} must be in [", 2) for name in HUGE_SENSOR],
@@ -506,6 +509,17 @@ def _frame(frame_id: str) -> Callable[[Any], None]:
     return edit
 
 
+def _across_90() -> Callable[[Any], None]:
+    """Edit: θ alternating −1.6, +1.6 rad (across ±90°) from one message to the next."""
+    count = itertools.count()
+
+    def edit(msg: Any) -> None:
+        """In place."""
+        msg.position = np.array([1.6 if next(count) % 2 else -1.6])
+
+    return edit
+
+
 @pytest.fixture(scope="module")
 def red_team(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, str]]:
     """The placeholders of RED_TEAM, made real (the read-only tmpfs is unmounted at the end)."""
@@ -525,6 +539,7 @@ def red_team(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, str
         ("two", bm.TOPIC_JOINT_STATES, _joints([bm.PENDULUM_JOINT, "elbow_joint"])),
         ("odom", bm.TOPIC_JOINT_STATES, _frame("odom")),
         ("est_odom", bm.TOPIC_ACCEL_ESTIMATE, _frame("odom")),
+        ("alt90", bm.TOPIC_JOINT_STATES, _across_90()),
     ):
         places[name] = str(_rewritten(bags / "bag", bags / name, topic, edit))
     scene = yaml.safe_load(cli("scenes", "lecture_constant").stdout)
@@ -878,6 +893,38 @@ def test_the_player_refuses_a_path_that_is_no_bag(tmp_path: Path, make: str, wor
     )
     one_line_error(result, *words)
     one_line_error(cli("info", str(path)), *words)  # the same reader: every command says the same
+
+
+# --- 13. angles that jump across ±90° every sample: a result (holes where the filter broke), no traceback
+
+
+def test_the_smoother_on_angles_across_90_degrees_gives_a_result(
+    red_team: dict[str, str], tmp_path: Path
+) -> None:
+    result = cli("analyze", red_team["alt90"], "--estimator", "smoother", "--json")
+    assert result.returncode == 0 and "Traceback" not in result.stderr, result.stderr
+    exported = cli("export", red_team["alt90"], "--out", str(tmp_path / "t"))
+    assert exported.returncode == 0 and "Traceback" not in exported.stderr, exported.stderr
+    table = np.genfromtxt(tmp_path / "t" / "car__accel__smoothed.csv", delimiter=",", names=True)
+    a, var = table[table.dtype.names[1]], table[table.dtype.names[2]]
+    # Each sample is an estimate with a positive, finite variance, or a hole (both NaN): never inf,
+    # never a zero or negative variance beside a number.
+    assert np.array_equal(np.isnan(a), np.isnan(var))
+    assert np.all(np.isfinite(a[~np.isnan(a)])) and np.all(var[~np.isnan(var)] > 0.0)
+    assert np.all(np.isfinite(var[~np.isnan(var)]))
+
+
+def test_the_rts_pass_keeps_the_filtered_estimate_where_the_prior_has_no_inverse() -> None:
+    from pendulum_accel.estimators import ekf_kernels as kern
+
+    n = 4
+    eye = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    xpo = np.arange(3 * n, dtype=float).reshape(n, 3)
+    ppr = eye.copy()
+    ppr[2] = 0.0  # singular prior at sample 2: nothing can be carried back from it to sample 1
+    a, v = kern.rts(xpo.copy(), ppr, xpo, eye.copy(), eye.copy(), np.zeros(n, dtype=np.bool_))
+    assert a[1] == xpo[1, 2] and v[1] == 1.0  # the filtered value and variance, exactly
+    assert np.all(np.isfinite(a)) and np.all(v > 0.0)
 
 
 if __name__ == "__main__":
