@@ -601,6 +601,7 @@ def test_red_team_case_is_one_line(
         ("export {bag} --out {fs}/tables", "64k"),
         ("export {bag} --out {fs}/tables --format parquet", "16k"),
         ("animate {bag} --out {fs}/a.gif --duration 1 --fps 10", "16k"),
+        ("animate {bag} --out {fs}/a.mp4 --duration 2 --fps 10", "16k"),  # ffmpeg's exit status
         ("analyze {bag} --plot {fs}/a.png", "16k"),
         ("sweep at_rest --length 0.5:2:100 --duration 0.2 --no-progress --out {fs}/s.csv", "16k"),
         ("simulate lecture_constant --plot {fs}/p.png", "16k"),
