@@ -264,7 +264,7 @@ def _flush(
                 out_v[last - j, m] = ring_v[slot]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # a long batch leaves the GIL: Ctrl-C reaches the main thread
 def run_pass(
     t: np.ndarray, y: np.ndarray, params: np.ndarray, lags: np.ndarray, keep: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -548,7 +548,7 @@ def _imm_start(
     state[0], state[1] = t, 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # as run_pass
 def run_imm(
     t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, switch_time: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
