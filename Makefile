@@ -2,6 +2,7 @@
 #                          make test  (set up, lint, type-check, run every test)
 # Both create .venv on first use and reuse it afterwards.
 # For students:                make lab   (a light venv, .venv-lab: the ROS-free core + Jupyter; docs/lab/)
+# For the docs site:           make docs  (a light venv, .venv-docs: MkDocs and its theme only)
 
 PYTHON ?= python3
 VENV   ?= .venv
@@ -19,11 +20,11 @@ VENV_FLAGS :=
 ROS_REQS   := -r requirements-ros.txt
 endif
 
-.PHONY: demo test setup lint typecheck pytest pytest-emulated bags bench docs docs-reference clean lab
+.PHONY: demo test setup lint typecheck pytest pytest-emulated bags bench docs docs-reference clean lab lab-handout
 
 setup: $(STAMP)
 
-$(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.xml Makefile
+$(STAMP): requirements-dev.txt requirements-docs.txt requirements-ros.txt setup.py setup.cfg package.xml Makefile
 	@if [ ! -x $(BIN)/python ]; then \
 	  $(PYTHON) -m venv $(VENV_FLAGS) $(VENV) 2>/dev/null || { \
 	    echo "python3 -m venv failed; installing Debian's python3-venv"; \
@@ -67,25 +68,41 @@ pytest: $(STAMP)
 # The numerics tests: every test whose figures come from floating-point arithmetic that numpy, libm or
 # numba may do differently on another x86-64 CPU (physics, integrators, kernels, closed forms, planner
 # and conditioning, estimators and calibration, Allan deviation, sweeps, golden bags). pytest-emulated
-# runs them once more with numpy, glibc's libm and numba kept off AVX-512, AVX2 and FMA
-# (test/cpu_emulation.py; docs/portability.md), so a machine-dependent assertion fails here first.
+# runs them once more with numpy at its baseline (NPY_DISABLE_CPU_FEATURES), glibc's libm off AVX2 and
+# FMA, numba compiling for NUMBA_CPU_NAME=generic NUMBA_CPU_FEATURES= and OpenBLAS on its oldest
+# kernels (OPENBLAS_CORETYPE=Prescott; test/cpu_emulation.py;
+# docs/portability.md), so a machine-dependent assertion fails here first.
 NUMERICS_TESTS := $(addprefix test/test_,$(addsuffix .py, \
   physics_properties equation_of_motion rigid elastic multiplier grade linear exact variational \
   integrators dop853_tableau kernels profiles simulate extremes planner error_bounds \
-  estimators estimator_guard smoother calibration seed_spread sensor allan accel_csv real_motion_profiles \
-  lecture sweep scene_run plan_honesty bag_golden figures cpu_emulation))
+  estimators estimator_guard smoother calibration seed_spread sensor allan accel_csv real_motion_profiles corpus_scenes \
+  lecture lab sweep scene_run plan_honesty wrap_bound bag_golden figures cpu_emulation))
 
 pytest-emulated: $(STAMP)
 	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pytest $(NUMERICS_TESTS)
 
-test: lint typecheck pytest pytest-emulated
+# Every step runs even after one fails (the CPU-emulation pass most of all: it is what shows a machine-
+# dependent assertion), then make test fails naming the steps that failed.
+TEST_STEPS := lint typecheck pytest pytest-emulated
+test: $(STAMP)
+	@failed=""; for step in $(TEST_STEPS); do \
+	  $(MAKE) --no-print-directory $$step || failed="$$failed $$step"; \
+	done; \
+	if [ -n "$$failed" ]; then echo "make test failed:$$failed"; exit 1; fi
 
 bags: $(STAMP)
 	$(BIN)/pendulum-accel golden-bags bags
 
-# The docs site (mkdocs.yml) into site/; strict, so a broken link or a missing page fails.
-docs: $(STAMP)
-	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
+# The docs site (mkdocs.yml) into site/; strict, so a broken link or a missing page fails. It needs only
+# the docs extra's tools (requirements-docs.txt), in their own venv: not the package, not the dev tools.
+DOCS_VENV ?= .venv-docs
+docs: $(DOCS_VENV)/.installed
+	NO_MKDOCS_2_WARNING=1 $(DOCS_VENV)/bin/mkdocs build --strict --site-dir site
+
+$(DOCS_VENV)/.installed: requirements-docs.txt
+	$(PYTHON) -m venv $(DOCS_VENV)
+	$(DOCS_VENV)/bin/python -m pip install -q --disable-pip-version-check -r requirements-docs.txt
+	@touch $@
 
 # The reference pages generated from the code (node parameters, scene fields, CLI); test_docs checks them.
 docs-reference: $(STAMP)
@@ -106,7 +123,15 @@ clean:
 # Without make (e.g. Windows): python -m venv .venv-lab, then pip install ".[lab]" inside it.
 LAB_VENV ?= .venv-lab
 lab: $(LAB_VENV)/.installed
-	@echo "start the lab with:  $(LAB_VENV)/bin/jupyter lab docs/lab/student.ipynb"
+	@echo "check it before class:  $(LAB_VENV)/bin/pendulum-accel lab check"
+
+# Teachers: a class's handout from a secret, e.g. make lab-handout SECRET=secret.txt GROUPS=8 OUT=class_a:
+# a zip per group, the teacher key and the package's wheel for students without a clone (docs/lab/).
+lab-handout: $(LAB_VENV)/.installed
+	@test -n "$(SECRET)" -a -n "$(GROUPS)" -a -n "$(OUT)" || \
+		{ echo "usage: make lab-handout SECRET=FILE GROUPS=N OUT=DIR" >&2; exit 2; }
+	$(LAB_VENV)/bin/pendulum-accel lab make-class --secret "$(SECRET)" --groups "$(GROUPS)" --out "$(OUT)"
+	$(LAB_VENV)/bin/python -m pip wheel -q --no-deps -w "$(OUT)" .
 
 $(LAB_VENV)/.installed: setup.py package.xml
 	$(PYTHON) -m venv $(LAB_VENV)

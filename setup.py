@@ -61,23 +61,31 @@ setup(
         "tqdm>=4.70.1",
         "zstandard>=0.25.0",
         "lz4>=4.4.5",
-        "allantools>=2024.6",
     ],
     # The work-precision benchmark's 30-digit reference, and the test tools.
     extras_require={
         "bench": ["mpmath>=1.4.1"],
+        # `analyze` over many bags and `design` on Dask distributed; the table as Parquet.
+        "fleet": ["dask>=2026.8.0", "distributed>=2026.8.0", "pyarrow>=26.0.1"],
         # The student lab (docs/lab/): Jupyter on top of the ROS-free core; matplotlib is already core.
         "lab": ["jupyterlab>=4.0", "ipykernel>=7.4.0"],
         # `pendulum-accel export`: pandas for the tables, pyarrow for Parquet.
         "export": ["pandas>=3.1.1", "pyarrow>=26.0.1"],
+        # The docs site (mkdocs.yml: the material theme, pymdownx extensions); `make docs` installs only
+        # these (pinned in requirements-docs.txt) into .venv-docs.
+        "docs": ["mkdocs>=1.6.1", "mkdocs-material>=9.8.2", "pymdown-extensions>=13.1.2"],
         "test": [
             "pytest>=9.2.0",
             "pytest-timeout>=2.4.0",
             "hypothesis>=6.170.15",
             "mpmath>=1.4.1",
+            # The reference test_allan checks pendulum_accel.allan's ADEV against; not core: it pulls
+            # pytest, numpydoc and sphinx (26 distributions, 78 MB).
+            "allantools>=2024.6",
             "mcap-ros2-support>=0.6.0",
             "pandas>=3.1.1",
             "pyarrow>=26.0.1",
+            "distributed>=2026.8.0",
         ],
     },
     python_requires=">=3.10",

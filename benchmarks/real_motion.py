@@ -3,7 +3,7 @@ reported on a validation split, beside the bound (hindsight fixed-q EKF and RTS 
 
     python -m benchmarks.real_motion [--quick] [--seeds N] [--out-md PATH] [--out-img DIR] [--fit]
 
-Profiles (a(t) from the bundled speed traces, differentiated by ``physics.speed_trace``, and bundled scenes):
+Profiles (a(t) from the bundled speed traces, differentiated by ``motion_input.trace``, and bundled scenes):
 
 | profile | split | preset | why there |
 |---|---|---|---|
@@ -24,7 +24,8 @@ physics.simulate (rigid model), white angle noise per seed (seeds 0 … N−1, n
 
 Per estimator × validation profile × design, pooled over seeds, t ≥ 2 s: RMS, max |e|, group delay (the
 shift τ maximising the cross-correlation of â(t) with a(t − τ)), mean NEES, share beyond 2σ in steady
-state and within 2 s after a change (|a(t) − a(t − 1 s)| > 0.2 m/s²), and µs/sample of streaming
+state and after a change (|a(t) − a(t − 1 s)| > 0.2 m/s², from its onset to 2 s after:
+``recording.changes.after_change``, the rule ``analyze`` uses), and µs/sample of streaming
 ``update`` (on a 20 s slice). The bound: ``ekf_hindsight``, a fixed-q EKF with q chosen per profile and
 design for the least RMS over a grid (with the truth: hindsight), and ``rts_hindsight``, the RTS
 smoother on that same model; ``rts_best`` is a tighter bound, the RTS at its own hindsight q (every
@@ -52,20 +53,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from benchmarks import report as bench_report
+from benchmarks.corpus import CORPUS
 from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
-from pendulum_accel.physics.profiles import AccelProfile, Braking, Step, profile_from_dict
+from pendulum_accel.physics.profiles import AccelProfile
+from pendulum_accel.recording.changes import after_change
 from pendulum_accel.scene import load_scene
 
 SCENES_DIR = Path(__file__).resolve().parents[1] / "pendulum_accel" / "scenes"
 WARMUP = 2.0  # s left out at the start of every run: the filters start from one sample
-CHANGE_JUMP = 0.2  # m/s²: |a(t) − a(t − 1 s)| beyond this marks a change of a
-CHANGE_WINDOW = 2.0  # s after a change that count as "after change"
 MAX_DELAY = 3.0  # s searched for the group delay
 Q_GRID = tuple(float(q) for q in np.logspace(-4, 2, 19))  # (m/s²)²/s, 3 per decade
 LAGS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0)  # s, the latency–accuracy curve
@@ -116,35 +116,24 @@ class Profile:
     duration: float
 
 
-def _window(scene: str, start: float | None = None, end: float | None = None) -> Callable[[], AccelProfile]:
-    """A builder of bundled scene ``scene``'s speed-trace profile cut to [start, end] s, with the trace's
-    own differentiation settings (units, columns, cut-off) as its YAML states them."""
+PRESET_OF = {
+    "udds_p1": "car",
+    "stop_and_go": "lab_steps",
+    "step": "lab_steps",
+    "husky_1": "robot",
+    "hwfet": "car",
+    "udds_p2": "car",
+    "husky_2": "robot",
+    "braking": "lab_steps",
+}
+"""The profiles of the table above and the preset a user would pick for each; the rest of the corpus
+(benchmarks.corpus.CORPUS: more robots, logged accelerations) has no preset."""
 
-    def build() -> AccelProfile:
-        spec = dict(yaml.safe_load((SCENES_DIR / f"{scene}.yaml").read_text())["acceleration"])
-        if start is not None:
-            spec["start"] = start
-        if end is not None:
-            spec["end"] = end
-        return profile_from_dict(spec, SCENES_DIR)
-
-    return build
-
-
-def _scene(name: str) -> Callable[[], AccelProfile]:
-    """A builder of bundled scene ``name``'s acceleration profile."""
-    return lambda: load_scene(name).profile
-
-
-PROFILES = (
-    Profile("udds_p1", "train", "car", _window("udds", 0.0, 505.0), 505.0),
-    Profile("stop_and_go", "train", "lab_steps", _scene("stop_and_go"), 30.0),
-    Profile("step", "train", "lab_steps", lambda: Step(8.0, 0.0, 3.0), 20.0),
-    Profile("husky_1", "train", "robot", _window("husky_odom", 0.0, 195.0), 195.0),
-    Profile("hwfet", "validate", "car", _window("hwfet"), 765.0),
-    Profile("udds_p2", "validate", "car", _window("udds", 505.0, 1369.0), 864.0),
-    Profile("husky_2", "validate", "robot", _window("husky_odom", 200.0, 395.0), 195.0),
-    Profile("braking", "validate", "lab_steps", lambda: Braking(14.0, 4.0, 6.0), 20.0),
+PROFILES = tuple(
+    Profile(e.name, e.split, PRESET_OF[e.name], e.build, e.duration)
+    for name in PRESET_OF
+    for e in CORPUS
+    if e.name == name
 )
 
 
@@ -183,16 +172,6 @@ def simulate_runs(profile: AccelProfile, design: Design, seeds: int, duration: f
         rng = np.random.default_rng(seed)
         runs.append(Run(t, accel, theta + rng.normal(0.0, design.noise_std, t.size)))
     return runs
-
-
-def change_mask(t: np.ndarray, accel: np.ndarray) -> np.ndarray:
-    """True within CHANGE_WINDOW s after any t where |a(t) − a(t − 1 s)| > CHANGE_JUMP."""
-    back = np.interp(t - 1.0, t, accel)
-    changes = t[np.abs(accel - back) > CHANGE_JUMP]
-    if changes.size == 0:
-        return np.zeros(t.size, dtype=bool)
-    idx = np.searchsorted(changes, t, side="right") - 1
-    return (idx >= 0) & (t - changes[np.maximum(idx, 0)] <= CHANGE_WINDOW)
 
 
 def group_delay(t: np.ndarray, est: np.ndarray, truth: np.ndarray, rate_hz: float) -> float:
@@ -239,7 +218,7 @@ class Score:
             e = (a - run.accel)[keep]
             with np.errstate(divide="ignore", invalid="ignore"):
                 z = np.where(var[keep] > 0.0, e * e / var[keep], np.inf)
-            after_mask = change_mask(run.t, run.accel)[keep]
+            after_mask = after_change(run.t, run.t, run.accel)[keep]
             errs.append(e)
             nees.append(z)
             steady.append(z[~after_mask] > 4.0)
@@ -313,7 +292,7 @@ def imm_scan(
             keep = r.t >= WARMUP
             e = (a - r.accel)[keep]
             beyond = e * e > 4.0 * var[keep]
-            after = change_mask(r.t, r.accel)[keep]
+            after = after_change(r.t, r.t, r.accel)[keep]
             out[i] += (
                 float(np.sum(e * e)),
                 np.count_nonzero(beyond & ~after),
@@ -578,7 +557,8 @@ def markdown(
         *targets(rows),
         "",
     ]
-    cols = ["design", "profile", "method", "RMS", "ratio", "max |e|", "delay s", "NEES", ">2σ steady",
+    # The pipes of |e| are escaped: a bare one would split the header and the page would show no table.
+    cols = ["design", "profile", "method", "RMS", "ratio", r"max \|e\|", "delay s", "NEES", ">2σ steady",
             ">2σ after", "µs/sample"]  # fmt: skip
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:

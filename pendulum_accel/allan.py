@@ -1,7 +1,9 @@
 """Allan deviation of a sensor stream and the noise figures read off it (white density, random walk).
 
-The overlapping Allan deviation σ(τ) comes from ``allantools.oadev`` on the samples taken as
-rate-type ("freq") data. For the IEEE 952 / Kalibr noise model of a reading
+The overlapping Allan deviation σ(τ) of the samples taken as rate-type ("freq") data is computed by
+:func:`overlapping_adev`, allantools' ``oadev(data_type="freq", taus="octave")`` in a few numpy lines
+(NIST SP 1065 eq. 11; test_allan checks it against allantools, a test dependency: allantools would pull
+pytest and sphinx into the core install). For the IEEE 952 / Kalibr noise model of a reading
 
     σ²(τ) = N²/τ + K² τ/3 + (2 ln 2/π) B²,
 
@@ -21,7 +23,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
-import allantools
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import nnls
@@ -42,7 +43,7 @@ T = TypeVar("T")
 
 @dataclass(frozen=True)
 class AllanResult:
-    """σ(τ) (with allantools' error and number of terms) of one signal, fitted N, K, B and the fit range."""
+    """σ(τ) (with its error σ/√n and number of terms n) of one signal, fitted N, K, B and the fit range."""
 
     label: str
     unit: str
@@ -71,6 +72,30 @@ class AllanResult:
         ]
 
 
+def overlapping_adev(
+    values: FloatArray, rate_hz: float
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """(τ, σ(τ), σ/√n, n) at τ = m/f, m = 1, 2, 4, … < len(x), of rate-type samples y at f Hz.
+
+    Phase x = [0, cumsum(y − ȳ)/f] (N + 1 points), then per m the overlapping second differences
+    σ²(mτ₀) = Σ (x_{i+2m} − 2x_{i+m} + x_i)² / (2 n (mτ₀)²), n = len(x) − 2m terms (NIST SP 1065 eq. 11);
+    a τ with n ≤ 1 is dropped. The same operations, in the same order, as allantools.oadev.
+    """
+    dt = 1.0 / float(rate_hz)
+    phase = np.insert(np.cumsum(values - np.mean(values)) * dt, 0, 0.0)
+    octaves = 2 ** np.arange(int(np.floor(np.log2(phase.size))) + 1)
+    rows = []
+    for m in octaves[octaves < phase.size]:
+        n = phase.size - 2 * m
+        if n <= 1:
+            continue
+        second = phase[2 * m :] - 2 * phase[m : m + n] + phase[:n]
+        dev = np.sqrt(np.sum(second * second) / (2.0 * n)) / m * rate_hz
+        rows.append((m / rate_hz, dev, dev / np.sqrt(n), float(n)))
+    taus, adev, err, terms = (np.array(column, dtype=np.float64) for column in zip(*rows, strict=True))
+    return taus, adev, err, terms
+
+
 def allan_deviation(
     samples: FloatArray, rate_hz: float, *, label: str = "signal", unit: str = "", fit_from: float = 0.0
 ) -> AllanResult:
@@ -82,8 +107,7 @@ def allan_deviation(
         raise ParameterError("Allan deviation needs finite samples, got NaN or inf")
     if not (math.isfinite(rate_hz) and rate_hz > 0.0):
         raise ParameterError(f"Allan deviation needs a sample rate > 0 Hz, got {rate_hz!r}")
-    taus, adev, err, ns = allantools.oadev(values, rate=rate_hz, data_type="freq", taus="octave")
-    taus, adev, err, ns = (np.asarray(x, dtype=np.float64) for x in (taus, adev, err, ns))
+    taus, adev, err, ns = overlapping_adev(values, rate_hz)
     keep = adev > 0.0
     taus, adev, err, ns = taus[keep], adev[keep], err[keep], ns[keep]
     duration = values.size / rate_hz

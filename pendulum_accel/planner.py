@@ -313,8 +313,9 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
     is still its method error (its rounding carried through the same growth). Past the linear regime the
     run's error is decided by how its rounding falls and no tight bound exists: the prediction becomes
     max(method error, floor, SPREAD_SAFETY × the spread of five runs one ulp apart). A θ0 the scene
-    wrapped into (-π, π] is said first in the reason.
-    """
+    wrapped into (-π, π] is said first in the reason, and the wrap's rounding, an input error this run has
+    and an unwrapped reference has not, is added to the prediction through the run's response to θ0
+    (wrap_effect)."""
     if plan.sensitivity is None:
         # only a fixed step without a pilot adds the measured round-off (_with_roundoff): a closed form's
         # bound is a priori, an adaptive plan's K holds its rounding
@@ -332,8 +333,51 @@ def with_conditioning(scene: Scene, plan: Plan) -> Plan:
         predicted = max(predicted, sensitivity.floor, SPREAD_SAFETY * sensitivity.spread)
     driven = scene.profile.constant_pieces(0.0, scene.duration) is None
     note = scene.wrap_note()
+    wrap = wrap_effect(scene, sensitivity)
+    if note:  # the run starts from the wrapped θ0: its rounding is an input error of this run
+        predicted += wrap
+        note = f"{note}, its rounding moves θ by ≤ {wrap:.1e} rad"
+    predicted += level_effect(scene, sensitivity)  # a grade's level problem, rounded (0 on a level road)
     reason = f"{note}; {plan.reason}" if note and not plan.reason.startswith(note) else plan.reason
     return replace(plan, predicted_error=predicted, driven=driven, reason=reason)
+
+
+def wrap_effect(scene: Scene, sensitivity: Sensitivity) -> float:
+    """max_t |∂θ/∂θ0| |δθ0| = S_θ0 · |δθ0| / ulp(θ0): the wrap's rounding δθ0 (Scene.wrap_error, ≤ ½ ulp)
+    carried through the run's measured response to θ0 (peaks[0] per units[0]); 0 when θ0 was not wrapped.
+    Past the linear regime S is the one-ulp runs' own difference, still the response to a shift ≤ 1 ulp."""
+    shift = scene.wrap_error()
+    if shift == 0.0:
+        return 0.0
+    return sensitivity.peaks[0] * shift / sensitivity.units[0]
+
+
+def level_effect(scene: Scene, sensitivity: Sensitivity) -> float:
+    """What the rounding of a grade's level problem (Scene.on_level: g cos β, a(t) + g sin β) moves θ by:
+    r (1 + S_θ0/ulp(θ0) + ω sin(A/2) T), 0 on a level road.
+
+    g_l = fl(g fl(cos β)) is within 2ε g_l of g cos β (libm's cos ≤ 1 ulp, one product); c = g sin β
+    likewise within 2ε|c|, and a + c rounds by ε/2 (|a| + |c|) more. r = (δg + δa)/g_l bounds the relative
+    change of √(g_l² + a_l²) and the shift of θ_eq = atan2(a_l, g_l). For a constant a_l: φ'' = −ω² sin φ
+    only rescales time when ω² does, so θ moves by the θ_eq shift itself, by the start's φ0 = θ0 − θ_eq
+    moving as much (the run's measured response to θ0, S per ulp) and by max|φ'| T δω/ω ≤ 2ω sin(A/2) T r/2
+    (A the libration amplitude). A varying a(t) or damping: the same with sin(A/2) ≤ 1 and ω at max |a|.
+    """
+    if scene.grade == 0.0:
+        return 0.0
+    level = scene.on_level()
+    g_level = level.pendulum.gravity
+    offset = abs(scene.pendulum.gravity * math.sin(scene.grade))
+    a_max = scene.profile.max_abs(0.0, scene.duration)
+    r = DOUBLE_EPS * (2.0 * g_level + 2.0 * offset + 0.5 * (a_max + offset)) / g_level
+    pieces = level.profile.constant_pieces(0.0, scene.duration)
+    half_swing, omega = 1.0, level.pendulum.omega(level.profile.max_abs(0.0, scene.duration))
+    if pieces is not None and len(pieces) == 1 and level.pendulum.damping == 0.0:
+        accel = pieces[0][2]
+        amplitude = libration_amplitude(level.pendulum, accel, scene.theta0, scene.theta_dot0)
+        half_swing, omega = math.sin(min(amplitude, math.pi) / 2.0), level.pendulum.omega(accel)
+    response = sensitivity.peaks[0] / sensitivity.units[0]
+    return r * (1.0 + response + omega * half_swing * scene.duration)
 
 
 def stepping_roundoff(scene: Scene, dt: float) -> float:

@@ -17,7 +17,7 @@ File layout (every key is checked; unknown keys are errors so a typo never passe
       theta0: 0.0                   # rad (optional, 0)
       theta_dot0: 0.0               # rad/s (optional, 0)
       stiffness: 1.0e5              # N/m, > 0 (optional; the elastic string's k)
-    acceleration: {type: constant, a: 2.0}   # any physics.profiles type; file paths (csv, speed_csv,
+    acceleration: {type: constant, a: 2.0}   # any motion_input profile type; file paths (csv, speed_csv,
                                              # bag_topic, accel_csv) are relative to this file
     sensor:
       rate_hz: 100                  # Hz, > 0
@@ -60,9 +60,10 @@ import yaml
 
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.estimators.motion import MOTIONS
+from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.physics.integrators import METHODS
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
-from pendulum_accel.physics.profiles import AccelProfile, profile_from_dict
+from pendulum_accel.physics.profiles import AccelProfile
 from pendulum_accel.physics.rigid import level_equivalent
 from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, MODELS
 from pendulum_accel.sensor import SENSOR_LIMITS, SensorModel, check_sensor_field, noise_std_from_density
@@ -82,6 +83,24 @@ SCENE_NAMES: tuple[str, ...] = (
     "resonant_drive",
 )
 """The core scenes: seconds long, each run in full by the golden bags and the per-scene tests."""
+CORPUS_SCENE_NAMES: tuple[str, ...] = (
+    "jackal_odom",
+    "husky_imu",
+    "f1tenth_ds1_odom",
+    "f1tenth_ds2_odom",
+    "f1tenth_ds3_odom",
+    "f1tenth_ds4_odom",
+    "f1tenth_ds5_odom",
+    "f1tenth_ds1_imu",
+    "f1tenth_ds5_imu",
+    "comma2k19_speed",
+    "comma2k19_imu",
+    "phone_corolla_trip1",
+    "phone_corolla_trip2",
+    "bus_gps_speed",
+)
+"""Recorded robots, a car's CAN speed and logged accelerations (accel_csv) that widen the real-motion
+corpus (scenes/real_motion/README.md names each one's source, licence and conversion)."""
 REAL_MOTION_SCENE_NAMES: tuple[str, ...] = (
     "udds",
     "hwfet",
@@ -91,24 +110,49 @@ REAL_MOTION_SCENE_NAMES: tuple[str, ...] = (
     "hwfet_teaching",
     "ftp75_teaching",
     "husky_odom_teaching",
+    *CORPUS_SCENE_NAMES,
 )
-"""Recorded motion (drive cycles, a robot's odometry; docs/real_motion.md): minutes long, so kept out of
-the loops that run every core scene in full. Each comes in the short damped design and in the 1 m
-teaching design (``*_teaching``)."""
+"""Recorded motion (drive cycles, robots' odometry, logged accelerations; docs/real_motion.md): up to
+minutes long, so kept out of the loops that run every core scene in full. The drive cycles and the Husky's
+odometry come in the short damped design and in the 1 m teaching design (``*_teaching``); the
+CORPUS_SCENE_NAMES in the short damped design only."""
 BUNDLED_SCENE_NAMES: tuple[str, ...] = SCENE_NAMES + REAL_MOTION_SCENE_NAMES
 """Every scene file shipped in scenes/, as ``pendulum-accel scenes`` lists them."""
 DEFAULT_SCENE = "lecture_constant"
 OUTPUTS: tuple[str, ...] = ("angle", "tension", "stretch")
 _NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
-# θ0 is periodic and is wrapped into (-π, π]; up to 8 turns the wrap moves it by ≤ 8·|2π − fl(2π)| ≈ 2e-15
-# rad beyond the given value's own rounding, past that the given value's ulp (≥ 8e-15 rad) is the error.
-THETA0_MAX = 16.0 * math.pi
+# θ0 is periodic and is wrapped into (-π, π] with 2π as a double-double (fl(2π) + its rounding), so the
+# wrapped value is rounded once, by ≤ ½ ulp ≤ 2.2e-16 rad, whatever the turns; the planner carries that
+# rounding through the run's sensitivity (Scene.wrap_error, planner.with_conditioning). 16 turns: past them
+# the given value's own ulp (1.4e-14 rad at 100 rad) dwarfs any rounding of the run.
+THETA0_MAX = 32.0 * math.pi
+TWO_PI_LO = 2.4492935982947064e-16  # 2π − fl(2π), to double precision: fl(2π) + this is 2π within 1e-31
+_TWO_PI_DD_ERROR = 1e-31  # |2π − (fl(2π) + TWO_PI_LO)| (2.4e-16 · 2⁻⁵³ < 3e-32), per turn
 
 
 def wrap_angle(theta: float) -> float:
-    """θ − 2πk in (-π, π]: math.remainder by fl(2π) (exact), its -π mapped to π."""
-    wrapped = math.remainder(theta, 2.0 * math.pi)
-    return math.pi if wrapped == -math.pi else wrapped
+    """θ − 2πk in (-π, π], rounded once: r = remainder(θ, fl(2π)) = θ − k fl(2π) exactly (IEEE), then
+    r − k (2π − fl(2π)); a result just outside (-π, π] moves one turn (r ± fl(2π) is exact there), and one
+    that rounds past ±fl(π) (θ = −fl(π): π + 2.4e-16) is held at the bound (1 ulp at most, in wrap_error)."""
+    two_pi = 2.0 * math.pi
+    r = math.remainder(theta, two_pi)
+    k = round((theta - r) / two_pi)
+    wrapped = r - k * TWO_PI_LO
+    if wrapped <= -math.pi:
+        wrapped = (r + two_pi) - (k - 1) * TWO_PI_LO
+    elif wrapped > math.pi:
+        wrapped = (r - two_pi) - (k + 1) * TWO_PI_LO
+    return min(max(wrapped, math.nextafter(-math.pi, 0.0)), math.pi)
+
+
+def wrap_error(given: float, wrapped: float) -> float:
+    """|wrapped − (given − 2πk)| (rad): the wrap's own rounding, k = round((given − wrapped)/2π), formed
+    exactly in rationals from fl(2π) + TWO_PI_LO, plus k × the double-double's own error."""
+    from fractions import Fraction
+
+    k = round((given - wrapped) / (2.0 * math.pi))
+    exact = Fraction(given) - k * (Fraction(2.0 * math.pi) + Fraction(TWO_PI_LO))
+    return float(abs(Fraction(wrapped) - exact)) + abs(k) * _TWO_PI_DD_ERROR
 
 
 _LOG = logging.getLogger(__name__)
@@ -180,6 +224,11 @@ class Scene:
             return ""
         return f"θ0 = {self.theta0_given:.6g} rad wrapped to {self.theta0:.6g} rad (the angle is periodic)"
 
+    def wrap_error(self) -> float:
+        """How far the wrap's rounding moved θ0 (rad, ≤ ½ ulp of θ0, 1 ulp at ±π; module function
+        wrap_error); 0 when θ0 was not wrapped."""
+        return 0.0 if self.theta0_given is None else wrap_error(self.theta0_given, self.theta0)
+
     def on_level(self) -> Scene:
         """The level-road scene with this one's motion: g → g cos β, a(t) → a(t) + g sin β, grade 0.
 
@@ -222,7 +271,10 @@ def _check_scene(scene: Scene) -> None:
         if not _finite(getattr(scene, name)):
             raise SceneError(f"pendulum.{name}: expected a finite number, got {getattr(scene, name)!r}")
     if not abs(scene.theta0) <= math.pi:
-        raise SceneError(f"pendulum.theta0: expected |θ0| ≤ 16π rad (8 turns), got {scene.theta0!r}")
+        raise SceneError(
+            f"pendulum.theta0: expected |θ0| ≤ {THETA0_MAX / math.pi:.0f}π rad "
+            f"({THETA0_MAX / (2.0 * math.pi):.0f} turns), got {scene.theta0!r}"
+        )
     if not _finite(scene.accuracy) or scene.accuracy <= 0.0:
         raise SceneError(f"accuracy.max_angle_error: expected a number of rad > 0, got {scene.accuracy!r}")
     if not isinstance(scene.outputs, tuple) or any(o not in OUTPUTS for o in scene.outputs):

@@ -1,20 +1,27 @@
-"""The environment of `make test`'s CPU-emulation step: numpy, libm and numba without AVX-512, AVX2 or FMA.
+"""The environment of `make test`'s CPU-emulation step: numpy at its baseline, libm, numba and BLAS without
+AVX-512, AVX2 or FMA.
 
 ``python -m test.cpu_emulation COMMAND...`` runs COMMAND in that environment (the Makefile's
-``pytest-emulated``); without a command it prints the assignments. Three libraries pick their code by
+``pytest-emulated``); without a command it prints the assignments. Four libraries pick their code by
 the CPU they run on, and each is switched off its AVX-512, AVX2 and FMA paths its own way:
 
 * numpy: ``NPY_DISABLE_CPU_FEATURES`` lists dispatch targets. numpy ≥ 2.3 dispatches by level (X86_V3 =
   AVX2 + FMA3 + …, X86_V4 = AVX-512, AVX512_ICL, AVX512_SPR) and only warns about a name it does not
   dispatch (``AVX512F AVX2 FMA3`` would be ignored), while naming a baseline feature aborts its import;
-  so the list is the dispatch targets this CPU has that are, or imply, one of ``DISABLED``.
+  so the list is every dispatch target this CPU has above numpy's baseline: every ufunc then runs its
+  baseline loop (X86_V2 for numpy 2.4), the code any x86-64 machine numpy supports runs.
 * libm (glibc): its exp/sin/tan/atan… take FMA variants when the CPU has FMA and AVX2;
   ``GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F`` makes it take the SSE2 ones (names it does not
   know, or features the CPU lacks, are ignored).
-* numba: ``NUMBA_CPU_NAME=generic`` also sets its CPU features to none (numba.core.config), so the
-  kernels compile for baseline x86-64. numba's cache index keys each entry on (signature, target triple,
-  CPU name, CPU features), so the host-compiled entries are never loaded under ``generic``: the step
-  compiles its own once and keeps both (test_cpu_emulation checks this).
+* numba: ``NUMBA_CPU_NAME=generic NUMBA_CPU_FEATURES=`` (numba's documented pair; an empty feature list
+  is also numba.core.config's default for ``generic``, set here so that a feature list already in the
+  environment cannot leak in), so the kernels compile for baseline x86-64. numba's cache index keys each
+  entry on (signature, target triple, CPU name, CPU features), so the host-compiled entries are never
+  loaded under ``generic``: the step compiles its own once and keeps both (test_cpu_emulation checks it).
+* BLAS/LAPACK (the OpenBLAS numpy and scipy each bundle, built DYNAMIC_ARCH): it picks its kernels by CPU
+  (Haswell here, SkylakeX on an AVX-512 Intel, …), and a matrix product's rounding follows the kernel;
+  ``OPENBLAS_CORETYPE=Prescott`` makes both take their oldest x86-64 kernels (OpenBLAS reports them as
+  Katmai: SSE only), which round differently from the host's.
 """
 
 from __future__ import annotations
@@ -23,19 +30,13 @@ import importlib
 import os
 import sys
 
-DISABLED = ("AVX512F", "AVX2", "FMA3")
-_LEVELS = ("X86_V3", "X86_V4")  # numpy's level targets holding AVX2 + FMA3 (V3) or AVX-512 (V4)
 GLIBC_HWCAPS = "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F"
-
-
-def implies_disabled(target: str) -> bool:
-    """True for a numpy dispatch target that is one of DISABLED or needs one (any AVX512*, X86_V3/V4)."""
-    return target in DISABLED or target in _LEVELS or target.startswith("AVX512")
+OPENBLAS_CORE = "Prescott"
 
 
 def numpy_disabled_targets() -> list[str]:
-    """numpy's dispatch targets this CPU has, not baseline, that are or imply AVX-512F, AVX2 or FMA3
-    (inside the emulation numpy reports the disabled ones as absent: they are kept from the variable)."""
+    """numpy's dispatch targets this CPU has above its baseline (inside the emulation numpy reports the
+    disabled ones as absent: they are kept from the variable)."""
     umath = importlib.import_module("numpy._core._multiarray_umath")  # numpy's own CPU tables
     have = {t for t, on in umath.__cpu_features__.items() if on}
     have |= set(os.environ.get("NPY_DISABLE_CPU_FEATURES", "").replace(",", " ").split())
@@ -43,9 +44,10 @@ def numpy_disabled_targets() -> list[str]:
 
 
 def targets_to_disable(dispatch: list[str], baseline: list[str], have: set[str]) -> list[str]:
-    """The dispatch targets in ``have`` (this CPU's), not baseline, that are or imply one of DISABLED:
-    a target the CPU lacks is never named (nothing to switch off), a baseline one never (numpy aborts)."""
-    return [t for t in dispatch if t not in set(baseline) and t in have and implies_disabled(t)]
+    """The dispatch targets in ``have`` (this CPU's) that are not baseline: numpy then runs its baseline
+    loops only. A target the CPU lacks is never named (nothing to switch off), a baseline one never (numpy
+    aborts its import)."""
+    return [t for t in dispatch if t not in set(baseline) and t in have]
 
 
 def environment() -> dict[str, str]:
@@ -54,7 +56,9 @@ def environment() -> dict[str, str]:
     return {
         "NPY_DISABLE_CPU_FEATURES": " ".join(numpy_disabled_targets()),
         "NUMBA_CPU_NAME": "generic",
+        "NUMBA_CPU_FEATURES": "",
         "GLIBC_TUNABLES": tunables,
+        "OPENBLAS_CORETYPE": OPENBLAS_CORE,
     }
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendulum_accel.allan import allan_deviation, plot_allan
+from pendulum_accel.allan import allan_deviation, overlapping_adev, plot_allan
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.scene import scene_from_yaml
@@ -80,3 +80,25 @@ def test_plot_marks_the_slopes(tmp_path: Path) -> None:
         np.cumsum(rng.standard_normal(20_000)) * 1e-4 + rng.standard_normal(20_000), 10.0
     )
     assert plot_allan([result], tmp_path / "a.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("size", [100, 1001, 4097, 30000])
+def test_overlapping_adev_is_allantools_oadev(size: int) -> None:
+    """The package's overlapping ADEV against allantools.oadev (a test dependency), white noise plus a walk:
+    the same τ and term counts exactly; σ within n ε relative per τ. Both form the same n second
+    differences and sum their squares with numpy; only the summation's rounding may differ (≤ n ε of the
+    sum of squares, so ≤ n ε/2 of σ), here n ≤ 3e4: ≤ 7e-12."""
+    import allantools
+
+    rng = np.random.default_rng(size)
+    y = rng.normal(size=size) + 1e-3 * rng.normal(size=size).cumsum()
+    taus, adev, err, terms = overlapping_adev(y, RATE)
+    ref = [
+        np.asarray(x, dtype=np.float64)
+        for x in allantools.oadev(y, rate=RATE, data_type="freq", taus="octave")
+    ]
+    np.testing.assert_array_equal(taus, ref[0])
+    np.testing.assert_array_equal(terms, ref[3])
+    eps = np.finfo(np.float64).eps
+    np.testing.assert_array_less(np.abs(adev - ref[1]), terms * eps * ref[1] + 1e-300)
+    np.testing.assert_array_less(np.abs(err - ref[2]), terms * eps * ref[2] + 1e-300)

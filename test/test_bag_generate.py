@@ -11,8 +11,9 @@ import pytest
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.cli.main import main
+from pendulum_accel.overrides import apply_overrides
 from pendulum_accel.recording.generate import generate_bag
-from pendulum_accel.scene import load_scene
+from pendulum_accel.scene import load_scene, scene_from_yaml
 from pendulum_accel.scene_run import run_scene
 
 
@@ -68,3 +69,24 @@ def test_cli_generate_never_overwrites(tmp_path: Path, capsys: pytest.CaptureFix
     assert bag.duration_s == pytest.approx(2.0)
     assert main(["generate", "no_such_scene", "--out", str(tmp_path / "x")]) == 2
     assert "no_such_scene" in capsys.readouterr().err
+
+
+def test_cli_generate_takes_set_like_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """--set NAME=VALUE (the override table `run` and `simulate` use): the bag's stored scene and its data
+    carry the values; an out-of-range one is one line, exit 2, and nothing written."""
+    out = tmp_path / "bag"
+    code = main(
+        ["generate", "step_start", "--out", str(out), "--set", "duration=1.5", "--set", "noise_std=0"]
+    )
+    assert code == 0, capsys.readouterr().err
+    bag = read_bag(out)
+    assert bag.duration_s == pytest.approx(1.5)  # integer stamps at 100 Hz: 1.5 s exactly to 1 ns
+    stored = scene_from_yaml(bag.custom_data["pendulum_accel.scene"])
+    assert stored.duration == 1.5 and stored.sensor.noise_std == 0.0
+    expected = run_scene(apply_overrides(load_scene("step_start"), {"duration": 1.5, "noise_std": 0.0}))
+    angles = bag.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)["position[0]"]
+    np.testing.assert_array_equal(angles, expected.theta_measured)
+    capsys.readouterr()
+    assert main(["generate", "step_start", "--out", str(tmp_path / "bad"), "--set", "length=2000"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "length" in err and not (tmp_path / "bad").exists()

@@ -144,7 +144,7 @@ def test_every_runtime_import_is_in_setup_py() -> None:
     deps = package_xml()
     ros_keys = {k for k in deps.get("exec_depend", set()) if not k.startswith("python3-")}
     pypi, _ = split_ros(found, ros_keys)
-    optional = extras["export"] | extras.get("bench", set())
+    optional = extras["export"] | extras.get("bench", set()) | extras.get("fleet", set())
     missing = {
         f"{m} ({d}, imported by {sorted(found[m])[0]})"
         for m, d in pypi.items()
@@ -186,9 +186,47 @@ def test_rosdep_keys_and_the_readme_pip_line_install_all_of_install_requires() -
 
 
 def test_the_check_catches_a_missing_distribution() -> None:
-    """The comparison above is not vacuous: allantools, dropped from the pip line, is reported missing."""
+    """The comparison above is not vacuous: rosbags, dropped from the pip line, is reported missing."""
     required, _ = setup_requirements()
     by_rosdep = {ROSDEP_TO_DIST[k] for k in package_xml().get("exec_depend", set()) if k in ROSDEP_TO_DIST}
-    by_pip = colcon_pip_line(ROOT / "README.md") - {"allantools"}
-    assert "allantools" in required and required - by_rosdep - by_pip == {"allantools"}
-    assert "allantools" in {distribution_of(m) for m in runtime_imports()}
+    by_pip = colcon_pip_line(ROOT / "README.md") - {"rosbags"}
+    assert "rosbags" in required and required - by_rosdep - by_pip == {"rosbags"}
+    assert "rosbags" in {distribution_of(m) for m in runtime_imports()}
+
+
+def test_the_docs_extra_is_what_make_docs_installs_and_covers_mkdocs_yml() -> None:
+    """setup.py's `docs` extra names exactly the distributions requirements-docs.txt pins (what `make docs`
+    installs into .venv-docs), and those, or mkdocs' own dependencies, provide mkdocs.yml's theme and every
+    Markdown extension it names (a bare name is Python-Markdown's markdown.extensions.<name>)."""
+    import yaml
+
+    _, extras = setup_requirements()
+    pinned = {
+        requirement_name(line)
+        for line in (ROOT / "requirements-docs.txt").read_text(encoding="utf-8").splitlines()
+        if line.strip() and not line.startswith("#")
+    }
+    assert extras["docs"] == pinned
+    assert "-r requirements-docs.txt" in (ROOT / "requirements-dev.txt").read_text(encoding="utf-8")
+    config = yaml.safe_load((ROOT / "mkdocs.yml").read_text(encoding="utf-8"))
+    requires = importlib.metadata.requires("mkdocs") or []
+    with_mkdocs = {requirement_name(r) for r in requires if "extra" not in r}
+    modules = {str(config["theme"]["name"])} | {
+        (name if "." in name else f"markdown.extensions.{name}").split(".")[0]
+        for entry in config["markdown_extensions"]
+        for name in ([entry] if isinstance(entry, str) else list(entry))
+    }
+    missing = {m: distribution_of(m) for m in modules if distribution_of(m) not in pinned | with_mkdocs}
+    assert missing == {}, f"mkdocs.yml needs these, which the docs extra does not install: {missing}"
+    assert "material" in modules and distribution_of("material") == "mkdocs-material"
+
+
+def test_the_core_install_pulls_no_test_tools() -> None:
+    """No test or docs tool (pytest, sphinx) is a core requirement, nor anything the package imports at run
+    time: allantools, which requires both, is a test dependency (test_allan checks the package's own ADEV
+    against it)."""
+    required, extras = setup_requirements()
+    tools = {"pytest", "sphinx", "numpydoc", "allantools", "hypothesis"}
+    assert required & tools == set()
+    assert "allantools" in extras["test"]
+    assert {distribution_of(m) for m in runtime_imports()} & tools == set()

@@ -1,29 +1,154 @@
-"""The lab's answers (pendulum_accel.lecture.lab_answers) and the teacher key rendered from them."""
+"""The lab's class data (lab_teacher/, ``pendulum-accel lab make-class``) and the teacher key."""
 
 from __future__ import annotations
 
+import json
 import math
+import re
+import zipfile
 from pathlib import Path
 
 import numpy as np
+import pytest
 
-from pendulum_accel.lecture.lab_answers import Answer, answers, fit_swing, recover_a_g
-from pendulum_accel.lecture.lab_data import LabRun
-from pendulum_accel.lecture.lab_key import parse_key, render_key
+from lab_teacher import answers as la
+from lab_teacher.classdata import DRIVE_RUNS, draw, group_names
+from lab_teacher.key import GROUP_TEMPLATE, PERIOD_ERROR, TEMPLATE, parse_key
+from pendulum_accel.cli.main import main
+from test.lab_class import CLASS_NAME, GROUPS, SECRET, made_class
 
-KEY = Path(__file__).resolve().parent.parent / "docs" / "lab" / "teacher" / "teacher_key.md"
+ROOT = Path(__file__).resolve().parent.parent
+STUDENT_PAGES = [ROOT / "docs" / "lab" / "README.md", ROOT / "docs" / "lab" / "worksheet.md"]
+PARAM_KEYS = {"class", "group", "length_m", "gravity_m_s2", "rate_hz", "exercise1", "exercise2", "exercise3"}
+# A typed figure: a digit that does not continue a word (SHA256, x2) or a placeholder (${ex1_a}).
+TYPED_FIGURE = re.compile(r"(?<![\w$])\d")
 
 
-def test_teacher_key_is_its_template_filled_with_a_fresh_computation() -> None:
-    """No hand edits and no drift: the stored key is the template filled with its own table, and that
-    table equals a fresh computation within each answer's tol (the tol argument is in lab_answers)."""
-    stored = KEY.read_text(encoding="utf-8")
-    table = parse_key(stored)
-    fresh = answers()
-    assert set(table) == set(fresh)
-    assert stored == render_key(fresh, {name: value for name, (value, _) in table.items()})
-    for name, (value, tol) in table.items():
-        assert abs(float(value) - fresh[name].value) <= tol, (name, value, fresh[name].value)
+def test_make_class_writes_a_folder_and_zip_per_group_and_the_key() -> None:
+    """3 groups: each folder holds data/ (CSV and params.json), the worksheet and the notebook, and its zip
+    the same files; the key has one table per group."""
+    out = made_class()
+    names = group_names(GROUPS)
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [*names, *(f"{n}.zip" for n in names), "teacher_key.md"]
+    )
+    key = parse_key((out / "teacher_key.md").read_text(encoding="utf-8"))
+    assert sorted(key) == names
+    for name in names:
+        folder = out / name
+        files = {str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file()}
+        assert {"worksheet.md", "student.ipynb", "data/params.json", "data/swing.csv"} <= files
+        with zipfile.ZipFile(out / f"{name}.zip") as zf:
+            assert {str(Path(n).relative_to(name)) for n in zf.namelist()} == files
+
+
+def test_a_group_folder_holds_no_hidden_parameter() -> None:
+    """params.json has only what the worksheet gives (no a of exercise 1, no release angle, no seeds or
+    stretch starts), no file names the secret, and the key is not in any group's folder or zip."""
+    out = made_class()
+    for name in group_names(GROUPS):
+        d = draw(SECRET, CLASS_NAME, name)
+        params = json.loads((out / name / "data" / "params.json").read_text(encoding="utf-8"))
+        assert set(params) == PARAM_KEYS
+        text = json.dumps(params)
+        for hidden in (d.accel, d.offset, d.release, *d.drive_starts, *d.seeds):
+            assert repr(hidden) not in text and f"{hidden:.6g}" not in text, hidden
+        assert params["exercise2"]["accel_m_s2"] == d.bias_accel  # given: the car's reference
+        for path in (out / name).rglob("*"):
+            if path.is_file():
+                assert SECRET not in path.read_bytes() and b"Teacher key" not in path.read_bytes()
+        with zipfile.ZipFile(out / f"{name}.zip") as zf:
+            assert not any("teacher" in n or "solution" in n for n in zf.namelist())
+
+
+def test_the_draw_needs_the_secret() -> None:
+    """The same secret and group give the same draw; another secret or group, another one."""
+    one = draw(SECRET, CLASS_NAME, "group_01")
+    assert draw(SECRET, CLASS_NAME, "group_01") == one
+    assert draw(SECRET + b"x", CLASS_NAME, "group_01").accel != one.accel
+    assert draw(SECRET, CLASS_NAME, "group_02").accel != one.accel
+    assert len(one.drive_starts) == DRIVE_RUNS
+
+
+def test_make_class_refuses_bad_input_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A missing or short secret, no groups, an existing --out, no teacher material: exit 2, one line,
+    nothing written."""
+    short = tmp_path / "short.txt"
+    short.write_bytes(b"too short")
+    good = tmp_path / "secret.txt"
+    good.write_bytes(SECRET)
+    (tmp_path / "exists").mkdir()
+    cases = [
+        (tmp_path / "missing.txt", "1", tmp_path / "a"),
+        (short, "1", tmp_path / "b"),
+        (good, "0", tmp_path / "c"),
+        (good, "1", tmp_path / "exists"),
+    ]
+    for secret, groups, out in cases:
+        code = main(["lab", "make-class", "--secret", str(secret), "--groups", groups, "--out", str(out)])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    # A student's install has no lab_teacher/: the command says so instead of making anything.
+    argv = ["lab", "make-class", "--secret", str(good), "--groups", "1", "--out", str(tmp_path / "d")]
+    assert main([*argv, "--teacher", str(tmp_path)]) == 2
+    assert "lab_teacher" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["exists", "secret.txt", "short.txt"]
+
+
+def test_every_key_answer_carries_an_uncertainty_and_meets_the_hidden_truth() -> None:
+    """Each answer is value ± σ with σ > 0; where the key has a hidden truth it lies within 4σ of it
+    (4σ: a Gaussian measurement misses with probability 6e-5; 18 such comparisons here)."""
+    text = (made_class() / "teacher_key.md").read_text(encoding="utf-8")
+    key = parse_key(text)
+    rows = re.findall(
+        r"^\| `(\w+)` \| [^|]* \| (\S+) ± (\S+) \| [^|]* \| (\S+) \| (\S+) \|$", text, re.MULTILINE
+    )
+    assert len(rows) == sum(len(k) for k in key.values()) > 0
+    truths = 0
+    for _name, _value, sigma, truth, off in rows:
+        assert float(sigma) > 0
+        if truth != "—":
+            truths += 1
+            assert abs(float(off.rstrip("σ"))) <= 4.0, (_name, off)
+    assert truths == 8 * GROUPS  # ex1: ω, θ_eq, a, g, ratio; ex2: period, amplitude, bias
+
+
+def test_exercise2_moves_less_than_its_sigma_when_the_period_is_off() -> None:
+    """Each group's bias, measured with the period read 0.01 s short and long: the window's ends are
+    turning points found in the data, so it moves by less than its own stated σ."""
+    for name in group_names(GROUPS):
+        folder = made_class() / name / "data"
+        rel = la.load_csv(folder / "released.csv")
+        guess = la.period_guess_of(rel["t_s"], rel["theta_rad"])
+        base = {a.name: a for a in la.exercise2(folder, guess)}["ex2_bias"]
+        for error in (-PERIOD_ERROR, PERIOD_ERROR):
+            moved = {a.name: a for a in la.exercise2(folder, guess + error)}["ex2_bias"]
+            assert abs(moved.value - base.value) < base.sigma, (name, error, moved, base)
+
+
+def test_the_keys_template_holds_no_typed_figure() -> None:
+    """Every number in the key is computed: no digit outside placeholders and names like SHA256."""
+    for template in (TEMPLATE, GROUP_TEMPLATE):
+        figures = [m.start() for m in TYPED_FIGURE.finditer(template.template)]
+        assert not figures, [template.template[max(0, i - 30) : i + 10] for i in figures]
+
+
+def test_teacher_material_is_not_installed_nor_on_the_students_pages() -> None:
+    """setup.py packages only pendulum_accel (no lab_teacher, no answer module); the docs site has no
+    solution or key; no student page names a command that prints answers."""
+    from setuptools import find_packages
+
+    packages = find_packages(where=str(ROOT), include=["pendulum_accel", "pendulum_accel.*"])
+    assert "lab_teacher" not in packages and not any("lab_answers" in p for p in packages)
+    assert not list((ROOT / "pendulum_accel").rglob("lab_answers.py"))
+    assert not list((ROOT / "docs").rglob("*key*.md")) and not list((ROOT / "docs").rglob("solution*"))
+    for page in (ROOT / "docs").rglob("*.md"):
+        assert "lab_answers" not in page.read_text(encoding="utf-8"), page
+    for page in [*STUDENT_PAGES, ROOT / "docs" / "teaching.md"]:
+        text = page.read_text(encoding="utf-8")
+        assert "simulator_node" not in text and "estimator_node" not in text, page.name
+        if page in STUDENT_PAGES:  # the worksheet sends students to no command that prints a result
+            assert "lecture equivalence" not in text and "lecture accelerometer" not in text, page.name
 
 
 def test_fit_recovers_a_known_swing_within_its_stated_sigma() -> None:
@@ -35,56 +160,26 @@ def test_fit_recovers_a_known_swing_within_its_stated_sigma() -> None:
     t = np.arange(0.0, 20.0, 0.01)
     omega, theta_eq = 3.2, 0.3
     theta = theta_eq + 0.03 * np.cos(omega * t) + 0.04 * np.sin(omega * t) + rng.normal(0.0, 0.02, t.size)
-    fit = fit_swing(t, theta)
+    fit = la.fit_swing(t, theta)
     assert abs(fit.omega - omega) <= 4 * fit.omega_sigma
     assert abs(fit.theta_eq - theta_eq) <= 4 * fit.theta_eq_sigma
-    assert math.isclose(fit.amplitude, 0.05, rel_tol=0.1)  # 0.05 = hypot(0.03, 0.04); σ_A/A ≈ 2 %
-    a, s_a, g, s_g = recover_a_g(fit, 1.0)
-    # The formula's identity: a² + g² = (ω² l)² exactly, whatever the fit's errors.
+    a, s_a, g, s_g = la.recover_a_g(fit, 1.0)
+    # The formula's identity: a² + g² = (ω² l)² to rounding (a few ulp of ω⁴ ≈ 100).
     assert math.isclose(math.hypot(a, g), fit.omega**2, rel_tol=1e-12)
     assert s_a > 0 and s_g > 0
 
 
-def test_answers_depend_on_the_groups_run() -> None:
-    """Two seeds give two different fitted ω, each within 4σ of the other's (the same physics)."""
-    one = answers(LabRun(seed=1), extensions=False)
-    two = answers(LabRun(seed=2), extensions=False)
-    w1, w2 = one["ex1_omega"], two["ex1_omega"]
-    assert w1.value != w2.value
-    sigma = math.hypot(one["ex1_omega_sigma"].value, two["ex1_omega_sigma"].value)
-    assert abs(w1.value - w2.value) <= 4 * sigma
+def test_lab_check_proves_the_install_or_names_what_is_missing(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`pendulum-accel lab check` runs the simulator, the four estimators and a plot, and ends with
+    'install OK'; a missing Jupyter module is one line on stderr and exit 2."""
+    from pendulum_accel.cli import lab
 
-
-def test_exercise2_averages_whole_periods_to_the_lectures_bias() -> None:
-    """The whole-period bias at a = 3 m/s² is `lecture accelerometer`'s printed +0.152 m/s².
-
-    That run has l = 0.5 m and another seed; the bias depends only on a/g and the amplitude θ_eq, so the two
-    differ by the sensor noise (4σ) plus 0.0015 m/s²: the printed value's rounding (0.0005) and ≤ 0.5 % of
-    the bias for where each run's whole periods begin (the swing is not exactly harmonic at 0.3 rad).
-    """
-    found = answers(LabRun(seed=5), extensions=False)
-    assert abs(found["ex2_bias_whole"].value - 0.152) <= 4 * found["ex2_bias_noise"].value + 0.0015
-    assert found["ex2_bias_whole"].value > found["ex2_bias_predicted"].value  # the 4th-order term adds
-
-
-def test_answer_text_rounds_within_a_fifth_of_tol() -> None:
-    """Printed values round by at most tol/5: fixed and scientific notation and whole counts."""
-    for value, tol in ((3.2055321, 2e-5), (4.4876e-4, 4.5e-6), (1817.0, 90.0), (9.0, 0.5), (4.85e-12, 5e-14)):
-        text = Answer("x", "x", value, "", tol).text
-        assert abs(float(text) - value) <= tol / 5, (value, text)
-
-
-def test_a_groups_bad_choice_is_one_line_and_the_window_fits_the_cycle() -> None:
-    """LabRun refuses a seed < 0, a ≤ 0 and a window past the cycle's end; its UDDS length is the scene's."""
-    import pytest
-
-    from pendulum_accel.errors import ParameterError
-    from pendulum_accel.lecture import lab_data
-    from pendulum_accel.lecture.lab_answers import main
-    from pendulum_accel.scene import load_scene
-
-    assert load_scene(lab_data.DRIVE_SCENE).duration == lab_data.UDDS_LENGTH
-    for bad in ({"seed": -1}, {"accel": 0.0}, {"drive_start": lab_data.LAST_DRIVE_START + 1.0}):
-        with pytest.raises(ParameterError, match=r"^[^\n]*$"):
-            LabRun(**bad)
-    assert main(["--drive-start", "1300"]) == 2
+    monkeypatch.setattr(lab, "LAB_MODULES", ("ipykernel",))
+    assert main(["lab", "check"]) == 0
+    assert capsys.readouterr().out.rstrip().endswith("install OK")
+    monkeypatch.setattr(lab, "LAB_MODULES", ("ipykernel", "no_such_module_for_the_lab"))
+    assert main(["lab", "check"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no_such_module_for_the_lab" in err

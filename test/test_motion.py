@@ -14,12 +14,13 @@ from pendulum_accel.errors import SceneError
 from pendulum_accel.estimators import estimate_batch, estimator_line
 from pendulum_accel.estimators.kalman import PRESETS
 from pendulum_accel.estimators.motion import MOTIONS, ROBOT_MAX_SPEED, motion_of
-from pendulum_accel.physics.profiles import profile_from_dict
+from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.generate import generate_bag
 from pendulum_accel.recording.settings import estimator_options, motion_choice
 from pendulum_accel.scene import (
     BUNDLED_SCENE_NAMES,
+    CORPUS_SCENE_NAMES,
     load_scene,
     scene_from_yaml,
     scene_to_dict,
@@ -31,7 +32,7 @@ def test_motions_are_the_presets() -> None:
     assert MOTIONS == tuple(PRESETS) == ("car", "robot", "lab_steps")
 
 
-@pytest.mark.parametrize("name", BUNDLED_SCENE_NAMES)
+@pytest.mark.parametrize("name", [n for n in BUNDLED_SCENE_NAMES if n not in CORPUS_SCENE_NAMES])
 def test_bundled_scenes_get_the_preset_their_motion_calls_for(name: str) -> None:
     """Drive cycles: car; the Husky's odometry: robot; every made-up profile: lab_steps."""
     scene = load_scene(name)

@@ -43,6 +43,15 @@ def test_help_line_of_a_ranged_parameter() -> None:
     assert line.strip().startswith("warn_angle_deg (double, 1..89.9, read-only; default 80.0):")
 
 
+def test_an_integer_range_is_printed_whole() -> None:
+    """seed's range is 0..2147483647 as a user types it, not %g's 0..2.14748e+09; its bounds parse back to
+    the table's exactly."""
+    line = next(line for line in help_text("pendulum_sim").splitlines() if line.strip().startswith("seed "))
+    spec = next(s for s in NODE_PARAMETERS["pendulum_sim"] if s.name == "seed")
+    low, high = line.split("(integer, ")[1].split(";")[0].split("..")
+    assert (int(low), int(high)) == (spec.low, spec.high) and "e+" not in line
+
+
 def test_run_without_rclpy_is_one_line_and_exit_2(tmp_path: Path) -> None:
     env = _broken_ros(tmp_path)
     cmd = [PYTHON, "-m", "pendulum_accel.cli.main", "run", "--record", str(tmp_path / "bag")]

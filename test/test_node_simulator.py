@@ -23,7 +23,7 @@ def test_invalid_parameters_are_rejected_and_a_valid_change_restarts(spawn: Spaw
     # SetParameters applies them one by one, in this order.
     params = {
         "length": -1.0,  # outside the declared range
-        "theta0": 60.0,  # outside the ±8 turns (±16π ≈ ±50.3 rad) a start angle is wrapped from
+        "theta0": 120.0,  # outside the ±16 turns (±32π ≈ ±100.5 rad) a start angle is wrapped from
         "rate_hz": 1000.0,  # valid: accepted, the scene restarts
         "duration": 80000.0,  # in range, but 8e7 samples at the new 1 kHz: the core refuses the scene
         "realtime": False,  # read-only

@@ -18,6 +18,7 @@ from pendulum_accel.physics.profiles import Table
 from pendulum_accel.planner import plan_scene, stepping_roundoff
 from pendulum_accel.scene import THETA0_MAX, Scene, load_scene, wrap_angle
 from pendulum_accel.sensor import SensorModel
+from test.figures import assert_figure
 
 
 @pytest.mark.parametrize(
@@ -26,8 +27,8 @@ from pendulum_accel.sensor import SensorModel
      (7.0, 7.0 - 2 * math.pi), (0.5, 0.5)],
 )  # fmt: skip
 def test_wrap_angle_lands_in_the_half_open_interval(given: float, wrapped: float) -> None:
-    """θ − 2πk in (-π, π]; math.remainder by fl(2π) is exact, so only the subtraction 2πk rounds
-    (≤ 1 ulp of |given| ≤ 8.9e-16 rad here)."""
+    """θ − 2πk in (-π, π]; the wrap rounds once (≤ 1 ulp of the result) and ``wrapped`` here is formed
+    with fl(2π), 2.4e-16 rad per turn off: within 2 ulp of |given| ≥ 2 ulp of π, 8.9e-16 rad."""
     got = wrap_angle(given)
     assert -math.pi < got <= math.pi
     assert got == pytest.approx(wrapped, abs=2 * math.ulp(abs(given)))
@@ -40,14 +41,15 @@ def test_a_start_past_pi_is_wrapped_and_the_plan_line_says_so() -> None:
     wrapped = apply_overrides(scene, {"theta0": theta0})
     assert wrapped.theta0 == wrap_angle(theta0) and wrapped.theta0_given == theta0
     text = plan_scene(wrapped).explain()
-    assert f"θ0 = {theta0:.6g} rad wrapped to {wrapped.theta0:.6g} rad" in text
+    assert_figure(text, "θ0 = ", theta0, rel=0.0)  # both printed to 6 digits, compared as numbers
+    assert_figure(text, "rad wrapped to ", wrapped.theta0, rel=0.0)
     # a later change of θ0 drops the note; other changes keep it
     assert replace(wrapped, theta0=0.1).wrap_note() == ""
     assert replace(wrapped, duration=1.0).wrap_note() != ""
 
 
-def test_theta0_beyond_eight_turns_is_refused_in_one_line() -> None:
-    """|θ0| > 16π: beyond that the wrap's own error grows with the turns; one ParameterError."""
+def test_theta0_beyond_sixteen_turns_is_refused_in_one_line() -> None:
+    """|θ0| > 32π: past it the given value's own ulp (≥ 1.4e-14 rad) dwarfs the run's rounding; one line."""
     with pytest.raises(ParameterError, match="theta0 must be in"):
         apply_overrides(load_scene("lecture_constant"), {"theta0": THETA0_MAX * 1.01})
     with pytest.raises(SceneError, match="theta0"):
@@ -61,7 +63,9 @@ def test_simulate_cli_wraps_theta0() -> None:
          "--out", "-"], capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
-    assert "θ0 = 3.2 rad wrapped to -3.08319 rad" in done.stderr
+    # 3.2 − 2π: the wrap subtracts the double nearest 2π, within 1e-15 of the exact difference
+    assert_figure(done.stderr, "θ0 = ", 3.2, rel=0.0)
+    assert_figure(done.stderr, "rad wrapped to ", 3.2 - 2.0 * math.pi, rel=1e-15)
 
 
 def test_a_table_denser_than_half_a_step_is_never_predicted_exact() -> None:

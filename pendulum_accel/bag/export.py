@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -181,6 +181,38 @@ def export_bag(
     ``derived``: {name: {"t": stamps, column: values}} series computed from the bag (the smoother's
     acceleration), merged on the angle's stamps like a per-sample topic, or written as their own tables.
     """
+    tables = export_tables(bag, fmt=fmt, merged=merged, topics=topics, derived=derived)
+    directory = Path(out)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ExportError(f"cannot create {directory}: {err.strerror}") from None
+    paths = []
+    for stem, table in tables.items():
+        path = directory / f"{stem}.{fmt}"
+        if fmt == "csv":
+            write_csv_table(table, path)
+        else:
+            table.to_parquet(path, index=False)
+        paths.append(path)
+    return paths
+
+
+def write_csv_table(table: Any, target: Path | TextIO) -> None:
+    """One table as CSV to a path or an open text stream: no index, 17 significant digits (a double
+    round-trips)."""
+    table.to_csv(target, index=False, float_format="%.17g")
+
+
+def export_tables(
+    bag: Bag,
+    *,
+    fmt: str = "csv",
+    merged: bool = False,
+    topics: Sequence[str] = (),
+    derived: Mapping[str, Mapping[str, NDArray[np.float64]]] | None = None,
+) -> dict[str, Any]:
+    """{file stem: pandas DataFrame}: the tables export_bag writes (one, MERGED_NAME, when ``merged``)."""
     if fmt not in FORMATS:
         raise ExportError(f"unknown format {fmt!r}; use {' or '.join(FORMATS)}")
     _pandas()
@@ -207,17 +239,4 @@ def export_bag(
             tables[MERGED_NAME] = tables[MERGED_NAME].merge(extra, on="t", how="left")
         else:
             tables[file_stem(name)] = extra
-    directory = Path(out)
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise ExportError(f"cannot create {directory}: {err.strerror}") from None
-    paths = []
-    for stem, table in tables.items():
-        path = directory / f"{stem}.{fmt}"
-        if fmt == "csv":
-            table.to_csv(path, index=False, float_format="%.17g")
-        else:
-            table.to_parquet(path, index=False)
-        paths.append(path)
-    return paths
+    return tables

@@ -25,7 +25,6 @@ import contextlib
 import heapq
 import mmap
 import os
-import stat
 import struct
 import zlib
 from collections.abc import Iterator, Sequence
@@ -55,6 +54,7 @@ from pendulum_accel.bag.integrity import (
 )
 from pendulum_accel.bag.messages import Layout, canonical_cdr, deserialize, rows_from_bytes, stamp_seconds
 from pendulum_accel.errors import BagError
+from pendulum_accel.textfile import not_a_file_or_directory
 
 _MAGIC = b"\x89MCAP0\r\n"
 _RECORD_HEAD = struct.Struct("<BQ")
@@ -453,15 +453,15 @@ def _find_mcap(path: Path) -> tuple[Path, Path]:
 def _locate(path: Path) -> tuple[Path, Path, Any]:
     """(bag directory or file, .mcap path, parsed metadata.yaml or None) for a bag directory or a bare
     .mcap file; the metadata is parsed here once, for the file name and for read_bag."""
-    kind = _file_kind(path)
-    if kind == "file":
+    odd = not_a_file_or_directory(path)
+    if odd is not None:
+        # Opening a FIFO for reading would wait for a writer forever; a device is no bag either.
+        raise BagError(f"bag {path} is {odd}, not a bag directory or an .mcap file")
+    if path.is_file():
         _check_magic(path)
         return path, path, None
-    if kind is None:
+    if not path.is_dir():
         raise BagError(f"bag {path} does not exist")
-    if kind != "directory":
-        # Opening a FIFO for reading would wait for a writer forever; a device is no bag either.
-        raise BagError(f"bag {path} is a {kind}, not a bag directory or an .mcap file")
     meta = path / "metadata.yaml"
     doc = None
     if meta.is_file():
@@ -481,34 +481,15 @@ def _locate(path: Path) -> tuple[Path, Path, Any]:
                     raise BagError(f"bag {path} uses storage {files[0]!r}; only MCAP bags are supported")
                 return path, inside, doc
     named = sorted(f for f in path.glob("*.mcap") if not f.is_symlink() or _within(path, f))
-    found = [f for f in named if _file_kind(f) == "file"]
+    found = [f for f in named if f.is_file()]
     if not found and named:
-        raise BagError(f"bag {path}: {named[0].name} is a {_file_kind(named[0])}, not an MCAP file")
+        what = not_a_file_or_directory(named[0]) or "a directory"
+        raise BagError(f"bag {path}: {named[0].name} is {what}, not an MCAP file")
     if not found:
         raise BagError(f"bag {path} holds no .mcap file: not a bag directory")
     if len(found) != 1:
         raise BagError(f"bag {path} has {len(found)} .mcap files, expected 1")
     return path, found[0], doc
-
-
-def _file_kind(path: Path) -> str | None:
-    """'file', 'directory', 'FIFO (named pipe)', 'socket', 'character device', 'block device', or None
-    when nothing is there (symbolic links followed)."""
-    try:
-        mode = path.stat().st_mode
-    except OSError:
-        return None
-    for test, kind in (
-        (stat.S_ISREG, "file"),
-        (stat.S_ISDIR, "directory"),
-        (stat.S_ISFIFO, "FIFO (named pipe)"),
-        (stat.S_ISSOCK, "socket"),
-        (stat.S_ISCHR, "character device"),
-        (stat.S_ISBLK, "block device"),
-    ):
-        if test(mode):
-            return kind
-    return "special file"
 
 
 def _check_magic(path: Path) -> None:

@@ -23,7 +23,7 @@ def register(subparsers: Any) -> None:
         "allan",
         help="Allan deviation of the angle and the estimate: white-noise density, bias random walk",
         description=(
-            "Overlapping Allan deviation (allantools) of the angle readings and of the acceleration "
+            "Overlapping Allan deviation (NIST SP 1065) of the angle readings and of the acceleration "
             "estimate, from a recorded bag or from a static run generated from a scene (car at rest, "
             "bob hanging still). Prints the fitted white-noise density N (−½ slope, read at τ = 1 s), "
             "bias random walk K (+½ slope, read at τ = 3 s) and bias-instability floor B."

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
-from pendulum_accel.cli.output import check_output_file, write_output
+from pendulum_accel.cli.fleet import fleet_wanted, run_fleet
+from pendulum_accel.cli.output import check_output_file, json_text, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 from pendulum_accel.errors import BagError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME
@@ -29,12 +29,41 @@ def register(subparsers: Any) -> None:
             "settings come from the scene stored in the bag."
         ),
     )
-    parser.add_argument("bag", help="bag directory (or .mcap file)")
+    parser.add_argument(
+        "bags",
+        nargs="+",
+        metavar="BAG",
+        help="bag directory or .mcap file; several, a directory tree (every bag below it) or a glob "
+        "analyse a fleet into one table (--out)",
+    )
     parser.add_argument(
         "--estimator",
         "-e",
+        action="append",
         default=None,
-        help="estimator to re-run (default: the one the bag was recorded with)",
+        help="estimator to re-run (default: the one the bag was recorded with); repeat it for a fleet "
+        "table's rows per estimator",
+    )
+    parser.add_argument(
+        "--out",
+        default=None,
+        metavar="TABLE",
+        help="write one row per bag × estimator to TABLE (.parquet or .csv; - for CSV on standard output); "
+        "implied for several bags",
+    )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run a fleet on this Dask scheduler (e.g. tcp://10.0.0.5:8786; default $DASK_SCHEDULER_ADDRESS, "
+        "else a local cluster sized to the machine)",
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="worker processes of the local cluster (default: one per CPU)",
     )
     parser.add_argument(
         "--plot",
@@ -68,16 +97,23 @@ def register(subparsers: Any) -> None:
         help="also re-simulate the bag's scene with sensor seeds 0..N-1 and print the calibration pooled "
         "over them, with the spread of one seed's share beyond 2σ (one bag is one draw of its noise)",
     )
-    parser.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print the figures as one JSON object (strict JSON: a figure that does not exist is null)",
+    )
     add_salvage_flag(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Print the report (and plot); a damaged bag is refused, or with --salvage analysed from its intact
-    records, with a warning, exit 1."""
+    records, with a warning, exit 1. Several bags (or --out): the fleet table (cli.fleet)."""
+    if fleet_wanted(args):
+        return run_fleet(args)
+    args.estimator = args.estimator[0] if args.estimator else None
     plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
-    bag = read_intact(args.bag, args.salvage)
+    bag = read_intact(args.bags[0], args.salvage)
     if args.skip > 0 and not args.skip < bag.duration_s:
         # Nothing would be left to average: the report would be NaN figures.
         raise BagError(f"--skip {args.skip:g} s leaves no samples: {bag.path} spans {bag.duration_s:.3f} s")
@@ -98,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         None if scene is None else seed_spread(scene, result.estimator, result.options, args.seeds, args.skip)
     )
     if args.json:
-        print(json.dumps({**analysis_dict(result), "seed_spread": _spread_dict(spread)}))
+        print(json_text({**analysis_dict(result), "seed_spread": _spread_dict(spread)}))
     else:
         print("\n".join(result.lines()))
         if spread is not None:

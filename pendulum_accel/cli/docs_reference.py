@@ -18,9 +18,10 @@ from pathlib import Path
 
 from pendulum_accel import scene as scene_module
 from pendulum_accel.cli.main import build_parser
+from pendulum_accel.motion_input import PROFILE_CLASSES, PROFILE_FIELDS
+from pendulum_accel.motion_input.registry import PROFILE_FIELD_DOCS, PROFILE_SUMMARIES
 from pendulum_accel.nodes.parameters import FROM_SCENE, NODE_PARAMETERS, ParamSpec
 from pendulum_accel.overrides import OVERRIDES
-from pendulum_accel.physics.profiles import PROFILE_CLASSES, PROFILE_FIELDS
 from pendulum_accel.scene import DEFAULT_SCENE, list_scenes
 
 GENERATED = (
@@ -115,7 +116,7 @@ def _layout_block() -> list[str]:
 def scenes_page() -> str:
     """docs/reference/scenes.md: the scene file's fields, acceleration profiles, overrides, bundled scenes."""
     lines = [
-        GENERATED.format(source="`pendulum_accel/scene.py`, `physics/profiles.py` and `overrides.py`"),
+        GENERATED.format(source="`pendulum_accel/scene.py`, `motion_input/registry.py` and `overrides.py`"),
         "",
         "# Scene reference",
         "",
@@ -133,11 +134,12 @@ def scenes_page() -> str:
     ]
     for kind, (required, optional) in PROFILE_FIELDS.items():
         cls_doc = inspect.getdoc(PROFILE_CLASSES[kind]) or ""
-        meaning = cls_doc.splitlines()[0] if cls_doc else ""
-        if kind == "csv":
-            meaning = "a table read from a (t, a) CSV file, path relative to the scene file"
+        meaning = PROFILE_SUMMARIES.get(kind) or (cls_doc.splitlines()[0] if cls_doc else "")
         cells = [f"`{kind}`", ", ".join(f"`{f}`" for f in required), ", ".join(f"`{f}`" for f in optional)]
         lines.append("| " + " | ".join([*cells, meaning.replace("|", "\\|")]) + " |")
+    lines += ["", "The fields:", "", "| field | meaning |", "|---|---|"]
+    for name, meaning in PROFILE_FIELD_DOCS.items():
+        lines.append(f"| `{name}` | {meaning.replace('|', chr(92) + '|')} |")
     lines += [
         "",
         "## Overrides",
@@ -233,7 +235,36 @@ def cli_page() -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-PAGES = {"parameters.md": parameters_page, "scenes.md": scenes_page, "cli.md": cli_page}
+def tables_page() -> str:
+    """docs/reference/tables.md: the columns of the tables ``analyze`` (many bags) and ``design`` write."""
+    from pendulum_accel.recording.design_study import DESIGN_COLUMNS
+    from pendulum_accel.recording.fleet import COLUMNS
+
+    lines = [
+        GENERATED.format(
+            source="`recording/fleet.py` COLUMNS and `recording/design_study.py` DESIGN_COLUMNS"
+        ),
+        "",
+        "# Result tables",
+        "",
+        "Written as Parquet or CSV by the output's suffix; a missing figure is a null (an empty CSV field), "
+        "never NaN. How to run them: [Many bags and designs](../fleet.md).",
+    ]
+    for title, columns in (
+        ("`analyze` over many bags: one row per bag × estimator", COLUMNS),
+        ("`design`: one row per sensor design", DESIGN_COLUMNS),
+    ):
+        lines += ["", f"## {title}", "", "| column | type | meaning |", "|---|---|---|"]
+        lines += [f"| `{name}` | {kind} | {meaning} |" for name, kind, meaning in columns]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+PAGES = {
+    "parameters.md": parameters_page,
+    "scenes.md": scenes_page,
+    "cli.md": cli_page,
+    "tables.md": tables_page,
+}
 """Each reference page (under docs/reference/) and the function that writes it."""
 
 

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
-from pendulum_accel.bag.export import FORMATS, export_bag
+from pendulum_accel.bag.export import FORMATS, export_bag, export_tables, write_csv_table
 from pendulum_accel.cli.output import check_output_dir, output_directory
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.errors import OutputError
 
 SMOOTHED = "/car/accel/smoothed"
 """Name of the derived smoother series (not a topic in the bag): columns a and variance."""
@@ -25,7 +27,12 @@ def register(subparsers: Any) -> None:
         ),
     )
     parser.add_argument("bag", help="bag directory (or .mcap file)")
-    parser.add_argument("--out", required=True, metavar="DIR", help="directory for the tables")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="directory for the tables, or '-': the one --merged CSV table to standard output",
+    )
     parser.add_argument("--format", choices=FORMATS, default="csv", help="file format (default csv)")
     parser.add_argument("--merged", action="store_true", help="one table on the angle's stamps")
     parser.add_argument("--topics", nargs="+", default=[], metavar="TOPIC", help="only these topics")
@@ -47,13 +54,23 @@ def run(args: argparse.Namespace) -> int:
     """
     from pendulum_accel.recording.contract import check_chain_contract  # estimators: loaded when used
 
-    out = check_output_dir(args.out)
+    to_stdout = args.out == "-"
+    if to_stdout and not (args.merged and args.format == "csv"):
+        raise OutputError(
+            "--out '-' (standard output) takes one CSV table: add --merged (and --format csv), or give a "
+            "directory; nothing written"
+        )
+    out = None if to_stdout else check_output_dir(args.out)
     bag = read_intact(args.bag, args.salvage)
     check_chain_contract(bag)
     from pendulum_accel.recording.analyze import smoothed_estimate  # estimators: loaded when used
 
     smoothed = None if args.no_smoothed else smoothed_estimate(bag)
     derived = {} if smoothed is None else {SMOOTHED: smoothed}
+    if out is None:
+        (table,) = export_tables(bag, merged=True, topics=args.topics, derived=derived).values()
+        write_csv_table(table, sys.stdout)
+        return warn_salvaged("export", bag)
     with output_directory(out):
         paths = export_bag(bag, out, fmt=args.format, merged=args.merged, topics=args.topics, derived=derived)
     for path in paths:

@@ -8,7 +8,9 @@ from typing import Any
 
 from pendulum_accel.cli.output import check_output_dir
 from pendulum_accel.errors import OutputError
+from pendulum_accel.overrides import SET_HELP, apply_overrides, parse_override
 from pendulum_accel.recording.generate import generate_bag
+from pendulum_accel.scene import load_scene
 
 
 def register(subparsers: Any) -> None:
@@ -29,16 +31,21 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("--estimator", "-e", default=None, help="estimator for /car/accel/estimate")
     parser.add_argument("--compress", action="store_true", help="zstd-compress the MCAP chunks")
+    parser.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE", help=SET_HELP
+    )
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Generate and print counts and speed; a write failure is one line and leaves no partial bag."""
     out = check_output_dir(args.out)
+    overrides = dict(parse_override(text) for text in args.overrides)
+    scene = apply_overrides(load_scene(args.scene), overrides) if overrides else args.scene
     existed = out.exists()
     try:
         result = generate_bag(
-            args.scene,
+            scene,
             out,
             overwrite=args.overwrite,
             estimator=args.estimator,

@@ -30,6 +30,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "animate": ("animate", "draw the car and the swinging bob from a scene or a bag, as a GIF or MP4"),
     "info": ("info", "summarise a bag: topics, counts, duration, scene and plan"),
     "analyze": ("analyze", "compare a bag's recorded estimate and an offline re-run with its truth"),
+    "design": (
+        "design",
+        "sweep sensor designs over motion profiles and seeds: a table and the accuracy-latency front",
+    ),
     "allan": (
         "allan",
         "Allan deviation of the angle and the estimate: white-noise density, bias random walk",
@@ -39,6 +43,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "repair": ("repair", "rebuild a damaged bag (killed recorder) from what its MCAP file holds"),
     "golden-bags": ("golden_bags", "regenerate the small golden bags of the bundled scenes (make bags)"),
     "run": ("run", "run the live ROS 2 chain on a scene and record it"),
+    "lab": (
+        "lab",
+        "the lab: check a student's install; make a class's data and key from a secret (teachers)",
+    ),
 }
 
 

@@ -19,6 +19,8 @@ The rules, the same for every command (docs/hostile_inputs.md lists the messages
 from __future__ import annotations
 
 import contextlib
+import json
+import math
 import os
 import shutil
 import stat
@@ -60,9 +62,14 @@ def _check_directory(directory: Path, shown: str, option: str) -> None:
 
 
 def _given(path: Path | str, option: str) -> Path:
-    """``path`` as a Path; OutputError for an empty one (``--out ""`` would mean the current directory)."""
+    """``path`` as a Path; OutputError for an empty one (``--out ""`` would mean the current directory) and
+    for '-', standard output, where the command writes a file or a directory."""
     if str(path).strip() == "":
         raise OutputError(f"{option} is empty: give a path; nothing written")
+    if str(path) == "-":  # commands that can write to stdout take '-' before they call this
+        raise OutputError(
+            f"{option} '-' (standard output) is not possible here: give a path; nothing written"
+        )
     return Path(path)
 
 
@@ -187,3 +194,22 @@ def output_directory(path: Path) -> Iterator[Path]:
         if isinstance(err, OSError):
             raise OutputError(f"cannot write {path}: {err.strerror or err}; {kept}") from None
         raise
+
+
+def json_text(value: object) -> str:
+    """``value`` as strict JSON (RFC 8259): every NaN or ±inf becomes null, since JSON has no such number and
+    most parsers refuse Python's bare NaN and Infinity; numpy scalars become plain numbers."""
+
+    def finite(item: object) -> object:
+        """``item`` with its non-finite floats replaced by None, recursively."""
+        if isinstance(item, dict):
+            return {key: finite(v) for key, v in item.items()}
+        if isinstance(item, list | tuple):
+            return [finite(v) for v in item]
+        if type(item).__module__ == "numpy" and hasattr(item, "item"):  # a numpy scalar (numpy not imported)
+            item = item.item()
+        if isinstance(item, float) and not math.isfinite(item):
+            return None
+        return item
+
+    return json.dumps(finite(value), allow_nan=False)

@@ -166,6 +166,14 @@ def run(args: argparse.Namespace) -> int:
             f"{plan.sensitivity.floor if plan.sensitivity else math.nan:.1e} rad, over the target "
             f"{scene.accuracy:.1e} rad; nothing simulated (--accept-ill-conditioned to run anyway)"
         )
+    if not plan.meets_target and not plan.ill_conditioned:
+        # A run that cannot meet its target is refused, not written with a warning: its figures would be
+        # used as if they met it. The user may loosen the target to what the plan can promise.
+        raise SceneError(
+            f"scene {scene.name}: the plan cannot meet the target {scene.accuracy:.1e} rad (predicted "
+            f"{plan.predicted_error:.1e} rad); nothing simulated (give --target "
+            f"{_rounded_up(plan.predicted_error)} or more to run it anyway)"
+        )
     t = scene.sensor.sample_times(scene.duration)
     traj = simulate_plan(scene, plan, t)
     columns = trajectory_columns(traj)
@@ -182,3 +190,9 @@ def run(args: argparse.Namespace) -> int:
     write_text_output(out, lambda handle: write_csv(handle, columns))
     print(f"wrote {t.size} rows ({', '.join(columns)}) to {args.out}", file=sys.stderr)
     return 0
+
+
+def _rounded_up(value: float) -> str:
+    """``value`` rounded up to 2 significant digits: 10^(e−1) ⌈value / 10^(e−1)⌉, e = ⌊log10 value⌋."""
+    unit = 10.0 ** (math.floor(math.log10(value)) - 1)
+    return f"{math.ceil(value / unit) * unit:.2g}"

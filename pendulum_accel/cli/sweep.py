@@ -53,7 +53,7 @@ def register(subparsers: Any) -> None:
     which.add_argument("--length", metavar="VALUES", help="string lengths in m")
     which.add_argument("--accel", metavar="VALUES", help="constant car accelerations in m/s²")
     which.add_argument("--noise", metavar="VALUES", help="sensor angle noise σ in rad")
-    parser.add_argument("--out", type=Path, help="CSV table to write (default: standard output)")
+    parser.add_argument("--out", type=Path, help="CSV table to write (default, or '-': standard output)")
     parser.add_argument("--method", default="rk4", help="integration method (default rk4, vectorised)")
     parser.add_argument("--dt", type=float, help="fixed step in s (default: hω = 0.02, at most one sample)")
     parser.add_argument("--duration", type=float, help="override the scene's duration in s")
@@ -72,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
     from pendulum_accel.scene import load_scene
     from pendulum_accel.sweep import parse_values, run_sweep, setup_from_scene
 
-    out = check_output_file(args.out, (".csv",)) if args.out is not None else None
+    to_stdout = args.out is None or str(args.out) == "-"  # '-' is stdout, as for most Unix tools
+    out = None if to_stdout else check_output_file(args.out, (".csv",))
     plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     field = next(name for name in ("length", "accel", "noise") if getattr(args, name) is not None)
     values = parse_values(field, getattr(args, field))
@@ -98,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         write_text_output(out, result.write_csv_to)
     if plot is not None:
         write_output(plot, lambda target: plot_sweep(result, target))
-    where = "stdout" if args.out is None else str(args.out)
+    where = "stdout" if out is None else str(args.out)
     step = "adaptive" if result.dt is None else f"dt={result.dt:.3g} s"
     print(
         f"sweep: {len(values)} variants of {field}, {result.method} {step}, {result.steps} steps each, "

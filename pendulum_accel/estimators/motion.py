@@ -23,8 +23,8 @@ import numpy as np
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators.kalman import PRESETS
+from pendulum_accel.motion_input.speed_trace import SPEED_UNITS
 from pendulum_accel.physics.profiles import AccelProfile
-from pendulum_accel.physics.speed_trace import SPEED_UNITS
 
 ROBOT_MAX_SPEED = 3.0
 """m/s: a speed trace that never exceeds this is a ground robot's (the Husky's tops out at 1.0 m/s, the

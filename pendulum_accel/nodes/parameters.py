@@ -66,7 +66,8 @@ class ParamSpec:
         """'name (type[, low..high][, read-only]; default D): description[; one of a | b]'."""
         facts: list[str] = [self.type]
         if self.low is not None and self.high is not None:
-            facts.append(f"{self.low:g}..{self.high:g}")
+            shown = (f"{int(v)}" if self.type == "integer" else f"{v:g}" for v in (self.low, self.high))
+            facts.append("..".join(shown))  # an integer's bounds whole: 2147483647, not 2.14748e+09
         if self.read_only:
             facts.append("read-only")
         default = "the scene's" if self.default is FROM_SCENE else repr(self.default)

@@ -1,0 +1,146 @@
+"""One engine for work that outgrows one process: Dask distributed.
+
+:func:`map_tasks` runs a function over items as one task each: in this process when there is one item
+(no cluster start-up cost), else on an embedded ``LocalCluster`` sized to the machine, or on an existing
+cluster by its scheduler address (``dask scheduler`` and ``dask worker`` started elsewhere; the
+argument, else ``$DASK_SCHEDULER_ADDRESS``). Results come back in the items' order. Ctrl-C cancels
+the tasks not yet done and, for a local cluster, ends its worker processes at once.
+
+Dask is the ``fleet`` extra (``pip install 'pendulum_accel[fleet]'``); it is imported on first use.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any, TypeVar
+
+from pendulum_accel.errors import PendulumAccelError
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+Progress = Callable[[int], None]
+"""Called with the number of tasks just finished (a progress bar's update)."""
+
+CLOSE_TIMEOUT = 10.0  # s given to Dask to close a client or cluster; past it the processes are left to exit
+
+
+def scheduler_address(given: str | None) -> str | None:
+    """The Dask scheduler to use: ``given``, else $DASK_SCHEDULER_ADDRESS, else None (an embedded
+    LocalCluster)."""
+    return given or os.environ.get("DASK_SCHEDULER_ADDRESS") or None
+
+
+def _kill_local_workers() -> None:
+    """SIGKILL every child process of this one (the local cluster's nannies and workers)."""
+    import multiprocessing
+
+    for child in multiprocessing.active_children():
+        with contextlib.suppress(OSError, ValueError):
+            child.kill()
+
+
+@contextlib.contextmanager
+def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
+    """A distributed.Client on the scheduler at ``address``, or on an embedded LocalCluster of
+    ``workers`` single-threaded worker processes (default: one per CPU this process may use)."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise PendulumAccelError(
+            "this runs on Dask distributed, which is not installed: pip install 'pendulum_accel[fleet]'"
+        ) from None
+    if address is not None:
+        try:
+            client = Client(address, timeout=10)
+        except (OSError, TimeoutError) as err:
+            raise PendulumAccelError(f"cannot reach the Dask scheduler at {address}: {err}") from None
+        try:
+            yield client
+        finally:
+            with contextlib.suppress(TimeoutError, OSError, RuntimeError):
+                client.close(timeout=CLOSE_TIMEOUT)
+        return
+    n = workers or len(os.sched_getaffinity(0))
+    # multiprocessing's resource tracker (a child started with the first worker) cleans up what a
+    # worker killed on Ctrl-C held, and would print a warning about it after the one-line message.
+    quiet = "ignore::UserWarning:multiprocessing.resource_tracker"
+    os.environ["PYTHONWARNINGS"] = ",".join(w for w in (os.environ.get("PYTHONWARNINGS"), quiet) if w)
+    try:
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=40,  # logging.ERROR: the terminal shows the bar and the errors only
+        )
+        client = Client(cluster)
+    except KeyboardInterrupt:
+        _kill_local_workers()
+        raise
+    timeout = CLOSE_TIMEOUT
+    try:
+        yield client
+    except KeyboardInterrupt:
+        # Ctrl-C: the user wants the terminal back now, not after a graceful drain. The local workers
+        # are this process's children; killing them ends their tasks at once (their results go nowhere:
+        # callers write their output only after every task has returned).
+        _kill_local_workers()
+        timeout = 0.2
+        raise
+    finally:
+        # A slow shutdown (a loaded machine) must not turn finished work into a traceback.
+        with contextlib.suppress(TimeoutError, OSError, RuntimeError):
+            client.close(timeout=timeout)
+        with contextlib.suppress(TimeoutError, OSError, RuntimeError):
+            cluster.close(timeout=timeout)
+
+
+def _on_client(fn: Callable[[T], R], items: Sequence[T], client: Any, progress: Progress) -> list[R]:
+    """fn of each item as one Dask task; results in the order of ``items``. On any exception (Ctrl-C
+    included) the tasks not yet finished are cancelled before it propagates."""
+    from distributed import as_completed
+
+    futures = client.map(fn, list(items), pure=False)
+    index = {f.key: i for i, f in enumerate(futures)}
+    out: list[Any] = [None] * len(futures)
+    try:
+        for future in as_completed(futures):
+            out[index[future.key]] = future.result()
+            progress(1)
+    except BaseException:
+        client.cancel(futures, force=True)
+        raise
+    return out
+
+
+def map_tasks(
+    fn: Callable[[T], R],
+    items: Sequence[T],
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: Progress | None = None,
+    distributed: bool | None = None,
+    client: Any | None = None,
+) -> list[R]:
+    """[fn(x) for x in items], one task per item. ``distributed`` None: one item runs in this process,
+    several on Dask (``scheduler`` or $DASK_SCHEDULER_ADDRESS, else a LocalCluster of ``workers``
+    processes); True or False forces the choice; a ``client`` given (dask_client's) is used as it is.
+    ``fn`` and the items must pickle (a module-level function, a functools.partial of one)."""
+    tick = progress or (lambda n: None)
+    if client is not None:
+        return _on_client(fn, items, client, tick)
+    address = scheduler_address(scheduler)
+    if distributed is None:
+        distributed = address is not None or len(items) > 1
+    if not distributed:
+        out = []
+        for item in items:
+            out.append(fn(item))
+            tick(1)
+        return out
+    with dask_client(address, workers) as client:
+        return _on_client(fn, items, client, tick)

@@ -1,0 +1,267 @@
+"""A design study: sensor designs × motion profiles × seeds, the default estimator's figures per design.
+
+A design is the pendulum and its angle sensor: length l, damping c, sample rate, white noise σ and
+quantisation step. Each case (design × profile × seed) is one task (cluster.map_tasks): θ(t) of the
+design's pendulum under the profile's a(t), measured by the design's sensor, run through the default
+estimator as the live filter and as the fixed-lag smoother at every asked lag. Per design the cases are
+pooled: RMS of e = â − a at each lag (the fixed-lag curve), the live filter's delay (cross-correlation
+peak) and its calibration (share of errors beyond 2σ in steady stretches and within 2 s after a change,
+a change being |a(t) − a(t − 1 s)| > 0.2 m/s²). The accuracy–latency front is the set of (latency, RMS)
+points, latency = lag + delay, that no other point beats on both.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pendulum_accel.cluster import Progress, map_tasks
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, make_estimator
+from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
+from pendulum_accel.recording.delay import group_delay
+from pendulum_accel.scene import load_scene
+from pendulum_accel.sensor import SensorModel
+
+WARMUP = 2.0  # s left out at the start of every case: the filters start from one sample
+CHANGE_JUMP = 0.2  # m/s²: |a(t) − a(t − 1 s)| beyond this marks a change of a
+CHANGE_WINDOW = 2.0  # s after a change that count as "after a change"
+DEFAULT_LAGS = (0.0, 0.1, 0.25, 0.5, 1.0)  # s: the fixed-lag curve
+DEFAULT_PROFILES = ("udds", "hwfet", "husky_odom")  # the bundled real-motion scenes (docs/real_motion.md)
+DEFAULT_DURATION = 300.0  # s of each profile (from its start) a case simulates
+
+
+@dataclass(frozen=True)
+class SensorDesign:
+    """Pendulum length l (m), damping c (1/s), sample rate (Hz), white noise σ (rad), quantisation (rad)."""
+
+    length: float
+    damping: float
+    rate_hz: float
+    noise_std: float
+    quantization: float = 0.0
+
+    @property
+    def name(self) -> str:
+        """'l 0.2 m, c 4 /s, 200 Hz, σ 1 mrad, q 0.1 mrad'."""
+        q = f", q {self.quantization * 1e3:g} mrad" if self.quantization > 0 else ""
+        noise = f"σ {self.noise_std * 1e3:g} mrad"
+        return f"l {self.length:g} m, c {self.damping:g} /s, {self.rate_hz:g} Hz, {noise}{q}"
+
+
+def design_grid(
+    lengths: Sequence[float],
+    damping_ratios: Sequence[float],
+    rates: Sequence[float],
+    noises: Sequence[float],
+    quantizations: Sequence[float] = (0.0,),
+) -> list[SensorDesign]:
+    """Every combination; damping c = 2 ζ ω₀ with ω₀ = √(g/l) (ζ the damping ratio, 1 critical)."""
+    out = []
+    for length, zeta, rate, noise, quant in itertools.product(
+        lengths, damping_ratios, rates, noises, quantizations
+    ):
+        if not (length > 0 and zeta >= 0 and rate > 0 and noise >= 0 and quant >= 0):
+            raise ParameterError(
+                f"a design needs length > 0, damping ratio >= 0, rate > 0, noise and quantisation >= 0; "
+                f"got l={length}, ζ={zeta}, rate={rate}, σ={noise}, q={quant}"
+            )
+        c = 2.0 * zeta * math.sqrt(STANDARD_GRAVITY / length)
+        out.append(SensorDesign(length, round(c, 6), rate, noise, quant))
+    return out
+
+
+DEFAULT_DESIGNS = design_grid(
+    lengths=(0.05, 0.2, 1.0), damping_ratios=(0.05, 0.7), rates=(50.0, 200.0), noises=(1e-3, 5e-3)
+)
+"""24 designs: a 5 cm to 1 m bob, lightly or well damped, 50 or 200 Hz, 1 or 5 mrad of noise."""
+
+
+DESIGN_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("design", "string", "the design in words: length, damping, rate, noise, quantisation"),
+    ("length", "double", "pendulum length l (m)"),
+    ("damping", "double", "damping c (1/s): 2 ζ √(g/l) for the damping ratio ζ asked"),
+    ("rate_hz", "double", "angle sample rate (Hz)"),
+    ("noise_std", "double", "white angle noise σ (rad)"),
+    ("quantization", "double", "angle quantisation step (rad; 0: none)"),
+    ("cases", "int64", "profiles × seeds pooled in the row"),
+    ("rms_lag_LAG", "double", "√(Σe²/n) of the default estimator with a fixed lag of LAG s (0: live), m/s²"),
+    ("delay", "double", "median over the cases of the live filter's cross-correlation delay (s)"),
+    ("share_2sigma_steady", "double", "share of the live filter's steady-state errors beyond 2σ"),
+    ("share_2sigma_after_change", "double", "the same within 2 s after a change of a(t)"),
+    ("nees_mean", "double", "mean e²/σ² of the live filter (1 when σ tells the truth)"),
+)
+"""The design table: (column, Arrow type, meaning); one rms_lag_LAG column per asked lag."""
+
+
+@dataclass(frozen=True)
+class Case:
+    """One task: a design, a profile (a bundled scene name or a scene YAML path), a seed."""
+
+    design: SensorDesign
+    profile: str
+    seed: int
+    duration: float
+    lags: tuple[float, ...]
+
+
+def change_mask(t: NDArray[np.float64], accel: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """True within CHANGE_WINDOW s after any t where |a(t) − a(t − 1 s)| > CHANGE_JUMP."""
+    back = np.interp(t - 1.0, t, accel)
+    changes = t[np.abs(accel - back) > CHANGE_JUMP]
+    if changes.size == 0:
+        return np.zeros(t.size, dtype=bool)
+    idx = np.searchsorted(changes, t, side="right") - 1
+    return (idx >= 0) & (t - changes[np.maximum(idx, 0)] <= CHANGE_WINDOW)
+
+
+def run_case(case: Case) -> dict[str, Any]:
+    """Sums for pooling one case: per lag Σe² and n; the live filter's delay and its counts beyond 2σ
+    in steady stretches and after changes."""
+    from pendulum_accel.physics.simulate import simulate
+
+    d = case.design
+    profile = load_scene(case.profile).profile
+    t = np.arange(round(case.duration * d.rate_hz)) / d.rate_hz
+    accel = np.asarray(profile(t), dtype=np.float64)
+    pendulum = Pendulum(length=d.length, damping=d.damping)
+    traj = simulate(
+        pendulum, profile, t, theta0=math.atan2(float(accel[0]), STANDARD_GRAVITY), rtol=1e-9, atol=1e-11
+    )
+    sensor = SensorModel(
+        rate_hz=d.rate_hz, noise_std=d.noise_std, quantization=d.quantization, seed=case.seed
+    )
+    theta = sensor.measure(t, np.asarray(traj.theta, dtype=np.float64))
+    keep = t >= WARMUP
+    # The estimator is told the white noise it faces: σ² plus the quantiser's q²/12.
+    sigma = math.sqrt(d.noise_std**2 + d.quantization**2 / 12.0)
+    settings = {"length": d.length, "damping": d.damping, "noise_std": max(sigma, 1e-6), "rate_hz": d.rate_hz}
+    out: dict[str, Any] = {"sq": {}, "n": int(keep.sum())}
+    after = change_mask(t, accel)[keep]
+    for lag in case.lags:
+        est, var = make_estimator(DEFAULT_ESTIMATOR, **settings, lag=lag).batch(t, theta)
+        e = (np.asarray(est) - accel)[keep]
+        out["sq"][lag] = float(np.sum(e * e))
+        if lag == 0.0:
+            z = e * e / np.maximum(np.asarray(var)[keep], 1e-300)
+            out["beyond_steady"] = int(np.sum(z[~after] > 4.0))
+            out["n_steady"] = int(np.sum(~after))
+            out["beyond_after"] = int(np.sum(z[after] > 4.0))
+            out["n_after"] = int(np.sum(after))
+            out["nees_sum"] = float(np.sum(z))
+            out["delay"] = group_delay(np.asarray(est)[keep], accel[keep], d.rate_hz)
+    return out
+
+
+def _share(k: int, n: int) -> float | None:
+    """k/n, None for n = 0."""
+    return k / n if n else None
+
+
+def summarise(design: SensorDesign, parts: Sequence[dict[str, Any]], lags: Sequence[float]) -> dict[str, Any]:
+    """One table row: the design, RMS = √(Σe²/Σn) per lag pooled over its cases, the median delay, the
+    pooled shares beyond 2σ and mean NEES of the live filter."""
+    n = sum(p["n"] for p in parts)
+    row: dict[str, Any] = {
+        "design": design.name,
+        "length": design.length,
+        "damping": design.damping,
+        "rate_hz": design.rate_hz,
+        "noise_std": design.noise_std,
+        "quantization": design.quantization,
+        "cases": len(parts),
+    }
+    for lag in lags:
+        row[f"rms_lag_{lag:g}"] = math.sqrt(sum(p["sq"][lag] for p in parts) / n)
+    row["delay"] = float(np.median([p["delay"] for p in parts]))
+    row["share_2sigma_steady"] = _share(
+        sum(p["beyond_steady"] for p in parts), sum(p["n_steady"] for p in parts)
+    )
+    row["share_2sigma_after_change"] = _share(
+        sum(p["beyond_after"] for p in parts), sum(p["n_after"] for p in parts)
+    )
+    row["nees_mean"] = sum(p["nees_sum"] for p in parts) / n
+    return row
+
+
+def study(
+    designs: Sequence[SensorDesign],
+    profiles: Sequence[str],
+    *,
+    seeds: int = 2,
+    duration: float = DEFAULT_DURATION,
+    lags: Sequence[float] = DEFAULT_LAGS,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: Progress | None = None,
+    distributed: bool | None = None,
+) -> list[dict[str, Any]]:
+    """One row per design (summarise), from designs × profiles × seeds cases run as tasks. Each profile
+    is cut to min(duration, its scene's)."""
+    if seeds < 1:
+        raise ParameterError(f"seeds must be >= 1, got {seeds}")
+    if not lags or any(not (math.isfinite(g) and 0.0 <= g <= 10.0) for g in lags):
+        raise ParameterError(f"lags must be in 0..10 s, got {list(lags)}")
+    lag_set = tuple(sorted({0.0, *map(float, lags)}))
+    spans = {p: min(duration, load_scene(p).duration) for p in profiles}
+    cases = [Case(d, p, s, spans[p], lag_set) for d in designs for p in profiles for s in range(seeds)]
+    results = map_tasks(
+        run_case, cases, scheduler=scheduler, workers=workers, progress=progress, distributed=distributed
+    )
+    per_design: dict[SensorDesign, list[dict[str, Any]]] = {}
+    for case, result in zip(cases, results, strict=True):
+        per_design.setdefault(case.design, []).append(result)
+    return [summarise(d, per_design[d], lag_set) for d in designs]
+
+
+def front(rows: Sequence[dict[str, Any]]) -> list[tuple[float, float, str]]:
+    """(latency, RMS, design) points on the accuracy–latency front: latency = lag + the live filter's
+    delay; a point is on the front when no other has both a lower latency and a lower RMS."""
+    points = []
+    for row in rows:
+        for key, value in row.items():
+            if key.startswith("rms_lag_"):
+                lag = float(key[len("rms_lag_") :])
+                points.append((lag + max(row["delay"], 0.0), float(value), str(row["design"])))
+    points.sort()
+    best, out = math.inf, []
+    for latency, rms, name in points:
+        if rms < best:
+            best = rms
+            out.append((latency, rms, name))
+    return out
+
+
+def plot_front(rows: Sequence[dict[str, Any]], path: Path) -> None:
+    """Every design's fixed-lag curve (latency, RMS) in grey, the front on top."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for row in rows:
+        lags = sorted(float(k[len("rms_lag_") :]) for k in row if k.startswith("rms_lag_"))
+        x = [g + max(row["delay"], 0.0) for g in lags]
+        y = [row[f"rms_lag_{g:g}"] for g in lags]
+        ax.plot(x, y, color="0.75", lw=0.8, marker=".", ms=3)
+    pts = front(rows)
+    ax.plot([p[0] for p in pts], [p[1] for p in pts], color="C3", lw=2, marker="o", label="front")
+    ax.set_xlabel("latency: lag + delay (s)")
+    ax.set_ylabel("RMS of â − a (m/s²)")
+    ax.set_yscale("log")
+    ax.set_title(
+        f"accuracy–latency of {len(rows)} sensor designs ({DEFAULT_ESTIMATOR}, each design's fixed-lag curve)"
+    )
+    ax.legend(loc="upper right")
+    ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

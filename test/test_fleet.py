@@ -1,0 +1,309 @@
+"""``analyze`` over many bags: the table, its error rows, and the same table from every engine.
+
+The engines are the serial path (one process), an embedded Dask LocalCluster with 2 worker processes,
+and a real cluster started as separate processes (``dask scheduler`` in one network namespace and two
+``dask worker`` in another, joined by veth, as the multi-host chain test builds them). Every process a
+test starts is stopped at its end.
+"""
+
+from __future__ import annotations
+
+import io
+import itertools
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pyarrow.parquet as pq
+import pytest
+
+from pendulum_accel.errors import BagError
+from pendulum_accel.recording.fleet import COLUMN_NAMES, Job, analyze_many, bag_rows, find_bags, write_csv
+from test.conftest import REPO, Spawn, cli, stop_processes
+from test.test_network import TwoHosts, two_hosts  # noqa: F401 (the fixture)
+
+SCENES = ("step_start", "braking")
+DURATION = "3"  # s: enough for every figure (delay, calibration) and quick to re-run
+
+
+@pytest.fixture(scope="module")
+def corpus(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A tree: two generated bags in subdirectories, a damaged copy (cut in half), a foreign .mcap and
+    an empty bag directory."""
+    root = tmp_path_factory.mktemp("fleet")
+    (root / "site_a").mkdir()
+    (root / "site_b").mkdir()
+    for scene, site in zip(SCENES, ("site_a", "site_b"), strict=True):
+        done = cli("generate", scene, "--duration", DURATION, "--out", str(root / site / scene))
+        assert done.returncode == 0, done.stderr
+    damaged = root / "site_b" / "damaged"
+    shutil.copytree(root / "site_a" / "step_start", damaged)
+    mcap = next(damaged.glob("*.mcap"))
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[: len(data) // 2])
+    (root / "site_b" / "foreign.mcap").write_bytes(b"not a bag at all\n")
+    (root / "empty").mkdir()
+    return root
+
+
+def _by_key(rows: list[dict[str, object]]) -> dict[tuple[str, str], dict[str, object]]:
+    """Rows keyed by (bag, estimator)."""
+    return {(str(r["bag"]), str(r["estimator"])): r for r in rows}
+
+
+def test_find_bags_walks_trees_and_globs_and_refuses_a_typo(corpus: Path) -> None:
+    """A tree gives every bag below it (bag directories are not entered, loose .mcap files count), a
+    glob the same, each once; a path that names nothing is one BagError."""
+    found = {p.relative_to(corpus).as_posix() for p in find_bags([str(corpus)])}
+    assert found == {"site_a/step_start", "site_b/braking", "site_b/damaged", "site_b/foreign.mcap"}
+    globbed = find_bags([str(corpus / "site_*" / "*"), str(corpus / "site_a" / "step_start")])
+    assert len(globbed) == len(set(globbed)) == 4
+    with pytest.raises(BagError, match="does not exist"):
+        find_bags([str(corpus / "no_such_bag")])
+    with pytest.raises(BagError, match="matches no"):
+        find_bags([str(corpus / "nothing_*")])
+
+
+def test_serial_table_has_a_row_per_bag_and_estimator_and_error_rows(corpus: Path) -> None:
+    """Good bags give a row per estimator with finite figures; the damaged and the foreign bag give one
+    row each with an error and no figures; every row has every column."""
+    rows = analyze_many(find_bags([str(corpus)]), Job(estimators=("kalman", "instant")), distributed=False)
+    assert all(tuple(r) == COLUMN_NAMES for r in rows)
+    good = [r for r in rows if not r["error"]]
+    bad = [r for r in rows if r["error"]]
+    assert {(Path(str(r["bag"])).name, r["estimator"]) for r in good} == {
+        (s, e) for s in SCENES for e in ("kalman", "instant")
+    }
+    assert {Path(str(r["bag"])).name for r in bad} == {"damaged", "foreign.mcap"}
+    for r in bad:
+        assert r["rms"] is None and r["complete"] is False
+        assert "\n" not in str(r["error"])
+    for r in good:
+        assert r["complete"] is True
+        for key in ("rms", "bias", "max_error", "delay", "duration"):
+            assert isinstance(r[key], float) and math.isfinite(r[key]), (key, r)
+        assert r["duration"] == pytest.approx(float(DURATION), abs=0.02)  # one 100 Hz sample either way
+    kalman = {Path(str(r["bag"])).name: r for r in good if r["estimator"] == "kalman"}
+    assert all(r["motion_model"] for r in kalman.values()), "the table names kalman's motion model"
+
+
+def test_local_cluster_gives_the_serial_table(corpus: Path) -> None:
+    """Two worker processes of a LocalCluster give exactly the serial rows. Exact: each task runs the
+    same compiled code on the same inputs on the same machine, only in another process, so no rounding
+    can differ (a difference would mean the tasks were given different work)."""
+    paths = find_bags([str(corpus)])
+    job = Job(estimators=("kalman", "smoother"))
+    serial = analyze_many(paths, job, distributed=False)
+    local = analyze_many(paths, job, workers=2, distributed=True)
+    assert local == serial
+
+
+def test_cli_writes_parquet_and_csv_and_refuses_single_bag_options(corpus: Path, tmp_path: Path) -> None:
+    """--out TABLE.parquet / .csv hold the same rows; exit 1 says some bags gave error rows; --plot is
+    refused for a fleet in one line, before any work."""
+    parquet, csv_out = tmp_path / "r.parquet", tmp_path / "r.csv"
+    done = cli("analyze", str(corpus), "--out", str(parquet), "--workers", "2", timeout=300)
+    assert done.returncode == 1, done.stderr
+    assert "2 bag(s) gave an error row" in done.stderr
+    table = pq.read_table(parquet).to_pylist()
+    assert [tuple(r) for r in table] == [COLUMN_NAMES] * len(table) and len(table) == 4
+    done = cli("analyze", str(corpus / "site_a"), str(corpus / "site_b" / "braking"), "--out", str(csv_out))
+    assert done.returncode == 0, done.stderr
+    lines = csv_out.read_text().splitlines()
+    assert lines[0].split(",") == list(COLUMN_NAMES) and len(lines) == 3
+    refused = cli("analyze", str(corpus), "--plot", str(tmp_path / "p.png"))
+    assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1
+    assert "--plot" in refused.stderr and not (tmp_path / "p.png").exists()
+
+
+def test_bag_rows_never_raises_for_a_bad_bag(tmp_path: Path) -> None:
+    """A directory that is no bag, a file that is no MCAP, an unknown estimator: rows with errors."""
+    (tmp_path / "x.mcap").write_bytes(b"")
+    assert bag_rows(str(tmp_path / "x.mcap"), Job())[0]["error"]
+    assert bag_rows(str(tmp_path / "missing"), Job())[0]["error"]
+
+
+def test_ctrl_c_cancels_the_rest_and_writes_nothing(corpus: Path, tmp_path: Path) -> None:
+    """SIGINT while 40 bags are being analysed: exit 130 with one line, no table under the asked name
+    and no temporary beside it, and the workers gone. The bound on the exit time (5 s) is loose on
+    purpose: finishing the remaining work instead would take far longer (40 bags × 2 methods, each
+    seconds on this corpus), which is what the test tells apart, not the speed of the machine."""
+    many = tmp_path / "many"
+    many.mkdir()
+    for i in range(40):
+        shutil.copytree(corpus / "site_b" / "braking", many / f"b{i:02d}")
+    out = tmp_path / "t.parquet"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pendulum_accel.cli.main", "analyze", str(many), "--out", str(out),
+         "-e", "kalman", "-e", "smoother", "--workers", "2"],
+        cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+    try:
+        time.sleep(12.0)  # the cluster is up and working (its start-up takes a few seconds)
+        assert proc.poll() is None, proc.communicate()
+        os.killpg(proc.pid, signal.SIGINT)
+        start = time.monotonic()
+        _, err = proc.communicate(timeout=60)
+        took = time.monotonic() - start
+    finally:
+        stop_processes([proc])
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["pendulum-accel analyze: interrupted"], err
+    assert took < 5.0, f"took {took:.2f} s to stop"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["many"]
+
+
+@pytest.fixture
+def dask_bin() -> Path:
+    """The ``dask`` command beside this Python (the fleet extra installs it)."""
+    path = Path(sys.executable).with_name("dask")
+    assert path.exists(), "the dask command is missing: pip install '.[fleet]' (make setup does)"
+    return path
+
+
+def test_scheduler_and_workers_on_two_hosts_give_the_serial_table(
+    corpus: Path,
+    tmp_path: Path,
+    spawn: Spawn,
+    two_hosts: TwoHosts,  # noqa: F811 (the fixture imported above)
+    dask_bin: Path,
+) -> None:
+    """``dask scheduler`` in namespace a, two ``dask worker`` processes in namespace b, reaching it over
+    the veth link; ``analyze --scheduler tcp://A:PORT`` from namespace a gives exactly the serial
+    table (exact, as with the LocalCluster), and every process started here is stopped."""
+    host_a = two_hosts.addr["a"]
+    port = 8786
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    logs = [open(tmp_path / f"{n}.log", "w") for n in ("scheduler", "w1", "w2")]  # noqa: SIM115
+    try:
+        scheduler = [str(dask_bin), "scheduler", "--host", host_a, "--port", str(port), "--no-dashboard"]
+        spawn(two_hosts.command("a", scheduler), env=env, stdout=logs[0], stderr=logs[0])
+        address = f"tcp://{host_a}:{port}"
+        for log in logs[1:]:
+            worker = [str(dask_bin), "worker", address, "--nthreads", "1", "--no-dashboard", "--no-nanny"]
+            spawn(two_hosts.command("b", worker), env=env, stdout=log, stderr=log)
+        ready = _wait_for_workers(two_hosts, address, env, 2, timeout=90.0)
+        assert ready, (tmp_path / "scheduler.log").read_text()[-2000:]
+        out = tmp_path / "remote.csv"
+        done = subprocess.run(
+            two_hosts.command("a", [sys.executable, "-m", "pendulum_accel.cli.main", "analyze", str(corpus),
+                                    "-e", "kalman", "--scheduler", address, "--out", str(out)]),
+            cwd=REPO, env=env, capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+        assert done.returncode == 1, done.stderr  # the damaged and foreign bags' rows
+        serial = io.StringIO()
+        write_csv(
+            analyze_many(find_bags([str(corpus)]), Job(estimators=("kalman",)), distributed=False), serial
+        )
+        assert out.read_text() == serial.getvalue()
+    finally:
+        for log in logs:
+            log.close()
+
+
+def _wait_for_workers(hosts: TwoHosts, address: str, env: dict[str, str], n: int, timeout: float) -> bool:
+    """True once the scheduler at ``address`` (reached from namespace a) reports ``n`` workers."""
+    probe = (
+        "import sys; from distributed import Client; c = Client(sys.argv[1], timeout=5); "
+        "c.wait_for_workers(int(sys.argv[2]), timeout=5); "
+        "print(len(c.scheduler_info()['workers'])); c.close()"
+    )
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        done = subprocess.run(
+            hosts.command("a", [sys.executable, "-c", probe, address, str(n)]),
+            env=env, capture_output=True, text=True, timeout=60,
+        )  # fmt: skip
+        if done.returncode == 0 and done.stdout.strip() == str(n):
+            return True
+        time.sleep(1.0)
+    return False
+
+
+@pytest.fixture(autouse=True)
+def _no_leftover_workers() -> Iterator[None]:
+    """No worker process of this test outlives it (a LocalCluster's children included)."""
+    yield
+    import multiprocessing
+
+    assert not multiprocessing.active_children()
+
+
+def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path) -> None:
+    """Two designs × one profile × two seeds: a row per design with the asked lags, RMS falling (not
+    rising) with the lag beyond rounding, the front monotone; a LocalCluster gives the same rows (exact,
+    for the reason given in test_local_cluster_gives_the_serial_table)."""
+    from pendulum_accel.recording import design_study as ds
+
+    designs = ds.design_grid([0.2, 1.0], [0.7], [100.0], [1e-3])
+    kwargs: dict[str, Any] = {"seeds": 2, "duration": 20.0, "lags": (0.0, 0.5)}
+    rows = ds.study(designs, ["husky_odom"], distributed=False, **kwargs)
+    assert [r["design"] for r in rows] == [d.name for d in designs]
+    for r in rows:
+        assert r["cases"] == 2
+        assert 0.0 < r["rms_lag_0.5"] < r["rms_lag_0"], r  # half a second of hindsight helps on real motion
+        assert 0.0 <= r["share_2sigma_steady"] <= 1.0
+    pts = ds.front(rows)
+    assert all(a[0] <= b[0] and a[1] > b[1] for a, b in itertools.pairwise(pts))
+    assert ds.study(designs, ["husky_odom"], workers=2, distributed=True, **kwargs) == rows
+
+
+def test_design_cli_table_plot_and_one_line_refusals(tmp_path: Path) -> None:
+    """The command writes its table and plot; a bad grid or scene is one line, exit 2, nothing written."""
+    out, png = tmp_path / "d.csv", tmp_path / "d.png"
+    done = cli("design", "--out", str(out), "--plot", str(png), "--lengths", "0.2", "--damping-ratios", "0.7",
+               "--rates", "100", "--noises", "1e-3", "--profiles", "husky_odom", "--duration", "10",
+               "--seeds", "1", "--lags", "0,0.25")  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    header = out.read_text().splitlines()[0].split(",")
+    assert "rms_lag_0.25" in header and "share_2sigma_after_change" in header
+    assert png.stat().st_size > 0
+    for bad in (["--lengths", "-1"], ["--profiles", "no_such_scene"], ["--lags", "x"], ["--seeds", "0"]):
+        target = tmp_path / "bad.csv"
+        refused = cli("design", "--out", str(target), "--duration", "5", *bad)
+        assert refused.returncode == 2, (bad, refused.stderr)
+        assert len(refused.stderr.strip().splitlines()) == 1 and "Traceback" not in refused.stderr
+        assert not target.exists()
+
+
+def test_progress_bar_on_a_terminal_and_not_in_a_pipe(corpus: Path, tmp_path: Path) -> None:
+    """With standard error on a terminal (a pseudo-terminal here) the run draws tqdm's bar, counting
+    bags; into a pipe (the other tests) it prints only its closing line."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+
+    master, slave = pty.openpty()
+    # A fresh pseudo-terminal is 0 columns wide, and tqdm draws nothing in 0 columns; a user's is not.
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
+    try:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "pendulum_accel.cli.main", "analyze", str(corpus / "site_a"),
+             str(corpus / "site_b" / "braking"), "--out", str(tmp_path / "t.csv"), "--workers", "1"],
+            cwd=REPO, stdout=subprocess.DEVNULL, stderr=slave, start_new_session=True,
+        )  # fmt: skip
+        os.close(slave)
+        chunks = []
+        while True:
+            try:
+                data = os.read(master, 4096)
+            except OSError:  # EIO: the child closed the terminal
+                break
+            if not data:
+                break
+            chunks.append(data)
+        proc.wait(timeout=300)
+    finally:
+        os.close(master)
+    text = b"".join(chunks).decode("utf-8", "replace")
+    assert proc.returncode == 0, text
+    assert "/2 [" in text and "bag" in text, text  # tqdm's "n/2 [elapsed<remaining, rate bag/s]"
+    assert "analyzed 2 bag(s)" in text
