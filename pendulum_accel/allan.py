@@ -17,9 +17,11 @@ curve as usual, B = min σ / 0.664 (an upper bound when white noise or the walk 
 from __future__ import annotations
 
 import math
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,6 +37,8 @@ FloatArray = NDArray[np.float64]
 MIN_CLUSTERS = 9  # τ with fewer independent averages scatter too much to fit
 FLICKER_FLOOR = math.sqrt(2.0 * math.log(2.0) / math.pi)  # σ_floor = 0.664 B
 MIN_SAMPLES = 100
+_WAIT_SLICE = 0.05  # s: the main thread's longest wait between two checks for Ctrl-C
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -233,16 +237,45 @@ def scene_series(scene_name: str, duration: float, estimator: str | None = None)
         model=None,
         method=None,
     )
-    run = run_scene(scene)
     method = estimator or DEFAULT_ESTIMATOR
-    accel, _ = estimate_batch(method, run.t, run.theta_measured, **estimator_options(scene, method))
+
+    def compute() -> tuple[FloatArray, FloatArray]:
+        """The run's measured angles and the estimate on them."""
+        run = run_scene(scene)
+        accel, _ = estimate_batch(method, run.t, run.theta_measured, **estimator_options(scene, method))
+        return run.theta_measured, np.asarray(accel, dtype=np.float64)
+
+    theta, accel = interruptible(compute)
     return StaticSeries(
         f"scene {base.name}, static for {duration:g} s",
         scene.sensor.rate_hz,
-        run.theta_measured,
-        np.asarray(accel, dtype=np.float64),
+        theta,
+        accel,
         method,
     )
+
+
+def interruptible(work: Callable[[], T]) -> T:
+    """``work()`` in a worker thread while this (the main) thread waits in short slices, so Ctrl-C is
+    handled within one slice even while the work sits in one long numpy call or compiled loop (those
+    release the GIL: numpy's large-array loops, the estimators' batch kernels). The worker is a daemon:
+    after an interrupt the command exits (cli.main) without waiting for it."""
+    box: dict[str, object] = {}
+
+    def run() -> None:
+        """Thread body: keep the result or the exception for the main thread."""
+        try:
+            box["result"] = work()
+        except BaseException as err:  # re-raised in the main thread
+            box["error"] = err
+
+    worker = threading.Thread(target=run, name="allan-work", daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(_WAIT_SLICE)  # a lock wait: a signal interrupts it
+    if "error" in box:
+        raise box["error"]  # type: ignore[misc]
+    return box["result"]  # type: ignore[return-value]
 
 
 def bag_series(path: str | Bag) -> StaticSeries:

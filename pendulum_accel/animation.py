@@ -8,10 +8,13 @@ arrows start at the pivot along the car's x axis, ARROW_M_PER_MS2 metres per m/s
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
 import os
 import shutil
-from collections.abc import Callable
+import subprocess
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -203,19 +206,26 @@ class SwingAnimation:
         if out.suffix.lower() == ".gif":
             writer = PillowWriter(fps=self.fps)
         else:
-            writer = FFMpegWriter(fps=self.fps, codec="h264", extra_args=["-pix_fmt", "yuv420p"])
+            # -xerror: ffmpeg 5 exits 0 after "Error writing trailer ...: No space left on device"
+            # without it, leaving an MP4 with no moov atom; with it, the exit status tells.
+            writer = FFMpegWriter(fps=self.fps, codec="h264", extra_args=["-pix_fmt", "yuv420p", "-xerror"])
         # Not writer.saving(): its finally encodes every frame grabbed so far even on Ctrl-C (seconds of
         # Pillow or ffmpeg work, and a partial file). Each frame is drawn once, by the writer's savefig.
         done = False
         writer.setup(self.figure, str(partial), DPI)
         try:
-            with mpl.rc_context({"savefig.bbox": None}):
-                for k in range(self.times.size):
-                    self.draw_frame(k)
-                    writer.grab_frame()
-                    if on_frame is not None:
-                        on_frame()
-                writer.finish()
+            # matplotlib logs a failed encoder's whole stderr as a warning; the one line below says it.
+            with mpl.rc_context({"savefig.bbox": None}), _quiet_logger("matplotlib.animation"):
+                try:
+                    for k in range(self.times.size):
+                        self.draw_frame(k)
+                        writer.grab_frame()
+                        if on_frame is not None:
+                            on_frame()
+                    writer.finish()
+                except (BrokenPipeError, subprocess.CalledProcessError) as err:
+                    # ffmpeg stopped (its pipe closed) or exited non-zero: say why, in its words.
+                    raise _encoder_failure(writer, err) from None
             os.replace(partial, out)
             done = True
         finally:
@@ -223,6 +233,36 @@ class SwingAnimation:
                 _abandon(writer)
                 partial.unlink(missing_ok=True)
         return out
+
+
+@contextlib.contextmanager
+def _quiet_logger(name: str) -> Iterator[None]:
+    """Logger ``name`` shows errors only while the body runs."""
+    logger = logging.getLogger(name)
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def _encoder_failure(writer: PillowWriter | FFMpegWriter, err: Exception) -> OSError:
+    """OSError('ffmpeg exited with status N: REASON'), REASON the end of ffmpeg's last stderr line (e.g.
+    'No space left on device'), for an encoder that closed its pipe or exited non-zero."""
+    stderr = getattr(err, "stderr", None)
+    proc = getattr(writer, "_proc", None)
+    if stderr is None and proc is not None:
+        try:
+            _, stderr = proc.communicate(timeout=10)
+        except (subprocess.TimeoutExpired, ValueError, OSError):
+            stderr = b""
+    if isinstance(stderr, bytes):
+        stderr = stderr.decode("utf-8", "replace")
+    lines = [line.strip() for line in (stderr or "").splitlines() if line.strip()]
+    reason = lines[-1].rsplit(": ", 1)[-1] if lines else "no message"
+    code = proc.returncode if proc is not None else getattr(err, "returncode", None)
+    return OSError(f"ffmpeg exited with status {code}: {reason}")
 
 
 def _abandon(writer: PillowWriter | FFMpegWriter) -> None:

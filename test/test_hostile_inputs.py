@@ -1,4 +1,4 @@
-"""Hostile battery, ROS-free part: bag paths, salvage, cost checks, Ctrl-C, write failures, odd inputs.
+"""Hostile battery: bag paths, salvage, cost checks, Ctrl-C, write failures, odd inputs, ROS names.
 
 Each case is one found by a hostile pass over the CLI; each must end in one line (exit 2, no
 traceback), lose nothing recoverable and touch nothing outside what the command was pointed at.
@@ -213,6 +213,51 @@ def test_ctrl_c_stops_a_compiled_run_within_a_second() -> None:
     assert proc.returncode != 0 and "KeyboardInterrupt" in (proc.stderr.read() if proc.stderr else "")
     # One slice is ~0.1-0.2 s of work; on a loaded 2-core machine allow a few times that, far below the run.
     assert waited < 3.0, f"took {waited:.1f} s to stop"
+
+
+@pytest.mark.parametrize("after", [12.0, 45.0])  # simulating the static run; estimating on it
+def test_ctrl_c_stops_a_long_allan_within_a_second(tmp_path: Path, after: float) -> None:
+    """allan on 4e7 samples (400000 s at 100 Hz): minutes of numpy and compiled work. The main thread
+    waits for the work in 50 ms slices (allan.interruptible) and the compiled batch kernels leave the
+    GIL, so SIGINT is handled within a slice and the process exits at once (cli.main's os._exit):
+    1 s is 20 slices, a bound that holds on a loaded machine because nothing but the GIL hand-off
+    (5 ms switch interval) stands between the signal and the exit. Without the slices it was 1-1.6 s
+    on an idle machine and up to the whole estimator pass (minutes) inside it."""
+    plot = tmp_path / "allan.png"
+    proc = subprocess.Popen(
+        [
+            PYTHON,
+            "-m",
+            "pendulum_accel.cli.main",
+            "allan",
+            "lecture_constant",
+            "--duration",
+            "400000",
+            "--plot",
+            str(plot),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+        # A background job's SIGINT may be ignored by inheritance; the command must see it as a user would.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    try:
+        time.sleep(after)
+        assert proc.poll() is None, proc.communicate()
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        waited = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130 and "Traceback" not in err, err
+    assert err.strip().splitlines()[-1] == "pendulum-accel allan: interrupted", err
+    assert list(tmp_path.iterdir()) == []  # nothing partial: the plot is written only at the end
+    assert waited < 1.0, f"took {waited:.2f} s to stop"
 
 
 # --- 4. write failures: one line, no partial output ---------------------------------------------
@@ -445,6 +490,9 @@ RED_TEAM: list[tuple[str, str, int]] = [
     ("generate lecture_constant --out {ws}/missing/b", "does not exist", 2),
     ("generate lecture_constant --out /dev/full", "is not a directory", 2),
     ("generate lecture_constant --out {ws}/b --duration 1000", "lecture_constant lasts 20 s", 2),
+    # analysis options out of range: refused before the estimator allocates anything
+    ("analyze {bag} --lag 1e300", "longer than the recording", 2),
+    ("analyze {bag} --lag inf", "lag must be a finite number", 2),
     # hostile scene inputs
     *[(f"simulate {{huge_{name}}}", f"sensor.{name} must be in [", 2) for name in HUGE_SENSOR],
     *[(f"generate {{huge_{name}}} --out {{ws}}/b", f"sensor.{name} must be in [", 2) for name in HUGE_SENSOR],
@@ -508,6 +556,17 @@ def _frame(frame_id: str) -> Callable[[Any], None]:
     return edit
 
 
+def _across_90() -> Callable[[Any], None]:
+    """Edit: θ alternating −1.6, +1.6 rad (across ±90°) from one message to the next."""
+    count = itertools.count()
+
+    def edit(msg: Any) -> None:
+        """In place."""
+        msg.position = np.array([1.6 if next(count) % 2 else -1.6])
+
+    return edit
+
+
 @pytest.fixture(scope="module")
 def red_team(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, str]]:
     """The placeholders of RED_TEAM, made real (the read-only tmpfs is unmounted at the end)."""
@@ -527,6 +586,7 @@ def red_team(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, str
         ("two", bm.TOPIC_JOINT_STATES, _joints(["elbow_joint", bm.PENDULUM_JOINT])),
         ("odom", bm.TOPIC_JOINT_STATES, _frame("odom")),
         ("est_odom", bm.TOPIC_ACCEL_ESTIMATE, _frame("odom")),
+        ("alt90", bm.TOPIC_JOINT_STATES, _across_90()),
     ):
         places[name] = str(_rewritten(bags / "bag", bags / name, topic, edit))
     scene = yaml.safe_load(cli("scenes", "lecture_constant").stdout)
@@ -588,6 +648,7 @@ def test_red_team_case_is_one_line(
         ("export {bag} --out {fs}/tables", "64k"),
         ("export {bag} --out {fs}/tables --format parquet", "16k"),
         ("animate {bag} --out {fs}/a.gif --duration 1 --fps 10", "16k"),
+        ("animate {bag} --out {fs}/a.mp4 --duration 2 --fps 10", "16k"),  # ffmpeg's exit status
         ("analyze {bag} --plot {fs}/a.png", "16k"),
         ("sweep at_rest --length 0.5:2:100 --duration 0.2 --no-progress --out {fs}/s.csv", "16k"),
         ("simulate lecture_constant --plot {fs}/p.png", "16k"),
@@ -717,6 +778,315 @@ def test_a_byte_order_mark_is_not_part_of_the_first_value_or_name(tmp_path: Path
         {"type": "speed_csv", "path": "named.csv", "units": "m/s", **columns}, tmp_path
     )
     assert len(speeds.to_dict()["speeds"]) == 60
+
+
+# --- 12. names of a live chain: rcl's rules, checked before any node starts -------------------------
+
+_A300 = "a" * 300
+BAD_NAMESPACES = [
+    "..",
+    ".",
+    "~",
+    "a//b",
+    "car one",
+    "car-1",
+    "1car",
+    "car🚗",
+    "voiture_é",
+    "{node}",
+    "$HOME",
+    _A300,
+    "x --ros-args",
+    "a" * 220,  # a valid namespace the chain's longest name (260 characters) overflows
+]
+BAD_REMAPS = [
+    "..:=x",
+    "pendulum/joint_states:=..",
+    "a:=b:=c",
+    "pendulum/joint_states:=an gles",
+    "pendulum/joint_states:=anglés",
+    "pendulum/joint_states:=" + _A300,
+    "a:=" + _A300,
+    "__node:=same",
+    "__ns:=/car",
+    "noassign",
+    ":=b",
+    "*:=b",
+]
+
+
+@pytest.mark.parametrize(
+    "args",
+    [("--namespace", ns) for ns in BAD_NAMESPACES] + [("--remap", rule) for rule in BAD_REMAPS],
+    ids=[f"namespace-{ns[:12]}" for ns in BAD_NAMESPACES] + [f"remap-{rule[:30]}" for rule in BAD_REMAPS],
+)
+def test_a_name_ros_refuses_is_one_line_before_anything_starts(tmp_path: Path, args: tuple[str, str]) -> None:
+    result = cli("run", "at_rest", *args, "--record", str(tmp_path / "bag"), timeout=60)
+    line = one_line_error(result, "nothing started")
+    assert len(line) < 400  # a 300-character name is elided, the line stays one readable line
+    assert "started" not in result.stderr.replace("nothing started", "")  # no node was started
+    assert not (tmp_path / "bag").exists()
+
+
+# Names both validators see: the battery above, rcl's edge cases, and lengths around RMW's limits
+# (namespace 245, full topic name 247 characters).
+_EDGE_NAMES = [
+    *BAD_NAMESPACES,
+    "",
+    "/",
+    "//",
+    "a",
+    "/a",
+    "/a/",
+    "a/",
+    "~/a",
+    "~a",
+    "~",
+    "/~",
+    "a~",
+    "{ns}/a",
+    "{node}",
+    "{1a}",
+    "{a/b}",
+    "{a",
+    "a}",
+    "{{a}}",
+    "_",
+    "__",
+    "/_1",
+    "/1",
+    "a/1b",
+    "a__b",
+    "A_Z09",
+    "é",
+    "a\tb",
+    *("/" + "a" * (n - 1) for n in (244, 245, 246, 247, 248)),
+]
+
+
+def test_the_pure_validators_agree_with_rclpys() -> None:
+    from pendulum_accel.nodes import names
+
+    ros, pure = names.validators(use_rclpy=True), names.validators(use_rclpy=False)
+    assert ros[0] is not names.namespace_problem  # rclpy imported: the comparison is real
+    for name in _EDGE_NAMES + ["/" + n for n in _EDGE_NAMES]:
+        for ros_check, pure_check in zip(ros[:3], pure[:3], strict=True):  # namespace, topic, full topic
+            assert (ros_check(name) is None) == (pure_check(name) is None), (name, ros_check(name))
+        if ros[1](name) is None:
+            for ns in ("/", "/car1", "/car1/sub"):
+                assert _expanded(ros[3], name, ns) == _expanded(pure[3], name, ns), (name, ns)
+
+
+def _expanded(expand: Callable[[str, str, str], str], name: str, ns: str) -> str:
+    """``expand(name, 'node', ns)``, or 'refused' for a ValueError (an unknown substitution)."""
+    try:
+        return expand(name, "node", ns)
+    except ValueError:
+        return "refused"
+
+
+_NAME_PIECES = ["a", "b", "_", "1", "/", "~", "{", "}", "{node}", "{ns}", ".", " ", "é", "-", "a" * 60]
+
+
+@settings(max_examples=1500, deadline=None)
+@given(st.lists(st.sampled_from(_NAME_PIECES), max_size=8).map("".join))
+def test_the_pure_validators_agree_with_rclpys_on_random_names(name: str) -> None:
+    from pendulum_accel.nodes import names
+
+    ros, pure = names.validators(use_rclpy=True), names.validators(use_rclpy=False)
+    for candidate in (name, "/" + name):
+        for ros_check, pure_check in zip(ros[:3], pure[:3], strict=True):
+            assert (ros_check(candidate) is None) == (pure_check(candidate) is None), candidate
+        if ros[1](candidate) is None:
+            assert _expanded(ros[3], candidate, "/car1") == _expanded(pure[3], candidate, "/car1")
+
+
+def _rcl_parses(rule: str) -> bool:
+    """True when rcl itself parses ``-r rule`` (rclpy's Context.init: rcl_parse_arguments; no node)."""
+    from rclpy.context import Context
+
+    context = Context()
+    try:
+        context.init(["prog", "--ros-args", "-r", rule])
+    except Exception:  # rclpy's RCLError ("Couldn't parse remap rule")
+        return False
+    finally:
+        with contextlib.suppress(Exception):
+            context.try_shutdown()
+    return True
+
+
+_RULE_PIECES = [
+    "a",
+    "b",
+    "_",
+    "1",
+    "/",
+    ":",
+    "=",
+    ":=",
+    "~",
+    "~/",
+    "{",
+    "}",
+    ".",
+    " ",
+    "é",
+    "__",
+    "*",
+    "__ns",
+    "__node",
+    "__name",
+    "n:",
+    "rostopic://",
+    "rosservice://",
+]
+_EDGE_RULES = [
+    *BAD_REMAPS,
+    "a:=b",
+    "n:a:=b",
+    "/a:=/b",
+    "~/a:=b",
+    "a:=~/b",
+    "rostopic://a:=b",
+    "rostopic:///a:=b",
+    "a:=rostopic://b",
+    "__ns:=/",
+    "__ns:=/a/",
+    "__ns:=a",
+    "__ns:=//",
+    "__node:=x",
+    "__name:=1x",
+    "x:__node:=y",
+    "n:n:a:=b",
+    "a__b:=c",
+    "_a:=b_",
+    "a:={node}",
+]
+
+
+@settings(max_examples=1500, deadline=None)
+@given(st.lists(st.sampled_from(_RULE_PIECES), min_size=1, max_size=8).map("".join))
+def test_the_remap_grammar_is_rcls(rule: str) -> None:
+    from pendulum_accel.nodes.names import remap_syntax_ok
+
+    assert remap_syntax_ok(rule) == _rcl_parses(rule), rule
+
+
+@pytest.mark.parametrize("rule", _EDGE_RULES)
+def test_the_remap_grammar_is_rcls_on_the_edge_cases(rule: str) -> None:
+    from pendulum_accel.nodes.names import remap_syntax_ok
+
+    assert remap_syntax_ok(rule) == _rcl_parses(rule), rule
+
+
+@pytest.mark.parametrize(
+    ("namespace", "remaps"),
+    [(ns, []) for ns in BAD_NAMESPACES] + [("", [rule]) for rule in BAD_REMAPS] + [("car1", ["a:=b"])],
+)
+def test_the_chain_check_is_the_same_without_rclpy(namespace: str, remaps: list[str]) -> None:
+    from pendulum_accel.nodes.names import check_chain_names
+
+    messages = []
+    for use_rclpy in (True, False):
+        try:
+            check_chain_names(namespace, remaps, use_rclpy=use_rclpy)
+            messages.append("accepted")
+        except ParameterError as err:
+            messages.append(str(err))
+    assert messages[0] == messages[1]
+    assert (messages[0] == "accepted") == (namespace == "car1")
+
+
+def test_the_longest_accepted_namespace_is_the_limit_of_the_longest_chain_name() -> None:
+    from pendulum_accel.nodes import names
+
+    # '/' + NS + '/' + node + '/' + name: the longest node and name leave 247 - 3 - 15 - 25 characters.
+    longest = max(
+        len(f"/{node}/{name[2:]}") if name.startswith("~/") else len("/" + name)
+        for node in names.CHAIN_NODES
+        for name in names.CHAIN_NAMES
+    )
+    room = names.TOPIC_MAX_LENGTH - longest - 1
+    names.check_chain_names("a" * room, [])
+    with pytest.raises(ParameterError, match="longer than 247 characters"):
+        names.check_chain_names("a" * (room + 1), [])
+
+
+def test_the_chain_node_names_are_the_nodes_own() -> None:
+    from pendulum_accel.nodes import estimator_node, recorder_node, simulator_node
+    from pendulum_accel.nodes.names import CHAIN_NODES
+
+    assert CHAIN_NODES == (simulator_node.NODE_NAME, estimator_node.NODE_NAME, recorder_node.NODE_NAME)
+
+
+# --- 13. the player's path: one line for anything that is not a bag, and no hang -------------------
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize(
+    ("make", "words"),
+    [
+        ("empty_dir", ("holds no .mcap file",)),
+        ("dir_named_mcap", ("x.mcap is a directory",)),
+        ("/etc/hostname", ("not an MCAP file",)),
+        ("fifo", ("FIFO",)),
+        ("/dev/null", ("character device",)),
+    ],
+)
+def test_the_player_refuses_a_path_that_is_no_bag(tmp_path: Path, make: str, words: tuple[str, ...]) -> None:
+    path = tmp_path / make
+    if make == "empty_dir":
+        path.mkdir()
+    elif make == "dir_named_mcap":
+        (path / "x.mcap").mkdir(parents=True)
+    elif make == "fifo":
+        os.mkfifo(path)  # opened for reading, it would wait for a writer forever
+    else:
+        path = Path(make)
+    result = subprocess.run(
+        [PYTHON, "-m", "pendulum_accel.nodes.player_node", "--ros-args", "-p", f"path:={path}"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
+    )
+    one_line_error(result, *words)
+    one_line_error(cli("info", str(path)), *words)  # the same reader: every command says the same
+
+
+# --- 14. angles that jump across ±90° every sample: a result (holes where the filter broke), no traceback
+
+
+def test_the_smoother_on_angles_across_90_degrees_gives_a_result(
+    red_team: dict[str, str], tmp_path: Path
+) -> None:
+    result = cli("analyze", red_team["alt90"], "--estimator", "smoother", "--json")
+    assert result.returncode == 0 and "Traceback" not in result.stderr, result.stderr
+    exported = cli("export", red_team["alt90"], "--out", str(tmp_path / "t"))
+    assert exported.returncode == 0 and "Traceback" not in exported.stderr, exported.stderr
+    table = np.genfromtxt(tmp_path / "t" / "car__accel__smoothed.csv", delimiter=",", names=True)
+    columns = table.dtype.names
+    assert columns is not None
+    a, var = table[columns[1]], table[columns[2]]
+    # Each sample is an estimate with a positive, finite variance, or a hole (both NaN): never inf,
+    # never a zero or negative variance beside a number.
+    assert np.array_equal(np.isnan(a), np.isnan(var))
+    assert np.all(np.isfinite(a[~np.isnan(a)])) and np.all(var[~np.isnan(var)] > 0.0)
+    assert np.all(np.isfinite(var[~np.isnan(var)]))
+
+
+def test_the_rts_pass_keeps_the_filtered_estimate_where_the_prior_has_no_inverse() -> None:
+    from pendulum_accel.estimators import ekf_kernels as kern
+
+    n = 4
+    eye = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    xpo = np.arange(3 * n, dtype=float).reshape(n, 3)
+    ppr = eye.copy()
+    ppr[2] = 0.0  # singular prior at sample 2: nothing can be carried back from it to sample 1
+    a, v = kern.rts(xpo.copy(), ppr, xpo, eye.copy(), eye.copy(), np.zeros(n, dtype=np.bool_))
+    assert a[1] == xpo[1, 2] and v[1] == 1.0  # the filtered value and variance, exactly
+    assert np.all(np.isfinite(a)) and np.all(v > 0.0)
 
 
 if __name__ == "__main__":

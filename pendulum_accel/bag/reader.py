@@ -25,6 +25,7 @@ import contextlib
 import heapq
 import mmap
 import os
+import stat
 import struct
 import zlib
 from collections.abc import Iterator, Sequence
@@ -473,7 +474,12 @@ def _find_mcap(path: Path) -> tuple[Path, Path]:
 def _locate(path: Path) -> tuple[Path, Path, Any]:
     """(bag directory or file, .mcap path, parsed metadata.yaml or None) for a bag directory or a bare
     .mcap file; the metadata is parsed here once, for the file name and for read_bag."""
+    odd = not_a_file_or_directory(path)
+    if odd is not None:
+        # Opening a FIFO for reading would wait for a writer forever; a device is no bag either.
+        raise BagError(f"bag {path} is {odd}, not a bag directory or an .mcap file")
     if path.is_file():
+        _check_magic(path)
         return path, path, None
     if not path.is_dir():
         raise BagError(f"bag {path} does not exist")
@@ -495,10 +501,47 @@ def _locate(path: Path) -> tuple[Path, Path, Any]:
                 if not files[0].endswith(".mcap"):
                     raise BagError(f"bag {path} uses storage {files[0]!r}; only MCAP bags are supported")
                 return path, inside, doc
-    found = sorted(f for f in path.glob("*.mcap") if not f.is_symlink() or _within(path, f))
+    named = sorted(f for f in path.glob("*.mcap") if not f.is_symlink() or _within(path, f))
+    found = [f for f in named if f.is_file()]
+    if not found and named:
+        what = not_a_file_or_directory(named[0]) or "a directory"
+        raise BagError(f"bag {path}: {named[0].name} is {what}, not an MCAP file")
+    if not found:
+        raise BagError(f"bag {path} holds no .mcap file: not a bag directory")
     if len(found) != 1:
         raise BagError(f"bag {path} has {len(found)} .mcap files, expected 1")
     return path, found[0], doc
+
+
+def not_a_file_or_directory(path: Path) -> str | None:
+    """What ``path`` is when it exists but is neither a regular file nor a directory ("a FIFO (named
+    pipe)", "a character device", ...), else None (textfile.py's rule: bag/ imports only itself)."""
+    try:
+        kind = stat.S_IFMT(os.stat(path).st_mode)
+    except OSError:
+        return None
+    if kind in (stat.S_IFREG, stat.S_IFDIR):
+        return None
+    return _ODD_KINDS.get(kind, "not a regular file")
+
+
+_ODD_KINDS = {
+    stat.S_IFIFO: "a FIFO (named pipe)",
+    stat.S_IFCHR: "a character device",
+    stat.S_IFBLK: "a block device",
+    stat.S_IFSOCK: "a socket",
+}
+
+
+def _check_magic(path: Path) -> None:
+    """BagError unless the regular file ``path`` starts with the MCAP magic bytes (or cannot be read)."""
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(len(_MAGIC))
+    except OSError as err:
+        raise BagError(f"cannot read {path}: {err.strerror or err}") from None
+    if head != _MAGIC:
+        raise BagError(f"{path} is not an MCAP file (bad magic bytes)")
 
 
 def inside_bag(root: Path, name: str) -> Path:

@@ -51,7 +51,7 @@ class StreamedBag:
         try:
             self._reader = SeekingReader(self._file)
             summary = self._reader.get_summary()
-        except (McapError, ValueError, OSError, EOFError) as err:
+        except (McapError, ValueError, OSError, EOFError, struct.error) as err:
             self._file.close()
             raise NotIndexedError(f"bag {self.path}: no readable summary ({err})") from None
         if summary is None or not summary.chunk_indexes:

@@ -59,23 +59,29 @@ def _is_bag(source: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Print σ(τ) figures for the angle and the estimate; plot them when asked."""
-    from pendulum_accel.allan import allan_deviation, bag_series, plot_allan, scene_series
+    from pendulum_accel.allan import allan_deviation, bag_series, interruptible, plot_allan, scene_series
 
     plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     bag = choose_topics(read_intact(args.source, args.salvage), args) if _is_bag(args.source) else None
     series = bag_series(bag) if bag is not None else scene_series(args.source, args.duration, args.estimator)
-    results: list[AllanResult] = [allan_deviation(series.theta, series.rate_hz, label="angle θ", unit="rad")]
+    # interruptible: σ(τ) of a long series is seconds of numpy work that Ctrl-C must still stop at once.
+    results: list[AllanResult] = [
+        interruptible(lambda: allan_deviation(series.theta, series.rate_hz, label="angle θ", unit="rad"))
+    ]
     note = None
     if series.accel is not None:
         try:
+            accel = series.accel
             results.append(
                 # The estimator shapes the short τ (it is a filter): fit from τ = ESTIMATE_FIT_FROM on.
-                allan_deviation(
-                    series.accel,
-                    series.rate_hz,
-                    label=f"estimate â ({series.estimator})",
-                    unit="m/s²",
-                    fit_from=ESTIMATE_FIT_FROM,
+                interruptible(
+                    lambda: allan_deviation(
+                        accel,
+                        series.rate_hz,
+                        label=f"estimate â ({series.estimator})",
+                        unit="m/s²",
+                        fit_from=ESTIMATE_FIT_FROM,
+                    )
                 )
             )
         except ParameterError as err:

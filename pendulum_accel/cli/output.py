@@ -11,7 +11,9 @@ The rules, the same for every command (docs/hostile_inputs.md lists the messages
   so the suffix always says the format (``/dev/full`` is refused by name; a full disk fails at the write);
 * an empty path, a directory where a file goes, a file where a directory goes (or in the path above it),
   a read-only or full file system are refused before any work;
-* a write that fails later (the disk fills up) removes what this command wrote, and says so.
+* a file is written under a hidden partial name and renamed when complete: a write that fails later
+  (the disk fills up, an encoder exits non-zero) or an interrupt leaves nothing under the asked name,
+  removes what this command wrote, and says so.
 """
 
 from __future__ import annotations
@@ -116,24 +118,44 @@ def _remove_partial(path: Path) -> bool:
 def _failure(path: Path, err: OSError, removed: bool, existed: bool) -> OutputError:
     """The one line for a write that failed: the cause, then what was kept."""
     kept = "the partial file was removed" if removed else "nothing was kept"
-    if existed and not removed:
-        kept = "nothing was written"
+    if existed:
+        kept += f"; the existing {path.name} is as it was"
     return OutputError(f"cannot write {path}: {err.strerror or err}; {kept}")
 
 
-def write_output(path: Path, write: Callable[[Path], object]) -> Path:
-    """Call ``write(path)`` (it creates the file); OutputError naming the cause on any OSError.
+def partial_path(path: Path) -> Path:
+    """Where ``path`` is written before it is complete: a hidden sibling with the same suffix (writers
+    pick the format by it), ``.NAME.partial.SUFFIX``; the same directory, so the rename is atomic."""
+    return path.with_name(f".{path.stem}.partial{path.suffix}")
 
-    A regular file left by the failed write is removed (no partial output); a device such as /dev/full
-    is left alone. The message says what was kept. Returns ``path``.
+
+def write_output(path: Path, write: Callable[[Path], object]) -> Path:
+    """Call ``write(target)`` (it creates the file), then rename ``target`` to ``path``; OutputError naming
+    the cause on any OSError (the writes', the close's, an encoder's exit status).
+
+    ``target`` is :func:`partial_path`: until the rename, ``path`` holds nothing new, so a full disk,
+    an error or an interrupt never leaves a partial file under the asked name (nor spoils a file
+    already there), and the partial file is removed. A device or FIFO (/dev/null, a pipe) is written
+    directly. Returns ``path``.
     """
     if path.is_dir():
         raise OutputError(f"cannot write {path}: it is a directory; give a file name, nothing written")
+    if _special(path):
+        try:
+            write(path)
+        except OSError as err:
+            raise OutputError(f"cannot write {path}: {err.strerror or err}; nothing was kept") from None
+        return path
     existed = path.exists()
+    partial = partial_path(path)
     try:
-        write(path)
+        write(partial)
+        os.replace(partial, path)
     except OSError as err:
-        raise _failure(path, err, _remove_partial(path), existed) from None
+        raise _failure(path, err, _remove_partial(partial), existed) from None
+    except BaseException:
+        _remove_partial(partial)
+        raise
     return path
 
 

@@ -108,17 +108,9 @@ def chain_config(args: argparse.Namespace) -> ChainConfig:
         rt_priority=args.rt_priority,
         time_source=args.time_source,
         namespace=str(getattr(args, "namespace", "") or ""),
-        remaps=[_remap(text) for text in getattr(args, "remaps", [])],
+        remaps=list(getattr(args, "remaps", [])),  # checked with rcl's rules by the launcher's preflight
         namespace_clock=bool(getattr(args, "namespace_clock", True)),
     )
-
-
-def _remap(text: str) -> str:
-    """A FROM:=TO rule as given; ParameterError (one line) when it does not read FROM:=TO."""
-    source, sep, target = text.partition(":=")
-    if not sep or not source or not target:
-        raise ParameterError(f"--remap {text!r} must read FROM:=TO (e.g. pendulum/joint_states:=angles)")
-    return text
 
 
 def _priority(text: str) -> int:

@@ -264,7 +264,7 @@ def _flush(
                 out_v[last - j, m] = ring_v[slot]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # a long batch leaves the GIL: Ctrl-C reaches the main thread
 def run_pass(
     t: np.ndarray, y: np.ndarray, params: np.ndarray, lags: np.ndarray, keep: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -329,8 +329,9 @@ def _copy3(x: np.ndarray, p: np.ndarray, x_out: np.ndarray, p_out: np.ndarray) -
 
 
 @njit(cache=True)
-def _inverse3(m: np.ndarray, inv: np.ndarray) -> None:
-    """inv ← M⁻¹ of a 3×3 matrix by cofactors (adjugate / determinant), into a buffer (no allocation)."""
+def _inverse3(m: np.ndarray, inv: np.ndarray) -> bool:
+    """inv ← M⁻¹ of a 3×3 matrix by cofactors (adjugate / determinant), into a buffer (no allocation);
+    False (inv untouched past the cofactors) when det M is 0 or not finite: M has no usable inverse."""
     inv[0, 0] = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
     inv[0, 1] = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
     inv[0, 2] = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
@@ -341,9 +342,12 @@ def _inverse3(m: np.ndarray, inv: np.ndarray) -> None:
     inv[2, 1] = m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
     inv[2, 2] = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
     det = m[0, 0] * inv[0, 0] + m[0, 1] * inv[1, 0] + m[0, 2] * inv[2, 0]
+    if det == 0.0 or not math.isfinite(det):
+        return False
     for i in range(3):
         for j in range(3):
             inv[i, j] = inv[i, j] / det
+    return True
 
 
 @njit(cache=True)
@@ -351,7 +355,8 @@ def rts(
     xpr: np.ndarray, ppr: np.ndarray, xpo: np.ndarray, ppo: np.ndarray, fk: np.ndarray, starts: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Rauch-Tung-Striebel pass, per segment: G = P⁺_k F_{k+1}ᵀ (P⁻_{k+1})⁻¹,
-    xˢ_k = x⁺_k + G (xˢ_{k+1} − x⁻_{k+1}), Pˢ_k = P⁺_k + G (Pˢ_{k+1} − P⁻_{k+1}) Gᵀ; returns (âˢ, var âˢ)."""
+    xˢ_k = x⁺_k + G (xˢ_{k+1} − x⁻_{k+1}), Pˢ_k = P⁺_k + G (Pˢ_{k+1} − P⁻_{k+1}) Gᵀ; returns (âˢ, var âˢ),
+    NaN (a hole) where not even the filter has a positive P_aa."""
     n = xpo.shape[0]
     a = np.empty(n)
     v = np.empty(n)
@@ -364,11 +369,13 @@ def rts(
     tmp = np.empty((3, 3))
     inv = np.empty((3, 3))
     for k in range(n - 1, -1, -1):
-        if k == n - 1 or starts[k + 1]:
+        # A prior with no inverse (a filter driven far out of its model, e.g. angles that jump across
+        # ±90° every sample) carries nothing back: the pass restarts there from the filtered estimate,
+        # as at a segment start.
+        if k == n - 1 or starts[k + 1] or not _inverse3(ppr[k + 1], inv):
             xs[:] = xpo[k]
             ps[:, :] = ppo[k]
         else:
-            _inverse3(ppr[k + 1], inv)
             for i in range(3):  # P⁺ Fᵀ
                 for j in range(3):
                     pf[i, j] = (
@@ -396,8 +403,17 @@ def rts(
                         + tmp[i, 1] * gain[j, 1]
                         + tmp[i, 2] * gain[j, 2]
                     )
-        a[k] = xs[2]
-        v[k] = ps[2, 2]
+            if not (ps[0, 0] > 0.0 and ps[1, 1] > 0.0 and ps[2, 2] > 0.0 and math.isfinite(xs[2])):
+                # Cancellation in an ill-conditioned prior gave no covariance (or no state) at all:
+                # keep the filtered estimate there, as for a prior with no inverse.
+                xs[:] = xpo[k]
+                ps[:, :] = ppo[k]
+        if ps[2, 2] > 0.0 and math.isfinite(ps[2, 2]) and math.isfinite(xs[2]):
+            a[k] = xs[2]
+            v[k] = ps[2, 2]
+        else:  # the filter itself broke down here (its P_aa is no variance): no estimate, a hole
+            a[k] = math.nan
+            v[k] = math.nan
     return a, v
 
 
@@ -532,7 +548,7 @@ def _imm_start(
     state[0], state[1] = t, 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # as run_pass
 def run_imm(
     t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, switch_time: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

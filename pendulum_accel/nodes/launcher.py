@@ -30,6 +30,7 @@ from typing import Any
 
 from pendulum_accel.errors import ParameterError, RosMissingError
 from pendulum_accel.nodes.accounting import Accounting
+from pendulum_accel.nodes.names import fully_qualified_namespace
 from pendulum_accel.nodes.preflight import check_chain
 from pendulum_accel.nodes.scheduling import RT_PRIORITY_ENV
 
@@ -84,8 +85,8 @@ def node_command(
     cmd = [sys.executable, "-m", f"pendulum_accel.nodes.{module}", "--ros-args"]
     if name:
         cmd += ["-r", f"__node:={name}"]
-    if namespace:
-        cmd += ["-r", f"__ns:={'/' + namespace.strip('/')}"]
+    if fully_qualified_namespace(namespace):
+        cmd += ["-r", f"__ns:={fully_qualified_namespace(namespace)}"]
     for rule in remaps:
         cmd += ["-r", rule]
     for key, value in params.items():

@@ -1,7 +1,8 @@
-"""Checks of a chain configuration before any node starts: scene, overrides, estimator, output, pacing.
+"""Checks of a chain configuration before any node starts: scene, overrides, names, estimator, output.
 
-ROS-free and quick. The launcher calls :func:`check_chain` first, so a mistake is one line from the
-launcher, not three nodes starting, failing each in its own words and leaving an empty bag behind.
+Quick (ROS only for rclpy's name validators). The launcher calls :func:`check_chain` first, so a mistake
+is one line from the launcher, not three nodes starting, failing each in its own words and leaving an
+empty bag behind.
 """
 
 from __future__ import annotations
@@ -18,15 +19,18 @@ if TYPE_CHECKING:
 def check_chain(config: ChainConfig) -> None:
     """ParameterError/SceneError (one line) for anything the nodes would refuse, checked in that order.
 
-    Scene loads and validates with its overrides applied (ranges, whole seeds); the estimator is a
+    Scene loads and validates with its overrides applied (ranges, whole seeds); the namespace and
+    remap rules are names ROS accepts for every node (nodes.names, rcl's rules); the estimator is a
     known method; the bag directory does not exist (or ``overwrite``), and its parent exists and is
     writable. (``--rt-priority`` with ``--fast`` is refused by the command line, cli.run.chain_config.)
     """
     from pendulum_accel.estimators import ESTIMATORS
+    from pendulum_accel.nodes.names import check_chain_names
     from pendulum_accel.overrides import apply_overrides
     from pendulum_accel.scene import load_scene
 
     apply_overrides(load_scene(config.scene), config.overrides)
+    check_chain_names(config.namespace, config.remaps)
     if config.estimator is not None and config.estimator not in ESTIMATORS:
         raise ParameterError(f"unknown estimator {config.estimator!r}; choose one of {', '.join(ESTIMATORS)}")
     if config.record is not None:

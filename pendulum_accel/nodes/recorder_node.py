@@ -7,7 +7,11 @@ namespace (a status is named by its node's full name), so two chains on one doma
 Subscriptions are raw (no deserialisation) and reliable keep-all, so a slow disk pushes back on the
 publishers instead of losing messages. Log time is the message's own stamp by default (simulation
 time, as ``pendulum-accel generate`` writes it), so a bag replays on the scene's timeline whatever
-the pacing of the recording was. The first SIGINT/SIGTERM drains the queues, then the bag is closed.
+the pacing of the recording was. The bag starts at the chain's first angle: a message that arrives
+before it (start-up diagnostics, the latched robot_description) is logged at that angle's stamp, its
+own header stamp unchanged (rosbag2 logs a transient-local message at its receive time, which is
+also no earlier than the recording's start). The first SIGINT/SIGTERM drains the queues, then the bag
+is closed.
 """
 
 from __future__ import annotations
@@ -123,8 +127,12 @@ class RecorderNode(ChainNode):
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
         self._offsets = {topic: stamp_offset(self.types[topic]) for topic in topics}
         self._first_stamp_ns: int | None = None
-        self._unstamped: list[tuple[str, bytes]] = []
         self.foreign_statuses = 0  # /diagnostics statuses of nodes outside this namespace: not recorded
+        # The bag starts at the chain's first angle (its first data sample): what comes before it
+        # (diagnostics, the latched robot_description) waits here with its stamp, if it has one.
+        angles = self.resolve_topic_name(bm.JOINT_STATES)
+        self._start_topic = angles if angles in topics else None
+        self._early: list[tuple[str, bytes, int | None]] = []
 
         # Messages wait here (log times, CDR payloads) until the next flush writes them in one bulk call:
         # a per-message write through rosbags cost more CPU than the rest of the recorder.
@@ -170,7 +178,7 @@ class RecorderNode(ChainNode):
         self.writer.add_topic(topic, self.types[topic], offered or [chain])
 
     def _on_message(self, topic: str, data: bytes) -> None:
-        """Write one raw message at its stamp (or receive time)."""
+        """Write one raw message at its stamp (or receive time); before the first angle, hold it."""
         self._last_message = time.monotonic()
         if self._closed:
             return
@@ -183,21 +191,25 @@ class RecorderNode(ChainNode):
             self._add_topic(topic)
         self.received[topic] += 1
         offset = self._offsets[topic]
-        if self.log_time == "stamp" and offset is not None and len(data) >= offset + _STAMP.size:
-            log_ns = stamp_ns(data, offset)
-            if self._first_stamp_ns is None:
-                self._first_stamp_ns = log_ns
-                for early_topic, early in self._unstamped:
-                    self._queue(early_topic, log_ns, early)
-                self._unstamped = []
-        elif self.log_time == "stamp" and self._first_stamp_ns is None:
-            # A message without a stamp (robot_description, sent to every new subscriber at once) before
-            # the data: logged with the first stamped message, so the bag starts with the data.
-            self._unstamped.append((topic, data))
-            return
+        stamped = offset is not None and len(data) >= offset + _STAMP.size
+        if self.log_time == "stamp" and self._first_stamp_ns is None:
+            stamp = stamp_ns(data, offset) if stamped and offset is not None else None
+            starts = stamp is not None and (self._start_topic is None or topic == self._start_topic)
+            if not starts:
+                # Before the data (diagnostics at start-up, robot_description sent to every new
+                # subscriber): logged at the first angle's stamp, so the bag starts with its data.
+                self._early.append((topic, data, stamp))
+                return
+            assert stamp is not None
+            self._first_stamp_ns = stamp
+            for early_topic, early, early_stamp in self._early:
+                self._queue(early_topic, max(stamp, early_stamp or stamp), early)
+            self._early = []
+            self._queue(topic, stamp, data)
+        elif self.log_time == "stamp" and stamped and offset is not None:
+            self._queue(topic, stamp_ns(data, offset), data)
         else:  # receive time, or an unstamped message later on: the node's clock, on the run's time base
-            log_ns = self.get_clock().now().nanoseconds
-        self._queue(topic, log_ns, data)
+            self._queue(topic, self.get_clock().now().nanoseconds, data)
 
     def _own_statuses(self, data: bytes) -> bytes | None:
         """The DiagnosticArray ``data`` with only the statuses of this namespace's nodes (as is when all are),
@@ -288,9 +300,10 @@ class RecorderNode(ChainNode):
             "expected": expected,
             "foreign_statuses": self.foreign_statuses,
         }
-        for topic, data in self._unstamped:  # no stamped message ever came: log them at the clock
-            self._queue(topic, self.get_clock().now().nanoseconds, data)
-        self._unstamped = []
+        now = self.get_clock().now().nanoseconds
+        for topic, data, stamp in self._early:  # no angle ever came: log them at their stamp (or the clock)
+            self._queue(topic, now if stamp is None else stamp, data)
+        self._early = []
         try:
             self._write_pending()
             own["written"] = dict(self.writer.counts)

@@ -376,9 +376,10 @@ class SimulatorNode(ManagedNode):
                 self.get_logger().info(
                     f"first sample acknowledged by every reader after {time.perf_counter() - start:.2f} s"
                 )
-                start = time.perf_counter() - float(t_rel[first])
-                if self.time_source == "wall":
-                    self._stamp_wall(frames, start, first + 1)
+                if self.time_source != "wall":
+                    start = time.perf_counter() - float(t_rel[first])
+                # On wall time the schedule keeps the first sample's due time: every stamp is t0 + k·dt,
+                # as a sensor's, and the samples due during the handshake go out late (in the jitter).
         for topic in frames.rows:
             self._count(str(bm.role_of(topic)), sent)
         self.published += sent

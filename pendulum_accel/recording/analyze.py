@@ -396,10 +396,17 @@ def analyze_bag(
     if not skip >= 0.0:
         raise BagError(f"skip must be >= 0 s, got {skip!r}")
     if not (math.isfinite(lag) and lag >= 0.0):
-        raise BagError(f"lag must be >= 0 s, got {lag!r}")
+        raise BagError(f"lag must be a finite number of seconds >= 0, got {lag!r}")
     if tolerance is not None and not tolerance > 0.0:
         raise BagError(f"tolerance must be > 0 m/s², got {tolerance!r}")
     data = bag if isinstance(bag, Bag) else read_bag(bag)
+    if lag > max(data.duration_s, 0.0):
+        # No estimate can use more later data than the recording holds (and the lag's ring of
+        # lag·rate samples would not fit in memory long before 1e300 s).
+        raise BagError(
+            f"lag {lag:g} s is longer than the recording ({data.duration_s:.3f} s of {data.path}); "
+            "for the whole recording use --estimator smoother"
+        )
     check_chain_contract(data)
     js = data.decode(
         data.chain_topic(TOPIC_JOINT_STATES),
