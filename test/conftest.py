@@ -23,6 +23,13 @@ from typing import IO, Any
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
+
+# A suite started as a background job (`make test &`, some CI runners) inherits SIGINT as ignored, and
+# every process a test starts would inherit that too: the Ctrl-C tests would then wait for a command that
+# never sees its SIGINT, and nodes stopped with SIGINT would close only at SIGKILL. A handler set here
+# is reset to the default action in every child at exec, as a user's terminal would have it.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 _LOCK_DIR = Path(tempfile.gettempdir())
 # Linux hosts fit domain ids 0-101 (port range); 0 is what users run on, so skip it.
 _DOMAIN_IDS = range(1, 102)

@@ -4,6 +4,7 @@ accuracy–latency front (recording.design_study), on Dask like ``analyze`` over
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import Any
 
@@ -13,14 +14,21 @@ from pendulum_accel.errors import ParameterError
 TABLE_SUFFIXES = (".parquet", ".csv")
 
 
-def _floats(text: str) -> list[float]:
-    """'0.05,0.2,1' → [0.05, 0.2, 1.0]; ParameterError for anything else."""
+GRID_OPTIONS = ("lengths", "damping_ratios", "rates", "noises", "quantizations", "lags")
+"""Options holding comma-separated numbers: parsed in run(), so a bad one is the package's one line."""
+
+
+def _floats(option: str, text: str | list[float]) -> list[float]:
+    """'0.05,0.2,1' → [0.05, 0.2, 1.0] (a default list as it is); ParameterError naming --option."""
+    if isinstance(text, list):
+        return text
+    flag = "--" + option.replace("_", "-")
     try:
         values = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise ParameterError(f"expected comma-separated numbers, got {text!r}") from None
-    if not values:
-        raise ParameterError(f"expected comma-separated numbers, got {text!r}")
+        raise ParameterError(f"{flag} takes comma-separated numbers, got {text!r}") from None
+    if not values or not all(math.isfinite(v) for v in values):
+        raise ParameterError(f"{flag} takes comma-separated finite numbers, got {text!r}")
     return values
 
 
@@ -49,14 +57,12 @@ def register(subparsers: Any) -> None:
         metavar="SCENE",
         help=f"bundled scene names or scene YAML paths giving a(t) (default: {' '.join(DEFAULT_PROFILES)})",
     )
-    parser.add_argument("--lengths", type=_floats, default=[0.05, 0.2, 1.0], metavar="L,...", help="m")
-    parser.add_argument(
-        "--damping-ratios", type=_floats, default=[0.05, 0.7], metavar="Z,...", help="ζ (1: critical)"
-    )
-    parser.add_argument("--rates", type=_floats, default=[50.0, 200.0], metavar="HZ,...", help="Hz")
-    parser.add_argument("--noises", type=_floats, default=[1e-3, 5e-3], metavar="RAD,...", help="σ, rad")
-    parser.add_argument("--quantizations", type=_floats, default=[0.0], metavar="RAD,...", help="step, rad")
-    parser.add_argument("--lags", type=_floats, default=list(DEFAULT_LAGS), metavar="S,...", help="s")
+    parser.add_argument("--lengths", default=[0.05, 0.2, 1.0], metavar="L,...", help="m")
+    parser.add_argument("--damping-ratios", default=[0.05, 0.7], metavar="Z,...", help="ζ (1: critical)")
+    parser.add_argument("--rates", default=[50.0, 200.0], metavar="HZ,...", help="Hz")
+    parser.add_argument("--noises", default=[1e-3, 5e-3], metavar="RAD,...", help="σ, rad")
+    parser.add_argument("--quantizations", default=[0.0], metavar="RAD,...", help="step, rad")
+    parser.add_argument("--lags", default=list(DEFAULT_LAGS), metavar="S,...", help="s")
     parser.add_argument("--seeds", type=int, default=2, metavar="N", help="sensor seeds per case")
     parser.add_argument(
         "--duration", type=float, default=DEFAULT_DURATION, metavar="S", help="seconds of each profile"
@@ -72,6 +78,8 @@ def run(args: argparse.Namespace) -> int:
     from pendulum_accel.recording.fleet import stderr_progress, write_rows
     from pendulum_accel.scene import load_scene
 
+    for option in GRID_OPTIONS:
+        setattr(args, option, _floats(option, getattr(args, option)))
     out = check_output_file(args.out, TABLE_SUFFIXES, option="--out")
     plot = check_output_file(args.plot, (".png",), option="--plot") if args.plot is not None else None
     if not 0.0 < args.duration <= 1e6:
