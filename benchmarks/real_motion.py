@@ -309,7 +309,9 @@ def imm_scan(
     out = np.zeros((len(candidates), 5))
     for i, (modes, switch) in enumerate(candidates):
         for r in runs:
-            a, var, _ = kern.run_imm(r.t, r.theta, params, np.array(modes), switch)
+            a, var, _ = kern.run_imm(
+                r.t, r.theta, params, np.array(modes), kern.chain_rates(len(modes), switch)
+            )
             keep = r.t >= WARMUP
             e = (a - r.accel)[keep]
             beyond = e * e > 4.0 * var[keep]

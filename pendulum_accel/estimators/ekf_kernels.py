@@ -413,24 +413,30 @@ def imm_step(
     y: float,
     params: np.ndarray,
     qs: np.ndarray,
-    switch_time: float,
+    rates: np.ndarray,
 ) -> bool:
     """One sample into the interacting-multiple-model filter (Blom & Bar-Shalom); True when it (re)started.
 
-    Model j is the EKF above with q_a = qs[j]; the mode follows a Markov chain that leaves each mode at
-    rate 1/switch_time to any other (Π_ij = e^{−Δt/τ} on the diagonal, the rest shared evenly). Per sample:
+    Model j is the EKF above with q_a = qs[j]; the mode follows a continuous-time Markov chain with jump
+    rates R_ij (1/s, ``chain_rates``): over Δt it stays with Π_ii = e^{−r_i Δt}, r_i = Σ_j R_ij, and moves
+    to j with Π_ij = (1 − e^{−r_i Δt}) R_ij / r_i. Per sample:
     mix (c_j = Σ_i Π_ij μ_i, x⁰_j = Σ_i Π_ij μ_i x_i / c_j, P⁰_j likewise plus the spread of the x_i), predict
     and correct each model, μ_j ∝ c_j N(ν_j; 0, S_j), and combine: x = Σ μ_j x_j,
     P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ). ``state``, ``params``: as ``step``; x, p receive the combination.
     """
     m = qs.size
-    return _imm_step_into(xs, ps, mu, x, p, state, t, y, params, qs, switch_time, _imm_scratch(m))
+    return _imm_step_into(xs, ps, mu, x, p, state, t, y, params, qs, rates, _imm_scratch(m))
 
 
 @njit(cache=True)
-def _imm_scratch(m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Work arrays of one imm_step for m modes: (c, x⁰, P⁰, F, K, log-likelihoods)."""
-    return np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3, 3)), np.empty((3, 3)), np.empty(3), np.empty(m)
+def _imm_scratch(
+    m: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Work arrays of one imm_step for m modes: (c, x⁰, P⁰, F, K, log-likelihoods, Π)."""
+    return (
+        np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3, 3)), np.empty((3, 3)), np.empty(3), np.empty(m),
+        np.empty((m, m)),
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -445,11 +451,11 @@ def _imm_step_into(
     y: float,
     params: np.ndarray,
     qs: np.ndarray,
-    switch_time: float,
-    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    rates: np.ndarray,
+    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> bool:
     """imm_step with its work arrays given (``_imm_scratch``): a recording's pass allocates them once."""
-    cj, x0, p0, f, k, logl = scratch
+    cj, x0, p0, f, k, logl, pi = scratch
     g, length, c, r = params[0], params[1], params[2], params[3]
     q_rate, reset_gap = params[4], params[6]
     m = qs.size
@@ -457,8 +463,13 @@ def _imm_step_into(
         _imm_start(xs, ps, mu, x, p, state, t, y, params)
         return True
     dt = t - state[0]
-    stay = math.exp(-dt / switch_time)
-    move = (1.0 - stay) / (m - 1) if m > 1 else 0.0
+    for i in range(m):
+        out = 0.0
+        for j in range(m):
+            out += rates[i, j] if j != i else 0.0
+        stay = math.exp(-out * dt)
+        for j in range(m):
+            pi[i, j] = stay if j == i else ((1.0 - stay) * rates[i, j] / out if out > 0.0 else 0.0)
     for j in range(m):
         cj[j] = 0.0
         for a in range(3):
@@ -467,14 +478,14 @@ def _imm_step_into(
                 p0[j, a, b] = 0.0
     for j in range(m):
         for i in range(m):
-            cj[j] += (stay if i == j else move) * mu[i]
+            cj[j] += pi[i, j] * mu[i]
     for j in range(m):
         for i in range(m):
-            w = (stay if i == j else move) * mu[i] / cj[j]
+            w = pi[i, j] * mu[i] / cj[j]
             for a in range(3):
                 x0[j, a] += w * xs[i, a]
         for i in range(m):
-            w = (stay if i == j else move) * mu[i] / cj[j]
+            w = pi[i, j] * mu[i] / cj[j]
             for a in range(3):
                 da = xs[i, a] - x0[j, a]
                 for b in range(3):
@@ -534,7 +545,7 @@ def _imm_start(
 
 @njit(cache=True)
 def run_imm(
-    t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, switch_time: float
+    t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, rates: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(â, P_aa, μ) of the IMM filter over a recording (``imm_step`` per sample); μ: a column per mode."""
     n = t.size
@@ -550,7 +561,7 @@ def run_imm(
     state = np.array([np.nan, 0.0])
     scratch = _imm_scratch(m)
     for i in range(n):
-        _imm_step_into(xs, ps, mu, x, p, state, t[i], y[i], params, qs, switch_time, scratch)
+        _imm_step_into(xs, ps, mu, x, p, state, t[i], y[i], params, qs, rates, scratch)
         a[i] = x[2]
         v[i] = p[2, 2]
         mus[i] = mu
@@ -581,6 +592,28 @@ def log_likelihood(t: np.ndarray, y: np.ndarray, params: np.ndarray) -> float:
     return total
 
 
+def chain_rates(modes: int, up_time: float, down_time: float | None = None) -> np.ndarray:
+    """R (modes × modes, 1/s) of the mode chain. With ``down_time`` None: each mode is left at rate
+    1/up_time, to every other mode evenly. With ``down_time``: a birth-death chain over modes ordered by
+    q_a, R_{i,i+1} = 1/up_time and R_{i,i−1} = 1/down_time (neighbours only).
+
+    Neighbours only, the calm mode never jumps straight into the most agile one: in a calm stretch the
+    agile modes keep only the weight their likelihood earns. A short down_time lets the weight settle back
+    into the calm modes within seconds after a manoeuvre (docs/estimators.md, "auto")."""
+    rates = np.zeros((modes, modes))
+    for i in range(modes):
+        if down_time is None:
+            for j in range(modes):
+                if j != i:
+                    rates[i, j] = 1.0 / (up_time * (modes - 1))
+            continue
+        if i + 1 < modes:
+            rates[i, i + 1] = 1.0 / up_time
+        if i > 0:
+            rates[i, i - 1] = 1.0 / down_time
+    return rates
+
+
 def warm() -> None:
     """Compile (or load from the cache) every pass: a few samples through each."""
     t = np.arange(30) / 100.0
@@ -588,7 +621,7 @@ def warm() -> None:
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
     _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, np.array([0, 5], dtype=np.int64), True)
     rts(xpr, ppr, xpo, ppo, fk, starts)
-    run_imm(t, y, params, np.array([1e-3, 0.1]), 5.0)
+    run_imm(t, y, params, np.array([1e-3, 0.1]), chain_rates(2, 5.0))
     log_likelihood(t, y, params)
 
 
