@@ -423,7 +423,7 @@ def evaluate(seeds: int, quick: bool) -> tuple[list[Row], dict[str, dict[float, 
             if profile.role != "validate":
                 continue
             runs = _runs_for(profile, design, seeds, quick)
-            preset_opts: dict[str, object] = {"preset": profile.preset}
+            preset_opts: dict[str, object] = {}  # the default, auto: no preset from the profile
             by: dict[str, Score] = {}
             for method in methods:
                 opts = preset_opts if method == "kalman" else {}
@@ -445,7 +445,7 @@ def evaluate(seeds: int, quick: bool) -> tuple[list[Row], dict[str, dict[float, 
                     )
                 )
             # kalman with a lag, and the lag curve (one pass gives every lag)
-            est = make_estimator("kalman", **design.settings(), preset=profile.preset)
+            est = make_estimator("kalman", **design.settings())
             assert isinstance(est, KalmanEstimator)
             lag_n = tuple(lag_samples(lag, design.rate_hz) for lag in LAGS)
             lagged = [est.lagged(r.t, r.theta, lag_n) for r in runs]
@@ -464,10 +464,7 @@ def evaluate(seeds: int, quick: bool) -> tuple[list[Row], dict[str, dict[float, 
                     stream_cost("kalman", design, runs[0], {**preset_opts, "lag": SHOWN_LAG}),
                 )
             )
-            smooth = [
-                make_estimator("smoother", **design.settings(), preset=profile.preset).batch(r.t, r.theta)
-                for r in runs
-            ]
+            smooth = [make_estimator("smoother", **design.settings()).batch(r.t, r.theta) for r in runs]
             smooth_score = Score.of(runs, smooth, design.rate_hz)
             # The bound: q with hindsight.
             grid = Q_GRID[::2] if quick else Q_GRID

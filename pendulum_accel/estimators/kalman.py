@@ -89,9 +89,9 @@ PRESETS: dict[str, MotionPreset] = {
         3.0,
         0.0215,
         0.0,
-        "the whole training split (UDDS 0-505 s, Husky 0-195 s, stop_and_go, a step), both designs, seed 0",
+        "the training split (UDDS 0-505 s, Husky 0-195 s, stop_and_go, a step), both designs, seed 0",
         1.0,
-    ),  # fmt: skip
+    ),
     "car": MotionPreset(
         (1e-4, 0.03), 50.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"
     ),

@@ -42,7 +42,8 @@ def stated_motion(preset: str, by: str = "the scene") -> MotionChoice:
 
 
 def motion_of(profile: AccelProfile) -> MotionChoice:
-    """The preset for a(t) = ``profile`` when nothing states one: ``auto``, whatever the profile (the
-    argument is kept for the callers' symmetry with ``stated_motion``; where the data came from is not used)."""
+    """The preset for a(t) = ``profile`` when nothing states one: ``auto``, whatever the profile (where
+    the data came from is not used; the argument keeps the callers' signature)."""
     del profile
-    return MotionChoice(DEFAULT_PRESET, "learned from the angles (an IMM from a constant a(t) to steps)")
+    why = "learned from the angles (an IMM from a constant a(t) to steps)"
+    return MotionChoice(DEFAULT_PRESET, why)
