@@ -52,14 +52,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from benchmarks import report as bench_report
+from benchmarks.corpus import CORPUS
 from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
-from pendulum_accel.physics.profiles import AccelProfile, Braking, Step, profile_from_dict
+from pendulum_accel.physics.profiles import AccelProfile
 from pendulum_accel.scene import load_scene
 
 SCENES_DIR = Path(__file__).resolve().parents[1] / "pendulum_accel" / "scenes"
@@ -116,35 +116,24 @@ class Profile:
     duration: float
 
 
-def _window(scene: str, start: float | None = None, end: float | None = None) -> Callable[[], AccelProfile]:
-    """A builder of bundled scene ``scene``'s speed-trace profile cut to [start, end] s, with the trace's
-    own differentiation settings (units, columns, cut-off) as its YAML states them."""
+PRESET_OF = {
+    "udds_p1": "car",
+    "stop_and_go": "lab_steps",
+    "step": "lab_steps",
+    "husky_1": "robot",
+    "hwfet": "car",
+    "udds_p2": "car",
+    "husky_2": "robot",
+    "braking": "lab_steps",
+}
+"""The profiles of the table above and the preset a user would pick for each; the rest of the corpus
+(benchmarks.corpus.CORPUS: more robots, logged accelerations) has no preset."""
 
-    def build() -> AccelProfile:
-        spec = dict(yaml.safe_load((SCENES_DIR / f"{scene}.yaml").read_text())["acceleration"])
-        if start is not None:
-            spec["start"] = start
-        if end is not None:
-            spec["end"] = end
-        return profile_from_dict(spec, SCENES_DIR)
-
-    return build
-
-
-def _scene(name: str) -> Callable[[], AccelProfile]:
-    """A builder of bundled scene ``name``'s acceleration profile."""
-    return lambda: load_scene(name).profile
-
-
-PROFILES = (
-    Profile("udds_p1", "train", "car", _window("udds", 0.0, 505.0), 505.0),
-    Profile("stop_and_go", "train", "lab_steps", _scene("stop_and_go"), 30.0),
-    Profile("step", "train", "lab_steps", lambda: Step(8.0, 0.0, 3.0), 20.0),
-    Profile("husky_1", "train", "robot", _window("husky_odom", 0.0, 195.0), 195.0),
-    Profile("hwfet", "validate", "car", _window("hwfet"), 765.0),
-    Profile("udds_p2", "validate", "car", _window("udds", 505.0, 1369.0), 864.0),
-    Profile("husky_2", "validate", "robot", _window("husky_odom", 200.0, 395.0), 195.0),
-    Profile("braking", "validate", "lab_steps", lambda: Braking(14.0, 4.0, 6.0), 20.0),
+PROFILES = tuple(
+    Profile(e.name, e.split, PRESET_OF[e.name], e.build, e.duration)
+    for name in PRESET_OF
+    for e in CORPUS
+    if e.name == name
 )
 
 

@@ -82,6 +82,24 @@ SCENE_NAMES: tuple[str, ...] = (
     "resonant_drive",
 )
 """The core scenes: seconds long, each run in full by the golden bags and the per-scene tests."""
+CORPUS_SCENE_NAMES: tuple[str, ...] = (
+    "jackal_odom",
+    "husky_imu",
+    "f1tenth_ds1_odom",
+    "f1tenth_ds2_odom",
+    "f1tenth_ds3_odom",
+    "f1tenth_ds4_odom",
+    "f1tenth_ds5_odom",
+    "f1tenth_ds1_imu",
+    "f1tenth_ds5_imu",
+    "comma2k19_speed",
+    "comma2k19_imu",
+    "phone_corolla_trip1",
+    "phone_corolla_trip2",
+    "bus_gps_speed",
+)
+"""Recorded robots, a car's CAN speed and logged accelerations (accel_csv) that widen the real-motion
+corpus (scenes/real_motion/README.md names each one's source, licence and conversion)."""
 REAL_MOTION_SCENE_NAMES: tuple[str, ...] = (
     "udds",
     "hwfet",
@@ -91,10 +109,12 @@ REAL_MOTION_SCENE_NAMES: tuple[str, ...] = (
     "hwfet_teaching",
     "ftp75_teaching",
     "husky_odom_teaching",
+    *CORPUS_SCENE_NAMES,
 )
-"""Recorded motion (drive cycles, a robot's odometry; docs/real_motion.md): minutes long, so kept out of
-the loops that run every core scene in full. Each comes in the short damped design and in the 1 m
-teaching design (``*_teaching``)."""
+"""Recorded motion (drive cycles, robots' odometry, logged accelerations; docs/real_motion.md): up to
+minutes long, so kept out of the loops that run every core scene in full. The drive cycles and the Husky's
+odometry come in the short damped design and in the 1 m teaching design (``*_teaching``); the
+CORPUS_SCENE_NAMES in the short damped design only."""
 BUNDLED_SCENE_NAMES: tuple[str, ...] = SCENE_NAMES + REAL_MOTION_SCENE_NAMES
 """Every scene file shipped in scenes/, as ``pendulum-accel scenes`` lists them."""
 DEFAULT_SCENE = "lecture_constant"

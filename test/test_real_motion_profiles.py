@@ -27,6 +27,7 @@ from pendulum_accel.physics.speed_trace import (
 )
 from pendulum_accel.scene import (
     BUNDLED_SCENE_NAMES,
+    CORPUS_SCENE_NAMES,
     REAL_MOTION_SCENE_NAMES,
     SCENE_NAMES,
     SCENES_DIR,
@@ -239,9 +240,11 @@ def test_bundled_recordings_have_their_stated_duration_and_maximum(name: str) ->
 
 
 def test_drive_cycles_are_real_motion_not_core_scenes() -> None:
-    """Every recording comes in both designs, listed after the core scenes, which stay seconds long."""
+    """Every drive cycle and the Husky come in both designs, listed after the core scenes, which stay seconds
+    long."""
     assert BUNDLED_SCENE_NAMES == SCENE_NAMES + REAL_MOTION_SCENE_NAMES
-    assert set(REAL_MOTION_SCENE_NAMES) == {n for c in CYCLES for n in (c, f"{c}_teaching")}
+    both_designs = {n for c in CYCLES for n in (c, f"{c}_teaching")}
+    assert set(REAL_MOTION_SCENE_NAMES) == both_designs | set(CORPUS_SCENE_NAMES)  # the corpus: one design
     short = load_scene("udds")
     p = short.pendulum
     omega0 = math.sqrt(p.gravity / p.length)
