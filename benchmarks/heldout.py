@@ -29,6 +29,7 @@ import numpy as np
 
 from benchmarks import report as bench_report
 from benchmarks.real_motion import (
+    HELDOUT_DESIGNS,
     Q_GRID,
     Design,
     Score,
@@ -41,21 +42,6 @@ from benchmarks.real_motion import (
 from pendulum_accel.estimators import make_estimator
 from pendulum_accel.recording.settings import motion_choice
 from pendulum_accel.scene import load_scene
-
-G = 9.80665
-
-
-def _damping(length: float, zeta: float) -> float:
-    """c = 2 ζ ω₀, ω₀ = √(g/l): the damping of a pendulum of length l at damping ratio ζ."""
-    return 2.0 * zeta * math.sqrt(G / length)
-
-
-HELDOUT_DESIGNS = (
-    Design("mid (l 0.2 m, ζ 0.3, 500 Hz, 0.5 mrad)", 0.2, _damping(0.2, 0.3), 0.5e-3, 500.0),
-    Design("tiny (l 2 cm, ζ 1, 1 kHz, 3 mrad)", 0.02, _damping(0.02, 1.0), 3e-3, 1000.0),
-    Design("light (l 0.5 m, c 0.1 /s, 50 Hz, 1 mrad)", 0.5, 0.1, 1e-3, 50.0),
-)
-"""Sensor designs no preset was fitted on: a mid-size one, a tiny critically damped one, a light one."""
 
 
 @dataclass(frozen=True)
