@@ -19,21 +19,26 @@ def quick(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[rm.Row], dict,
 
 
 def test_report_covers_every_validation_profile_design_and_method(quick: tuple) -> None:
-    """Rows for every validation profile × design × live method, the lag row, the smoother and both bounds;
-    no training profile is reported; the Markdown and the plot are written."""
+    """Rows for every validation profile × design (the fitted two and two no fit uses) × live method, the lag
+    row, the smoother and both bounds; no training profile is reported; the Markdown names the split and
+    the plot is written."""
     rows, _, _, out = quick
     validation = {p.name for p in rm.PROFILES if p.role == "validate"}
     training = {p.name for p in rm.PROFILES if p.role == "train"}
     assert validation and training and not validation & training
     assert {r.profile for r in rows} == validation
-    for design in rm.designs():
+    reported = {r.design for r in rows}
+    assert reported == {d.name for d in (*rm.designs(), *rm.REPORTED_HELDOUT)}
+    assert len(rm.REPORTED_HELDOUT) >= 2  # two designs no fit uses
+    for design in (*rm.designs(), *rm.REPORTED_HELDOUT):
         for profile in validation:
             methods = {
                 r.method.split(" ")[0] for r in rows if r.design == design.name and r.profile == profile
             }
             assert {*rm.LIVE_ESTIMATORS, "smoother", "ekf_hindsight", "rts_hindsight", "rts_best"} <= methods
     text = (out / "benchmarks" / "real_motion.md").read_text()
-    assert "| design | profile | method | RMS |" in text and "Targets (issue 24)" in text
+    assert "| design | profile | method | RMS |" in text and "Targets (issue 33)" in text
+    assert "Split (benchmarks.corpus)" in text
     assert (out / "img" / "bench_real_motion.png").stat().st_size > 0
 
 
