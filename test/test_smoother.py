@@ -64,7 +64,8 @@ def test_smoother_beats_the_filter_and_its_variance_is_smaller() -> None:
 
 
 def test_fixed_lag_over_the_whole_record_is_the_rts_smoother() -> None:
-    """A lag as long as the recording gives every sample all the data: the fixed-interval RTS result.
+    """A lag as long as the recording gives every sample all the data: on the single model (q_a given), the
+    fixed-interval RTS result.
 
     Both are the same linear-Gaussian algebra on the same linearisation (F, K); they differ in rounding only,
     which the RTS gain's (P⁻)⁻¹ (condition ≈ P_aa/P_θθ ≈ 1e7 here) magnifies to ~1e-9 relative: 1e-6 m/s²
@@ -73,7 +74,7 @@ def test_fixed_lag_over_the_whole_record_is_the_rts_smoother() -> None:
     t, theta, _ = drive()
     q = make_estimator("kalman", **CFG).q_accel  # type: ignore[attr-defined]
     a_s, v_s = estimate_batch("smoother", t, theta, **CFG, q_accel=q)
-    a_l, v_l = estimate_batch("kalman", t, theta, **CFG, lag=float(t[-1] + 1.0))
+    a_l, v_l = estimate_batch("kalman", t, theta, **CFG, q_accel=q, lag=float(t[-1] + 1.0))
     np.testing.assert_allclose(a_l, a_s, rtol=0.0, atol=1e-6)
     np.testing.assert_allclose(v_l, v_s, rtol=1e-6, atol=0.0)
 

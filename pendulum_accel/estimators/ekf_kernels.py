@@ -541,18 +541,20 @@ def _mix_ring(
     new_a: np.ndarray,
     new_v: np.ndarray,
     new_c: np.ndarray,
+    band: int,
 ) -> None:
     """IMM mixing of one buffered sample's blocks: â⁰_j = Σ_i w_ij â_i, var⁰_j = Σ_i w_ij (var_i + (â_i −
     â⁰_j)²), c⁰_j = Σ_i w_ij (c_i + (â_i − â⁰_j)(x_i − x⁰_j)) (the a_slot rows of the mixed augmented
     covariance: all the fixed-lag update needs)."""
     m = xs.shape[0]
     for j in range(m):
+        lo, hi = max(0, j - band), min(m, j + band + 1)  # w_ij = 0 beyond the chain's band
         a0 = 0.0
-        for i in range(m):
+        for i in range(lo, hi):
             a0 += w[i, j] * ra[i, slot]
         v0 = 0.0
         c0, c1, c2 = 0.0, 0.0, 0.0
-        for i in range(m):
+        for i in range(lo, hi):
             da = ra[i, slot] - a0
             v0 += w[i, j] * (rv[i, slot] + da * da)
             c0 += w[i, j] * (rc[i, slot, 0] + da * (xs[i, 0] - x0[j, 0]))
@@ -598,8 +600,13 @@ def _imm_step_into(
     held = min(count, size - 1)
     _chain_step(rates, dt, pi)
     _mix(xs, ps, mu, pi, cj, w, x0, p0)
+    band = 0  # the chain's reach: w_ij = 0 for |i − j| > band (1 for a birth-death chain)
+    for i in range(m):
+        for j in range(m):
+            if rates[i, j] != 0.0:
+                band = max(band, abs(i - j))
     for jj in range(1, held + 1):
-        _mix_ring(xs, x0, w, ra, rv, rc, (count - jj) % size, new_a, new_v, new_c)
+        _mix_ring(xs, x0, w, ra, rv, rc, (count - jj) % size, new_a, new_v, new_c, band)
     new = count % size
     for j in range(m):
         xj = x0[j]
