@@ -615,7 +615,7 @@ def markdown(
         + " and ".join(d.name.split(" (")[0] for d in REPORTED_HELDOUT)
         + " are never used in a fit. "
         "kalman: the live default (preset auto on every profile); kalman lag: its fixed-lag smoother; "
-        "smoother: RTS with q_a fitted to the recording (ML). ratio: RMS over ekf_hindsight (smoother: over "
+        "smoother: the IMM's fixed-lag smoother at 1 s. ratio: RMS over ekf_hindsight (smoother: over "
         "rts_hindsight; ratio to rts_best after the slash). NEES and >2σ from the published variance; "
         "µs/sample of streaming update.",
         "",

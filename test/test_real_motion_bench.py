@@ -44,7 +44,7 @@ def test_report_covers_every_validation_profile_design_and_method(quick: tuple) 
 
 def test_figures_are_finite_and_bounds_order_as_theory_says(quick: tuple) -> None:
     """Every RMS, NEES and share is finite and in range; on the same data the RTS bound is below the
-    filter bound, and the smoother (ML q_a) below the live filter: later data can only help."""
+    filter bound, and the smoother (the IMM at a 1 s lag) below the live filter: later data can only help."""
     rows, _, _, _ = quick
     for r in rows:
         s = r.score

@@ -71,11 +71,11 @@ AUTO_MODES = (1e-9, 1e-7, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0)
 whose posterior variance shrinks as 1/n) through every hindsight optimum of the corpus (1e-4 … 2.2) to a
 step (10), a decade apart where real motion lives."""
 
-# auto (the default): a birth-death chain over AUTO_MODES; its up and down times were chosen on the whole
-# training split (each real-motion PROFILES "train" row, both designs, the first 60 s, seed 0) among up
-# ∈ {3, 10, 30} s × down ∈ {0.3, 1, 3} s and a 6-mode set two decades apart: the least RMS among the chains
-# whose share beyond 2σ lies in 1-12 % both steady and after changes on every real training profile
-# (docs/estimators.md, "auto"). Its q_accel (the lag's single model) is car's.
+# auto (the default): a birth-death chain over AUTO_MODES, up every 2 s, down every 1 s, fitted by
+# ``python -m benchmarks.real_motion --fit --quick`` (fit_auto) on every training profile of the corpus
+# (benchmarks.corpus: cars, robots, acceleration tables, the lab's step and stop_and_go; both designs, the
+# first 60 s, seed 0): of AUTO_CHAINS within 5 % of the least RMS, the best calibrated (docs/estimators.md).
+# Its q_accel is car's (used only when a caller asks for the single model).
 # Fitted by ``python -m benchmarks.real_motion --fit`` on the preset's training profiles only, both sensor
 # designs (teaching l = 1 m, 100 Hz; short damped l = 5 cm, 200 Hz), seeds 0-1, on grids. q_accel (the
 # single model): the least RMS (geometric mean over the designs). modes, switch_time (the IMM): of the
@@ -389,50 +389,25 @@ class KalmanEstimator(Estimator):
         )
 
 
-# q_a tried by the smoother's maximum-likelihood fit: 1e-4 … 10 (m/s²)²/s, one per decade, spanning every
-# preset and every hindsight optimum of the real-motion corpus (0.0001-2.2), then refined around the best.
-ML_Q_GRID = tuple(float(q) for q in np.logspace(-4.0, 1.0, 6))
-_ML_REFINE = 0.5  # decades: the refinement's half-step
-
-
-def max_likelihood_q(params: np.ndarray, t: np.ndarray, theta: np.ndarray) -> float:
-    """argmax of the innovations' log-likelihood Σ −½(ν²/S + ln S) (ekf_kernels) over log q_a: the best of
-    ML_Q_GRID, then the vertex of the parabola through it and its neighbours half a decade either side
-    (kept within that bracket); 8 filter passes in all."""
-    trial = params.copy()
-
-    def score(log_q: float) -> float:
-        trial[5] = 10.0**log_q
-        return float(kern.log_likelihood(t, theta, trial))
-
-    logs = np.log10(ML_Q_GRID)
-    scores = [score(x) for x in logs]
-    top = int(np.argmax(scores))
-    best = float(logs[top])
-    # The best grid point's score is scores[top]: the pass is deterministic, no need to run it again.
-    y0, y1, y2 = score(best - _ML_REFINE), scores[top], score(best + _ML_REFINE)
-    curve = y0 - 2.0 * y1 + y2
-    if curve < 0.0:
-        shift = 0.5 * _ML_REFINE * (y0 - y2) / curve
-        best += min(max(shift, -_ML_REFINE), _ML_REFINE)
-    elif y0 > y1 or y2 > y1:
-        best += -_ML_REFINE if y0 > y2 else _ML_REFINE
-    return 10.0**best
+SMOOTH_LAG = 1.0
+"""s: the smoother's lag. Beyond about 0.5 s a fixed-lag smoother is the fixed-interval one on the corpus
+(the latency–accuracy curve of docs/benchmarks/real_motion.md flattens there)."""
 
 
 class SmootherEstimator(KalmanEstimator):
-    """Fixed-interval RTS smoother on the kalman model: offline only (batch), the best a history can be.
+    """The kalman model's smoother: offline only (batch), the best a history can be.
 
-    Offline, the whole recording is there to tell how fast its a(t) wanders: q_a is its maximum-likelihood
-    value (:func:`max_likelihood_q`, from the angles alone, no truth) unless ``q_accel`` is given.
+    Without ``q_accel``: the IMM's fixed-lag smoother at SMOOTH_LAG, the last SMOOTH_LAG of each segment
+    using all the data there is, so it follows the motion as the filter does. With ``q_accel``: the
+    fixed-interval RTS smoother of the single model (ekf_kernels.rts).
     """
 
     name: ClassVar[str] = "smoother"
-    summary: ClassVar[str] = "RTS smoother on the kalman model (offline only)"
+    summary: ClassVar[str] = "the kalman model's smoother (offline only)"
     offline_only: ClassVar[bool] = True
 
     def update(self, t: float, theta: float) -> Estimate | None:
-        """Refused: a fixed-interval smoother needs the whole recording."""
+        """Refused: a smoother needs the recording."""
         raise ParameterError("smoother is offline only; use lag for live")
 
     def __init__(
@@ -445,7 +420,7 @@ class SmootherEstimator(KalmanEstimator):
         init_angle_std: float = 0.3,
         reset_gap: float = 1.0,
     ) -> None:
-        """As KalmanEstimator (no lag: it has the whole recording); without ``q_accel``, q_a is fitted."""
+        """As KalmanEstimator (no lag option: it has the recording)."""
         super().__init__(
             config,
             preset=preset,
@@ -454,16 +429,15 @@ class SmootherEstimator(KalmanEstimator):
             init_angle_std=init_angle_std,
             reset_gap=reset_gap,
         )
-        self.fit_q = q_accel is None
 
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(âˢ, var âˢ) from the forward EKF pass and the RTS backward pass, at the ML q_a when fitting."""
+        """(âˢ, var âˢ): the IMM's fixed-lag pass at SMOOTH_LAG, or with q_accel the RTS pass."""
         t, theta = check_batch_input(t, theta)
-        if self.fit_q and t.size > 20:
-            self.q_accel = max_likelihood_q(self._params, t, theta)
-            self._params[5] = self.q_accel
+        if self.modes:
+            a, var = self.lagged(t, theta, (lag_samples(SMOOTH_LAG, self.config.rate_hz),))
+            return a[:, 0], var[:, 0]
         return self.smoothed(t, theta)
 
     def nominal_delay(self, accel: float) -> float:
-        """0: a fixed-interval smoother has no lag (its latency is the whole recording)."""
+        """0: a smoother has no lag (its latency is the recording)."""
         return 0.0
