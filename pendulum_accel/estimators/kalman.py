@@ -86,10 +86,11 @@ step (10), a decade apart where real motion lives."""
 PRESETS: dict[str, MotionPreset] = {
     "auto": MotionPreset(
         AUTO_MODES,
-        3.0,
+        2.0,
         0.0215,
         0.0,
-        "the training split (UDDS 0-505 s, Husky 0-195 s, stop_and_go, a step), both designs, seed 0",
+        "every training profile of benchmarks.corpus (cars, robots, acceleration tables, the lab's step and "
+        "stop_and_go), both designs, the first 60 s, seed 0",
         1.0,
     ),
     "car": MotionPreset(
