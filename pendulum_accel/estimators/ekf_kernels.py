@@ -477,11 +477,14 @@ def _mix(
     w: np.ndarray,
     x0: np.ndarray,
     p0: np.ndarray,
+    band: int,
 ) -> None:
     """IMM mixing: c_j = Σ_i Π_ij μ_i, w_ij = Π_ij μ_i / c_j, x⁰_j = Σ_i w_ij x_i,
-    P⁰_j = Σ_i w_ij (P_i + (x_i − x⁰_j)(x_i − x⁰_j)ᵀ)."""
+    P⁰_j = Σ_i w_ij (P_i + (x_i − x⁰_j)(x_i − x⁰_j)ᵀ); the sums over |i − j| ≤ band only (Π_ij = 0
+    beyond the chain's reach, so the terms left out are exact zeros)."""
     m = mu.size
     for j in range(m):
+        lo, hi = max(0, j - band), min(m, j + band + 1)
         cj[j] = 0.0
         for i in range(m):
             cj[j] += pi[i, j] * mu[i]
@@ -489,13 +492,13 @@ def _mix(
             w[i, j] = pi[i, j] * mu[i] / cj[j]
         for a in range(3):
             acc = 0.0
-            for i in range(m):
+            for i in range(lo, hi):
                 acc += w[i, j] * xs[i, a]
             x0[j, a] = acc
         for a in range(3):
             for b in range(3):
                 acc = 0.0
-                for i in range(m):
+                for i in range(lo, hi):
                     acc += w[i, j] * (ps[i, a, b] + (xs[i, a] - x0[j, a]) * (xs[i, b] - x0[j, b]))
                 p0[j, a, b] = acc
 
@@ -599,12 +602,12 @@ def _imm_step_into(
     count = int(state[1])
     held = min(count, size - 1)
     _chain_step(rates, dt, pi)
-    _mix(xs, ps, mu, pi, cj, w, x0, p0)
     band = 0  # the chain's reach: w_ij = 0 for |i − j| > band (1 for a birth-death chain)
     for i in range(m):
         for j in range(m):
             if rates[i, j] != 0.0:
                 band = max(band, abs(i - j))
+    _mix(xs, ps, mu, pi, cj, w, x0, p0, band)
     for jj in range(1, held + 1):
         _mix_ring(xs, x0, w, ra, rv, rc, (count - jj) % size, new_a, new_v, new_c, band)
     new = count % size
