@@ -403,17 +403,19 @@ def rts(
 
 ImmScratch = tuple[
     np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-    np.ndarray, np.ndarray, np.ndarray,
+    np.ndarray, np.ndarray, np.ndarray, np.ndarray,
 ]  # fmt: skip
 
 
 @njit(cache=True)
 def imm_scratch(m: int) -> ImmScratch:
     """Work arrays of one imm_step for m modes: (c, x⁰, P⁰, F, K, log-likelihoods, Π, mixing weights w,
-    and a buffered sample's mixed â, var, c)."""
+    a buffered sample's mixed â, var, c, and [the Δt Π was computed for, the chain's band]: at a steady
+    rate Π and the band are computed once)."""
     return (
         np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3, 3)), np.empty((3, 3)), np.empty(3), np.empty(m),
         np.empty((m, m)), np.empty((m, m)), np.empty(m), np.empty(m), np.empty((m, 3)),
+        np.array([np.nan, -1.0]),
     )  # fmt: skip
 
 
@@ -590,7 +592,7 @@ def _imm_step_into(
     scratch: ImmScratch,
 ) -> bool:
     """imm_step with its work arrays given (``imm_scratch``): a recording's pass allocates them once."""
-    cj, x0, p0, f, k, logl, pi, w, new_a, new_v, new_c = scratch
+    cj, x0, p0, f, k, logl, pi, w, new_a, new_v, new_c, memo = scratch
     g, length, c, r = params[0], params[1], params[2], params[3]
     q_rate, reset_gap = params[4], params[6]
     m = qs.size
@@ -601,12 +603,17 @@ def _imm_step_into(
     dt = t - state[0]
     count = int(state[1])
     held = min(count, size - 1)
-    _chain_step(rates, dt, pi)
-    band = 0  # the chain's reach: w_ij = 0 for |i − j| > band (1 for a birth-death chain)
-    for i in range(m):
-        for j in range(m):
-            if rates[i, j] != 0.0:
-                band = max(band, abs(i - j))
+    if dt != memo[0]:  # Π depends on Δt only: at a steady rate it is computed once
+        _chain_step(rates, dt, pi)
+        memo[0] = dt
+    if memo[1] < 0.0:  # the chain's reach: w_ij = 0 for |i − j| > band (1 for a birth-death chain)
+        band = 0
+        for i in range(m):
+            for j in range(m):
+                if rates[i, j] != 0.0:
+                    band = max(band, abs(i - j))
+        memo[1] = band
+    band = int(memo[1])
     _mix(xs, ps, mu, pi, cj, w, x0, p0, band)
     for jj in range(1, held + 1):
         _mix_ring(xs, x0, w, ra, rv, rc, (count - jj) % size, new_a, new_v, new_c, band)
