@@ -16,7 +16,8 @@ physics.simulate (rigid model), white angle noise per seed (seeds 0 … N−1, n
 
 Per estimator × validation profile × design, pooled over seeds, t ≥ 2 s: RMS, max |e|, group delay (the
 shift τ maximising the cross-correlation of â(t) with a(t − τ)), mean NEES, share beyond 2σ in steady
-state and within 2 s after a change (|a(t) − a(t − 1 s)| > 0.2 m/s²), and µs/sample of streaming
+state and after a change (|a(t) − a(t − 1 s)| > 0.2 m/s², from its onset to 2 s after:
+``recording.changes.after_change``, the rule ``analyze`` uses), and µs/sample of streaming
 ``update`` (on a 20 s slice). The bound: ``ekf_hindsight``, a fixed-q EKF with q chosen per profile and
 design for the least RMS over a grid (with the truth: hindsight), and ``rts_hindsight``, the RTS
 smoother on that same model; ``rts_best`` is a tighter bound, the RTS at its own hindsight q (every
@@ -53,12 +54,11 @@ from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile
+from pendulum_accel.recording.changes import after_change
 from pendulum_accel.scene import load_scene
 
 SCENES_DIR = Path(__file__).resolve().parents[1] / "pendulum_accel" / "scenes"
 WARMUP = 2.0  # s left out at the start of every run: the filters start from one sample
-CHANGE_JUMP = 0.2  # m/s²: |a(t) − a(t − 1 s)| beyond this marks a change of a
-CHANGE_WINDOW = 2.0  # s after a change that count as "after change"
 MAX_DELAY = 3.0  # s searched for the group delay
 Q_GRID = tuple(float(q) for q in np.logspace(-4, 2, 19))  # (m/s²)²/s, 3 per decade
 LAGS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0)  # s, the latency–accuracy curve
@@ -179,16 +179,6 @@ def simulate_runs(profile: AccelProfile, design: Design, seeds: int, duration: f
     return runs
 
 
-def change_mask(t: np.ndarray, accel: np.ndarray) -> np.ndarray:
-    """True within CHANGE_WINDOW s after any t where |a(t) − a(t − 1 s)| > CHANGE_JUMP."""
-    back = np.interp(t - 1.0, t, accel)
-    changes = t[np.abs(accel - back) > CHANGE_JUMP]
-    if changes.size == 0:
-        return np.zeros(t.size, dtype=bool)
-    idx = np.searchsorted(changes, t, side="right") - 1
-    return (idx >= 0) & (t - changes[np.maximum(idx, 0)] <= CHANGE_WINDOW)
-
-
 def group_delay(t: np.ndarray, est: np.ndarray, truth: np.ndarray, rate_hz: float) -> float:
     """τ (s) in [−MAX_DELAY, MAX_DELAY] maximising Σ (â(t) − mean â)(a(t − τ) − mean a): the cross-correlation
     peak (a coarse scan, then every sample around its best)."""
@@ -233,7 +223,7 @@ class Score:
             e = (a - run.accel)[keep]
             with np.errstate(divide="ignore", invalid="ignore"):
                 z = np.where(var[keep] > 0.0, e * e / var[keep], np.inf)
-            after_mask = change_mask(run.t, run.accel)[keep]
+            after_mask = after_change(run.t, run.t, run.accel)[keep]
             errs.append(e)
             nees.append(z)
             steady.append(z[~after_mask] > 4.0)
@@ -309,7 +299,7 @@ def imm_scan(
             keep = r.t >= WARMUP
             e = (a - r.accel)[keep]
             beyond = e * e > 4.0 * var[keep]
-            after = change_mask(r.t, r.accel)[keep]
+            after = after_change(r.t, r.t, r.accel)[keep]
             out[i] += (
                 float(np.sum(e * e)),
                 np.count_nonzero(beyond & ~after),
@@ -431,13 +421,16 @@ def fit_auto(seeds: int, quick: bool) -> tuple[tuple[float, float], list[tuple[f
                     keep = r.t >= WARMUP
                     e = (a[:, 0] - r.accel)[keep]
                     beyond = e * e > 4.0 * var[keep, 0]
-                    after = change_mask(r.t, r.accel)[keep]
-                    counts += (
-                        float(np.sum(e * e)),
-                        np.count_nonzero(beyond & ~after),
-                        np.count_nonzero(~after),
-                        np.count_nonzero(beyond & after),
-                        np.count_nonzero(after),
+                    after = after_change(r.t, r.t, r.accel)[keep]
+                    counts += np.array(
+                        [
+                            float(np.sum(e * e)),
+                            np.count_nonzero(beyond & ~after),
+                            np.count_nonzero(~after),
+                            np.count_nonzero(beyond & after),
+                            np.count_nonzero(after),
+                        ],
+                        dtype=float,
                     )
                 logs[i] += 0.5 * math.log(counts[0] / scored(runs))
                 miss[i] += calibration_miss(counts)

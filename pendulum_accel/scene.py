@@ -17,7 +17,7 @@ File layout (every key is checked; unknown keys are errors so a typo never passe
       theta0: 0.0                   # rad (optional, 0)
       theta_dot0: 0.0               # rad/s (optional, 0)
       stiffness: 1.0e5              # N/m, > 0 (optional; the elastic string's k)
-    acceleration: {type: constant, a: 2.0}   # any physics.profiles type; file paths (csv, speed_csv,
+    acceleration: {type: constant, a: 2.0}   # any motion_input profile type; file paths (csv, speed_csv,
                                              # bag_topic, accel_csv) are relative to this file
     sensor:
       rate_hz: 100                  # Hz, > 0
@@ -60,9 +60,10 @@ import yaml
 
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.estimators.motion import MOTIONS
+from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.physics.integrators import METHODS
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
-from pendulum_accel.physics.profiles import AccelProfile, profile_from_dict
+from pendulum_accel.physics.profiles import AccelProfile
 from pendulum_accel.physics.rigid import level_equivalent
 from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, MODELS
 from pendulum_accel.sensor import SENSOR_LIMITS, SensorModel, check_sensor_field, noise_std_from_density

@@ -19,8 +19,23 @@ _KINDS = {
 }
 
 
+def not_a_file_or_directory(path: Path) -> str | None:
+    """What ``path`` is when it exists but is neither a regular file nor a directory ("a FIFO (named
+    pipe)", "a character device", ...), else None; a reader that opens it would block or never end."""
+    try:
+        kind = stat.S_IFMT(os.stat(path).st_mode)
+    except OSError:
+        return None
+    if kind in (stat.S_IFREG, stat.S_IFDIR):
+        return None
+    return _KINDS.get(kind, "not a regular file")
+
+
 def read_text_file(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
     """UTF-8 text of regular file ``path`` (≤ ``limit`` bytes); OSError when unreadable, else ValueError.
+
+    A leading byte-order mark (U+FEFF, which Excel and Windows tools write) is dropped: it is not part of
+    the first value or header name.
 
     The file is opened without blocking and its type checked on the open descriptor before any read: a
     FIFO would block until a writer came, a device (/dev/zero) never ends.
@@ -38,6 +53,6 @@ def read_text_file(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
     if len(data) > limit:
         raise ValueError(f"more than {limit / 1024**2:g} MiB, not a text file of this kind")
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
         raise ValueError(f"not UTF-8 text (byte 0x{data[err.start]:02x} at offset {err.start})") from None

@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import functools
+import json
 import os
 import random
 import signal
@@ -17,7 +18,7 @@ import sys
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 import pytest
 
@@ -115,6 +116,17 @@ def stop_processes(procs: list[subprocess.Popen[str]]) -> None:
 
 
 PYTHON = sys.executable
+
+
+def strict_json(text: str) -> Any:
+    """``text`` parsed as strict JSON (RFC 8259): a bare NaN, Infinity or -Infinity, which Python's json
+    accepts and most other parsers refuse, raises ValueError."""
+
+    def refuse(constant: str) -> Any:
+        """Called by json for NaN/Infinity/-Infinity."""
+        raise ValueError(f"not strict JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
 
 
 def cli(*args: str, timeout: float = 180.0) -> subprocess.CompletedProcess[str]:

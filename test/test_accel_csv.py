@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from pendulum_accel.errors import ParameterError, SceneError
-from pendulum_accel.physics.profiles import Table, profile_from_dict
-from pendulum_accel.physics.speed_trace import TABLE_TOLERANCE
+from pendulum_accel.motion_input import profile_from_dict
+from pendulum_accel.motion_input.trace import TABLE_TOLERANCE
+from pendulum_accel.physics.profiles import Table
 from pendulum_accel.scene import load_scene
 from pendulum_accel.scene_run import run_scene
 

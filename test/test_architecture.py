@@ -16,6 +16,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pendulum_accel"
 LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"errors", "textfile"}),
     frozenset({"physics", "bag"}),
+    frozenset({"motion_input"}),
     frozenset({"estimators", "sensor"}),
     frozenset({"scene"}),
     frozenset({"conditioning"}),
@@ -87,6 +88,103 @@ def test_the_bag_library_imports_no_domain() -> None:
     """bag/ is reusable rosbag2 I/O: it may import only itself and errors."""
     for path in (PACKAGE / "bag").glob("*.py"):
         assert package_units(imported_modules(path)) <= {"bag", "errors"}, path.name
+
+
+def module_name(path: Path) -> str:
+    """Dotted name of a package file: pendulum_accel.physics.profiles; a package's __init__ is the package."""
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+ALL_FILES = sorted(PACKAGE.rglob("*.py"))
+MODULE_NAMES = {module_name(p) for p in ALL_FILES}
+
+
+def runtime_imports(path: Path) -> list[str]:
+    """Absolute module names a file imports when it runs: ``from pkg import name`` is pkg.name when that is
+    a module of the package, else pkg; imports under ``if TYPE_CHECKING:`` (read only by mypy) are left
+    out."""
+    tree = ast.parse(path.read_text())
+    typing_only = {
+        id(inner)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
+        for stmt in node.body
+        for inner in ast.walk(stmt)
+    }
+    names: list[str] = []
+    for node in ast.walk(tree):
+        if id(node) in typing_only:
+            continue
+        if isinstance(node, ast.Import):
+            names += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            for alias in node.names:
+                sub = f"{node.module}.{alias.name}"
+                names.append(sub if sub in MODULE_NAMES else node.module)
+    return names
+
+
+def import_graph(paths: list[Path]) -> dict[str, set[str]]:
+    """module → the package modules it imports when it runs (runtime_imports)."""
+    return {
+        module_name(path): {n for n in runtime_imports(path) if n in MODULE_NAMES} - {module_name(path)}
+        for path in paths
+    }
+
+
+def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan's algorithm): each is a circle."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles: list[list[str]] = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for nxt in sorted(graph.get(node, ())):
+            if nxt not in index:
+                visit(nxt)
+                low[node] = min(low[node], low[nxt])
+            elif nxt in on_stack:
+                low[node] = min(low[node], index[nxt])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                member = stack.pop()
+                on_stack.discard(member)
+                component.append(member)
+                if member == node:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return cycles
+
+
+def test_no_import_circles() -> None:
+    """No module reaches itself through imports (module level or inside functions): a circle hides an
+    order of initialisation and makes two modules one."""
+    assert import_cycles(import_graph(ALL_FILES)) == []
+
+
+def test_motion_input_is_below_the_scene_and_above_physics() -> None:
+    """Motion input reads files and bags into physics' profile types; physics never reads input."""
+    assert LEVEL["physics"] < LEVEL["motion_input"] < LEVEL["scene"]
+    for path in (PACKAGE / "physics").glob("*.py"):
+        assert "motion_input" not in package_units(imported_modules(path)), path.name
+
+
+def test_a_planted_circle_is_caught(tmp_path: Path) -> None:
+    """The circle finder itself: a → b → a is one circle; a → b alone is none."""
+    assert import_cycles({"a": {"b"}, "b": {"a"}, "c": {"a"}}) == [["a", "b"]]
+    assert import_cycles({"a": {"b"}, "b": set()}) == []
 
 
 def test_a_planted_upward_import_is_caught(tmp_path: Path) -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -13,13 +12,16 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.cli.main import main
+from pendulum_accel.cli.output import json_text
 from pendulum_accel.errors import BagError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Step
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.recording.analyze import analyze_bag, plot_analysis, settling
-from pendulum_accel.recording.generate import chain_streams, write_chain_bag
+from pendulum_accel.recording.changes import CHANGE_ONSET, CHANGE_WINDOW, after_change, change_rule
+from pendulum_accel.recording.generate import chain_streams, generate_bag, write_chain_bag
+from test.conftest import strict_json
 
 LENGTH = 0.5
 RATE = 200.0
@@ -181,7 +183,7 @@ def test_recorded_and_rerun_side_by_side_with_the_hole(holed_bag: Path) -> None:
 
 def test_analyze_json_carries_both_streams(holed_bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["analyze", str(holed_bag), "--length", str(LENGTH), "--json"]) == 0
-    figures = json.loads(capsys.readouterr().out)
+    figures = strict_json(capsys.readouterr().out)
     rec, off = figures["recorded"], figures["offline"]
     assert rec["estimator"] == off["estimator"] == figures["estimator"] == "lowpass"
     assert rec["missing"] == 380 and rec["longest_hole"] == pytest.approx(1.9) and off["missing"] == 0
@@ -189,3 +191,74 @@ def test_analyze_json_carries_both_streams(holed_bag: Path, capsys: pytest.Captu
         for key in ("bias", "rms", "max_error", "settled_bias", "settled_rms", "settled_max_error"):
             assert math.isfinite(stream[key])
     assert off["rms"] == figures["rms"] and off["settling_time"] == figures["settling_time"]
+
+
+# ---------------------------------------------------------------- the change rule, strict JSON, the model
+
+GOLDEN = sorted(p for p in (Path(__file__).resolve().parents[1] / "bags").iterdir() if p.is_dir())
+
+
+def test_a_change_is_a_jump_over_one_second_from_its_onset_to_two_seconds_after() -> None:
+    """recording.changes: a 3 m/s² step at t = 1 s on 100 Hz samples differs from a(t − 1 s) by 3 for
+    t ∈ [1, 2), so the samples from 1 s to 1.99 s + CHANGE_WINDOW are after a change. A 1.8 m/s³ ramp from
+    t = 5 s is detected at 5.12 s (0.2 m/s² reached) but counts from its onset, the first sample where a
+    has moved by CHANGE_ONSET (5.01 s: 0.018 m/s²). A 0.1 m/s³ ramp (under CHANGE_JUMP in any second) and
+    a ±0.05 m/s² wiggle are steady; a 0.3 m/s³ ramp is not."""
+    t = np.round(np.arange(0.0, 10.0, 0.01), 10)
+    step = np.where(t >= 1.0, 3.0, 0.0)
+    assert np.array_equal(after_change(t, t, step), (t >= 1.0) & (t <= 1.99 + CHANGE_WINDOW))
+    ramp = np.clip(1.8 * (t - 5.0), 0.0, 1.8)
+    after = after_change(t, t, ramp)
+    assert t[np.argmax(after)] == 5.01 and 1.8 * (5.01 - 5.0) > CHANGE_ONSET > 1.8 * (5.005 - 5.0)
+    for slope, changes in ((0.1, False), (0.3, True)):
+        assert after_change(t, t, slope * t).any() == changes
+    wiggle = 0.05 * np.sin(2 * np.pi * 3.0 * t)
+    assert not after_change(t, t, wiggle).any()
+    assert "|a(t) − a(t − 1 s)| > 0.2 m/s²" in change_rule() and "to 2 s after" in change_rule()
+
+
+def test_json_text_writes_null_for_what_is_not_a_number() -> None:
+    """NaN and ±inf (Python's json would print bare NaN and Infinity) become null; numpy scalars numbers."""
+    text = json_text({"a": math.nan, "b": [math.inf, -math.inf, 1.5], "c": np.float32(2.0), "d": np.int64(3)})
+    assert strict_json(text) == {"a": None, "b": [None, None, 1.5], "c": 2.0, "d": 3}
+    with pytest.raises(ValueError, match="not strict JSON"):
+        strict_json('{"a": NaN}')
+
+
+@pytest.mark.parametrize("bag", GOLDEN, ids=[p.name for p in GOLDEN])
+def test_analyze_json_is_strict_and_names_the_motion_model_on_every_golden_bag(
+    bag: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every golden bag: `analyze --json` parses as strict JSON and names the motion model and the change
+    rule; the text report names the same model."""
+    assert main(["analyze", str(bag), "--json"]) == 0
+    figures = strict_json(capsys.readouterr().out)
+    assert figures["change_rule"] == change_rule()
+    assert main(["analyze", str(bag)]) == 0
+    text = capsys.readouterr().out
+    if figures["estimator"] in ("kalman", "smoother"):
+        assert isinstance(figures["motion_model"], str) and figures["motion_reason"]
+        assert f"motion model {figures['motion_model']} (" in text
+    else:
+        assert figures["motion_model"] is None and "motion model" not in text
+    assert f"changes:    {change_rule()}" in text
+
+
+def test_analyze_splits_a_real_trace_into_steady_and_after_change(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A real robot's odometry (husky_odom, 60 s): both windows hold samples, as the rule says, so both
+    shares are numbers; under the old rule (any change of a between samples) every sample was "after a
+    change" and the steady share was NaN."""
+    generate_bag("husky_odom", tmp_path / "husky", duration=60.0)
+    result = analyze_bag(tmp_path / "husky")
+    assert result.calibration is not None
+    expected_after = after_change(result.t, result.t, result.accel_true)
+    assert 0 < np.count_nonzero(expected_after) < result.t.size
+    assert result.calibration.steady.n == np.count_nonzero(~expected_after)
+    assert result.calibration.after_change.n == np.count_nonzero(expected_after)
+    assert main(["analyze", str(tmp_path / "husky"), "--json"]) == 0
+    figures = strict_json(capsys.readouterr().out)
+    for window in ("steady", "after_change"):
+        assert 0.0 <= figures[f"nees_{window}_share_2sigma"] <= 1.0
+    assert figures["motion_model"] == result.motion_model == "robot"

@@ -325,10 +325,12 @@ def test_unmeasured_covariance_entries_are_large_not_zero() -> None:
 
 
 def test_calibration_splits_steady_and_after_change() -> None:
-    """NEES = e²/var; samples within 2 s after a change of a go to after_change, the rest to steady."""
+    """NEES = e²/var; samples within 2 s after a change of a (recording.changes: |a(t) − a(t − 1 s)| > 0.2
+    m/s²) go to after_change, the rest to steady. A 1 m/s² step at t = 4 on 0.5 s samples is a change at
+    t = 4 and 4.5 (a(t − 1 s) is still 0), so 4 ≤ t ≤ 6.5 is after it: 6 samples."""
     t = np.arange(0.0, 10.0, 0.5)
     truth = np.where(t < 4.0, 0.0, 1.0)
-    error = np.where((t >= 4.0) & (t <= 6.0), 3.0, 1.0)
+    error = np.where((t >= 4.0) & (t <= 6.5), 3.0, 1.0)
     cal = calibration(t, error, np.ones(t.size), t, truth, t_from=1.0)
-    assert cal.after_change.n == 5 and cal.after_change.mean == 9.0 and cal.after_change.share_2sigma == 1.0
-    assert cal.steady.n == t.size - 2 - 5 and cal.steady.mean == 1.0 and cal.steady.share_2sigma == 0.0
+    assert cal.after_change.n == 6 and cal.after_change.mean == 9.0 and cal.after_change.share_2sigma == 1.0
+    assert cal.steady.n == t.size - 2 - 6 and cal.steady.mean == 1.0 and cal.steady.share_2sigma == 0.0

@@ -35,7 +35,7 @@ from pendulum_accel.cli.export import SMOOTHED
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording.generate import generate_bag
 from test.chain_helpers import Output, start_node
-from test.conftest import PYTHON, REPO, Spawn, cli, rclpy_available, stop_processes
+from test.conftest import PYTHON, REPO, Spawn, cli, rclpy_available, stop_processes, strict_json
 
 DURATION = 3.0  # s of step_start recorded live
 SAMPLES = 301  # 100 Hz over [0, 3] s
@@ -138,7 +138,7 @@ def test_info(live_bag: Path) -> None:
 def test_analyze(live_bag: Path) -> None:
     result = cli("analyze", str(live_bag), "--json")
     _no_traceback(result)
-    figures = json.loads(result.stdout)
+    figures = strict_json(result.stdout)
     assert figures["samples"] == SAMPLES and np.isfinite(figures["rms"])
     recorded = figures["recorded"]
     assert recorded["angles"] == recorded["estimates"] == SAMPLES and recorded["missing"] == 0

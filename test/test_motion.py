@@ -82,7 +82,7 @@ def test_generate_and_analyze_run_the_scene_preset(tmp_path: Path) -> None:
     analysis = analyze_bag(bag)
     assert analysis.motion is not None and analysis.motion.preset == "auto"
     said = [line.strip() for line in analysis.lines()]
-    assert any(line.startswith("preset auto: learned from the angles") for line in said)
+    assert any(line.startswith("motion model auto (preset auto: learned from the angles") for line in said)
     assert estimator_line("kalman", analysis.motion).endswith(analysis.motion.line())
     settings = estimator_options(scene, "kalman")
     own, _ = estimate_batch("kalman", analysis.t, analysis.theta, **settings)

@@ -9,8 +9,9 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.physics.params import Pendulum
-from pendulum_accel.physics.profiles import Braking, Step, Table, profile_from_dict
+from pendulum_accel.physics.profiles import Braking, Step, Table
 from pendulum_accel.physics.profiles import Constant as ConstantAccel
 from pendulum_accel.physics.rigid import energy
 from pendulum_accel.physics.simulate import simulate

@@ -10,8 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.motion_input import PROFILE_FIELDS, PROFILE_TYPES, profile_from_dict
+from pendulum_accel.motion_input.accel_log import csv_table
+from pendulum_accel.motion_input.registry import PROFILE_FIELD_DOCS
 from pendulum_accel.physics.profiles import (
-    PROFILE_TYPES,
     AccelProfile,
     Braking,
     Constant,
@@ -19,7 +21,6 @@ from pendulum_accel.physics.profiles import (
     Sinusoid,
     Step,
     Table,
-    profile_from_dict,
     scalar_accel,
 )
 
@@ -128,7 +129,7 @@ def test_csv_loader(tmp_path: Path):
     """Header row, comments and blank lines are skipped; values are read exactly."""
     path = tmp_path / "a.csv"
     path.write_text("t,a\n# a comment\n0, 0\n\n1.5, 2.0\n3, -1\n", encoding="utf-8")
-    table = Table.from_csv(path)
+    table = csv_table(path)
     assert table == Table((0.0, 1.5, 3.0), (0.0, 2.0, -1.0))
     rel = profile_from_dict({"type": "csv", "path": "a.csv"}, base_dir=tmp_path)
     assert rel == table
@@ -149,9 +150,15 @@ def test_csv_errors_name_file_and_line(tmp_path: Path, text: str, needle: str):
     path = tmp_path / "bad.csv"
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ParameterError) as info:
-        Table.from_csv(path)
+        csv_table(path)
     assert "bad.csv" in str(info.value)
     assert needle in str(info.value)
+
+
+def test_every_profile_field_is_documented() -> None:
+    """The scene reference's field table (PROFILE_FIELD_DOCS) covers every field of every type."""
+    fields = {name for required, optional in PROFILE_FIELDS.values() for name in required + optional}
+    assert fields == set(PROFILE_FIELD_DOCS)
 
 
 def test_csv_missing_file(tmp_path: Path):

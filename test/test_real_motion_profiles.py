@@ -1,12 +1,13 @@
 """Real motion as input: speed_csv / speed_table / bag_topic profiles, the bundled drive cycles and robot.
 
 The differentiation is a smoothing spline whose gain is H(f) = 1 / (1 + (√2 − 1)(f/f_c)⁴) in its
-continuous limit (physics/speed_trace.py); the tolerances below come from that H, from the table's
+continuous limit (motion_input/trace.py); the tolerances below come from that H, from the table's
 chord bound TABLE_TOLERANCE, and from the spline's end effects, which the checks keep clear of.
 """
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from pathlib import Path
 
@@ -15,16 +16,17 @@ import pytest
 
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError, SceneError
-from pendulum_accel.overrides import OVERRIDE_BY_NAME, SENSOR_DESIGNS, apply_overrides
-from pendulum_accel.physics.profiles import Table, profile_from_dict
-from pendulum_accel.physics.speed_trace import (
+from pendulum_accel.motion_input import profile_from_dict
+from pendulum_accel.motion_input.columns import read_columns
+from pendulum_accel.motion_input.speed_trace import SPEED_UNITS
+from pendulum_accel.motion_input.trace import (
     DEFAULT_MAX_CUTOFF_HZ,
-    SPEED_UNITS,
     TABLE_TOLERANCE,
     default_cutoff_hz,
     differentiate,
-    read_columns,
 )
+from pendulum_accel.overrides import OVERRIDE_BY_NAME, SENSOR_DESIGNS, apply_overrides
+from pendulum_accel.physics.profiles import Table
 from pendulum_accel.scene import (
     BUNDLED_SCENE_NAMES,
     CORPUS_SCENE_NAMES,
@@ -213,6 +215,134 @@ def test_units_are_required_and_a_bad_scene_is_one_cli_line(
     assert captured.out == "" and captured.err.count("\n") == 1 and "units" in captured.err
 
 
+# ---------------------------------------------------------------- logs as users bring them
+
+DAY = dt.datetime(2007, 3, 28, 7, 0, 0)
+TRIP = np.arange(0.0, 601.0)  # two 10-minute trips at 1 Hz, 2 h 10 min apart
+TRIP_SPEEDS = np.round(30.0 + 20.0 * np.sin(2 * np.pi * TRIP / 120.0), 2)  # km/h, 0.01 resolution
+SECOND_TRIP_S = 7800.0
+
+
+def write_day_log(path: Path, layout: str = "%Y-%m-%d %H:%M:%S") -> Path:
+    """A day-long speed log whose time column holds date-times: two trips with a 2 h gap between."""
+    rows = ["time,speed_kmh"]
+    for base in (0.0, SECOND_TRIP_S):
+        for t, v in zip(TRIP, TRIP_SPEEDS, strict=True):
+            rows.append(f"{(DAY + dt.timedelta(seconds=float(base + t))).strftime(layout)},{float(v)!r}")
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def one_trip(tmp_path: Path, **window: float) -> Table:
+    """The second trip alone, given in seconds in a file of its own, with ``window`` (s) applied."""
+    path = write_speed_csv(tmp_path / "trip.csv", list(zip(TRIP.tolist(), TRIP_SPEEDS.tolist(), strict=True)))
+    return table_of({"type": "speed_csv", "path": str(path), "units": "km/h", **window})
+
+
+DAY_SPEC = {"type": "speed_csv", "path": "day.csv", "units": "km/h", "time_column": "time",
+            "speed_column": "speed_kmh"}  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("layout", "extra"),
+    [
+        ("%Y-%m-%d %H:%M:%S", {}),  # detected: ISO 8601 with a space
+        ("%Y-%m-%dT%H:%M:%S.%fZ", {}),  # detected: ISO 8601 with T, fraction and UTC
+        ("%d/%m/%Y %H:%M:%S", {"time_format": "%d/%m/%Y %H:%M:%S"}),  # stated
+    ],
+)
+def test_a_trip_is_cut_by_date_time_from_a_day_long_log_with_gaps(
+    layout: str, extra: dict[str, object], tmp_path: Path
+) -> None:
+    """start/end as date-times pick one trip; the gap outside the window is not refused, and the profile
+    is exactly the one of that trip given in seconds on its own (same samples, same spline)."""
+    write_day_log(tmp_path / "day.csv", layout)
+    start, end = DAY + dt.timedelta(seconds=7920), DAY + dt.timedelta(seconds=8100)
+    as_text = {"start": start.strftime(layout), "end": end.strftime(layout)}
+    spec = DAY_SPEC | extra | as_text
+    profile = table_of(spec, base_dir=tmp_path)
+    assert profile == one_trip(tmp_path, start=120.0, end=300.0)
+    assert profile.times[-1] == pytest.approx(180.0, abs=1e-9)
+    assert profile_from_dict(profile.to_dict()) == profile  # the bag's standalone copy holds the trip only
+    assert len(profile.to_dict()["times"]) == TRIP.size
+    # YAML reads an unquoted date-time as a datetime; seconds after the first row work too.
+    zone = dt.UTC if layout.endswith("Z") else None  # a zoned column wants zoned bounds
+    moments = {"start": start.replace(tzinfo=zone), "end": end.replace(tzinfo=zone)}
+    assert table_of(DAY_SPEC | extra | moments, base_dir=tmp_path) == profile
+    assert table_of(DAY_SPEC | extra | {"start": 7920.0, "end": 8100.0}, base_dir=tmp_path) == profile
+
+
+def test_a_headerless_date_time_log_keeps_its_first_row(tmp_path: Path) -> None:
+    """No header: the first row's date-time is data, not a header (all 601 samples are read)."""
+    stamps = [DAY + dt.timedelta(seconds=float(t)) for t in TRIP]
+    rows = [f"{s.isoformat(sep=' ')},{float(v)!r}" for s, v in zip(stamps, TRIP_SPEEDS, strict=True)]
+    (tmp_path / "bare.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    columns = read_columns(tmp_path / "bare.csv", None, None)
+    assert columns.times.size == TRIP.size and np.array_equal(columns.times, TRIP)
+    assert columns.epoch == DAY
+    assert table_of(
+        {"type": "speed_csv", "path": "bare.csv", "units": "km/h"}, base_dir=tmp_path
+    ) == one_trip(tmp_path)
+
+
+@pytest.mark.parametrize(
+    ("edit", "extra", "message"),
+    [
+        # A time that steps back: the row is named, with its time as the file writes it.
+        (lambda r: [*r[:4], r[5], r[4], *r[6:]], {}, "day.csv:6: times must be strictly increasing, "
+         "got '2007-03-28 07:00:03' after '2007-03-28 07:00:04'"),
+        (lambda r: r, {"start": "2007-03-28 07:05:00", "end": "2007-03-28 09:15:00"},
+         "day.csv:603: gap of 7200 s before this sample"),
+        (lambda r: r, {}, "day.csv:603: gap of 7200 s before this sample, more than 5 × the median step "
+         "1 s; start/end can cut a window without it"),
+        (lambda r: [*r[:3], "03/28/2007 07:00:02,31.0", *r[4:]], {}, "day.csv:4: time '03/28/2007 07:00:02' "
+         "is not a number or an ISO 8601 date-time (state time_format"),
+        (lambda r: [*r[:3], "2.0,31.0", *r[4:]], {}, "day.csv:4: time '2.0' mixes numbers and date-times"),
+        (lambda r: r, {"time_format": "%d/%m/%Y"}, "day.csv:2: time '2007-03-28 07:00:00' is not the "
+         "time_format '%d/%m/%Y'"),
+        (lambda r: r, {"start": "yesterday"}, "field 'start' must be a number of s or a date-time"),
+        (lambda r: r, {"start": "2007-03-28 07:05:00+02:00"},
+         "one date-time has a time zone and another none"),
+        (lambda r: r, {"start": "2007-03-29 07:05:00"}, "window start/end must satisfy"),
+    ],
+)  # fmt: skip
+def test_date_time_logs_give_one_line_naming_the_row(
+    edit: object, extra: dict[str, object], message: str, tmp_path: Path
+) -> None:
+    """Each bad date-time log or window: one ParameterError line, naming the row where one is at fault."""
+    rows = write_day_log(tmp_path / "day.csv").read_text(encoding="utf-8").splitlines()
+    (tmp_path / "day.csv").write_text("\n".join(edit(rows)) + "\n", encoding="utf-8")  # type: ignore[operator]
+    with pytest.raises(ParameterError) as info:
+        profile_from_dict(DAY_SPEC | extra, base_dir=tmp_path)
+    assert message in str(info.value) and "\n" not in str(info.value), str(info.value)
+
+
+def test_a_window_in_seconds_refuses_date_times_for_a_trace_in_seconds(tmp_path: Path) -> None:
+    """A date-time start on a trace whose times are seconds has no epoch to count from: one line."""
+    path = write_speed_csv(tmp_path / "trip.csv", list(zip(TRIP.tolist(), TRIP_SPEEDS.tolist(), strict=True)))
+    with pytest.raises(ParameterError, match=r"is a date-time .* but the trace's times are seconds"):
+        profile_from_dict({"type": "speed_csv", "path": str(path), "units": "km/h", "start": DAY})
+
+
+def test_accel_csv_reads_date_times_and_cuts_a_window_before_the_gap_check(tmp_path: Path) -> None:
+    """An IMU log with date-time stamps and a gap: the window before the gap is used as recorded."""
+    rows = ["stamp,ax"]
+    for t in [*np.arange(0.0, 60.0, 0.5), *np.arange(600.0, 660.0, 0.5)]:
+        rows.append(f"{(DAY + dt.timedelta(seconds=float(t))).isoformat()},{math.sin(0.1 * t)!r}")
+    (tmp_path / "imu.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    spec: dict[str, object] = {
+        "type": "accel_csv", "path": "imu.csv", "time_column": "stamp", "accel_column": "ax",
+        "start": "2007-03-28T07:00:10", "end": "2007-03-28T07:00:50",
+    }  # fmt: skip
+    profile = table_of(spec, base_dir=tmp_path)
+    assert profile.times[0] == 0.0 and profile.times[-1] == pytest.approx(40.0, abs=1e-9)
+    # The window's ends fall on samples, which are copied as recorded.
+    assert profile.accels[0] == math.sin(1.0) and profile.accels[-1] == pytest.approx(
+        math.sin(5.0), abs=1e-12
+    )
+    assert "120 samples" in profile.origin  # the stretch before the gap
+
+
 # ---------------------------------------------------------------- the bundled recordings
 
 CYCLES = {
@@ -228,7 +358,8 @@ CYCLES = {
 def test_bundled_recordings_have_their_stated_duration_and_maximum(name: str) -> None:
     """Each file: its rows, span and top speed as documented; both designs' scenes load it whole."""
     filename, units, last, rows, top = CYCLES[name]
-    times, speeds, _ = read_columns(DATA / filename, "t_s", "speed_mph" if units == "mph" else "speed_mps")
+    columns = read_columns(DATA / filename, "t_s", "speed_mph" if units == "mph" else "speed_mps")
+    times, speeds = columns.times, columns.values
     assert times.size == rows and times[0] == 0.0
     assert times[-1] == pytest.approx(last, abs=1e-6) and np.max(speeds) == top
     for scene_name in (name, f"{name}_teaching"):

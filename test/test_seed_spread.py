@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +15,7 @@ from pendulum_accel.recording.generate import chain_streams, write_chain_bag
 from pendulum_accel.recording.seed_spread import WindowSpread, seed_spread, with_seed
 from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene_run import run_scene
+from test.conftest import strict_json
 
 AT_REST = Path(__file__).resolve().parent.parent / "bags" / "at_rest"
 SKIP = 2.0
@@ -65,7 +65,7 @@ def test_analyze_seeds_prints_the_pooled_figures_and_one_seeds_range(
     """`analyze --seeds 3 --json` carries the spread over seeds 0–2 with the bag's estimator settings; the
     text report prints it as one line."""
     assert main(["analyze", str(AT_REST), "--skip", str(SKIP), "--seeds", "3", "--json"]) == 0
-    spread = json.loads(capsys.readouterr().out)["seed_spread"]
+    spread = strict_json(capsys.readouterr().out)["seed_spread"]
     scene = stored_scene(read_bag(AT_REST))
     assert scene is not None
     expected = seed_spread(scene, DEFAULT_ESTIMATOR, estimator_options(scene, DEFAULT_ESTIMATOR), 3, SKIP)

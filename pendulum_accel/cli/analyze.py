@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
-from pendulum_accel.cli.output import check_output_file, write_output
+from pendulum_accel.cli.output import check_output_file, json_text, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 from pendulum_accel.errors import BagError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME
@@ -68,7 +67,11 @@ def register(subparsers: Any) -> None:
         help="also re-simulate the bag's scene with sensor seeds 0..N-1 and print the calibration pooled "
         "over them, with the spread of one seed's share beyond 2σ (one bag is one draw of its noise)",
     )
-    parser.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print the figures as one JSON object (strict JSON: a figure that does not exist is null)",
+    )
     add_salvage_flag(parser)
     parser.set_defaults(func=run)
 
@@ -98,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         None if scene is None else seed_spread(scene, result.estimator, result.options, args.seeds, args.skip)
     )
     if args.json:
-        print(json.dumps({**analysis_dict(result), "seed_spread": _spread_dict(spread)}))
+        print(json_text({**analysis_dict(result), "seed_spread": _spread_dict(spread)}))
     else:
         print("\n".join(result.lines()))
         if spread is not None:

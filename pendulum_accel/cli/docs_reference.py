@@ -18,9 +18,10 @@ from pathlib import Path
 
 from pendulum_accel import scene as scene_module
 from pendulum_accel.cli.main import build_parser
+from pendulum_accel.motion_input import PROFILE_CLASSES, PROFILE_FIELDS
+from pendulum_accel.motion_input.registry import PROFILE_FIELD_DOCS, PROFILE_SUMMARIES
 from pendulum_accel.nodes.parameters import FROM_SCENE, NODE_PARAMETERS, ParamSpec
 from pendulum_accel.overrides import OVERRIDES
-from pendulum_accel.physics.profiles import PROFILE_CLASSES, PROFILE_FIELDS
 from pendulum_accel.scene import DEFAULT_SCENE, list_scenes
 
 GENERATED = (
@@ -115,7 +116,7 @@ def _layout_block() -> list[str]:
 def scenes_page() -> str:
     """docs/reference/scenes.md: the scene file's fields, acceleration profiles, overrides, bundled scenes."""
     lines = [
-        GENERATED.format(source="`pendulum_accel/scene.py`, `physics/profiles.py` and `overrides.py`"),
+        GENERATED.format(source="`pendulum_accel/scene.py`, `motion_input/registry.py` and `overrides.py`"),
         "",
         "# Scene reference",
         "",
@@ -133,11 +134,12 @@ def scenes_page() -> str:
     ]
     for kind, (required, optional) in PROFILE_FIELDS.items():
         cls_doc = inspect.getdoc(PROFILE_CLASSES[kind]) or ""
-        meaning = cls_doc.splitlines()[0] if cls_doc else ""
-        if kind == "csv":
-            meaning = "a table read from a (t, a) CSV file, path relative to the scene file"
+        meaning = PROFILE_SUMMARIES.get(kind) or (cls_doc.splitlines()[0] if cls_doc else "")
         cells = [f"`{kind}`", ", ".join(f"`{f}`" for f in required), ", ".join(f"`{f}`" for f in optional)]
         lines.append("| " + " | ".join([*cells, meaning.replace("|", "\\|")]) + " |")
+    lines += ["", "The fields:", "", "| field | meaning |", "|---|---|"]
+    for name, meaning in PROFILE_FIELD_DOCS.items():
+        lines.append(f"| `{name}` | {meaning.replace('|', chr(92) + '|')} |")
     lines += [
         "",
         "## Overrides",

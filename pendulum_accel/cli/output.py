@@ -17,6 +17,8 @@ The rules, the same for every command (docs/hostile_inputs.md lists the messages
 from __future__ import annotations
 
 import contextlib
+import json
+import math
 import os
 import shutil
 import stat
@@ -165,3 +167,22 @@ def output_directory(path: Path) -> Iterator[Path]:
         if isinstance(err, OSError):
             raise OutputError(f"cannot write {path}: {err.strerror or err}; {kept}") from None
         raise
+
+
+def json_text(value: object) -> str:
+    """``value`` as strict JSON (RFC 8259): every NaN or ±inf becomes null, since JSON has no such number and
+    most parsers refuse Python's bare NaN and Infinity; numpy scalars become plain numbers."""
+
+    def finite(item: object) -> object:
+        """``item`` with its non-finite floats replaced by None, recursively."""
+        if isinstance(item, dict):
+            return {key: finite(v) for key, v in item.items()}
+        if isinstance(item, list | tuple):
+            return [finite(v) for v in item]
+        if type(item).__module__ == "numpy" and hasattr(item, "item"):  # a numpy scalar (numpy not imported)
+            item = item.item()
+        if isinstance(item, float) and not math.isfinite(item):
+            return None
+        return item
+
+    return json.dumps(finite(value), allow_nan=False)

@@ -254,6 +254,11 @@ class Estimator(ABC):
     def nominal_delay(self, accel: float) -> float:
         """Group delay at zero frequency (s) of the linearised method about θ_eq(a)."""
 
+    def motion_model(self) -> str | None:
+        """The motion model the estimate assumes (kalman: its preset), as reports name it; None when the
+        method has none."""
+        return None
+
     def describe(self) -> str:
         """One line: method name, its settings, N and the steady-state group delay at a = 0."""
         # "steady-state": for the adaptive Kalman filter this is its quiet-mode memory, far longer than

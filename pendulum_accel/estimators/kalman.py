@@ -377,6 +377,10 @@ class KalmanEstimator(Estimator):
         total, _, moment = self._closed_loop(accel)
         return moment / total / self.config.rate_hz - self.lag_n / self.config.rate_hz
 
+    def motion_model(self) -> str | None:
+        """The preset the filter runs (PRESETS)."""
+        return self.preset
+
     def describe(self) -> str:
         """The base line plus the preset, the process model and the latency (the lag)."""
         model = (

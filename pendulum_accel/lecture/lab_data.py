@@ -12,7 +12,8 @@ import math
 from dataclasses import dataclass
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.physics.profiles import Constant, profile_from_dict
+from pendulum_accel.motion_input import profile_from_dict
+from pendulum_accel.physics.profiles import Constant
 from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import SceneRun, run_scene
 

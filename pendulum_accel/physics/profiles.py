@@ -7,21 +7,21 @@ Every profile is a frozen dataclass with:
 - ``constant_pieces(t0, t1)``: ``[(start, end, a), ...]`` covering [t0, t1] when a is piecewise
   constant there (closed-form models chain over these), else ``None``;
 - ``max_abs(t0, t1)``: max |a| on [t0, t1] (for step-size stability limits);
-- ``to_dict()``: a plain mapping that ``profile_from_dict`` turns back into an equal profile.
+- ``to_dict()``: a plain mapping that ``motion_input.profile_from_dict`` turns back into an equal profile.
 
 Outside its defined span each profile holds its end value (a Table or Ramp stays flat, Braking is 0).
+Reading profiles from scene mappings, files and bags is ``pendulum_accel.motion_input``'s job: physics
+holds only the types it integrates.
 """
 
 from __future__ import annotations
 
 import bisect
-import csv
 import itertools
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -29,7 +29,6 @@ from numpy.typing import ArrayLike
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.physics.params import require_finite, require_positive
-from pendulum_accel.textfile import read_text_file
 
 Piece = tuple[float, float, float]
 
@@ -87,7 +86,7 @@ class AccelProfile(ABC):
 
     @abstractmethod
     def to_dict(self) -> dict[str, Any]:
-        """{'type': kind, field: value, ...}, the inverse of ``profile_from_dict``."""
+        """{'type': kind, field: value, ...}, the inverse of ``motion_input.profile_from_dict``."""
 
 
 @dataclass(frozen=True)
@@ -262,7 +261,7 @@ class Sinusoid(AccelProfile):
 class Table(AccelProfile):
     """a(t) piecewise linear through (times[i], accels[i]), flat beyond the first and last point.
 
-    A table derived from real motion (physics.speed_trace) carries ``origin``, one line saying where it
+    A table derived from real motion (motion_input) carries ``origin``, one line saying where it
     came from and how it was differentiated (for plan lines and listings), and ``recipe``, the
     ``speed_table`` mapping it was built from, which ``to_dict`` returns instead of every sample. Neither
     takes part in equality.
@@ -297,45 +296,6 @@ class Table(AccelProfile):
         slopes = np.concatenate(([0.0], np.diff(self._a) / np.diff(self._t), [0.0]))
         breaks = tuple(t for i, t in enumerate(times) if slopes[i] != slopes[i + 1])
         object.__setattr__(self, "_breaks", breaks)
-
-    @classmethod
-    def from_csv(cls, path: str | Path) -> Table:
-        """Table from CSV rows ``t, a`` (s, m/s²); a header row and ``#`` comments are skipped."""
-        source = Path(path)
-        try:
-            text = read_text_file(source)
-        except OSError as exc:
-            raise ParameterError(f"cannot read acceleration CSV {source}: {exc.strerror}") from None
-        except ValueError as exc:
-            raise ParameterError(f"cannot read acceleration CSV {source}: {exc}") from None
-        times: list[float] = []
-        accels: list[float] = []
-        for line_no, row in enumerate(csv.reader(text.splitlines()), start=1):
-            cells = [c.strip() for c in row]
-            if not cells or not any(cells) or cells[0].startswith("#"):
-                continue
-            if len(cells) < 2:
-                raise ParameterError(f"{source}:{line_no}: expected 't, a', got {','.join(cells)!r}")
-            try:
-                t_value, a_value = float(cells[0]), float(cells[1])
-            except ValueError:
-                if not times and not accels:
-                    continue  # a header row such as "t,a"
-                raise ParameterError(f"{source}:{line_no}: not a number in {','.join(cells)!r}") from None
-            if not (math.isfinite(t_value) and math.isfinite(a_value)):
-                raise ParameterError(
-                    f"{source}:{line_no}: t and a must be finite, got {t_value!r}, {a_value!r}"
-                )
-            if times and t_value <= times[-1]:
-                raise ParameterError(
-                    f"{source}:{line_no}: times must be strictly increasing, "
-                    f"got {t_value!r} after {times[-1]!r}"
-                )
-            times.append(t_value)
-            accels.append(a_value)
-        if not times:
-            raise ParameterError(f"{source}: no (t, a) rows found")
-        return cls(tuple(times), tuple(accels))
 
     def __call__(self, t: ArrayLike) -> np.ndarray:
         """a(t) = linear interpolation of the table, flat beyond its ends."""
@@ -446,116 +406,6 @@ class Offset(AccelProfile):
     def to_dict(self) -> dict[str, Any]:
         """{'type': 'offset', 'base': base.to_dict(), 'offset'} (for display; scene files never hold one)."""
         return {"type": self.kind, "base": self.base.to_dict(), "offset": self.offset}
-
-
-_FIELDS: dict[str, tuple[type[AccelProfile], tuple[str, ...], tuple[str, ...]]] = {
-    # kind: (class, required fields, optional fields)
-    "constant": (Constant, ("a",), ()),
-    "step": (Step, ("t_step", "a_before", "a_after"), ()),
-    "ramp": (Ramp, ("t_start", "t_end", "a_start", "a_end"), ()),
-    "sinusoid": (Sinusoid, ("amplitude", "frequency_hz"), ("offset", "phase")),
-    "table": (Table, ("times", "accels"), ()),
-    "braking": (Braking, ("v0", "decel"), ("t_start",)),
-    "csv": (Table, ("path",), ()),
-    # Real motion (physics.speed_trace, physics.bag_profile): each becomes a Table.
-    "speed_table": (Table, ("times", "speeds", "units"), ("cutoff_hz", "start", "end", "signed")),
-    "speed_csv": (
-        Table,
-        ("path", "units"),
-        ("time_column", "speed_column", "cutoff_hz", "start", "end", "signed"),
-    ),
-    "bag_topic": (Table, ("path", "topic"), ("cutoff_hz", "start", "end")),
-    # A phone's accelerometer log (phyphox's CSV export, or any t, a columns), used as recorded.
-    "accel_csv": (Table, ("path",), ("time_column", "accel_column", "scale", "cutoff_hz", "start", "end")),
-}
-PROFILE_TYPES: tuple[str, ...] = tuple(_FIELDS)
-PROFILE_FIELDS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    kind: (required, optional) for kind, (_, required, optional) in _FIELDS.items()
-}
-"""Each profile type's (required fields, optional fields), as a scene's ``acceleration`` takes them."""
-PROFILE_CLASSES: dict[str, type[AccelProfile]] = {kind: cls for kind, (cls, _, _) in _FIELDS.items()}
-"""Each profile type's class (its docstring states a(t))."""
-
-
-def field_number(kind: str, name: str, value: object) -> float:
-    """float(value) for profile field ``name``, else ParameterError naming it."""
-    if isinstance(value, bool) or not isinstance(value, int | float | str):
-        raise ParameterError(f"{kind} profile field '{name}' must be a number, got {value!r}", path=name)
-    try:
-        return require_finite(f"{kind} profile field '{name}'", value)  # type: ignore[arg-type]
-    except ParameterError as err:
-        raise ParameterError(str(err), path=name) from None
-
-
-def field_path(kind: str, raw: object, base_dir: Path | None) -> Path:
-    """Profile field 'path' as a Path, relative ones under ``base_dir``; else ParameterError naming it."""
-    if not isinstance(raw, str | Path):
-        raise ParameterError(f"{kind} profile field 'path' must be a file path, got {raw!r}", path="path")
-    path = Path(raw)
-    if not path.is_absolute() and base_dir is not None:
-        path = Path(base_dir) / path
-    return path
-
-
-def field_text(kind: str, name: str, value: object, choices: Sequence[str] = ()) -> str:
-    """Profile field ``name`` as text (one of ``choices`` when given), else ParameterError naming it."""
-    if not isinstance(value, str) or (choices and value not in choices):
-        expected = f"one of {', '.join(choices)}" if choices else "text"
-        raise ParameterError(f"{kind} profile field '{name}' must be {expected}, got {value!r}", path=name)
-    return value
-
-
-def field_numbers(kind: str, name: str, value: object) -> tuple[float, ...]:
-    """Tuple of floats for list field ``name``, else ParameterError naming it."""
-    if isinstance(value, str | bytes) or not isinstance(value, Sequence):
-        raise ParameterError(
-            f"{kind} profile field '{name}' must be a list of numbers, got {value!r}", path=name
-        )
-    try:
-        return tuple(field_number(kind, f"{name}[{i}]", v) for i, v in enumerate(value))
-    except ParameterError as err:
-        raise ParameterError(str(err), path=name) from None
-
-
-def profile_from_dict(d: Mapping[str, object], base_dir: Path | None = None) -> AccelProfile:
-    """Profile from {'type': kind, field: value}, kind in PROFILE_TYPES; csv 'path' is under base_dir."""
-    if not isinstance(d, Mapping):
-        raise ParameterError(f"acceleration profile must be a mapping with a 'type', got {d!r}")
-    kind = d.get("type")
-    if kind not in _FIELDS:
-        raise ParameterError(
-            f"acceleration profile field 'type' must be one of {', '.join(_FIELDS)}, got {kind!r}",
-            path="type",
-        )
-    assert isinstance(kind, str)
-    cls, required, optional = _FIELDS[kind]
-    for name in d:
-        if name != "type" and name not in required and name not in optional:
-            raise ParameterError(
-                f"{kind} profile has unknown field '{name}' (allowed: {', '.join(required + optional)})",
-                path=name,
-            )
-    for name in required:
-        if name not in d:
-            raise ParameterError(f"{kind} profile is missing field '{name}'", path=name)
-    if kind in ("speed_table", "speed_csv"):
-        from pendulum_accel.physics.speed_trace import speed_profile  # it builds on Table
-
-        return speed_profile(d, base_dir)
-    if kind == "accel_csv":
-        from pendulum_accel.physics.speed_trace import accel_csv_profile
-
-        return accel_csv_profile(d, base_dir)
-    if kind == "bag_topic":
-        from pendulum_accel.physics.bag_profile import bag_topic_profile  # reads bags with rosbags
-
-        return bag_topic_profile(d, base_dir)
-    if kind == "csv":
-        return Table.from_csv(field_path(kind, d["path"], base_dir))
-    if kind == "table":
-        return Table(field_numbers(kind, "times", d["times"]), field_numbers(kind, "accels", d["accels"]))
-    kwargs = {name: field_number(kind, name, d[name]) for name in required + optional if name in d}
-    return cls(**kwargs)
 
 
 def _interp(xp: Sequence[float], fp: Sequence[float], x: float) -> float:

@@ -34,9 +34,16 @@ from pendulum_accel.bag.messages import (
 from pendulum_accel.bag.reader import Bag, read_bag, scene_name
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
-from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, TEACHING_NOTE, estimate_batch
+from pendulum_accel.estimators import (
+    DEFAULT_ESTIMATOR,
+    ESTIMATORS,
+    TEACHING_NOTE,
+    estimate_batch,
+    make_estimator,
+)
 from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice
+from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change, change_rule
 from pendulum_accel.recording.contract import check_chain_contract
 from pendulum_accel.recording.settings import estimator_settings, motion_choice, uses_preset
 from pendulum_accel.scene import Scene, scene_from_yaml
@@ -61,9 +68,6 @@ class ErrorStats:
         if e.size == 0:
             return cls(math.nan, math.nan, math.nan, 0)
         return cls(float(e.mean()), float(np.sqrt(np.mean(e * e))), float(np.abs(e).max()), int(e.size))
-
-
-CHANGE_WINDOW = 2.0  # s after a change of a(t) that counts as "after a change" in the calibration
 
 
 @dataclass(frozen=True)
@@ -114,13 +118,9 @@ def nees_split(
     a_truth: NDArray[np.float64],
     t_from: float,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(steady, after-change) NEES = e²/var at stamps t ≥ t_from, split at CHANGE_WINDOW s after any change
-    of the truth a(t); NaN where var ≤ 0."""
-    changes = t_truth[1:][np.abs(np.diff(a_truth)) > 1e-9]
-    after = np.zeros(t.size, dtype=bool)
-    if changes.size:
-        idx = np.searchsorted(changes, t, side="right") - 1
-        after = (idx >= 0) & (t - changes[np.maximum(idx, 0)] <= CHANGE_WINDOW)
+    """(steady, after-change) NEES = e²/var at stamps t ≥ t_from, split by recording.changes.after_change
+    (within CHANGE_WINDOW s after |a(t) − a(t − 1 s)| > CHANGE_JUMP on the truth); NaN where var ≤ 0."""
+    after = after_change(t, t_truth, a_truth)
     with np.errstate(divide="ignore", invalid="ignore"):
         nees = np.where(variance > 0.0, error * error / variance, np.nan)
     keep = t >= t_from
@@ -277,6 +277,9 @@ class Analysis:
     recorded_calibration: Calibration | None = None
     motion: MotionChoice | None = None
     """kalman's preset and why, for a method that takes one (None otherwise)."""
+    motion_model: str | None = None
+    """The motion model the re-run's estimate used, as its estimator names it (Estimator.motion_model),
+    else the preset's name; None for a method without one."""
 
     @property
     def options(self) -> dict[str, object]:
@@ -298,14 +301,17 @@ class Analysis:
             + f"; settling band ±{self.tolerance:.4f} m/s²",
             f"re-run:     {self.estimator}  ({cfg})",
         ]
-        if self.motion is not None:
-            out.append(f"            {self.motion.line()}")
+        if self.motion_model is not None:
+            why = f" ({self.motion.line()})" if self.motion is not None else ""
+            out.append(f"            motion model {self.motion_model}{why}")
         if self.estimator in ESTIMATORS and ESTIMATORS[self.estimator].teaching:
             out.append(f"            {TEACHING_NOTE}")
         columns = [f for f in (self.recorded_figures, self.offline_figures) if f is not None]
         if self.recorded_figures is None:
             out.append("recorded:   the bag holds no /car/accel/estimate")
         out += figure_table(columns)
+        if self.calibration is not None or self.recorded_calibration is not None:
+            out.append(f"changes:    {change_rule()} (the calibration's 'after a change')")
         if self.calibration is not None:
             out.append(self.calibration.line("calibration (re-run)"))
         if self.recorded_calibration is not None:
@@ -425,7 +431,9 @@ def analyze_bag(
         cfg["lag"] = lag
     motion = bag_motion(data) if uses_preset(name) else None
     options: dict[str, object] = {} if motion is None else {"preset": motion.preset}
-    a_est, variance = estimate_batch(name, t, theta, **cfg, **options)
+    method = make_estimator(name, **cfg, **options)  # type: ignore[arg-type]
+    a_est, variance = method.batch(t, theta)
+    motion_model = method.motion_model() or (motion.preset if motion is not None else None)
     a_est = np.asarray(a_est, dtype=np.float64)
     variance = np.asarray(variance, dtype=np.float64)
     tol = default_tolerance(a_true) if tolerance is None else float(tolerance)
@@ -455,6 +463,7 @@ def analyze_bag(
         calibration=calibration(t, a_est - a_true, variance, truth_t, truth_a, t[0] + skip),
         recorded_calibration=_recorded_calibration(data, truth_t, truth_a, t[0] + skip),
         motion=motion,
+        motion_model=motion_model,
     )
 
 
@@ -641,6 +650,9 @@ def analysis_dict(result: Analysis) -> dict[str, object]:
         "bag": str(result.path),
         "scene": result.scene,
         "estimator": result.estimator,
+        "motion_model": result.motion_model,
+        "motion_reason": result.motion.reason if result.motion is not None else None,
+        "change_rule": change_rule(),
         "bias": result.stats.bias,
         "rms": result.stats.rms,
         "max_error": result.stats.max_abs,

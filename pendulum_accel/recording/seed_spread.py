@@ -20,7 +20,8 @@ from numpy.typing import NDArray
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import estimate_batch
-from pendulum_accel.recording.analyze import CHANGE_WINDOW, NeesStats, nees_split
+from pendulum_accel.recording.analyze import NeesStats, nees_split
+from pendulum_accel.recording.changes import CHANGE_WINDOW
 from pendulum_accel.scene import Scene
 from pendulum_accel.scene_run import run_scene
 

@@ -6,8 +6,8 @@ topic's type:
 =======================================  ========================  =====================================
 type                                     field read                a(t)
 =======================================  ========================  =====================================
-nav_msgs/msg/Odometry                    twist.twist.linear.x      speed, differentiated (speed_trace)
-geometry_msgs/msg/TwistStamped           twist.linear.x            speed, differentiated (speed_trace)
+nav_msgs/msg/Odometry                    twist.twist.linear.x      speed, differentiated (trace)
+geometry_msgs/msg/TwistStamped           twist.linear.x            speed, differentiated (trace)
 sensor_msgs/msg/Imu                      linear_acceleration.x     used as recorded (low-passed by the
 geometry_msgs/msg/AccelStamped           accel.linear.x            smoothing spline only when the
 geometry_msgs/msg/AccelWithCovarianceSt. accel.accel.linear.x      profile states cutoff_hz)
@@ -26,16 +26,18 @@ from typing import Any
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.physics.profiles import Table, field_number, field_path, field_text
-from pendulum_accel.physics.speed_trace import (
+from pendulum_accel.motion_input.fields import field_number, field_path, field_text, window_fields
+from pendulum_accel.motion_input.speed_trace import speed_recipe
+from pendulum_accel.motion_input.trace import (
     check_trace,
     default_cutoff_hz,
     describe_differentiation,
     differentiate,
     median_step,
     recorded_acceleration,
-    window_fields,
 )
+from pendulum_accel.physics.profiles import Table
+from pendulum_accel.textfile import not_a_file_or_directory
 
 SPEED_FIELDS: dict[str, Callable[[Any], float]] = {
     "nav_msgs/msg/Odometry": lambda m: m.twist.twist.linear.x,
@@ -69,6 +71,17 @@ def read_topic(path: Path, topic: str) -> tuple[str, np.ndarray, np.ndarray, boo
     source = _bag_source(path)
     if not source.exists():
         raise ParameterError(f"cannot read bag {path}: no such file or directory", path="path")
+    # AnyReader opens the file (or every file of a rosbag2 directory) and would wait forever on a FIFO.
+    try:
+        members = [source, *(sorted(source.iterdir()) if source.is_dir() else [])]
+    except OSError as exc:
+        raise ParameterError(f"cannot read bag {path}: {exc.strerror or exc}", path="path") from None
+    for member in members:
+        kind = not_a_file_or_directory(member)
+        if kind is not None:
+            raise ParameterError(
+                f"cannot read bag {path}: {member.name} is {kind}, not a bag file", path="path"
+            )
     stamps: list[int] = []
     logs: list[int] = []
     values: list[float] = []
@@ -104,6 +117,8 @@ def read_topic(path: Path, topic: str) -> tuple[str, np.ndarray, np.ndarray, boo
     except Exception as exc:  # rosbags raises many types (its own, struct.error, KeyError) on a bad bag
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise ParameterError(f"cannot read bag {path}: {first}", path="path") from None
+    if not values:
+        raise ParameterError(f"bag {path} topic {topic} has no messages", path="topic")
     stamped = any(stamps)
     ns = np.array(stamps if stamped else logs, dtype=np.int64)
     # Integer nanoseconds relative to the first, then seconds: no float rounding of 1.4e9 s epochs.
@@ -111,29 +126,32 @@ def read_topic(path: Path, topic: str) -> tuple[str, np.ndarray, np.ndarray, boo
 
 
 def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
-    """Table of a(t) from a bag_topic mapping (field names checked by profiles.profile_from_dict)."""
+    """Table of a(t) from a bag_topic mapping (field names checked by registry.profile_from_dict)."""
     kind = "bag_topic"
     path = field_path(kind, d["path"], base_dir)
     topic = field_text(kind, "topic", d["topic"])
     msgtype, times, values, stamped = read_topic(path, topic)
     where: Callable[[int], str] = lambda i: f"bag {path.name} {topic} message {i}"  # noqa: E731
-    check_trace(times, values, where, name="speed" if msgtype in SPEED_FIELDS else "acceleration")
     start, end = window_fields(kind, d)
+    name = "speed" if msgtype in SPEED_FIELDS else "acceleration"
+    stretch = check_trace(times, values, where, name=name, start=start, end=end)
     clock = "header stamps" if stamped else "log times (header stamps unset)"
-    label = f"bag_topic {path.name} {topic} ({msgtype}, {times.size} messages, {clock})"
+    label = f"bag_topic {path.name} {topic} ({msgtype}, {stretch.times.size} messages, {clock})"
     if msgtype in SPEED_FIELDS:
         default = "cutoff_hz" not in d
-        cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
-        origin = f"{label}: " + describe_differentiation(cutoff, median_step(times), default)
+        cutoff = (
+            default_cutoff_hz(stretch.times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
+        )
+        origin = f"{label}: " + describe_differentiation(cutoff, median_step(stretch.times), default)
         # A standalone copy (the scene stored in a bag): the speeds themselves, as a speed_table.
-        recipe: dict[str, object] = {
-            "type": "speed_table",
-            "units": "m/s",
-            "times": times.tolist(),
-            "speeds": values.tolist(),
-            "cutoff_hz": cutoff,
-            "signed": True,
-        }
-        recipe |= {k: v for k, v in (("start", start), ("end", end)) if v is not None}
-        return differentiate(times, values, cutoff, start=start, end=end, origin=origin, recipe=recipe)
-    return recorded_acceleration(kind, d, times, values, label)
+        recipe = speed_recipe("m/s", stretch, cutoff, d, signed=True)
+        return differentiate(
+            stretch.times,
+            stretch.values,
+            cutoff,
+            start=stretch.lo,
+            end=stretch.hi,
+            origin=origin,
+            recipe=recipe,
+        )
+    return recorded_acceleration(kind, d, stretch, label)

@@ -1,0 +1,74 @@
+"""Logged accelerations used as recorded: the ``accel_csv`` profile (a vehicle's or a phone's
+accelerometer log, any time and acceleration columns) and the ``csv`` profile (plain ``t, a`` rows)."""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.motion_input.fields import field_number, field_text
+from pendulum_accel.motion_input.trace import csv_trace, recorded_acceleration
+from pendulum_accel.physics.profiles import Table
+from pendulum_accel.textfile import read_text_file
+
+PHYPHOX_TIME_COLUMN = "Time (s)"
+"""phyphox's "Acceleration (without g)" CSV export: "Time (s)", then "Acceleration x (m/s^2)", y, z (and,
+in some versions, "Absolute acceleration (m/s^2)"); x across the screen, y along it, z out of it."""
+
+
+def accel_csv_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
+    """Table of a(t) from an accel_csv mapping: a column of a logged acceleration, times scale.
+
+    a(t) = scale × the column (default the second), t from the time column (default the first) shifted
+    to start at 0; checked as any trace (check_trace), then used as recorded (recorded_acceleration).
+    """
+    kind = "accel_csv"
+    accel_column = field_text(kind, "accel_column", d["accel_column"]) if "accel_column" in d else None
+    scale = field_number(kind, "scale", d["scale"]) if "scale" in d else 1.0
+    if scale == 0.0:
+        raise ParameterError(f"{kind} profile field 'scale' must not be 0", path="scale")
+    stretch, _, path = csv_trace(kind, d, base_dir, "accel_column", name="acceleration")
+    column = accel_column if accel_column is not None else "column 2"
+    scaled = f", x {scale:g}" if scale != 1.0 else ""
+    label = f"accel_csv {path.name} ({column}{scaled}, {stretch.times.size} samples)"
+    return recorded_acceleration(kind, d, replace(stretch, values=stretch.values * scale), label)
+
+
+def csv_table(path: str | Path) -> Table:
+    """The ``csv`` profile: a Table from CSV rows ``t, a`` (s, m/s²); a header row, ``#`` comments skipped."""
+    source = Path(path)
+    try:
+        text = read_text_file(source)
+    except OSError as exc:
+        raise ParameterError(f"cannot read acceleration CSV {source}: {exc.strerror}") from None
+    except ValueError as exc:
+        raise ParameterError(f"cannot read acceleration CSV {source}: {exc}") from None
+    times: list[float] = []
+    accels: list[float] = []
+    for line_no, row in enumerate(csv.reader(text.splitlines()), start=1):
+        cells = [c.strip() for c in row]
+        if not cells or not any(cells) or cells[0].startswith("#"):
+            continue
+        if len(cells) < 2:
+            raise ParameterError(f"{source}:{line_no}: expected 't, a', got {','.join(cells)!r}")
+        try:
+            t_value, a_value = float(cells[0]), float(cells[1])
+        except ValueError:
+            if not times and not accels:
+                continue  # a header row such as "t,a"
+            raise ParameterError(f"{source}:{line_no}: not a number in {','.join(cells)!r}") from None
+        if not (math.isfinite(t_value) and math.isfinite(a_value)):
+            raise ParameterError(f"{source}:{line_no}: t and a must be finite, got {t_value!r}, {a_value!r}")
+        if times and t_value <= times[-1]:
+            raise ParameterError(
+                f"{source}:{line_no}: times must be strictly increasing, got {t_value!r} after {times[-1]!r}"
+            )
+        times.append(t_value)
+        accels.append(a_value)
+    if not times:
+        raise ParameterError(f"{source}: no (t, a) rows found")
+    return Table(tuple(times), tuple(accels))

@@ -1,0 +1,187 @@
+"""Two columns (time, value) of a user's CSV file, each failure one line naming the file and line.
+
+The time column holds seconds (any number), or date-times as loggers write them (``2007-03-28 07:33:05``,
+``2007-03-28T07:33:05.250Z``). Date-times are read with a stated ``time_format`` (``strptime`` codes,
+e.g. ``%d/%m/%Y %H:%M:%S``), or, when none is stated, detected as ISO 8601 (``datetime.fromisoformat``);
+other layouts such as ``03/28/2007`` are ambiguous (day or month first) and need the format stated.
+A date-time column becomes seconds since its first row, subtracted as datetimes (microseconds exact):
+a float epoch of 1.2e9 s would keep only about 0.2 µs.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime as dt
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.textfile import read_text_file
+
+
+@dataclass(frozen=True)
+class Columns:
+    """A CSV's time and value columns: ``times`` in s (as written, or since ``epoch`` for date-times),
+    ``values``, each row's ``lines`` number in the file, and its time cell's ``stamps`` text."""
+
+    times: np.ndarray
+    values: np.ndarray
+    lines: list[int]
+    stamps: list[str]
+    epoch: dt.datetime | None
+    """The first row's date-time when the time column holds date-times, else None."""
+
+    def where(self, i: int, path: Path) -> str:
+        """'path:line' of row ``i``."""
+        return f"{path}:{self.lines[i]}"
+
+    def stamp(self, i: int) -> str:
+        """Row ``i``'s time as the file writes it."""
+        return self.stamps[i]
+
+
+def parse_datetime(text: str, time_format: str | None) -> dt.datetime:
+    """``text`` as a datetime: ``strptime(text, time_format)``, or ISO 8601 when no format is stated.
+
+    A plain date is its midnight. ValueError when it does not parse.
+    """
+    if time_format is not None:
+        return dt.datetime.strptime(text, time_format)
+    if not text[:1].isdigit():  # fromisoformat would take "T07:33"-like fragments; a date starts with a digit
+        raise ValueError(f"not an ISO 8601 date-time: {text!r}")
+    return dt.datetime.fromisoformat(text)
+
+
+def since(moment: dt.datetime, epoch: dt.datetime) -> float:
+    """(moment − epoch) in s; ValueError when one has a time zone and the other none."""
+    try:
+        return (moment - epoch) / dt.timedelta(seconds=1)
+    except TypeError:
+        raise ValueError("one date-time has a time zone and another none") from None
+
+
+def _time_value(text: str, time_format: str | None) -> float | dt.datetime:
+    """A time cell: a float when it is a number (and no format is stated), else a datetime."""
+    if time_format is None:
+        try:
+            return float(text)
+        except ValueError:
+            pass
+    return parse_datetime(text, time_format)
+
+
+def _is_data(cells: list[str], columns: list[int], time_format: str | None) -> bool:
+    """True when the row's time and value cells parse (a data row), False for a header."""
+    if len(cells) <= max(columns):
+        return False
+    try:
+        _time_value(cells[columns[0]], time_format)
+        float(cells[columns[1]])
+    except ValueError:
+        return False
+    return True
+
+
+def read_columns(
+    path: Path,
+    time_column: str | None,
+    value_column: str | None,
+    *,
+    what: str = "speed",
+    time_format: str | None = None,
+) -> Columns:
+    """The time and value columns of a CSV file: ``#`` comments and blank lines skipped.
+
+    A first row whose time and value cells do not parse is the header; the named columns are read from
+    it (the first and second column when unnamed; quoted names such as phyphox's "Time (s)" work). The
+    time column is numbers or date-times (module doc), not a mix. Every failure is one ParameterError
+    naming file and line; ``what`` (speed, accel) names the file and the column field.
+    """
+    try:
+        text = read_text_file(path)
+    except OSError as exc:
+        raise ParameterError(f"cannot read {what} CSV {path}: {exc.strerror or exc}", path="path") from None
+    except ValueError as exc:
+        raise ParameterError(f"cannot read {what} CSV {path}: {exc}", path="path") from None
+    named = time_column is not None or value_column is not None
+    header: list[str] | None = None
+    columns = [0, 1]
+    raw_times: list[float | dt.datetime] = []
+    values: list[float] = []
+    lines: list[int] = []
+    stamps: list[str] = []
+    for line_no, row in enumerate(csv.reader(text.splitlines()), start=1):
+        cells = [c.strip() for c in row]
+        if not cells or not any(cells) or cells[0].startswith("#"):
+            continue
+        if header is None and not raw_times:
+            if named and not all(is_number(c) for c in cells):
+                header = cells
+                for k, name in enumerate((time_column, value_column)):
+                    if name is not None:
+                        if name not in cells:
+                            raise ParameterError(
+                                f"{path}:{line_no}: no column {name!r} in header {','.join(cells)!r}",
+                                path="time_column" if k == 0 else f"{what}_column",
+                            ) from None
+                        columns[k] = cells.index(name)
+                continue
+            if named:
+                raise ParameterError(
+                    f"{path}:{line_no}: column names are given but the file has no header row"
+                )
+            if not _is_data(cells, columns, time_format):
+                header = cells
+                continue
+        if len(cells) <= max(columns):
+            raise ParameterError(f"{path}:{line_no}: expected {max(columns) + 1} columns, got {len(cells)}")
+        t_text = cells[columns[0]]
+        try:
+            t_value = _time_value(t_text, time_format)
+        except ValueError:
+            layout = (
+                f"the time_format {time_format!r}" if time_format else "a number or an ISO 8601 date-time"
+            )
+            raise ParameterError(
+                f"{path}:{line_no}: time {t_text!r} is not {layout} (state time_format for other layouts)"
+            ) from None
+        if raw_times and isinstance(t_value, dt.datetime) != isinstance(raw_times[0], dt.datetime):
+            raise ParameterError(
+                f"{path}:{line_no}: time {t_text!r} mixes numbers and date-times in one column"
+            )
+        try:
+            v_value = float(cells[columns[1]])
+        except ValueError:
+            raise ParameterError(f"{path}:{line_no}: not a number in {','.join(cells)!r}") from None
+        raw_times.append(t_value)
+        values.append(v_value)
+        lines.append(line_no)
+        stamps.append(t_text)
+    if not raw_times:
+        raise ParameterError(f"{path}: no (t, v) rows found", path="path")
+    epoch = raw_times[0] if isinstance(raw_times[0], dt.datetime) else None
+    if epoch is None:
+        times = np.array(raw_times, dtype=float)
+    else:
+        seconds: list[float] = []
+        for i, moment in enumerate(raw_times):
+            assert isinstance(moment, dt.datetime)
+            try:
+                seconds.append(since(moment, epoch))
+            except ValueError as exc:
+                raise ParameterError(
+                    f"{path}:{lines[i]}: {exc} ({stamps[i]!r} after {stamps[0]!r})"
+                ) from None
+        times = np.array(seconds)
+    return Columns(times, np.array(values), lines, stamps, epoch)
+
+
+def is_number(text: str) -> bool:
+    """True when ``float(text)`` parses."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
