@@ -62,7 +62,8 @@ def test_figures_are_finite_and_bounds_order_as_theory_says(quick: tuple) -> Non
         s = r.score
         assert math.isfinite(s.rms) and s.rms > 0.0 and s.max_err >= s.rms
         assert math.isfinite(s.nees) and s.nees > 0.0
-        assert 0.0 <= s.beyond_steady <= 1.0
+        assert math.isnan(s.beyond_steady) or 0.0 <= s.beyond_steady <= 1.0  # NaN: an agile robot is
+        # never steady for 3 s (f1tenth_ds5: every sample lies within 2 s of a change)
         assert math.isnan(s.beyond_after) or 0.0 <= s.beyond_after <= 1.0
     for design in rm.designs():
         for profile in {r.profile for r in rows}:
