@@ -8,8 +8,8 @@ File layout (every key is checked; unknown keys are errors so a typo never passe
     gravity: 9.80665                # m/s², > 0 (optional, default standard gravity)
     grade: 0.0                      # rad, |β| < π/2 (optional, 0): the road's constant pitch, nose-up
                                     # (climbing) > 0; a 10 % grade is atan(0.10) = 0.0997 rad
-    motion: car                     # optional: kalman's preset, car, robot or lab_steps (default: chosen
-                                    # from the acceleration's source, estimators.motion)
+    motion: car                     # optional: kalman's preset as a prior, auto, car, robot or lab_steps
+                                    # (default: auto, learned from the angles, estimators.motion)
     pendulum:
       length: 1.0                   # m, > 0
       mass: 1.0                     # kg, > 0 (optional, 1)
@@ -183,7 +183,7 @@ class Scene:
     ``grade`` is the road's constant pitch β (rad, nose-up > 0); the motion on it is that of
     ``on_level()``, while ``pendulum`` and ``profile`` stay the physical g and the car's own a(t).
     ``accuracy`` is the max |θ_simulated − θ_true| allowed, rad. ``motion`` names kalman's preset (None:
-    chosen from a(t)'s source, ``estimators.motion``). ``model``/``method`` force the planner's
+    ``auto``, learned from the angles, ``estimators.motion``). ``model``/``method`` force the planner's
     choice (None: the planner decides). ``source`` is the file it came from (None when built in code).
     Construction re-checks the fields that depend on each other (SceneError naming the field).
     """

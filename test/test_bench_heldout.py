@@ -23,7 +23,7 @@ def test_heldout_page_has_a_row_per_design_and_a_verdict_from_its_figures(tmp_pa
     )
     results = heldout.evaluate(tmp_path / "trace.yaml", seeds=1)
     assert len(results) == 2 + len(heldout.HELDOUT_DESIGNS) + 1
-    assert {r.preset for r in results} == {"car"}  # 24 m/s: a road vehicle's
+    assert {r.preset for r in results} == {"auto"}  # no preset from where the trace came from
     for r in results:
         k = r.kalman
         shares = [s for s in (k.beyond_steady, k.beyond_after) if s == s]
@@ -36,5 +36,5 @@ def test_heldout_page_has_a_row_per_design_and_a_verdict_from_its_figures(tmp_pa
         assert np.isfinite(k.rms) and k.rms > 0.0
     assert heldout.main([str(tmp_path / "trace.yaml"), "--seeds", "1", "--docs", str(tmp_path / "docs")]) == 0
     page = (tmp_path / "docs" / "benchmarks" / "heldout.md").read_text()
-    assert page.count("| trace | car |") == len(results)
+    assert page.count("| trace | auto |") == len(results)
     assert (tmp_path / "docs" / "img" / "bench_heldout.png").stat().st_size > 0

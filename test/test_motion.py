@@ -13,14 +13,12 @@ from benchmarks.real_motion import PROFILES
 from pendulum_accel.errors import SceneError
 from pendulum_accel.estimators import estimate_batch, estimator_line
 from pendulum_accel.estimators.kalman import PRESETS
-from pendulum_accel.estimators.motion import MOTIONS, ROBOT_MAX_SPEED, motion_of
-from pendulum_accel.motion_input import profile_from_dict
+from pendulum_accel.estimators.motion import MOTIONS, motion_of
 from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.generate import generate_bag
 from pendulum_accel.recording.settings import estimator_options, motion_choice
 from pendulum_accel.scene import (
     BUNDLED_SCENE_NAMES,
-    CORPUS_SCENE_NAMES,
     load_scene,
     scene_from_yaml,
     scene_to_dict,
@@ -29,40 +27,22 @@ from pendulum_accel.scene import (
 
 
 def test_motions_are_the_presets() -> None:
-    assert MOTIONS == tuple(PRESETS) == ("car", "robot", "lab_steps")
+    assert MOTIONS == tuple(PRESETS) == ("auto", "car", "robot", "lab_steps")
 
 
-@pytest.mark.parametrize("name", [n for n in BUNDLED_SCENE_NAMES if n not in CORPUS_SCENE_NAMES])
-def test_bundled_scenes_get_the_preset_their_motion_calls_for(name: str) -> None:
-    """Drive cycles: car; the Husky's odometry: robot; every made-up profile: lab_steps."""
-    scene = load_scene(name)
-    expected = "robot" if name.startswith("husky") else "car" if scene.profile.kind == "table" and name in (
-        "udds", "hwfet", "ftp75", "udds_teaching", "hwfet_teaching", "ftp75_teaching"
-    ) else "lab_steps"  # fmt: skip
-    choice = motion_choice(scene)
-    assert choice.preset == expected
-    assert choice.line().startswith(f"preset {expected}: ")
+@pytest.mark.parametrize("name", BUNDLED_SCENE_NAMES)
+def test_every_bundled_scene_runs_auto_without_a_motion_key(name: str) -> None:
+    """No guess from where the data came from: drive cycles, the Husky's odometry and the lab scenes all
+    run auto, learned from the angles."""
+    choice = motion_choice(load_scene(name))
+    assert choice.preset == "auto"
+    assert choice.line().startswith("preset auto: learned from the angles")
 
 
 @pytest.mark.parametrize("profile", PROFILES, ids=lambda p: p.name)
-def test_the_rule_picks_the_presets_the_benchmark_fitted_and_validated(profile: object) -> None:
-    """The real-motion benchmark fits each preset on, and reports each on, the profiles a user would give
-    it (its table); the package's rule must choose that same preset for each."""
-    assert motion_of(profile.build()).preset == profile.preset  # type: ignore[attr-defined]
-
-
-def test_speed_threshold_in_any_unit() -> None:
-    """The robot/car boundary is on the speed in m/s: 3 m/s is 10.8 km/h and 6.71 mph."""
-    times = [0.0, 10.0, 20.0, 30.0, 40.0]
-
-    def preset(top: float, units: str) -> str:
-        spec = {"type": "speed_table", "times": times, "speeds": [0.0, top, top, top, 0.0], "units": units}
-        return motion_of(profile_from_dict(spec)).preset
-
-    assert preset(ROBOT_MAX_SPEED, "m/s") == "robot"
-    assert preset(ROBOT_MAX_SPEED * 1.01, "m/s") == "car"
-    assert preset(10.7, "km/h") == "robot" and preset(10.9, "km/h") == "car"
-    assert preset(6.7, "mph") == "robot" and preset(6.72, "mph") == "car"
+def test_the_rule_ignores_the_profile(profile: object) -> None:
+    """Whatever the benchmark's profile (car, robot, steps), the rule gives auto."""
+    assert motion_of(profile.build()).preset == "auto"  # type: ignore[attr-defined]
 
 
 def test_scene_motion_key_states_the_preset_and_survives_a_round_trip() -> None:
@@ -78,7 +58,7 @@ def test_scene_motion_key_states_the_preset_and_survives_a_round_trip() -> None:
 
 def test_an_unknown_motion_is_one_line() -> None:
     text = scene_to_yaml(load_scene("stop_and_go")).replace("gravity:", "motion: truck\ngravity:", 1)
-    expected = r"^<scene>: motion: expected one of car, robot, lab_steps, got 'truck'"
+    expected = r"^<scene>: motion: expected one of auto, car, robot, lab_steps, got 'truck'"
     with pytest.raises(SceneError, match=expected) as err:
         scene_from_yaml(text)
     assert "\n" not in str(err.value)
@@ -86,23 +66,23 @@ def test_an_unknown_motion_is_one_line() -> None:
 
 def test_only_methods_with_a_preset_are_given_one() -> None:
     scene = load_scene("stop_and_go")
-    assert estimator_options(scene, "kalman")["preset"] == "lab_steps"
-    assert estimator_options(scene, "smoother")["preset"] == "lab_steps"
+    assert estimator_options(scene, "kalman")["preset"] == "auto"
+    assert estimator_options(scene, "smoother")["preset"] == "auto"
     assert "preset" not in estimator_options(scene, "instant")
 
 
 def test_generate_and_analyze_run_the_scene_preset(tmp_path: Path) -> None:
-    """stop_and_go through generate: the recorded estimate is kalman with lab_steps (bit for bit the batch
-    pass, which the streaming node matches: test_estimators), not with car; analyze re-runs with lab_steps,
-    says so, and the summary line names it. A copy stating motion: car is re-run with car."""
+    """stop_and_go through generate: the recorded estimate is kalman with auto (bit for bit the batch pass,
+    which the streaming node matches: test_estimators), not with car; analyze re-runs with auto, says so,
+    and the summary line names it. A copy stating motion: car is re-run with car."""
     scene = dataclasses.replace(load_scene("stop_and_go"), duration=8.0)
     bag = tmp_path / "sg"
     result = generate_bag(scene, bag)
     assert result.messages > 0
     analysis = analyze_bag(bag)
-    assert analysis.motion is not None and analysis.motion.preset == "lab_steps"
+    assert analysis.motion is not None and analysis.motion.preset == "auto"
     said = [line.strip() for line in analysis.lines()]
-    assert any(line.startswith("preset lab_steps: a(t) from a table profile") for line in said)
+    assert any(line.startswith("motion model auto (preset auto: learned from the angles") for line in said)
     assert estimator_line("kalman", analysis.motion).endswith(analysis.motion.line())
     settings = estimator_options(scene, "kalman")
     own, _ = estimate_batch("kalman", analysis.t, analysis.theta, **settings)

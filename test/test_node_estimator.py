@@ -178,10 +178,11 @@ def test_lag_stamps_each_estimate_with_the_sample_it_describes(spawn: Spawn) -> 
 
 
 def test_preset_comes_from_the_scene_and_can_be_set(spawn: Spawn) -> None:
-    """preset 'scene' (the default): husky_odom's speed trace never exceeds 1.02 m/s, so the node runs and
-    names the robot preset; preset = car rebuilds with it; an unknown preset is refused, saying why."""
+    """preset 'scene' (the default): husky_odom states no motion, so the node runs auto, learned from the
+    angles (no guess from the robot's speeds); preset = car rebuilds with it as a prior; an unknown preset is
+    refused, saying why."""
     estimator = start_node(spawn, "estimator_node", {"scene": "husky_odom"})
-    estimator.wait_for(r"preset robot: a recorded speed trace never above 1\.02 m/s", timeout=60)
+    estimator.wait_for(r"preset auto: learned from the angles", timeout=60)
     result = run_probe(
         spawn,
         {"set": {"node": "accel_estimator", "params": {"preset": "car"}}},
@@ -194,7 +195,7 @@ def test_preset_comes_from_the_scene_and_can_be_set(spawn: Spawn) -> None:
         {"set": {"node": "accel_estimator", "params": {"preset": "bogus"}}},
     )
     ((ok, reason),) = result["set"]
-    assert not ok and "motion must be one of car, robot, lab_steps" in reason
+    assert not ok and "motion must be one of auto, car, robot, lab_steps" in reason
     assert result["get"] == {"preset": "car"}
     estimator.proc.send_signal(signal.SIGINT)
     assert estimator.finish(timeout=20) == 0

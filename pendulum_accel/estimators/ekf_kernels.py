@@ -417,6 +417,24 @@ def rts(
     return a, v
 
 
+ImmScratch = tuple[
+    np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+    np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+]  # fmt: skip
+
+
+@njit(cache=True)
+def imm_scratch(m: int) -> ImmScratch:
+    """Work arrays of one imm_step for m modes: (c, x⁰, P⁰, F, K, log-likelihoods, Π, mixing weights w,
+    a buffered sample's mixed â, var, c, and [the Δt Π was computed for, the chain's band]: at a steady
+    rate Π and the band are computed once)."""
+    return (
+        np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3, 3)), np.empty((3, 3)), np.empty(3), np.empty(m),
+        np.empty((m, m)), np.empty((m, m)), np.empty(m), np.empty(m), np.empty((m, 3)),
+        np.array([np.nan, -1.0]),
+    )  # fmt: skip
+
+
 @njit(cache=True)
 def imm_step(
     xs: np.ndarray,
@@ -424,84 +442,89 @@ def imm_step(
     mu: np.ndarray,
     x: np.ndarray,
     p: np.ndarray,
+    ra: np.ndarray,
+    rv: np.ndarray,
+    rc: np.ndarray,
     state: np.ndarray,
     t: float,
     y: float,
     params: np.ndarray,
     qs: np.ndarray,
-    switch_time: float,
+    rates: np.ndarray,
+    scratch: ImmScratch,
 ) -> bool:
     """One sample into the interacting-multiple-model filter (Blom & Bar-Shalom); True when it (re)started.
 
-    Model j is the EKF above with q_a = qs[j]; the mode follows a Markov chain that leaves each mode at
-    rate 1/switch_time to any other (Π_ij = e^{−Δt/τ} on the diagonal, the rest shared evenly). Per sample:
+    Model j is the EKF above with q_a = qs[j]; the mode follows a continuous-time Markov chain with jump
+    rates R_ij (1/s, ``chain_rates``): over Δt it stays with Π_ii = e^{−r_i Δt}, r_i = Σ_j R_ij, and moves
+    to j with Π_ij = (1 − e^{−r_i Δt}) R_ij / r_i. Per sample:
     mix (c_j = Σ_i Π_ij μ_i, x⁰_j = Σ_i Π_ij μ_i x_i / c_j, P⁰_j likewise plus the spread of the x_i), predict
     and correct each model, μ_j ∝ c_j N(ν_j; 0, S_j), and combine: x = Σ μ_j x_j,
     P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ). ``state``, ``params``: as ``step``; x, p receive the combination.
+
+    Fixed lag (each mode keeps ``step``'s buffer, ra, rv, rc: (modes × N + 1) for a lag of N samples): the
+    mixing mixes each buffered sample's â, var and cross-covariance row like the state (``_mix_ring``: the
+    augmented state's IMM mixing, restricted to the blocks the update reads), each mode's prediction and
+    update move them as ``step`` does, and ``imm_lagged`` combines a sample over the modes. N = 0 (a
+    buffer of one) is the filter alone. ``scratch``: work arrays (``imm_scratch``), kept by the caller so
+    a sample allocates nothing.
     """
-    m = qs.size
-    return _imm_step_into(xs, ps, mu, x, p, state, t, y, params, qs, switch_time, _imm_scratch(m))
+    return _imm_step_into(xs, ps, mu, x, p, ra, rv, rc, state, t, y, params, qs, rates, scratch)
 
 
 @njit(cache=True)
-def _imm_scratch(m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Work arrays of one imm_step for m modes: (c, x⁰, P⁰, F, K, log-likelihoods)."""
-    return np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3, 3)), np.empty((3, 3)), np.empty(3), np.empty(m)
+def _chain_step(rates: np.ndarray, dt: float, pi: np.ndarray) -> None:
+    """pi ← the chain's transition matrix over dt: Π_ii = e^{−r_i Δt}, Π_ij = (1 − e^{−r_i Δt}) R_ij / r_i."""
+    m = pi.shape[0]
+    for i in range(m):
+        out = 0.0
+        for j in range(m):
+            out += rates[i, j] if j != i else 0.0
+        stay = math.exp(-out * dt)
+        for j in range(m):
+            pi[i, j] = stay if j == i else ((1.0 - stay) * rates[i, j] / out if out > 0.0 else 0.0)
 
 
 @njit(cache=True)
-def _imm_step_into(
+def _mix(
     xs: np.ndarray,
     ps: np.ndarray,
     mu: np.ndarray,
-    x: np.ndarray,
-    p: np.ndarray,
-    state: np.ndarray,
-    t: float,
-    y: float,
-    params: np.ndarray,
-    qs: np.ndarray,
-    switch_time: float,
-    scratch: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-) -> bool:
-    """imm_step with its work arrays given (``_imm_scratch``): a recording's pass allocates them once."""
-    cj, x0, p0, f, k, logl = scratch
-    g, length, c, r = params[0], params[1], params[2], params[3]
-    q_rate, reset_gap = params[4], params[6]
-    m = qs.size
-    if needs_restart(state, t, reset_gap):
-        _imm_start(xs, ps, mu, x, p, state, t, y, params)
-        return True
-    dt = t - state[0]
-    stay = math.exp(-dt / switch_time)
-    move = (1.0 - stay) / (m - 1) if m > 1 else 0.0
+    pi: np.ndarray,
+    cj: np.ndarray,
+    w: np.ndarray,
+    x0: np.ndarray,
+    p0: np.ndarray,
+    band: int,
+) -> None:
+    """IMM mixing: c_j = Σ_i Π_ij μ_i, w_ij = Π_ij μ_i / c_j, x⁰_j = Σ_i w_ij x_i,
+    P⁰_j = Σ_i w_ij (P_i + (x_i − x⁰_j)(x_i − x⁰_j)ᵀ); the sums over |i − j| ≤ band only (Π_ij = 0
+    beyond the chain's reach, so the terms left out are exact zeros)."""
+    m = mu.size
     for j in range(m):
+        lo, hi = max(0, j - band), min(m, j + band + 1)
         cj[j] = 0.0
+        for i in range(m):
+            cj[j] += pi[i, j] * mu[i]
+        for i in range(m):
+            w[i, j] = pi[i, j] * mu[i] / cj[j]
         for a in range(3):
-            x0[j, a] = 0.0
+            acc = 0.0
+            for i in range(lo, hi):
+                acc += w[i, j] * xs[i, a]
+            x0[j, a] = acc
+        for a in range(3):
             for b in range(3):
-                p0[j, a, b] = 0.0
-    for j in range(m):
-        for i in range(m):
-            cj[j] += (stay if i == j else move) * mu[i]
-    for j in range(m):
-        for i in range(m):
-            w = (stay if i == j else move) * mu[i] / cj[j]
-            for a in range(3):
-                x0[j, a] += w * xs[i, a]
-        for i in range(m):
-            w = (stay if i == j else move) * mu[i] / cj[j]
-            for a in range(3):
-                da = xs[i, a] - x0[j, a]
-                for b in range(3):
-                    p0[j, a, b] += w * (ps[i, a, b] + da * (xs[i, b] - x0[j, b]))
-    for j in range(m):
-        xj = x0[j]
-        pj = p0[j]
-        predict(xj, pj, f, dt, g, 1.0 / length, c, q_rate, qs[j])
-        nu, s = correct(xj, pj, k, y, r)
-        _copy3(xj, pj, xs[j], ps[j])
-        logl[j] = -0.5 * (nu * nu / s + math.log(s)) + math.log(cj[j])
+                acc = 0.0
+                for i in range(lo, hi):
+                    acc += w[i, j] * (ps[i, a, b] + (xs[i, a] - x0[j, a]) * (xs[i, b] - x0[j, b]))
+                p0[j, a, b] = acc
+
+
+@njit(cache=True)
+def _update_modes(logl: np.ndarray, mu: np.ndarray) -> None:
+    """μ_j ∝ exp(logl_j) (logl_j = ln c_j + ln N(ν_j; 0, S_j)), floored at 1e-12."""
+    m = mu.size
     top = logl.max()
     total = 0.0
     for j in range(m):
@@ -509,6 +532,12 @@ def _imm_step_into(
         total += mu[j]
     for j in range(m):
         mu[j] = max(mu[j] / total, 1e-12)  # a floor keeps every mode revivable (and no 0/0 in the mixing)
+
+
+@njit(cache=True)
+def _combine(xs: np.ndarray, ps: np.ndarray, mu: np.ndarray, x: np.ndarray, p: np.ndarray) -> None:
+    """x = Σ μ_j x_j, P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ)."""
+    m = mu.size
     for a in range(3):
         x[a] = 0.0
         for j in range(m):
@@ -519,11 +548,134 @@ def _imm_step_into(
             for j in range(m):
                 acc += mu[j] * (ps[j, a, b] + (xs[j, a] - x[a]) * (xs[j, b] - x[b]))
             p[a, b] = acc
+
+
+@njit(cache=True)
+def _mix_ring(
+    xs: np.ndarray,
+    x0: np.ndarray,
+    w: np.ndarray,
+    ra: np.ndarray,
+    rv: np.ndarray,
+    rc: np.ndarray,
+    slot: int,
+    new_a: np.ndarray,
+    new_v: np.ndarray,
+    new_c: np.ndarray,
+    band: int,
+) -> None:
+    """IMM mixing of one buffered sample's blocks: â⁰_j = Σ_i w_ij â_i, var⁰_j = Σ_i w_ij (var_i + (â_i −
+    â⁰_j)²), c⁰_j = Σ_i w_ij (c_i + (â_i − â⁰_j)(x_i − x⁰_j)) (the a_slot rows of the mixed augmented
+    covariance: all the fixed-lag update needs)."""
+    m = xs.shape[0]
+    for j in range(m):
+        lo, hi = max(0, j - band), min(m, j + band + 1)  # w_ij = 0 beyond the chain's band
+        a0 = 0.0
+        for i in range(lo, hi):
+            a0 += w[i, j] * ra[i, slot]
+        v0 = 0.0
+        c0, c1, c2 = 0.0, 0.0, 0.0
+        for i in range(lo, hi):
+            da = ra[i, slot] - a0
+            v0 += w[i, j] * (rv[i, slot] + da * da)
+            c0 += w[i, j] * (rc[i, slot, 0] + da * (xs[i, 0] - x0[j, 0]))
+            c1 += w[i, j] * (rc[i, slot, 1] + da * (xs[i, 1] - x0[j, 1]))
+            c2 += w[i, j] * (rc[i, slot, 2] + da * (xs[i, 2] - x0[j, 2]))
+        new_a[j], new_v[j] = a0, v0
+        new_c[j, 0], new_c[j, 1], new_c[j, 2] = c0, c1, c2
+    for j in range(m):
+        ra[j, slot], rv[j, slot] = new_a[j], new_v[j]
+        for b in range(3):
+            rc[j, slot, b] = new_c[j, b]
+
+
+@njit(cache=True)
+def _imm_step_into(
+    xs: np.ndarray,
+    ps: np.ndarray,
+    mu: np.ndarray,
+    x: np.ndarray,
+    p: np.ndarray,
+    ra: np.ndarray,
+    rv: np.ndarray,
+    rc: np.ndarray,
+    state: np.ndarray,
+    t: float,
+    y: float,
+    params: np.ndarray,
+    qs: np.ndarray,
+    rates: np.ndarray,
+    scratch: ImmScratch,
+) -> bool:
+    """imm_step with its work arrays given (``imm_scratch``): a recording's pass allocates them once."""
+    cj, x0, p0, f, k, logl, pi, w, new_a, new_v, new_c, memo = scratch
+    g, length, c, r = params[0], params[1], params[2], params[3]
+    q_rate, reset_gap = params[4], params[6]
+    m = qs.size
+    size = ra.shape[1]
+    if needs_restart(state, t, reset_gap):
+        _imm_start(xs, ps, mu, x, p, ra, rv, rc, state, t, y, params)
+        return True
+    dt = t - state[0]
+    count = int(state[1])
+    held = min(count, size - 1)
+    if dt != memo[0]:  # Π depends on Δt only: at a steady rate it is computed once
+        _chain_step(rates, dt, pi)
+        memo[0] = dt
+    if memo[1] < 0.0:  # the chain's reach: w_ij = 0 for |i − j| > band (1 for a birth-death chain)
+        band = 0
+        for i in range(m):
+            for j in range(m):
+                if rates[i, j] != 0.0:
+                    band = max(band, abs(i - j))
+        memo[1] = band
+    band = int(memo[1])
+    _mix(xs, ps, mu, pi, cj, w, x0, p0, band)
+    for jj in range(1, held + 1):
+        _mix_ring(xs, x0, w, ra, rv, rc, (count - jj) % size, new_a, new_v, new_c, band)
+    new = count % size
+    for j in range(m):
+        xj = x0[j]
+        pj = p0[j]
+        predict(xj, pj, f, dt, g, 1.0 / length, c, q_rate, qs[j])
+        for jj in range(1, held + 1):  # the buffered a's cross-covariances: c ← F c
+            slot = (count - jj) % size
+            c0, c1, c2 = rc[j, slot, 0], rc[j, slot, 1], rc[j, slot, 2]
+            for b in range(3):
+                rc[j, slot, b] = f[b, 0] * c0 + f[b, 1] * c1 + f[b, 2] * c2
+        ra[j, new], rv[j, new] = xj[2], pj[2, 2]
+        for b in range(3):
+            rc[j, new, b] = pj[2, b]
+        nu, s = correct(xj, pj, k, y, r)
+        for jj in range(0, held + 1):
+            slot = (count - jj) % size
+            c0 = rc[j, slot, 0]
+            ra[j, slot] += c0 * nu / s
+            rv[j, slot] -= c0 * c0 / s
+            for b in range(3):
+                rc[j, slot, b] -= c0 * k[b]
+        _copy3(xj, pj, xs[j], ps[j])
+        logl[j] = -0.5 * (nu * nu / s + math.log(s)) + math.log(cj[j])
+    _update_modes(logl, mu)
+    _combine(xs, ps, mu, x, p)
     if _finite(x, p):
-        state[0], state[1] = t, state[1] + 1.0
+        state[0], state[1] = t, count + 1.0
         return False
-    _imm_start(xs, ps, mu, x, p, state, t, y, params)  # diverged: restart rather than publish inf/NaN
+    _imm_start(xs, ps, mu, x, p, ra, rv, rc, state, t, y, params)  # diverged: restart, never inf/NaN
     return True
+
+
+@njit(cache=True)
+def imm_lagged(mu: np.ndarray, ra: np.ndarray, rv: np.ndarray, slot: int) -> tuple[float, float]:
+    """(â, var) of a buffered sample over the modes: â = Σ μ_j â_j, var = Σ μ_j (var_j + (â_j − â)²)."""
+    a = 0.0
+    for j in range(mu.size):
+        a += mu[j] * ra[j, slot]
+    v = 0.0
+    for j in range(mu.size):
+        d = ra[j, slot] - a
+        v += mu[j] * (rv[j, slot] + d * d)
+    return a, v
 
 
 @njit(cache=True)
@@ -533,44 +685,82 @@ def _imm_start(
     mu: np.ndarray,
     x: np.ndarray,
     p: np.ndarray,
+    ra: np.ndarray,
+    rv: np.ndarray,
+    rc: np.ndarray,
     state: np.ndarray,
     t: float,
     y: float,
     params: np.ndarray,
 ) -> None:
-    """Every mode initialised from y (``initialise``), equally likely."""
+    """Every mode initialised from y (``initialise``), equally likely; the buffer holds y's sample only."""
     m = mu.size
     initialise(x, p, y, params[0], params[1], params[3], params[7], params[8])
     for j in range(m):
         xs[j] = x
         ps[j] = p
         mu[j] = 1.0 / m
+        ra[j, 0], rv[j, 0] = x[2], p[2, 2]
+        for b in range(3):
+            rc[j, 0, b] = p[2, b]
     state[0], state[1] = t, 1.0
 
 
 @njit(cache=True, nogil=True)  # as run_pass
 def run_imm(
-    t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, switch_time: float
+    t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, rates: np.ndarray, lags: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(â, P_aa, μ) of the IMM filter over a recording (``imm_step`` per sample); μ: a column per mode."""
+    """(â, var, μ) of the IMM over a recording (``imm_step`` per sample): column m of â, var holds the
+    fixed-lag estimate â_{i | i + lags[m]} aligned to the sample i it describes (lag 0: the filter's x₃,
+    P_aa; the last lags[m] samples of a segment use all the data there is); μ: a column per mode."""
     n = t.size
     m = qs.size
-    a = np.empty(n)
-    v = np.empty(n)
+    size = int(lags.max()) + 1 if lags.size else 1
+    a = np.full((n, lags.size), np.nan)
+    v = np.full((n, lags.size), np.nan)
     mus = np.empty((n, m))
     xs = np.zeros((m, 3))
     ps = np.zeros((m, 3, 3))
     mu = np.full(m, 1.0 / m)
     x = np.zeros(3)
     p = np.zeros((3, 3))
+    ra = np.zeros((m, size))
+    rv = np.zeros((m, size))
+    rc = np.zeros((m, size, 3))
     state = np.array([np.nan, 0.0])
-    scratch = _imm_scratch(m)
+    scratch = imm_scratch(m)
     for i in range(n):
-        _imm_step_into(xs, ps, mu, x, p, state, t[i], y[i], params, qs, switch_time, scratch)
-        a[i] = x[2]
-        v[i] = p[2, 2]
+        if i > 0 and needs_restart(state, t[i], params[6]):
+            _imm_flush(a, v, mu, ra, rv, i - 1, int(state[1]), lags)
+        _imm_step_into(xs, ps, mu, x, p, ra, rv, rc, state, t[i], y[i], params, qs, rates, scratch)
+        count = int(state[1])
+        for col in range(lags.size):
+            lag = lags[col]
+            if lag < count:
+                a[i - lag, col], v[i - lag, col] = imm_lagged(mu, ra, rv, (count - 1 - lag) % size)
         mus[i] = mu
+    _imm_flush(a, v, mu, ra, rv, n - 1, int(state[1]), lags)
     return a, v, mus
+
+
+@njit(cache=True)
+def _imm_flush(
+    out_a: np.ndarray,
+    out_v: np.ndarray,
+    mu: np.ndarray,
+    ra: np.ndarray,
+    rv: np.ndarray,
+    last: int,
+    count: int,
+    lags: np.ndarray,
+) -> None:
+    """At a segment's end (sample ``last``): samples whose lag reaches past it get their latest â, var."""
+    size = ra.shape[1]
+    for j in range(min(count, size)):
+        slot = (count - 1 - j) % size
+        for col in range(lags.size):
+            if lags[col] > j:
+                out_a[last - j, col], out_v[last - j, col] = imm_lagged(mu, ra, rv, slot)
 
 
 @njit(cache=True)
@@ -597,6 +787,28 @@ def log_likelihood(t: np.ndarray, y: np.ndarray, params: np.ndarray) -> float:
     return total
 
 
+def chain_rates(modes: int, up_time: float, down_time: float | None = None) -> np.ndarray:
+    """R (modes × modes, 1/s) of the mode chain. With ``down_time`` None: each mode is left at rate
+    1/up_time, to every other mode evenly. With ``down_time``: a birth-death chain over modes ordered by
+    q_a, R_{i,i+1} = 1/up_time and R_{i,i−1} = 1/down_time (neighbours only).
+
+    Neighbours only, the calm mode never jumps straight into the most agile one: in a calm stretch the
+    agile modes keep only the weight their likelihood earns. A short down_time lets the weight settle back
+    into the calm modes within seconds after a manoeuvre (docs/estimators.md, "auto")."""
+    rates = np.zeros((modes, modes))
+    for i in range(modes):
+        if down_time is None:
+            for j in range(modes):
+                if j != i:
+                    rates[i, j] = 1.0 / (up_time * (modes - 1))
+            continue
+        if i + 1 < modes:
+            rates[i, i + 1] = 1.0 / up_time
+        if i > 0:
+            rates[i, i - 1] = 1.0 / down_time
+    return rates
+
+
 def warm() -> None:
     """Compile (or load from the cache) every pass: a few samples through each."""
     t = np.arange(30) / 100.0
@@ -604,7 +816,7 @@ def warm() -> None:
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
     _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, np.array([0, 5], dtype=np.int64), True)
     rts(xpr, ppr, xpo, ppo, fk, starts)
-    run_imm(t, y, params, np.array([1e-3, 0.1]), 5.0)
+    run_imm(t, y, params, np.array([1e-3, 0.1]), chain_rates(2, 5.0), np.array([0, 5], dtype=np.int64))
     log_likelihood(t, y, params)
 
 

@@ -46,7 +46,9 @@ linalg = lazy_module("scipy.linalg")  # imported on first use: start-up (docs/po
 class MotionPreset:
     """A process model of a(t) and the data it was fitted on.
 
-    ``modes``: the IMM's q_a per mode ((m/s²)²/s), ``switch_time``: mean time (s) between mode changes;
+    ``modes``: the IMM's q_a per mode ((m/s²)²/s), in increasing order; ``switch_time``: mean time (s)
+    before the chain leaves a mode (to any other), or with ``down_time`` before it steps up to the next
+    more agile mode, ``down_time`` the mean time before it steps down (ekf_kernels.chain_rates);
     ``q_accel``: the single-model q_a of the fixed-lag smoother (lag > 0); q_ω ((rad/s)²/s) on θ'.
     """
 
@@ -55,8 +57,25 @@ class MotionPreset:
     q_accel: float
     q_rate: float
     fitted_on: str
+    down_time: float | None = None
+
+    def chain(self) -> str:
+        """The mode chain in words: 'switching every τ s' or 'up every τ s, down every τ_d s'."""
+        if self.down_time is None:
+            return f"switching every {self.switch_time:g} s"
+        return f"stepping up every {self.switch_time:g} s, down every {self.down_time:g} s"
 
 
+AUTO_MODES = (1e-9, 1e-7, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0)
+"""(m/s²)²/s: auto's modes, from a constant (1e-9: over any recording a random walk this slow is a constant,
+whose posterior variance shrinks as 1/n) through every hindsight optimum of the corpus (1e-4 … 2.2) to a
+step (10), a decade apart where real motion lives."""
+
+# auto (the default): a birth-death chain over AUTO_MODES, up every 2 s, down every 1 s, fitted by
+# ``python -m benchmarks.real_motion --fit --quick`` (fit_auto) on every training profile of the corpus
+# (benchmarks.corpus: cars, robots, acceleration tables, the lab's step and stop_and_go; both designs, the
+# first 60 s, seed 0): of AUTO_CHAINS within 5 % of the least RMS, the best calibrated (docs/estimators.md).
+# Its q_accel is car's (used only when a caller asks for the single model).
 # Fitted by ``python -m benchmarks.real_motion --fit`` on the preset's training profiles only, both sensor
 # designs (teaching l = 1 m, 100 Hz; short damped l = 5 cm, 200 Hz), seeds 0-1, on grids. q_accel (the
 # single model): the least RMS (geometric mean over the designs). modes, switch_time (the IMM): of the
@@ -65,6 +84,15 @@ class MotionPreset:
 # the manoeuvre mode's covariance the mixing hands the quiet mode each sample (docs/estimators.md).
 # q_ω = 0: with the damping known there is no unmodelled torque to absorb.
 PRESETS: dict[str, MotionPreset] = {
+    "auto": MotionPreset(
+        AUTO_MODES,
+        2.0,
+        0.0215,
+        0.0,
+        "every training profile of benchmarks.corpus (cars, robots, acceleration tables, the lab's step and "
+        "stop_and_go), both designs, the first 60 s, seed 0",
+        1.0,
+    ),
     "car": MotionPreset(
         (1e-4, 0.03), 50.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"
     ),
@@ -75,7 +103,7 @@ PRESETS: dict[str, MotionPreset] = {
         (1e-4, 1.0), 200.0, 0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-1"
     ),
 }
-DEFAULT_PRESET = "car"
+DEFAULT_PRESET = "auto"
 
 
 def lag_samples(lag: float, rate_hz: float) -> int:
@@ -116,11 +144,13 @@ class KalmanEstimator(Estimator):
         if self.lag < 0.0:
             raise ParameterError(f"lag must be >= 0 s, got {self.lag!r}")
         self.lag_n = lag_samples(self.lag, config.rate_hz)
-        # The live filter (no lag, no fixed q_a asked for) is the IMM over the preset's modes; a lag or a
-        # given q_a runs the single model, whose fixed-lag smoother is exact (ekf_kernels).
-        self.modes: tuple[float, ...] = chosen.modes if q_accel is None and self.lag_n == 0 else ()
+        # Without a given q_a the filter is the IMM over the preset's modes, and a lag its fixed-lag smoother
+        # (ekf_kernels.imm_step); a given q_a runs the single model (how the benchmark builds its bound).
+        self.modes: tuple[float, ...] = chosen.modes if q_accel is None else ()
         self.switch_time = chosen.switch_time
+        self.chain = chosen.chain()
         self._qs = np.array(self.modes, dtype=float)
+        self._rates = kern.chain_rates(max(len(self.modes), 1), self.switch_time, chosen.down_time)
         self._a_max = config.gravity * math.tan(config.clamp_angle)
         # The compiled passes load (from numba's cache) here, not at the first sample: a live chain's first
         # angles must not wait behind the loader (the node builds its estimator before it subscribes).
@@ -166,9 +196,13 @@ class KalmanEstimator(Estimator):
         self._ring_t = [0.0] * size
         self._state = np.array([math.nan, 0.0])
         m = max(len(self.modes), 1)
+        self._ra = np.zeros((m, size))
+        self._rv = np.zeros((m, size))
+        self._rc = np.zeros((m, size, 3))
         self._xs = np.zeros((m, 3))
         self._ps = np.zeros((m, 3, 3))
         self._mu = np.full(m, 1.0 / m)
+        self._scratch = kern.imm_scratch(m)
         self._first_t: float | None = None  # sensor turn-on, for the bias variance
 
     def update(self, t: float, theta: float) -> Estimate | None:
@@ -184,35 +218,42 @@ class KalmanEstimator(Estimator):
                 self._mu,
                 self._x,
                 self._p,
+                self._ra,
+                self._rv,
+                self._rc,
                 self._state,
                 t,
                 theta,
                 self._params,
                 self._qs,
-                self.switch_time,
+                self._rates,
+                self._scratch,
             )
-            return self._estimate(float(self._x[2]), float(self._p[2, 2]), t)
-        kern.step(
-            self._x,
-            self._p,
-            self._f,
-            self._k,
-            self._prior_x,
-            self._prior_p,
-            self._ring_a,
-            self._ring_v,
-            self._ring_c,
-            self._state,
-            t,
-            theta,
-            self._params,
-        )
+        else:
+            kern.step(
+                self._x,
+                self._p,
+                self._f,
+                self._k,
+                self._prior_x,
+                self._prior_p,
+                self._ring_a,
+                self._ring_v,
+                self._ring_c,
+                self._state,
+                t,
+                theta,
+                self._params,
+            )
         count = int(self._state[1])
         size = self.lag_n + 1
         self._ring_t[(count - 1) % size] = t
         if count <= self.lag_n:
             return None
         slot = (count - 1 - self.lag_n) % size
+        if self.modes:
+            a, var = kern.imm_lagged(self._mu, self._ra, self._rv, slot)
+            return self._estimate(a, var, self._ring_t[slot])
         return self._estimate(float(self._ring_a[slot]), float(self._ring_v[slot]), self._ring_t[slot])
 
     @property
@@ -245,9 +286,6 @@ class KalmanEstimator(Estimator):
         there is, and a sample a divergence restart lost gets the filter's value.
         """
         t, theta = check_batch_input(t, theta)
-        if self.modes:
-            a_imm, v_imm, _ = kern.run_imm(t, theta, self._params, self._qs, self.switch_time)
-            return self._publish(t, a_imm, v_imm)
         a, var = self.lagged(t, theta, (self.lag_n,))
         return a[:, 0], var[:, 0]
 
@@ -255,15 +293,18 @@ class KalmanEstimator(Estimator):
         """μ (n × modes): the IMM's probability of each mode after each sample (one column without modes)."""
         t, theta = check_batch_input(t, theta)
         qs = self._qs if self.modes else np.array([self.q_accel])
-        return kern.run_imm(t, theta, self._params, qs, self.switch_time)[2]
+        return kern.run_imm(t, theta, self._params, qs, self._rates, np.zeros(1, np.int64))[2]
 
     def lagged(
         self, t: np.ndarray, theta: np.ndarray, lags: tuple[int, ...]
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(â, var) of the single model (q_accel) with one column per lag (in samples), each aligned to the
-        sample it describes."""
+        """(â, var) of the fixed-lag smoother (the IMM's with modes, else the single model's at q_accel) with
+        one column per lag (in samples), each aligned to the sample it describes."""
         lag_arr = np.array((0, *lags), dtype=np.int64)
-        a, var, *_ = kern.run_pass(t, theta, self._params, lag_arr, False)
+        if self.modes:
+            a, var, _ = kern.run_imm(t, theta, self._params, self._qs, self._rates, lag_arr)
+        else:
+            a, var, *_ = kern.run_pass(t, theta, self._params, lag_arr, False)
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
             lost = np.isnan(a[:, m])
             a[lost, m], var[lost, m] = a[lost, 0], var[lost, 0]
@@ -343,8 +384,7 @@ class KalmanEstimator(Estimator):
     def describe(self) -> str:
         """The base line plus the preset, the process model and the latency (the lag)."""
         model = (
-            f"IMM q_a={'/'.join(f'{q:.3g}' for q in self.modes)} (m/s²)²/s, "
-            f"switching every {self.switch_time:g} s"
+            f"IMM q_a={'/'.join(f'{q:.3g}' for q in self.modes)} (m/s²)²/s, {self.chain}"
             if self.modes
             else f"q_a={self.q_accel:.3g} (m/s²)²/s"
         )
@@ -354,50 +394,25 @@ class KalmanEstimator(Estimator):
         )
 
 
-# q_a tried by the smoother's maximum-likelihood fit: 1e-4 … 10 (m/s²)²/s, one per decade, spanning every
-# preset and every hindsight optimum of the real-motion corpus (0.0001-2.2), then refined around the best.
-ML_Q_GRID = tuple(float(q) for q in np.logspace(-4.0, 1.0, 6))
-_ML_REFINE = 0.5  # decades: the refinement's half-step
-
-
-def max_likelihood_q(params: np.ndarray, t: np.ndarray, theta: np.ndarray) -> float:
-    """argmax of the innovations' log-likelihood Σ −½(ν²/S + ln S) (ekf_kernels) over log q_a: the best of
-    ML_Q_GRID, then the vertex of the parabola through it and its neighbours half a decade either side
-    (kept within that bracket); 8 filter passes in all."""
-    trial = params.copy()
-
-    def score(log_q: float) -> float:
-        trial[5] = 10.0**log_q
-        return float(kern.log_likelihood(t, theta, trial))
-
-    logs = np.log10(ML_Q_GRID)
-    scores = [score(x) for x in logs]
-    top = int(np.argmax(scores))
-    best = float(logs[top])
-    # The best grid point's score is scores[top]: the pass is deterministic, no need to run it again.
-    y0, y1, y2 = score(best - _ML_REFINE), scores[top], score(best + _ML_REFINE)
-    curve = y0 - 2.0 * y1 + y2
-    if curve < 0.0:
-        shift = 0.5 * _ML_REFINE * (y0 - y2) / curve
-        best += min(max(shift, -_ML_REFINE), _ML_REFINE)
-    elif y0 > y1 or y2 > y1:
-        best += -_ML_REFINE if y0 > y2 else _ML_REFINE
-    return 10.0**best
+SMOOTH_LAG = 1.0
+"""s: the smoother's lag. Beyond about 0.5 s a fixed-lag smoother is the fixed-interval one on the corpus
+(the latency–accuracy curve of docs/benchmarks/real_motion.md flattens there)."""
 
 
 class SmootherEstimator(KalmanEstimator):
-    """Fixed-interval RTS smoother on the kalman model: offline only (batch), the best a history can be.
+    """The kalman model's smoother: offline only (batch), the best a history can be.
 
-    Offline, the whole recording is there to tell how fast its a(t) wanders: q_a is its maximum-likelihood
-    value (:func:`max_likelihood_q`, from the angles alone, no truth) unless ``q_accel`` is given.
+    Without ``q_accel``: the IMM's fixed-lag smoother at SMOOTH_LAG, the last SMOOTH_LAG of each segment
+    using all the data there is, so it follows the motion as the filter does. With ``q_accel``: the
+    fixed-interval RTS smoother of the single model (ekf_kernels.rts).
     """
 
     name: ClassVar[str] = "smoother"
-    summary: ClassVar[str] = "RTS smoother on the kalman model (offline only)"
+    summary: ClassVar[str] = "the kalman model's smoother (offline only)"
     offline_only: ClassVar[bool] = True
 
     def update(self, t: float, theta: float) -> Estimate | None:
-        """Refused: a fixed-interval smoother needs the whole recording."""
+        """Refused: a smoother needs the recording."""
         raise ParameterError("smoother is offline only; use lag for live")
 
     def __init__(
@@ -410,7 +425,7 @@ class SmootherEstimator(KalmanEstimator):
         init_angle_std: float = 0.3,
         reset_gap: float = 1.0,
     ) -> None:
-        """As KalmanEstimator (no lag: it has the whole recording); without ``q_accel``, q_a is fitted."""
+        """As KalmanEstimator (no lag option: it has the recording)."""
         super().__init__(
             config,
             preset=preset,
@@ -419,16 +434,15 @@ class SmootherEstimator(KalmanEstimator):
             init_angle_std=init_angle_std,
             reset_gap=reset_gap,
         )
-        self.fit_q = q_accel is None
 
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(âˢ, var âˢ) from the forward EKF pass and the RTS backward pass, at the ML q_a when fitting."""
+        """(âˢ, var âˢ): the IMM's fixed-lag pass at SMOOTH_LAG, or with q_accel the RTS pass."""
         t, theta = check_batch_input(t, theta)
-        if self.fit_q and t.size > 20:
-            self.q_accel = max_likelihood_q(self._params, t, theta)
-            self._params[5] = self.q_accel
+        if self.modes:
+            a, var = self.lagged(t, theta, (lag_samples(SMOOTH_LAG, self.config.rate_hz),))
+            return a[:, 0], var[:, 0]
         return self.smoothed(t, theta)
 
     def nominal_delay(self, accel: float) -> float:
-        """0: a fixed-interval smoother has no lag (its latency is the whole recording)."""
+        """0: a smoother has no lag (its latency is the recording)."""
         return 0.0

@@ -186,8 +186,8 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
               "latency (s) of a fixed-lag smoother: each estimate describes, and is stamped with, the sample "
               "this long ago, using the data since (0: the filter; kalman only)", low=0.0, high=10.0),
     ParamSpec("preset", "string", SCENE_PRESET,
-              "kalman's process model of a(t), fitted on real motion: car, robot or lab_steps; 'scene' "
-              "chooses it from the scene (its motion key, else where its a(t) comes from)",
+              "kalman's process model of a(t), fitted on real motion: auto (learned from the angles), or a "
+              "prior: car, robot or lab_steps; 'scene' takes the scene's motion key, else auto",
               choices=(SCENE_PRESET, *MOTIONS)),
     *(override_param(spec, "default: the scene's") for spec in ESTIMATOR_CONFIG),
     _fixed("warn_angle_deg", "double", 80.0,

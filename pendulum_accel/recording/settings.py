@@ -31,7 +31,7 @@ def sensor_bias_settings(scene: Scene) -> dict[str, float]:
 
 
 def motion_choice(scene: Scene) -> MotionChoice:
-    """kalman's preset for the scene: its ``motion`` key, else chosen from its a(t) (estimators.motion)."""
+    """kalman's preset for the scene: its ``motion`` key, else auto (estimators.motion)."""
     return stated_motion(scene.motion) if scene.motion is not None else motion_of(scene.profile)
 
 
