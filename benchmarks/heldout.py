@@ -20,9 +20,10 @@ Writes docs/benchmarks/heldout.md and docs/img/bench_heldout.png.
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,6 +41,7 @@ from benchmarks.real_motion import (
     q_scan,
     simulate_runs,
 )
+from pendulum_accel.cluster import map_tasks
 from pendulum_accel.estimators import make_estimator
 from pendulum_accel.recording.settings import motion_choice
 from pendulum_accel.scene import load_scene
@@ -71,10 +73,12 @@ class Result:
         return k.rms <= min(self.gtan.rms, 1.1 * self.hindsight.rms) and calibrated and smooth
 
 
-def evaluate(scene_path: Path, seeds: int) -> list[Result]:
-    """Every design on one scene's a(t)."""
+def evaluate(
+    scene_path: Path, seeds: int, *, scheduler: str | None = None, workers: int | None = None
+) -> list[Result]:
+    """Every design on one scene's a(t): one task per design (cluster.map_tasks, like `design` and
+    `analyze` over many bags: a local cluster, or --scheduler)."""
     scene = load_scene(scene_path)
-    preset = motion_choice(scene).preset
     own = Design(
         f"the scene's (l {scene.pendulum.length:g} m, c {scene.pendulum.damping:g} /s, "
         f"{scene.sensor.rate_hz:g} Hz, {scene.sensor.noise_std * 1e3:g} mrad)",
@@ -83,31 +87,37 @@ def evaluate(scene_path: Path, seeds: int) -> list[Result]:
         scene.sensor.noise_std,
         scene.sensor.rate_hz,
     )
-    out = []
-    for design in (*designs(), *HELDOUT_DESIGNS, own):
-        runs = simulate_runs(scene.profile, design, seeds, scene.duration)
-        k = [make_estimator("kalman", **design.settings(), preset=preset).batch(r.t, r.theta) for r in runs]
-        g = [make_estimator("instant", **design.settings()).batch(r.t, r.theta) for r in runs]
-        best = Q_GRID[int(np.argmin(q_scan(runs, design)))]
-        h = [kalman_q(design, best).batch(r.t, r.theta) for r in runs]
-        smoother = make_estimator("smoother", **design.settings(), preset=preset)
-        s = [smoother.batch(r.t, r.theta)[0] for r in runs]
-        rts = [kalman_q(design, best).smoothed(r.t, r.theta)[0] for r in runs]
-        rate = design.rate_hz
-        out.append(
-            Result(
-                scene.name,
-                preset,
-                design.name,
-                Score.of(runs, k, rate),
-                Score.of(runs, h, rate),
-                Score.of(runs, g, rate),
-                pooled_rms(runs, s),
-                pooled_rms(runs, rts),
-            )
-        )
-        print(line(out[-1]), flush=True)
+    task: Callable[[Design], Result] = functools.partial(design_result, str(scene_path), seeds)
+    out = map_tasks(task, [*designs(), *HELDOUT_DESIGNS, own], scheduler=scheduler, workers=workers)
+    for result in out:
+        print(line(result), flush=True)
     return out
+
+
+def design_result(scene_path: str, seeds: int, design: Design) -> Result:
+    """kalman (as the package runs it), the hindsight EKF, g·tanθ, the smoother and the hindsight RTS on
+    one design under the scene's a(t), pooled over the seeds."""
+    scene = load_scene(scene_path)
+    preset = motion_choice(scene).preset
+    runs = simulate_runs(scene.profile, design, seeds, scene.duration)
+    k = [make_estimator("kalman", **design.settings(), preset=preset).batch(r.t, r.theta) for r in runs]
+    g = [make_estimator("instant", **design.settings()).batch(r.t, r.theta) for r in runs]
+    best = Q_GRID[int(np.argmin(q_scan(runs, design)))]
+    h = [kalman_q(design, best).batch(r.t, r.theta) for r in runs]
+    smoother = make_estimator("smoother", **design.settings(), preset=preset)
+    s = [smoother.batch(r.t, r.theta)[0] for r in runs]
+    rts = [kalman_q(design, best).smoothed(r.t, r.theta)[0] for r in runs]
+    rate = design.rate_hz
+    return Result(
+        scene.name,
+        preset,
+        design.name,
+        Score.of(runs, k, rate),
+        Score.of(runs, h, rate),
+        Score.of(runs, g, rate),
+        pooled_rms(runs, s),
+        pooled_rms(runs, rts),
+    )
 
 
 def line(r: Result) -> str:
@@ -173,9 +183,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.heldout", description=intro)
     parser.add_argument("scenes", nargs="+", type=Path, help="scene YAML files whose a(t) is held out")
     parser.add_argument("--seeds", type=int, default=2, help="noise realisations per trace and design")
+    parser.add_argument("--scheduler", default=None, help="a Dask scheduler (default: a local cluster)")
+    parser.add_argument("--workers", type=int, default=None, help="local cluster's workers (default: CPUs)")
     bench_report.add_docs_argument(parser)
     args = parser.parse_args(argv)
-    results = [r for path in args.scenes for r in evaluate(path, args.seeds)]
+    results = [
+        r
+        for path in args.scenes
+        for r in evaluate(path, args.seeds, scheduler=args.scheduler, workers=args.workers)
+    ]
     met = sum(r.meets for r in results)
     summary = f"{met} of {len(results)} trace × design pairs meet every target (seeds 0-{args.seeds - 1})."
     print(summary)

@@ -36,6 +36,7 @@ Gaussian's 4.6 %) among those within 5 % of the least RMS.
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import platform
@@ -49,6 +50,7 @@ import numpy as np
 
 from benchmarks import report as bench_report
 from benchmarks.corpus import CORPUS
+from pendulum_accel.cluster import map_tasks
 from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
@@ -440,120 +442,150 @@ def fit_auto(seeds: int, quick: bool) -> tuple[tuple[float, float], list[tuple[f
     return best, [(float(r), float(m)) for r, m in zip(rms, miss, strict=True)]
 
 
-def evaluate(seeds: int, quick: bool) -> tuple[list[Row], dict[str, dict[float, float]], dict[str, float]]:
-    """Rows for every validation profile × design × method, the lag curves and the hindsight q's."""
+def evaluate(
+    seeds: int, quick: bool, *, scheduler: str | None = None, workers: int | None = None
+) -> tuple[list[Row], dict[str, dict[float, float]], dict[str, float]]:
+    """Rows for every validation profile × design × method, the lag curves and the hindsight q's: one
+    task per design × profile (cluster.map_tasks: a local cluster, or --scheduler)."""
+    cases = [
+        (design, profile)
+        for design in (*designs(), *REPORTED_HELDOUT)
+        for profile in PROFILES
+        if profile.role == "validate"
+    ]
+    task: Callable[[tuple[Design, Profile]], CaseResult] = functools.partial(_validate_case, seeds, quick)
+    results = map_tasks(task, cases, scheduler=scheduler, workers=workers)
     rows: list[Row] = []
     curves: dict[str, dict[float, float]] = {}
     imm_rms: dict[str, float] = {}
-    methods = [m for m in LIVE_ESTIMATORS]
     for design in (*designs(), *REPORTED_HELDOUT):
-        lag_sq: dict[float, list[np.ndarray]] = {lag: [] for lag in LAGS}
-        imm_sq: list[np.ndarray] = []
-        for profile in PROFILES:
-            if profile.role != "validate":
-                continue
-            runs = _runs_for(profile, design, seeds, quick)
-            preset_opts: dict[str, object] = {}  # the default, auto: no preset from the profile
-            by: dict[str, Score] = {}
-            for method in methods:
-                opts = preset_opts if method == "kalman" else {}
-                built = make_estimator(method, **design.settings(), **opts)  # type: ignore[arg-type]
-                outs = [built.batch(r.t, r.theta) for r in runs]
-                by[method] = Score.of(runs, outs, design.rate_hz)
-                if method == "kalman":
-                    imm_sq += [
-                        ((a - r.accel)[r.t >= WARMUP]) ** 2 for r, (a, _) in zip(runs, outs, strict=True)
-                    ]
-                rows.append(
-                    Row(
-                        design.name,
-                        profile.name,
-                        profile.role,
-                        method,
-                        by[method],
-                        stream_cost(method, design, runs[0], opts),
-                    )
-                )
-            # kalman with a lag, and the lag curve (one pass gives every lag; for the fitted designs only:
-            # the IMM's fixed-lag pass costs O(modes · N) per sample, and the held-out rates are high)
-            est = make_estimator("kalman", **design.settings())
-            assert isinstance(est, KalmanEstimator)
-            curve_lags = LAGS if design in designs() else (SHOWN_LAG,)
-            lag_n = tuple(lag_samples(lag, design.rate_hz) for lag in curve_lags)
-            lagged = [est.lagged(r.t, r.theta, lag_n) for r in runs]
-            for m, lag in enumerate(curve_lags):
-                for r, (a, _) in zip(runs, lagged, strict=True):
-                    lag_sq[lag].append(((a[:, m] - r.accel)[r.t >= WARMUP]) ** 2)
-            shown = curve_lags.index(SHOWN_LAG)
-            lag_score = Score.of(runs, [(a[:, shown], v[:, shown]) for a, v in lagged], design.rate_hz)
-            rows.append(
-                Row(
-                    design.name,
-                    profile.name,
-                    profile.role,
-                    f"kalman lag={SHOWN_LAG:g}s",
-                    lag_score,
-                    stream_cost("kalman", design, runs[0], {**preset_opts, "lag": SHOWN_LAG}),
-                )
-            )
-            smooth = [make_estimator("smoother", **design.settings()).batch(r.t, r.theta) for r in runs]
-            smooth_score = Score.of(runs, smooth, design.rate_hz)
-            # The bound: q with hindsight.
-            grid = Q_GRID[::2] if quick else Q_GRID
-            scan = list(q_scan(runs, design, grid))
-            q_best = grid[int(np.argmin(scan))]
-            best = kalman_q(design, q_best)
-            ekf_score = Score.of(runs, [best.batch(r.t, r.theta) for r in runs], design.rate_hz)
-            # The RTS smoother on the same model (the issue's bound), and at its own hindsight q (tighter).
-            rts_score = Score.of(runs, [best.smoothed(r.t, r.theta) for r in runs], design.rate_hz)
-            rts_grid = Q_GRID[::4] if quick else Q_GRID[::2]
-            q_rts = rts_grid[int(np.argmin(q_scan(runs, design, rts_grid, smoothed=True)))]
-            best_rts = kalman_q(design, q_rts)
-            rts_own = Score.of(runs, [best_rts.smoothed(r.t, r.theta) for r in runs], design.rate_hz)
-            smooth_row = Row(
-                design.name, profile.name, profile.role, "smoother", smooth_score, math.nan,
-                smooth_score.rms / rts_score.rms, smooth_score.rms / rts_own.rms,
-            )  # fmt: skip
-            rows.append(smooth_row)
-            rows.append(
-                Row(
-                    design.name,
-                    profile.name,
-                    profile.role,
-                    f"ekf_hindsight q={q_best:.2g}",
-                    ekf_score,
-                    math.nan,
-                )
-            )
-            rows.append(
-                Row(
-                    design.name,
-                    profile.name,
-                    profile.role,
-                    f"rts_hindsight q={q_best:.2g}",
-                    rts_score,
-                    math.nan,
-                )
-            )
-            rows.append(
-                Row(design.name, profile.name, profile.role, f"rts_best q={q_rts:.2g}", rts_own, math.nan)
-            )
-            for row in rows:
-                if (
-                    row.design == design.name
-                    and row.profile == profile.name
-                    and row.ratio is None
-                    and not row.method.startswith("rts_")
-                    and row.method != "smoother"
-                    and not row.method.startswith("ekf_")
-                ):
-                    row.ratio = row.score.rms / ekf_score.rms
+        mine = [r for (d, _), r in zip(cases, results, strict=True) if d == design]
+        for r in mine:
+            rows += r.rows
         if design in designs():
             curves[design.name] = {
-                lag: float(np.sqrt(np.mean(np.concatenate(v)))) for lag, v in lag_sq.items()
+                lag: math.sqrt(sum(r.lag_sum[lag] for r in mine) / sum(r.lag_n[lag] for r in mine))
+                for lag in LAGS
             }
-        imm_rms[design.name] = float(np.sqrt(np.mean(np.concatenate(imm_sq))))
+        imm_rms[design.name] = math.sqrt(sum(r.imm_sum for r in mine) / sum(r.imm_n for r in mine))
     return rows, curves, imm_rms
+
+
+@dataclass
+class CaseResult:
+    """One design × profile: its rows and the sums the pooled lag curve and IMM RMS are made of."""
+
+    rows: list[Row]
+    lag_sum: dict[float, float]
+    lag_n: dict[float, int]
+    imm_sum: float
+    imm_n: int
+
+
+def _validate_case(seeds: int, quick: bool, case: tuple[Design, Profile]) -> CaseResult:
+    """Every method, the lag curve, the smoother and the bounds on one design × validation profile."""
+    design, profile = case
+    methods = list(LIVE_ESTIMATORS)
+    rows: list[Row] = []
+    lag_sum: dict[float, float] = {}
+    lag_count: dict[float, int] = {}
+    imm_sq: list[np.ndarray] = []
+    runs = _runs_for(profile, design, seeds, quick)
+    preset_opts: dict[str, object] = {}  # the default, auto: no preset from the profile
+    by: dict[str, Score] = {}
+    for method in methods:
+        opts = preset_opts if method == "kalman" else {}
+        built = make_estimator(method, **design.settings(), **opts)  # type: ignore[arg-type]
+        outs = [built.batch(r.t, r.theta) for r in runs]
+        by[method] = Score.of(runs, outs, design.rate_hz)
+        if method == "kalman":
+            imm_sq += [((a - r.accel)[r.t >= WARMUP]) ** 2 for r, (a, _) in zip(runs, outs, strict=True)]
+        rows.append(
+            Row(
+                design.name,
+                profile.name,
+                profile.role,
+                method,
+                by[method],
+                stream_cost(method, design, runs[0], opts),
+            )
+        )
+    # kalman with a lag, and the lag curve (one pass gives every lag; for the fitted designs only:
+    # the IMM's fixed-lag pass costs O(modes · N) per sample, and the held-out rates are high)
+    est = make_estimator("kalman", **design.settings())
+    assert isinstance(est, KalmanEstimator)
+    curve_lags = LAGS if design in designs() else (SHOWN_LAG,)
+    lag_n = tuple(lag_samples(lag, design.rate_hz) for lag in curve_lags)
+    lagged = [est.lagged(r.t, r.theta, lag_n) for r in runs]
+    for m, lag in enumerate(curve_lags):
+        for r, (a, _) in zip(runs, lagged, strict=True):
+            sq = ((a[:, m] - r.accel)[r.t >= WARMUP]) ** 2
+            lag_sum[lag] = lag_sum.get(lag, 0.0) + float(np.sum(sq))
+            lag_count[lag] = lag_count.get(lag, 0) + int(sq.size)
+    shown = curve_lags.index(SHOWN_LAG)
+    lag_score = Score.of(runs, [(a[:, shown], v[:, shown]) for a, v in lagged], design.rate_hz)
+    rows.append(
+        Row(
+            design.name,
+            profile.name,
+            profile.role,
+            f"kalman lag={SHOWN_LAG:g}s",
+            lag_score,
+            stream_cost("kalman", design, runs[0], {**preset_opts, "lag": SHOWN_LAG}),
+        )
+    )
+    smooth = [make_estimator("smoother", **design.settings()).batch(r.t, r.theta) for r in runs]
+    smooth_score = Score.of(runs, smooth, design.rate_hz)
+    # The bound: q with hindsight.
+    grid = Q_GRID[::2] if quick else Q_GRID
+    scan = list(q_scan(runs, design, grid))
+    q_best = grid[int(np.argmin(scan))]
+    best = kalman_q(design, q_best)
+    ekf_score = Score.of(runs, [best.batch(r.t, r.theta) for r in runs], design.rate_hz)
+    # The RTS smoother on the same model (the issue's bound), and at its own hindsight q (tighter).
+    rts_score = Score.of(runs, [best.smoothed(r.t, r.theta) for r in runs], design.rate_hz)
+    rts_grid = Q_GRID[::4] if quick else Q_GRID[::2]
+    q_rts = rts_grid[int(np.argmin(q_scan(runs, design, rts_grid, smoothed=True)))]
+    best_rts = kalman_q(design, q_rts)
+    rts_own = Score.of(runs, [best_rts.smoothed(r.t, r.theta) for r in runs], design.rate_hz)
+    smooth_row = Row(
+        design.name, profile.name, profile.role, "smoother", smooth_score, math.nan,
+        smooth_score.rms / rts_score.rms, smooth_score.rms / rts_own.rms,
+    )  # fmt: skip
+    rows.append(smooth_row)
+    rows.append(
+        Row(
+            design.name,
+            profile.name,
+            profile.role,
+            f"ekf_hindsight q={q_best:.2g}",
+            ekf_score,
+            math.nan,
+        )
+    )
+    rows.append(
+        Row(
+            design.name,
+            profile.name,
+            profile.role,
+            f"rts_hindsight q={q_best:.2g}",
+            rts_score,
+            math.nan,
+        )
+    )
+    rows.append(Row(design.name, profile.name, profile.role, f"rts_best q={q_rts:.2g}", rts_own, math.nan))
+    for row in rows:
+        if (
+            row.design == design.name
+            and row.profile == profile.name
+            and row.ratio is None
+            and not row.method.startswith("rts_")
+            and row.method != "smoother"
+            and not row.method.startswith("ekf_")
+        ):
+            row.ratio = row.score.rms / ekf_score.rms
+    imm = np.concatenate(imm_sq)
+    return CaseResult(rows, lag_sum, lag_count, float(np.sum(imm)), int(imm.size))
 
 
 def _fmt(x: float, digits: int = 3) -> str:
