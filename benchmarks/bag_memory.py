@@ -6,10 +6,10 @@
    rate raised to ``--rate`` (default 1000 Hz) so that the bag passes 1 GiB: every topic ``generate``
    writes, as a recording holds them. Checks the free disk space first; the bag and the tables are deleted
    at the end unless --keep.
-2. Runs each command as a user does (``pendulum-accel …``, a fresh process each) and reads its peak
-   resident memory from the kernel (``wait4``'s ru_maxrss, the high-water mark of the whole run), with
-   the wall time. ``python -c pass`` importing the package's reader gives the floor every command
-   starts from.
+2. Runs each command as a user does (``pendulum-accel …``, a fresh process each, forked from a bare
+   Python) and reads its peak resident memory from the kernel (``getrusage``'s ru_maxrss of the
+   child: the high-water mark of the whole run), with the wall time. A Python importing the package's
+   reader gives the floor every command starts from.
 
 The bound beside each figure is the bag's own size: a command that held the bag would need at least that.
 Writes bag_memory.csv and bag_memory.md into the output directory (default out/bench).
@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
-import os
 import shutil
 import subprocess
 import sys
@@ -37,17 +36,21 @@ BYTES_PER_SAMPLE = 1200
 """Upper estimate of a chain bag's bytes per sample (every topic, record overhead): the disk check."""
 
 
+_MEASURE = (
+    "import resource, subprocess, sys, time; t0 = time.perf_counter(); "
+    "code = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode; "
+    "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, time.perf_counter() - t0, code)"
+)
+"""A bare Python that runs the command and prints its peak RSS (KiB), wall time and exit code: the
+kernel counts a child's memory from its fork, so the command must be forked from a small process, not
+from this one, which held the generated bag."""
+
+
 def peak_rss(argv: list[str]) -> tuple[float, float, int]:
-    """(peak RSS MiB, wall s, exit code) of running ``argv`` to its end (stdout and stderr discarded)."""
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    err = proc.stderr.read().decode() if proc.stderr is not None else ""
-    if proc.returncode not in (0, 1):
-        print(f"{' '.join(argv)} exited {proc.returncode}: {err.strip()}", file=sys.stderr)
-    return usage.ru_maxrss / 1024, wall, proc.returncode
+    """(peak RSS MiB, wall s, exit code) of running ``argv`` to its end (its output discarded)."""
+    out = subprocess.run([sys.executable, "-S", "-c", _MEASURE, *argv], capture_output=True, text=True)
+    kib, wall, code = out.stdout.split()
+    return int(kib) / 1024, float(wall), int(code)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -34,11 +34,11 @@ import os
 import struct
 import weakref
 import zlib
-from collections.abc import Iterator, Sequence
+from collections.abc import Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import yaml
@@ -177,10 +177,12 @@ class _ChannelData:
     ordered: bool = True
     """Log times non-decreasing in file order: file order is log-time order (decode_batches streams)."""
     last_time: int = -1
+    track: bool = True
+    """Follow ``ordered``: False for the scratch channels a chunk is read into."""
 
     def _note(self, times: NDArray[np.int64]) -> None:
         """Follow the file order of log times (``ordered``) over the next ``times``."""
-        if times.size:
+        if self.track and times.size:
             if int(times[0]) < self.last_time or (times.size > 1 and bool(np.any(np.diff(times) < 0))):
                 self.ordered = False
             self.last_time = max(self.last_time, int(times[-1]))
@@ -250,6 +252,10 @@ class _ShapeBook:
         return [s for s in (*self.bulk, *self.canonical.values()) if s.count]
 
 
+CHUNKS_KEPT = 4
+"""Chunks read again that a Bag keeps, so that passes over several topics in step read each chunk once."""
+_T = TypeVar("_T")
+
 _Classified = list[tuple[_Shape, NDArray[np.int64], NDArray[np.uint8]]]
 """(shape, indices within the block, rows) of one block's messages that decode."""
 
@@ -298,6 +304,8 @@ class Bag:
         self._channels: dict[int, _ChannelData] = {}
         self._schemas: dict[int, Schema] = {}
         self._file: _File | None = None
+        # Chunks read again lately: file offset -> (channels read, their messages), for passes in step.
+        self._kept: dict[int, tuple[frozenset[int], dict[int, _ChannelData]]] = {}
         # topic -> the shapes of its last complete pass: the contract check and later decodes share them.
         self._shape_cache: dict[str, _ShapeBook] = {}
 
@@ -359,10 +367,26 @@ class Bag:
                 raise BagError(f"topic {topic} in {self.path} is {ch.encoding!r}-encoded, expected cdr")
         return chans
 
-    def _load(self, lazy: _Lazy) -> list[_Block]:
-        """The blocks of ``lazy``'s channel in its chunk, read again from the file; BagError when the bytes
-        read are not those the scan verified (the file changed since it was read)."""
-        ref = lazy.ref
+    def _load(self, lazy: _Lazy, want: frozenset[int]) -> list[_Block]:
+        """The blocks of ``lazy``'s channel in its chunk, read again from the file with those of the
+        channels ``want`` (kept for the passes reading those, in step: CHUNKS_KEPT chunks)."""
+        hit = self._kept.get(lazy.ref.at)
+        if hit is None or lazy.cid not in hit[0]:
+            want = want | {lazy.cid}
+            hit = self._kept[lazy.ref.at] = (want, self._read_chunk(lazy.ref, want))
+            while len(self._kept) > CHUNKS_KEPT:
+                del self._kept[next(iter(self._kept))]
+        got = hit[1].get(lazy.cid)
+        if got is None or got.count != lazy.count:
+            raise BagError(
+                f"{self.mcap_path}: chunk at byte {lazy.ref.at} no longer holds the messages it held"
+            )
+        got.seal()
+        return [b for b in got.blocks if not isinstance(b, _Lazy)]
+
+    def _read_chunk(self, ref: _ChunkRef, want: frozenset[int]) -> dict[int, _ChannelData]:
+        """The messages of channels ``want`` in one intact chunk, read again from the file; BagError when
+        the bytes read are not those the scan verified (the file changed since it was read)."""
         assert self._file is not None, "a bag with chunks left in the file has it open"
         body = self._file.read(ref.at + 9, ref.at + 9 + ref.length)
         crc = zlib.crc32(body)
@@ -377,31 +401,48 @@ class Bag:
             )
         indexes = [i for i in (_message_index(memoryview(b)) for b in bodies) if i is not None]
         scanner = _Scanner(self)
-        scanner.sink = {}
+        scanner.sink, scanner.only = {}, want
         # The same bytes as the scan's: the records that preceded an error there precede it here.
         with contextlib.suppress(*_RECORD_ERRORS):
             scanner.chunk(_decompress(head, memoryview(body)[head.records_at :]), indexes)
-        got = scanner.sink.get(lazy.cid)
-        if got is None or got.count != lazy.count:
-            raise BagError(f"{self.mcap_path}: chunk at byte {ref.at} no longer holds the messages it held")
-        got.seal()
-        return [b for b in got.blocks if not isinstance(b, _Lazy)]
+        return scanner.sink
 
-    def _iter_blocks(self, chans: list[_ChannelData]) -> Iterator[_Block]:
-        """Blocks of ``chans`` in channel then file order; a chunk left in the file is read when reached."""
+    def _cids(self, topics: Sequence[str]) -> frozenset[int]:
+        """Ids of the channels of ``topics``."""
+        return frozenset(cid for cid, ch in self._channels.items() if ch.topic in topics)
+
+    def _iter_blocks(self, chans: list[_ChannelData], want: frozenset[int]) -> Iterator[_Block]:
+        """Blocks of ``chans`` in channel then file order; a chunk left in the file is read when reached
+        (with the channels ``want``)."""
         for ch in chans:
             ch.seal()
             for block in list(ch.blocks):
                 if isinstance(block, _Lazy):
-                    yield from self._load(block)
+                    yield from self._load(block, want)
                 else:
                     yield block
+
+    @staticmethod
+    def _in_step(passes: Mapping[str, Generator[None, None, _T]]) -> dict[str, _T]:
+        """Run generator ``passes`` a block each in turn, so that they read each chunk once between them;
+        {name: what each returned}, in the order given."""
+        results: dict[str, _T] = {}
+        active = dict(passes)
+        while active:
+            for name, gen in list(active.items()):
+                try:
+                    next(gen)
+                except StopIteration as stop:
+                    results[name] = stop.value
+                    del active[name]
+        return {name: results[name] for name in passes}
 
     def raw(self, topic: str, msgtype: str | None = None) -> tuple[NDArray[np.int64], list[bytes]]:
         """(log times ns, CDR payloads) of ``topic``, sorted by log time (stable)."""
         parts: list[NDArray[np.int64]] = []
         payloads: list[bytes] = []
-        for t, data in self._iter_blocks(self._channels_of(topic, msgtype)):
+        chans = self._channels_of(topic, msgtype)
+        for t, data in self._iter_blocks(chans, self._cids([topic])):
             parts.append(t)
             if isinstance(data, _Slices):
                 data = data.rows()
@@ -412,7 +453,9 @@ class Bag:
             return times[order], [payloads[i] for i in order]
         return times, payloads
 
-    def _pass(self, topic: str, msgtype: str | None) -> Iterator[tuple[NDArray[np.int64], _Classified]]:
+    def _pass(
+        self, topic: str, msgtype: str | None, want: frozenset[int] | None = None
+    ) -> Iterator[tuple[NDArray[np.int64], _Classified]]:
         """(log times, classified rows) of each block of ``topic`` in channel then file order; the shapes
         found are cached once the pass has gone through every block.
 
@@ -426,9 +469,20 @@ class Bag:
         chans = self._channels_of(topic, msgtype)
         mtype = chans[0].msgtype
         book = _ShapeBook()
-        for times, payloads in self._iter_blocks(chans):
+        for times, payloads in self._iter_blocks(chans, self._cids([topic]) if want is None else want):
             yield times, _classify(mtype, book, payloads)
         self._shape_cache[topic] = book
+
+    def _shape_pass(self, topic: str, want: frozenset[int]) -> Generator[None, None, None]:
+        """A pass over ``topic`` for its shapes (cached at its end), yielding after each block."""
+        for _ in self._pass(topic, None, want):
+            yield
+
+    def find_shapes(self, topics: Sequence[str]) -> None:
+        """Find the shapes of ``topics`` (those present, not yet known) in one pass over the file."""
+        todo = [t for t in dict.fromkeys(topics) if t in self.topics and t not in self._shape_cache]
+        want = self._cids(todo)
+        self._in_step({t: self._shape_pass(t, want) for t in todo})
 
     def _book(self, topic: str, msgtype: str | None) -> _ShapeBook:
         """The shapes of ``topic`` (type-checked), from the cache or from a pass over it."""
@@ -463,13 +517,34 @@ class Bag:
         over a chunk's messages at once. BagError when a requested field is missing from some shape;
         messages whose bytes do not decode are skipped and named in ``problem``.
         """
+        return self.decode_topics({topic: (msgtype, fields)})[topic]
+
+    def decode_topics(
+        self, requests: Mapping[str, tuple[str | None, Sequence[str] | None]]
+    ) -> dict[str, TopicArrays]:
+        """decode(topic, msgtype, fields) of each {topic: (msgtype, fields)} in one pass over the file."""
+        for topic, (msgtype, _) in requests.items():
+            self._channels_of(topic, msgtype)
+        want = self._cids(list(requests))
+        return self._in_step(
+            {
+                topic: self._decoding(topic, msgtype, fields, want)
+                for topic, (msgtype, fields) in requests.items()
+            }
+        )
+
+    def _decoding(
+        self, topic: str, msgtype: str | None, fields: Sequence[str] | None, want: frozenset[int]
+    ) -> Generator[None, None, TopicArrays]:
+        """decode's pass, yielding after each block; returns the TopicArrays."""
         mtype = self._channels_of(topic, msgtype)[0].msgtype
         wanted = None if fields is None else list(fields)
         parts: list[tuple[NDArray[np.int64], dict[str, NDArray[Any]]]] = []
-        for times, classified in self._pass(topic, msgtype):
+        for times, classified in self._pass(topic, msgtype, want):
             wanted, kept = _decode_block(topic, mtype, times, classified, wanted)
             if kept[0].size:
                 parts.append(kept)
+            yield
         self._note_skipped(topic)
         out = _joined(topic, mtype, parts, fields)
         t = out.log_time_ns
@@ -759,6 +834,7 @@ class _Scanner:
         self.stream = stream
         # Where a chunk's messages go while it is read to be left in the file (None: into the bag).
         self.sink: dict[int, _ChannelData] | None = None
+        self.only: frozenset[int] | None = None  # reading a chunk again: the channels wanted from it
         self.pending: tuple[bytes | memoryview, list[tuple[int, NDArray[np.uint64]]]] | None = None
         self.pending_at = 0  # file offset of the pending chunk
         self.pending_ref: _RefBuilder | None = None  # where the pending chunk lies, when it is intact
@@ -793,7 +869,7 @@ class _Scanner:
             return ch
         got = self.sink.get(cid)
         if got is None:
-            got = self.sink[cid] = _ChannelData(ch.topic, ch.msgtype, ch.encoding, ch.qos)
+            got = self.sink[cid] = _ChannelData(ch.topic, ch.msgtype, ch.encoding, ch.qos, track=False)
         return got
 
     def walk(self, data: bytes | memoryview, start: int, stop: int) -> None:
@@ -865,6 +941,8 @@ class _Scanner:
             ch = self._target(cid)
             if ch is None:
                 raise ValueError(f"message index refers to unknown channel {cid}")
+            if self.only is not None and cid not in self.only:
+                continue
             sel = np.flatnonzero(cids == cid)
             if sel.size == 0:
                 continue

@@ -44,8 +44,8 @@ def missing_estimates(bag: Bag, accounting: Accounting | None) -> int:
     estimate = bm.chain_topic(topics, bm.TOPIC_ACCEL_ESTIMATE)
     if joint not in topics or estimate not in topics:
         return 0
-    angles = bag.decode(joint, fields=_STAMP_FIELDS).stamp
-    estimates = bag.decode(estimate, fields=_STAMP_FIELDS).stamp
+    both = bag.decode_topics({joint: (None, _STAMP_FIELDS), estimate: (None, _STAMP_FIELDS)})
+    angles, estimates = both[joint].stamp, both[estimate].stamp
     after_first = angles[angles >= estimates.min()] if estimates.size else angles
     holes = int(np.count_nonzero(~np.isin(after_first, estimates)))
     return unexplained_missing(angles.size, estimates.size, accounting, holes)

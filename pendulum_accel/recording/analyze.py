@@ -396,16 +396,17 @@ def analyze_bag(
         raise BagError(f"tolerance must be > 0 m/s², got {tolerance!r}")
     data = bag if isinstance(bag, Bag) else read_bag(bag)
     check_chain_contract(data)
-    js = data.decode(
+    joint_topic, truth_topic = (
         chain_topic(data.topics, TOPIC_JOINT_STATES),
-        JOINT_STATE,
-        fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"],
-    )
-    truth = data.decode(
         chain_topic(data.topics, TOPIC_ACCEL_TRUTH),
-        ACCEL_STAMPED,
-        fields=["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"],
     )
+    both = data.decode_topics(  # one pass over the file for the two
+        {
+            joint_topic: (JOINT_STATE, ["header.stamp.sec", "header.stamp.nanosec", "position[0]"]),
+            truth_topic: (ACCEL_STAMPED, ["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"]),
+        }
+    )
+    js, truth = both[joint_topic], both[truth_topic]
     if len(js) < 2:
         raise BagError(f"bag {data.path} holds {len(js)} joint states; at least 2 are needed")
     if len(truth) == 0:
