@@ -45,9 +45,7 @@ $(STAMP): requirements-dev.txt requirements-ros.txt setup.py setup.cfg package.x
 	$(BIN)/python -m pip install -q --disable-pip-version-check --upgrade pip
 	$(BIN)/python -m pip install -q --disable-pip-version-check -r requirements-dev.txt $(ROS_REQS)
 	$(BIN)/python -m pip install -q --disable-pip-version-check --no-deps -e .
-	@echo "compiling the stepping kernels and the estimators' loops into numba's cache (once, about 20 s)"
-	$(BIN)/python -m pendulum_accel.physics.kernels
-	$(BIN)/python -c 'from pendulum_accel.estimators import ekf_kernels; ekf_kernels.warm()'
+	$(BIN)/python -m pendulum_accel.kernel_cache
 	@touch $(STAMP)
 
 demo: $(STAMP)

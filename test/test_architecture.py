@@ -16,7 +16,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pendulum_accel"
 LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"errors", "textfile"}),
     frozenset({"physics", "bag"}),
-    frozenset({"estimators", "sensor"}),
+    frozenset({"estimators", "sensor", "kernel_cache"}),
     frozenset({"scene"}),
     frozenset({"conditioning"}),
     frozenset({"overrides", "planner"}),

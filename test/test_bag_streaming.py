@@ -19,10 +19,11 @@ import pytest
 from pendulum_accel.bag import export as bag_export
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import Bag, read_bag
+from pendulum_accel.cli import info
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording.analyze import analyze_bag
-from pendulum_accel.recording.generate import generate_bag
+from pendulum_accel.recording.generate import chain_streams, generate_bag, write_chain_bag
 from pendulum_accel.scene import load_scene
 
 
@@ -139,3 +140,27 @@ def test_a_bag_changed_after_its_scan_is_refused(chain_bag: Path, tmp_path: Path
     with pytest.raises(BagError, match="changed since it was read"):
         for topic in bag.topics:
             bag.raw(topic)
+
+
+def test_holes_counted_batch_by_batch_equal_the_whole_count(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Estimates missing in runs (a warm-up, three holes, the end): info's merge of the two stamp streams,
+    a few hundred stamps at a time, counts what np.isin over the whole arrays counts."""
+    t = np.arange(0.0, 20.0, 0.001)
+    theta = 0.01 * np.sin(t)
+    accel = np.full(t.size, 1.0)
+    estimate = accel.copy()
+    for start, stop in ((0, 150), (3000, 3400), (9000, 9001), (15000, 17000), (19900, t.size)):
+        estimate[start:stop] = np.nan
+    streams = chain_streams(
+        t, theta, np.cos(t), accel, estimate, np.full(t.size, 0.01), estimator="instant", rate_hz=1000.0
+    )
+    path = tmp_path / "holes"
+    write_chain_bag(path, streams, custom_data={})
+    bag = read_bag(path)
+    joint, est = bm.TOPIC_JOINT_STATES, bm.TOPIC_ACCEL_ESTIMATE
+    expected = 400 + 1 + 2000 + (t.size - 19900)  # after the first estimate: every hole but the warm-up
+    assert info._holes_whole(bag, joint, est) == expected
+    monkeypatch.setattr(info, "STAMP_BATCH", 700)
+    assert info.holes_after_first(bag, joint, est) == expected

@@ -536,17 +536,29 @@ class Bag:
     def _decoding(
         self, topic: str, msgtype: str | None, fields: Sequence[str] | None, want: frozenset[int]
     ) -> Generator[None, None, TopicArrays]:
-        """decode's pass, yielding after each block; returns the TopicArrays."""
-        mtype = self._channels_of(topic, msgtype)[0].msgtype
+        """decode's pass, yielding after each block; returns the TopicArrays. Each block's columns go straight
+        into arrays sized for the topic's count (no second copy to join them)."""
+        chans = self._channels_of(topic, msgtype)
+        mtype, total = chans[0].msgtype, sum(ch.count for ch in chans)
         wanted = None if fields is None else list(fields)
-        parts: list[tuple[NDArray[np.int64], dict[str, NDArray[Any]]]] = []
+        times_out = np.empty(total, dtype=np.int64)
+        columns: dict[str, NDArray[Any]] = {}
+        filled = 0
         for times, classified in self._pass(topic, msgtype, want):
-            wanted, kept = _decode_block(topic, mtype, times, classified, wanted)
-            if kept[0].size:
-                parts.append(kept)
+            wanted, (t, cols) = _decode_block(topic, mtype, times, classified, wanted)
+            if t.size:
+                times_out[filled : filled + t.size] = t
+                for path, col in cols.items():
+                    if path not in columns:
+                        columns[path] = np.empty(total, dtype=col.dtype)
+                    columns[path][filled : filled + t.size] = col
+                filled += int(t.size)
             yield
         self._note_skipped(topic)
-        out = _joined(topic, mtype, parts, fields)
+        if filled:
+            out = TopicArrays(topic, mtype, times_out[:filled], {p: c[:filled] for p, c in columns.items()})
+        else:
+            out = _joined(topic, mtype, [], fields)
         t = out.log_time_ns
         if t.size > 1 and np.any(np.diff(t) < 0):
             order = np.argsort(t, kind="stable")

@@ -130,7 +130,8 @@ class SimulatorNode(ManagedNode):
 
     def _publish_description(self) -> None:
         """The URDF of the current scene's pendulum, once (transient local keeps it for late joiners)."""
-        self._description.publish(String(data=visual.urdf(float(self.scene.pendulum.length))))
+        pendulum = self.scene.pendulum
+        self._description.publish(String(data=visual.urdf(pendulum.length, mass=pendulum.mass)))
 
     def activate(self) -> None:
         """Start the publishing thread."""

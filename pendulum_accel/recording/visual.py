@@ -42,13 +42,20 @@ def bob_radius(length: float) -> float:
     return max(0.02, 0.05 * length)
 
 
-def urdf(length: float, name: str = "pendulum_accel") -> str:
-    """URDF of the car body, the pivot, ``pendulum_joint`` (revolute about y) and the string and bob
-    sized from ``length`` (m): ``base_link`` → pivot_link (fixed) → pendulum_link (pendulum_joint) →
-    bob_link (fixed, l below the pivot)."""
+def urdf(length: float, name: str = "pendulum_accel", *, mass: float = 1.0) -> str:
+    """URDF of the car body, the pivot, ``pendulum_joint`` (continuous about y: a large swing goes over
+    the top) and the string and bob sized from ``length`` (m): ``base_link`` → pivot_link (fixed) →
+    pendulum_link (pendulum_joint) → bob_link (fixed, l below the pivot).
+
+    Inertials are what the model has: the bob's ``mass`` (kg) on bob_link, as a solid sphere of the drawn
+    radius r (I = 2/5 m r² about each axis: the model's point mass, drawn with a size); the string is
+    massless, so pendulum_link and pivot_link carry none, nor does base_link (the car's mass is no
+    part of the model, and KDL refuses an inertia on the root link).
+    """
     lx, ly, lz = BODY
     h = pivot_height(length)
     r = bob_radius(length)
+    inertia = 0.4 * mass * r * r
     return f"""<?xml version="1.0"?>
 <robot name="{name}">
   <material name="body"><color rgba="0.6 0.6 0.65 1"/></material>
@@ -74,13 +81,16 @@ def urdf(length: float, name: str = "pendulum_accel") -> str:
       <material name="string"/>
     </visual>
   </link>
-  <joint name="{bm.PENDULUM_JOINT}" type="revolute">
+  <joint name="{bm.PENDULUM_JOINT}" type="continuous">
     <parent link="pivot_link"/>
     <child link="pendulum_link"/>
     <axis xyz="0 1 0"/>
-    <limit lower="-6.2832" upper="6.2832" effort="0" velocity="100"/>
   </joint>
   <link name="bob_link">
+    <inertial>
+      <mass value="{mass:.9g}"/>
+      <inertia ixx="{inertia:.9g}" ixy="0" ixz="0" iyy="{inertia:.9g}" iyz="0" izz="{inertia:.9g}"/>
+    </inertial>
     <visual>
       <geometry><sphere radius="{r:.6g}"/></geometry>
       <material name="bob"/>
