@@ -98,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     snapshot; exit 1 naming the keys that do not resolve."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rosdistro", type=Path, help="rosdistro checkout or git directory")
-    parser.add_argument("--distro", default="kilted", help="ROS 2 distro of the ROS packages (default kilted)")
+    parser.add_argument("--distro", default="kilted", help="ROS 2 distro of its packages (default kilted)")
     parser.add_argument("--write", action="store_true", help=f"store the resolution in {SNAPSHOT.name}")
     args = parser.parse_args(argv)
     keys = package_keys()
@@ -121,7 +121,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.write:
             header = (
                 "# package.xml's rosdep keys as ros/rosdistro resolves them: written by\n"
-                "# `python -m test.rosdep_keys --rosdistro DIR --write`; checked by test/test_rosdep_keys.py.\n"
+                "# `python -m test.rosdep_keys --rosdistro DIR --write`;\n"
+                "# checked by test/test_rosdep_keys.py.\n"
             )
             SNAPSHOT.write_text(header + yaml.safe_dump(snapshot, sort_keys=False))
     missing = check(keys, snapshot)
