@@ -105,8 +105,10 @@ def urdf(length: float, name: str = "pendulum_accel", *, mass: float = 1.0) -> s
 """
 
 
-def _marker(ns: str, kind: int, color: tuple[float, float, float], points: int = 0) -> Any:
-    """A visualization_msgs/Marker in base_link (id 0 in ``ns``), ``points`` zero points, opaque."""
+def _marker(
+    ns: str, kind: int, color: tuple[float, float, float], points: int = 0, frame_id: str = bm.FRAME_ID
+) -> Any:
+    """A visualization_msgs/Marker in ``frame_id`` (id 0 in ``ns``), ``points`` zero points, opaque."""
     store = bm.TYPESTORE.types
     marker_cls = store["visualization_msgs/msg/Marker"]
     point_cls = store["geometry_msgs/msg/Point"]
@@ -116,7 +118,7 @@ def _marker(ns: str, kind: int, color: tuple[float, float, float], points: int =
     vector_cls = store["geometry_msgs/msg/Vector3"]
     duration_cls = store["builtin_interfaces/msg/Duration"]
     return marker_cls(
-        header=bm.joint_state(0, [], []).header,
+        header=bm.joint_state(0, [], [], frame_id=frame_id).header,
         ns=ns,
         id=0,
         type=kind,
@@ -162,14 +164,18 @@ def _stamp(ns: NDArray[np.int64], prefix: str) -> dict[str, Any]:
 
 
 def swing_marker_rows(
-    ns: NDArray[np.int64], theta: NDArray[np.float64], accel: NDArray[np.float64], length: float
+    ns: NDArray[np.int64],
+    theta: NDArray[np.float64],
+    accel: NDArray[np.float64],
+    length: float,
+    frame_id: str = bm.FRAME_ID,
 ) -> NDArray[np.uint8]:
-    """MarkerArray CDR rows: the string (pivot → bob), the bob, and the true-acceleration arrow along x
-    (ARROW_M_PER_MS2 m per m/s², from above the pivot), one row per sample at ``ns``."""
+    """MarkerArray CDR rows in ``frame_id``: the string (pivot → bob), the bob, and the true-acceleration
+    arrow along x (ARROW_M_PER_MS2 m per m/s², from above the pivot), one row per sample at ``ns``."""
     h = pivot_height(length)
-    string = _marker("string", _LINE_STRIP, (0.2, 0.2, 0.2), points=2)
-    bob = _marker("bob", _SPHERE, (0.1, 0.3, 0.9))
-    truth = _marker("accel_truth", _ARROW, TRUTH_COLOR, points=2)
+    string = _marker("string", _LINE_STRIP, (0.2, 0.2, 0.2), points=2, frame_id=frame_id)
+    bob = _marker("bob", _SPHERE, (0.1, 0.3, 0.9), frame_id=frame_id)
+    truth = _marker("accel_truth", _ARROW, TRUTH_COLOR, points=2, frame_id=frame_id)
     layout = bm.Layout.of(_marker_array([string, bob, truth]), bm.MARKER_ARRAY)
     bx = -length * np.sin(theta)  # bob = pivot + (−l sin θ, 0, −l cos θ)
     bz = h - length * np.cos(theta)
@@ -212,10 +218,10 @@ def _full(cols: Mapping[str, object], n: int) -> dict[str, NDArray[np.generic]]:
     return {k: np.broadcast_to(np.asarray(v), (n,)) for k, v in cols.items()}
 
 
-def estimate_marker_writer(length: float) -> Callable[[int, int, float], bytes]:
-    """(sec, nanosec, â) ↦ CDR of the estimate's one-arrow MarkerArray for a pendulum of ``length``: an
-    arrow from (0, 0, z) to (ARROW_M_PER_MS2 · â, 0, z), z above the truth arrow so both show."""
-    arrow = _marker("accel_estimate", _ARROW, ESTIMATE_COLOR, points=2)
+def estimate_marker_writer(length: float, frame_id: str = bm.FRAME_ID) -> Callable[[int, int, float], bytes]:
+    """(sec, nanosec, â) ↦ CDR of the estimate's one-arrow MarkerArray for a pendulum of ``length`` in
+    ``frame_id``: an arrow from (0, 0, z) to (ARROW_M_PER_MS2 · â, 0, z), z above the truth arrow."""
+    arrow = _marker("accel_estimate", _ARROW, ESTIMATE_COLOR, points=2, frame_id=frame_id)
     layout = bm.Layout.of(_marker_array([arrow]), bm.MARKER_ARRAY)
     z = pivot_height(length) + 0.2
     constants = _full(_arrow_columns("markers[0].", 0.0, z), 1)
