@@ -76,3 +76,18 @@ def test_joint_is_continuous_and_the_bob_carries_the_scene_mass() -> None:
     expected = 0.4 * 0.25 * bob_radius(0.8) ** 2
     for axis in ("ixx", "iyy", "izz"):
         assert float(inertia.get(axis, "nan")) == pytest.approx(expected, rel=PRINTED_REL)
+
+
+def test_frame_prefix_moves_the_markers_into_their_own_frame() -> None:
+    """Swing markers and the estimate's arrow carry the frame they are given (frame_prefix + base_link)."""
+    import numpy as np
+
+    from pendulum_accel.recording.visual import estimate_marker_writer, swing_marker_rows
+
+    rows = swing_marker_rows(
+        np.array([1_000_000], dtype=np.int64), np.zeros(1), np.zeros(1), 1.0, "car1/base_link"
+    )
+    swing = bm.deserialize(rows[0].tobytes(), bm.MARKER_ARRAY)
+    arrow = bm.deserialize(estimate_marker_writer(1.0, "car1/base_link")(0, 5, 1.0), bm.MARKER_ARRAY)
+    frames = {m.header.frame_id for m in (*swing.markers, *arrow.markers)}  # type: ignore[attr-defined]
+    assert frames == {"car1/base_link"}
