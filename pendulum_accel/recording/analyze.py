@@ -416,7 +416,9 @@ def analyze_bag(
     t, theta = t[order], js["position[0]"][order]
     tt = truth.stamp
     t_order = np.argsort(tt, kind="stable")
-    a_true = np.interp(t, tt[t_order], truth["accel.linear.x"][t_order])
+    truth_t, truth_a = tt[t_order], truth["accel.linear.x"][t_order]
+    a_true = np.interp(t, truth_t, truth_a)
+    del both, js, truth, tt, order, t_order  # the decoded columns: a long bag's memory goes to the re-run
     cfg = estimator_config(data, t)
     cfg.update(config or {})
     if "length" not in cfg:
@@ -430,7 +432,6 @@ def analyze_bag(
     a_est = np.asarray(a_est, dtype=np.float64)
     variance = np.asarray(variance, dtype=np.float64)
     tol = default_tolerance(a_true) if tolerance is None else float(tolerance)
-    truth_t, truth_a = tt[t_order], truth["accel.linear.x"][t_order]
     offline = estimate_figures("offline re-run", name, t, t, a_est, a_true, tol, t[0] + skip)
     recorded = _recorded_figures(data, t, truth_t, truth_a, tol, t[0] + skip)
     return Analysis(
