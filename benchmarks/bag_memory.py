@@ -4,8 +4,8 @@
 
 1. Writes the chain bag of a whole drive cycle (default ``ftp75``, 1874 s) with ``generate``, its sensor
    rate raised to ``--rate`` (default 600 Hz: 1.12 million samples) so that the bag passes 1 GiB: every
-   topic a live recording holds (the chain's data, diagnostics, the Imu, markers and the URDF). Checks the free disk space first; the bag and the tables are deleted
-   at the end unless --keep.
+   topic a live recording holds (the chain's data, diagnostics, the Imu, markers and the URDF). Checks
+   the free disk space first; the bag and the tables are deleted at the end unless --keep.
 2. Runs each command as a user does (``pendulum-accel …``, a fresh process each, forked from a bare
    Python) and reads its peak resident memory from the kernel (``getrusage``'s ru_maxrss of the
    child: the high-water mark of the whole run), with the wall time. A Python importing the package's
