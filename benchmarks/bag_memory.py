@@ -12,6 +12,10 @@
    reader gives the floor every command starts from.
 
 The bound beside each figure is the bag's own size: a command that held the bag would need at least that.
+What does grow with the bag is the arrays of samples a command computes with: analyze's re-run of the
+estimator, and the RTS smoother's state history (about 430 B a sample) that ``export`` adds by default
+as its smoothed series; ``export --no-smoothed`` shows the tables written batch by batch alone. The
+merged table (``--merged``) joins whole topics.
 Writes bag_memory.csv and bag_memory.md into the output directory (default out/bench).
 """
 
@@ -87,6 +91,14 @@ def main(argv: list[str] | None = None) -> int:
             "info": [*exe, "info", str(bag)],
             "analyze": [*exe, "analyze", str(bag)],
             "export (CSV, a table per topic)": [*exe, "export", str(bag), "--out", str(tmp / "csv")],
+            "export --no-smoothed (CSV)": [
+                *exe,
+                "export",
+                str(bag),
+                "--no-smoothed",
+                "--out",
+                str(tmp / "csv_raw"),
+            ],
             "export --format parquet": [
                 *exe,
                 "export",
