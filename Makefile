@@ -46,9 +46,7 @@ $(STAMP): requirements-dev.txt requirements-docs.txt requirements-ros.txt setup.
 	$(BIN)/python -m pip install -q --disable-pip-version-check --upgrade pip
 	$(BIN)/python -m pip install -q --disable-pip-version-check -r requirements-dev.txt $(ROS_REQS)
 	$(BIN)/python -m pip install -q --disable-pip-version-check --no-deps -e .
-	@echo "compiling the stepping kernels and the estimators' loops into numba's cache (once, about 20 s)"
-	$(BIN)/python -m pendulum_accel.physics.kernels
-	$(BIN)/python -c 'from pendulum_accel.estimators import ekf_kernels; ekf_kernels.warm()'
+	$(BIN)/python -m pendulum_accel.kernel_cache
 	@touch $(STAMP)
 
 demo: $(STAMP)
@@ -109,7 +107,7 @@ docs-reference: $(STAMP)
 	$(BIN)/python -m pendulum_accel.cli.docs_reference docs
 
 # Every benchmark; figures print, land in out/bench, and each writes its page under docs/benchmarks.
-BENCHES := work_precision error_bounds estimators calibration real_motion chain bags player_memory sweep_bench soak
+BENCHES := work_precision error_bounds estimators calibration real_motion chain bags player_memory bag_memory sweep_bench soak
 bench: $(STAMP)
 	@for b in $(BENCHES); do \
 	  echo "== python -m benchmarks.$$b"; \

@@ -1,17 +1,44 @@
 """ament_python package setup; also a plain ``pip install .``."""
 
+import os
 import re
+import subprocess
+import sys
 from glob import glob
 from pathlib import Path
 
 from setuptools import find_packages, setup
+from setuptools.command.install import install
 
 PACKAGE = "pendulum_accel"
 HERE = Path(__file__).resolve().parent
 # One version, kept in package.xml, so colcon and pip agree.
 VERSION = re.search(r"<version>([^<]+)</version>", (HERE / "package.xml").read_text()).group(1)
 
+
+class InstallAndWarm(install):
+    """install, then compile the numba kernels into the cache beside the installed modules
+    (pendulum_accel.kernel_cache), so that the first run after `colcon build` does not wait a minute or
+    two for numba. Skipped when installing into a staging root (a wheel build: its cache would be stale
+    where the wheel is unpacked); a failed warm-up only says so (the first run then compiles)."""
+
+    def run(self) -> None:
+        super().run()
+        if self.root is not None:
+            return
+        env = {
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join(filter(None, [self.install_lib, os.environ.get("PYTHONPATH")])),
+        }
+        done = subprocess.run([sys.executable, "-m", f"{PACKAGE}.kernel_cache"], env=env, check=False)
+        if done.returncode != 0:
+            print(
+                f"{PACKAGE}: numba's cache was not warmed (exit {done.returncode}); the first run compiles it"
+            )
+
+
 setup(
+    cmdclass={"install": InstallAndWarm},
     name=PACKAGE,
     version=VERSION,
     packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
@@ -33,6 +60,8 @@ setup(
         # ros2 launch looks in share/<package>/launch (the repo keeps launch files in launch_scripts).
         (f"share/{PACKAGE}/launch", sorted(glob("launch_scripts/*.launch.py"))),
         (f"share/{PACKAGE}/config", sorted(glob("config/*.yaml"))),
+        # The default scene's URDF (`pendulum-accel urdf`), for robot_state_publisher and file-based viewers.
+        (f"share/{PACKAGE}/urdf", sorted(glob("urdf/*.urdf"))),
         # Foxglove and PlotJuggler layouts for recorded bags.
         (f"share/{PACKAGE}/layouts", sorted(glob("layouts/*.json") + glob("layouts/*.xml"))),
         (

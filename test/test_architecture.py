@@ -17,7 +17,7 @@ LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"errors", "textfile", "cluster"}),
     frozenset({"physics", "bag"}),
     frozenset({"motion_input"}),
-    frozenset({"estimators", "sensor"}),
+    frozenset({"estimators", "sensor", "kernel_cache"}),
     frozenset({"scene"}),
     frozenset({"conditioning"}),
     frozenset({"overrides", "planner"}),

@@ -160,10 +160,10 @@ def test_foxglove_mcap_core_reads_the_bag(chain_bag: tuple[Path, dict[str, int]]
 
 
 def test_foxglove_mcap_core_reads_a_golden_bag() -> None:
-    """The golden elastic_string bag (all six topics, zstd chunks) reads fully in @mcap/core."""
+    """The golden elastic_string bag (all nine topics, zstd chunks) reads fully in @mcap/core."""
     path = Path(__file__).resolve().parent.parent / "bags" / "elastic_string"
     counts = {name: topic.count for name, topic in read_bag(path, salvage=False).topics.items()}
-    assert len(counts) == 6
+    assert len(counts) == 9  # the contract's six (string included) and the Imu, markers and URDF
     report = _mcap_core_report(path / "elastic_string.mcap")
     assert report["profile"] == "ros2" and report["counts"] == counts
     assert report["streamed"] == sum(counts.values())

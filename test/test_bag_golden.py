@@ -55,15 +55,19 @@ def test_one_small_complete_bag_per_bundled_scene() -> None:
 
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_golden_bag_content(name: str) -> None:
-    """Complete; the contract's topics (string only where the scene computes it); scene and plan stored."""
+    """Complete; the contract's topics (string only where the scene computes it) and the viewers' (Imu,
+    markers, URDF), as a live recording holds them; scene and plan stored."""
     bag = read_bag(BAGS / name, salvage=False)
     scene = SCENES[name]
-    expected = {t for t in bm.TOPIC_TYPES if t != bm.TOPIC_STRING}
+    types = {**bm.TOPIC_TYPES, **bm.VIEWER_TOPIC_TYPES}
+    expected = {t for t in types if t != bm.TOPIC_STRING}
     if scene.wants_tension or scene.wants_stretch:
         expected.add(bm.TOPIC_STRING)
     assert set(bag.topics) == expected
     for topic, info in bag.topics.items():
-        assert info.msgtype == bm.TOPIC_TYPES[topic] and info.count > 0
+        assert info.msgtype == types[topic] and info.count > 0
+    assert bag.topics[bm.TOPIC_IMU].count == bag.topics[bm.TOPIC_ACCEL_ESTIMATE].count
+    assert bag.topics[bm.TOPIC_ROBOT_DESCRIPTION].count == 1
     stored = scene_from_yaml(bag.custom_data["pendulum_accel.scene"])
     assert scene_name(bag) == name == stored.name
     assert stored.pendulum == scene.pendulum and stored.sensor == scene.sensor

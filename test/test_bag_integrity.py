@@ -74,7 +74,7 @@ def chunks_of(mcap: Path) -> list[ChunkInfo]:
 
 
 def at_1khz(duration: float) -> Scene:
-    """The lecture_constant scene sampled at 1 kHz for ``duration`` s (~0.8 MB of bag per second)."""
+    """The lecture_constant scene sampled at 1 kHz for ``duration`` s (~1.2 MB of bag per second)."""
     scene = load_scene("lecture_constant")
     return dataclasses.replace(
         scene, sensor=dataclasses.replace(scene.sensor, rate_hz=1000.0), duration=duration
@@ -83,8 +83,8 @@ def at_1khz(duration: float) -> Scene:
 
 @pytest.fixture(scope="module")
 def multi_chunk_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A generated chain bag at 1 kHz over 10.5 s: 8 chunks of ~1 MiB (1.38 s each), uncompressed."""
-    scene = at_1khz(10.5)
+    """A generated chain bag at 1 kHz over 6.9 s: 8 chunks of ~1 MiB (0.9 s each), uncompressed."""
+    scene = at_1khz(6.9)
     path = tmp_path_factory.mktemp("integrity") / "multi"
     generate_bag(scene, path)
     return path

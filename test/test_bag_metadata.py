@@ -39,9 +39,10 @@ def test_generated_bag_stores_type_hashes_and_estimator(tmp_path: Path) -> None:
     channels = _channel_metadata(out)
     info = yaml.safe_load((out / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     listed = {t["topic_metadata"]["name"]: t["topic_metadata"] for t in info["topics_with_message_count"]}
-    assert set(channels) == set(listed) == set(bm.TOPIC_TYPES) - {bm.TOPIC_STRING}
+    types = {**bm.TOPIC_TYPES, **bm.VIEWER_TOPIC_TYPES}
+    assert set(channels) == set(listed) == set(types) - {bm.TOPIC_STRING}
     for topic, meta in channels.items():
-        expected = bm.TYPESTORE.hash_rihs01(bm.TOPIC_TYPES[topic])
+        expected = bm.TYPESTORE.hash_rihs01(types[topic])
         assert meta["topic_type_hash"] == listed[topic]["type_description_hash"] == expected
         assert expected.startswith("RIHS01_") and len(expected) == 7 + 64
     assert info["custom_data"][CUSTOM_ESTIMATOR] == "period_mean"

@@ -27,7 +27,8 @@ ROSDEP_TO_DIST = {
     "python3-tqdm": "tqdm",
     "python3-pytest": "pytest",
     "python3-hypothesis": "hypothesis",
-    "python3-mpmath": "mpmath",
+    "python3-numba": "numba",
+    "python3-rosbags-pip": "rosbags",
 }
 """rosdep keys (python3-*) and the PyPI distribution each installs (canonical names)."""
 

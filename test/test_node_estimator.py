@@ -199,3 +199,14 @@ def test_preset_comes_from_the_scene_and_can_be_set(spawn: Spawn) -> None:
     assert result["get"] == {"preset": "car"}
     estimator.proc.send_signal(signal.SIGINT)
     assert estimator.finish(timeout=20) == 0
+
+
+def test_imu_frame_goes_on_tf_static_or_is_stated_with_the_frame_prefix(spawn: Spawn) -> None:
+    """imu_frame_id with an offset and frame_prefix car1/: the transform car1/base_link → car1/imu_link is
+    published on /tf_static where tf2_msgs is installed, and stated as a command where it is not."""
+    from pendulum_accel.nodes.static_tf import tf_message_type
+
+    params: dict[str, float | str] = {"scene": "lecture_constant", "imu_frame_id": "imu_link"}
+    estimator = start_node(spawn, "estimator_node", {**params, "imu_offset_x": 0.3, "frame_prefix": "car1/"})
+    where = ": published on /tf_static" if tf_message_type() is not None else r" \(tf2_msgs is not installed"
+    estimator.wait_for(r"car1/imu_link at \(0\.3, 0, 0\) m in car1/base_link" + where, timeout=60)

@@ -7,16 +7,18 @@ joint's values are ``topic/<joint name>/position`` (``velocity``, ``effort``), a
 status's key/value pairs are ``topic/<hardware_id>/<name>/<key>`` (numbers where every value of the
 key parses as one), to which ``level`` and ``message`` are added under the same prefix. Every table
 starts with ``t`` (the message stamp, s) and ``log_time`` (s). Fixed-layout topics are decoded in
-bulk by the package's reader; /diagnostics is deserialised message by message. pandas (and pyarrow
-for Parquet) are the optional ``export`` extra, imported only here.
+bulk by the package's reader; /diagnostics is deserialised message by message. A topic's table is
+written as it is decoded, ``BATCH_ROWS`` messages at a time (``Bag.decode_batches``): memory does not
+grow with the bag, except for ``--merged``, which joins whole topics. pandas (and pyarrow for Parquet)
+are the optional ``export`` extra, imported only here.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import TYPE_CHECKING, TextIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +39,8 @@ PER_SAMPLE_ROLES = frozenset({bm.ACCEL_TRUTH, bm.ACCEL_ESTIMATE, bm.STRING, bm.I
 estimate or Imu stays missing)."""
 
 
+BATCH_ROWS = 1 << 17
+"""Messages per batch when a topic's table is written as it is decoded (about 40 MiB for an Imu's)."""
 VISUAL_ROLES = frozenset({bm.MARKERS, bm.ROBOT_DESCRIPTION})
 """Topics export leaves out unless named: what RViz and Foxglove draw, no table to flatten."""
 
@@ -62,9 +66,10 @@ def column_name(topic: str, path: str) -> str:
 
 
 def _joint_renames(bag: Bag, topic: str, paths: Sequence[str]) -> dict[str, str]:
-    """{reader path: PlotJuggler series suffix} of a JointState topic: position[i] → <name i>/position."""
-    _, payloads = bag.raw(topic)
-    names = list(bm.deserialize_as(payloads[0], bm.JOINT_STATE, bm.JointStateMsg).name) if payloads else []
+    """{reader path: PlotJuggler series suffix} of a JointState topic: position[i] → <name i>/position
+    (the names of its first message's shape)."""
+    shapes = bag.shapes(topic, bm.JOINT_STATE)
+    names = [str(n) for n in getattr(shapes[0][0], "name", [])] if shapes else []
     renames = {}
     for path in paths:
         head, _, index = path.partition("[")
@@ -121,22 +126,40 @@ def _diagnostic_columns(
 
 def topic_table(bag: Bag, topic: str) -> DataFrame:
     """DataFrame of one topic: t, log_time, then every field as PlotJuggler names it, one row per message."""
+    return next(topic_frames(bag, topic, rows=None))
+
+
+def topic_frames(bag: Bag, topic: str, rows: int | None = BATCH_ROWS) -> Iterator[DataFrame]:
+    """topic_table of ``topic`` in consecutive pieces of about ``rows`` rows (None: one piece)."""
     pd = _pandas()
     msgtype = bag.topics[topic].msgtype if topic in bag.topics else None
     if msgtype in BULK_TYPES:
-        arrays = bag.decode(topic)
-        t = arrays.stamp
-        log_time = arrays.log_time_ns
-        renames = _joint_renames(bag, topic, list(arrays.fields)) if msgtype == bm.JOINT_STATE else {}
-        columns: dict[str, NDArray[np.generic]] = {
-            column_name(topic, renames.get(p, p)): col for p, col in arrays.fields.items()
-        }
+        batches = [bag.decode(topic)] if rows is None else bag.decode_batches(topic, rows=rows)
+        renames: dict[str, str] | None = None
+        for arrays in batches:
+            if renames is None:
+                paths = list(arrays.fields)
+                renames = _joint_renames(bag, topic, paths) if msgtype == bm.JOINT_STATE else {}
+            columns: dict[str, NDArray[np.generic]] = {
+                column_name(topic, renames.get(p, p)): col for p, col in arrays.fields.items()
+            }
+            yield _frame(pd, arrays.stamp, arrays.log_time_ns, columns)
     elif msgtype == bm.DIAGNOSTIC_ARRAY:
-        t, log_time, columns = _diagnostic_columns(bag, topic, pd)
+        yield _frame(pd, *_diagnostic_columns(bag, topic, pd))
     else:
         raise ExportError(f"topic {topic} has type {msgtype}, which export does not flatten")
+
+
+def _frame(
+    pd: ModuleType,
+    t: NDArray[np.float64],
+    log_time: NDArray[np.int64],
+    columns: dict[str, NDArray[np.generic]],
+) -> DataFrame:
+    """DataFrame: t (s), log_time (s), then ``columns``."""
     head = {"t": np.asarray(t, dtype=np.float64), "log_time": np.asarray(log_time) * 1e-9}
-    return pd.DataFrame({**head, **columns})
+    frame: DataFrame = pd.DataFrame({**head, **columns})
+    return frame
 
 
 def merged_table(bag: Bag, topics: Sequence[str]) -> DataFrame:
@@ -182,6 +205,7 @@ def export_bag(
 
     ``derived``: {name: {"t": stamps, column: values}} series computed from the bag (the smoother's
     acceleration), merged on the angle's stamps like a per-sample topic, or written as their own tables.
+    Each topic's table is written in batches of its rows (export_tables), never held whole.
     """
     tables = export_tables(bag, fmt=fmt, merged=merged, topics=topics, derived=derived)
     directory = Path(out)
@@ -190,20 +214,43 @@ def export_bag(
     except OSError as err:
         raise ExportError(f"cannot create {directory}: {err.strerror}") from None
     paths = []
-    for stem, table in tables.items():
+    for stem, frames in tables.items():
         path = directory / f"{stem}.{fmt}"
-        if fmt == "csv":
-            write_csv_table(table, path)
-        else:
-            table.to_parquet(path, index=False)
+        _write(path, frames, fmt)
         paths.append(path)
     return paths
 
 
-def write_csv_table(table: Any, target: Path | TextIO) -> None:
-    """One table as CSV to a path or an open text stream: no index, 17 significant digits (a double
-    round-trips)."""
-    table.to_csv(target, index=False, float_format="%.17g")
+def _write(path: Path, frames: Iterable[DataFrame], fmt: str) -> None:
+    """Write ``frames`` one after the other as one CSV (header once) or Parquet file (a row group each)."""
+    if fmt == "csv":
+        with path.open("w", newline="") as handle:
+            for i, frame in enumerate(frames):
+                frame.to_csv(handle, index=False, header=i == 0, float_format="%.17g")
+        return
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    writer = None
+    try:
+        for frame in frames:
+            table = pa.Table.from_pandas(frame, preserve_index=False)
+            if writer is None:
+                writer = pq.ParquetWriter(path, table.schema)
+            writer.write_table(table)
+    finally:
+        if writer is not None:
+            writer.close()
+
+
+def write_csv_table(frames: Iterable[DataFrame], target: Path | TextIO) -> None:
+    """One table (its batches of rows) as CSV to a path or an open text stream: no index, header once,
+    17 significant digits (a double round-trips)."""
+    if isinstance(target, Path):
+        _write(target, frames, "csv")
+        return
+    for i, frame in enumerate(frames):
+        frame.to_csv(target, index=False, header=i == 0, float_format="%.17g")
 
 
 def export_tables(
@@ -213,8 +260,9 @@ def export_tables(
     merged: bool = False,
     topics: Sequence[str] = (),
     derived: Mapping[str, Mapping[str, NDArray[np.float64]]] | None = None,
-) -> dict[str, Any]:
-    """{file stem: pandas DataFrame}: the tables export_bag writes (one, MERGED_NAME, when ``merged``)."""
+) -> dict[str, Iterable[DataFrame]]:
+    """{file stem: its rows as pandas DataFrames, in batches}: the tables export_bag writes (one,
+    MERGED_NAME, when ``merged``)."""
     if fmt not in FORMATS:
         raise ExportError(f"unknown format {fmt!r}; use {' or '.join(FORMATS)}")
     _pandas()
@@ -230,15 +278,21 @@ def export_tables(
         raise ExportError(f"bag {bag.path} has no topic {unknown[0]} (it has {', '.join(bag.topics)})")
     if merged and bag.chain_topic(bm.TOPIC_JOINT_STATES) not in bag.topics:
         raise ExportError(f"bag {bag.path} has no {bm.TOPIC_JOINT_STATES} to merge on")
-    tables = (
-        {MERGED_NAME: merged_table(bag, chosen)}
+    flattened = (bm.DIAGNOSTIC_ARRAY, *BULK_TYPES)
+    odd = [t for t in chosen if bag.topics[t].msgtype not in flattened]
+    if odd:
+        raise ExportError(
+            f"topic {odd[0]} has type {bag.topics[odd[0]].msgtype}, which export does not flatten"
+        )
+    tables: dict[str, Iterable[DataFrame]] = (
+        {MERGED_NAME: [merged_table(bag, chosen)]}
         if merged
-        else {file_stem(t): topic_table(bag, t) for t in chosen}
+        else {file_stem(t): topic_frames(bag, t) for t in chosen}
     )
     for name, columns in (derived or {}).items():
         extra = derived_table(name, columns)
         if merged:
-            tables[MERGED_NAME] = tables[MERGED_NAME].merge(extra, on="t", how="left")
+            tables[MERGED_NAME] = [next(iter(tables[MERGED_NAME])).merge(extra, on="t", how="left")]
         else:
-            tables[file_stem(name)] = extra
+            tables[file_stem(name)] = [extra]
     return tables

@@ -96,8 +96,17 @@ TOPIC_TYPES: dict[str, str] = {
 }
 
 TOPIC_IMU = "/" + IMU_DATA_RAW
-"""The estimator's Imu (REP-145 ``imu/data_raw``) as recorded from the root namespace. Live only:
-``generate`` and the golden bags hold the contract above."""
+"""The estimator's Imu (REP-145 ``imu/data_raw``) as recorded from the root namespace."""
+TOPIC_MARKERS = "/" + MARKERS
+TOPIC_ROBOT_DESCRIPTION = "/" + ROBOT_DESCRIPTION
+
+VIEWER_TOPIC_TYPES: dict[str, str] = {
+    TOPIC_IMU: IMU,
+    TOPIC_MARKERS: MARKER_ARRAY,
+    TOPIC_ROBOT_DESCRIPTION: STRING_MSG,
+}
+"""What a recording holds beside the contract above, for viewers (RViz, Foxglove): the Imu, the markers
+and the URDF. ``generate`` and the golden bags hold both, as a live recording of the chain does."""
 
 ROLE_TYPES: dict[str, str] = {
     JOINT_STATES: JOINT_STATE,

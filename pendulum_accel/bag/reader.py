@@ -1,19 +1,26 @@
-"""Read a rosbag2 MCAP bag into numpy arrays, salvaging what precedes any damage.
+"""Read a rosbag2 MCAP bag into numpy arrays, chunk by chunk, salvaging what precedes any damage.
 
-The file is scanned front to back, without the summary or index: every top-level record is
-framed (opcode, length) and checked against the file size; Header, Schema, Channel, Chunk and
-Metadata records are parsed by the ``mcap`` library; inside a chunk, each message record's
-channel, log time and payload slice are taken with one ``struct.unpack_from``. Every chunk's CRC
-and the data section CRC are verified (``bag.integrity``). A chunk whose data is damaged (CRC
+The file is scanned front to back, without the summary or index, one record at a time (``os.pread``):
+every top-level record is framed (opcode, length) and checked against the file size; Header, Schema,
+Channel, Chunk and Metadata records are parsed by the ``mcap`` library; inside a chunk, each message
+record's channel, log time and payload slice are taken with one ``struct.unpack_from``. Every chunk's
+CRC and the data section CRC are verified (``bag.integrity``). A chunk whose data is damaged (CRC
 mismatch, does not inflate, cut off by the end of the file) is listed in ``bag.damage`` and only its
 intact message records are kept (``integrity.recover_messages``); the scan goes on with the next
 record, since its framing still holds. When the framing itself breaks (a record cut off or
 with a damaged opcode or length), the scan stops there, and the chunks after the damage are read
 through the chunk index of the MCAP summary when the file still has its footer. A bag whose
 recorder was killed (no summary) reads up to its last flushed chunk. Fixed-layout topics are then
-decoded column-wise with :class:`pendulum_accel.bag.messages.Layout` (numpy over all messages at once).
-Equal-size payloads stay in their verified chunk until their topic is asked for (a topic nobody reads
-is never copied out), so a Bag holds its chunks' bytes meanwhile; a topic's shapes are found once.
+decoded column-wise with :class:`pendulum_accel.bag.messages.Layout` (numpy over a chunk's messages at once).
+
+Memory follows what is asked for, not the bag's size. The scan keeps, for each intact chunk, where it
+lies in the file, the CRC-32 of its bytes as read, and per channel the chunk's message count and log time
+span; the messages stay in the file. A topic is read when asked for (``decode``, ``decode_batches``,
+``raw``, ``shapes``), one chunk at a time: the chunk is read again, must hash to the CRC it was verified
+with (a file changed since is a BagError, never other data), and its records are taken as in the scan.
+``decode`` holds the topic's decoded columns, ``decode_batches`` one batch of them. Messages outside
+chunks and the records recovered from damaged chunks are held from the scan. ``read_bag(stream=False)``
+holds every message from the scan instead (the reference the streamed reads are tested against).
 
 A metadata.yaml naming its file outside the bag directory (absolute, ``..``, a symlink leading
 out) is refused: nothing outside the bag is ever read, renamed or deleted through it.
@@ -23,17 +30,16 @@ from __future__ import annotations
 
 import contextlib
 import heapq
-import mmap
 import os
 import stat
 import struct
+import weakref
 import zlib
-from collections.abc import Iterator, Sequence
-from concurrent.futures import Future, ThreadPoolExecutor
+from collections.abc import Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import yaml
@@ -73,12 +79,6 @@ _MESSAGE_DATA_OFFSET = 31  # opcode 1 + length 8 + channel 2 + sequence 4 + log 
 _OPCODES = {int(op) for op in Opcode}
 # What a malformed record makes the parsers raise.
 _RECORD_ERRORS = (ValueError, struct.error, UnicodeDecodeError, KeyError, IndexError)
-
-
-_Shape = tuple[Layout, object, NDArray[np.int64], NDArray[np.uint8]]
-"""One shape of a topic's messages: (layout, first message, message indices, rows)."""
-_TopicShapes = tuple[NDArray[np.int64], list[_Shape], int]
-"""(sorted log times, shapes, count of messages that do not decode) of one topic."""
 
 
 @dataclass(frozen=True)
@@ -142,6 +142,35 @@ class _Slices:
         return _gather(self.data, self.starts, self.size)
 
 
+_Payloads = NDArray[np.uint8] | _Slices | list[bytes]
+_Block = tuple[NDArray[np.int64], _Payloads]
+"""Messages in file order: (log times, payloads as (n, size) rows, slices of a chunk, or a list of bytes)."""
+
+
+@dataclass(frozen=True)
+class _ChunkRef:
+    """Where an intact chunk lies: its Chunk record at file offset ``at`` (body ``length`` bytes), the
+    (offset, body length) of the MessageIndex records read with it, and the CRC-32 of those bodies, in that
+    order, as the scan read and verified them."""
+
+    at: int
+    length: int
+    indexes: tuple[tuple[int, int], ...]
+    crc: int
+
+
+@dataclass(frozen=True)
+class _Lazy:
+    """The ``count`` messages of channel ``cid`` in one intact chunk, left in the file; log times in
+    [t_min, t_max]."""
+
+    ref: _ChunkRef
+    cid: int
+    count: int
+    t_min: int
+    t_max: int
+
+
 @dataclass
 class _ChannelData:
     """Messages of one MCAP channel in file order."""
@@ -150,53 +179,127 @@ class _ChannelData:
     msgtype: str
     encoding: str
     qos: str
-    # Blocks in file order: (log times, payloads as (n, size) rows, slices of a chunk, or a list of bytes).
-    blocks: list[tuple[NDArray[np.int64], NDArray[np.uint8] | _Slices | list[bytes]]] = field(
-        default_factory=list
-    )
+    blocks: list[_Block | _Lazy] = field(default_factory=list)
     # Messages found by walking records one by one, not yet sealed into a block.
     times: list[int] = field(default_factory=list)
     payloads: list[bytes] = field(default_factory=list)
     sealed: int = 0
     """Messages in ``blocks``."""
+    ordered: bool = True
+    """Log times non-decreasing in file order: file order is log-time order (decode_batches streams)."""
+    last_time: int = -1
+    track: bool = True
+    """Follow ``ordered``: False for the scratch channels a chunk is read into."""
+
+    def _note(self, times: NDArray[np.int64]) -> None:
+        """Follow the file order of log times (``ordered``) over the next ``times``."""
+        if self.track and times.size:
+            if int(times[0]) < self.last_time or (times.size > 1 and bool(np.any(np.diff(times) < 0))):
+                self.ordered = False
+            self.last_time = max(self.last_time, int(times[-1]))
 
     def seal(self) -> None:
         """Move the walked messages into a block (keeps file order with later blocks)."""
         if self.times:
-            self.blocks.append((np.array(self.times, dtype=np.int64), self.payloads))
+            times = np.array(self.times, dtype=np.int64)
+            self._note(times)
+            self.blocks.append((times, self.payloads))
             self.sealed += len(self.times)
             self.times, self.payloads = [], []
 
     def add_block(self, times: NDArray[np.int64], payloads: _Slices | list[bytes]) -> None:
         """Append a bulk-read block after the walked messages so far."""
         self.seal()
+        self._note(times)
         self.blocks.append((times, payloads))
         self.sealed += int(times.size)
 
-    def payload_blocks(self) -> list[tuple[NDArray[np.int64], NDArray[np.uint8] | list[bytes]]]:
-        """Every block in file order, slices copied out into rows (once)."""
+    def add_lazy(self, lazy: _Lazy, times: NDArray[np.int64]) -> None:
+        """Append a chunk's messages left in the file (``times``: their log times, for the order)."""
         self.seal()
-        blocks = [(t, p.rows() if isinstance(p, _Slices) else p) for t, p in self.blocks]
-        self.blocks = list(blocks)
-        return blocks
+        self._note(times)
+        self.blocks.append(lazy)
+        self.sealed += lazy.count
 
     @property
     def count(self) -> int:
         """Messages held."""
         return self.sealed + len(self.times)
 
-    def all_times(self) -> NDArray[np.int64]:
-        """Log times of every message in file order."""
+    def span(self) -> tuple[int, int] | None:
+        """(earliest, latest) log time, None without messages."""
         self.seal()
-        parts = [t for t, _ in self.blocks]
-        return np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
+        lows = [b.t_min if isinstance(b, _Lazy) else int(b[0].min()) for b in self.blocks if _size(b)]
+        highs = [b.t_max if isinstance(b, _Lazy) else int(b[0].max()) for b in self.blocks if _size(b)]
+        return (min(lows), max(highs)) if lows else None
+
+
+def _size(block: _Block | _Lazy) -> int:
+    """Messages in a block."""
+    return block.count if isinstance(block, _Lazy) else int(block[0].size)
+
+
+@dataclass
+class _Shape:
+    """Messages of one shape: equal outside the numeric fields of ``layout``; ``msg`` the first decoded."""
+
+    layout: Layout
+    msg: object
+    count: int = 0
+
+
+@dataclass
+class _ShapeBook:
+    """What one pass over a topic found: shapes taken in bulk (in the order found), shapes of messages
+    decoded one by one (by layout), and the count of messages that do not decode."""
+
+    bulk: list[_Shape] = field(default_factory=list)
+    canonical: dict[bytes, _Shape] = field(default_factory=dict)
+    skipped: int = 0
+
+    @property
+    def shapes(self) -> list[_Shape]:
+        """Every shape with messages: the bulk ones, then those decoded one by one."""
+        return [s for s in (*self.bulk, *self.canonical.values()) if s.count]
+
+
+CHUNKS_KEPT = 4
+"""Chunks read again that a Bag keeps, so that passes over several topics in step read each chunk once."""
+_T = TypeVar("_T")
+
+_Classified = list[tuple[_Shape, NDArray[np.int64], NDArray[np.uint8]]]
+"""(shape, indices within the block, rows) of one block's messages that decode."""
+
+
+class _File:
+    """The bag's MCAP file, read by offset (``os.pread``) through a descriptor held open while the Bag
+    lives: a chunk read again comes from the same file even when its name was replaced meanwhile."""
+
+    def __init__(self, path: Path) -> None:
+        """Open ``path`` for reading; OSError when it cannot be."""
+        self.fd = os.open(path, os.O_RDONLY)
+        weakref.finalize(self, os.close, self.fd)
+        self.size = os.fstat(self.fd).st_size
+
+    def read(self, start: int, stop: int) -> bytes:
+        """The file's bytes [start, stop), fewer when the file ends before ``stop``."""
+        parts = []
+        at = start
+        while at < stop:
+            got = os.pread(self.fd, stop - at, at)
+            if not got:
+                break
+            parts.append(got)
+            at += len(got)
+        return parts[0] if len(parts) == 1 else b"".join(parts)
 
 
 class Bag:
     """Everything readable in one bag. ``problem`` is None for an intact bag, else one sentence.
 
     ``topics`` (name -> TopicInfo), ``custom_data``, ``start_ns``/``end_ns``, ``decode(topic)``,
-    ``raw(topic)`` and ``iter_raw()`` (time-ordered (topic, log_time_ns, cdr) for replay).
+    ``decode_batches(topic)``, ``raw(topic)`` and ``iter_raw()`` (time-ordered (topic, log_time_ns, cdr)
+    for replay).
     """
 
     def __init__(self, path: Path, mcap_path: Path) -> None:
@@ -210,8 +313,12 @@ class Bag:
         self.damage: list[ChunkDamage] = []
         """Damaged chunks (and damage between chunks) in file order; empty when every CRC matched."""
         self._channels: dict[int, _ChannelData] = {}
-        # topic -> _shapes result: the contract check and every decode of a topic share one shape search.
-        self._shape_cache: dict[str, _TopicShapes] = {}
+        self._schemas: dict[int, Schema] = {}
+        self._file: _File | None = None
+        # Chunks read again lately: file offset -> (channels read, their messages), for passes in step.
+        self._kept: dict[int, tuple[frozenset[int], dict[int, _ChannelData]]] = {}
+        # topic -> the shapes of its last complete pass: the contract check and later decodes share them.
+        self._shape_cache: dict[str, _ShapeBook] = {}
         self.choice = TopicChoice()
         """Which topic plays each chain role: the recording's stored map (read_bag), the user's on top."""
 
@@ -250,14 +357,14 @@ class Bag:
     @property
     def start_ns(self) -> int:
         """Earliest log time (ns), 0 for an empty bag."""
-        firsts = [int(t.min()) for t in (ch.all_times() for ch in self._channels.values()) if t.size]
-        return min(firsts) if firsts else 0
+        spans = [s for s in (ch.span() for ch in self._channels.values()) if s is not None]
+        return min(s[0] for s in spans) if spans else 0
 
     @property
     def end_ns(self) -> int:
         """Latest log time (ns), 0 for an empty bag."""
-        lasts = [int(t.max()) for t in (ch.all_times() for ch in self._channels.values()) if t.size]
-        return max(lasts) if lasts else 0
+        spans = [s for s in (ch.span() for ch in self._channels.values()) if s is not None]
+        return max(s[1] for s in spans) if spans else 0
 
     @property
     def duration_s(self) -> float:
@@ -282,70 +389,100 @@ class Bag:
                 raise BagError(f"topic {topic} in {self.path} is {ch.encoding!r}-encoded, expected cdr")
         return chans
 
-    def _blocks(self, topic: str, msgtype: str | None) -> list[tuple[NDArray[np.int64], Any]]:
-        """Blocks of every channel of ``topic`` (type-checked), in channel then file order."""
-        blocks = []
-        for ch in self._channels_of(topic, msgtype):
-            blocks += ch.payload_blocks()
-        return blocks
+    def _load(self, lazy: _Lazy, want: frozenset[int]) -> list[_Block]:
+        """The blocks of ``lazy``'s channel in its chunk, read again from the file with those of the
+        channels ``want`` (kept for the passes reading those, in step: CHUNKS_KEPT chunks)."""
+        hit = self._kept.get(lazy.ref.at)
+        if hit is None or lazy.cid not in hit[0]:
+            want = want | {lazy.cid}
+            hit = self._kept[lazy.ref.at] = (want, self._read_chunk(lazy.ref, want))
+            while len(self._kept) > CHUNKS_KEPT:
+                del self._kept[next(iter(self._kept))]
+        got = hit[1].get(lazy.cid)
+        if got is None or got.count != lazy.count:
+            raise BagError(
+                f"{self.mcap_path}: chunk at byte {lazy.ref.at} no longer holds the messages it held"
+            )
+        got.seal()
+        return [b for b in got.blocks if not isinstance(b, _Lazy)]
+
+    def _read_chunk(self, ref: _ChunkRef, want: frozenset[int]) -> dict[int, _ChannelData]:
+        """The messages of channels ``want`` in one intact chunk, read again from the file; BagError when
+        the bytes read are not those the scan verified (the file changed since it was read)."""
+        assert self._file is not None, "a bag with chunks left in the file has it open"
+        body = self._file.read(ref.at + 9, ref.at + 9 + ref.length)
+        crc = zlib.crc32(body)
+        bodies = []
+        for offset, length in ref.indexes:
+            bodies.append(self._file.read(offset + 9, offset + 9 + length))
+            crc = zlib.crc32(bodies[-1], crc)
+        head = chunk_head(body) if len(body) == ref.length and crc == ref.crc else None
+        if head is None:
+            raise BagError(
+                f"{self.mcap_path} changed since it was read (chunk at byte {ref.at} differs): read it again"
+            )
+        indexes = [i for i in (_message_index(memoryview(b)) for b in bodies) if i is not None]
+        scanner = _Scanner(self)
+        scanner.sink, scanner.only = {}, want
+        # The same bytes as the scan's: the records that preceded an error there precede it here.
+        with contextlib.suppress(*_RECORD_ERRORS):
+            scanner.chunk(_decompress(head, memoryview(body)[head.records_at :]), indexes)
+        return scanner.sink
+
+    def _cids(self, topics: Sequence[str]) -> frozenset[int]:
+        """Ids of the channels of ``topics``."""
+        return frozenset(cid for cid, ch in self._channels.items() if ch.topic in topics)
+
+    def _iter_blocks(self, chans: list[_ChannelData], want: frozenset[int]) -> Iterator[_Block]:
+        """Blocks of ``chans`` in channel then file order; a chunk left in the file is read when reached
+        (with the channels ``want``)."""
+        for ch in chans:
+            ch.seal()
+            for block in list(ch.blocks):
+                if isinstance(block, _Lazy):
+                    yield from self._load(block, want)
+                else:
+                    yield block
+
+    @staticmethod
+    def _in_step(passes: Mapping[str, Generator[None, None, _T]]) -> dict[str, _T]:
+        """Run generator ``passes`` a block each in turn, so that they read each chunk once between them;
+        {name: what each returned}, in the order given."""
+        results: dict[str, _T] = {}
+        active = dict(passes)
+        while active:
+            for name, gen in list(active.items()):
+                try:
+                    next(gen)
+                except StopIteration as stop:
+                    results[name] = stop.value
+                    del active[name]
+        return {name: results[name] for name in passes}
 
     def raw(self, topic: str, msgtype: str | None = None) -> tuple[NDArray[np.int64], list[bytes]]:
         """(log times ns, CDR payloads) of ``topic``, sorted by log time (stable)."""
-        blocks = self._blocks(topic, msgtype)
-        times = np.concatenate([t for t, _ in blocks]) if blocks else np.zeros(0, dtype=np.int64)
+        parts: list[NDArray[np.int64]] = []
         payloads: list[bytes] = []
-        for _, data in blocks:
+        chans = self._channels_of(topic, msgtype)
+        for t, data in self._iter_blocks(chans, self._cids([topic])):
+            parts.append(t)
+            if isinstance(data, _Slices):
+                data = data.rows()
             payloads += [row.tobytes() for row in data] if isinstance(data, np.ndarray) else data
+        times = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
         if times.size > 1 and np.any(np.diff(times) < 0):
             order = np.argsort(times, kind="stable")
             return times[order], [payloads[i] for i in order]
         return times, payloads
 
-    def _shape_groups(
-        self, topic: str, msgtype: str | None
-    ) -> tuple[NDArray[np.int64], list[tuple[NDArray[np.int64], NDArray[np.uint8]]]]:
-        """(log times sorted, [(message indices, (n, size) rows)] one group per payload size)."""
-        blocks: list[tuple[NDArray[np.int64], NDArray[np.uint8] | _Slices | list[bytes]]] = []
-        for ch in self._channels_of(topic, msgtype):
-            ch.seal()
-            blocks += ch.blocks
-        times = np.concatenate([t for t, _ in blocks]) if blocks else np.zeros(0, dtype=np.int64)
-        by_size: dict[int, list[tuple[NDArray[np.int64], NDArray[np.uint8] | _Slices]]] = {}
-        start = 0
-        for t, data in blocks:
-            idx = np.arange(start, start + t.size)
-            start += t.size
-            if isinstance(data, (np.ndarray, _Slices)):
-                by_size.setdefault(data.shape[1], []).append((idx, data))
-                continue
-            lengths = np.fromiter(map(len, data), dtype=np.int64, count=len(data))
-            for size in np.unique(lengths).tolist():
-                sel = np.flatnonzero(lengths == size)
-                by_size.setdefault(size, []).append((idx[sel], rows_from_bytes([data[i] for i in sel])))
-        groups = []
-        for size, parts in by_size.items():
-            if len(parts) == 1 and isinstance(parts[0][1], np.ndarray):
-                groups.append((parts[0][0], parts[0][1]))
-                continue
-            # One matrix for the size, each chunk's payloads copied straight into their rows.
-            rows = np.empty((sum(i.size for i, _ in parts), size), dtype=np.uint8)
-            at = 0
-            for i, part in parts:
-                rows[at : at + i.size] = part.rows() if isinstance(part, _Slices) else part
-                at += i.size
-            groups.append((np.concatenate([i for i, _ in parts]), rows))
-        if times.size > 1 and np.any(np.diff(times) < 0):
-            order = np.argsort(times, kind="stable")
-            rank = np.empty_like(order)
-            rank[order] = np.arange(order.size)
-            return times[order], [(rank[idx], rows) for idx, rows in groups]
-        return times, groups
-
-    def _shapes(self, topic: str, msgtype: str | None) -> _TopicShapes:
-        """(sorted log times, [(layout, first message, message indices, rows)] per shape, skipped count).
+    def _pass(
+        self, topic: str, msgtype: str | None, want: frozenset[int] | None = None
+    ) -> Iterator[tuple[NDArray[np.int64], _Classified]]:
+        """(log times, classified rows) of each block of ``topic`` in channel then file order; the shapes
+        found are cached once the pass has gone through every block.
 
         A message is kept when its CDR decodes correctly: the typestore consumes the whole payload, up to
-        the 0-3 bytes that pad a CDR stream to 4 (``messages.canonical_cdr``). Rows equal to their shape's
+        the 0-3 bytes that pad a CDR stream to 4 (``messages.canonical_cdr``). Rows equal to a shape's
         template outside its numeric fields are taken in bulk; the rest (rclpy leaves padding bytes
         uninitialised and pads the end to 4 bytes, so its bytes need not re-serialise to themselves) are
         decoded one by one and taken as the typestore re-serialises them. Bytes that do not decode are
@@ -353,62 +490,29 @@ class Bag:
         """
         chans = self._channels_of(topic, msgtype)
         mtype = chans[0].msgtype
-        cached = self._shape_cache.get(topic)
-        if cached is None:
-            cached = self._shape_cache[topic] = self._find_shapes(topic, mtype)
-        return cached
+        book = _ShapeBook()
+        for times, payloads in self._iter_blocks(chans, self._cids([topic]) if want is None else want):
+            yield times, _classify(mtype, book, payloads)
+        self._shape_cache[topic] = book
 
-    def _find_shapes(self, topic: str, mtype: str) -> _TopicShapes:
-        """Uncached _shapes of ``topic`` (of type ``mtype``, already checked)."""
-        times, groups = self._shape_groups(topic, mtype)
-        shapes: list[_Shape] = []
-        stray: list[tuple[NDArray[np.int64], NDArray[np.uint8]]] = []
-        for idx, rows in groups:
-            todo = np.ones(idx.size, dtype=bool)
-            while todo.any():
-                first = int(np.flatnonzero(todo)[0])
-                try:
-                    msg = deserialize(rows[first].tobytes(), mtype)
-                    layout = Layout.of(msg, mtype)
-                except BagError:
-                    todo[first] = False  # does not decode: skipped (counted below)
-                    continue
-                ok = todo & layout.matches(rows)
-                if not ok[first]:
-                    # Decodes, but not as the typestore writes it: the rest of this size, one by one.
-                    stray.append((idx[todo], rows[todo]))
-                    break
-                if ok.all():  # the usual case: every row of this size has one shape (no copy)
-                    shapes.append((layout, msg, idx, rows))
-                else:
-                    shapes.append((layout, msg, idx[ok], rows[ok]))
-                todo &= ~ok
-        if stray:
-            shapes += self._canonical_shapes(mtype, stray)
-        kept = sum(int(s[2].size) for s in shapes)
-        return times, shapes, int(times.size) - kept
+    def _shape_pass(self, topic: str, want: frozenset[int]) -> Generator[None, None, None]:
+        """A pass over ``topic`` for its shapes (cached at its end), yielding after each block."""
+        for _ in self._pass(topic, None, want):
+            yield
 
-    @staticmethod
-    def _canonical_shapes(
-        mtype: str, stray: list[tuple[NDArray[np.int64], NDArray[np.uint8]]]
-    ) -> list[_Shape]:
-        """Shapes of messages decoded one by one, each row replaced by its typestore re-serialisation."""
-        by_key: dict[bytes, tuple[Layout, object, list[int], list[bytes]]] = {}
-        for idx, rows in stray:
-            for i, row in zip(idx.tolist(), rows, strict=True):
-                try:
-                    msg, canonical = canonical_cdr(row.tobytes(), mtype)
-                    layout = Layout.of(msg, mtype)
-                except BagError:
-                    continue
-                key = layout.mask.tobytes() + layout.template[layout.mask].tobytes()
-                entry = by_key.setdefault(key, (layout, msg, [], []))
-                entry[2].append(i)
-                entry[3].append(canonical)
-        return [
-            (layout, msg, np.array(idx, dtype=np.int64), rows_from_bytes(rows))
-            for layout, msg, idx, rows in by_key.values()
-        ]
+    def find_shapes(self, topics: Sequence[str]) -> None:
+        """Find the shapes of ``topics`` (those present, not yet known) in one pass over the file."""
+        todo = [t for t in dict.fromkeys(topics) if t in self.topics and t not in self._shape_cache]
+        want = self._cids(todo)
+        self._in_step({t: self._shape_pass(t, want) for t in todo})
+
+    def _book(self, topic: str, msgtype: str | None) -> _ShapeBook:
+        """The shapes of ``topic`` (type-checked), from the cache or from a pass over it."""
+        self._channels_of(topic, msgtype)
+        if topic not in self._shape_cache:
+            for _ in self._pass(topic, msgtype):
+                pass
+        return self._shape_cache[topic]
 
     def shapes(self, topic: str, msgtype: str | None = None) -> list[tuple[object, int]]:
         """(first decoded message, message count) of each shape of ``topic`` (strings, frame, names, sizes).
@@ -416,43 +520,106 @@ class Bag:
         A cheap look at what a topic holds (e.g. which joints a JointState names) without decoding every
         message: a shape is every message equal to the first outside the numeric fields.
         """
-        _, shapes, _ = self._shapes(topic, msgtype)
-        return [(msg, int(idx.size)) for _, msg, idx, _ in shapes]
+        return [(s.msg, s.count) for s in self._book(topic, msgtype).shapes]
+
+    def _note_skipped(self, topic: str) -> None:
+        """Name the messages of ``topic`` that do not decode in ``problem``."""
+        skipped = self._shape_cache[topic].skipped
+        if skipped:
+            note = f"topic {topic}: skipped {skipped} damaged message(s) that do not decode"
+            self.problem = note if self.problem is None else f"{self.problem}; {note}"
 
     def decode(
         self, topic: str, msgtype: str | None = None, fields: Sequence[str] | None = None
     ) -> TopicArrays:
-        """Numeric columns of ``topic`` (all, or ``fields``) decoded in bulk, one array per field.
+        """Numeric columns of ``topic`` (all, or ``fields``) decoded in bulk, one array per field, sorted by
+        log time (stable).
 
         Messages are grouped by shape (strings and sequence lengths); each shape is decoded with numpy
-        over all its messages. BagError when a requested field is missing from some shape; messages whose
-        bytes do not decode are skipped and named in ``problem``.
+        over a chunk's messages at once. BagError when a requested field is missing from some shape;
+        messages whose bytes do not decode are skipped and named in ``problem``.
         """
-        mtype = self._channels_of(topic, msgtype)[0].msgtype
-        times, shapes, skipped = self._shapes(topic, msgtype)
-        n = times.size
-        if n == 0:
-            return TopicArrays(topic, mtype, times, {p: np.zeros(0) for p in fields or ()})
+        return self.decode_topics({topic: (msgtype, fields)})[topic]
+
+    def decode_topics(
+        self, requests: Mapping[str, tuple[str | None, Sequence[str] | None]]
+    ) -> dict[str, TopicArrays]:
+        """decode(topic, msgtype, fields) of each {topic: (msgtype, fields)} in one pass over the file."""
+        for topic, (msgtype, _) in requests.items():
+            self._channels_of(topic, msgtype)
+        want = self._cids(list(requests))
+        return self._in_step(
+            {
+                topic: self._decoding(topic, msgtype, fields, want)
+                for topic, (msgtype, fields) in requests.items()
+            }
+        )
+
+    def _decoding(
+        self, topic: str, msgtype: str | None, fields: Sequence[str] | None, want: frozenset[int]
+    ) -> Generator[None, None, TopicArrays]:
+        """decode's pass, yielding after each block; returns the TopicArrays. Each block's columns go straight
+        into arrays sized for the topic's count (no second copy to join them)."""
+        chans = self._channels_of(topic, msgtype)
+        mtype, total = chans[0].msgtype, sum(ch.count for ch in chans)
+        wanted = None if fields is None else list(fields)
+        times_out = np.empty(total, dtype=np.int64)
         columns: dict[str, NDArray[Any]] = {}
-        assigned = np.zeros(n, dtype=bool)
-        wanted: Sequence[str] | None = fields
-        for layout, _, idx, rows in shapes:
-            if wanted is None:
-                wanted = list(layout.fields)
-            missing = [p for p in wanted if p not in layout.fields]
-            if missing:
-                raise BagError(f"topic {topic} ({mtype}): message {int(idx[0])} has no field {missing[0]!r}")
-            for path, col in layout.decode(rows, wanted).items():
-                if path not in columns:
-                    columns[path] = np.zeros(n, dtype=col.dtype)
-                columns[path][idx] = col
-            assigned[idx] = True
-        if skipped:
-            note = f"topic {topic}: skipped {skipped} damaged message(s) that do not decode"
-            self.problem = note if self.problem is None else f"{self.problem}; {note}"
-            columns = {path: col[assigned] for path, col in columns.items()}
-            times = times[assigned]
-        return TopicArrays(topic, mtype, times, columns)
+        filled = 0
+        for times, classified in self._pass(topic, msgtype, want):
+            wanted, (t, cols) = _decode_block(topic, mtype, times, classified, wanted)
+            if t.size:
+                times_out[filled : filled + t.size] = t
+                for path, col in cols.items():
+                    if path not in columns:
+                        columns[path] = np.empty(total, dtype=col.dtype)
+                    columns[path][filled : filled + t.size] = col
+                filled += int(t.size)
+            yield
+        self._note_skipped(topic)
+        if filled:
+            out = TopicArrays(topic, mtype, times_out[:filled], {p: c[:filled] for p, c in columns.items()})
+        else:
+            out = _joined(topic, mtype, [], fields)
+        t = out.log_time_ns
+        if t.size > 1 and np.any(np.diff(t) < 0):
+            order = np.argsort(t, kind="stable")
+            return TopicArrays(topic, mtype, t[order], {p: c[order] for p, c in out.fields.items()})
+        return out
+
+    def decode_batches(
+        self,
+        topic: str,
+        msgtype: str | None = None,
+        fields: Sequence[str] | None = None,
+        rows: int = 1 << 17,
+    ) -> Iterator[TopicArrays]:
+        """decode(topic, msgtype, fields) a batch of about ``rows`` messages at a time, in the same order:
+        the concatenated batches equal decode's columns, and only one batch is held.
+
+        A topic whose log times go back in the file (or that spans several channels) needs a sort over
+        all its messages: it is decoded whole and given as one batch.
+        """
+        chans = self._channels_of(topic, msgtype)
+        mtype = chans[0].msgtype
+        if len(chans) > 1 or not chans[0].ordered:
+            yield self.decode(topic, msgtype, fields)
+            return
+        wanted = None if fields is None else list(fields)
+        parts: list[tuple[NDArray[np.int64], dict[str, NDArray[Any]]]] = []
+        held = 0
+        given = False
+        for times, classified in self._pass(topic, msgtype):
+            wanted, kept = _decode_block(topic, mtype, times, classified, wanted)
+            if kept[0].size:
+                parts.append(kept)
+                held += int(kept[0].size)
+            if held >= rows:
+                yield _joined(topic, mtype, parts, wanted)
+                parts, held, given = [], 0, True
+        self._note_skipped(topic)
+        if parts or not given:
+            yield _joined(topic, mtype, parts, wanted if given else fields)
 
     def iter_raw(self, topics: Sequence[str] | None = None) -> Iterator[tuple[str, int, bytes]]:
         """(topic, log_time_ns, cdr) of the chosen topics (default all), merged in log-time order."""
@@ -463,6 +630,127 @@ class Bag:
             streams.append(zip(times.tolist(), [name] * len(payloads), payloads, strict=True))
         for t, name, data in heapq.merge(*streams, key=lambda item: item[0]):
             yield name, t, data
+
+
+def _size_groups(payloads: _Payloads) -> list[tuple[NDArray[np.int64], NDArray[np.uint8]]]:
+    """(indices within the block, (n, size) rows), one group per payload size."""
+    if isinstance(payloads, _Slices):
+        payloads = payloads.rows()
+    if isinstance(payloads, np.ndarray):
+        return [(np.arange(payloads.shape[0]), payloads)]
+    lengths = np.fromiter(map(len, payloads), dtype=np.int64, count=len(payloads))
+    groups = []
+    for size in np.unique(lengths).tolist():
+        sel = np.flatnonzero(lengths == size)
+        groups.append((sel, rows_from_bytes([payloads[i] for i in sel])))
+    return groups
+
+
+def _classify(mtype: str, book: _ShapeBook, payloads: _Payloads) -> _Classified:
+    """(shape, indices, rows) of one block's messages that decode, by the shapes in ``book`` (those found
+    in earlier blocks first, new ones added); the others are counted in ``book.skipped``."""
+    out: _Classified = []
+
+    def take(shape: _Shape, idx: NDArray[np.int64], rows: NDArray[np.uint8], ok: NDArray[np.bool_]) -> None:
+        """Give the rows ``ok`` to ``shape`` (no copy when they are all of them)."""
+        whole = bool(ok.all())
+        shape.count += idx.size if whole else int(ok.sum())
+        out.append((shape, idx, rows) if whole else (shape, idx[ok], rows[ok]))
+
+    for idx, rows in _size_groups(payloads):
+        todo = np.ones(idx.size, dtype=bool)
+        for shape in book.bulk:
+            if not todo.any():
+                break
+            if shape.layout.size == rows.shape[1]:
+                ok = todo & shape.layout.matches(rows)
+                if ok.any():
+                    take(shape, idx, rows, ok)
+                    todo &= ~ok
+        while todo.any():
+            first = int(np.flatnonzero(todo)[0])
+            try:
+                msg = deserialize(rows[first].tobytes(), mtype)
+                layout = Layout.of(msg, mtype)
+            except BagError:
+                todo[first] = False  # does not decode: skipped
+                book.skipped += 1
+                continue
+            ok = todo & layout.matches(rows)
+            if not ok[first]:
+                # Decodes, but not as the typestore writes it: the rest of this size, one by one.
+                out += _canonical(mtype, book, idx[todo], rows[todo])
+                break
+            shape = _Shape(layout, msg)
+            book.bulk.append(shape)
+            take(shape, idx, rows, ok)
+            todo &= ~ok
+    return out
+
+
+def _canonical(mtype: str, book: _ShapeBook, idx: NDArray[np.int64], rows: NDArray[np.uint8]) -> _Classified:
+    """Shapes of messages decoded one by one, each row replaced by its typestore re-serialisation."""
+    groups: dict[bytes, tuple[_Shape, list[int], list[bytes]]] = {}
+    for i, row in zip(idx.tolist(), rows, strict=True):
+        try:
+            msg, canonical = canonical_cdr(row.tobytes(), mtype)
+            layout = Layout.of(msg, mtype)
+        except BagError:
+            book.skipped += 1
+            continue
+        key = layout.mask.tobytes() + layout.template[layout.mask].tobytes()
+        shape = book.canonical.setdefault(key, _Shape(layout, msg))
+        shape.count += 1
+        entry = groups.setdefault(key, (shape, [], []))
+        entry[1].append(i)
+        entry[2].append(canonical)
+    return [(shape, np.array(i, dtype=np.int64), rows_from_bytes(r)) for shape, i, r in groups.values()]
+
+
+def _decode_block(
+    topic: str, mtype: str, times: NDArray[np.int64], classified: _Classified, wanted: list[str] | None
+) -> tuple[list[str] | None, tuple[NDArray[np.int64], dict[str, NDArray[Any]]]]:
+    """(the fields wanted, (log times, columns) of one block's messages that decode, in file order).
+
+    ``wanted`` None: every field of the first shape met. BagError when a shape lacks a wanted field.
+    """
+    n = times.size
+    columns: dict[str, NDArray[Any]] = {}
+    assigned = np.zeros(n, dtype=bool)
+    for shape, idx, rows in classified:
+        if wanted is None:
+            wanted = list(shape.layout.fields)
+        missing = [p for p in wanted if p not in shape.layout.fields]
+        if missing:
+            at = int(times[int(idx[0])])
+            raise BagError(
+                f"topic {topic} ({mtype}): the message logged at {at} ns has no field {missing[0]!r}"
+            )
+        for path, col in shape.layout.decode(rows, wanted).items():
+            if path not in columns:
+                columns[path] = np.zeros(n, dtype=col.dtype)
+            columns[path][idx] = col
+        assigned[idx] = True
+    if not assigned.all():
+        return wanted, (times[assigned], {p: c[assigned] for p, c in columns.items()})
+    return wanted, (times, columns)
+
+
+def _joined(
+    topic: str,
+    mtype: str,
+    parts: list[tuple[NDArray[np.int64], dict[str, NDArray[Any]]]],
+    fields: Sequence[str] | None,
+) -> TopicArrays:
+    """TopicArrays of blocks' (log times, columns) one after the other; no blocks: empty ``fields``."""
+    if not parts:
+        return TopicArrays(topic, mtype, np.zeros(0, dtype=np.int64), {p: np.zeros(0) for p in fields or ()})
+    if len(parts) == 1:
+        return TopicArrays(topic, mtype, parts[0][0], parts[0][1])
+    times = np.concatenate([t for t, _ in parts])
+    return TopicArrays(
+        topic, mtype, times, {p: np.concatenate([c[p] for _, c in parts]) for p in parts[0][1]}
+    )
 
 
 def _find_mcap(path: Path) -> tuple[Path, Path]:
@@ -593,25 +881,46 @@ def _decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes | memoryvi
     raise ValueError(f"unsupported chunk compression {head.compression!r}")
 
 
+class _RefBuilder:
+    """A chunk's _ChunkRef under construction: its MessageIndex records are added as the scan meets them."""
+
+    def __init__(self, at: int, length: int, crc: int) -> None:
+        """The Chunk record at ``at`` (body ``length`` bytes, CRC-32 ``crc``)."""
+        self.at, self.length, self.crc = at, length, crc
+        self.indexes: list[tuple[int, int]] = []
+
+    def add(self, at: int, body: bytes | memoryview) -> None:
+        """A MessageIndex record at ``at`` read with the chunk."""
+        self.indexes.append((at, len(body)))
+        self.crc = zlib.crc32(body, self.crc)
+
+    def ref(self) -> _ChunkRef:
+        """The finished reference."""
+        return _ChunkRef(self.at, self.length, tuple(self.indexes), self.crc)
+
+
 class _Scanner:
     """Front-to-back MCAP scan that records schemas, channels and messages into a Bag."""
 
-    def __init__(self, bag: Bag) -> None:
-        """Scan state for ``bag``."""
+    def __init__(self, bag: Bag, file: _File | None = None, *, stream: bool = False) -> None:
+        """Scan state for ``bag`` read from ``file``; ``stream``: leave intact chunks' messages in it."""
         self.bag = bag
-        self.schemas: dict[int, Schema] = {}
+        self.schemas = bag._schemas
+        self.file = file
+        self.stream = stream
+        # Where a chunk's messages go while it is read to be left in the file (None: into the bag).
+        self.sink: dict[int, _ChannelData] | None = None
+        self.only: frozenset[int] | None = None  # reading a chunk again: the channels wanted from it
         self.pending: tuple[bytes | memoryview, list[tuple[int, NDArray[np.uint64]]]] | None = None
         self.pending_at = 0  # file offset of the pending chunk
+        self.pending_ref: _RefBuilder | None = None  # where the pending chunk lies, when it is intact
         # The pending chunk's number and head, and its damage (None: its CRC matched).
         self.pending_head: tuple[int, ChunkHead | None] = (0, None)
         self.pending_damage: str | None = None
-        self.file: bytes | mmap.mmap = b""  # the whole file, for the data section CRC
+        self.body_crc: int | None = None  # CRC-32 of the last Chunk record body opened, when known
         self.read_chunks: set[int] = set()  # file offsets of chunks read (or skipped as damaged)
         self.chunks_seen = 0  # chunk records met in the scan: the 1-based number of the current one
-        self.data_crc = 0  # crc32 of data[:crc_upto], the data section as far as the scan has hashed it
-        self.crc_upto = 0
-        # (file offset of a Chunk record, records length) -> crc32 of its records, hashed ahead.
-        self.crcs: dict[tuple[int, int], Future[int]] = {}
+        self.data_crc = 0  # crc32 of the file's bytes before the record being read
 
     def schema(self, body: memoryview) -> None:
         """Register a Schema record."""
@@ -629,9 +938,18 @@ class _Scanner:
         if rec.id not in self.bag._channels:
             self.bag._channels[rec.id] = _ChannelData(rec.topic, msgtype, rec.message_encoding, qos)
 
+    def _target(self, cid: int) -> _ChannelData | None:
+        """Where channel ``cid``'s messages go: the bag's channel, or the sink's; None for an unknown one."""
+        ch = self.bag._channels.get(cid)
+        if ch is None or self.sink is None:
+            return ch
+        got = self.sink.get(cid)
+        if got is None:
+            got = self.sink[cid] = _ChannelData(ch.topic, ch.msgtype, ch.encoding, ch.qos, track=False)
+        return got
+
     def walk(self, data: bytes | memoryview, start: int, stop: int) -> None:
         """Walk the records of data[start:stop] (inside one chunk); ValueError at the first malformed one."""
-        channels = self.bag._channels
         view = memoryview(data)
         pos = start
         unpack_message = _MESSAGE_HEAD.unpack_from
@@ -646,7 +964,7 @@ class _Scanner:
                 if length < 22:
                     raise ValueError(f"message record at chunk byte {pos} is too short")
                 _, _, cid, _, log_time = unpack_message(data, pos)
-                ch = channels.get(cid)
+                ch = self._target(cid)
                 if ch is None:
                     raise ValueError(f"message at chunk byte {pos} on unknown channel {cid}")
                 ch.times.append(log_time)
@@ -695,11 +1013,12 @@ class _Scanner:
         for g in np.flatnonzero(gap_stops > gap_starts).tolist():
             self.walk(data, int(gap_starts[g]), int(gap_stops[g]))
         log_times = _unaligned(data, "<u8")[offs + 15].astype(np.int64)
-        channels = self.bag._channels
         for cid in sorted({cid for cid, _ in indexes}):
-            ch = channels.get(cid)
+            ch = self._target(cid)
             if ch is None:
                 raise ValueError(f"message index refers to unknown channel {cid}")
+            if self.only is not None and cid not in self.only:
+                continue
             sel = np.flatnonzero(cids == cid)
             if sel.size == 0:
                 continue
@@ -713,23 +1032,17 @@ class _Scanner:
                     [bytes(data[a : a + z]) for a, z in zip(starts.tolist(), sizes.tolist(), strict=True)],
                 )
 
-    def scan(self, data: bytes | mmap.mmap) -> None:
+    def scan(self) -> None:
         """Read every top-level record, skipping damaged chunks; then indexed chunks past broken framing."""
         bag = self.bag
-        # The CRCs of uncompressed chunks are hashed in a thread (zlib releases the GIL) while this one
-        # parses the chunks before them; each is still checked before its chunk is read.
-        pool = ThreadPoolExecutor(max_workers=1)
         try:
-            self.crcs = _hash_chunks_ahead(pool, data)
-            stop = self._scan(data)
+            stop = self._scan()
         finally:
-            pool.shutdown(wait=False, cancel_futures=True)
-            self.crcs = {}
             self._flush_chunk()
             for ch in bag._channels.values():
                 ch.seal()
         if stop is not None:
-            recovered = self._indexed_chunks(data, stop)
+            recovered = self._indexed_chunks(stop)
             if recovered:
                 bag.problem = f"{bag.problem}; read {recovered} chunk(s) after it through the chunk index"
         if bag.damage:
@@ -741,20 +1054,36 @@ class _Scanner:
 
     def _flush_chunk(self) -> None:
         """Read the pending chunk with the message indexes that followed it; a damaged one is noted, and
-        only its intact message records are kept."""
-        if self.pending is not None:
-            data, indexes = self.pending
-            self.pending = None
-            damage, self.pending_damage = self.pending_damage, None
-            number, head = self.pending_head
-            if damage is not None and head is not None:
-                self._recover(bytes(data), indexes, number, head, damage)
-                return
-            try:
-                self.chunk(data, indexes)
-            except _RECORD_ERRORS as err:
-                start, end = (head.start_ns, head.end_ns) if head is not None else (0, 0)
-                self.bag.damage.append(ChunkDamage(number, start, end, f"malformed records ({err})"))
+        only its intact message records are kept. An intact chunk read to stream leaves its messages in
+        the file: each channel gets the chunk's count and log time span (``_Lazy``)."""
+        if self.pending is None:
+            return
+        data, indexes = self.pending
+        self.pending = None
+        damage, self.pending_damage = self.pending_damage, None
+        builder, self.pending_ref = self.pending_ref, None
+        number, head = self.pending_head
+        if damage is not None and head is not None:
+            self._recover(bytes(data), indexes, number, head, damage)
+            return
+        ref = builder.ref() if builder is not None and self.stream else None
+        if ref is not None:
+            self.sink = {}
+        try:
+            self.chunk(data, indexes)
+        except _RECORD_ERRORS as err:
+            start, end = (head.start_ns, head.end_ns) if head is not None else (0, 0)
+            self.bag.damage.append(ChunkDamage(number, start, end, f"malformed records ({err})"))
+        finally:
+            if ref is not None and self.sink is not None:
+                sink, self.sink = self.sink, None
+                for cid, got in sink.items():
+                    got.seal()
+                    times = [b[0] for b in got.blocks if not isinstance(b, _Lazy)]
+                    if got.count:
+                        t = np.concatenate(times)
+                        lazy = _Lazy(ref, cid, got.count, int(t.min()), int(t.max()))
+                        self.bag._channels[cid].add_lazy(lazy, t)
 
     def _recover(
         self,
@@ -782,13 +1111,15 @@ class _Scanner:
             ch.payloads.append(payload)
         self.bag.damage.append(ChunkDamage(number, head.start_ns, head.end_ns, reason, len(kept), dropped))
 
-    def _open_chunk(self, body: memoryview | bytes, at: int, number: int) -> bytes | memoryview | None:
+    def _open_chunk(self, body: memoryview, at: int, number: int) -> bytes | memoryview | None:
         """Uncompressed data of the Chunk record ``body`` (chunk ``number``) at file offset ``at``.
 
-        Its CRC is checked (and folded into the data section CRC); a damaged chunk becomes the pending
-        one with its damage, to be recovered record by record. None when not even its head parses.
+        Its CRC is checked; a damaged chunk becomes the pending one with its damage, to be recovered
+        record by record. None when not even its head parses. Sets ``body_crc`` when the CRC of the
+        uncompressed records gives the body's (no second pass over its bytes).
         """
         self.read_chunks.add(at)
+        self.body_crc = None
         head = chunk_head(body)
         self.pending_head = (number, head)
         if head is None:
@@ -796,7 +1127,7 @@ class _Scanner:
             return None
         packed = body[head.records_at :]
         try:
-            # The fields were parsed by chunk_head; the records are the rest of the body (one copy).
+            # The fields were parsed by chunk_head; the records are the rest of the body.
             (records_length,) = struct.unpack_from("<Q", body, head.records_at - 8)
             if records_length != len(packed):
                 raise ValueError(f"records length {records_length} does not match the record's {len(packed)}")
@@ -805,31 +1136,28 @@ class _Scanner:
             data = _decompress(head, packed)
             if len(data) != head.uncompressed_size:
                 raise ValueError(f"inflates to {len(data)} bytes, declared {head.uncompressed_size}")
-            ahead = self.crcs.pop((at, len(data)), None)
-            crc = ahead.result() if ahead is not None else zlib.crc32(data)
+            crc = zlib.crc32(data)
             if head.crc and crc != head.crc:
                 raise ValueError("CRC mismatch")
         except _RECORD_ERRORS as err:
             self.pending_damage = str(err)
             return inflate_prefix(head, packed)
-        if head.compression == "" and self.crc_upto <= at:
-            # The records are the chunk record's tail, and their CRC is known: hash only the part before.
-            records_at = at + 9 + len(body) - len(data)
-            self._hash_to(records_at)
-            self.data_crc = crc32_combine(self.data_crc, crc, len(data))
-            self.crc_upto = records_at + len(data)
+        if head.compression == "":
+            # The records are the body's tail: crc32(body) from the head's bytes and the records' CRC.
+            self.body_crc = crc32_combine(zlib.crc32(body[: head.records_at]), crc, len(data))
         return data
 
-    def _hash_to(self, stop: int) -> None:
-        """Extend the data section CRC over the file's bytes up to ``stop``."""
-        if stop > self.crc_upto:
-            self.data_crc = zlib.crc32(memoryview(self.file)[self.crc_upto : stop], self.data_crc)
-            self.crc_upto = stop
+    def _fold(self, head: bytes, body: memoryview, body_crc: int | None = None) -> None:
+        """Extend the data section CRC over one record (``body_crc``: crc32 of its body, when known)."""
+        self.data_crc = zlib.crc32(head, self.data_crc)
+        if body_crc is None:
+            self.data_crc = zlib.crc32(body, self.data_crc)
+        else:
+            self.data_crc = crc32_combine(self.data_crc, body_crc, len(body))
 
-    def _data_end(self, body: memoryview, at: int) -> None:
-        """Check DataEnd's data section CRC (when written) against the file's bytes before ``at``."""
+    def _data_end(self, body: memoryview) -> None:
+        """Check DataEnd's data section CRC (when written) against the file's bytes before it."""
         (expected,) = struct.unpack_from("<I", body, 0)
-        self._hash_to(at)
         if expected and self.data_crc != expected and not self.bag.damage:
             reason = (
                 "data section CRC mismatch with every chunk intact: "
@@ -837,14 +1165,15 @@ class _Scanner:
             )
             self.bag.damage.append(ChunkDamage(None, 0, 0, reason))
 
-    def _scan(self, data: bytes | mmap.mmap) -> int | None:
+    def _scan(self) -> int | None:
         """The record loop of scan(); the offset where the framing broke, None when it held to the end."""
         bag = self.bag
-        size = len(data)
-        if size < len(_MAGIC) or data[: len(_MAGIC)] != _MAGIC:
+        assert self.file is not None, "a scan reads a file"
+        read, size = self.file.read, self.file.size
+        magic = read(0, len(_MAGIC))
+        if magic != _MAGIC:
             raise BagError(f"{bag.mcap_path} is not an MCAP file (bad magic bytes)")
-        view = memoryview(data)
-        self.file = data
+        self.data_crc = zlib.crc32(magic)
         pos = len(_MAGIC)
         while True:
             if pos >= size:
@@ -853,7 +1182,8 @@ class _Scanner:
             if pos + 9 > size:
                 bag.problem = f"{bag.mcap_path} is truncated: record header cut off at byte {pos} of {size}"
                 return pos
-            op, length = _RECORD_HEAD.unpack_from(data, pos)
+            head = read(pos, pos + 9)
+            op, length = _RECORD_HEAD.unpack_from(head, 0)
             stop = pos + 9 + length
             if op not in _OPCODES or op == 0:
                 bag.problem = f"{bag.mcap_path} is corrupt: unknown record opcode 0x{op:02x} at byte {pos}"
@@ -864,14 +1194,17 @@ class _Scanner:
                     f"{length} bytes, only {size - pos - 9} remain"
                 )
                 if op == Opcode.CHUNK:
-                    self._cut_chunk(view[pos + 9 :], pos)
+                    self._cut_chunk(memoryview(read(pos + 9, size)), pos)
                 return pos
-            body = view[pos + 9 : stop]
+            body = memoryview(read(pos + 9, stop))
             try:
                 if op == Opcode.MESSAGE_INDEX and self.pending is not None:
                     index = _message_index(body)
                     if index is not None:
                         self.pending[1].append(index)
+                        if self.pending_ref is not None:
+                            self.pending_ref.add(pos, body)
+                    self._fold(head, body)
                 else:
                     self._flush_chunk()
                     if op == Opcode.FOOTER:
@@ -880,12 +1213,17 @@ class _Scanner:
                     if op == Opcode.CHUNK:
                         self.chunks_seen += 1
                         chunk_data = self._open_chunk(body, pos, self.chunks_seen)
+                        body_crc = self.body_crc if self.body_crc is not None else zlib.crc32(body)
+                        self._fold(head, body, body_crc)
                         if chunk_data is not None:
                             self.pending, self.pending_at = (chunk_data, []), pos
+                            if self.pending_damage is None:
+                                self.pending_ref = _RefBuilder(pos, len(body), body_crc)
                     elif op == Opcode.DATA_END:
-                        self._data_end(body, pos)
+                        self._data_end(body)
                     else:
                         self._top_level(op, body)
+                        self._fold(head, body)
             except _RECORD_ERRORS as err:
                 bag.problem = f"{bag.mcap_path} is corrupt at byte {pos} ({Opcode(op).name} record): {err}"
                 return pos
@@ -905,57 +1243,71 @@ class _Scanner:
         self.pending_damage = f"cut off by the end of the file at byte {at + 9 + len(body)}"
         self._flush_chunk()
 
-    def _indexed_chunks(self, data: bytes | mmap.mmap, broken_at: int) -> int:
+    def _indexed_chunks(self, broken_at: int) -> int:
         """Read the chunks the summary's chunk index places past ``broken_at``; how many were read.
 
         Needs the footer (last 37 bytes) and a summary section; the schemas and channels it repeats are
         registered first. Each chunk and its message indexes are read as in the scan; a damaged one is
         skipped and noted. Nothing happens without a usable summary (a killed recorder writes none).
         """
-        size = len(data)
+        assert self.file is not None, "a scan reads a file"
+        read, size = self.file.read, self.file.size
         tail = size - len(_MAGIC) - 9 - 20
-        if tail <= broken_at or data[-len(_MAGIC) :] != _MAGIC or data[tail] != Opcode.FOOTER:
+        if tail <= broken_at:
+            return 0
+        end = read(tail, size)
+        if end[-len(_MAGIC) :] != _MAGIC or end[0] != Opcode.FOOTER:
             return 0
         try:
-            footer = Footer.read(ReadDataStream(BytesIO(data[tail + 9 : tail + 29])))
+            footer = Footer.read(ReadDataStream(BytesIO(end[9:29])))
             start = int(footer.summary_start)
             if not broken_at < start <= tail:
                 return 0
-            indexes = self._summary(data, start, tail)
+            indexes = self._summary(read(start, tail))
         except _RECORD_ERRORS:
             return 0
-        read = 0
+        count = 0
         for number, entry in enumerate(sorted(indexes, key=lambda e: e.chunk_start_offset), start=1):
             at = int(entry.chunk_start_offset)
             if at < broken_at or at in self.read_chunks or at + entry.chunk_length > start:
                 continue
             try:
-                op, length = _RECORD_HEAD.unpack_from(data, at)
+                op, length = _RECORD_HEAD.unpack_from(read(at, at + 9), 0)
                 if op != Opcode.CHUNK or at + 9 + length > start:
                     raise ValueError("the chunk index points at no chunk record")
-                chunk_data = self._open_chunk(memoryview(data)[at + 9 : at + 9 + length], at, number)
+                body = memoryview(read(at + 9, at + 9 + length))
+                chunk_data = self._open_chunk(body, at, number)
                 if chunk_data is None:
                     continue
+                builder = None
+                if self.pending_damage is None:
+                    builder = _RefBuilder(
+                        at, length, self.body_crc if self.body_crc is not None else zlib.crc32(body)
+                    )
                 message_indexes = []
                 for off in entry.message_index_offsets.values():
-                    mop, mlen = _RECORD_HEAD.unpack_from(data, off)
-                    found = _message_index(memoryview(data)[off + 9 : off + 9 + mlen])
+                    mop, mlen = _RECORD_HEAD.unpack_from(read(off, off + 9), 0)
+                    index_body = memoryview(read(off + 9, off + 9 + mlen))
+                    found = _message_index(index_body)
                     if mop == Opcode.MESSAGE_INDEX and found is not None:
                         message_indexes.append(found)
+                        if builder is not None:
+                            builder.add(off, index_body)
             except _RECORD_ERRORS as err:
                 t0, t1 = int(entry.message_start_time), int(entry.message_end_time)
                 self.bag.damage.append(ChunkDamage(number, t0, t1, str(err)))
+                self.pending_damage = None
                 continue
-            self.pending, self.pending_at = (chunk_data, message_indexes), at
+            self.pending, self.pending_at, self.pending_ref = (chunk_data, message_indexes), at, builder
             self._flush_chunk()
-            read += 1
-        return read
+            count += 1
+        return count
 
-    def _summary(self, data: bytes | mmap.mmap, start: int, stop: int) -> list[ChunkIndex]:
-        """Chunk indexes of the summary section data[start:stop]; registers its schemas and channels."""
+    def _summary(self, data: bytes) -> list[ChunkIndex]:
+        """Chunk indexes of the summary section ``data``; registers its schemas and channels."""
         view = memoryview(data)
         found: list[ChunkIndex] = []
-        pos = start
+        pos, stop = 0, len(data)
         while pos + 9 <= stop:
             op, length = _RECORD_HEAD.unpack_from(data, pos)
             end = pos + 9 + length
@@ -1011,29 +1363,6 @@ def _unaligned(data: bytes | memoryview, dtype: str) -> NDArray[Any]:
     return view
 
 
-def _hash_chunks_ahead(
-    pool: ThreadPoolExecutor, data: bytes | mmap.mmap
-) -> dict[tuple[int, int], Future[int]]:
-    """{(file offset, records length): crc32 of the records} of the uncompressed Chunk records met by
-    walking the top-level framing from the magic; the walk stops at the footer or at anything that does
-    not frame (the scan then hashes what is left itself)."""
-    view = memoryview(data)
-    found: dict[tuple[int, int], Future[int]] = {}
-    pos, size = len(_MAGIC), len(data)
-    while pos + 9 <= size:
-        op, length = _RECORD_HEAD.unpack_from(data, pos)
-        stop = pos + 9 + length
-        if stop > size or op == Opcode.FOOTER:
-            break
-        if op == Opcode.CHUNK:
-            head = chunk_head(view[pos + 9 : stop])
-            if head is not None and head.compression == "":
-                records = view[pos + 9 + head.records_at : stop]
-                found[(pos, len(records))] = pool.submit(zlib.crc32, records)
-        pos = stop
-    return found
-
-
 def _message_index(body: memoryview) -> tuple[int, NDArray[np.uint64]] | None:
     """(channel id, (n, 2) log time/offset entries) of a MessageIndex record; None when malformed."""
     if len(body) < 6:
@@ -1057,22 +1386,25 @@ def stored_choice(path: Path | str) -> TopicChoice:
     return TopicChoice(stored_roles(_custom_data(_locate(Path(path))[2])))
 
 
-def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
-    """Read every message of a bag directory (or .mcap file) into memory.
+def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> Bag:
+    """Scan a bag directory (or .mcap file): every CRC checked, every message counted.
 
-    A truncated or corrupt file keeps what precedes the damage and sets ``bag.problem``; with
-    ``salvage=False`` that is a BagError instead. Missing, empty or non-MCAP input: BagError.
+    ``stream`` (default): each intact chunk's messages stay in the file until their topic is asked for,
+    then are read chunk by chunk (memory follows what is decoded, not the bag); False holds every message
+    in memory from the scan. A truncated or corrupt file keeps what precedes the damage and sets
+    ``bag.problem``; with ``salvage=False`` that is a BagError instead. Missing, empty or non-MCAP
+    input: BagError.
     """
     root, mcap_path, doc = _locate(Path(path))
     bag = Bag(root, mcap_path)
     try:
-        data = _read_file(mcap_path)
+        bag._file = _File(mcap_path)
     except OSError as err:
         raise BagError(f"cannot read {mcap_path}: {err.strerror}") from None
     if isinstance(doc, dict):
         bag.metadata = doc
         bag.custom_data.update(_custom_data(doc))
-    _Scanner(bag).scan(data)
+    _Scanner(bag, bag._file, stream=stream).scan()
     bag.choice.roles.update(stored_roles(bag.custom_data))
     if bag.problem is not None and not salvage:
         raise BagError(
@@ -1080,29 +1412,6 @@ def read_bag(path: Path | str, *, salvage: bool = True) -> Bag:
             f"to use only its intact records, or run `pendulum-accel repair {bag.path}`"
         )
     return bag
-
-
-def _read_file(path: Path) -> bytes | mmap.mmap:
-    """The file's bytes, read into anonymous memory that the kernel maps in one go (MAP_POPULATE) rather
-    than page by page on first touch: ~30 % faster for a large bag. Anonymous, not a mapping of the file:
-    the file changing or shrinking afterwards cannot touch what was read. Slices give bytes, as for bytes.
-    """
-    with path.open("rb", buffering=0) as handle:
-        size = os.fstat(handle.fileno()).st_size
-        populate = getattr(mmap, "MAP_POPULATE", None)
-        if size == 0 or populate is None:
-            return handle.read()
-        buffer = mmap.mmap(-1, size, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS | populate)
-        got = 0
-        with memoryview(buffer) as view:
-            while got < size:
-                n = handle.readinto(view[got:])
-                if not n:
-                    break
-                got += n
-        if got < size:  # the file shrank since its size was taken: keep what was read
-            return buffer[:got]
-        return buffer
 
 
 def salvage_note(bag: Bag) -> str | None:

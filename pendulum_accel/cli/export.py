@@ -74,8 +74,8 @@ def run(args: argparse.Namespace) -> int:
     in_ns = [t for t in namespace_topics(bag) if bm.role_of(t) not in VISUAL_ROLES]
     topics = args.topics or (in_ns if bag.choice.namespace else [])
     if out is None:
-        (table,) = export_tables(bag, merged=True, topics=topics, derived=derived).values()
-        write_csv_table(table, sys.stdout)
+        (frames,) = export_tables(bag, merged=True, topics=topics, derived=derived).values()
+        write_csv_table(frames, sys.stdout)
         return warn_salvaged("export", bag)
     with output_directory(out):
         paths = export_bag(bag, out, fmt=args.format, merged=args.merged, topics=topics, derived=derived)

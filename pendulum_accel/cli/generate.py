@@ -17,7 +17,7 @@ def register(subparsers: Any) -> None:
     """Add the ``generate`` subcommand."""
     parser = subparsers.add_parser(
         "generate",
-        help="write a bag straight from a scene (same topics as a live recording), no DDS",
+        help="write a bag straight from a scene (every topic a live recording holds), no DDS",
         description=(
             "Simulate SCENE (a bundled name or a YAML path), run the default estimator, and write "
             "everything a live recording would hold to the bag directory --out."

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.integrity import damage_origin
@@ -31,6 +33,8 @@ def register(subparsers: Any) -> None:
 
 
 _STAMP_FIELDS = ("header.stamp.sec", "header.stamp.nanosec")
+STAMP_BATCH = 1 << 17
+"""Stamps held per topic at a time while holes are counted: memory does not grow with the bag."""
 
 
 def bag_accounting(bag: Bag) -> Accounting | None:
@@ -47,11 +51,69 @@ def missing_estimates(bag: Bag, accounting: Accounting | None) -> int:
     estimate = bag.chain_topic(bm.TOPIC_ACCEL_ESTIMATE)
     if joint not in topics or estimate not in topics:
         return 0
-    angles = bag.decode(joint, fields=_STAMP_FIELDS).stamp
-    estimates = bag.decode(estimate, fields=_STAMP_FIELDS).stamp
+    angles, estimates = topics[joint].count, topics[estimate].count
+    if accounting is not None and accounting.estimator:
+        return unexplained_missing(angles, estimates, accounting, 0)  # the counters explain, not the stamps
+    return unexplained_missing(angles, estimates, accounting, holes_after_first(bag, joint, estimate))
+
+
+def _stamps_ns(bag: Bag, topic: str) -> Iterator[NDArray[np.int64]]:
+    """Stamps of ``topic`` in integer ns (sec·10⁹ + nanosec), STAMP_BATCH at a time, in log-time order."""
+    for batch in bag.decode_batches(topic, fields=_STAMP_FIELDS, rows=STAMP_BATCH):
+        yield batch["header.stamp.sec"].astype(np.int64) * 1_000_000_000 + batch["header.stamp.nanosec"]
+
+
+def _ascending(ns: NDArray[np.int64], after: int) -> bool:
+    """ns non-decreasing and starting at or after ``after``."""
+    return ns.size == 0 or (int(ns[0]) >= after and not bool(np.any(np.diff(ns) < 0)))
+
+
+def holes_after_first(bag: Bag, joint: str, estimate: str) -> int:
+    """Angles stamped at or after the first estimate that no estimate carries the stamp of (the estimator
+    stamps each estimate with its angle's): all of them when there is no estimate.
+
+    Both stamp streams are merged a batch of each at a time, as the chain writes them (in stamp order);
+    a bag whose stamps go back is counted over whole arrays instead.
+    """
+    estimates = _stamps_ns(bag, estimate)
+    window = np.zeros(0, dtype=np.int64)  # estimate stamps ≥ the current angle batch's first, sorted
+    first: int | None = None
+    exhausted = False
+    last_angle = last_estimate = -(2**63)
+    holes = 0
+    for angles in _stamps_ns(bag, joint):
+        if not _ascending(angles, last_angle):
+            return _holes_whole(bag, joint, estimate)
+        if angles.size == 0:
+            continue
+        last_angle = int(angles[-1])
+        while not exhausted and last_estimate <= last_angle:
+            more = next(estimates, None)
+            if more is None:
+                exhausted = True
+            elif not _ascending(more, last_estimate):
+                return _holes_whole(bag, joint, estimate)
+            elif more.size:
+                first = int(more[0]) if first is None else first
+                last_estimate = int(more[-1])
+                window = np.concatenate([window, more])
+        window = window[np.searchsorted(window, angles[0]) :]  # later angles are never older than these
+        if first is None:
+            holes += int(angles.size)
+            continue
+        after = angles[angles >= first]
+        at = np.minimum(np.searchsorted(window, after), max(window.size - 1, 0))
+        found = window[at] == after if window.size else np.zeros(after.size, dtype=bool)
+        holes += int(after.size - np.count_nonzero(found))
+    return holes
+
+
+def _holes_whole(bag: Bag, joint: str, estimate: str) -> int:
+    """holes_after_first over whole arrays (stamps out of order)."""
+    angles = np.concatenate([np.zeros(0, dtype=np.int64), *_stamps_ns(bag, joint)])
+    estimates = np.concatenate([np.zeros(0, dtype=np.int64), *_stamps_ns(bag, estimate)])
     after_first = angles[angles >= estimates.min()] if estimates.size else angles
-    holes = int(np.count_nonzero(~np.isin(after_first, estimates)))
-    return unexplained_missing(angles.size, estimates.size, accounting, holes)
+    return int(np.count_nonzero(~np.isin(after_first, estimates)))
 
 
 def damage_state(bag: Bag) -> str:

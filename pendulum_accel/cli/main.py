@@ -39,8 +39,15 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "Allan deviation of the angle and the estimate: white-noise density, bias random walk",
     ),
     "export": ("export", "write a bag's topics as CSV or Parquet tables (pandas)"),
-    "generate": ("generate", "write a bag straight from a scene (same topics as a live recording), no DDS"),
+    "generate": (
+        "generate",
+        "write a bag straight from a scene (every topic a live recording holds), no DDS",
+    ),
     "repair": ("repair", "rebuild a damaged bag (killed recorder) from what its MCAP file holds"),
+    "urdf": (
+        "urdf",
+        "print the URDF of a scene's pendulum (what the simulator publishes on robot_description)",
+    ),
     "golden-bags": ("golden_bags", "regenerate the small golden bags of the bundled scenes (make bags)"),
     "run": ("run", "run the live ROS 2 chain on a scene and record it"),
     "lab": (

@@ -166,6 +166,11 @@ def run(args: argparse.Namespace) -> int:
 
     require_rclpy()
     config = chain_config(args)
+    from pendulum_accel.kernel_cache import warm_if_cold
+
+    # A cold cache (the first run after a pip install) would keep the estimator compiling past the
+    # simulator's wait for its readers: compile here first, saying what is waited for.
+    warm_if_cold(lambda line: print(f"pendulum-accel run: {line}", file=sys.stderr, flush=True))
     existed = config.record is not None and config.record.exists()
     code = run_chain(config)
     if config.record is not None and not existed and _empty_bag(config.record):

@@ -68,6 +68,7 @@ from pendulum_accel.nodes.runtime import (
     run_node,
     write_summary,
 )
+from pendulum_accel.nodes.static_tf import publish_static_transform
 from pendulum_accel.recording import visual
 from pendulum_accel.recording.settings import (
     estimator_settings,
@@ -131,6 +132,7 @@ class EstimatorNode(ManagedNode):
         self.time_source = str(values["time_source"])
         self.frame_id = str(values["frame_id"])
         self.imu_frame_id = str(values["imu_frame_id"]) or self.frame_id
+        self.frame_prefix = str(values["frame_prefix"])  # the viewers' frames: Imu, markers, /tf_static
         self.imu_offset = tuple(float(values[f"imu_offset_{axis}"]) for axis in "xyz")
         self.unmeasured_accel_variance = float(values["unmeasured_accel_variance"])
         namespace = self.get_namespace()
@@ -197,13 +199,10 @@ class EstimatorNode(ManagedNode):
         ]
         self._build_writers()
         if self.imu_frame_id != self.frame_id:
+            parent, child = self.frame_prefix + self.frame_id, self.frame_prefix + self.imu_frame_id
             x, y, z = self.imu_offset
-            # tf2_msgs has no PyPI wheel: the transform is stated, for a static_transform_publisher.
-            self.get_logger().info(
-                f"Imu in frame {self.imu_frame_id}, at ({x:g}, {y:g}, {z:g}) m in {self.frame_id}: "
-                f"publish it with `ros2 run tf2_ros static_transform_publisher --x {x:g} --y {y:g} --z {z:g} "
-                f"--frame-id {self.frame_id} --child-frame-id {self.imu_frame_id}`"
-            )
+            tf_static = publish_static_transform(self, parent, child, (x, y, z))
+            self._publishers += [tf_static] if tf_static is not None else []
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._timers = [self.create_timer(0.05, self._tick, clock=steady)]
 
@@ -299,11 +298,14 @@ class EstimatorNode(ManagedNode):
             bm.accel_with_covariance_stamped(0, 0.0, 0.0, self.frame_id), bm.ACCEL_WITH_COVARIANCE_STAMPED
         ).writer((*stamp, "accel.accel.linear.x", "accel.covariance[0]"))
         gravity = float(self.get_parameter("gravity").value)
-        template = bm.imu(0, 0.0, gravity, 0.0, self.unmeasured_accel_variance, self.imu_frame_id)
+        imu_frame = self.frame_prefix + self.imu_frame_id
+        template = bm.imu(0, 0.0, gravity, 0.0, self.unmeasured_accel_variance, imu_frame)
         self._write_imu = bm.Layout.of(template, bm.IMU).writer(
             (*stamp, "linear_acceleration.x", "linear_acceleration_covariance[0]")
         )
-        self._write_marker = visual.estimate_marker_writer(float(self.get_parameter("length").value))
+        self._write_marker = visual.estimate_marker_writer(
+            float(self.get_parameter("length").value), self.frame_prefix + self.frame_id
+        )
 
     def _sensor_range(self) -> float:
         """The scene's sensor range R (rad; 0 = none), so readings clipped at ±R are flagged saturated."""

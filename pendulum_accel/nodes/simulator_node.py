@@ -98,6 +98,7 @@ class SimulatorNode(ManagedNode):
         self.recorder_node = node_names([str(values["recorder_node"])], namespace)
         self.wait_timeout = float(values["wait_timeout"])
         self.clock_rate_hz = float(values["clock_rate_hz"])
+        self._marker_frame = str(values["frame_prefix"]) + bm.FRAME_ID
         self.summary_file = str(values["summary_file"])
         self._outputs: dict[str, Publisher] = {}
         self.counts: dict[str, int] = {}
@@ -136,7 +137,8 @@ class SimulatorNode(ManagedNode):
 
     def _publish_description(self) -> None:
         """The URDF of the current scene's pendulum, once (transient local keeps it for late joiners)."""
-        self._description.publish(String(data=visual.urdf(float(self.scene.pendulum.length))))
+        pendulum = self.scene.pendulum
+        self._description.publish(String(data=visual.urdf(pendulum.length, mass=pendulum.mass)))
 
     def activate(self) -> None:
         """Start the publishing thread."""
@@ -308,7 +310,11 @@ class SimulatorNode(ManagedNode):
             restamp(rows[first:], offset, due_ns)
         mask = self._marker_mask[first:]
         self._marker_rows[int(self._marker_mask[:first].sum()) :] = visual.swing_marker_rows(
-            due_ns[mask], self._theta[first:][mask], self._accel[first:][mask], self._length
+            due_ns[mask],
+            self._theta[first:][mask],
+            self._accel[first:][mask],
+            self._length,
+            self._marker_frame,
         )
 
     def _prepare_markers(self, frames: Frames) -> None:
@@ -321,7 +327,11 @@ class SimulatorNode(ManagedNode):
         self._marker_mask = visual.marker_mask(frames.t)
         ns = bm.seconds_to_ns(frames.t)[self._marker_mask]
         self._marker_rows = visual.swing_marker_rows(
-            ns, self._theta[self._marker_mask], self._accel[self._marker_mask], self._length
+            ns,
+            self._theta[self._marker_mask],
+            self._accel[self._marker_mask],
+            self._length,
+            self._marker_frame,
         )
 
     def _publish_frames(self, frames: Frames, first: int = 0) -> bool:

@@ -408,16 +408,17 @@ def analyze_bag(
             "for the whole recording use --estimator smoother"
         )
     check_chain_contract(data)
-    js = data.decode(
+    joint_topic, truth_topic = (
         data.chain_topic(TOPIC_JOINT_STATES),
-        JOINT_STATE,
-        fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"],
-    )
-    truth = data.decode(
         data.chain_topic(TOPIC_ACCEL_TRUTH),
-        ACCEL_STAMPED,
-        fields=["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"],
     )
+    both = data.decode_topics(  # one pass over the file for the two
+        {
+            joint_topic: (JOINT_STATE, ["header.stamp.sec", "header.stamp.nanosec", "position[0]"]),
+            truth_topic: (ACCEL_STAMPED, ["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"]),
+        }
+    )
+    js, truth = both[joint_topic], both[truth_topic]
     if len(js) < 2:
         raise BagError(f"bag {data.path} holds {len(js)} joint states; at least 2 are needed")
     if len(truth) == 0:
@@ -427,7 +428,9 @@ def analyze_bag(
     t, theta = t[order], js["position[0]"][order]
     tt = truth.stamp
     t_order = np.argsort(tt, kind="stable")
-    a_true = np.interp(t, tt[t_order], truth["accel.linear.x"][t_order])
+    truth_t, truth_a = tt[t_order], truth["accel.linear.x"][t_order]
+    a_true = np.interp(t, truth_t, truth_a)
+    del both, js, truth, tt, order, t_order  # the decoded columns: a long bag's memory goes to the re-run
     cfg = estimator_config(data, t)
     cfg.update(config or {})
     if "length" not in cfg:
@@ -443,7 +446,6 @@ def analyze_bag(
     a_est = np.asarray(a_est, dtype=np.float64)
     variance = np.asarray(variance, dtype=np.float64)
     tol = default_tolerance(a_true) if tolerance is None else float(tolerance)
-    truth_t, truth_a = tt[t_order], truth["accel.linear.x"][t_order]
     offline = estimate_figures("offline re-run", name, t, t, a_est, a_true, tol, t[0] + skip)
     recorded = _recorded_figures(data, t, truth_t, truth_a, tol, t[0] + skip)
     return Analysis(

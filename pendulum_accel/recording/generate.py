@@ -1,12 +1,15 @@
-"""Write a bag straight from a scene, without DDS, with the content a live recording of it has.
+"""Write a bag straight from a scene, without DDS, with the topics a live recording of it has.
 
 Topics (stamp = log time = sim time t, starting at 0): /clock, /pendulum/joint_states (measured θ,
 and its rate from backward differences of the measured θ: no truth), /car/accel/truth,
 /pendulum/string (only when the scene computes tension or stretch),
-/car/accel/estimate (the default estimator, from the first sample it gives a value on) and
-/diagnostics (the estimator node's input-guard report, once per second of sim time). Every
-fixed-layout topic is serialised in bulk (:class:`Layout`) and written in one ``write_sorted``
-call, so a 1 kHz scene goes far faster than real time.
+/car/accel/estimate (the default estimator, from the first sample it gives a value on),
+/diagnostics (the estimator node's input-guard report, once per second of sim time), and what viewers
+draw (``viewer_streams``): /imu/data_raw (one Imu per estimate, as the estimator node writes it),
+/pendulum/markers (the simulator's swing and the estimator's arrow, each at ``MARKER_RATE_HZ``) and
+/robot_description (the scene's URDF, once, transient local). Every fixed-layout topic is serialised in
+bulk (:class:`Layout`) and written in one ``write_sorted`` call, so a 1 kHz scene goes far faster than
+real time.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from pendulum_accel.bag.writer import (
 from pendulum_accel.errors import BagError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.estimators.guard import InputGuard
+from pendulum_accel.recording import visual
 from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import Scene, load_scene, scene_to_yaml
 from pendulum_accel.scene_run import SceneRun, run_scene
@@ -241,6 +245,61 @@ def diagnostics(
     return np.array(stamps, dtype=np.int64), out
 
 
+def viewer_streams(
+    t: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    accel_true: NDArray[np.float64],
+    accel_est: NDArray[np.float64],
+    variance: NDArray[np.float64],
+    *,
+    length: float,
+    mass: float,
+    gravity: float,
+) -> list[Stream]:
+    """The streams a live chain adds for viewers at sample times t (s): the estimator node's Imu for each
+    finite estimate (specific force (â, 0, g), var(â) on x), the markers (the simulator's swing at
+    MARKER_RATE_HZ of sim time, the estimator's arrow on the first estimate of each 1/MARKER_RATE_HZ tick
+    of stamp time) and the URDF once at the first sample."""
+    ns = bm.seconds_to_ns(t)
+    ok = np.isfinite(accel_est) & np.isfinite(variance)
+    est_ns, est_t = ns[ok], t[ok]
+    template = bm.imu(0, 0.0, gravity, 0.0, bm.UNMEASURED_VARIANCE, bm.FRAME_ID)
+    imu_cols = {
+        **_stamp_columns(est_ns),
+        "linear_acceleration.x": accel_est[ok],
+        "linear_acceleration_covariance[0]": variance[ok],
+    }
+    imu_rows = bm.Layout.of(template, bm.IMU).encode(est_ns.size, imu_cols)
+    swing = visual.marker_mask(t)
+    swing_rows = visual.swing_marker_rows(ns[swing], theta[swing], accel_true[swing], length)
+    tick = np.floor(est_t * visual.MARKER_RATE_HZ).astype(np.int64)
+    first = np.ones(tick.size, dtype=bool)
+    first[1:] = tick[1:] != tick[:-1]
+    arrow = visual.estimate_marker_writer(length)
+    sec, nanosec = bm.split_stamp(est_ns[first])
+    arrows = [
+        arrow(s, n, a)
+        for s, n, a in zip(sec.tolist(), nanosec.tolist(), accel_est[ok][first].tolist(), strict=True)
+    ]
+    # One topic, two publishers: at equal stamps the simulator's swing goes out before the estimate's arrow.
+    marker_ns = np.concatenate([ns[swing], est_ns[first]])
+    order = np.argsort(marker_ns, kind="stable")
+    markers = [row.tobytes() for row in swing_rows] + arrows
+    description = bm.serialize(
+        bm.TYPESTORE.types[bm.STRING_MSG](data=visual.urdf(length, mass=mass)), bm.STRING_MSG
+    )
+    return [
+        Stream(bm.TOPIC_IMU, est_ns, imu_rows),
+        Stream(bm.TOPIC_MARKERS, marker_ns[order], [markers[i] for i in order]),
+        Stream(bm.TOPIC_ROBOT_DESCRIPTION, ns[:1], [description]),
+    ]
+
+
+TOPIC_QOS = {bm.TOPIC_ROBOT_DESCRIPTION: bm.qos_profile(depth=1, transient_local=True)}
+"""Offered QoS that differs from the writer's default (reliable, keep last 1000): the URDF's, latched as
+robot_state_publisher offers it, so that a player's late subscriber still gets it."""
+
+
 def write_chain_bag(
     out: Path | str,
     streams: list[Stream],
@@ -252,7 +311,8 @@ def write_chain_bag(
     """Create bag ``out`` with the streams' topics (contract types, reliable QoS); returns counts."""
     with BagWriter(out, overwrite=overwrite, custom_data=custom_data, compression=compression) as writer:
         for stream in streams:
-            writer.add_topic(stream.topic, bm.TOPIC_TYPES[stream.topic])
+            msgtype = {**bm.TOPIC_TYPES, **bm.VIEWER_TOPIC_TYPES}[stream.topic]
+            writer.add_topic(stream.topic, msgtype, TOPIC_QOS.get(stream.topic))
         writer.write_sorted(streams)
         return writer.counts
 
@@ -300,6 +360,16 @@ def generate_bag(
         rate_hz=float(scene.sensor.rate_hz),
         string=string_columns(run),
         saturation_range=float(scene.sensor.range),
+    )
+    streams += viewer_streams(
+        t,
+        theta,
+        np.asarray(run.accel_true, dtype=np.float64),
+        np.asarray(a_est, dtype=np.float64),
+        np.asarray(variance, dtype=np.float64),
+        length=float(scene.pendulum.length),
+        mass=float(scene.pendulum.mass),
+        gravity=float(scene.pendulum.gravity),
     )
     custom = {
         CUSTOM_SCENE: scene_to_yaml(scene),

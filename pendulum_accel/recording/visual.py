@@ -42,13 +42,20 @@ def bob_radius(length: float) -> float:
     return max(0.02, 0.05 * length)
 
 
-def urdf(length: float, name: str = "pendulum_accel") -> str:
-    """URDF of the car body, the pivot, ``pendulum_joint`` (revolute about y) and the string and bob
-    sized from ``length`` (m): ``base_link`` → pivot_link (fixed) → pendulum_link (pendulum_joint) →
-    bob_link (fixed, l below the pivot)."""
+def urdf(length: float, name: str = "pendulum_accel", *, mass: float = 1.0) -> str:
+    """URDF of the car body, the pivot, ``pendulum_joint`` (continuous about y: a large swing goes over
+    the top) and the string and bob sized from ``length`` (m): ``base_link`` → pivot_link (fixed) →
+    pendulum_link (pendulum_joint) → bob_link (fixed, l below the pivot).
+
+    Inertials are what the model has: the bob's ``mass`` (kg) on bob_link, as a solid sphere of the drawn
+    radius r (I = 2/5 m r² about each axis: the model's point mass, drawn with a size); the string is
+    massless, so pendulum_link and pivot_link carry none, nor does base_link (the car's mass is no
+    part of the model, and KDL refuses an inertia on the root link).
+    """
     lx, ly, lz = BODY
     h = pivot_height(length)
     r = bob_radius(length)
+    inertia = 0.4 * mass * r * r
     return f"""<?xml version="1.0"?>
 <robot name="{name}">
   <material name="body"><color rgba="0.6 0.6 0.65 1"/></material>
@@ -74,13 +81,16 @@ def urdf(length: float, name: str = "pendulum_accel") -> str:
       <material name="string"/>
     </visual>
   </link>
-  <joint name="{bm.PENDULUM_JOINT}" type="revolute">
+  <joint name="{bm.PENDULUM_JOINT}" type="continuous">
     <parent link="pivot_link"/>
     <child link="pendulum_link"/>
     <axis xyz="0 1 0"/>
-    <limit lower="-6.2832" upper="6.2832" effort="0" velocity="100"/>
   </joint>
   <link name="bob_link">
+    <inertial>
+      <mass value="{mass:.9g}"/>
+      <inertia ixx="{inertia:.9g}" ixy="0" ixz="0" iyy="{inertia:.9g}" iyz="0" izz="{inertia:.9g}"/>
+    </inertial>
     <visual>
       <geometry><sphere radius="{r:.6g}"/></geometry>
       <material name="bob"/>
@@ -95,8 +105,10 @@ def urdf(length: float, name: str = "pendulum_accel") -> str:
 """
 
 
-def _marker(ns: str, kind: int, color: tuple[float, float, float], points: int = 0) -> Any:
-    """A visualization_msgs/Marker in base_link (id 0 in ``ns``), ``points`` zero points, opaque."""
+def _marker(
+    ns: str, kind: int, color: tuple[float, float, float], points: int = 0, frame_id: str = bm.FRAME_ID
+) -> Any:
+    """A visualization_msgs/Marker in ``frame_id`` (id 0 in ``ns``), ``points`` zero points, opaque."""
     store = bm.TYPESTORE.types
     marker_cls = store["visualization_msgs/msg/Marker"]
     point_cls = store["geometry_msgs/msg/Point"]
@@ -106,7 +118,7 @@ def _marker(ns: str, kind: int, color: tuple[float, float, float], points: int =
     vector_cls = store["geometry_msgs/msg/Vector3"]
     duration_cls = store["builtin_interfaces/msg/Duration"]
     return marker_cls(
-        header=bm.joint_state(0, [], []).header,
+        header=bm.joint_state(0, [], [], frame_id=frame_id).header,
         ns=ns,
         id=0,
         type=kind,
@@ -152,14 +164,18 @@ def _stamp(ns: NDArray[np.int64], prefix: str) -> dict[str, Any]:
 
 
 def swing_marker_rows(
-    ns: NDArray[np.int64], theta: NDArray[np.float64], accel: NDArray[np.float64], length: float
+    ns: NDArray[np.int64],
+    theta: NDArray[np.float64],
+    accel: NDArray[np.float64],
+    length: float,
+    frame_id: str = bm.FRAME_ID,
 ) -> NDArray[np.uint8]:
-    """MarkerArray CDR rows: the string (pivot → bob), the bob, and the true-acceleration arrow along x
-    (ARROW_M_PER_MS2 m per m/s², from above the pivot), one row per sample at ``ns``."""
+    """MarkerArray CDR rows in ``frame_id``: the string (pivot → bob), the bob, and the true-acceleration
+    arrow along x (ARROW_M_PER_MS2 m per m/s², from above the pivot), one row per sample at ``ns``."""
     h = pivot_height(length)
-    string = _marker("string", _LINE_STRIP, (0.2, 0.2, 0.2), points=2)
-    bob = _marker("bob", _SPHERE, (0.1, 0.3, 0.9))
-    truth = _marker("accel_truth", _ARROW, TRUTH_COLOR, points=2)
+    string = _marker("string", _LINE_STRIP, (0.2, 0.2, 0.2), points=2, frame_id=frame_id)
+    bob = _marker("bob", _SPHERE, (0.1, 0.3, 0.9), frame_id=frame_id)
+    truth = _marker("accel_truth", _ARROW, TRUTH_COLOR, points=2, frame_id=frame_id)
     layout = bm.Layout.of(_marker_array([string, bob, truth]), bm.MARKER_ARRAY)
     bx = -length * np.sin(theta)  # bob = pivot + (−l sin θ, 0, −l cos θ)
     bz = h - length * np.cos(theta)
@@ -202,10 +218,10 @@ def _full(cols: Mapping[str, object], n: int) -> dict[str, NDArray[np.generic]]:
     return {k: np.broadcast_to(np.asarray(v), (n,)) for k, v in cols.items()}
 
 
-def estimate_marker_writer(length: float) -> Callable[[int, int, float], bytes]:
-    """(sec, nanosec, â) ↦ CDR of the estimate's one-arrow MarkerArray for a pendulum of ``length``: an
-    arrow from (0, 0, z) to (ARROW_M_PER_MS2 · â, 0, z), z above the truth arrow so both show."""
-    arrow = _marker("accel_estimate", _ARROW, ESTIMATE_COLOR, points=2)
+def estimate_marker_writer(length: float, frame_id: str = bm.FRAME_ID) -> Callable[[int, int, float], bytes]:
+    """(sec, nanosec, â) ↦ CDR of the estimate's one-arrow MarkerArray for a pendulum of ``length`` in
+    ``frame_id``: an arrow from (0, 0, z) to (ARROW_M_PER_MS2 · â, 0, z), z above the truth arrow."""
+    arrow = _marker("accel_estimate", _ARROW, ESTIMATE_COLOR, points=2, frame_id=frame_id)
     layout = bm.Layout.of(_marker_array([arrow]), bm.MARKER_ARRAY)
     z = pivot_height(length) + 0.2
     constants = _full(_arrow_columns("markers[0].", 0.0, z), 1)
