@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from benchmarks.estimators import BenchConfig, Row, main, run_benchmark
+from pendulum_accel.estimators import LIVE_ESTIMATORS
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +57,7 @@ def test_command_line_prints_the_table(tmp_path: Path, capsys: pytest.CaptureFix
     out = capsys.readouterr().out
     assert "default method: kalman" in out and "| step | period_mean |" in out
     assert "| ramp | kalman_fixed_q |" in out and "| ramp | kalman_car |" in out
-    rows = 5 + 3  # the live methods and the variants
+    rows = len(LIVE_ESTIMATORS) + len(BenchConfig().variants)  # the live methods and the variants
     with (tmp_path / "estimators.csv").open() as fh:
         table = list(csv.reader(fh))
     assert table[0] == list(Row.COLUMNS) and len(table) == 1 + 3 * rows
