@@ -253,7 +253,7 @@ def test_analyze_splits_a_real_trace_into_steady_and_after_change(
 ) -> None:
     """A real robot's odometry (husky_odom, 60 s): both windows hold samples, as the rule says, so both
     shares are numbers; under the old rule (any change of a between samples) every sample was "after a
-    change" and the steady share was NaN."""
+    change" and the steady share was NaN. The motion model is auto, as for any data."""
     generate_bag("husky_odom", tmp_path / "husky", duration=60.0)
     result = analyze_bag(tmp_path / "husky")
     assert result.calibration is not None
@@ -265,4 +265,4 @@ def test_analyze_splits_a_real_trace_into_steady_and_after_change(
     figures = strict_json(capsys.readouterr().out)
     for window in ("steady", "after_change"):
         assert 0.0 <= figures[f"nees_{window}_share_2sigma"] <= 1.0
-    assert figures["motion_model"] == result.motion_model == "robot"
+    assert figures["motion_model"] == result.motion_model == "auto"  # learned from the angles, no scene rule
