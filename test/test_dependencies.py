@@ -187,12 +187,13 @@ def test_rosdep_keys_and_the_readme_pip_line_install_all_of_install_requires() -
 
 
 def test_the_check_catches_a_missing_distribution() -> None:
-    """The comparison above is not vacuous: rosbags, dropped from the pip line, is reported missing."""
+    """The comparison above is not vacuous: mcap (pip-only, no rosdep key), dropped from the pip line, is
+    reported missing."""
     required, _ = setup_requirements()
     by_rosdep = {ROSDEP_TO_DIST[k] for k in package_xml().get("exec_depend", set()) if k in ROSDEP_TO_DIST}
-    by_pip = colcon_pip_line(ROOT / "README.md") - {"rosbags"}
-    assert "rosbags" in required and required - by_rosdep - by_pip == {"rosbags"}
-    assert "rosbags" in {distribution_of(m) for m in runtime_imports()}
+    by_pip = colcon_pip_line(ROOT / "README.md") - {"mcap"}
+    assert "mcap" in required and required - by_rosdep - by_pip == {"mcap"}
+    assert "mcap" in {distribution_of(m) for m in runtime_imports()}
 
 
 def test_the_docs_extra_is_what_make_docs_installs_and_covers_mkdocs_yml() -> None:
