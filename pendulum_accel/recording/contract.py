@@ -26,7 +26,7 @@ def check_chain_contract(bag: Bag) -> None:
     checks = [(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)] + [
         (topic, bm.topic_type(topic)) for topic in FRAMED_TOPICS
     ]
-    bag.find_shapes([bm.chain_topic(bag.topics, root) for root, _ in checks])  # one pass for all
+    bag.find_shapes([bag.chain_topic(root) for root, _ in checks])  # one pass for all
     for root, msgtype in checks:
         topic = bag.chain_topic(root)
         if topic not in bag.topics or bag.topics[topic].count == 0:
