@@ -57,11 +57,11 @@ from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_sampl
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile
 from pendulum_accel.recording.changes import after_change
+from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.scene import load_scene
 
 SCENES_DIR = Path(__file__).resolve().parents[1] / "pendulum_accel" / "scenes"
 WARMUP = 2.0  # s left out at the start of every run: the filters start from one sample
-MAX_DELAY = 3.0  # s searched for the group delay
 Q_GRID = tuple(float(q) for q in np.logspace(-4, 2, 19))  # (m/s²)²/s, 3 per decade
 LAGS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0)  # s, the latency–accuracy curve
 SHOWN_LAG = 0.5  # s: the lag of the table's kalman_lag row
@@ -181,28 +181,6 @@ def simulate_runs(profile: AccelProfile, design: Design, seeds: int, duration: f
     return runs
 
 
-def group_delay(t: np.ndarray, est: np.ndarray, truth: np.ndarray, rate_hz: float) -> float:
-    """τ (s) in [−MAX_DELAY, MAX_DELAY] maximising Σ (â(t) − mean â)(a(t − τ) − mean a): the cross-correlation
-    peak (a coarse scan, then every sample around its best)."""
-    e = est - est.mean()
-    a = truth - truth.mean()
-    n = min(int(MAX_DELAY * rate_hz), e.size // 4)
-    best, best_k = -math.inf, 0
-    for k in range(-n, n + 1, max(1, n // 60)):
-        c = float(np.dot(e[k:], a[: a.size - k])) if k >= 0 else float(np.dot(e[:k], a[-k:]))
-        if c > best:
-            best, best_k = c, k
-    # refine around the coarse peak
-    step = max(1, n // 60)
-    for k in range(best_k - step, best_k + step + 1):
-        if abs(k) > n:
-            continue
-        c = float(np.dot(e[k:], a[: a.size - k])) if k >= 0 else float(np.dot(e[:k], a[-k:]))
-        if c > best:
-            best, best_k = c, k
-    return best_k / rate_hz
-
-
 @dataclass
 class Score:
     """Pooled figures of one estimator on one profile × design (over seeds)."""
@@ -230,7 +208,7 @@ class Score:
             nees.append(z)
             steady.append(z[~after_mask] > 4.0)
             after.append(z[after_mask] > 4.0)
-            delays.append(group_delay(run.t[keep], a[keep], run.accel[keep], rate_hz))
+            delays.append(group_delay(a[keep], run.accel[keep], rate_hz))
         e_all = np.concatenate(errs)
         z_all = np.concatenate(nees)
         s_all, c_all = np.concatenate(steady), np.concatenate(after)

@@ -20,19 +20,17 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from pendulum_accel.cluster import Progress, map_tasks
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, make_estimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
+from pendulum_accel.recording.changes import after_change
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.scene import load_scene
 from pendulum_accel.sensor import SensorModel
 
 WARMUP = 2.0  # s left out at the start of every case: the filters start from one sample
-CHANGE_JUMP = 0.2  # m/s²: |a(t) − a(t − 1 s)| beyond this marks a change of a
-CHANGE_WINDOW = 2.0  # s after a change that count as "after a change"
 DEFAULT_LAGS = (0.0, 0.1, 0.25, 0.5, 1.0)  # s: the fixed-lag curve
 DEFAULT_PROFILES = ("udds", "hwfet", "husky_odom")  # the bundled real-motion scenes (docs/real_motion.md)
 DEFAULT_DURATION = 300.0  # s of each profile (from its start) a case simulates
@@ -112,16 +110,6 @@ class Case:
     lags: tuple[float, ...]
 
 
-def change_mask(t: NDArray[np.float64], accel: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """True within CHANGE_WINDOW s after any t where |a(t) − a(t − 1 s)| > CHANGE_JUMP."""
-    back = np.interp(t - 1.0, t, accel)
-    changes = t[np.abs(accel - back) > CHANGE_JUMP]
-    if changes.size == 0:
-        return np.zeros(t.size, dtype=bool)
-    idx = np.searchsorted(changes, t, side="right") - 1
-    return (idx >= 0) & (t - changes[np.maximum(idx, 0)] <= CHANGE_WINDOW)
-
-
 def run_case(case: Case) -> dict[str, Any]:
     """Sums for pooling one case: per lag Σe² and n; the live filter's delay and its counts beyond 2σ
     in steady stretches and after changes."""
@@ -144,7 +132,7 @@ def run_case(case: Case) -> dict[str, Any]:
     sigma = math.sqrt(d.noise_std**2 + d.quantization**2 / 12.0)
     settings = {"length": d.length, "damping": d.damping, "noise_std": max(sigma, 1e-6), "rate_hz": d.rate_hz}
     out: dict[str, Any] = {"sq": {}, "n": int(keep.sum())}
-    after = change_mask(t, accel)[keep]
+    after = after_change(t, t, accel)[keep]
     for lag in case.lags:
         est, var = make_estimator(DEFAULT_ESTIMATOR, **settings, lag=lag).batch(t, theta)
         e = (np.asarray(est) - accel)[keep]
