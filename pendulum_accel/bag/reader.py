@@ -31,7 +31,6 @@ from __future__ import annotations
 import contextlib
 import heapq
 import os
-import stat
 import struct
 import weakref
 import zlib
@@ -71,6 +70,7 @@ from pendulum_accel.bag.messages import (
     stored_roles,
 )
 from pendulum_accel.errors import BagError
+from pendulum_accel.textfile import not_a_file_or_directory
 
 _MAGIC = b"\x89MCAP0\r\n"
 _RECORD_HEAD = struct.Struct("<BQ")
@@ -799,26 +799,6 @@ def _locate(path: Path) -> tuple[Path, Path, Any]:
     if len(found) != 1:
         raise BagError(f"bag {path} has {len(found)} .mcap files, expected 1")
     return path, found[0], doc
-
-
-def not_a_file_or_directory(path: Path) -> str | None:
-    """What ``path`` is when it exists but is neither a regular file nor a directory ("a FIFO (named
-    pipe)", "a character device", ...), else None (textfile.py's rule: bag/ imports only itself)."""
-    try:
-        kind = stat.S_IFMT(os.stat(path).st_mode)
-    except OSError:
-        return None
-    if kind in (stat.S_IFREG, stat.S_IFDIR):
-        return None
-    return _ODD_KINDS.get(kind, "not a regular file")
-
-
-_ODD_KINDS = {
-    stat.S_IFIFO: "a FIFO (named pipe)",
-    stat.S_IFCHR: "a character device",
-    stat.S_IFBLK: "a block device",
-    stat.S_IFSOCK: "a socket",
-}
 
 
 def _check_magic(path: Path) -> None:
