@@ -73,7 +73,10 @@ def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
             n_workers=n,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            # The scheduler's HTTP server starts even without a dashboard, on port 8787 unless told
+            # otherwise; a second run (or any other Dask cluster) then prints a UserWarning. A free
+            # port on loopback only: no warning, and nothing listens on the machine's interfaces.
+            dashboard_address="127.0.0.1:0",
             silence_logs=40,  # logging.ERROR: the terminal shows the bar and the errors only
         )
         client = Client(cluster)

@@ -8,12 +8,14 @@ test starts is stopped at its end.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import itertools
 import math
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -150,6 +152,12 @@ def test_ctrl_c_cancels_the_rest_and_writes_nothing(tmp_path: Path) -> None:
             os.link(item, bag / item.name)
     shutil.rmtree(source)
     out = tmp_path / "t.parquet"
+    # Dask's default HTTP port taken, as by another cluster running on the machine: the one-line
+    # output below must not gain Dask's "Port 8787 is already in use" warning.
+    taken = socket.socket()
+    with contextlib.suppress(OSError):  # already taken by someone else: the same condition
+        taken.bind(("127.0.0.1", 8787))
+        taken.listen()
     proc = subprocess.Popen(
         [sys.executable, "-m", "pendulum_accel.cli.main", "analyze", str(many), "--out", str(out),
          "-e", "kalman", "-e", "smoother", "--workers", "2"],
@@ -164,6 +172,7 @@ def test_ctrl_c_cancels_the_rest_and_writes_nothing(tmp_path: Path) -> None:
         took = time.monotonic() - start
     finally:
         stop_processes([proc])
+        taken.close()
     assert proc.returncode == 130, err
     assert err.strip().splitlines() == ["pendulum-accel analyze: interrupted"], err
     assert took < 5.0, f"took {took:.2f} s to stop"
