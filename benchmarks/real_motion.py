@@ -26,7 +26,8 @@ latency–accuracy curve is the RMS of kalman's fixed-lag smoother against its l
 over the validation profiles, beside the live IMM filter at lag 0.
 
 ``--fit`` fits on the training split only, pooled over the seeds, on grids, and prints the values to put in
-``estimators.kalman.PRESETS``: auto's chain (up and down times, AUTO_CHAINS) on every training profile;
+``estimators.kalman.PRESETS``: auto's chain (up and down times, AUTO_CHAINS) and its fixed-lag variance
+power (LAG_POWERS, ``kalman.LAG_VARIANCE_POWER``) on every training profile;
 each prior preset's (car, robot, lab_steps) single q_a with the least RMS (geometric mean over both
 designs) and IMM (modes, switch time) on its own training profiles (PRESET_OF). Each IMM is the candidate
 whose own variance is best calibrated on training (share beyond 2σ, steady and after changes, closest to a
@@ -420,6 +421,46 @@ def fit_auto(seeds: int, quick: bool) -> tuple[tuple[float, float], list[tuple[f
     return best, [(float(r), float(m)) for r, m in zip(rms, miss, strict=True)]
 
 
+LAG_POWERS = tuple(round(1.0 + 0.1 * i, 1) for i in range(31))
+"""γ = 1.0 … 4.0 of the fixed-lag variance map P_f (P_lag/P_f)^γ tried by ``fit_lag_power``."""
+FIT_LAGS = (0.25, 1.0)  # s: the live fixed lag the issue names, and the smoother's SMOOTH_LAG
+
+
+def fit_lag_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
+    """γ of kalman.lag_variance on every training profile (all kinds), both designs, lags FIT_LAGS, pooled
+    over the seeds: of LAG_POWERS the one with the least calibration miss (Σ over profiles × designs × lags);
+    returns (γ, miss per γ)."""
+    modes = np.array(PRESETS["auto"].modes)
+    miss = np.zeros(len(LAG_POWERS))
+    for design in designs():
+        params = kalman_q(design, 1.0)._params
+        rates = kern.chain_rates(modes.size, PRESETS["auto"].switch_time, PRESETS["auto"].down_time)
+        lags = np.array([0, *(lag_samples(lag, design.rate_hz) for lag in FIT_LAGS)], dtype=np.int64)
+        for profile in PROFILES:
+            if profile.role != "train":
+                continue
+            runs = _runs_for(profile, design, seeds, quick)
+            counts = np.zeros((len(LAG_POWERS), len(FIT_LAGS), 5))
+            for r in runs:
+                a, var, _ = kern.run_imm(r.t, r.theta, params, modes, rates, lags)
+                keep = r.t >= WARMUP
+                after = after_change(r.t, r.t, r.accel)[keep]
+                for m in range(1, lags.size):
+                    e = (a[:, m] - r.accel)[keep]
+                    ratio = np.clip(var[keep, m] / var[keep, 0], 0.0, 1.0)
+                    for i, power in enumerate(LAG_POWERS):
+                        beyond = e * e > 4.0 * var[keep, 0] * ratio**power
+                        counts[i, m - 1] += (
+                            float(np.sum(e * e)),
+                            np.count_nonzero(beyond & ~after),
+                            np.count_nonzero(~after),
+                            np.count_nonzero(beyond & after),
+                            np.count_nonzero(after),
+                        )
+            miss += [sum(calibration_miss(c) for c in per_lag) for per_lag in counts]
+    return LAG_POWERS[int(np.argmin(miss))], [float(m) for m in miss]
+
+
 def evaluate(
     seeds: int, quick: bool, *, scheduler: str | None = None, workers: int | None = None
 ) -> tuple[list[Row], dict[str, dict[float, float]], dict[str, float]]:
@@ -705,6 +746,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--out", type=Path, default=Path("out/bench"), help="where the table's Markdown also goes"
     )
+    parser.add_argument("--workers", type=int, default=None, help="local cluster's workers (default: CPUs)")
     bench_report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     seeds = 1 if args.quick else max(1, args.seeds)
@@ -721,19 +763,27 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{c}: RMS {r:.3g} miss {m:.2f}" for c, (r, m) in zip(AUTO_CHAINS, per_chain, strict=True)
         )
         print(f"auto: chain up {chain[0]:g} s, down {chain[1]:g} s   [per (up, down): {cands}]")
+        power, per_power = fit_lag_power(seeds, args.quick)
+        cands = ", ".join(f"{g:g}: {m:.1f}" for g, m in zip(LAG_POWERS, per_power, strict=True))
+        print(f"auto: fixed-lag variance power {power:g}   [calibration miss per power: {cands}]")
         return 0
-    rows, curves, imm_rms = report(seeds, args.quick, args.docs, argv)
+    rows, curves, imm_rms = report(seeds, args.quick, args.docs, argv, workers=args.workers)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "real_motion.md").write_text(markdown(rows, curves, imm_rms, args.quick, seeds))
     return 0
 
 
 def report(
-    seeds: int, quick: bool, docs: Path = bench_report.DOCS_DIR, argv: Sequence[str] | None = None
+    seeds: int,
+    quick: bool,
+    docs: Path = bench_report.DOCS_DIR,
+    argv: Sequence[str] | None = None,
+    *,
+    workers: int | None = None,
 ) -> tuple[list[Row], dict[str, dict[float, float]], dict[str, float]]:
     """Evaluate, print, and write the page docs/benchmarks/real_motion.md with the latency–accuracy plot
     (benchmarks.report.write_page); the figures."""
-    rows, curves, imm = evaluate(seeds, quick)
+    rows, curves, imm = evaluate(seeds, quick, workers=workers)
     text = markdown(rows, curves, imm, quick, seeds)
     print(text)
     with tempfile.TemporaryDirectory() as tmp:

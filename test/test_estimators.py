@@ -27,6 +27,7 @@ from pendulum_accel.estimators import (
 )
 from pendulum_accel.estimators.base import wrap_clamp, wrap_clamp_array
 from pendulum_accel.estimators.dynamic import DynamicEstimator
+from pendulum_accel.estimators.kalman import KalmanEstimator
 from pendulum_accel.estimators.lowpass import LowpassEstimator
 from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.estimators.swing import swing_amplitude
@@ -309,6 +310,28 @@ def test_noise_equivalent_samples_match_their_definitions() -> None:
         for q in (1e-5, 1e-3, 1e-1)
     ]
     assert n_eff[0] > 5.0 and n_eff[0] > n_eff[1] > n_eff[2]
+
+
+def test_the_imm_states_the_delay_of_its_stationary_mode_mix_and_the_range_over_its_modes() -> None:
+    """auto's delay is Σ π_j d_j, π the birth-death chain's stationary law (π_{i+1}/π_i = τ_down/τ_up) and
+    d_j each mode's steady-filter delay, between the most agile mode's and the calmest's; describe() says
+    so. Tolerances: π from a 10 × 10 least-squares solve (round-off ~1e-15 relative, 1e-9 allowed); the
+    mix's Σ π m_j / Σ π w_j equals Σ π d_j exactly when every mode's DC gain Σ w_j is the same (g sec²θ:
+    each filter is unbiased at rest), which the DAREs give to ~1e-12 relative (1e-6 allowed)."""
+    est = make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE)
+    assert isinstance(est, KalmanEstimator) and len(est.modes) > 2
+    pi = est.stationary_modes()
+    np.testing.assert_allclose(pi[1:] / pi[:-1], 1.0 / 2.0, rtol=1e-9)  # auto: up every 2 s, down every 1 s
+    delays = [
+        make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE, q_accel=q).nominal_delay(0.0)
+        for q in est.modes
+    ]
+    mixed = est.nominal_delay(0.0)
+    assert mixed == pytest.approx(float(np.dot(pi, delays)), rel=1e-6)
+    agile, calm = est.mode_delays(0.0)
+    assert agile == pytest.approx(delays[-1], rel=1e-9) and calm == pytest.approx(delays[0], rel=1e-9)
+    assert min(delays) <= mixed <= max(delays)
+    assert "stationary probabilities" in est.describe()
 
 
 @pytest.mark.parametrize("name", METHODS)

@@ -261,8 +261,8 @@ class Estimator(ABC):
 
     def describe(self) -> str:
         """One line: method name, its settings, N and the steady-state group delay at a = 0."""
-        # "steady-state": for the adaptive Kalman filter this is its quiet-mode memory, far longer than
-        # the time it takes to follow a change in a (0.67 s for a 0 → 3 m/s² step), which "delay" hid.
+        # "steady-state": for the IMM this is its modes' mix at the chain's stationary probabilities, which
+        # its describe() follows with the per-mode range (its delay moves with the mode probabilities).
         line = (
             f"{self.name}: {self.summary}; N_eff={self.noise_equivalent_samples(0.0):.1f}, "
             f"steady-state group delay {self.nominal_delay(0.0):.3f} s"

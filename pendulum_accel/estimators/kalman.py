@@ -66,10 +66,11 @@ class MotionPreset:
         return f"stepping up every {self.switch_time:g} s, down every {self.down_time:g} s"
 
 
-AUTO_MODES = (1e-9, 1e-7, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0)
+AUTO_MODES = (1e-9, 1e-7, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
 """(m/s²)²/s: auto's modes, from a constant (1e-9: over any recording a random walk this slow is a constant,
-whose posterior variance shrinks as 1/n) through every hindsight optimum of the corpus (1e-4 … 2.2) to a
-step (10), a decade apart where real motion lives."""
+whose posterior variance shrinks as 1/n) through every hindsight optimum of the corpus (1e-4 … 100) to a
+step (10) and an agile robot's bursts (100: the F1TENTH cars' |a| reach 10 m/s² within a second, where
+a top mode of 10 leaves a third of the errors beyond 2σ), a decade apart where real motion lives."""
 
 # auto (the default): a birth-death chain over AUTO_MODES, up every 2 s, down every 1 s, fitted by
 # ``python -m benchmarks.real_motion --fit --quick`` (fit_auto) on every training profile of the corpus
@@ -104,6 +105,27 @@ PRESETS: dict[str, MotionPreset] = {
     ),
 }
 DEFAULT_PRESET = "auto"
+
+LAG_VARIANCE_POWER = 1.8
+"""γ of the IMM's fixed-lag variance, published as P_f (P_lag/P_f)^γ (``lag_variance``). Fitted by
+``python -m benchmarks.real_motion --fit --quick`` (fit_lag_power) on every training profile of
+benchmarks.corpus (cars, robots, acceleration tables, the lab's step and stop_and_go), the teaching and
+short_damped designs, the first 60 s, seed 0, lags 0.25 s and 1 s: of γ = 1.0 … 4.0 in steps of 0.1, the
+one whose shares beyond 2σ (steady and after changes) are closest to a Gaussian's (calibration_miss)."""
+
+
+def lag_variance(var_lag: np.ndarray, var_filter: np.ndarray) -> np.ndarray:
+    """P_f (P_lag/P_f)^γ, γ = LAG_VARIANCE_POWER, the ratio clipped to [0, 1]: the fixed-lag variance
+    as it matches real motion (docs/estimators.md, "Fixed lag").
+
+    Under the random walk the IMM assumes, P_lag is the error variance (NEES 0.9 on a simulated walk). Real
+    a(t) is smoother than a walk of the q_a that follows its changes: the filter's error is mostly its lag
+    behind the trend, which the future samples remove, so the lagged error shrinks faster than P_lag/P_f
+    (NEES 0.1–0.5 with γ = 1). The map leaves P_f where the future adds nothing (ratio 1: lag 0, a
+    segment's end) and shrinks the rest as a power of the model's own ratio."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.clip(var_lag / var_filter, 0.0, 1.0)
+    return np.where(var_filter > 0.0, var_filter * ratio**LAG_VARIANCE_POWER, var_lag)
 
 
 def lag_samples(lag: float, rate_hz: float) -> int:
@@ -194,6 +216,7 @@ class KalmanEstimator(Estimator):
         self._ring_v = np.zeros(size)
         self._ring_c = np.zeros((size, 3))
         self._ring_t = [0.0] * size
+        self._ring_f = np.zeros(size)  # the IMM filter's own variance of each buffered sample
         self._state = np.array([math.nan, 0.0])
         m = max(len(self.modes), 1)
         self._ra = np.zeros((m, size))
@@ -248,11 +271,16 @@ class KalmanEstimator(Estimator):
         count = int(self._state[1])
         size = self.lag_n + 1
         self._ring_t[(count - 1) % size] = t
+        if self.modes and self.lag_n:
+            newest = (count - 1) % size
+            self._ring_f[newest] = kern.imm_lagged(self._mu, self._ra, self._rv, newest)[1]
         if count <= self.lag_n:
             return None
         slot = (count - 1 - self.lag_n) % size
         if self.modes:
             a, var = kern.imm_lagged(self._mu, self._ra, self._rv, slot)
+            if self.lag_n:
+                var = float(lag_variance(np.array(var), self._ring_f[slot]))
             return self._estimate(a, var, self._ring_t[slot])
         return self._estimate(float(self._ring_a[slot]), float(self._ring_v[slot]), self._ring_t[slot])
 
@@ -298,8 +326,9 @@ class KalmanEstimator(Estimator):
     def lagged(
         self, t: np.ndarray, theta: np.ndarray, lags: tuple[int, ...]
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(â, var) of the fixed-lag smoother (the IMM's with modes, else the single model's at q_accel) with
-        one column per lag (in samples), each aligned to the sample it describes."""
+        """(â, var) of the fixed-lag smoother (the IMM's with modes, its variance mapped by ``lag_variance``;
+        else the single model's at q_accel) with one column per lag (in samples), each aligned to the sample
+        it describes."""
         lag_arr = np.array((0, *lags), dtype=np.int64)
         if self.modes:
             a, var, _ = kern.run_imm(t, theta, self._params, self._qs, self._rates, lag_arr)
@@ -308,6 +337,8 @@ class KalmanEstimator(Estimator):
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
             lost = np.isnan(a[:, m])
             a[lost, m], var[lost, m] = a[lost, 0], var[lost, 0]
+            if self.modes and lag_arr[m]:
+                var[:, m] = lag_variance(var[:, m], var[:, 0])
         out_a = np.empty((t.size, len(lags)))
         out_v = np.empty((t.size, len(lags)))
         for m in range(len(lags)):
@@ -325,9 +356,12 @@ class KalmanEstimator(Estimator):
         a, var = kern.rts(xpr, ppr, xpo, ppo, fk, starts)
         return self._publish(t, a, var)
 
-    def steady_state(self, accel: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def steady_state(
+        self, accel: float, q_accel: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(F, K, P⁺) at rest at θ_eq(a): DARE prior P⁻, K = P⁻Hᵀ/S, P⁺ = (I − KH)P⁻ (Q as ekf_kernels),
-        at q_a = q_accel, or the quiet mode's for the IMM (at rest the quiet mode holds nearly all μ)."""
+        at q_a = ``q_accel`` (default: the single model's, or the IMM's quiet mode, which holds nearly all
+        μ at rest)."""
         cfg = self.config
         dt = 1.0 / cfg.rate_hz
         th = math.atan2(accel, cfg.gravity)
@@ -340,8 +374,9 @@ class KalmanEstimator(Estimator):
             ]
         )
         F = linalg.expm(jac * dt)
-        qa = self.modes[0] if self.modes else self.q_accel  # the IMM at rest: its quiet mode
-        Q = qa * np.array(
+        if q_accel is None:
+            q_accel = self.modes[0] if self.modes else self.q_accel
+        Q = q_accel * np.array(
             [
                 [j12 * j12 * dt**5 / 20.0, j12 * j12 * dt**4 / 8.0, j12 * dt**3 / 6.0],
                 [j12 * j12 * dt**4 / 8.0, j12 * j12 * dt**3 / 3.0, j12 * dt**2 / 2.0],
@@ -356,42 +391,83 @@ class KalmanEstimator(Estimator):
         posterior = (np.eye(3) - K @ H) @ prior
         return F, K[:, 0], posterior
 
+    def stationary_modes(self) -> np.ndarray:
+        """π: the mode chain's stationary probabilities, πᵀ G = 0 with G = R − diag(Σ_j R_ij), Σ π = 1
+        (a birth-death chain: π_{i+1}/π_i = down_time/up_time); [1] for the single model."""
+        if not self.modes:
+            return np.ones(1)
+        gen = self._rates - np.diag(self._rates.sum(axis=1))
+        system = np.vstack((gen.T, np.ones(len(self.modes))))
+        rhs = np.zeros(len(self.modes) + 1)
+        rhs[-1] = 1.0
+        return np.linalg.lstsq(system, rhs, rcond=None)[0]
+
     def _closed_loop(self, accel: float) -> tuple[float, float, float]:
-        """(Σw, Σw², Σ j w_j) of the steady filter's impulse response w_j = e₃ᵀ Mʲ K, M = (I − KH)F."""
-        F, K, _ = self.steady_state(accel)
+        """(Σw, Σw², Σ j w_j) of the steady filter's impulse response w = Σ_m π_m w⁽ᵐ⁾, w⁽ᵐ⁾_j = e₃ᵀ M_mʲ K_m,
+        M_m = (I − K_m H) F: the single model's, or for the IMM the mix of its modes' steady filters weighted
+        by the chain's stationary probabilities π (``stationary_modes``). Σ_j w⁽ᵐ⁾_j w⁽ⁿ⁾_j = e₃ᵀ X e₃ with
+        X = M_m X M_nᵀ + K_m K_nᵀ, solved as vec X = (I − M_n ⊗ M_m)⁻¹ vec(K_m K_nᵀ)."""
+        qs = self.modes if self.modes else (self.q_accel,)
+        weights = self.stationary_modes()
         H = np.array([[1.0, 0.0, 0.0]])
-        M = (np.eye(3) - np.outer(K, H)) @ F
-        inv = np.linalg.inv(np.eye(3) - M)
-        total = float((inv @ K)[2])
-        energy = float(linalg.solve_discrete_lyapunov(M, np.outer(K, K))[2, 2])
-        moment = float((M @ inv @ inv @ K)[2])
+        loops = []
+        for q in qs:
+            F, K, _ = self.steady_state(accel, q)
+            loops.append(((np.eye(3) - np.outer(K, H)) @ F, K))
+        total, moment, energy = 0.0, 0.0, 0.0
+        for (M, K), w in zip(loops, weights, strict=True):
+            inv = np.linalg.inv(np.eye(3) - M)
+            total += w * float((inv @ K)[2])
+            moment += w * float((M @ inv @ inv @ K)[2])
+            for (M2, K2), w2 in zip(loops, weights, strict=True):
+                vec = np.linalg.solve(np.eye(9) - np.kron(M2, M), np.outer(K, K2).reshape(-1, order="F"))
+                energy += w * w2 * float(vec.reshape(3, 3, order="F")[2, 2])
         return total, energy, moment
 
     def noise_equivalent_samples(self, accel: float) -> float:
-        """N = (Σw)²/Σw² of the steady-state gain's impulse response (an EWMA of gain k gives (2 − k)/k)."""
+        """N = (Σw)²/Σw² of the steady-state impulse response (``_closed_loop``; an EWMA of gain k gives
+        (2 − k)/k)."""
         total, energy, _ = self._closed_loop(accel)
         return total * total / energy
 
     def nominal_delay(self, accel: float) -> float:
-        """Σ j w_j / Σ w_j samples − lag: the DC group delay of the steady-state filter less the lag, in s."""
+        """Σ j w_j / Σ w_j samples − lag: the DC group delay of the steady-state response (``_closed_loop``:
+        for the IMM its modes' mix at the chain's stationary probabilities) less the lag, in s."""
         total, _, moment = self._closed_loop(accel)
         return moment / total / self.config.rate_hz - self.lag_n / self.config.rate_hz
+
+    def mode_delays(self, accel: float) -> tuple[float, float]:
+        """(d_agile, d_calm): the DC group delay (s, less the lag) of the steady filter of the most agile
+        and of the calmest mode; the IMM's delay moves between them with μ."""
+        delays = []
+        for q in (self.modes[-1], self.modes[0]):
+            F, K, _ = self.steady_state(accel, q)
+            M = (np.eye(3) - np.outer(K, np.array([1.0, 0.0, 0.0]))) @ F
+            inv = np.linalg.inv(np.eye(3) - M)
+            delays.append(float((M @ inv @ inv @ K)[2] / (inv @ K)[2]) - self.lag_n)
+        return delays[0] / self.config.rate_hz, delays[1] / self.config.rate_hz
 
     def motion_model(self) -> str | None:
         """The preset the filter runs (PRESETS)."""
         return self.preset
 
     def describe(self) -> str:
-        """The base line plus the preset, the process model and the latency (the lag)."""
+        """The base line (for the IMM: N_eff and delay of its stationary mode mix, with the per-mode delay
+        range), the preset, the process model and the latency (the lag)."""
         model = (
             f"IMM q_a={'/'.join(f'{q:.3g}' for q in self.modes)} (m/s²)²/s, {self.chain}"
             if self.modes
             else f"q_a={self.q_accel:.3g} (m/s²)²/s"
         )
-        return (
-            f"{super().describe()}; preset {self.preset} ({model}), "
-            f"latency {self.lag_n / self.config.rate_hz:.3f} s (lag)"
-        )
+        line = super().describe()
+        if self.modes:
+            agile, calm = self.mode_delays(0.0)
+            line += (
+                " (the mix of the IMM's modes at the chain's stationary probabilities; per mode from "
+                f"{agile:.3f} s in the most agile to {calm:.3g} s in the calmest: the delay follows μ)"
+            )
+        latency = self.lag_n / self.config.rate_hz
+        return f"{line}; preset {self.preset} ({model}), latency {latency:.3f} s (lag)"
 
 
 SMOOTH_LAG = 1.0
