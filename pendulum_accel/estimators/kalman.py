@@ -293,7 +293,7 @@ class KalmanEstimator(Estimator):
         """μ (n × modes): the IMM's probability of each mode after each sample (one column without modes)."""
         t, theta = check_batch_input(t, theta)
         qs = self._qs if self.modes else np.array([self.q_accel])
-        return kern.run_imm(t, theta, self._params, qs, self._rates, np.zeros(1, np.int64))[2]
+        return kern.run_imm(t, theta, self._params, qs, self._rates, np.zeros(1, np.int64), True)[2]
 
     def lagged(
         self, t: np.ndarray, theta: np.ndarray, lags: tuple[int, ...]
@@ -302,7 +302,7 @@ class KalmanEstimator(Estimator):
         one column per lag (in samples), each aligned to the sample it describes."""
         lag_arr = np.array((0, *lags), dtype=np.int64)
         if self.modes:
-            a, var, _ = kern.run_imm(t, theta, self._params, self._qs, self._rates, lag_arr)
+            a, var, _ = kern.run_imm(t, theta, self._params, self._qs, self._rates, lag_arr, False)
         else:
             a, var, *_ = kern.run_pass(t, theta, self._params, lag_arr, False)
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
