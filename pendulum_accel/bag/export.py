@@ -15,7 +15,7 @@ are the optional ``export`` extra, imported only here.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, TextIO
@@ -43,6 +43,12 @@ BATCH_ROWS = 1 << 17
 """Messages per batch when a topic's table is written as it is decoded (about 40 MiB for an Imu's)."""
 VISUAL_ROLES = frozenset({bm.MARKERS, bm.ROBOT_DESCRIPTION})
 """Topics export leaves out unless named: what RViz and Foxglove draw, no table to flatten."""
+
+
+Series = Mapping[str, NDArray[np.float64]]
+"""A derived series: {"t": stamps, column: values}."""
+SeriesSource = Series | Callable[[], Series | None]
+"""A derived series, or what computes it when its table is written (None: nothing to write)."""
 
 
 class ExportError(PendulumAccelError):
@@ -240,7 +246,7 @@ class _Joined:
 
 
 def merged_frames(
-    bag: Bag, topics: Sequence[str], derived: Mapping[str, Mapping[str, NDArray[np.float64]]] | None = None
+    bag: Bag, topics: Sequence[str], derived: Mapping[str, SeriesSource] | None = None
 ) -> Iterator[DataFrame]:
     """merged_table (then each ``derived`` series merged on t like a per-sample topic) a batch of angles at
     a time: a k-way merge of the topics' batches on t, each topic read once, as far as the angles go.
@@ -251,7 +257,7 @@ def merged_frames(
     """
     pd = _pandas()
     joint = bag.chain_topic(bm.TOPIC_JOINT_STATES)
-    series = {name: derived_table(name, columns) for name, columns in (derived or {}).items()}
+    series = {name: derived_table(name, columns) for name, columns in _resolved(derived).items()}
     base_t = _topic_stamps(bag, joint)
     joins: list[_Joined] | None = []
     if base_t.size == 0 or not _ascending(base_t):
@@ -291,7 +297,9 @@ def merged_frames(
         t = batch["t"].to_numpy()
         for frame in series.values():
             st = frame["t"].to_numpy()
-            part = frame.iloc[np.searchsorted(st, t[0], side="left") : np.searchsorted(st, t[-1], side="right")]
+            part = frame.iloc[
+                np.searchsorted(st, t[0], side="left") : np.searchsorted(st, t[-1], side="right")
+            ]
             batch = batch.merge(part, on="t", how="left")
         yield batch
 
@@ -316,13 +324,14 @@ def export_bag(
     fmt: str = "csv",
     merged: bool = False,
     topics: Sequence[str] = (),
-    derived: Mapping[str, Mapping[str, NDArray[np.float64]]] | None = None,
+    derived: Mapping[str, SeriesSource] | None = None,
 ) -> list[Path]:
     """Write ``topics`` (default: all) of ``bag`` under directory ``out`` as CSV or Parquet; the paths.
 
     ``derived``: {name: {"t": stamps, column: values}} series computed from the bag (the smoother's
-    acceleration), merged on the angle's stamps like a per-sample topic, or written as their own tables.
-    Each topic's table is written in batches of its rows (export_tables), never held whole.
+    acceleration; or a function computing one), merged on the angle's stamps like a per-sample topic, or
+    written as their own tables after the topics' (a function is called then: what it holds is not held
+    while the topics are written). Each table is written in batches of its rows (export_tables).
     """
     tables = export_tables(bag, fmt=fmt, merged=merged, topics=topics, derived=derived)
     directory = Path(out)
@@ -393,7 +402,7 @@ def export_tables(
     fmt: str = "csv",
     merged: bool = False,
     topics: Sequence[str] = (),
-    derived: Mapping[str, Mapping[str, NDArray[np.float64]]] | None = None,
+    derived: Mapping[str, SeriesSource] | None = None,
 ) -> dict[str, Iterable[DataFrame]]:
     """{file stem: its rows as pandas DataFrames, in batches}: the tables export_bag writes (one,
     MERGED_NAME, when ``merged``)."""
@@ -426,8 +435,20 @@ def export_tables(
     return tables
 
 
-def _derived_frames(name: str, columns: Mapping[str, NDArray[np.float64]]) -> Iterator[DataFrame]:
-    """derived_table of ``columns`` in consecutive pieces of BATCH_ROWS rows (at least one piece)."""
+def _resolved(derived: Mapping[str, SeriesSource] | None) -> dict[str, Series]:
+    """The derived series, each function called (those returning None left out)."""
+    out = {}
+    for name, source in (derived or {}).items():
+        series = source() if callable(source) else source
+        if series is not None:
+            out[name] = series
+    return out
+
+
+def _derived_frames(name: str, source: SeriesSource) -> Iterator[DataFrame]:
+    """derived_table of the series (computed now if given as a function) in consecutive pieces of
+    BATCH_ROWS rows (at least one piece; only t when the function gives nothing)."""
+    columns = _resolved({name: source}).get(name, {"t": np.zeros(0)})
     size = len(columns["t"])
     for start in range(0, max(size, 1), BATCH_ROWS):
         yield derived_table(name, {k: v[start : start + BATCH_ROWS] for k, v in columns.items()})
