@@ -9,8 +9,9 @@ key parses as one), to which ``level`` and ``message`` are added under the same 
 starts with ``t`` (the message stamp, s) and ``log_time`` (s). Fixed-layout topics are decoded in
 bulk by the package's reader; /diagnostics is deserialised message by message. A topic's table is
 written as it is decoded, ``BATCH_ROWS`` messages at a time (``Bag.decode_batches``): memory does not
-grow with the bag, except for ``--merged``, which joins whole topics. pandas (and pyarrow for Parquet)
-are the optional ``export`` extra, imported only here.
+grow with the bag. ``--merged`` is a k-way merge on the stamps: the angles a batch at a time, each other
+topic read ahead as far as they go (``merged_frames``). pandas (and pyarrow for Parquet) are the optional
+``export`` extra, imported only here.
 """
 
 from __future__ import annotations
@@ -217,7 +218,9 @@ class _Joined:
     def join(self, pd: ModuleType, batch: DataFrame) -> DataFrame:
         """``batch`` (angles sorted on t) with this topic's columns joined, as merged_table joins them."""
         upto = float(batch["t"].iat[-1])
-        while not self.done and (self.buffer is None or float(self.buffer["t"].iat[-1]) <= upto):
+        while not self.done and (
+            self.buffer is None or len(self.buffer) == 0 or float(self.buffer["t"].iat[-1]) <= upto
+        ):
             more = next(self.frames, None)
             if more is None:
                 self.done = True
