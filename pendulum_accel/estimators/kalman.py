@@ -308,11 +308,13 @@ class KalmanEstimator(Estimator):
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
             lost = np.isnan(a[:, m])
             a[lost, m], var[lost, m] = a[lost, 0], var[lost, 0]
-        out_a = np.empty((t.size, len(lags)))
-        out_v = np.empty((t.size, len(lags)))
-        for m in range(len(lags)):
-            out_a[:, m], out_v[:, m] = self._publish(t, a[:, m + 1], var[:, m + 1])
-        return out_a, out_v
+        published = [self._publish(t, a[:, m], var[:, m]) for m in range(1, lag_arr.size)]
+        del a, var
+        if len(published) == 1:  # the usual single lag: its columns as they are, no second copy
+            return published[0][0][:, None], published[0][1][:, None]
+        if not published:
+            return np.empty((t.size, 0)), np.empty((t.size, 0))
+        return np.column_stack([p[0] for p in published]), np.column_stack([p[1] for p in published])
 
     def smoothed(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(âˢ, var) of the fixed-interval RTS smoother on the same model (ekf_kernels.rts)."""
