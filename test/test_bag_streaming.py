@@ -176,6 +176,7 @@ def test_merged_export_streamed_equals_the_whole_join(
     from pendulum_accel.recording.analyze import smoothed_estimate
 
     monkeypatch.setattr(bag_export, "BATCH_ROWS", 7000)
+    monkeypatch.setattr(bag_export, "MERGE_ROWS", 7000)
     monkeypatch.setattr(bag_export.topic_frames, "__defaults__", (7000,))
     bag = read_bag(chain_bag)
     smoothed = smoothed_estimate(bag)
@@ -212,6 +213,7 @@ def test_merged_export_streamed_with_holes_widens_as_the_whole_join(
     path = tmp_path / "holes"
     write_chain_bag(path, streams, custom_data={})
     monkeypatch.setattr(bag_export, "BATCH_ROWS", 700)
+    monkeypatch.setattr(bag_export, "MERGE_ROWS", 700)
     monkeypatch.setattr(bag_export.topic_frames, "__defaults__", (700,))
     bag = read_bag(path)
     chosen = [t for t in bag.topics if bm.role_of(t) not in bag_export.VISUAL_ROLES]
