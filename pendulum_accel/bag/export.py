@@ -45,7 +45,7 @@ BATCH_ROWS = 1 << 17
 MERGE_ROWS = 1 << 13
 """Angles per batch of the merged table, and rows per batch of each topic read ahead for it: a merged row
 holds every topic's columns (113 for the chain), and pandas copies a batch at each join (8192 rows: about
-7 MiB a copy; at 131072 rows the merged export of a 375k-angle bag peaked at 965 MiB, at 8192 at 250)."""
+7 MiB a copy)."""
 VISUAL_ROLES = frozenset({bm.MARKERS, bm.ROBOT_DESCRIPTION})
 """Topics export leaves out unless named: what RViz and Foxglove draw, no table to flatten."""
 
