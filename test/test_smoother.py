@@ -170,3 +170,20 @@ def test_the_summary_line_explains_the_estimator() -> None:
     assert estimator_line("kalman").startswith("estimator: kalman (the pendulum EKF")
     assert "real-motion validation" in estimator_line("kalman")
     assert estimator_line("smoother") == "estimator: smoother (chosen; the default is kalman)"
+
+
+def test_the_imm_pass_without_mode_probabilities_gives_the_same_estimates() -> None:
+    """run_imm without keep_mu (as the smoother calls it: μ not held, 8 B a mode a sample) runs the same
+    compiled steps in the same order: â and var equal to the last bit those with μ kept."""
+    from pendulum_accel.estimators import ekf_kernels as kern
+
+    t, theta, _ = drive()
+    est = make_estimator("smoother", **CFG)
+    assert isinstance(est, KalmanEstimator)
+    lags = np.array([0, round(RATE)], dtype=np.int64)
+    args = (t, theta, est._params, est._qs, est._rates, lags)
+    a_kept, v_kept, mus = kern.run_imm(*args, True)
+    a, v, none = kern.run_imm(*args, False)
+    assert mus.shape == (t.size, len(est.modes)) and none.shape == (0, len(est.modes))
+    np.testing.assert_array_equal(a, a_kept)
+    np.testing.assert_array_equal(v, v_kept)

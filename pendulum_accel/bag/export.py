@@ -9,13 +9,14 @@ key parses as one), to which ``level`` and ``message`` are added under the same 
 starts with ``t`` (the message stamp, s) and ``log_time`` (s). Fixed-layout topics are decoded in
 bulk by the package's reader; /diagnostics is deserialised message by message. A topic's table is
 written as it is decoded, ``BATCH_ROWS`` messages at a time (``Bag.decode_batches``): memory does not
-grow with the bag, except for ``--merged``, which joins whole topics. pandas (and pyarrow for Parquet)
-are the optional ``export`` extra, imported only here.
+grow with the bag. ``--merged`` is a k-way merge on the stamps: the angles a batch at a time, each other
+topic read ahead as far as they go (``merged_frames``). pandas (and pyarrow for Parquet) are the optional
+``export`` extra, imported only here.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, TextIO
@@ -41,8 +42,18 @@ estimate or Imu stays missing)."""
 
 BATCH_ROWS = 1 << 17
 """Messages per batch when a topic's table is written as it is decoded (about 40 MiB for an Imu's)."""
+MERGE_ROWS = 1 << 13
+"""Angles per batch of the merged table, and rows per batch of each topic read ahead for it: a merged row
+holds every topic's columns (113 for the chain), and pandas copies a batch at each join (8192 rows: about
+7 MiB a copy)."""
 VISUAL_ROLES = frozenset({bm.MARKERS, bm.ROBOT_DESCRIPTION})
 """Topics export leaves out unless named: what RViz and Foxglove draw, no table to flatten."""
+
+
+Series = Mapping[str, NDArray[np.float64]]
+"""A derived series: {"t": stamps, column: values}."""
+SeriesSource = Series | Callable[[], Series | None]
+"""A derived series, or what computes it when its table is written (None: nothing to write)."""
 
 
 class ExportError(PendulumAccelError):
@@ -179,6 +190,127 @@ def merged_table(bag: Bag, topics: Sequence[str]) -> DataFrame:
     return base.reset_index(drop=True)
 
 
+def _topic_stamps(bag: Bag, topic: str) -> NDArray[np.float64]:
+    """The t column of a bulk topic's table (header stamp, or clock), decoded alone a batch at a time."""
+    prefix = "clock" if bag.topics[topic].msgtype == bm.CLOCK else "header.stamp"
+    fields = [f"{prefix}.sec", f"{prefix}.nanosec"]
+    parts = [b.stamp for b in bag.decode_batches(topic, fields=fields, rows=BATCH_ROWS)]
+    return np.concatenate([np.zeros(0), *parts])
+
+
+def _ascending(t: NDArray[np.float64]) -> bool:
+    """t non-decreasing (a stable sort on t leaves it as it is)."""
+    return not bool(np.any(np.diff(t) < 0.0))
+
+
+class _Joined:
+    """One topic of a streamed merge: its rows read ahead of the angles, as far as the batch being joined.
+
+    ``per_sample``: the row with the angle's stamp (the last of equal stamps), else the latest row at or
+    before it (merge_asof); ``widen``: some angle gets no row, so the whole join's integer columns are
+    floats (NaN) and its booleans objects, in every batch alike.
+    """
+
+    def __init__(self, frames: Iterator[DataFrame], per_sample: bool, widen: bool) -> None:
+        """Rows from ``frames`` (sorted on t), joined as ``per_sample`` says, widened when ``widen``."""
+        self.frames = frames
+        self.per_sample = per_sample
+        self.widen = widen
+        self.buffer: DataFrame | None = None
+        self.done = False
+
+    def join(self, pd: ModuleType, batch: DataFrame) -> DataFrame:
+        """``batch`` (angles sorted on t) with this topic's columns joined, as merged_table joins them."""
+        upto = float(batch["t"].iat[-1])
+        while not self.done and (
+            self.buffer is None or len(self.buffer) == 0 or float(self.buffer["t"].iat[-1]) <= upto
+        ):
+            more = next(self.frames, None)
+            if more is None:
+                self.done = True
+                continue
+            more = more.drop(columns=["log_time"])
+            self.buffer = more if self.buffer is None else pd.concat([self.buffer, more], ignore_index=True)
+        assert self.buffer is not None
+        t = self.buffer["t"].to_numpy()
+        cut = int(np.searchsorted(t, upto, side="right"))
+        ready = self.buffer.iloc[:cut]
+        if self.per_sample:  # later angles are stamped at or after upto
+            joined = batch.merge(ready.drop_duplicates("t", keep="last"), on="t", how="left")
+            keep = int(np.searchsorted(t, upto, side="left"))
+        else:  # a later angle may still take the last stamp at or before upto (its last equal rows)
+            joined = pd.merge_asof(batch, ready, on="t", direction="backward")
+            keep = int(np.searchsorted(t, t[cut - 1], side="left")) if cut else 0
+        self.buffer = self.buffer.iloc[keep:]
+        if self.widen:
+            for name in ready.columns:
+                kind = joined[name].dtype.kind
+                if kind in "iu":
+                    joined[name] = joined[name].astype(np.float64)
+                elif kind == "b":
+                    joined[name] = joined[name].astype(object)
+        return joined
+
+
+def merged_frames(
+    bag: Bag, topics: Sequence[str], derived: Mapping[str, SeriesSource] | None = None
+) -> Iterator[DataFrame]:
+    """merged_table (then each ``derived`` series merged on t like a per-sample topic) a batch of angles at
+    a time: a k-way merge of the topics' batches on t, each topic read once, as far as the angles go.
+
+    A first pass reads the stamps alone: streaming needs every topic's stamps in order (as the chain
+    writes them), and the dtypes of the whole join depend on whether some angle finds no row. A bag whose
+    stamps go back, or with an empty topic, is joined whole (merged_table).
+    """
+    pd = _pandas()
+    joint = bag.chain_topic(bm.TOPIC_JOINT_STATES)
+    series = {name: derived_table(name, columns) for name, columns in _resolved(derived).items()}
+    base_t = _topic_stamps(bag, joint)
+    joins: list[_Joined] | None = []
+    if base_t.size == 0 or not _ascending(base_t):
+        joins = None
+    for topic in topics:
+        if joins is None:
+            break
+        if topic == joint:
+            continue
+        if bag.topics[topic].msgtype == bm.DIAGNOSTIC_ARRAY:  # deserialised message by message: held
+            held = topic_table(bag, topic)
+            t, frames = held["t"].to_numpy(), iter([held])
+        else:
+            t, frames = _topic_stamps(bag, topic), topic_frames(bag, topic, rows=MERGE_ROWS)
+        per_sample = bm.role_of(topic) in PER_SAMPLE_ROLES
+        if t.size == 0 or not _ascending(t):
+            joins = None
+            break
+        widen = not np.isin(base_t, t).all() if per_sample else bool(t[0] > base_t[0])
+        joins.append(_Joined(frames, per_sample, widen))
+    for frame in series.values():
+        if joins is not None and (len(frame) == 0 or np.any(np.diff(frame["t"].to_numpy()) <= 0.0)):
+            joins = None
+    if joins is None:
+        whole = merged_table(bag, topics)
+        for frame in series.values():
+            whole = whole.merge(frame, on="t", how="left")
+        yield whole
+        return
+    del base_t
+    for batch in topic_frames(bag, joint, rows=MERGE_ROWS):
+        batch = batch.drop(columns=["log_time"])
+        if len(batch) == 0:
+            continue
+        for join in joins:
+            batch = join.join(pd, batch)
+        t = batch["t"].to_numpy()
+        for frame in series.values():
+            st = frame["t"].to_numpy()
+            part = frame.iloc[
+                np.searchsorted(st, t[0], side="left") : np.searchsorted(st, t[-1], side="right")
+            ]
+            batch = batch.merge(part, on="t", how="left")
+        yield batch
+
+
 def derived_table(name: str, columns: Mapping[str, NDArray[np.float64]]) -> DataFrame:
     """DataFrame of a derived series (not a topic; e.g. the smoother's): t, then ``name/<column>``."""
     pd = _pandas()
@@ -199,13 +331,14 @@ def export_bag(
     fmt: str = "csv",
     merged: bool = False,
     topics: Sequence[str] = (),
-    derived: Mapping[str, Mapping[str, NDArray[np.float64]]] | None = None,
+    derived: Mapping[str, SeriesSource] | None = None,
 ) -> list[Path]:
     """Write ``topics`` (default: all) of ``bag`` under directory ``out`` as CSV or Parquet; the paths.
 
     ``derived``: {name: {"t": stamps, column: values}} series computed from the bag (the smoother's
-    acceleration), merged on the angle's stamps like a per-sample topic, or written as their own tables.
-    Each topic's table is written in batches of its rows (export_tables), never held whole.
+    acceleration; or a function computing one), merged on the angle's stamps like a per-sample topic, or
+    written as their own tables after the topics' (a function is called then: what it holds is not held
+    while the topics are written). Each table is written in batches of its rows (export_tables).
     """
     tables = export_tables(bag, fmt=fmt, merged=merged, topics=topics, derived=derived)
     directory = Path(out)
@@ -231,13 +364,30 @@ def _write(path: Path, frames: Iterable[DataFrame], fmt: str) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    # The file's schema is the first batch's, but a column all missing in it (a status reported late,
+    # pyarrow's null type) takes its type from the first batch that has a value: batches are held until
+    # then (a column missing everywhere stays null, as in a table written whole).
     writer = None
+    pending: list[pa.Table] = []
     try:
         for frame in frames:
             table = pa.Table.from_pandas(frame, preserve_index=False)
-            if writer is None:
-                writer = pq.ParquetWriter(path, table.schema)
-            writer.write_table(table)
+            if writer is not None:
+                writer.write_table(table if table.schema.equals(writer.schema) else table.cast(writer.schema))
+                continue
+            pending.append(table)
+            schema = pa.unify_schemas([p.schema for p in pending])
+            if any(pa.types.is_null(field.type) for field in schema):
+                continue
+            writer = pq.ParquetWriter(path, schema)
+            for held in pending:
+                writer.write_table(held if held.schema.equals(schema) else held.cast(schema))
+            pending = []
+        if pending:
+            schema = pa.unify_schemas([p.schema for p in pending])
+            writer = pq.ParquetWriter(path, schema)
+            for held in pending:
+                writer.write_table(held if held.schema.equals(schema) else held.cast(schema))
     finally:
         if writer is not None:
             writer.close()
@@ -259,7 +409,7 @@ def export_tables(
     fmt: str = "csv",
     merged: bool = False,
     topics: Sequence[str] = (),
-    derived: Mapping[str, Mapping[str, NDArray[np.float64]]] | None = None,
+    derived: Mapping[str, SeriesSource] | None = None,
 ) -> dict[str, Iterable[DataFrame]]:
     """{file stem: its rows as pandas DataFrames, in batches}: the tables export_bag writes (one,
     MERGED_NAME, when ``merged``)."""
@@ -284,15 +434,28 @@ def export_tables(
         raise ExportError(
             f"topic {odd[0]} has type {bag.topics[odd[0]].msgtype}, which export does not flatten"
         )
-    tables: dict[str, Iterable[DataFrame]] = (
-        {MERGED_NAME: [merged_table(bag, chosen)]}
-        if merged
-        else {file_stem(t): topic_frames(bag, t) for t in chosen}
-    )
+    if merged:
+        return {MERGED_NAME: merged_frames(bag, chosen, derived)}
+    tables: dict[str, Iterable[DataFrame]] = {file_stem(t): topic_frames(bag, t) for t in chosen}
     for name, columns in (derived or {}).items():
-        extra = derived_table(name, columns)
-        if merged:
-            tables[MERGED_NAME] = [next(iter(tables[MERGED_NAME])).merge(extra, on="t", how="left")]
-        else:
-            tables[file_stem(name)] = [extra]
+        tables[file_stem(name)] = _derived_frames(name, columns)
     return tables
+
+
+def _resolved(derived: Mapping[str, SeriesSource] | None) -> dict[str, Series]:
+    """The derived series, each function called (those returning None left out)."""
+    out = {}
+    for name, source in (derived or {}).items():
+        series = source() if callable(source) else source
+        if series is not None:
+            out[name] = series
+    return out
+
+
+def _derived_frames(name: str, source: SeriesSource) -> Iterator[DataFrame]:
+    """derived_table of the series (computed now if given as a function) in consecutive pieces of
+    BATCH_ROWS rows (at least one piece; only t when the function gives nothing)."""
+    columns = _resolved({name: source}).get(name, {"t": np.zeros(0)})
+    size = len(columns["t"])
+    for start in range(0, max(size, 1), BATCH_ROWS):
+        yield derived_table(name, {k: v[start : start + BATCH_ROWS] for k, v in columns.items()})

@@ -523,10 +523,11 @@ class Bag:
         return [(s.msg, s.count) for s in self._book(topic, msgtype).shapes]
 
     def _note_skipped(self, topic: str) -> None:
-        """Name the messages of ``topic`` that do not decode in ``problem``."""
+        """Name the messages of ``topic`` that do not decode in ``problem`` (once: a topic read twice, as
+        export --merged reads its stamps first, names them once)."""
         skipped = self._shape_cache[topic].skipped
-        if skipped:
-            note = f"topic {topic}: skipped {skipped} damaged message(s) that do not decode"
+        note = f"topic {topic}: skipped {skipped} damaged message(s) that do not decode"
+        if skipped and note not in (self.problem or ""):
             self.problem = note if self.problem is None else f"{self.problem}; {note}"
 
     def decode(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from typing import Any
 
@@ -66,10 +67,12 @@ def run(args: argparse.Namespace) -> int:
     out = None if to_stdout else check_output_dir(args.out)
     bag = choose_topics(read_intact(args.bag, args.salvage), args)
     check_chain_contract(bag)
-    from pendulum_accel.recording.analyze import smoothed_estimate  # estimators: loaded when used
+    from pendulum_accel.recording.analyze import smoothable, smoothed_estimate  # estimators: when used
 
-    smoothed = None if args.no_smoothed else smoothed_estimate(bag)
-    derived = {} if smoothed is None else {SMOOTHED: smoothed}
+    # Computed when its table is written (after the topics'; first for --merged): the smoother's memory
+    # and the topics' batches are not held at once.
+    smooth = not args.no_smoothed and smoothable(bag)
+    derived = {SMOOTHED: functools.partial(smoothed_estimate, bag)} if smooth else {}
     # With --namespace, by default that chain's topics (but the visual ones, as export_bag leaves them).
     in_ns = [t for t in namespace_topics(bag) if bm.role_of(t) not in VISUAL_ROLES]
     topics = args.topics or (in_ns if bag.choice.namespace else [])

@@ -708,17 +708,24 @@ def _imm_start(
 
 @njit(cache=True, nogil=True)  # as run_pass
 def run_imm(
-    t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, rates: np.ndarray, lags: np.ndarray
+    t: np.ndarray,
+    y: np.ndarray,
+    params: np.ndarray,
+    qs: np.ndarray,
+    rates: np.ndarray,
+    lags: np.ndarray,
+    keep_mu: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(â, var, μ) of the IMM over a recording (``imm_step`` per sample): column m of â, var holds the
     fixed-lag estimate â_{i | i + lags[m]} aligned to the sample i it describes (lag 0: the filter's x₃,
-    P_aa; the last lags[m] samples of a segment use all the data there is); μ: a column per mode."""
+    P_aa; the last lags[m] samples of a segment use all the data there is); μ: a column per mode, or no
+    rows without ``keep_mu`` (8 B a mode a sample that a caller wanting â only does not hold)."""
     n = t.size
     m = qs.size
     size = int(lags.max()) + 1 if lags.size else 1
     a = np.full((n, lags.size), np.nan)
     v = np.full((n, lags.size), np.nan)
-    mus = np.empty((n, m))
+    mus = np.empty((n if keep_mu else 0, m))
     xs = np.zeros((m, 3))
     ps = np.zeros((m, 3, 3))
     mu = np.full(m, 1.0 / m)
@@ -738,7 +745,8 @@ def run_imm(
             lag = lags[col]
             if lag < count:
                 a[i - lag, col], v[i - lag, col] = imm_lagged(mu, ra, rv, (count - 1 - lag) % size)
-        mus[i] = mu
+        if keep_mu:
+            mus[i] = mu
     _imm_flush(a, v, mu, ra, rv, n - 1, int(state[1]), lags)
     return a, v, mus
 
@@ -816,7 +824,8 @@ def warm() -> None:
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
     _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, np.array([0, 5], dtype=np.int64), True)
     rts(xpr, ppr, xpo, ppo, fk, starts)
-    run_imm(t, y, params, np.array([1e-3, 0.1]), chain_rates(2, 5.0), np.array([0, 5], dtype=np.int64))
+    for keep_mu in (True, False):
+        run_imm(t, y, params, np.array([1e-3, 0.1]), chain_rates(2, 5.0), np.array([0, 5], np.int64), keep_mu)
     log_likelihood(t, y, params)
 
 

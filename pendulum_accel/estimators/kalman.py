@@ -321,7 +321,7 @@ class KalmanEstimator(Estimator):
         """μ (n × modes): the IMM's probability of each mode after each sample (one column without modes)."""
         t, theta = check_batch_input(t, theta)
         qs = self._qs if self.modes else np.array([self.q_accel])
-        return kern.run_imm(t, theta, self._params, qs, self._rates, np.zeros(1, np.int64))[2]
+        return kern.run_imm(t, theta, self._params, qs, self._rates, np.zeros(1, np.int64), True)[2]
 
     def lagged(
         self, t: np.ndarray, theta: np.ndarray, lags: tuple[int, ...]
@@ -331,7 +331,7 @@ class KalmanEstimator(Estimator):
         it describes."""
         lag_arr = np.array((0, *lags), dtype=np.int64)
         if self.modes:
-            a, var, _ = kern.run_imm(t, theta, self._params, self._qs, self._rates, lag_arr)
+            a, var, _ = kern.run_imm(t, theta, self._params, self._qs, self._rates, lag_arr, False)
         else:
             a, var, *_ = kern.run_pass(t, theta, self._params, lag_arr, False)
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
@@ -339,11 +339,13 @@ class KalmanEstimator(Estimator):
             a[lost, m], var[lost, m] = a[lost, 0], var[lost, 0]
             if self.modes and lag_arr[m]:
                 var[:, m] = lag_variance(var[:, m], var[:, 0])
-        out_a = np.empty((t.size, len(lags)))
-        out_v = np.empty((t.size, len(lags)))
-        for m in range(len(lags)):
-            out_a[:, m], out_v[:, m] = self._publish(t, a[:, m + 1], var[:, m + 1])
-        return out_a, out_v
+        published = [self._publish(t, a[:, m], var[:, m]) for m in range(1, lag_arr.size)]
+        del a, var
+        if len(published) == 1:  # the usual single lag: its columns as they are, no second copy
+            return published[0][0][:, None], published[0][1][:, None]
+        if not published:
+            return np.empty((t.size, 0)), np.empty((t.size, 0))
+        return np.column_stack([p[0] for p in published]), np.column_stack([p[1] for p in published])
 
     def smoothed(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(âˢ, var) of the fixed-interval RTS smoother on the same model (ekf_kernels.rts)."""

@@ -539,21 +539,32 @@ def _recorded_figures(
     return estimate_figures("recorded", method, angle_t, te, ae, truth, tolerance, skip_until)
 
 
+def smoothable(bag: Bag) -> bool:
+    """True when the bag stores its scene and at least 2 angles: what smoothed_estimate needs."""
+    angles = bag.topics.get(TOPIC_JOINT_STATES)
+    return angles is not None and angles.count >= 2 and bool(bag.custom_data.get(CUSTOM_SCENE))
+
+
 def smoothed_estimate(bag: Bag) -> dict[str, NDArray[np.float64]] | None:
-    """{t, a, variance}: the RTS smoother (``smoother``) over the bag's angles, configured from its stored
-    scene; None when the bag stores no scene or fewer than 2 angles (nothing to configure or smooth)."""
-    if TOPIC_JOINT_STATES not in bag.topics or not bag.custom_data.get(CUSTOM_SCENE):
+    """{t, a, variance}: the kalman model's smoother (``smoother``) over the bag's angles, configured from
+    its stored scene; None when the bag stores no scene or fewer than 2 angles (nothing to configure or
+    smooth)."""
+    if not smoothable(bag):
         return None
     js = bag.decode(
         TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
     )
     if len(js) < 2:
         return None
-    t = js.stamp
-    order = np.argsort(t, kind="stable")
-    t, theta = t[order], js["position[0]"][order]
+    t, theta = js.stamp, js["position[0]"]
+    del js  # only t and θ are held while the smoother runs
+    if np.any(np.diff(t) < 0.0):
+        order = np.argsort(t, kind="stable")
+        t, theta = t[order], theta[order]
     keep = np.concatenate(([True], np.diff(t) > 0.0))  # a repeated stamp: the first sample only
-    t, theta = t[keep], theta[keep]
+    if not keep.all():
+        t, theta = t[keep], theta[keep]
+    del keep
     a, var = estimate_batch("smoother", t, theta, **estimator_config(bag, t), preset=bag_motion(bag).preset)
     return {"t": t, "a": np.asarray(a, dtype=np.float64), "variance": np.asarray(var, dtype=np.float64)}
 
