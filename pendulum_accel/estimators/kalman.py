@@ -123,9 +123,15 @@ def lag_variance(var_lag: np.ndarray, var_filter: np.ndarray) -> np.ndarray:
     behind the trend, which the future samples remove, so the lagged error shrinks faster than P_lag/P_f
     (NEES 0.1–0.5 with γ = 1). The map leaves P_f where the future adds nothing (ratio 1: lag 0, a
     segment's end) and shrinks the rest as a power of the model's own ratio."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.clip(var_lag / var_filter, 0.0, 1.0)
-    return np.where(var_filter > 0.0, var_filter * ratio**LAG_VARIANCE_POWER, var_lag)
+    # In place on one array: export maps a whole recording's column (a million samples and more) and
+    # must stay within its memory bound.
+    has = var_filter > 0.0
+    out = np.divide(var_lag, var_filter, out=np.zeros_like(var_lag, dtype=np.float64), where=has)
+    np.clip(out, 0.0, 1.0, out=out)
+    np.power(out, LAG_VARIANCE_POWER, out=out)
+    np.multiply(out, var_filter, out=out)
+    np.copyto(out, var_lag, where=~has)
+    return out
 
 
 def lag_samples(lag: float, rate_hz: float) -> int:
