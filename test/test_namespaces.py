@@ -221,8 +221,6 @@ def test_run_namespace_sets_the_frame_prefix_unless_the_user_sets_it() -> None:
         "estimator": "left/",
         "simulator": "left/",
     }
-    assert _frame_prefixes("--namespace", "car1", "--frame-prefix", "") == {
-        "estimator": None,
-        "simulator": None,
-    }
+    unset = {"estimator": None, "simulator": None}
+    assert _frame_prefixes("--namespace", "car1", "--frame-prefix", "") == unset
     assert _frame_prefixes() == unset
