@@ -40,9 +40,10 @@ def _chain(spawn: Spawn, scene: str, namespace: str, bag: Path, *extra: str) -> 
 
 def _own_topics_only(bag: Bag, namespace: str) -> None:
     """Every topic of ``bag`` is under /namespace (its clock included), except the global /diagnostics,
-    whose statuses all come from this namespace's estimator (named by its full name)."""
+    whose statuses all come from this namespace's estimator (named by its full name), and the global
+    /tf_static, recorded whole where tf2_msgs is installed (the TF tree is shared)."""
     for topic in bag.topics:
-        assert topic == bm.TOPIC_DIAGNOSTICS or topic.startswith(f"/{namespace}/"), topic
+        assert topic in (bm.TOPIC_DIAGNOSTICS, "/tf_static") or topic.startswith(f"/{namespace}/"), topic
     assert bm.TOPIC_CLOCK not in bag.topics and f"/{namespace}/clock" in bag.topics
     names = {
         status.name
