@@ -24,16 +24,17 @@ from test.conftest import PYTHON, REPO
 COMPILING = "compiling the stepping kernels and the estimators' loops into numba's cache"
 
 
-def _cold(env: dict[str, str], python: str = PYTHON) -> bool:
-    """kernel_cache.is_cold() under ``env``, in ``python``."""
+def _cold(env: dict[str, str], python: str = PYTHON, cwd: Path = REPO) -> bool:
+    """kernel_cache.is_cold() under ``env``, in ``python`` started in ``cwd`` (``python -c`` imports from
+    its working directory first: "/" for an installed copy, so this checkout's modules do not shadow it)."""
     code = "from pendulum_accel.kernel_cache import is_cold; print(is_cold())"
-    out = subprocess.run([python, "-c", code], env=env, capture_output=True, text=True, timeout=120, cwd=REPO)
+    out = subprocess.run([python, "-c", code], env=env, capture_output=True, text=True, timeout=120, cwd=cwd)
     assert out.returncode == 0, out.stderr[-2000:]
     return out.stdout.strip() == "True"
 
 
 def _imported_from(env: dict[str, str], python: str) -> Path:
-    """The directory ``python`` imports pendulum_accel from under ``env``."""
+    """The directory ``python`` imports pendulum_accel from under ``env`` (started in "/", as _cold)."""
     code = "import pendulum_accel; print(pendulum_accel.__file__)"
     out = subprocess.run([python, "-c", code], env=env, capture_output=True, text=True, timeout=120, cwd="/")
     assert out.returncode == 0, out.stderr[-2000:]
@@ -126,7 +127,7 @@ def test_the_readme_pip_lines_in_a_fresh_venv_give_a_first_run_that_works(tmp_pa
             assert done.returncode == 0, f"{line}: {done.stdout[-1500:]}{done.stderr[-1500:]}"
         python = str(checkout / ".venv" / "bin" / "python")
         assert _imported_from(env, python) == checkout / "pendulum_accel"  # the fresh install, not ours
-        assert _cold(env, python)  # the pip lines leave numba's cache cold
+        assert _cold(env, python, Path("/"))  # the pip lines leave numba's cache cold
         args = readme_first_run()
         bag = tmp_path / "bag"
         args[args.index("--record") + 1] = str(bag)
@@ -141,7 +142,7 @@ def test_the_readme_pip_lines_in_a_fresh_venv_give_a_first_run_that_works(tmp_pa
         assert result.returncode == 0, result.stderr[-3000:]
         assert COMPILING in result.stderr
         _assert_recorded(bag)
-        assert not _cold(env, python)
+        assert not _cold(env, python, Path("/"))
     finally:
         shutil.rmtree(tmp_path, ignore_errors=True)  # the venv is over a gigabyte
 
@@ -175,7 +176,7 @@ def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(tm
     env["AMENT_PREFIX_PATH"] = str(prefix)
     env["PATH"] = f"{prefix / 'bin'}{os.pathsep}{env.get('PATH', '')}"
     assert _imported_from(env, PYTHON) == site / "pendulum_accel"
-    assert not _cold(env)  # the install step compiled it beside the installed modules
+    assert not _cold(env, PYTHON, Path("/"))  # the install step compiled it beside the installed modules
     script = prefix / "lib" / "pendulum_accel" / "pendulum-accel"
     command = ["run", "step_start", "--fast", "--set", "duration=2", "--record"]
     warm = subprocess.run(
@@ -190,7 +191,7 @@ def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(tm
     assert COMPILING not in warm.stderr
     _assert_recorded(tmp_path / "warm")
     cold_env = {**env, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
-    assert _cold(cold_env)
+    assert _cold(cold_env, PYTHON, Path("/"))
     cold = subprocess.run(
         [str(script), *command, str(tmp_path / "cold")],
         cwd=tmp_path,
