@@ -48,6 +48,12 @@ def _outside_env() -> dict[str, str]:
     return {k: v for k, v in os.environ.items() if k not in drop}
 
 
+def _story(stderr: str) -> str:
+    """The launcher's own lines (what started, waited, ended) and the end of ``stderr``: a failure's cause."""
+    chain = [line for line in stderr.splitlines() if line.startswith(("chain:", "pendulum-accel run:"))]
+    return "\n".join(chain) + "\n...\n" + stderr[-2000:]
+
+
 def _assert_recorded(bag: Path) -> None:
     """The bag holds angles and their estimates (the run summary's own check is its exit code)."""
     topics = read_bag(bag).topics
@@ -139,7 +145,7 @@ def test_the_readme_pip_lines_in_a_fresh_venv_give_a_first_run_that_works(tmp_pa
             text=True,
             timeout=2300,
         )
-        assert result.returncode == 0, result.stderr[-3000:]
+        assert result.returncode == 0, _story(result.stderr)
         assert COMPILING in result.stderr
         _assert_recorded(bag)
         assert not _cold(env, python, Path("/"))
@@ -187,7 +193,7 @@ def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(tm
         text=True,
         timeout=600,
     )
-    assert warm.returncode == 0, warm.stderr[-3000:]
+    assert warm.returncode == 0, _story(warm.stderr)
     assert COMPILING not in warm.stderr
     _assert_recorded(tmp_path / "warm")
     cold_env = {**env, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
@@ -200,6 +206,6 @@ def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(tm
         text=True,
         timeout=2300,
     )
-    assert cold.returncode == 0, cold.stderr[-3000:]
+    assert cold.returncode == 0, _story(cold.stderr)
     assert COMPILING in cold.stderr
     _assert_recorded(tmp_path / "cold")
