@@ -49,8 +49,10 @@ def _outside_env() -> dict[str, str]:
 
 
 def _story(stderr: str) -> str:
-    """The launcher's own lines (what started, waited, ended) and the end of ``stderr``: a failure's cause."""
-    chain = [line for line in stderr.splitlines() if line.startswith(("chain:", "pendulum-accel run:"))]
+    """The launcher's lines (what started, waited, ended), every node's error line and the end of
+    ``stderr``: a failure's cause."""
+    marks = ("chain:", "pendulum-accel run:")
+    chain = [line for line in stderr.splitlines() if line.startswith(marks) or "error" in line.lower()]
     return "\n".join(chain) + "\n...\n" + stderr[-2000:]
 
 
