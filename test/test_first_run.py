@@ -126,7 +126,7 @@ def test_the_readme_pip_lines_in_a_fresh_venv_give_a_first_run_that_works(tmp_pa
     assert lines[0].startswith("python3 -m venv .venv")
     assert all(line.startswith(".venv/bin/pip install") for line in lines[1:])
     # Not named pendulum_accel: the run starts in tmp_path, and `python -m` (every node) would import a
-    # directory of that name there as a namespace package (a pitfall of its own, see the report).
+    # directory of that name there as a namespace package (as it would from a cwd holding such a clone).
     checkout = clean_checkout(tmp_path / "checkout")
     env = _outside_env()
     try:
