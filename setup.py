@@ -30,7 +30,11 @@ class InstallAndWarm(install):
             **os.environ,
             "PYTHONPATH": os.pathsep.join(filter(None, [self.install_lib, os.environ.get("PYTHONPATH")])),
         }
-        done = subprocess.run([sys.executable, "-m", f"{PACKAGE}.kernel_cache"], env=env, check=False)
+        # From install_lib: `python -m` imports from its working directory first, and colcon runs setup.py
+        # in the source tree, whose modules (and __pycache__) would otherwise be the ones compiled.
+        done = subprocess.run(
+            [sys.executable, "-m", f"{PACKAGE}.kernel_cache"], env=env, cwd=self.install_lib, check=False
+        )
         if done.returncode != 0:
             print(
                 f"{PACKAGE}: numba's cache was not warmed (exit {done.returncode}); the first run compiles it"

@@ -3,8 +3,9 @@
 Launch arguments: scene, record (a bag directory; empty: no recorder), estimator (method), fast,
 time_source (sim or wall; empty: sim with fast or record, else wall, as ``pendulum-accel run``),
 namespace, namespace_clock (true: a namespaced chain runs on ``<namespace>/clock``), remap (FROM:=TO
-rules for every node, separated by spaces) and autostart (false: the managed nodes wait for
-``ros2 lifecycle set``). Every node reads ``config/pendulum_accel.params.yaml`` first; the arguments then
+rules for every node, separated by spaces), frame_prefix (of the frames viewers draw; auto:
+``<namespace>/`` in a namespace, as ``pendulum-accel run``) and autostart (false: the managed nodes wait
+for ``ros2 lifecycle set``). Every node reads ``config/pendulum_accel.params.yaml`` first; the arguments then
 override it. The same start-up rules as the launcher: the simulator publishes once
 accel_estimator (and bag_recorder, when recording) subscribe, by name.
 
@@ -34,6 +35,11 @@ ARGUMENTS: dict[str, tuple[str, str]] = {
         "",
         "topic remaps for every node, FROM:=TO separated by spaces (e.g. pendulum/joint_states:=angle)",
     ),
+    "frame_prefix": (
+        "auto",
+        "prepended to the frames of the markers, Imu and /tf_static (auto: <namespace>/ in a namespace, "
+        "else none; empty: none)",
+    ),
     "autostart": ("true", "false: the simulator and estimator wait, unconfigured, for ros2 lifecycle set"),
 }
 
@@ -60,12 +66,29 @@ def remappings(namespace: str, namespace_clock: str, remap: str) -> list[tuple[s
     return [(source, target) for source, _, target in pairs]
 
 
+def frame_prefix_of(namespace: str, frame_prefix: str) -> str:
+    """The simulator's and estimator's frame_prefix: ``<namespace>/`` for auto (none in the root
+    namespace), else the argument as given."""
+    from pendulum_accel.nodes.launcher import namespace_frame_prefix
+
+    return namespace_frame_prefix(namespace) if frame_prefix == "auto" else frame_prefix
+
+
 def chain_nodes(
-    scene: str, record: str, estimator: str, fast: str, time_source: str, autostart: str = "true"
+    scene: str,
+    record: str,
+    estimator: str,
+    fast: str,
+    time_source: str,
+    autostart: str = "true",
+    frame_prefix: str = "",
 ) -> list[dict[str, Any]]:
     """What to run: one {executable, name, parameters} per node, recorder first (if recording)."""
     realtime = not _true(fast)
-    managed = {"autostart": _true(autostart)}
+    # frame_prefix set only when not empty (the nodes' default), so a params file's value stays.
+    sim_and_estimator: dict[str, Any] = {"autostart": _true(autostart)}
+    if frame_prefix:
+        sim_and_estimator["frame_prefix"] = frame_prefix
     source = time_source or ("sim" if (not realtime or record) else "wall")
     if source not in ("sim", "wall"):
         raise ValueError(f"time_source must be sim or wall, got {time_source!r}")
@@ -90,7 +113,7 @@ def chain_nodes(
                 "method": estimator,
                 "time_source": source,
                 "recorder_node": recorder,
-                **managed,
+                **sim_and_estimator,
             },
         }
     )
@@ -105,7 +128,7 @@ def chain_nodes(
                 "publish_clock": source == "sim",
                 "reader_nodes": ["accel_estimator"],
                 "recorder_node": recorder,
-                **managed,
+                **sim_and_estimator,
             },
             "ends_launch": True,  # its exit (the scene's end) shuts the launch down: the bag closes
         }
@@ -128,6 +151,7 @@ def generate_launch_description() -> Any:
         values = {name: LaunchConfiguration(name).perform(context) for name in ARGUMENTS}
         namespace = values.pop("namespace")
         remaps = remappings(namespace, values.pop("namespace_clock"), values.pop("remap"))
+        values["frame_prefix"] = frame_prefix_of(namespace, values["frame_prefix"])
         return [
             Node(
                 package=PACKAGE,

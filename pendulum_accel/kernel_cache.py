@@ -10,7 +10,6 @@ install (setup.py's install step) warm it too.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
 from types import ModuleType
@@ -46,15 +45,19 @@ def cached_kernels() -> list[object]:
 
 
 def is_cold() -> bool:
-    """True when some kernel has no index file in numba's cache (it would be compiled on first use).
+    """True when some kernel has nothing usable in numba's cache (it would be compiled on first use): no
+    index file, or one numba itself refuses (written for another version of the source, as after an
+    upgrade or a `git pull` in an editable install).
 
-    Reads numba's cache layout (``Dispatcher._cache._cache_file._index_path``); where that layout is not
-    found, the cache is taken as cold: warming a warm cache only loads it.
+    Asks numba's own cache file (``Dispatcher._cache._cache_file._load_index``, which returns {} for a
+    missing or stale index); where that layout is not found, the cache is taken as cold: warming a warm
+    cache only loads it.
     """
     kernels = cached_kernels()
     for kernel in kernels:
-        index = getattr(getattr(getattr(kernel, "_cache", None), "_cache_file", None), "_index_path", None)
-        if not isinstance(index, str) or not os.path.isfile(index):
+        cache_file = getattr(getattr(kernel, "_cache", None), "_cache_file", None)
+        load_index = getattr(cache_file, "_load_index", None)
+        if load_index is None or not load_index():
             return True
     return not kernels
 

@@ -68,6 +68,7 @@ def test_launch_file_parses_and_declares_the_arguments() -> None:
         "namespace",
         "namespace_clock",
         "remap",
+        "frame_prefix",
         "autostart",
     }
     # launch_ros.actions.Node's keyword arguments, as its source names them.
@@ -90,6 +91,21 @@ def test_launch_remaps_give_a_namespaced_chain_its_own_clock() -> None:
     for spec in module.chain_nodes("step_start", "", "kalman", "true", "", autostart="false"):
         if spec["executable"] != "bag_recorder":
             assert spec["parameters"]["autostart"] is False
+
+
+def test_launch_frame_prefix_is_the_namespace_unless_given() -> None:
+    """frame_prefix auto: <namespace>/ for the simulator and estimator (none in the root namespace), as
+    `pendulum-accel run --namespace`; a given prefix is used as is, an empty one sets none."""
+    module = _launch_module()
+    assert module.frame_prefix_of("car1", "auto") == "car1/"
+    assert module.frame_prefix_of("/fleet/car1", "auto") == "fleet/car1/"
+    assert module.frame_prefix_of("", "auto") == ""
+    assert module.frame_prefix_of("car1", "left/") == "left/"
+    for prefix, expected in (("car1/", {"car1/"}), ("", set())):
+        specs = module.chain_nodes("step_start", "bag", "kalman", "true", "", frame_prefix=prefix)
+        given = {spec["executable"]: spec["parameters"].get("frame_prefix") for spec in specs}
+        assert given["bag_recorder"] is None  # the recorder draws nothing
+        assert {given["pendulum_sim"], given["accel_estimator"]} - {None} == expected
 
 
 def test_every_node_parameter_and_executable_of_the_launch_file_is_real() -> None:

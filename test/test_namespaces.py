@@ -3,7 +3,8 @@
 step_start runs in /car1 (a steps to 3 m/s² at t = 1 s) and at_rest in /car2 (a = 0) at once, with a
 stranger subscribed to the root-namespace angles before either starts. Each estimate must follow its
 own truth, every angle must have its estimate, and each bag must hold only its own chain's messages:
-its clock (``/car1/clock``, not the other chain's) and its own estimator's /diagnostics statuses.
+its clock (``/car1/clock``, not the other chain's) and its own estimator's /diagnostics statuses; and
+each chain draws in its own frames (``car1/base_link``: ``run --namespace`` sets the frame prefix).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -38,9 +40,10 @@ def _chain(spawn: Spawn, scene: str, namespace: str, bag: Path, *extra: str) -> 
 
 def _own_topics_only(bag: Bag, namespace: str) -> None:
     """Every topic of ``bag`` is under /namespace (its clock included), except the global /diagnostics,
-    whose statuses all come from this namespace's estimator (named by its full name)."""
+    whose statuses all come from this namespace's estimator (named by its full name), and the global
+    /tf_static, recorded whole where tf2_msgs is installed (the TF tree is shared)."""
     for topic in bag.topics:
-        assert topic == bm.TOPIC_DIAGNOSTICS or topic.startswith(f"/{namespace}/"), topic
+        assert topic in (bm.TOPIC_DIAGNOSTICS, "/tf_static") or topic.startswith(f"/{namespace}/"), topic
     assert bm.TOPIC_CLOCK not in bag.topics and f"/{namespace}/clock" in bag.topics
     names = {
         status.name
@@ -48,6 +51,19 @@ def _own_topics_only(bag: Bag, namespace: str) -> None:
         for status in bm.deserialize_as(raw, bm.DIAGNOSTIC_ARRAY, bm.DiagnosticArrayMsg).status
     }
     assert names == {f"/{namespace}/accel_estimator"}, names
+
+
+def _drawn_frames(bag: Bag, namespace: str) -> set[str]:
+    """The frame_id of every marker and Imu message the chain in ``namespace`` recorded."""
+    frames: set[str] = set()
+    for topic, msgtype in ((bm.MARKERS, bm.MARKER_ARRAY), (bm.IMU_DATA_RAW, bm.IMU)):
+        _, payloads = bag.raw(f"/{namespace}/{topic}")
+        assert payloads, topic
+        for data in payloads:
+            message: Any = bm.deserialize(data, msgtype)
+            inner = message.markers if msgtype == bm.MARKER_ARRAY else [message]
+            frames |= {m.header.frame_id for m in inner}
+    return frames
 
 
 def _namespace(namespace: str) -> argparse.Namespace:
@@ -73,6 +89,7 @@ def test_two_namespaced_chains_on_one_domain_do_not_cross_talk(spawn: Spawn, tmp
     for namespace, scene_truth in (("car1", 3.0), ("car2", 0.0)):
         bag = read_bag(tmp_path / namespace)
         _own_topics_only(bag, namespace)
+        assert _drawn_frames(bag, namespace) == {f"{namespace}/{bm.FRAME_ID}"}, namespace
         joint = f"/{namespace}/{bm.JOINT_STATES}"
         estimate = f"/{namespace}/{bm.ACCEL_ESTIMATE}"
         angles = bag.decode(joint).stamp
@@ -177,3 +194,34 @@ def test_a_remapped_recording_is_read_by_every_tool(spawn: Spawn, tmp_path: Path
     ):
         bad = cli("analyze", str(path), "--topic", rule)
         assert bad.returncode == 2 and says in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
+
+
+def _frame_prefixes(*args: str) -> dict[str, str | None]:
+    """{role: the frame_prefix its command sets (None: unset)} for ``run step_start ARGS``."""
+    from pendulum_accel.cli.main import build_parser
+    from pendulum_accel.cli.run import chain_config
+    from pendulum_accel.nodes.launcher import Chain
+
+    config = chain_config(build_parser().parse_args(["run", "step_start", *args]))
+    out: dict[str, str | None] = {}
+    for role, command in Chain(config, log=False).commands("step_start", Path("summaries")):
+        rules = [rule for rule in command if rule.startswith("frame_prefix:=")]
+        out[role] = json.loads(rules[-1].partition(":=")[2]) if rules else None
+    return out
+
+
+def test_run_namespace_sets_the_frame_prefix_unless_the_user_sets_it() -> None:
+    """--namespace car1 gives the simulator and the estimator frame_prefix car1/ (two chains draw apart);
+    --frame-prefix sets another, '' none; without a namespace nothing is set (the nodes' default '')."""
+    assert _frame_prefixes("--namespace", "car1") == {"estimator": "car1/", "simulator": "car1/"}
+    assert _frame_prefixes("--namespace", "/fleet/car1") == {
+        "estimator": "fleet/car1/",
+        "simulator": "fleet/car1/",
+    }
+    assert _frame_prefixes("--namespace", "car1", "--frame-prefix", "left/") == {
+        "estimator": "left/",
+        "simulator": "left/",
+    }
+    unset = {"estimator": None, "simulator": None}
+    assert _frame_prefixes("--namespace", "car1", "--frame-prefix", "") == unset
+    assert _frame_prefixes() == unset

@@ -4,9 +4,14 @@ from __future__ import annotations
 
 import math
 import signal
+import time
+from pathlib import Path
+from typing import Any
 
 import pytest
+import yaml
 
+from pendulum_accel.bag import messages as bm
 from test.chain_helpers import run_probe, start_node
 from test.conftest import Spawn
 
@@ -210,3 +215,75 @@ def test_imu_frame_goes_on_tf_static_or_is_stated_with_the_frame_prefix(spawn: S
     estimator = start_node(spawn, "estimator_node", {**params, "imu_offset_x": 0.3, "frame_prefix": "car1/"})
     where = ": published on /tf_static" if tf_message_type() is not None else r" \(tf2_msgs is not installed"
     estimator.wait_for(r"car1/imu_link at \(0\.3, 0, 0\) m in car1/base_link" + where, timeout=60)
+
+
+def test_the_recorder_records_tf_static_where_tf2_msgs_is_installed_and_says_so_where_not(
+    spawn: Spawn, tmp_path: Path
+) -> None:
+    """A recorder started after the estimator: with tf2_msgs it subscribes to /tf_static transient local
+    and records the transform sent before it started (car1/base_link → car1/imu_link); without, it says
+    in one line that /tf_static is not recorded, and the bag has no such topic."""
+    from pendulum_accel.bag.reader import read_bag
+    from pendulum_accel.nodes.static_tf import TF_MESSAGE, tf_message_type
+
+    params: dict[str, float | str] = {"scene": "lecture_constant", "imu_frame_id": "imu_link"}
+    estimator = start_node(spawn, "estimator_node", {**params, "imu_offset_x": 0.3, "frame_prefix": "car1/"})
+    estimator.wait_for(r"car1/imu_link at \(0\.3, 0, 0\) m in car1/base_link", timeout=60)
+    bag = tmp_path / "bag"
+    recorder = start_node(spawn, "recorder_node", {"path": str(bag), "scene": "lecture_constant"})
+    recorder.wait_for(r"recording \d+ topics to", timeout=60)
+    if tf_message_type() is None:
+        recorder.wait_for(r"/tf_static is not recorded: tf2_msgs is not installed", timeout=5)
+    else:
+        time.sleep(2.0)  # discovery, then the transient-local history is delivered
+    recorder.proc.send_signal(signal.SIGINT)
+    assert recorder.finish(timeout=30) == 0, recorder.text
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=20) == 0, estimator.text
+    topics = read_bag(bag).topics
+    if tf_message_type() is None:
+        assert "/tf_static" not in topics
+        return
+    _, payloads = read_bag(bag).raw("/tf_static")
+    messages: list[Any] = [bm.deserialize(data, TF_MESSAGE) for data in payloads]
+    frames = [(t.header.frame_id, t.child_frame_id) for message in messages for t in message.transforms]
+    assert frames == [("car1/base_link", "car1/imu_link")]
+    offered = yaml.safe_load(topics["/tf_static"].offered_qos_profiles)
+    assert [profile["durability"] for profile in offered] == ["transient_local"]  # as the estimator offers
+
+
+def test_tf_static_is_asked_for_as_tf2s_static_listener_does() -> None:
+    """The recorder's /tf_static subscription: reliable, transient local, keep last 100 (tf2_ros's
+    StaticListenerQoS), so it receives what static broadcasters sent before it started."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
+
+    from pendulum_accel.nodes.qos import qos_for
+
+    profile = qos_for("/tf_static")
+    assert profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+    assert profile.reliability == ReliabilityPolicy.RELIABLE
+    assert (profile.history, profile.depth) == (HistoryPolicy.KEEP_LAST, 100)
+
+
+def test_a_tf_message_is_logged_at_its_first_transforms_stamp() -> None:
+    """stamp_offset of a TFMessage points at its first transform's header stamp (CDR made by rosbags, not
+    by the code under test); a type outside the chain has none (logged at its receive time)."""
+    from pendulum_accel.nodes.conversions import stamp_offset
+    from pendulum_accel.nodes.recorder_node import stamp_ns
+    from pendulum_accel.nodes.static_tf import TF_MESSAGE
+
+    types = bm.TYPESTORE.types
+    header = types["std_msgs/msg/Header"](
+        stamp=types["builtin_interfaces/msg/Time"](sec=12, nanosec=345), frame_id="car1/base_link"
+    )
+    transform = types["geometry_msgs/msg/Transform"](
+        translation=types["geometry_msgs/msg/Vector3"](x=0.3, y=0.0, z=0.0),
+        rotation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+    )
+    stamped = types["geometry_msgs/msg/TransformStamped"](
+        header=header, child_frame_id="car1/imu_link", transform=transform
+    )
+    data = bm.serialize(types[TF_MESSAGE](transforms=[stamped]), TF_MESSAGE)
+    offset = stamp_offset(TF_MESSAGE)
+    assert offset is not None and stamp_ns(data, offset) == 12 * 1_000_000_000 + 345
+    assert stamp_offset("std_msgs/msg/Float64") is None

@@ -410,3 +410,39 @@ def test_seek_at_the_end_plays_on_and_a_seek_outside_the_bag_is_refused(spawn: S
     assert r[8] == [True, "seek to t=9.000 s"]
     assert r[11] - r[2] == 101  # 9.00 .. 10.00 s of 100 Hz angles, played again after the end, once
     _stop(player)
+
+
+def test_the_progress_line_shows_the_position_when_behind() -> None:
+    """A player that fell behind prints where it is (the next message still to go out) and by how much it
+    is behind, not the schedule (the issue's 'bag time 140001 s of 1700 s'); at the end, the last
+    message and no lag."""
+    import threading
+    from types import SimpleNamespace
+
+    from pendulum_accel.bag.playback import Playback
+    from pendulum_accel.nodes.player_node import PlayerNode
+    from test.test_bag_playback import NS, FakeWall
+
+    wall = FakeWall()
+    playback = Playback(np.arange(10, dtype=np.int64) * NS, wall=wall)  # messages at 0, 1, ..., 9 s
+    stop = threading.Event()
+    playback.take_due(stop)  # message 0 out; the next is at 1 s
+    wall.now += 1000.5  # nothing taken meanwhile: the schedule is at 1000.5 s
+
+    def figures() -> tuple[float, float, int, float | None]:
+        """(position s, end s, messages out, behind s or None) parsed from the progress line."""
+        line = PlayerNode.progress_line(SimpleNamespace(playback=playback))  # type: ignore[arg-type]
+        found = re.search(r"bag time (\S+) s of (\S+) s \((\d+)/10 messages\)", line)
+        assert found is not None, line
+        behind = re.search(r"behind by (\S+) s", line)
+        lag = float(behind.group(1)) if behind else None
+        return float(found.group(1)), float(found.group(2)), int(found.group(3)), lag
+
+    # Printed with 3 decimals: 1e-3 s covers the rounding of whole seconds and halves.
+    position, end, out, behind = figures()
+    assert abs(position - 1.0) < 1e-3 and abs(end - 9.0) < 1e-3 and out == 1
+    assert behind is not None and abs(behind - 999.5) < 1e-3
+    while playback.take_due(stop) is not None:
+        pass
+    position, end, out, behind = figures()
+    assert abs(position - 9.0) < 1e-3 and out == 10 and behind is None

@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
+from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -48,6 +49,26 @@ def test_package_xml_is_format_3_ament_python() -> None:
     assert {"python3-pytest", "python3-hypothesis"} <= {  # mpmath has no rosdep key: requirements-dev.txt
         e.text for e in root.findall("test_depend")
     }
+
+
+def duplicate_dependencies(root: ET.Element) -> list[tuple[str, str]]:
+    """(tag, key) of every dependency listed more than once under one tag of a package.xml."""
+    listed = Counter((e.tag, e.text or "") for e in root if e.tag.endswith("depend"))
+    return sorted(key for key, count in listed.items() if count > 1)
+
+
+def test_package_xml_lists_each_dependency_once() -> None:
+    """No key twice under one tag (rcl_interfaces and builtin_interfaces once were), which catkin_pkg
+    does not check; and catkin_pkg's own validation (a depend or test_depend redundant with another
+    tag) passes. The check finds a doubled key."""
+    from catkin_pkg.package import parse_package
+
+    root = _package_xml()
+    assert duplicate_dependencies(root) == []
+    parse_package(str(REPO / "package.xml")).validate()
+    doubled = ET.fromstring(ET.tostring(root))
+    doubled.append(ET.fromstring("<exec_depend>rcl_interfaces</exec_depend>"))
+    assert duplicate_dependencies(doubled) == [("exec_depend", "rcl_interfaces")]
 
 
 # Every run-time import against setup.py, package.xml and the README: test/test_dependencies.py.

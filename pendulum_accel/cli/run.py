@@ -67,6 +67,14 @@ def add_chain_arguments(parser: argparse.ArgumentParser) -> None:
         "domain only: two chains would interleave their timelines)",
     )
     parser.add_argument(
+        "--frame-prefix",
+        default=None,
+        metavar="PREFIX",
+        help="prepended to the frames of what viewers draw (markers, Imu, /tf_static), as "
+        "robot_state_publisher's frame_prefix; default NS/ with --namespace (two chains draw apart), "
+        "else none ('' for none)",
+    )
+    parser.add_argument(
         "--remap",
         dest="remaps",
         action="append",
@@ -110,6 +118,7 @@ def chain_config(args: argparse.Namespace) -> ChainConfig:
         namespace=str(getattr(args, "namespace", "") or ""),
         remaps=list(getattr(args, "remaps", [])),  # checked with rcl's rules by the launcher's preflight
         namespace_clock=bool(getattr(args, "namespace_clock", True)),
+        frame_prefix=getattr(args, "frame_prefix", None),
     )
 
 

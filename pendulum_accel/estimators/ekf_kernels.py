@@ -824,9 +824,19 @@ def warm() -> None:
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
     _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, np.array([0, 5], dtype=np.int64), True)
     rts(xpr, ppr, xpo, ppo, fk, starts)
+    qs, rates = np.array([1e-3, 0.1]), chain_rates(2, 5.0)
     for keep_mu in (True, False):
-        run_imm(t, y, params, np.array([1e-3, 0.1]), chain_rates(2, 5.0), np.array([0, 5], np.int64), keep_mu)
+        run_imm(t, y, params, qs, rates, np.array([0, 5], dtype=np.int64), keep_mu)
     log_likelihood(t, y, params)
+    # The live IMM's per-sample step (kalman.KalmanEstimator.update), with the arrays it keeps: left
+    # out, the estimator compiled it at its first angle, while the simulator waited for it.
+    m, size = 2, 1
+    xs, ps, mu = np.zeros((m, 3)), np.zeros((m, 3, 3)), np.full(m, 1.0 / m)
+    ra, rv, rc = np.zeros((m, size)), np.zeros((m, size)), np.zeros((m, size, 3))
+    x, p, state, scratch = np.zeros(3), np.zeros((3, 3)), np.array([np.nan, 0.0]), imm_scratch(m)
+    for k in range(3):
+        imm_step(xs, ps, mu, x, p, ra, rv, rc, state, float(t[k]), float(y[k]), params, qs, rates, scratch)
+    imm_lagged(mu, ra, rv, 0)  # the live fixed-lag output (lag > 0) and its variance map's filter column
 
 
 if __name__ == "__main__":

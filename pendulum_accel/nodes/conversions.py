@@ -16,6 +16,7 @@ from sensor_msgs.msg import JointState
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.messages import FRAME_ID, PENDULUM_JOINT
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.nodes.static_tf import TF_MESSAGE
 
 _NS_PER_S = 1_000_000_000
 
@@ -34,12 +35,13 @@ def stamp_seconds(sec: int, nanosec: int) -> float:
 
 def stamp_offset(msgtype: str) -> int | None:
     """Offset of the leading stamp's ``sec`` in the CDR of ``msgtype`` (learnt by bm.Layout); None for a
-    type without a stamp (std_msgs/String). A MarkerArray's is its first marker's header stamp."""
+    type without a stamp (std_msgs/String) or not of the chain. A MarkerArray's (a TFMessage's) is its
+    first marker's (transform's) header stamp."""
     if msgtype == bm.STRING_MSG:
         return None
-    if msgtype == bm.MARKER_ARRAY:
-        # The array's length (4 bytes) follows the 4-byte CDR header; the first marker starts with its
-        # header, whose stamp comes first: offset 8, whatever the markers hold.
+    if msgtype in (bm.MARKER_ARRAY, TF_MESSAGE):
+        # The array's length (4 bytes) follows the 4-byte CDR header; the first marker (transform) starts
+        # with its header, whose stamp comes first: offset 8, whatever the array holds.
         return 8
     templates = {
         bm.JOINT_STATE: lambda: bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]),
@@ -49,6 +51,8 @@ def stamp_offset(msgtype: str) -> int | None:
         bm.DIAGNOSTIC_ARRAY: lambda: bm.diagnostic_array(0, 0, "n", "m"),
         bm.IMU: lambda: bm.imu(0, 0.0, 0.0, 0.0, 0.0),
     }
+    if msgtype not in templates:  # another type on the graph: logged at its receive time
+        return None
     layout = bm.Layout.of(templates[msgtype](), msgtype)
     key = "clock.sec" if msgtype == bm.CLOCK else "header.stamp.sec"
     offset, _ = layout.fields[key]

@@ -101,6 +101,14 @@ def clock_remap(namespace: str) -> list[str]:
     return [f"/clock:=/{ns}/clock"] if ns else []
 
 
+def namespace_frame_prefix(namespace: str) -> str:
+    """'car1/' for the namespace /car1 ('' in the root namespace): the simulator's and estimator's
+    frame_prefix for a namespaced chain, so two chains draw in their own frames (robot_state_publisher's
+    prefix convention)."""
+    ns = namespace.strip("/")
+    return f"{ns}/" if ns else ""
+
+
 @dataclass
 class ChainConfig:
     """What to run: scene (+ overrides of its fields), recording, pacing and estimator."""
@@ -118,6 +126,7 @@ class ChainConfig:
     namespace: str = ""  # every node's namespace: the chain's relative topics resolve under it
     remaps: list[str] = field(default_factory=list)  # from:=to rules given to every node
     namespace_clock: bool = True  # a namespaced chain runs on <ns>/clock (false: the global /clock)
+    frame_prefix: str | None = None  # the viewers' frame prefix; None: namespace_frame_prefix(namespace)
 
     @property
     def effective_time_source(self) -> str:
@@ -200,6 +209,9 @@ class Chain:
         time_source = cfg.effective_time_source
         recorder = RECORDER_NODE if cfg.record is not None else ""
         out: list[tuple[str, list[str]]] = []
+        prefix = namespace_frame_prefix(cfg.namespace) if cfg.frame_prefix is None else cfg.frame_prefix
+        # Set only when not empty (the nodes' default); a frame_prefix in *_params still wins.
+        frames: dict[str, ParamValue] = {"frame_prefix": prefix} if prefix else {}
         if cfg.record is not None:
             rec: dict[str, ParamValue] = {
                 "path": str(cfg.record),
@@ -220,6 +232,7 @@ class Chain:
         }
         if cfg.estimator:
             est["method"] = cfg.estimator
+        est.update(frames)
         est.update(cfg.estimator_params)
         out.append(("estimator", node_command("estimator_node", est, **self._names())))
         sim: dict[str, ParamValue] = {
@@ -230,6 +243,7 @@ class Chain:
             "reader_nodes": [ESTIMATOR_NODE],
             "recorder_node": recorder,
             "summary_file": str(summaries / "simulator.json"),
+            **frames,
         }
         sim.update(cfg.simulator_params)
         out.append(("simulator", node_command("simulator_node", sim, **self._names())))

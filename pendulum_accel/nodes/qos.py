@@ -59,10 +59,22 @@ DESCRIPTION_QOS = QoSProfile(
 """robot_description, as robot_state_publisher offers it: reliable, keep last 1, transient local (a late
 subscriber still gets the URDF; a volatile subscriber would match but get nothing published before it)."""
 
+TF_STATIC_QOS = QoSProfile(
+    depth=100,
+    history=HistoryPolicy.KEEP_LAST,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+"""/tf_static as tf2_ros's static listener asks for it (StaticListenerQoS: reliable, transient local, keep
+last 100): the transforms every static broadcaster sent before the subscription was made."""
+TOPIC_TF_STATIC = "/tf_static"
+
 
 def qos_for(topic: str) -> QoSProfile:
     """QoS of ``topic`` by its role under any namespace: DIAGNOSTICS_QOS for /diagnostics,
-    DESCRIPTION_QOS for robot_description, DATA_QOS for everything else."""
+    DESCRIPTION_QOS for robot_description, TF_STATIC_QOS for /tf_static, DATA_QOS for everything else."""
+    if topic == TOPIC_TF_STATIC:
+        return TF_STATIC_QOS
     role = role_of(topic)
     if role == TOPIC_DIAGNOSTICS:
         return DIAGNOSTICS_QOS

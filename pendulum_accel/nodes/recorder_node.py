@@ -3,6 +3,10 @@
 Only its own chain: relative names and the chain's clock (``<ns>/clock`` in a namespaced chain) resolve
 in the recorder's namespace, and of the global /diagnostics it keeps the statuses of nodes in that
 namespace (a status is named by its node's full name), so two chains on one domain record apart.
+Where tf2_msgs is installed it records the global /tf_static whole (the TF tree is shared: a chain's
+frames hang from frames other nodes publish), transient local, as rosbag2 does for a topic whose
+publishers all offer it, so the transforms sent before it started are in the bag; without tf2_msgs it
+cannot subscribe to the type and says so (the estimator then states its transform in its log).
 
 Subscriptions are raw (no deserialisation) and reliable keep-all, so a slow disk pushes back on the
 publishers instead of losing messages. Log time is the message's own stamp by default (simulation
@@ -42,6 +46,7 @@ from pendulum_accel.nodes.conversions import bag_qos, message_class, stamp_offse
 from pendulum_accel.nodes.parameters import LOG_TIMES, RECORDER
 from pendulum_accel.nodes.qos import make_subscription, qos_for
 from pendulum_accel.nodes.runtime import ChainNode, declare_parameters, run_node, write_summary
+from pendulum_accel.nodes.static_tf import TF_MESSAGE, TOPIC_TF_STATIC, tf_message_type
 
 NODE_NAME = "bag_recorder"
 _DRAIN_IDLE = 0.3  # s without any message after a stop request: the queues are empty
@@ -122,6 +127,15 @@ class RecorderNode(ChainNode):
         if unknown:
             types.update(self._graph_types(unknown))
         self.types: dict[str, str] = {t: str(msgtype) for t, msgtype in types.items()}
+        if TOPIC_TF_STATIC not in topics:
+            if tf_message_type() is not None:
+                topics.append(TOPIC_TF_STATIC)
+                self.types[TOPIC_TF_STATIC] = TF_MESSAGE
+            else:
+                self.get_logger().info(
+                    f"{TOPIC_TF_STATIC} is not recorded: tf2_msgs is not installed (the ROS 2 PyPI wheels "
+                    "have none), so its messages cannot be received"
+                )
         custom_data = {**custom_data_for(scene), bm.CUSTOM_TOPICS: json.dumps(topic_map(asked, resolved))}
         self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data)
         self.received: dict[str, int] = dict.fromkeys(topics, 0)

@@ -4,7 +4,9 @@ tf2_msgs has no PyPI wheel for ROS 2 Kilted (requirements-ros.txt installs none)
 transform is stated in the log instead, as the static_transform_publisher command that publishes it.
 With a ROS 2 install, tf2_msgs is there and the node publishes it itself, as static_transform_publisher
 does: one TFMessage on the global /tf_static, reliable, transient local, depth 1 (tf2_ros's static
-broadcaster QoS), so that a listener started later still gets it.
+broadcaster QoS), so that a listener started later still gets it. The recorder records /tf_static where
+tf2_msgs is installed (its subscription needs the type), transient local as rosbag2 subscribes to a
+topic whose publishers all offer it, so it gets the transforms sent before it started.
 """
 
 from __future__ import annotations
@@ -17,7 +19,9 @@ from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-TOPIC_TF_STATIC = "/tf_static"
+from pendulum_accel.nodes.qos import TOPIC_TF_STATIC
+
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 STATIC_QOS = QoSProfile(
     depth=1,
     history=HistoryPolicy.KEEP_LAST,
