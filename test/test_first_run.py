@@ -213,3 +213,23 @@ def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(tm
     assert cold.returncode == 0, _story(cold.stderr)
     assert COMPILING in cold.stderr
     _assert_recorded(tmp_path / "cold")
+
+
+@pytest.mark.slow
+def test_a_folder_named_like_the_package_in_the_working_directory_does_not_shadow_it(tmp_path: Path) -> None:
+    """``run`` from a directory holding a ``pendulum_accel`` folder (a colcon workspace's src/ after the
+    README's clone): the nodes, started with ``python -m``, still import the installed package (without
+    PYTHONSAFEPATH they imported the folder as a namespace package and the recorder exited 1)."""
+    (tmp_path / "pendulum_accel").mkdir()  # the clone, seen from src/: no __init__.py at its top
+    command = Path(PYTHON).with_name("pendulum-accel")
+    assert command.exists(), "the venv's pendulum-accel script is missing (make setup installs it)"
+    bag = tmp_path / "bag"
+    done = subprocess.run(
+        [str(command), "run", "step_start", "--fast", "--set", "duration=1", "--record", str(bag)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, _story(done.stderr)
+    _assert_recorded(bag)

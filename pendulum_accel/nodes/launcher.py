@@ -260,6 +260,10 @@ class Chain:
         """Start one node in its own process group (a terminal's Ctrl-C reaches only the launcher)."""
         env = dict(os.environ)
         env.pop(RT_PRIORITY_ENV, None)
+        # The nodes start as ``python -m``, which puts the working directory first on sys.path: a folder
+        # named pendulum_accel there (a workspace's src/ after the README's clone) would be imported as
+        # a namespace package instead of the installed one. Python >= 3.11 leaves it out with this.
+        env["PYTHONSAFEPATH"] = "1"
         if self.config.rt_priority and self.config.realtime:
             # Only paced runs: as fast as possible, FIFO nodes that never block would starve the machine.
             env[RT_PRIORITY_ENV] = str(self.config.rt_priority)
