@@ -96,8 +96,8 @@ def test_lag_trades_latency_for_accuracy() -> None:
 
 def test_lag_variance_map_matches_smooth_motion_and_keeps_the_filters_where_the_future_adds_nothing() -> None:
     """The published fixed-lag variance P_f (P_lag/P_f)^γ (kalman.lag_variance) against the IMM's raw
-    combination P_lag, at 0.25 s on the smooth drive: never wider than P_lag (ratio ≤ 1, γ ≥ 1: exact in
-    floating point, a product of numbers ≤ 1), equal to the filter's at the recording's last sample (no
+    combination P_lag, at 0.25 s on the smooth drive: never wider than P_lag (ratio ≤ 1, γ ≥ 1; to rounding,
+    argued below), equal to the filter's at the recording's last sample (no
     future there: ratio 1 exactly), and a mean NEES nearer 1 than the raw's (the raw one over-covers smooth
     motion by a factor of about 5 in variance, the map by under 1.3: the comparison has that margin)."""
     t, theta, truth = drive()
@@ -106,7 +106,10 @@ def test_lag_variance_map_matches_smooth_motion_and_keeps_the_filters_where_the_
     n = round(0.25 * RATE)
     a, var = est.lagged(t, theta, (0, n))
     _, raw, _ = kern.run_imm(t, theta, est._params, est._qs, est._rates, np.array([0, n]))
-    assert np.all(var[:, 1] <= raw[:, 1])  # CFG states no sensor bias: the published var adds nothing
+    # CFG states no sensor bias: the published var adds nothing. P_f r^γ ≤ P_f r = P_lag for r ≤ 1, γ ≥ 1,
+    # up to rounding: r's quotient (½ ulp), pow (≤ 4 ulp in numpy's SIMD kernels, e.g. SVML on AVX-512,
+    # < 1 ulp in glibc) and the product (½ ulp): 16 ulp of slack covers it on any CPU.
+    assert np.all(var[:, 1] <= raw[:, 1] * (1.0 + 16.0 * np.finfo(np.float64).eps))
     assert var[-1, 1] == var[-1, 0]
     keep = t >= 2.0
     err2 = (a[:, 1] - truth)[keep] ** 2
