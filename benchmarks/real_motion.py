@@ -52,16 +52,9 @@ import numpy as np
 from benchmarks import report as bench_report
 from benchmarks.corpus import CORPUS
 from pendulum_accel.cluster import map_tasks
-from pendulum_accel.estimators import LIVE_ESTIMATORS, imm_smoother, make_estimator
+from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
 from pendulum_accel.estimators import ekf_kernels as kern
-from pendulum_accel.estimators.kalman import (
-    PRESETS,
-    SMOOTH_BLOCKS,
-    SMOOTH_LAG,
-    SMOOTH_MIN_BLOCK,
-    KalmanEstimator,
-    lag_samples,
-)
+from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile
 from pendulum_accel.recording.changes import after_change
@@ -430,13 +423,13 @@ def fit_auto(seeds: int, quick: bool) -> tuple[tuple[float, float], list[tuple[f
 
 LAG_POWERS = tuple(round(1.0 + 0.1 * i, 1) for i in range(31))
 """γ = 1.0 … 4.0 of the fixed-lag variance map P_f (P_lag/P_f)^γ tried by ``fit_lag_power``."""
-FIT_LAGS = (0.25,)  # s: the live fixed lag the issue names (the smoother is fitted beside it)
+FIT_LAGS = (0.25, 1.0)  # s: the live fixed lag the issue names, and the smoother's SMOOTH_LAG
 
 
 def fit_lag_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
-    """γ of kalman.lag_variance on every training profile (all kinds), both designs, the fixed lags FIT_LAGS
-    and the smoother (imm_smoother at SMOOTH_LAG), pooled over the seeds: of LAG_POWERS the one with the
-    least calibration miss (Σ over profiles × designs × outputs); returns (γ, miss per γ)."""
+    """γ of kalman.lag_variance on every training profile (all kinds), both designs, lags FIT_LAGS, pooled
+    over the seeds: of LAG_POWERS the one with the least calibration miss (Σ over profiles × designs × lags);
+    returns (γ, miss per γ)."""
     modes = np.array(PRESETS["auto"].modes)
     miss = np.zeros(len(LAG_POWERS))
     for design in designs():
@@ -447,21 +440,14 @@ def fit_lag_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
             if profile.role != "train":
                 continue
             runs = _runs_for(profile, design, seeds, quick)
-            counts = np.zeros((len(LAG_POWERS), len(FIT_LAGS) + 1, 5))
-            overlap = lag_samples(SMOOTH_LAG, design.rate_hz)
-            block = max(SMOOTH_BLOCKS * overlap, SMOOTH_MIN_BLOCK)
+            counts = np.zeros((len(LAG_POWERS), len(FIT_LAGS), 5))
             for r in runs:
                 a, var, _ = kern.run_imm(r.t, r.theta, params, modes, rates, lags)
-                a_s, v_s, _, v_f = imm_smoother.run_imm_smoother(
-                    r.t, r.theta, params, modes, rates, block, overlap
-                )
-                a = np.column_stack([a, a_s])
-                var = np.column_stack([var, v_s])
                 keep = r.t >= WARMUP
                 after = after_change(r.t, r.t, r.accel)[keep]
-                for m in range(1, lags.size + 1):
+                for m in range(1, lags.size):
                     e = (a[:, m] - r.accel)[keep]
-                    ratio = np.clip(var[keep, m] / v_f[keep], 0.0, 1.0)
+                    ratio = np.clip(var[keep, m] / var[keep, 0], 0.0, 1.0)
                     for i, power in enumerate(LAG_POWERS):
                         beyond = e * e > 4.0 * var[keep, 0] * ratio**power
                         counts[i, m - 1] += (

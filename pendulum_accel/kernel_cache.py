@@ -1,8 +1,8 @@
 """numba's on-disk cache of the package's compiled kernels: is it cold, and warming it.
 
-The stepping kernels (``physics.kernels``) and the Kalman passes (``estimators.ekf_kernels``,
-``estimators.imm_smoother``) are compiled by numba on first use and cached on disk (``cache=True``:
-``__pycache__`` beside the installed modules, or ``NUMBA_CACHE_DIR``). A cold cache costs a compile of a minute or more on a small machine:
+The stepping kernels (``physics.kernels``) and the Kalman passes (``estimators.ekf_kernels``) are
+compiled by numba on first use and cached on disk (``cache=True``: ``__pycache__`` beside the installed
+modules, or ``NUMBA_CACHE_DIR``). A cold cache costs a compile of a minute or more on a small machine:
 ``pendulum-accel run`` warms it before it starts the nodes, saying so, since the simulator would
 otherwise give up waiting for an estimator that is still compiling; ``make setup`` and a colcon
 install (setup.py's install step) warm it too.
@@ -17,10 +17,10 @@ from types import ModuleType
 
 def _modules() -> list[ModuleType]:
     """The modules whose kernels are cached (imported here: numba loads with them)."""
-    from pendulum_accel.estimators import ekf_kernels, imm_smoother
+    from pendulum_accel.estimators import ekf_kernels
     from pendulum_accel.physics import kernels
 
-    return [kernels, ekf_kernels, imm_smoother]
+    return [kernels, ekf_kernels]
 
 
 def cached_kernels() -> list[object]:
@@ -65,7 +65,7 @@ def is_cold() -> bool:
 def warm(say: Callable[[str], None] | None = None) -> float:
     """Compile (or load) every kernel into the cache; the seconds it took. ``say`` is told what is being
     waited for before, and the time after."""
-    from pendulum_accel.estimators import ekf_kernels, imm_smoother
+    from pendulum_accel.estimators import ekf_kernels
     from pendulum_accel.physics import kernels
 
     if say is not None:
@@ -76,7 +76,6 @@ def warm(say: Callable[[str], None] | None = None) -> float:
     start = time.perf_counter()
     kernels.warm()
     ekf_kernels.warm()
-    imm_smoother.warm()
     took = time.perf_counter() - start
     if say is not None:
         say(f"compiled in {took:.0f} s")

@@ -419,20 +419,19 @@ def rts(
 
 ImmScratch = tuple[
     np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-    np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+    np.ndarray, np.ndarray, np.ndarray, np.ndarray,
 ]  # fmt: skip
 
 
 @njit(cache=True)
 def imm_scratch(m: int) -> ImmScratch:
     """Work arrays of one imm_step for m modes: (c, x⁰, P⁰, F, K, log-likelihoods, Π, mixing weights w,
-    a buffered sample's mixed â, var, c, [the Δt Π was computed for, the chain's band]: at a steady
-    rate Π and the band are computed once; and each mode's last F, K and (ν, S), which the IMM smoother's
-    backward pass reads: ``imm_smoother``)."""
+    a buffered sample's mixed â, var, c, and [the Δt Π was computed for, the chain's band]: at a steady
+    rate Π and the band are computed once)."""
     return (
         np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3, 3)), np.empty((3, 3)), np.empty(3), np.empty(m),
         np.empty((m, m)), np.empty((m, m)), np.empty(m), np.empty(m), np.empty((m, 3)),
-        np.array([np.nan, -1.0]), np.zeros((m, 3, 3)), np.zeros((m, 3)), np.zeros((m, 2)),
+        np.array([np.nan, -1.0]),
     )  # fmt: skip
 
 
@@ -609,7 +608,7 @@ def _imm_step_into(
     scratch: ImmScratch,
 ) -> bool:
     """imm_step with its work arrays given (``imm_scratch``): a recording's pass allocates them once."""
-    cj, x0, p0, f, k, logl, pi, w, new_a, new_v, new_c, memo, f_modes, k_modes, nu_s = scratch
+    cj, x0, p0, f, k, logl, pi, w, new_a, new_v, new_c, memo = scratch
     g, length, c, r = params[0], params[1], params[2], params[3]
     q_rate, reset_gap = params[4], params[6]
     m = qs.size
@@ -648,11 +647,6 @@ def _imm_step_into(
         for b in range(3):
             rc[j, new, b] = pj[2, b]
         nu, s = correct(xj, pj, k, y, r)
-        for row in range(3):
-            k_modes[j, row] = k[row]
-            for b in range(3):
-                f_modes[j, row, b] = f[row, b]
-        nu_s[j, 0], nu_s[j, 1] = nu, s
         for jj in range(0, held + 1):
             slot = (count - jj) % size
             c0 = rc[j, slot, 0]
@@ -682,7 +676,7 @@ def lag_variance_one(var_lag: float, var_filter: float, power: float) -> float:
 
 @njit(cache=True)
 def lag_variance_into(var_lag: np.ndarray, var_filter: np.ndarray, power: float, out: np.ndarray) -> None:
-    """out ← lag_variance_one of each sample (one pass, no temporaries)."""
+    """out ← lag_variance_one of each sample (one pass, no temporaries; column views are read in place)."""
     for i in range(out.size):
         out[i] = lag_variance_one(var_lag[i], var_filter[i], power)
 
@@ -859,8 +853,10 @@ def warm() -> None:
     for k in range(3):
         imm_step(xs, ps, mu, x, p, ra, rv, rc, state, float(t[k]), float(y[k]), params, qs, rates, scratch)
     imm_lagged(mu, ra, rv, 0)  # the live fixed-lag output (lag > 0) and its variance map's filter column
-    lag_variance_one(1.0, 2.0, 2.0)
+    # The batch map (kalman.lag_variance) on whole columns and on column views of the lag table.
+    table = np.ones((2, 2))
     lag_variance_into(np.ones(2), np.full(2, 2.0), 2.0, np.empty(2))
+    lag_variance_into(table[:, 1], table[:, 0], 2.0, np.empty(2))
 
 
 if __name__ == "__main__":

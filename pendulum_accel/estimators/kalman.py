@@ -28,7 +28,6 @@ import numpy as np
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import ekf_kernels as kern
-from pendulum_accel.estimators import imm_smoother
 from pendulum_accel.estimators.base import (
     Estimate,
     Estimator,
@@ -107,13 +106,12 @@ PRESETS: dict[str, MotionPreset] = {
 }
 DEFAULT_PRESET = "auto"
 
-LAG_VARIANCE_POWER = 2.0
-"""γ of the IMM's fixed-lag and smoother variance, published as P_f (P_lag/P_f)^γ (``lag_variance``). Fitted
-by ``python -m benchmarks.real_motion --fit --quick`` (fit_lag_power) on every training profile of
+LAG_VARIANCE_POWER = 1.8
+"""γ of the IMM's fixed-lag variance, published as P_f (P_lag/P_f)^γ (``lag_variance``). Fitted by
+``python -m benchmarks.real_motion --fit --quick`` (fit_lag_power) on every training profile of
 benchmarks.corpus (cars, robots, acceleration tables, the lab's step and stop_and_go), the teaching and
-short_damped designs, the first 60 s, seed 0, the 0.25 s fixed lag and the smoother: of γ = 1.0 … 4.0 in
-steps of 0.1, the one whose shares beyond 2σ (steady and after changes) are closest to a Gaussian's
-(calibration_miss)."""
+short_damped designs, the first 60 s, seed 0, lags 0.25 s and 1 s: of γ = 1.0 … 4.0 in steps of 0.1, the
+one whose shares beyond 2σ (steady and after changes) are closest to a Gaussian's (calibration_miss)."""
 
 
 def lag_variance(var_lag: np.ndarray, var_filter: np.ndarray) -> np.ndarray:
@@ -126,15 +124,19 @@ def lag_variance(var_lag: np.ndarray, var_filter: np.ndarray) -> np.ndarray:
     behind the trend, which the future samples remove, so the lagged error shrinks faster than P_lag/P_f
     (NEES 0.1–0.5 with γ = 1). The map leaves P_f where the future adds nothing (ratio 1: lag 0, a
     segment's end) and shrinks the rest as a power of the model's own ratio."""
-    # One output array, no temporaries: export maps a whole recording's column (a million samples and
-    # more) and must stay within its memory bound.
-    out = np.empty(np.shape(var_lag), dtype=np.float64)
-    kern.lag_variance_into(
-        np.ascontiguousarray(var_lag, dtype=np.float64).reshape(-1),
-        np.ascontiguousarray(var_filter, dtype=np.float64).reshape(-1),
-        LAG_VARIANCE_POWER,
-        out.reshape(-1),
-    )
+    # One output array and no copies of the inputs (column views are read in place): export maps a whole
+    # recording's column (a million samples and more) and must stay within its memory bound.
+    lagged, filtered = np.asarray(var_lag, dtype=np.float64), np.asarray(var_filter, dtype=np.float64)
+    out = np.empty(lagged.shape, dtype=np.float64)
+    if lagged.ndim == 1:
+        kern.lag_variance_into(lagged, filtered, LAG_VARIANCE_POWER, out)
+    else:  # a 0-d or n-d input: flattened (copies are small or rare here)
+        kern.lag_variance_into(
+            lagged.ravel(),
+            np.broadcast_to(filtered, lagged.shape).ravel(),
+            LAG_VARIANCE_POWER,
+            out.reshape(-1),
+        )
     return out
 
 
@@ -483,23 +485,15 @@ class KalmanEstimator(Estimator):
 
 
 SMOOTH_LAG = 1.0
-"""s: the least data after a sample that the smoother uses (all there is at a segment's end). Beyond about
-0.5 s a fixed-lag smoother is the fixed-interval one on the corpus (the latency–accuracy curve of
-docs/benchmarks/real_motion.md flattens there)."""
-SMOOTH_BLOCKS = 4
-"""Samples the smoother's backward pass gives per run, in SMOOTH_LAG windows: a sample costs
-(SMOOTH_BLOCKS + 1)/SMOOTH_BLOCKS backward steps, and the pass holds (SMOOTH_BLOCKS + 1)·SMOOTH_LAG of
-the recording (``imm_smoother``)."""
-SMOOTH_MIN_BLOCK = 256
-"""Samples: the least block, so that a low rate's short SMOOTH_LAG still runs its backward pass rarely."""
+"""s: the smoother's lag. Beyond about 0.5 s a fixed-lag smoother is the fixed-interval one on the corpus
+(the latency–accuracy curve of docs/benchmarks/real_motion.md flattens there)."""
 
 
 class SmootherEstimator(KalmanEstimator):
     """The kalman model's smoother: offline only (batch), the best a history can be.
 
-    Without ``q_accel``: the IMM smoother (``imm_smoother``: Kim's backward pass over blocks), each sample
-    using at least SMOOTH_LAG of the data after it (all there is at a segment's end), so it follows the
-    motion as the filter does; a sample costs the same whatever the rate. With ``q_accel``: the
+    Without ``q_accel``: the IMM's fixed-lag smoother at SMOOTH_LAG, the last SMOOTH_LAG of each segment
+    using all the data there is, so it follows the motion as the filter does. With ``q_accel``: the
     fixed-interval RTS smoother of the single model (ekf_kernels.rts).
     """
 
@@ -530,20 +524,14 @@ class SmootherEstimator(KalmanEstimator):
             init_angle_std=init_angle_std,
             reset_gap=reset_gap,
         )
-        imm_smoother.warm()  # loaded (from numba's cache) with the estimator, as the filter's passes are
 
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(âˢ, var âˢ): the IMM smoother (``imm_smoother``, its variance mapped by ``lag_variance``), or with
-        q_accel the RTS pass."""
+        """(âˢ, var âˢ): the IMM's fixed-lag pass at SMOOTH_LAG, or with q_accel the RTS pass."""
         t, theta = check_batch_input(t, theta)
-        if not self.modes:
-            return self.smoothed(t, theta)
-        overlap = lag_samples(SMOOTH_LAG, self.config.rate_hz)
-        block = max(SMOOTH_BLOCKS * overlap, SMOOTH_MIN_BLOCK)
-        a, var, _, var_f = imm_smoother.run_imm_smoother(
-            t, theta, self._params, self._qs, self._rates, block, overlap
-        )
-        return self._publish(t, a, lag_variance(var, var_f))
+        if self.modes:
+            a, var = self.lagged(t, theta, (lag_samples(SMOOTH_LAG, self.config.rate_hz),))
+            return a[:, 0], var[:, 0]
+        return self.smoothed(t, theta)
 
     def nominal_delay(self, accel: float) -> float:
         """0: a smoother has no lag (its latency is the recording)."""
