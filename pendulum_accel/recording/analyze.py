@@ -43,7 +43,7 @@ from pendulum_accel.estimators import (
 from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice
 from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change, change_rule
-from pendulum_accel.recording.contract import check_chain_contract
+from pendulum_accel.recording.contract import decode_chain
 from pendulum_accel.recording.settings import estimator_settings, motion_choice, uses_preset
 from pendulum_accel.scene import Scene, scene_from_yaml
 
@@ -420,13 +420,7 @@ def analyze_bag(
     recorded_in_step = estimate_topic not in requests and _has_messages(data, estimate_topic)
     if recorded_in_step:
         requests[estimate_topic] = (ACCEL_WITH_COVARIANCE_STAMPED, [*stamp, *_ESTIMATE_FIELDS])
-    try:
-        # One pass over the file for every topic analyze reads; it caches their shapes for the contract.
-        decoded = data.decode_topics(requests)
-    except BagError:
-        check_chain_contract(data)  # a foreign bag's one-line refusal comes before what its data broke
-        raise
-    check_chain_contract(data)
+    decoded = decode_chain(data, requests)  # one pass over the file, the chain contract's check with it
     js, truth = decoded[joint_topic], decoded[truth_topic]
     est = decoded.get(estimate_topic) if recorded_in_step else None
     del decoded
