@@ -317,6 +317,31 @@ def test_analyze_reads_each_chunk_once(tmp_path: Path, monkeypatch: pytest.Monke
     assert steady.n + after.n == int(np.count_nonzero(est["accel.covariance[0]"] > 0.0))
 
 
+@pytest.mark.usefixtures("small_chunks")
+def test_the_recorded_estimator_is_read_from_the_first_report_only(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A bag that names its estimator only in /diagnostics (as a live recording does): analyze reads each
+    chunk again once for its data, and then only the chunk of the first report, which names the method."""
+    t = np.arange(0.0, 6.0, 1.0 / RATE)
+    traj = simulate(Pendulum(LENGTH, damping=DAMPING), Step(T_STEP, 0.0, A_STEP), t, theta0=0.0)
+    a_est, var = estimate_batch("lowpass", t, traj.theta, rate_hz=RATE, **CONFIG)
+    streams = chain_streams(
+        t, traj.theta, traj.theta_dot, traj.accel, a_est, var, estimator="lowpass", rate_hz=RATE
+    )
+    write_chain_bag(tmp_path / "live", streams, custom_data={})
+    bag = read_bag(tmp_path / "live")
+    reads = _chunk_reads(monkeypatch)
+    result = analyze_bag(bag, config=CONFIG)
+    assert result.estimator == "lowpass" and result.recorded_figures is not None
+    assert result.recorded_figures.estimator == "lowpass"
+    chunks = sorted({b.ref.at for ch in bag._channels.values() for b in ch.blocks if isinstance(b, _Lazy)})
+    reports = next(ch for ch in bag._channels.values() if ch.topic == bm.TOPIC_DIAGNOSTICS).blocks
+    first_report = next(b.ref.at for b in reports if isinstance(b, _Lazy))
+    assert len(chunks) > 5 and sorted(reads) == sorted([*chunks, first_report])
+    assert list(bag.raw_payloads(bm.TOPIC_DIAGNOSTICS)) == bag.raw(bm.TOPIC_DIAGNOSTICS)[1]  # raw's, in order
+
+
 def _foreign_angles(msg: Any) -> None:
     """Edit: another robot's joint, with no position (position[0], which analyze decodes, is absent)."""
     msg.name = ["elbow_joint"]

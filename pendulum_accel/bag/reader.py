@@ -475,6 +475,19 @@ class Bag:
             return times[order], [payloads[i] for i in order]
         return times, payloads
 
+    def raw_payloads(self, topic: str, msgtype: str | None = None) -> Iterator[bytes]:
+        """raw(topic, msgtype)'s payloads one at a time, in its order; when the topic's log times never go
+        back in the file (one channel), file order is that order, and a chunk is read again only when
+        its payloads are reached (a caller that stops early reads no further)."""
+        chans = self._channels_of(topic, msgtype)
+        if len(chans) > 1 or not chans[0].ordered:
+            yield from self.raw(topic, msgtype)[1]
+            return
+        for _, data in self._iter_blocks(chans, self._cids([topic])):
+            if isinstance(data, _Slices):
+                data = data.rows()
+            yield from (row.tobytes() for row in data) if isinstance(data, np.ndarray) else data
+
     def _pass(
         self, topic: str, msgtype: str | None, want: frozenset[int] | None = None
     ) -> Iterator[tuple[NDArray[np.int64], _Classified]]:

@@ -11,6 +11,7 @@ figures over the settled samples. The re-run uses the estimator the bag was reco
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -525,8 +526,7 @@ def recorded_estimator(bag: Bag) -> str | None:
     topic = bag.chain_topic(TOPIC_DIAGNOSTICS)
     if topic not in bag.topics:
         return None
-    _, payloads = bag.raw(topic)
-    for data in payloads[:10]:
+    for data in itertools.islice(bag.raw_payloads(topic), 10):  # reads no further than the first that says
         try:
             msg = deserialize_as(data, DIAGNOSTIC_ARRAY, DiagnosticArrayMsg)
         except BagError:
