@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from pendulum_accel.bag import mcap_file
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag import writer as bag_writer
+from pendulum_accel.bag.reader import Bag, _Lazy, read_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.cli.main import main
 from pendulum_accel.cli.output import json_text
@@ -20,6 +24,7 @@ from pendulum_accel.physics.profiles import Step
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.recording.analyze import analyze_bag, plot_analysis, settling
 from pendulum_accel.recording.changes import CHANGE_ONSET, CHANGE_WINDOW, after_change, change_rule
+from pendulum_accel.recording.contract import decode_chain
 from pendulum_accel.recording.generate import chain_streams, generate_bag, write_chain_bag
 from test.conftest import strict_json
 from test.figures import assert_figure
@@ -266,3 +271,120 @@ def test_analyze_splits_a_real_trace_into_steady_and_after_change(
     for window in ("steady", "after_change"):
         assert 0.0 <= figures[f"nees_{window}_share_2sigma"] <= 1.0
     assert figures["motion_model"] == result.motion_model == "auto"  # learned from the angles, no scene rule
+
+
+@pytest.fixture
+def small_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Bags written in this test close a chunk past 16 KiB, so a short bag has many chunks to read again."""
+    monkeypatch.setattr(mcap_file, "CHUNK_BYTES", 1 << 14)
+    monkeypatch.setattr(bag_writer, "CHUNK_BYTES", 1 << 14)
+
+
+def _chunk_reads(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """The file offsets of the chunks every Bag reads again from now on, one entry per read."""
+    reads: list[int] = []
+    read_chunk = Bag._read_chunk
+
+    def counted(self: Bag, ref: Any, want: frozenset[int]) -> Any:
+        """Bag._read_chunk, noted."""
+        reads.append(ref.at)
+        return read_chunk(self, ref, want)
+
+    monkeypatch.setattr(Bag, "_read_chunk", counted)
+    return reads
+
+
+@pytest.mark.usefixtures("small_chunks")
+def test_analyze_reads_each_chunk_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The angles, the truth and the recorded estimate are decoded, and the chain contract checked, in one
+    pass: after the scan, analyze reads each chunk of the file again once, however many it has, and its
+    recorded figures and calibration are those of the recorded estimate decoded on its own."""
+    generate_bag("lecture_constant", tmp_path / "bag", duration=2.0)
+    bag = read_bag(tmp_path / "bag")
+    reads = _chunk_reads(monkeypatch)
+    result = analyze_bag(bag)
+    chunks = {b.ref.at for ch in bag._channels.values() for b in ch.blocks if isinstance(b, _Lazy)}
+    assert len(chunks) > 5 and sorted(reads) == sorted(chunks)
+    est = read_bag(tmp_path / "bag").decode(
+        bm.TOPIC_ACCEL_ESTIMATE,
+        fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x", "accel.covariance[0]"],
+    )
+    order = np.argsort(est.stamp, kind="stable")
+    assert result.recorded_figures is not None and result.recorded_calibration is not None
+    np.testing.assert_array_equal(result.recorded_figures.t, est.stamp[order])  # the same numbers, moved
+    np.testing.assert_array_equal(result.recorded_figures.accel, est["accel.accel.linear.x"][order])
+    steady, after = result.recorded_calibration.steady, result.recorded_calibration.after_change
+    assert steady.n + after.n == int(np.count_nonzero(est["accel.covariance[0]"] > 0.0))
+
+
+@pytest.mark.usefixtures("small_chunks")
+def test_the_recorded_estimator_is_read_from_the_first_report_only(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A bag that names its estimator only in /diagnostics (as a live recording does): analyze reads each
+    chunk again once for its data, and then only the chunk of the first report, which names the method."""
+    t = np.arange(0.0, 6.0, 1.0 / RATE)
+    traj = simulate(Pendulum(LENGTH, damping=DAMPING), Step(T_STEP, 0.0, A_STEP), t, theta0=0.0)
+    a_est, var = estimate_batch("lowpass", t, traj.theta, rate_hz=RATE, **CONFIG)
+    streams = chain_streams(
+        t, traj.theta, traj.theta_dot, traj.accel, a_est, var, estimator="lowpass", rate_hz=RATE
+    )
+    write_chain_bag(tmp_path / "live", streams, custom_data={})
+    bag = read_bag(tmp_path / "live")
+    reads = _chunk_reads(monkeypatch)
+    result = analyze_bag(bag, config=CONFIG)
+    assert result.estimator == "lowpass" and result.recorded_figures is not None
+    assert result.recorded_figures.estimator == "lowpass"
+    chunks = sorted({b.ref.at for ch in bag._channels.values() for b in ch.blocks if isinstance(b, _Lazy)})
+    reports = next(ch for ch in bag._channels.values() if ch.topic == bm.TOPIC_DIAGNOSTICS).blocks
+    first_report = next(b.ref.at for b in reports if isinstance(b, _Lazy))
+    assert len(chunks) > 5 and sorted(reads) == sorted([*chunks, first_report])
+    assert list(bag.raw_payloads(bm.TOPIC_DIAGNOSTICS)) == bag.raw(bm.TOPIC_DIAGNOSTICS)[1]  # raw's, in order
+
+
+def _foreign_angles(msg: Any) -> None:
+    """Edit: another robot's joint, with no position (position[0], which analyze decodes, is absent)."""
+    msg.name = ["elbow_joint"]
+    msg.position = np.zeros(0)
+    msg.velocity = np.zeros(0)
+
+
+@pytest.mark.usefixtures("small_chunks")
+def test_the_contract_refuses_a_foreign_bag_before_its_decoding_breaks(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Angles naming another joint, with no position: the one-pass decode breaks on the missing
+    position[0], but the refusal is the contract's line, which says why. A bag whose truth (a topic
+    decode_chain was not asked to decode) carries another frame is refused too, from the same single pass."""
+    generate_bag("lecture_constant", tmp_path / "bag", duration=2.0)
+    source = read_bag(tmp_path / "bag")
+    reads = _chunk_reads(monkeypatch)
+    for name, topic, edit, problem in (
+        ("elbow", bm.TOPIC_JOINT_STATES, _foreign_angles, "names joint(s) 'elbow_joint'"),
+        ("odom", bm.TOPIC_ACCEL_TRUTH, _odom, "/car/accel/truth messages are not the pendulum chain's"),
+    ):
+        with BagWriter(tmp_path / name, custom_data=source.custom_data) as writer:
+            for topic_name, info in source.topics.items():
+                writer.add_topic(topic_name, info.msgtype)
+            for topic_name, ns, data in source.iter_raw():
+                if topic_name == topic:
+                    msg = bm.deserialize(data, info_type := source.topics[topic_name].msgtype)
+                    edit(msg)
+                    data = bm.serialize(msg, info_type)
+                writer.write(topic_name, ns, data)
+        with pytest.raises(BagError, match=re.escape(problem)):
+            analyze_bag(tmp_path / name)
+        bag = read_bag(tmp_path / name)
+        if name == "elbow":  # decoded alone, the angles break on the missing field
+            with pytest.raises(BagError, match=re.escape("no field 'position[0]'")):
+                bag.decode(bm.TOPIC_JOINT_STATES, fields=["position[0]"])
+        reads.clear()
+        with pytest.raises(BagError, match=re.escape(problem)):
+            decode_chain(bag, {bm.TOPIC_CLOCK: (bm.CLOCK, None)})
+        if name == "odom":  # the decoding did not break: one pass found every shape the contract checks
+            assert len(reads) == len(set(reads)) > 5
+
+
+def _odom(msg: Any) -> None:
+    """Edit: header.frame_id 'odom', another frame than the car's."""
+    msg.header.frame_id = "odom"

@@ -475,6 +475,19 @@ class Bag:
             return times[order], [payloads[i] for i in order]
         return times, payloads
 
+    def raw_payloads(self, topic: str, msgtype: str | None = None) -> Iterator[bytes]:
+        """raw(topic, msgtype)'s payloads one at a time, in its order; when the topic's log times never go
+        back in the file (one channel), file order is that order, and a chunk is read again only when
+        its payloads are reached (a caller that stops early reads no further)."""
+        chans = self._channels_of(topic, msgtype)
+        if len(chans) > 1 or not chans[0].ordered:
+            yield from self.raw(topic, msgtype)[1]
+            return
+        for _, data in self._iter_blocks(chans, self._cids([topic])):
+            if isinstance(data, _Slices):
+                data = data.rows()
+            yield from (row.tobytes() for row in data) if isinstance(data, np.ndarray) else data
+
     def _pass(
         self, topic: str, msgtype: str | None, want: frozenset[int] | None = None
     ) -> Iterator[tuple[NDArray[np.int64], _Classified]]:
@@ -543,18 +556,27 @@ class Bag:
         return self.decode_topics({topic: (msgtype, fields)})[topic]
 
     def decode_topics(
-        self, requests: Mapping[str, tuple[str | None, Sequence[str] | None]]
+        self,
+        requests: Mapping[str, tuple[str | None, Sequence[str] | None]],
+        shapes: Sequence[str] = (),
     ) -> dict[str, TopicArrays]:
-        """decode(topic, msgtype, fields) of each {topic: (msgtype, fields)} in one pass over the file."""
+        """decode(topic, msgtype, fields) of each {topic: (msgtype, fields)} in one pass over the file; the
+        same pass finds the shapes of the topics ``shapes`` that are not decoded (as find_shapes)."""
         for topic, (msgtype, _) in requests.items():
             self._channels_of(topic, msgtype)
-        want = self._cids(list(requests))
-        return self._in_step(
-            {
-                topic: self._decoding(topic, msgtype, fields, want)
-                for topic, (msgtype, fields) in requests.items()
-            }
-        )
+        found = [
+            t
+            for t in dict.fromkeys(shapes)
+            if t in self.topics and t not in self._shape_cache and t not in requests
+        ]
+        want = self._cids([*requests, *found])
+        passes: dict[str, Generator[None, None, TopicArrays | None]] = {
+            topic: self._decoding(topic, msgtype, fields, want)
+            for topic, (msgtype, fields) in requests.items()
+        }
+        passes.update({topic: self._shape_pass(topic, want) for topic in found})
+        done = self._in_step(passes)
+        return {topic: got for topic in requests if (got := done[topic]) is not None}
 
     def _decoding(
         self, topic: str, msgtype: str | None, fields: Sequence[str] | None, want: frozenset[int]

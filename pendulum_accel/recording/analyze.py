@@ -11,6 +11,7 @@ figures over the settled samples. The re-run uses the estimator the bag was reco
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +31,7 @@ from pendulum_accel.bag.messages import (
     DiagnosticArrayMsg,
     deserialize_as,
 )
-from pendulum_accel.bag.reader import Bag, read_bag, scene_name
+from pendulum_accel.bag.reader import Bag, TopicArrays, read_bag, scene_name
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.estimators import (
@@ -43,7 +44,7 @@ from pendulum_accel.estimators import (
 from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice
 from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change, change_rule
-from pendulum_accel.recording.contract import check_chain_contract
+from pendulum_accel.recording.contract import decode_chain
 from pendulum_accel.recording.settings import estimator_settings, motion_choice, uses_preset
 from pendulum_accel.scene import Scene, scene_from_yaml
 
@@ -407,18 +408,23 @@ def analyze_bag(
             f"lag {lag:g} s is longer than the recording ({data.duration_s:.3f} s of {data.path}); "
             "for the whole recording use --estimator smoother"
         )
-    check_chain_contract(data)
-    joint_topic, truth_topic = (
+    joint_topic, truth_topic, estimate_topic = (
         data.chain_topic(TOPIC_JOINT_STATES),
         data.chain_topic(TOPIC_ACCEL_TRUTH),
+        data.chain_topic(TOPIC_ACCEL_ESTIMATE),
     )
-    both = data.decode_topics(  # one pass over the file for the two
-        {
-            joint_topic: (JOINT_STATE, ["header.stamp.sec", "header.stamp.nanosec", "position[0]"]),
-            truth_topic: (ACCEL_STAMPED, ["header.stamp.sec", "header.stamp.nanosec", "accel.linear.x"]),
-        }
-    )
-    js, truth = both[joint_topic], both[truth_topic]
+    stamp = ["header.stamp.sec", "header.stamp.nanosec"]
+    requests: dict[str, tuple[str | None, list[str] | None]] = {
+        joint_topic: (JOINT_STATE, [*stamp, "position[0]"]),
+        truth_topic: (ACCEL_STAMPED, [*stamp, "accel.linear.x"]),
+    }
+    recorded_in_step = estimate_topic not in requests and _has_messages(data, estimate_topic)
+    if recorded_in_step:
+        requests[estimate_topic] = (ACCEL_WITH_COVARIANCE_STAMPED, [*stamp, *_ESTIMATE_FIELDS])
+    decoded = decode_chain(data, requests)  # one pass over the file, the chain contract's check with it
+    js, truth = decoded[joint_topic], decoded[truth_topic]
+    est = decoded.get(estimate_topic) if recorded_in_step else None
+    del decoded
     if len(js) < 2:
         raise BagError(f"bag {data.path} holds {len(js)} joint states; at least 2 are needed")
     if len(truth) == 0:
@@ -430,24 +436,33 @@ def analyze_bag(
     t_order = np.argsort(tt, kind="stable")
     truth_t, truth_a = tt[t_order], truth["accel.linear.x"][t_order]
     a_true = np.interp(t, truth_t, truth_a)
-    del both, js, truth, tt, order, t_order  # the decoded columns: a long bag's memory goes to the re-run
+    del js, truth, tt, order, t_order  # the decoded columns: a long bag's memory goes to the re-run
     cfg = estimator_config(data, t)
     cfg.update(config or {})
     if "length" not in cfg:
         raise BagError(f"bag {data.path} stores no scene: give the pendulum length (--length)")
-    name = estimator or recorded_estimator(data) or DEFAULT_ESTIMATOR
+    has_recorded = recorded_in_step or _has_messages(data, estimate_topic)
+    recorded_method = recorded_estimator(data) if not estimator or has_recorded else None
+    name = estimator or recorded_method or DEFAULT_ESTIMATOR
     if lag > 0.0:
         cfg["lag"] = lag
     motion = bag_motion(data) if uses_preset(name) else None
     options: dict[str, object] = {} if motion is None else {"preset": motion.preset}
     method = make_estimator(name, **cfg, **options)  # type: ignore[arg-type]
+    tol = default_tolerance(a_true) if tolerance is None else float(tolerance)
+    recorded, recorded_cal = None, None
+    if has_recorded:
+        if est is None:  # its topic is also another role's: decoded on its own, as the contract allowed
+            est = _decode_estimate(data, estimate_topic)
+        # Before the re-run: its decoded columns are let go before the estimator's arrays are made.
+        recorded_cal = _recorded_calibration(est, truth_t, truth_a, t[0] + skip)
+        recorded = _recorded_figures(est, recorded_method, t, truth_t, truth_a, tol, t[0] + skip)
+        del est
     a_est, variance = method.batch(t, theta)
     motion_model = method.motion_model() or (motion.preset if motion is not None else None)
     a_est = np.asarray(a_est, dtype=np.float64)
     variance = np.asarray(variance, dtype=np.float64)
-    tol = default_tolerance(a_true) if tolerance is None else float(tolerance)
     offline = estimate_figures("offline re-run", name, t, t, a_est, a_true, tol, t[0] + skip)
-    recorded = _recorded_figures(data, t, truth_t, truth_a, tol, t[0] + skip)
     return Analysis(
         path=data.path,
         scene=scene_name(data),
@@ -469,24 +484,34 @@ def analyze_bag(
         offline_figures=offline,
         recorded_figures=recorded,
         calibration=calibration(t, a_est - a_true, variance, truth_t, truth_a, t[0] + skip),
-        recorded_calibration=_recorded_calibration(data, truth_t, truth_a, t[0] + skip),
+        recorded_calibration=recorded_cal,
         motion=motion,
         motion_model=motion_model,
     )
 
 
-def _recorded_calibration(
-    bag: Bag, t_truth: NDArray[np.float64], a_truth: NDArray[np.float64], t_from: float
-) -> Calibration | None:
-    """NEES figures of the recorded estimate and its covariance[0]; None without that topic."""
-    topic = bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
-    if topic not in bag.topics or bag.topics[topic].count == 0:
-        return None
-    est = bag.decode(
+_ESTIMATE_FIELDS = ["accel.accel.linear.x", "accel.covariance[0]"]
+"""The recorded estimate's fields analyze reads (besides its stamp): â and its variance."""
+
+
+def _has_messages(bag: Bag, topic: str) -> bool:
+    """True when the bag holds ``topic`` with at least one message."""
+    return topic in bag.topics and bag.topics[topic].count > 0
+
+
+def _decode_estimate(bag: Bag, topic: str) -> TopicArrays:
+    """The recorded estimate's stamps, â and variance (log-time order)."""
+    return bag.decode(
         topic,
         ACCEL_WITH_COVARIANCE_STAMPED,
-        fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x", "accel.covariance[0]"],
+        fields=["header.stamp.sec", "header.stamp.nanosec", *_ESTIMATE_FIELDS],
     )
+
+
+def _recorded_calibration(
+    est: TopicArrays, t_truth: NDArray[np.float64], a_truth: NDArray[np.float64], t_from: float
+) -> Calibration:
+    """NEES figures of the recorded estimate ``est`` (log-time order) and its covariance[0]."""
     te = est.stamp
     error = est["accel.accel.linear.x"] - np.interp(te, t_truth, a_truth)
     return calibration(te, error, est["accel.covariance[0]"], t_truth, a_truth, t_from)
@@ -501,8 +526,7 @@ def recorded_estimator(bag: Bag) -> str | None:
     topic = bag.chain_topic(TOPIC_DIAGNOSTICS)
     if topic not in bag.topics:
         return None
-    _, payloads = bag.raw(topic)
-    for data in payloads[:10]:
+    for data in itertools.islice(bag.raw_payloads(topic), 10):  # reads no further than the first that says
         try:
             msg = deserialize_as(data, DIAGNOSTIC_ARRAY, DiagnosticArrayMsg)
         except BagError:
@@ -515,28 +539,20 @@ def recorded_estimator(bag: Bag) -> str | None:
 
 
 def _recorded_figures(
-    bag: Bag,
+    est: TopicArrays,
+    method: str | None,
     angle_t: NDArray[np.float64],
     t_truth: NDArray[np.float64],
     a_truth: NDArray[np.float64],
     tolerance: float,
     skip_until: float,
-) -> EstimateFigures | None:
-    """Figures of the estimate recorded in the bag (the live estimator), None without that topic."""
-    topic = bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
-    if topic not in bag.topics or bag.topics[topic].count == 0:
-        return None
-    est = bag.decode(
-        topic,
-        ACCEL_WITH_COVARIANCE_STAMPED,
-        fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x"],
-    )
+) -> EstimateFigures:
+    """Figures of the estimate ``est`` recorded in the bag (the live estimator, ``method``)."""
     order = np.argsort(est.stamp, kind="stable")
     te = est.stamp[order]
     ae = est["accel.accel.linear.x"][order]
-    method = recorded_estimator(bag) or "unknown"
     truth = np.interp(te, t_truth, a_truth)
-    return estimate_figures("recorded", method, angle_t, te, ae, truth, tolerance, skip_until)
+    return estimate_figures("recorded", method or "unknown", angle_t, te, ae, truth, tolerance, skip_until)
 
 
 def smoothable(bag: Bag) -> bool:

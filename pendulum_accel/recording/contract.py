@@ -9,8 +9,10 @@ like figures of this one.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.reader import Bag
+from pendulum_accel.bag.reader import Bag, TopicArrays
 from pendulum_accel.errors import BagError
 from pendulum_accel.estimators.guard import frame_problem, joint_state_problem
 
@@ -19,13 +21,33 @@ FRAMED_TOPICS = (bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE)
 among them: its frame may be an ``imu_frame_id`` of the estimator's (docs/ros.md)."""
 
 
+def _checks() -> list[tuple[str, str | None]]:
+    """(root topic, message type) of every topic the contract checks."""
+    return [(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)] + [
+        (topic, bm.topic_type(topic)) for topic in FRAMED_TOPICS
+    ]
+
+
+def decode_chain(
+    bag: Bag, requests: Mapping[str, tuple[str | None, Sequence[str] | None]]
+) -> dict[str, TopicArrays]:
+    """bag.decode_topics(requests) of a bag that keeps the chain contract, in one pass over the file that
+    also finds the shapes check_chain_contract asks about; BagError (check_chain_contract's line first,
+    when the bag breaks it, even where the decoding broke before it) otherwise."""
+    try:
+        decoded = bag.decode_topics(requests, shapes=[bag.chain_topic(root) for root, _ in _checks()])
+    except BagError:
+        check_chain_contract(bag)  # a foreign bag's refusal says more than what its data broke
+        raise
+    check_chain_contract(bag)  # from the shapes the pass found: no other pass
+    return decoded
+
+
 def check_chain_contract(bag: Bag) -> None:
     """BagError (one line) unless every pendulum/joint_states message passes joint_state_problem and every
     message of FRAMED_TOPICS passes frame_problem, each found by its role under any namespace; topics the
     bag lacks are not checked here."""
-    checks = [(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)] + [
-        (topic, bm.topic_type(topic)) for topic in FRAMED_TOPICS
-    ]
+    checks = _checks()
     bag.find_shapes([bag.chain_topic(root) for root, _ in checks])  # one pass for all
     for root, msgtype in checks:
         topic = bag.chain_topic(root)
