@@ -1,6 +1,6 @@
 """Teardown benchmark: start and stop a chain node many times; how often it ends otherwise than exit 0.
 
-    python -m benchmarks.teardown [--runs N] [--hold S] [--quiet-graph] [--out DIR]
+    python -m benchmarks.teardown [--runs N] [--hold S] [--quiet-graph | --peer-leaves] [--out DIR]
 
 Each run starts ``bag_recorder`` (``python -m pendulum_accel.nodes.recorder_node``, recording to a fresh
 bag), waits for its "recording" line, lets it record ``--hold`` s, then stops it as the launcher does:
@@ -9,6 +9,8 @@ second SIGINT 1 s later if it still runs (a peer that never pauses keeps the dra
 Unless ``--quiet-graph``, a peer process in the same domain keeps the teardown busy the way a second
 chain or a stranger does: angles and /diagnostics at about 1 kHz, and publishers created and destroyed
 all the time, half of them best-effort (discovery and incompatible-QoS events at the recorder).
+With ``--peer-leaves`` each run has its own peer, stopped at the same moment as the recorder, as a
+test's teardown stops every process it started: both participants leave the graph at once.
 
 Reported: exit codes (0, killed by a signal, other), whether the bag was closed, and the stop time
 (first SIGINT to exit). The bound beside the crash count is zero: a node that closed its bag has
@@ -90,8 +92,34 @@ def wait_for(path: Path, text: str, proc: subprocess.Popen[bytes], timeout: floa
     return False
 
 
-def one_run(folder: Path, k: int, hold: float) -> tuple[int | None, bool, float, str]:
-    """(exit code or None if hung, bag closed, stop time s, stderr) of one recorder start and stop."""
+def start_peer() -> subprocess.Popen[str]:
+    """The peer (``--peer``) in its own session, returned once it publishes."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "benchmarks.teardown", "--peer"],
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    assert proc.stdout is not None
+    proc.stdout.readline()  # "peer: up"
+    return proc
+
+
+def stop_peer(proc: subprocess.Popen[str]) -> None:
+    """SIGINT the peer; SIGKILL its group if it has not ended 10 s later."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+
+
+def one_run(
+    folder: Path, k: int, hold: float, leaving: subprocess.Popen[str] | None = None
+) -> tuple[int | None, bool, float, str]:
+    """(exit code or None if hung, bag closed, stop time s, stderr) of one recorder start and stop;
+    ``leaving``: a peer stopped at the same moment as the recorder (both participants leave at once)."""
     out, err = folder / f"run{k}.out", folder / f"run{k}.err"
     command = [
         sys.executable,
@@ -113,6 +141,8 @@ def one_run(folder: Path, k: int, hold: float) -> tuple[int | None, bool, float,
         time.sleep(hold)
         start = time.monotonic()
         proc.send_signal(signal.SIGINT)
+        if leaving is not None:
+            leaving.send_signal(signal.SIGINT)
         try:
             proc.wait(1.0)
         except subprocess.TimeoutExpired:
@@ -145,6 +175,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--runs", type=int, default=30, help="start/stop cycles (default 30)")
     parser.add_argument("--hold", type=float, default=1.0, help="s of recording before the stop (default 1)")
     parser.add_argument("--quiet-graph", action="store_true", help="no peer: nothing else on the graph")
+    parser.add_argument(
+        "--peer-leaves",
+        action="store_true",
+        help="a peer per run, stopped at the same moment as the recorder (as a test's teardown stops all)",
+    )
     parser.add_argument("--out", type=Path, default=Path("out/bench"))
     parser.add_argument("--peer", action="store_true", help=argparse.SUPPRESS)
     report.add_docs_argument(parser)
@@ -160,17 +195,15 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="teardown_") as tmp:
         folder = Path(tmp)
         try:
-            if not args.quiet_graph:
-                peer_proc = subprocess.Popen(
-                    [sys.executable, "-m", "benchmarks.teardown", "--peer"],
-                    stdout=subprocess.PIPE,
-                    text=True,
-                    start_new_session=True,
-                )
-                assert peer_proc.stdout is not None
-                peer_proc.stdout.readline()  # "peer: up"
+            if not (args.quiet_graph or args.peer_leaves):
+                peer_proc = start_peer()
             for k in range(args.runs):
-                code, bag_closed, stopped, stderr = one_run(folder, k, args.hold)
+                leaving = start_peer() if args.peer_leaves else None
+                try:
+                    code, bag_closed, stopped, stderr = one_run(folder, k, args.hold, leaving)
+                finally:
+                    if leaving is not None:
+                        stop_peer(leaving)
                 outcomes[describe(code)] += 1
                 closed += bag_closed
                 if stopped == stopped:  # not NaN: the node came up
@@ -180,13 +213,13 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"run {k + 1}/{args.runs}: {describe(code)}, bag closed {bag_closed}", flush=True)
         finally:
             if peer_proc is not None:
-                peer_proc.send_signal(signal.SIGINT)
-                try:
-                    peer_proc.wait(10)
-                except subprocess.TimeoutExpired:
-                    os.killpg(peer_proc.pid, signal.SIGKILL)
-                    peer_proc.wait()
-    graph = "quiet (no other participant)" if args.quiet_graph else "busy (the peer: ~1 kHz traffic, churn)"
+                stop_peer(peer_proc)
+    if args.quiet_graph:
+        graph = "quiet (no other participant)"
+    elif args.peer_leaves:
+        graph = "busy, the peer stopped with the recorder (one per run)"
+    else:
+        graph = "busy (the peer: ~1 kHz traffic, churn)"
     rows = [
         "| runs | graph | " + " | ".join(sorted(outcomes)) + " | bag closed | stop time median / max (s) |",
         "|---|---|" + "---|" * len(outcomes) + "---|---|",
