@@ -288,16 +288,20 @@ def bag_series(path: str | Bag) -> StaticSeries:
         TOPIC_JOINT_STATES,
     )
     from pendulum_accel.bag.reader import Bag, read_bag
-    from pendulum_accel.recording.contract import check_chain_contract
+    from pendulum_accel.recording.contract import decode_chain
 
     bag = path if isinstance(path, Bag) else read_bag(path, salvage=False)
     path = str(bag.path)
-    check_chain_contract(bag)
-    js = bag.decode(
-        bag.chain_topic(TOPIC_JOINT_STATES),
-        JOINT_STATE,
-        fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"],
-    )
+    angles, estimate = bag.chain_topic(TOPIC_JOINT_STATES), bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
+    stamp = ["header.stamp.sec", "header.stamp.nanosec"]
+    requests: dict[str, tuple[str | None, list[str] | None]] = {
+        angles: (JOINT_STATE, [*stamp, "position[0]"])
+    }
+    with_estimate = estimate in bag.topics and bag.topics[estimate].count >= MIN_SAMPLES
+    if with_estimate and estimate != angles:
+        requests[estimate] = (ACCEL_WITH_COVARIANCE_STAMPED, [*stamp, "accel.accel.linear.x"])
+    decoded = decode_chain(bag, requests)  # the angles, the estimate and the contract in one pass
+    js = decoded[angles]
     if len(js) < MIN_SAMPLES:
         raise ParameterError(
             f"bag {path} holds {len(js)} angle samples; the Allan deviation needs {MIN_SAMPLES}"
@@ -307,13 +311,8 @@ def bag_series(path: str | Bag) -> StaticSeries:
     dt = np.diff(t[order])
     rate = float(1.0 / np.median(dt[dt > 0])) if np.any(dt > 0) else 0.0
     accel = None
-    estimate = bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
-    if estimate in bag.topics and bag.topics[estimate].count >= MIN_SAMPLES:
-        est = bag.decode(
-            estimate,
-            ACCEL_WITH_COVARIANCE_STAMPED,
-            fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x"],
-        )
+    if estimate in decoded:
+        est = decoded[estimate]
         accel = est["accel.accel.linear.x"][np.argsort(est.stamp, kind="stable")]
     return StaticSeries(
         f"bag {path}", rate, js["position[0]"][order], accel, "recorded" if accel is not None else None

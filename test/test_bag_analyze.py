@@ -318,6 +318,31 @@ def test_analyze_reads_each_chunk_once(tmp_path: Path, monkeypatch: pytest.Monke
 
 
 @pytest.mark.usefixtures("small_chunks")
+def test_allan_reads_each_chunk_at_most_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """allan's series (the angles and the recorded estimate, and the chain contract) come from one pass:
+    after the scan no chunk is read twice, and the series are the topics' own numbers."""
+    from pendulum_accel.allan import bag_series
+
+    generate_bag("lecture_constant", tmp_path / "bag", duration=2.0)
+    bag = read_bag(tmp_path / "bag")
+    reads = _chunk_reads(monkeypatch)
+    series = bag_series(bag)
+    assert len(reads) > 5 and len(reads) == len(set(reads))
+    fresh = read_bag(tmp_path / "bag")
+    js = fresh.decode(
+        bm.TOPIC_JOINT_STATES, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
+    )
+    est = fresh.decode(
+        bm.TOPIC_ACCEL_ESTIMATE, fields=["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x"]
+    )
+    np.testing.assert_array_equal(series.theta, js["position[0]"][np.argsort(js.stamp, kind="stable")])
+    assert series.accel is not None
+    np.testing.assert_array_equal(
+        series.accel, est["accel.accel.linear.x"][np.argsort(est.stamp, kind="stable")]
+    )
+
+
+@pytest.mark.usefixtures("small_chunks")
 def test_the_recorded_estimator_is_read_from_the_first_report_only(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
