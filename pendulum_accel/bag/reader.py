@@ -147,6 +147,13 @@ _Block = tuple[NDArray[np.int64], _Payloads]
 """Messages in file order: (log times, payloads as (n, size) rows, slices of a chunk, or a list of bytes)."""
 
 
+def _block_payloads(data: _Payloads) -> list[bytes]:
+    """A block's payloads as bytes, one per message, in order."""
+    if isinstance(data, _Slices):
+        data = data.rows()
+    return [row.tobytes() for row in data] if isinstance(data, np.ndarray) else data
+
+
 @dataclass(frozen=True)
 class _ChunkRef:
     """Where an intact chunk lies: its Chunk record at file offset ``at`` (body ``length`` bytes), the
@@ -466,9 +473,7 @@ class Bag:
         chans = self._channels_of(topic, msgtype)
         for t, data in self._iter_blocks(chans, self._cids([topic])):
             parts.append(t)
-            if isinstance(data, _Slices):
-                data = data.rows()
-            payloads += [row.tobytes() for row in data] if isinstance(data, np.ndarray) else data
+            payloads += _block_payloads(data)
         times = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
         if times.size > 1 and np.any(np.diff(times) < 0):
             order = np.argsort(times, kind="stable")
@@ -484,9 +489,7 @@ class Bag:
             yield from self.raw(topic, msgtype)[1]
             return
         for _, data in self._iter_blocks(chans, self._cids([topic])):
-            if isinstance(data, _Slices):
-                data = data.rows()
-            yield from (row.tobytes() for row in data) if isinstance(data, np.ndarray) else data
+            yield from _block_payloads(data)
 
     def _pass(
         self, topic: str, msgtype: str | None, want: frozenset[int] | None = None

@@ -115,28 +115,19 @@ one whose shares beyond 2σ (steady and after changes) are closest to a Gaussian
 
 
 def lag_variance(var_lag: np.ndarray, var_filter: np.ndarray) -> np.ndarray:
-    """P_f (P_lag/P_f)^γ, γ = LAG_VARIANCE_POWER, the ratio clipped to [0, 1]: the fixed-lag variance
-    as it matches real motion (docs/estimators.md, "Fixed lag"); ``ekf_kernels.lag_variance_one`` per
-    sample, the formula the live fixed-lag output uses too.
+    """P_f (P_lag/P_f)^γ of 1-d columns, γ = LAG_VARIANCE_POWER, the ratio clipped to [0, 1]: the
+    fixed-lag variance as it matches real motion (docs/estimators.md, "Fixed lag");
+    ``ekf_kernels.lag_variance_one`` per sample, the formula the live fixed-lag output uses too.
 
     Under the random walk the IMM assumes, P_lag is the error variance (NEES 0.9 on a simulated walk). Real
     a(t) is smoother than a walk of the q_a that follows its changes: the filter's error is mostly its lag
     behind the trend, which the future samples remove, so the lagged error shrinks faster than P_lag/P_f
     (NEES 0.1–0.5 with γ = 1). The map leaves P_f where the future adds nothing (ratio 1: lag 0, a
     segment's end) and shrinks the rest as a power of the model's own ratio."""
-    # One output array and no copies of the inputs (column views are read in place): export maps a whole
-    # recording's column (a million samples and more) and must stay within its memory bound.
-    lagged, filtered = np.asarray(var_lag, dtype=np.float64), np.asarray(var_filter, dtype=np.float64)
-    out = np.empty(lagged.shape, dtype=np.float64)
-    if lagged.ndim == 1:
-        kern.lag_variance_into(lagged, filtered, LAG_VARIANCE_POWER, out)
-    else:  # a 0-d or n-d input: flattened (copies are small or rare here)
-        kern.lag_variance_into(
-            lagged.ravel(),
-            np.broadcast_to(filtered, lagged.shape).ravel(),
-            LAG_VARIANCE_POWER,
-            out.reshape(-1),
-        )
+    # One output array and no copies of the inputs (the lag table's column views are read in place):
+    # export maps a whole recording's column (a million samples and more) within its memory bound.
+    out = np.empty(var_lag.shape, dtype=np.float64)
+    kern.lag_variance_into(var_lag, var_filter, LAG_VARIANCE_POWER, out)
     return out
 
 
