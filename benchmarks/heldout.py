@@ -39,6 +39,7 @@ from benchmarks.real_motion import (
     kalman_q,
     pooled_rms,
     q_scan,
+    share_cell,
     simulate_runs,
 )
 from pendulum_accel.cluster import map_tasks
@@ -134,7 +135,8 @@ def line(r: Result) -> str:
 def table(results: Sequence[Result]) -> str:
     """The markdown table of every result."""
     rows = [
-        "| trace | preset | design | kalman RMS | / hindsight EKF | / g·tanθ | >2σ steady | >2σ after | NEES "
+        "| trace | preset | design | kalman RMS | / hindsight EKF | / g·tanθ | >2σ steady (n_eff) "
+        "| >2σ after (n_eff) | NEES "
         "| smoother / hindsight RTS | meets |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -142,7 +144,8 @@ def table(results: Sequence[Result]) -> str:
         k = r.kalman
         rows.append(
             f"| {r.trace} | {r.preset} | {r.design} | {k.rms:.3g} | {k.rms / r.hindsight.rms:.2f} | "
-            f"{k.rms / r.gtan.rms:.2f} | {100 * k.beyond_steady:.1f} % | {100 * k.beyond_after:.1f} % | "
+            f"{k.rms / r.gtan.rms:.2f} | {share_cell(k.beyond_steady, k.eff_steady)} | "
+            f"{share_cell(k.beyond_after, k.eff_after)} | "
             f"{k.nees:.2f} | {r.smoother / r.rts_hindsight:.2f} | {'yes' if r.meets else 'no'} |"
         )
     return "\n".join(rows)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -65,6 +66,9 @@ def test_figures_are_finite_and_bounds_order_as_theory_says(quick: tuple) -> Non
         assert math.isnan(s.beyond_steady) or 0.0 <= s.beyond_steady <= 1.0  # NaN: an agile robot is
         # never steady for 3 s (f1tenth_ds5: every sample lies within 2 s of a change)
         assert math.isnan(s.beyond_after) or 0.0 <= s.beyond_after <= 1.0
+        # Each share's independent trials: at least one per stretch, at most one per sample.
+        for n, eff in ((s.n_steady, s.eff_steady), (s.n_after, s.eff_after)):
+            assert (n == 0 and eff == 0.0) or 1.0 <= eff <= n
     for design in rm.designs():
         for profile in {r.profile for r in rows}:
             by = {
@@ -96,3 +100,20 @@ def test_calibration_miss_is_zero_for_a_gaussian_share_and_grows_both_ways() -> 
     assert rm.calibration_miss([0.0, gauss, n, 0.0, 0.0]) == pytest.approx(0.0, abs=1e-12)
     floored = rm.calibration_miss([0.0, 0.0, n, gauss, n])
     assert floored == pytest.approx(math.log(rm.GAUSS_2SIGMA / rm.SHARE_FLOOR), abs=1e-12)
+
+
+def test_targets_count_every_judged_cell_once(quick: tuple) -> None:
+    """Each JUDGED output's line counts its cells as in, unsure or out (coverage.verdict), and these add up
+    to its shares that have samples (the counts parsed from the page's line, never compared as text)."""
+    rows, _, _, out = quick
+    text = (out / "benchmarks" / "real_motion.md").read_text()
+    for method in rm.JUDGED:
+        line = next(t for t in text.splitlines() if t.startswith(f"- {method}, cells"))
+        found = re.search(r"(\d+) of (\d+);.*reach: (\d+);.*interval: (\d+)", line)
+        assert found is not None, line
+        inside, total, unsure, outside = (int(x) for x in found.groups())
+        mine = [r for r in rows if r.method == method or r.method.split("=")[0] == method]
+        shares = [x for r in mine for x in (r.score.beyond_steady, r.score.beyond_after) if math.isfinite(x)]
+        assert total == len(shares) == inside + unsure + outside
+        kinds = rm.verdicts(rows, method)
+        assert (len(kinds["in"]), len(kinds["unsure"]), len(kinds["out"])) == (inside, unsure, outside)
