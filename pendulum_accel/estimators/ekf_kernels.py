@@ -424,14 +424,14 @@ ImmScratch = tuple[
 
 
 @njit(cache=True)
-def imm_scratch(m: int) -> ImmScratch:
-    """Work arrays of one imm_step for m modes: (c, x⁰, P⁰, F, K, log-likelihoods, Π, mixing weights w,
-    a buffered sample's mixed â, var, c, and [the Δt Π was computed for, the chain's band]: at a steady
-    rate Π and the band are computed once)."""
+def imm_scratch(m: int, size: int = 1) -> ImmScratch:
+    """Work arrays of one imm_step for m modes and a buffer of ``size`` samples: (c, x⁰, P⁰, F, K,
+    log-likelihoods, Π, mixing weights w, the buffer's mixed â, var (m × size) and c (m × 3 × size), and
+    [the Δt Π was computed for, the chain's band]: at a steady rate Π and the band are computed once)."""
     return (
         np.zeros(m), np.zeros((m, 3)), np.zeros((m, 3, 3)), np.empty((3, 3)), np.empty(3), np.empty(m),
-        np.empty((m, m)), np.empty((m, m)), np.empty(m), np.empty(m), np.empty((m, 3)),
-        np.array([np.nan, -1.0]),
+        np.empty((m, m)), np.empty((m, m)), np.zeros((m, size)), np.zeros((m, size)),
+        np.zeros((m, 3, size)), np.array([np.nan, -1.0]),
     )  # fmt: skip
 
 
@@ -462,8 +462,9 @@ def imm_step(
     and correct each model, μ_j ∝ c_j N(ν_j; 0, S_j), and combine: x = Σ μ_j x_j,
     P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ). ``state``, ``params``: as ``step``; x, p receive the combination.
 
-    Fixed lag (each mode keeps ``step``'s buffer, ra, rv, rc: (modes × N + 1) for a lag of N samples): the
-    mixing mixes each buffered sample's â, var and cross-covariance row like the state (``_mix_ring``: the
+    Fixed lag (each mode keeps ``step``'s buffer, ra, rv: modes × (N + 1), rc: modes × 3 × (N + 1), for a
+    lag of N samples; the buffer is the innermost axis, so its loops run as vector arithmetic): the mixing
+    mixes each buffered sample's â, var and cross-covariance row like the state (``_mix_ring``: the
     augmented state's IMM mixing, restricted to the blocks the update reads), each mode's prediction and
     update move them as ``step`` does, and ``imm_lagged`` combines a sample over the modes. N = 0 (a
     buffer of one) is the filter alone. ``scratch``: work arrays (``imm_scratch``), kept by the caller so
@@ -558,35 +559,45 @@ def _mix_ring(
     ra: np.ndarray,
     rv: np.ndarray,
     rc: np.ndarray,
-    slot: int,
     new_a: np.ndarray,
     new_v: np.ndarray,
     new_c: np.ndarray,
     band: int,
 ) -> None:
-    """IMM mixing of one buffered sample's blocks: â⁰_j = Σ_i w_ij â_i, var⁰_j = Σ_i w_ij (var_i + (â_i −
+    """IMM mixing of every buffered sample's blocks: â⁰_j = Σ_i w_ij â_i, var⁰_j = Σ_i w_ij (var_i + (â_i −
     â⁰_j)²), c⁰_j = Σ_i w_ij (c_i + (â_i − â⁰_j)(x_i − x⁰_j)) (the a_slot rows of the mixed augmented
-    covariance: all the fixed-lag update needs)."""
-    m = xs.shape[0]
+    covariance: all the fixed-lag update needs). The buffer is the innermost, contiguous axis, so each
+    sum runs as vector arithmetic over all slots; a slot's own sums keep their order over i."""
+    m, size = ra.shape
     for j in range(m):
         lo, hi = max(0, j - band), min(m, j + band + 1)  # w_ij = 0 beyond the chain's band
-        a0 = 0.0
+        acc_a = new_a[j]
+        acc_v = new_v[j]
+        acc_c = new_c[j]
+        for s in range(size):
+            acc_a[s] = 0.0
+            acc_v[s] = 0.0
+            acc_c[0, s] = 0.0
+            acc_c[1, s] = 0.0
+            acc_c[2, s] = 0.0
         for i in range(lo, hi):
-            a0 += w[i, j] * ra[i, slot]
-        v0 = 0.0
-        c0, c1, c2 = 0.0, 0.0, 0.0
+            wij = w[i, j]
+            row = ra[i]
+            for s in range(size):
+                acc_a[s] += wij * row[s]
         for i in range(lo, hi):
-            da = ra[i, slot] - a0
-            v0 += w[i, j] * (rv[i, slot] + da * da)
-            c0 += w[i, j] * (rc[i, slot, 0] + da * (xs[i, 0] - x0[j, 0]))
-            c1 += w[i, j] * (rc[i, slot, 1] + da * (xs[i, 1] - x0[j, 1]))
-            c2 += w[i, j] * (rc[i, slot, 2] + da * (xs[i, 2] - x0[j, 2]))
-        new_a[j], new_v[j] = a0, v0
-        new_c[j, 0], new_c[j, 1], new_c[j, 2] = c0, c1, c2
-    for j in range(m):
-        ra[j, slot], rv[j, slot] = new_a[j], new_v[j]
-        for b in range(3):
-            rc[j, slot, b] = new_c[j, b]
+            wij = w[i, j]
+            d0, d1, d2 = xs[i, 0] - x0[j, 0], xs[i, 1] - x0[j, 1], xs[i, 2] - x0[j, 2]
+            row_a, row_v, row_c = ra[i], rv[i], rc[i]
+            for s in range(size):
+                da = row_a[s] - acc_a[s]
+                acc_v[s] += wij * (row_v[s] + da * da)
+                acc_c[0, s] += wij * (row_c[0, s] + da * d0)
+                acc_c[1, s] += wij * (row_c[1, s] + da * d1)
+                acc_c[2, s] += wij * (row_c[2, s] + da * d2)
+    ra[:] = new_a
+    rv[:] = new_v
+    rc[:] = new_c
 
 
 @njit(cache=True)
@@ -631,31 +642,40 @@ def _imm_step_into(
         memo[1] = band
     band = int(memo[1])
     _mix(xs, ps, mu, pi, cj, w, x0, p0, band)
-    for jj in range(1, held + 1):
-        _mix_ring(xs, x0, w, ra, rv, rc, (count - jj) % size, new_a, new_v, new_c, band)
+    # The buffer's loops run over every slot, held or not: a slot not yet held holds nothing anyone reads
+    # (it is written whole before it is read), and whole contiguous rows run as vector arithmetic.
+    if held:
+        _mix_ring(xs, x0, w, ra, rv, rc, new_a, new_v, new_c, band)
     new = count % size
     for j in range(m):
         xj = x0[j]
         pj = p0[j]
         predict(xj, pj, f, dt, g, 1.0 / length, c, q_rate, qs[j])
-        for jj in range(1, held + 1):  # the buffered a's cross-covariances: c ← F c
-            slot = (count - jj) % size
-            c0, c1, c2 = rc[j, slot, 0], rc[j, slot, 1], rc[j, slot, 2]
-            for b in range(3):
-                rc[j, slot, b] = f[b, 0] * c0 + f[b, 1] * c1 + f[b, 2] * c2
-        ra[j, new], rv[j, new] = xj[2], pj[2, 2]
+        row_a, row_v, row_c = ra[j], rv[j], rc[j]
+        if held:  # the buffered a's cross-covariances: c ← F c
+            f00, f01, f02 = f[0, 0], f[0, 1], f[0, 2]
+            f10, f11, f12 = f[1, 0], f[1, 1], f[1, 2]
+            f20, f21, f22 = f[2, 0], f[2, 1], f[2, 2]
+            for s in range(size):
+                c0, c1, c2 = row_c[0, s], row_c[1, s], row_c[2, s]
+                row_c[0, s] = f00 * c0 + f01 * c1 + f02 * c2
+                row_c[1, s] = f10 * c0 + f11 * c1 + f12 * c2
+                row_c[2, s] = f20 * c0 + f21 * c1 + f22 * c2
+        row_a[new], row_v[new] = xj[2], pj[2, 2]
         for b in range(3):
-            rc[j, new, b] = pj[2, b]
-        nu, s = correct(xj, pj, k, y, r)
-        for jj in range(0, held + 1):
-            slot = (count - jj) % size
-            c0 = rc[j, slot, 0]
-            ra[j, slot] += c0 * nu / s
-            rv[j, slot] -= c0 * c0 / s
-            for b in range(3):
-                rc[j, slot, b] -= c0 * k[b]
+            row_c[b, new] = pj[2, b]
+        nu, s_nu = correct(xj, pj, k, y, r)
+        k0, k1, k2 = k[0], k[1], k[2]
+        lo_s, hi_s = (0, size) if held else (new, new + 1)
+        for s in range(lo_s, hi_s):
+            c0 = row_c[0, s]
+            row_a[s] += c0 * nu / s_nu
+            row_v[s] -= c0 * c0 / s_nu
+            row_c[0, s] -= c0 * k0
+            row_c[1, s] -= c0 * k1
+            row_c[2, s] -= c0 * k2
         _copy3(xj, pj, xs[j], ps[j])
-        logl[j] = -0.5 * (nu * nu / s + math.log(s)) + math.log(cj[j])
+        logl[j] = -0.5 * (nu * nu / s_nu + math.log(s_nu)) + math.log(cj[j])
     _update_modes(logl, mu)
     _combine(xs, ps, mu, x, p)
     if _finite(x, p):
@@ -718,7 +738,7 @@ def _imm_start(
         mu[j] = 1.0 / m
         ra[j, 0], rv[j, 0] = x[2], p[2, 2]
         for b in range(3):
-            rc[j, 0, b] = p[2, b]
+            rc[j, b, 0] = p[2, b]
     state[0], state[1] = t, 1.0
 
 
@@ -749,9 +769,9 @@ def run_imm(
     p = np.zeros((3, 3))
     ra = np.zeros((m, size))
     rv = np.zeros((m, size))
-    rc = np.zeros((m, size, 3))
+    rc = np.zeros((m, 3, size))
     state = np.array([np.nan, 0.0])
-    scratch = imm_scratch(m)
+    scratch = imm_scratch(m, size)
     for i in range(n):
         if i > 0 and needs_restart(state, t[i], params[6]):
             _imm_flush(a, v, mu, ra, rv, i - 1, int(state[1]), lags)
@@ -848,8 +868,8 @@ def warm() -> None:
     # out, the estimator compiled it at its first angle, while the simulator waited for it.
     m, size = 2, 1
     xs, ps, mu = np.zeros((m, 3)), np.zeros((m, 3, 3)), np.full(m, 1.0 / m)
-    ra, rv, rc = np.zeros((m, size)), np.zeros((m, size)), np.zeros((m, size, 3))
-    x, p, state, scratch = np.zeros(3), np.zeros((3, 3)), np.array([np.nan, 0.0]), imm_scratch(m)
+    ra, rv, rc = np.zeros((m, size)), np.zeros((m, size)), np.zeros((m, 3, size))
+    x, p, state, scratch = np.zeros(3), np.zeros((3, 3)), np.array([np.nan, 0.0]), imm_scratch(m, size)
     for k in range(3):
         imm_step(xs, ps, mu, x, p, ra, rv, rc, state, float(t[k]), float(y[k]), params, qs, rates, scratch)
     imm_lagged(mu, ra, rv, 0)  # the live fixed-lag output (lag > 0) and its variance map's filter column

@@ -224,11 +224,11 @@ class KalmanEstimator(Estimator):
         m = max(len(self.modes), 1)
         self._ra = np.zeros((m, size))
         self._rv = np.zeros((m, size))
-        self._rc = np.zeros((m, size, 3))
+        self._rc = np.zeros((m, 3, size))
         self._xs = np.zeros((m, 3))
         self._ps = np.zeros((m, 3, 3))
         self._mu = np.full(m, 1.0 / m)
-        self._scratch = kern.imm_scratch(m)
+        self._scratch = kern.imm_scratch(m, size)
         self._first_t: float | None = None  # sensor turn-on, for the bias variance
 
     def update(self, t: float, theta: float) -> Estimate | None:
