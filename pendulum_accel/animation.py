@@ -11,7 +11,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-import os
 import shutil
 import subprocess
 from collections.abc import Callable, Iterator
@@ -194,14 +193,15 @@ class SwingAnimation:
         return [self.rod, self.bob, self.arrows, self.cursor, self.trace, self.text]
 
     def save(self, path: Path, on_frame: Callable[[], object] | None = None) -> Path:
-        """Write the animation: GIF with Pillow, MP4 with ffmpeg (ParameterError when it is not installed).
+        """Write the animation to ``path``: GIF with Pillow, MP4 with ffmpeg (ParameterError when it is not
+        installed); on an error or an interrupt the encoder is stopped and ``path`` removed if this call
+        created it.
 
-        ``on_frame`` is called after each frame is written (a progress bar).
+        ``path`` is written in place: the animate command passes the hidden partial name of
+        cli.output.write_output, which renames it over the asked name once complete (one partial name,
+        made in one place). ``on_frame`` is called after each frame is written (a progress bar).
         """
         out = check_output_path(path)
-        # Frames go to a hidden sibling with the same suffix (Pillow and ffmpeg pick the format by it),
-        # renamed over ``out`` only once complete: an interrupt or error leaves no partial GIF or MP4.
-        partial = out.with_name(f".{out.stem}.partial{out.suffix}")
         writer: PillowWriter | FFMpegWriter
         if out.suffix.lower() == ".gif":
             writer = PillowWriter(fps=self.fps)
@@ -211,8 +211,8 @@ class SwingAnimation:
             writer = FFMpegWriter(fps=self.fps, codec="h264", extra_args=["-pix_fmt", "yuv420p", "-xerror"])
         # Not writer.saving(): its finally encodes every frame grabbed so far even on Ctrl-C (seconds of
         # Pillow or ffmpeg work, and a partial file). Each frame is drawn once, by the writer's savefig.
-        done = False
-        writer.setup(self.figure, str(partial), DPI)
+        done, existed = False, out.exists()
+        writer.setup(self.figure, str(out), DPI)
         try:
             # matplotlib logs a failed encoder's whole stderr as a warning; the one line below says it.
             with mpl.rc_context({"savefig.bbox": None}), _quiet_logger("matplotlib.animation"):
@@ -226,12 +226,12 @@ class SwingAnimation:
                 except (BrokenPipeError, subprocess.CalledProcessError) as err:
                     # ffmpeg stopped (its pipe closed) or exited non-zero: say why, in its words.
                     raise _encoder_failure(writer, err) from None
-            os.replace(partial, out)
             done = True
         finally:
             if not done:
                 _abandon(writer)
-                partial.unlink(missing_ok=True)
+                if not existed:
+                    out.unlink(missing_ok=True)
         return out
 
 

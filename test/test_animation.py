@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -120,6 +121,27 @@ def test_a_bag_animates_from_its_recorded_angles(tmp_path: Path) -> None:
         capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
+    with Image.open(out) as img:
+        assert img.size == (WIDTH, HEIGHT) and getattr(img, "n_frames", 1) == 3
+
+
+def test_animate_writes_through_one_partial_name(tmp_path: Path) -> None:
+    """animate writes under one hidden partial name, ``.NAME.partial.gif`` (cli.output.partial_path),
+    renamed to NAME.gif: an output whose partial name is exactly the file system's longest name is
+    written, and nothing else is left beside it. A partial name made twice (``..NAME.partial.partial``,
+    9 characters longer) would not fit, and the write would fail with 'File name too long'."""
+    from pendulum_accel.cli.output import partial_path
+
+    name_max = os.pathconf(tmp_path, "PC_NAME_MAX")
+    out = tmp_path / ("s" * (name_max - len("..partial.gif")) + ".gif")
+    assert len(partial_path(out).name) == name_max
+    done = subprocess.run(
+        [sys.executable, "-m", "pendulum_accel.cli.main", "animate", "at_rest", "--out", str(out),
+         "--duration", "0.5", "--fps", "4"],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert sorted(tmp_path.iterdir()) == [out]
     with Image.open(out) as img:
         assert img.size == (WIDTH, HEIGHT) and getattr(img, "n_frames", 1) == 3
 

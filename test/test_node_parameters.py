@@ -62,8 +62,9 @@ def test_help_line_states_type_range_default_and_text() -> None:
     """help_line: name, type, range, read-only, default (or 'the scene's') and description."""
     wait = next(s for s in SIMULATOR if s.name == "wait_timeout")
     assert wait.help_line() == (
-        "wait_timeout (double, 0..3600, read-only; default 30.0): "
-        "give up waiting for subscribers after this many seconds (s)"
+        "wait_timeout (double, 0..3600, read-only; default 120.0): "
+        "give up waiting for the named readers (reader_nodes, recorder_node) after this many seconds "
+        "(s); while it waits, INFO lines name those not there yet"
     )
     length = next(s for s in SIMULATOR if s.name == "length")
     assert "default the scene's" in length.help_line()

@@ -181,7 +181,9 @@ SIMULATOR: tuple[ParamSpec, ...] = (
     _readers("pendulum/joint_states"),
     _recorder("every topic this node publishes"),
     autostart_param(),
-    _fixed("wait_timeout", "double", 30.0, "give up waiting for subscribers after this many seconds (s)",
+    _fixed("wait_timeout", "double", 120.0,
+           "give up waiting for the named readers (reader_nodes, recorder_node) after this many seconds "
+           "(s); while it waits, INFO lines name those not there yet",
            low=0.0, high=3600.0),
     _fixed("clock_rate_hz", "double", DEFAULT_CLOCK_RATE_HZ,
            "/clock messages per simulated second (0: one per sample)", low=0.0, high=100_000.0),

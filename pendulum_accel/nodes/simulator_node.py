@@ -43,7 +43,7 @@ from visualization_msgs.msg import MarkerArray
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import restamp, stamp_offset
-from pendulum_accel.nodes.graph import missing_readers, node_names
+from pendulum_accel.nodes.graph import missing_readers, node_names, wait_for_readers
 from pendulum_accel.nodes.parameters import SIMULATOR
 from pendulum_accel.nodes.qos import DATA_QOS, DESCRIPTION_QOS, make_publisher
 from pendulum_accel.nodes.runtime import (
@@ -203,26 +203,11 @@ class SimulatorNode(ManagedNode):
         return missing
 
     def _wait_for_subscribers(self) -> bool:
-        """True once every named reader is matched (steady for 0.1 s); False on timeout or stop."""
-        deadline = time.monotonic() + self.wait_timeout
-        ready_since: float | None = None
-        while not self._stop.is_set():
-            missing = self._missing()
-            now = time.monotonic()
-            if not missing:
-                ready_since = now if ready_since is None else ready_since
-                if now - ready_since >= 0.1:
-                    return True
-            else:
-                ready_since = None
-                if now > deadline:
-                    self.get_logger().error(
-                        f"gave up after {self.wait_timeout:g} s waiting for the chain's readers: "
-                        + "; ".join(f"{topic}: {', '.join(names)}" for topic, names in missing.items())
-                    )
-                    return False
-            time.sleep(0.01)
-        return False
+        """True once every named reader is matched; False on timeout or stop (see wait_for_readers)."""
+        logger = self.get_logger()
+        return wait_for_readers(
+            self._missing, self.wait_timeout, self._stop.is_set, logger.info, logger.error
+        )
 
     def _acknowledged(self) -> bool:
         """Wait until every matched reader acknowledged all published (warn every 10 s); False if stopped."""
