@@ -553,51 +553,45 @@ def _combine(xs: np.ndarray, ps: np.ndarray, mu: np.ndarray, x: np.ndarray, p: n
 
 @njit(cache=True)
 def _mix_ring(
+    j: int,
     xs: np.ndarray,
     x0: np.ndarray,
     w: np.ndarray,
     ra: np.ndarray,
     rv: np.ndarray,
     rc: np.ndarray,
-    new_a: np.ndarray,
-    new_v: np.ndarray,
-    new_c: np.ndarray,
+    out_a: np.ndarray,
+    out_v: np.ndarray,
+    out_c: np.ndarray,
     band: int,
 ) -> None:
-    """IMM mixing of every buffered sample's blocks: â⁰_j = Σ_i w_ij â_i, var⁰_j = Σ_i w_ij (var_i + (â_i −
-    â⁰_j)²), c⁰_j = Σ_i w_ij (c_i + (â_i − â⁰_j)(x_i − x⁰_j)) (the a_slot rows of the mixed augmented
+    """IMM mixing of mode j's buffer, every slot into out_*: â⁰_j = Σ_i w_ij â_i, var⁰_j = Σ_i w_ij (var_i +
+    (â_i − â⁰_j)²), c⁰_j = Σ_i w_ij (c_i + (â_i − â⁰_j)(x_i − x⁰_j)) (the a_slot rows of the mixed augmented
     covariance: all the fixed-lag update needs). The buffer is the innermost, contiguous axis, so each
     sum runs as vector arithmetic over all slots; a slot's own sums keep their order over i."""
     m, size = ra.shape
-    for j in range(m):
-        lo, hi = max(0, j - band), min(m, j + band + 1)  # w_ij = 0 beyond the chain's band
-        acc_a = new_a[j]
-        acc_v = new_v[j]
-        acc_c = new_c[j]
+    lo, hi = max(0, j - band), min(m, j + band + 1)  # w_ij = 0 beyond the chain's band
+    for s in range(size):
+        out_a[s] = 0.0
+        out_v[s] = 0.0
+        out_c[0, s] = 0.0
+        out_c[1, s] = 0.0
+        out_c[2, s] = 0.0
+    for i in range(lo, hi):
+        wij = w[i, j]
+        row = ra[i]
         for s in range(size):
-            acc_a[s] = 0.0
-            acc_v[s] = 0.0
-            acc_c[0, s] = 0.0
-            acc_c[1, s] = 0.0
-            acc_c[2, s] = 0.0
-        for i in range(lo, hi):
-            wij = w[i, j]
-            row = ra[i]
-            for s in range(size):
-                acc_a[s] += wij * row[s]
-        for i in range(lo, hi):
-            wij = w[i, j]
-            d0, d1, d2 = xs[i, 0] - x0[j, 0], xs[i, 1] - x0[j, 1], xs[i, 2] - x0[j, 2]
-            row_a, row_v, row_c = ra[i], rv[i], rc[i]
-            for s in range(size):
-                da = row_a[s] - acc_a[s]
-                acc_v[s] += wij * (row_v[s] + da * da)
-                acc_c[0, s] += wij * (row_c[0, s] + da * d0)
-                acc_c[1, s] += wij * (row_c[1, s] + da * d1)
-                acc_c[2, s] += wij * (row_c[2, s] + da * d2)
-    ra[:] = new_a
-    rv[:] = new_v
-    rc[:] = new_c
+            out_a[s] += wij * row[s]
+    for i in range(lo, hi):
+        wij = w[i, j]
+        d0, d1, d2 = xs[i, 0] - x0[j, 0], xs[i, 1] - x0[j, 1], xs[i, 2] - x0[j, 2]
+        row_a, row_v, row_c = ra[i], rv[i], rc[i]
+        for s in range(size):
+            da = row_a[s] - out_a[s]
+            out_v[s] += wij * (row_v[s] + da * da)
+            out_c[0, s] += wij * (row_c[0, s] + da * d0)
+            out_c[1, s] += wij * (row_c[1, s] + da * d1)
+            out_c[2, s] += wij * (row_c[2, s] + da * d2)
 
 
 @njit(cache=True)
@@ -642,40 +636,54 @@ def _imm_step_into(
         memo[1] = band
     band = int(memo[1])
     _mix(xs, ps, mu, pi, cj, w, x0, p0, band)
-    # The buffer's loops run over every slot, held or not: a slot not yet held holds nothing anyone reads
-    # (it is written whole before it is read), and whole contiguous rows run as vector arithmetic.
-    if held:
-        _mix_ring(xs, x0, w, ra, rv, rc, new_a, new_v, new_c, band)
+    # Mode by mode: its buffer mixed into the work rows (from every mode's buffer as it was before this
+    # sample), then predicted and updated there in one pass while the rows are in cache; the buffers and
+    # the modes' states take the new values once every mode is done (the mixing reads the old ones).
+    # The loops run over every slot, held or not: a slot not yet held holds nothing anyone reads (it is
+    # written whole before it is read), and whole contiguous rows run as vector arithmetic.
     new = count % size
     for j in range(m):
+        if held:
+            _mix_ring(j, xs, x0, w, ra, rv, rc, new_a[j], new_v[j], new_c[j], band)
+            row_a, row_v, row_c = new_a[j], new_v[j], new_c[j]
+        else:
+            row_a, row_v, row_c = ra[j], rv[j], rc[j]
         xj = x0[j]
         pj = p0[j]
         predict(xj, pj, f, dt, g, 1.0 / length, c, q_rate, qs[j])
-        row_a, row_v, row_c = ra[j], rv[j], rc[j]
-        if held:  # the buffered a's cross-covariances: c ← F c
+        prior_a, prior_v = xj[2], pj[2, 2]
+        prior_c0, prior_c1, prior_c2 = pj[2, 0], pj[2, 1], pj[2, 2]
+        nu, s_nu = correct(xj, pj, k, y, r)
+        k0, k1, k2 = k[0], k[1], k[2]
+        if held:  # the buffered a's: c ← F c, then the update moves â, var and c by the innovation
             f00, f01, f02 = f[0, 0], f[0, 1], f[0, 2]
             f10, f11, f12 = f[1, 0], f[1, 1], f[1, 2]
             f20, f21, f22 = f[2, 0], f[2, 1], f[2, 2]
             for s in range(size):
                 c0, c1, c2 = row_c[0, s], row_c[1, s], row_c[2, s]
-                row_c[0, s] = f00 * c0 + f01 * c1 + f02 * c2
-                row_c[1, s] = f10 * c0 + f11 * c1 + f12 * c2
-                row_c[2, s] = f20 * c0 + f21 * c1 + f22 * c2
-        row_a[new], row_v[new] = xj[2], pj[2, 2]
-        for b in range(3):
-            row_c[b, new] = pj[2, b]
-        nu, s_nu = correct(xj, pj, k, y, r)
-        k0, k1, k2 = k[0], k[1], k[2]
-        lo_s, hi_s = (0, size) if held else (new, new + 1)
-        for s in range(lo_s, hi_s):
-            c0 = row_c[0, s]
-            row_a[s] += c0 * nu / s_nu
-            row_v[s] -= c0 * c0 / s_nu
-            row_c[0, s] -= c0 * k0
-            row_c[1, s] -= c0 * k1
-            row_c[2, s] -= c0 * k2
-        _copy3(xj, pj, xs[j], ps[j])
+                n0 = f00 * c0 + f01 * c1 + f02 * c2
+                n1 = f10 * c0 + f11 * c1 + f12 * c2
+                n2 = f20 * c0 + f21 * c1 + f22 * c2
+                row_a[s] += n0 * nu / s_nu
+                row_v[s] -= n0 * n0 / s_nu
+                row_c[0, s] = n0 - n0 * k0
+                row_c[1, s] = n1 - n0 * k1
+                row_c[2, s] = n2 - n0 * k2
+        # The new sample: its prior (the predicted a and its covariance row), then the same update.
+        row_c[0, new], row_c[1, new], row_c[2, new] = prior_c0, prior_c1, prior_c2
+        c0 = row_c[0, new]
+        row_a[new] = prior_a + c0 * nu / s_nu
+        row_v[new] = prior_v - c0 * c0 / s_nu
+        row_c[0, new] -= c0 * k0
+        row_c[1, new] -= c0 * k1
+        row_c[2, new] -= c0 * k2
         logl[j] = -0.5 * (nu * nu / s_nu + math.log(s_nu)) + math.log(cj[j])
+    if held:
+        ra[:] = new_a
+        rv[:] = new_v
+        rc[:] = new_c
+    for j in range(m):
+        _copy3(x0[j], p0[j], xs[j], ps[j])
     _update_modes(logl, mu)
     _combine(xs, ps, mu, x, p)
     if _finite(x, p):
