@@ -18,7 +18,7 @@ Per estimator × validation profile × design, pooled over seeds, t ≥ 2 s: RMS
 shift τ maximising the cross-correlation of â(t) with a(t − τ)), mean NEES, share beyond 2σ in steady
 state and after a change (|a(t) − a(t − 1 s)| > 0.2 m/s², from its onset to 2 s after:
 ``recording.changes.after_change``, the rule ``analyze`` uses) with the independent trials behind each share
-(``benchmarks.coverage``: a share is judged outside 1–12 % only when its 95 % interval misses the band),
+(``recording.coverage``: a share is judged outside 1–12 % only when its 95 % interval misses the band),
 and µs/sample of streaming
 ``update`` (on a 20 s slice). The bound: ``ekf_hindsight``, a fixed-q EKF with q chosen per profile and
 design for the least RMS over a grid (with the truth: hindsight), and ``rts_hindsight``, the RTS
@@ -51,7 +51,6 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks import coverage
 from benchmarks import report as bench_report
 from benchmarks.corpus import CORPUS
 from pendulum_accel.cluster import map_tasks
@@ -60,6 +59,7 @@ from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, lag_samples
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile
+from pendulum_accel.recording import coverage
 from pendulum_accel.recording.changes import after_change
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.scene import load_scene
@@ -197,7 +197,7 @@ class Score:
     beyond_after: float
     n_steady: int
     n_after: int
-    eff_steady: float = 0.0  # independent trials behind beyond_steady (benchmarks.coverage)
+    eff_steady: float = 0.0  # independent trials behind beyond_steady (recording.coverage)
     eff_after: float = 0.0
 
     @staticmethod
@@ -628,7 +628,7 @@ JUDGED = ("kalman", "kalman lag", "smoother")  # the outputs issue 33 asks 1–1
 
 
 def share_cell(share: float, n_eff: float) -> str:
-    """'p̂ % (n_eff)': a share beyond 2σ with the independent trials behind it (benchmarks.coverage)."""
+    """'p̂ % (n_eff)': a share beyond 2σ with the independent trials behind it (recording.coverage)."""
     return f"{100 * share:.1f} % ({n_eff:.0f})" if math.isfinite(share) else "—"
 
 
@@ -712,7 +712,7 @@ def markdown(
         "smoother: the IMM's fixed-lag smoother at 1 s. ratio: RMS over ekf_hindsight (smoother: over "
         "rts_hindsight; ratio to rts_best after the slash). NEES and >2σ from the published variance; "
         "µs/sample of streaming update. After each share beyond 2σ, in brackets, the independent trials "
-        "behind it (n_eff, benchmarks.coverage: a filter's errors are correlated over its memory, so one "
+        "behind it (n_eff, recording.coverage: a filter's errors are correlated over its memory, so one "
         "short stretch is a few trials, not one per sample); a cell is judged outside 1–12 % only when its "
         "95 % Wilson interval at n_eff misses the band.",
         "",

@@ -269,7 +269,12 @@ def test_analyze_splits_a_real_trace_into_steady_and_after_change(
     assert main(["analyze", str(tmp_path / "husky"), "--json"]) == 0
     figures = strict_json(capsys.readouterr().out)
     for window in ("steady", "after_change"):
-        assert 0.0 <= figures[f"nees_{window}_share_2sigma"] <= 1.0
+        share = figures[f"nees_{window}_share_2sigma"]
+        assert 0.0 <= share <= 1.0
+        # the independent errors behind the share, and its 95 % interval around it (recording.coverage)
+        assert 1.0 <= figures[f"nees_{window}_trials"] <= getattr(result.calibration, window).n
+        low, high = figures[f"nees_{window}_share_2sigma_low"], figures[f"nees_{window}_share_2sigma_high"]
+        assert low <= share <= high
     assert figures["motion_model"] == result.motion_model == "auto"  # learned from the angles, no scene rule
 
 

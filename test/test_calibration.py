@@ -26,7 +26,7 @@ from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import Constant, Table
 from pendulum_accel.physics.simulate import simulate
-from pendulum_accel.recording.analyze import calibration, nees_split
+from pendulum_accel.recording.analyze import NeesStats, calibration, nees_split
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
 from pendulum_accel.scene_run import run_scene
@@ -334,3 +334,30 @@ def test_calibration_splits_steady_and_after_change() -> None:
     cal = calibration(t, error, np.ones(t.size), t, truth, t_from=1.0)
     assert cal.after_change.n == 6 and cal.after_change.mean == 9.0 and cal.after_change.share_2sigma == 1.0
     assert cal.steady.n == t.size - 2 - 6 and cal.steady.mean == 1.0 and cal.steady.share_2sigma == 0.0
+
+
+def test_calibration_counts_the_independent_errors_behind_each_share() -> None:
+    """Each window's trials: one per τ of each of its stretches (at least one), τ the integrated time of the
+    whole NEES series (recording.coverage), so a window of a few correlated samples is a few trials and
+    its share's 95 % interval is wide. Errors an AR(1) of φ = 0.9 (τ of the NEES ≈ (1 + φ²)/(1 − φ²) = 9.5)
+    over 20,000 samples at 100 Hz with a 1 m/s² step at t = 100 s: the after-change window (a(t) differs from
+    a second earlier until 100.99 s, then 2 s more: 300 samples) holds about 300/τ ≈ 32 trials. 40 % covers
+    τ's estimation spread (≤ 12 %, test_coverage) and the window's edges."""
+    rate = 100.0
+    t = np.arange(20_000) / rate
+    truth = np.where(t < 100.0, 0.0, 1.0)
+    rng = np.random.default_rng(5)
+    w = rng.normal(size=t.size)
+    err = np.empty(t.size)
+    err[0] = w[0]
+    for i in range(1, t.size):
+        err[i] = 0.9 * err[i - 1] + math.sqrt(1.0 - 0.81) * w[i]
+    cal = calibration(t, err, np.ones(t.size), t, truth, t_from=0.0)
+    after = cal.after_change
+    assert after.n == 300  # t = 100.00 … 102.99 s
+    assert after.trials == pytest.approx(after.n / 9.5, rel=0.4)
+    assert cal.steady.trials == pytest.approx(cal.steady.n / 9.5, rel=0.4)
+    low, high = after.interval()  # type: ignore[misc]
+    assert low <= after.share_2sigma <= high and high - low > 0.1  # a few trials: a wide interval
+    pooled = NeesStats.of(np.ones(5))  # pooled parts count no trials: no interval
+    assert math.isnan(pooled.trials) and pooled.interval() is None

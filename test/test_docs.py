@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
 README = ROOT / "README.md"
 # Scripts under benchmarks/ that are helpers, not benchmarks.
-NOT_BENCHMARKS = {"__init__", "report", "reference", "corpus", "coverage"}  # corpus, coverage: shared helpers
+NOT_BENCHMARKS = {"__init__", "report", "reference", "corpus"}  # corpus: the profiles the benchmarks share
 
 
 def _nav_files(node: object) -> list[str]:

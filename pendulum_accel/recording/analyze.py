@@ -43,6 +43,7 @@ from pendulum_accel.estimators import (
 )
 from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice
+from pendulum_accel.recording import coverage
 from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change, change_rule
 from pendulum_accel.recording.contract import decode_chain
 from pendulum_accel.recording.settings import estimator_settings, motion_choice, uses_preset
@@ -72,20 +73,28 @@ class ErrorStats:
 
 @dataclass(frozen=True)
 class NeesStats:
-    """NEES = e²/var: mean, median and the share with |e| > 2σ (NEES > 4) over n samples (NaN if n = 0)."""
+    """NEES = e²/var: mean, median and the share with |e| > 2σ (NEES > 4) over n samples (NaN if n = 0),
+    and the independent trials behind the share (``coverage``; NaN where not counted: pooled parts)."""
 
     mean: float
     median: float
     share_2sigma: float
     n: int
+    trials: float = math.nan
 
     @classmethod
-    def of(cls, nees: NDArray[np.float64]) -> NeesStats:
+    def of(cls, nees: NDArray[np.float64], trials: float = math.nan) -> NeesStats:
         """Statistics of the finite entries of ``nees``."""
         z = nees[np.isfinite(nees)]
         if z.size == 0:
-            return cls(math.nan, math.nan, math.nan, 0)
-        return cls(float(z.mean()), float(np.median(z)), float(np.mean(z > 4.0)), int(z.size))
+            return cls(math.nan, math.nan, math.nan, 0, math.nan)
+        return cls(float(z.mean()), float(np.median(z)), float(np.mean(z > 4.0)), int(z.size), trials)
+
+    def interval(self) -> tuple[float, float] | None:
+        """The share's 95 % interval at its trials (coverage.wilson); None where they are not counted."""
+        if self.n == 0 or not math.isfinite(self.trials):
+            return None
+        return coverage.wilson(self.share_2sigma, self.trials)
 
 
 @dataclass(frozen=True)
@@ -97,17 +106,41 @@ class Calibration:
     after_change: NeesStats
 
     def line(self, label: str) -> str:
-        """'label: steady NEES mean m, median d, x % beyond 2σ (n); after a change: …'."""
+        """'label: steady NEES mean m, median d, x % beyond 2σ (n, k independent: 95 % lo–hi %); after a
+        change: …'."""
 
         def part(s: NeesStats) -> str:
             """One window's figures."""
             if s.n == 0:
                 return "no samples"
             share = 100 * s.share_2sigma
-            return f"NEES mean {s.mean:.3g}, median {s.median:.3g}, {share:.1f} % beyond 2σ (n={s.n})"
+            span = s.interval()
+            trials = (
+                ""
+                if span is None
+                else f", about {s.trials:.0f} independent: 95 % {100 * span[0]:.1f}–{100 * span[1]:.1f} %"
+            )
+            return f"NEES mean {s.mean:.3g}, median {s.median:.3g}, {share:.1f} % beyond 2σ (n={s.n}{trials})"
 
         after = part(self.after_change)
         return f"{label}: steady {part(self.steady)}; ≤{CHANGE_WINDOW:g} s after a change {after}"
+
+
+def _nees(
+    t: NDArray[np.float64],
+    error: NDArray[np.float64],
+    variance: NDArray[np.float64],
+    t_truth: NDArray[np.float64],
+    a_truth: NDArray[np.float64],
+    t_from: float,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """(NEES = e²/var at stamps t ≥ t_from, NaN where var ≤ 0; True where after a change): the samples
+    nees_split and calibration share."""
+    after = after_change(t, t_truth, a_truth)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nees = np.where(variance > 0.0, error * error / variance, np.nan)
+    keep = t >= t_from
+    return nees[keep], after[keep]
 
 
 def nees_split(
@@ -120,11 +153,8 @@ def nees_split(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(steady, after-change) NEES = e²/var at stamps t ≥ t_from, split by recording.changes.after_change
     (within CHANGE_WINDOW s after |a(t) − a(t − 1 s)| > CHANGE_JUMP on the truth); NaN where var ≤ 0."""
-    after = after_change(t, t_truth, a_truth)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        nees = np.where(variance > 0.0, error * error / variance, np.nan)
-    keep = t >= t_from
-    return nees[keep & ~after], nees[keep & after]
+    nees, after = _nees(t, error, variance, t_truth, a_truth, t_from)
+    return nees[~after], nees[after]
 
 
 def calibration(
@@ -135,9 +165,15 @@ def calibration(
     a_truth: NDArray[np.float64],
     t_from: float,
 ) -> Calibration:
-    """NeesStats of nees_split's two windows: steady state and CHANGE_WINDOW s after a change of a(t)."""
-    steady, after = nees_split(t, error, variance, t_truth, a_truth, t_from)
-    return Calibration(NeesStats.of(steady), NeesStats.of(after))
+    """NeesStats of nees_split's two windows: steady state and CHANGE_WINDOW s after a change of a(t),
+    each with its independent trials (coverage.effective_samples at the integrated time τ of the NEES)."""
+    nees, after = _nees(t, error, variance, t_truth, a_truth, t_from)
+    finite = np.isfinite(nees)
+    tau = coverage.integrated_time(nees)
+    return Calibration(
+        NeesStats.of(nees[~after], coverage.effective_samples(~after & finite, tau)),
+        NeesStats.of(nees[after], coverage.effective_samples(after & finite, tau)),
+    )
 
 
 @dataclass(frozen=True)
@@ -702,10 +738,15 @@ def analysis_dict(result: Analysis) -> dict[str, object]:
 
 
 def _calibration_fields(prefix: str, cal: Calibration | None) -> dict[str, str | float | int | None]:
-    """{prefix}nees_{steady,after_change}_{mean,median,share_2sigma}; None without a calibration."""
+    """{prefix}nees_{steady,after_change}_{mean,median,share_2sigma,trials,share_2sigma_low,
+    share_2sigma_high}: the share's independent trials and 95 % interval (NeesStats.interval); None
+    without a calibration or a figure."""
     out: dict[str, str | float | int | None] = {}
     for window in ("steady", "after_change"):
-        stats = None if cal is None else getattr(cal, window)
-        for key in ("mean", "median", "share_2sigma"):
+        stats: NeesStats | None = None if cal is None else getattr(cal, window)
+        for key in ("mean", "median", "share_2sigma", "trials"):
             out[f"{prefix}nees_{window}_{key}"] = None if stats is None else getattr(stats, key)
+        span = None if stats is None else stats.interval()
+        out[f"{prefix}nees_{window}_share_2sigma_low"] = None if span is None else span[0]
+        out[f"{prefix}nees_{window}_share_2sigma_high"] = None if span is None else span[1]
     return out

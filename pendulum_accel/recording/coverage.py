@@ -1,10 +1,10 @@
 """How much a share of errors beyond 2σ can tell: the effective number of independent samples behind it,
-and the share's 95 % interval.
+and the share's 95 % interval (``analyze`` prints them beside each share, the benchmarks judge by them).
 
 An estimator's error is correlated over its memory: the error at one sample is most of the error at the
 next. A share counted over n samples is then not a binomial share of n trials, and a cell made of one
-0.8 s steady stretch (an agile robot's) holds a few independent trials, not 80. The benchmarks judge a
-share against the issue's 1–12 % only as far as its trials allow:
+0.8 s steady stretch (an agile robot's) holds a few independent trials, not 80. A share is read, and
+the benchmarks judge it against a band (TARGET, issue 33's 1–12 %), only as far as its trials allow:
 
     τ = 1 + 2 Σ_{k≥1} ρ_k of z = e²/var (NEES), Geyer's initial monotone sequence estimator;
     n_eff = Σ over the stretches of the mask of max(1, L/τ) (a stretch shorter than τ is one trial);

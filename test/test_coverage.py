@@ -1,4 +1,4 @@
-"""benchmarks.coverage: the independent trials behind a share beyond 2σ, and its 95 % interval."""
+"""recording.coverage: the independent trials behind a share beyond 2σ, and its 95 % interval."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.stats import binomtest
 
-from benchmarks import coverage
+from pendulum_accel.recording import coverage
 
 
 def _ar1(phi: float, n: int, seed: int) -> np.ndarray:
