@@ -6,6 +6,8 @@ the estimator subscribes to the angles once the recorder (by name) listens to it
 simulator publishes once both (by name) listen; other subscribers on the graph change nothing.
 One time base per run (``time_source``): sim for --fast and for recordings, else wall. Each node
 writes its counters at exit; the launcher prints them per topic and fails a run that lost data.
+A node that ends by a signal fails the run, except a recorder that had closed its bag when the bag then
+reads complete (one WARNING): the recording is what the run was for.
 Stop order is the data-flow order (simulator, estimator, recorder), each
 asked with one SIGINT (the estimator and recorder drain their queues, the recorder closes the bag),
 then SIGKILL after a timeout. Each child also gets SIGTERM from the kernel if the launcher itself
@@ -28,7 +30,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-from pendulum_accel.errors import ParameterError, RosMissingError
+from pendulum_accel.errors import ParameterError, PendulumAccelError, RosMissingError
 from pendulum_accel.nodes.accounting import Accounting
 from pendulum_accel.nodes.names import fully_qualified_namespace
 from pendulum_accel.nodes.preflight import check_chain
@@ -358,6 +360,38 @@ class Chain:
             ending = {"ended": ended, **({"died": died, "how": how} if died else {})}
             (self._summaries / "chain.json").write_text(json.dumps(ending))
 
+    def _bag_outlived(self, child: Child) -> bool:
+        """True when ``child`` is the recorder, a signal ended it after it closed the bag, and the bag reads
+        complete: every record framed, every chunk CRC and the data section CRC held (``read_bag``'s
+        scan, what ``info`` checks before it says [complete]). Then one WARNING line names the signal.
+
+        The recorder writes its summary (recorder.json) only once the bag's writer has closed it (footer
+        and metadata.yaml), so a summary means the bag was finished before the process died: a crash in
+        the ROS teardown after that (rclpy's destroy_node, seen once in a few hundred chains) costs the
+        recording nothing. Without the summary, or when the bag does not verify, it stays a failure.
+        """
+        code = child.process.returncode
+        record = self.config.record
+        if child.role != "recorder" or code is None or code >= 0 or record is None or self._summaries is None:
+            return False
+        if not (self._summaries / "recorder.json").exists():
+            return False
+        from pendulum_accel.bag.reader import read_bag
+
+        try:
+            bag = read_bag(record)
+        except (PendulumAccelError, OSError):
+            return False
+        if bag.problem is not None or not bag.complete:
+            return False
+        print(
+            f"WARNING: recorder ended with {describe_exit(code)} after closing its bag; "
+            f"the bag {bag.path} was verified complete (every chunk CRC checked)",
+            file=sys.stderr,
+            flush=True,
+        )
+        return True
+
     def _supervise(self) -> int:
         """Watch the children until the simulator ends, a signal arrives or another child dies."""
         simulator = self.child("simulator")
@@ -379,7 +413,11 @@ class Chain:
                 self._say("scene finished: stopping the chain")
                 self._ended("finished")
                 self.stop()
-                failed = [c for c in self.children if c.process.returncode not in (0, None)]
+                failed = [
+                    c
+                    for c in self.children
+                    if c.process.returncode not in (0, None) and not self._bag_outlived(c)
+                ]
                 for c in failed:
                     self._say(f"{c.role} ended with {describe_exit(c.process.returncode)}")
                 return 1 if failed else 0
