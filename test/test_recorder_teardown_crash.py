@@ -1,8 +1,8 @@
 """A recorder that dies by a signal after closing its bag: the chain stands on the bag it verifies.
 
 A real chain runs (simulator, estimator, the real recorder node); the recorder's process runs the node's
-own ``main`` and, once that returned (bag closed, summary written), kills itself with SIGSEGV, as
-rclpy's teardown did once in a few hundred CI chains. A bag that reads complete keeps the run's exit 0
+own ``main`` and, once that returned (bag closed, summary written), kills itself with SIGSEGV, as a
+crash in rclpy's teardown would. A bag that reads complete keeps the run's exit 0
 with one warning; a bag damaged after the close, or a recorder that never reported the close, keeps
 the failure.
 """

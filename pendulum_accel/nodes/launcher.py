@@ -367,8 +367,8 @@ class Chain:
 
         The recorder writes its summary (recorder.json) only once the bag's writer has closed it (footer
         and metadata.yaml), so a summary means the bag was finished before the process died: a crash in
-        the ROS teardown after that (rclpy's destroy_node, seen once in a few hundred chains) costs the
-        recording nothing. Without the summary, or when the bag does not verify, it stays a failure.
+        the ROS teardown after that (a rare SIGSEGV in rclpy's destroy_node) costs the recording
+        nothing. Without the summary, or when the bag does not verify, it stays a failure.
         """
         code = child.process.returncode
         record = self.config.record
