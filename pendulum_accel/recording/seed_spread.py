@@ -51,14 +51,15 @@ class WindowSpread:
         """NeesStats of all parts' NEES together, with trials Σ trials_i over the parts that have a sample
         (independent runs: their independent trials add; NaN when ``trials`` is not given), and the
         percentiles of each part's share (NEES > 4); None when no part has a sample."""
-        counts = [math.nan] * len(parts) if trials is None else list(trials)
+        counts = [0.0] * len(parts) if trials is None else list(trials)
         kept = [(p[np.isfinite(p)], k) for p, k in zip(parts, counts, strict=True)]
         kept = [(p, k) for p, k in kept if p.size]
         if not kept:
             return None
         shares = [float(np.mean(p > 4.0)) for p, _ in kept]
         low, high = np.percentile(shares, PERCENTILES)
-        pooled = NeesStats.of(np.concatenate([p for p, _ in kept]), math.fsum(k for _, k in kept))
+        total = math.nan if trials is None else math.fsum(k for _, k in kept)
+        pooled = NeesStats.of(np.concatenate([p for p, _ in kept]), total)
         return cls(pooled, float(low), float(high))
 
     def text(self) -> str:
