@@ -74,7 +74,7 @@ class ErrorStats:
 @dataclass(frozen=True)
 class NeesStats:
     """NEES = e²/var: mean, median and the share with |e| > 2σ (NEES > 4) over n samples (NaN if n = 0),
-    and the independent trials behind the share (``coverage``; NaN where not counted: pooled parts)."""
+    and the independent trials behind the share (``coverage``; NaN where they are not counted)."""
 
     mean: float
     median: float
@@ -765,8 +765,8 @@ def _calibration_fields(prefix: str, cal: Calibration | None) -> dict[str, str |
 
 def nees_fields(key: str, stats: NeesStats | None) -> dict[str, str | float | int | None]:
     """{key}_{mean,median,share_2sigma,trials,share_2sigma_low,share_2sigma_high}: one window's figures,
-    the share's independent trials and 95 % interval (NeesStats.interval); None without the window or a
-    figure (NaN, for the JSON writer to make null)."""
+    the share's independent trials and 95 % interval (NeesStats.interval); None without the window, and a
+    figure the window lacks stays NaN (cli.output.json_text writes both as null)."""
     out: dict[str, str | float | int | None] = {}
     for name in ("mean", "median", "share_2sigma", "trials"):
         out[f"{key}_{name}"] = None if stats is None else getattr(stats, name)

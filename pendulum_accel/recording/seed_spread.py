@@ -100,14 +100,18 @@ def seed_spread(
     trials (recording.analyze.nees_windows)."""
     if seeds < 1:
         raise ParameterError(f"seeds must be >= 1, got {seeds!r}")
-    windows: list[tuple[tuple[NDArray[np.float64], float], tuple[NDArray[np.float64], float]]] = []
+    steady: list[NDArray[np.float64]] = []
+    after: list[NDArray[np.float64]] = []
+    steady_trials: list[float] = []
+    after_trials: list[float] = []
     for seed in range(seeds):
         run = run_scene(with_seed(scene, seed))
         a, var = estimate_batch(estimator, run.t, run.theta_measured, **config)
-        windows.append(nees_windows(run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + skip))
-    steady, after = ([w[i] for w in windows] for i in (0, 1))
-    return SeedSpread(
-        seeds,
-        WindowSpread.of([p for p, _ in steady], [k for _, k in steady]),
-        WindowSpread.of([p for p, _ in after], [k for _, k in after]),
-    )
+        (s, ks), (c, kc) = nees_windows(
+            run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + skip
+        )
+        steady.append(s)
+        after.append(c)
+        steady_trials.append(ks)
+        after_trials.append(kc)
+    return SeedSpread(seeds, WindowSpread.of(steady, steady_trials), WindowSpread.of(after, after_trials))
