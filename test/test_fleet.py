@@ -9,6 +9,7 @@ test starts is stopped at its end.
 from __future__ import annotations
 
 import contextlib
+import csv
 import io
 import itertools
 import math
@@ -26,12 +27,26 @@ from typing import Any
 import pyarrow.parquet as pq
 import pytest
 
+from pendulum_accel.cli.main import main
 from pendulum_accel.errors import BagError
+from pendulum_accel.recording import coverage
 from pendulum_accel.recording.fleet import COLUMN_NAMES, Job, analyze_many, bag_rows, find_bags, write_csv
-from test.conftest import REPO, Spawn, cli, stop_processes
+from test.conftest import REPO, Spawn, cli, stop_processes, strict_json
 from test.test_network import TwoHosts, two_hosts  # noqa: F401 (the fixture)
 
 SCENES = ("step_start", "braking")
+AT_REST = REPO / "bags" / "at_rest"
+SHARE_CELLS = tuple(
+    f"{name}_{window}{end}"
+    for window in ("steady", "after_change")
+    for name, end in (
+        ("share_2sigma", ""),
+        ("trials", ""),
+        ("share_2sigma", "_low"),
+        ("share_2sigma", "_high"),
+    )
+)
+"""The fleet table's cells of the shares beyond 2σ: each share, its trials and its 95 % interval."""
 DURATION = "3"  # s: enough for every figure (delay, calibration) and quick to re-run
 
 
@@ -94,6 +109,40 @@ def test_serial_table_has_a_row_per_bag_and_estimator_and_error_rows(corpus: Pat
         assert r["duration"] == pytest.approx(float(DURATION), abs=0.02)  # one 100 Hz sample either way
     kalman = {Path(str(r["bag"])).name: r for r in good if r["estimator"] == "kalman"}
     assert all(r["motion_model"] for r in kalman.values()), "the table names kalman's motion model"
+    for r in good:
+        for window in ("steady", "after_change"):
+            share, trials = r[f"share_2sigma_{window}"], r[f"trials_{window}"]
+            low, high = r[f"share_2sigma_{window}_low"], r[f"share_2sigma_{window}_high"]
+            assert isinstance(share, float) and isinstance(trials, float), (window, r)
+            assert trials >= 1.0 and low <= share <= high, (window, r)
+            assert (low, high) == coverage.wilson(share, trials)  # the same function at the same arguments
+    for r in bad:
+        assert all(r[k] is None for k in SHARE_CELLS), r
+
+
+def test_share_cells_are_the_single_bag_reports_and_null_without_samples(
+    corpus: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Each share's trials and interval in a row are those ``analyze BAG --json`` reports for the bag (one
+    computation, two outputs: exact); a bag at rest has no after-change window, and its cells are null in
+    the rows and empty fields in the CSV, never NaN."""
+    bag = corpus / "site_b" / "braking"
+    (row,) = bag_rows(str(bag), Job(estimators=("kalman",)))
+    assert main(["analyze", str(bag), "-e", "kalman", "--json"]) == 0
+    single = strict_json(capsys.readouterr().out)
+    for window in ("steady", "after_change"):
+        assert row[f"share_2sigma_{window}"] == single[f"nees_{window}_share_2sigma"]
+        assert row[f"trials_{window}"] == single[f"nees_{window}_trials"]
+        assert row[f"share_2sigma_{window}_low"] == single[f"nees_{window}_share_2sigma_low"]
+        assert row[f"share_2sigma_{window}_high"] == single[f"nees_{window}_share_2sigma_high"]
+    (rest,) = bag_rows(str(AT_REST), Job())
+    assert not rest["error"] and isinstance(rest["trials_steady"], float)
+    assert all(rest[k] is None for k in SHARE_CELLS if "after_change" in k)
+    text = io.StringIO()
+    write_csv([rest], text)
+    fields = dict(zip(*csv.reader(io.StringIO(text.getvalue())), strict=True))
+    assert all(fields[k] == "" for k in SHARE_CELLS if "after_change" in k)
+    assert all(math.isfinite(float(fields[k])) for k in SHARE_CELLS if "steady" in k)
 
 
 def test_local_cluster_gives_the_serial_table(corpus: Path) -> None:

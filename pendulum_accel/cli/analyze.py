@@ -11,7 +11,13 @@ from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salva
 from pendulum_accel.cli.topics import add_topic_flags, choose_topics
 from pendulum_accel.errors import BagError
 from pendulum_accel.overrides import OVERRIDE_BY_NAME
-from pendulum_accel.recording.analyze import analysis_dict, analyze_bag, plot_analysis, stored_scene
+from pendulum_accel.recording.analyze import (
+    analysis_dict,
+    analyze_bag,
+    nees_fields,
+    plot_analysis,
+    stored_scene,
+)
 from pendulum_accel.recording.seed_spread import SeedSpread, seed_spread
 
 ESTIMATOR_OVERRIDES = ("length", "noise_std")
@@ -96,7 +102,8 @@ def register(subparsers: Any) -> None:
         default=0,
         metavar="N",
         help="also re-simulate the bag's scene with sensor seeds 0..N-1 and print the calibration pooled "
-        "over them, with the spread of one seed's share beyond 2σ (one bag is one draw of its noise)",
+        "over them (their independent trials summed, the pooled share's 95 %% interval at that sum), with "
+        "the spread of one seed's share beyond 2σ (one bag is one draw of its noise)",
     )
     parser.add_argument(
         "--json",
@@ -149,20 +156,16 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _spread_dict(spread: SeedSpread | None) -> dict[str, Any] | None:
-    """{seeds, steady/after_change: {nees_mean, share_2sigma, share_p10, share_p90}}; None without --seeds."""
+    """{seeds, nees_<window>_…}: the pooled figures under a single bag's keys (recording.analyze.nees_fields:
+    mean, median, share_2sigma, trials, share_2sigma_low/_high), and nees_<window>_share_p10/_p90 of one
+    seed's share; a window without samples null throughout. None without --seeds."""
     if spread is None:
         return None
     out: dict[str, Any] = {"seeds": spread.seeds}
     for window in ("steady", "after_change"):
         w = getattr(spread, window)
-        out[window] = (
-            None
-            if w is None
-            else {
-                "nees_mean": w.pooled.mean,
-                "share_2sigma": w.pooled.share_2sigma,
-                "share_p10": w.share_low,
-                "share_p90": w.share_high,
-            }
-        )
+        key = f"nees_{window}"
+        out.update(nees_fields(key, None if w is None else w.pooled))
+        out[f"{key}_share_p10"] = None if w is None else w.share_low
+        out[f"{key}_share_p90"] = None if w is None else w.share_high
     return out

@@ -74,7 +74,7 @@ class ErrorStats:
 @dataclass(frozen=True)
 class NeesStats:
     """NEES = e²/var: mean, median and the share with |e| > 2σ (NEES > 4) over n samples (NaN if n = 0),
-    and the independent trials behind the share (``coverage``; NaN where not counted: pooled parts)."""
+    and the independent trials behind the share (``coverage``; NaN where they are not counted)."""
 
     mean: float
     median: float
@@ -96,6 +96,16 @@ class NeesStats:
             return None
         return coverage.wilson(self.share_2sigma, self.trials)
 
+    def share_text(self) -> str:
+        """'x % beyond 2σ (n=N, about K independent: 95 % lo–hi %)'; without counted trials, no 'about'."""
+        span = self.interval()
+        trials = (
+            ""
+            if span is None
+            else f", about {self.trials:.0f} independent: 95 % {100 * span[0]:.1f}–{100 * span[1]:.1f} %"
+        )
+        return f"{100 * self.share_2sigma:.1f} % beyond 2σ (n={self.n}{trials})"
+
 
 @dataclass(frozen=True)
 class Calibration:
@@ -113,14 +123,7 @@ class Calibration:
             """One window's figures."""
             if s.n == 0:
                 return "no samples"
-            share = 100 * s.share_2sigma
-            span = s.interval()
-            trials = (
-                ""
-                if span is None
-                else f", about {s.trials:.0f} independent: 95 % {100 * span[0]:.1f}–{100 * span[1]:.1f} %"
-            )
-            return f"NEES mean {s.mean:.3g}, median {s.median:.3g}, {share:.1f} % beyond 2σ (n={s.n}{trials})"
+            return f"NEES mean {s.mean:.3g}, median {s.median:.3g}, {s.share_text()}"
 
         after = part(self.after_change)
         return f"{label}: steady {part(self.steady)}; ≤{CHANGE_WINDOW:g} s after a change {after}"
@@ -157,6 +160,26 @@ def nees_split(
     return nees[~after], nees[after]
 
 
+def nees_windows(
+    t: NDArray[np.float64],
+    error: NDArray[np.float64],
+    variance: NDArray[np.float64],
+    t_truth: NDArray[np.float64],
+    a_truth: NDArray[np.float64],
+    t_from: float,
+) -> tuple[tuple[NDArray[np.float64], float], tuple[NDArray[np.float64], float]]:
+    """((steady NEES, its trials), (after-change NEES, its trials)): nees_split's two windows, each with
+    its independent trials n_eff = coverage.effective_samples of its finite samples at the integrated
+    time τ of the whole NEES series (coverage.integrated_time)."""
+    nees, after = _nees(t, error, variance, t_truth, a_truth, t_from)
+    finite = np.isfinite(nees)
+    tau = coverage.integrated_time(nees)
+    return (
+        (nees[~after], coverage.effective_samples(~after & finite, tau)),
+        (nees[after], coverage.effective_samples(after & finite, tau)),
+    )
+
+
 def calibration(
     t: NDArray[np.float64],
     error: NDArray[np.float64],
@@ -165,15 +188,10 @@ def calibration(
     a_truth: NDArray[np.float64],
     t_from: float,
 ) -> Calibration:
-    """NeesStats of nees_split's two windows: steady state and CHANGE_WINDOW s after a change of a(t),
-    each with its independent trials (coverage.effective_samples at the integrated time τ of the NEES)."""
-    nees, after = _nees(t, error, variance, t_truth, a_truth, t_from)
-    finite = np.isfinite(nees)
-    tau = coverage.integrated_time(nees)
-    return Calibration(
-        NeesStats.of(nees[~after], coverage.effective_samples(~after & finite, tau)),
-        NeesStats.of(nees[after], coverage.effective_samples(after & finite, tau)),
-    )
+    """NeesStats of nees_windows' two windows: steady state and CHANGE_WINDOW s after a change of a(t),
+    each with its independent trials."""
+    steady, after = nees_windows(t, error, variance, t_truth, a_truth, t_from)
+    return Calibration(NeesStats.of(*steady), NeesStats.of(*after))
 
 
 @dataclass(frozen=True)
@@ -738,15 +756,21 @@ def analysis_dict(result: Analysis) -> dict[str, object]:
 
 
 def _calibration_fields(prefix: str, cal: Calibration | None) -> dict[str, str | float | int | None]:
-    """{prefix}nees_{steady,after_change}_{mean,median,share_2sigma,trials,share_2sigma_low,
-    share_2sigma_high}: the share's independent trials and 95 % interval (NeesStats.interval); None
-    without a calibration or a figure."""
+    """nees_fields of both windows under {prefix}nees_{steady,after_change}; None without a calibration."""
     out: dict[str, str | float | int | None] = {}
     for window in ("steady", "after_change"):
-        stats: NeesStats | None = None if cal is None else getattr(cal, window)
-        for key in ("mean", "median", "share_2sigma", "trials"):
-            out[f"{prefix}nees_{window}_{key}"] = None if stats is None else getattr(stats, key)
-        span = None if stats is None else stats.interval()
-        out[f"{prefix}nees_{window}_share_2sigma_low"] = None if span is None else span[0]
-        out[f"{prefix}nees_{window}_share_2sigma_high"] = None if span is None else span[1]
+        out.update(nees_fields(f"{prefix}nees_{window}", None if cal is None else getattr(cal, window)))
+    return out
+
+
+def nees_fields(key: str, stats: NeesStats | None) -> dict[str, str | float | int | None]:
+    """{key}_{mean,median,share_2sigma,trials,share_2sigma_low,share_2sigma_high}: one window's figures,
+    the share's independent trials and 95 % interval (NeesStats.interval); None without the window, and a
+    figure the window lacks stays NaN (cli.output.json_text writes both as null)."""
+    out: dict[str, str | float | int | None] = {}
+    for name in ("mean", "median", "share_2sigma", "trials"):
+        out[f"{key}_{name}"] = None if stats is None else getattr(stats, name)
+    span = None if stats is None else stats.interval()
+    out[f"{key}_share_2sigma_low"] = None if span is None else span[0]
+    out[f"{key}_share_2sigma_high"] = None if span is None else span[1]
     return out

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.cluster import Progress, map_tasks
 from pendulum_accel.errors import BagError, PendulumAccelError
-from pendulum_accel.recording.analyze import Analysis, analyze_bag
+from pendulum_accel.recording.analyze import Analysis, NeesStats, analyze_bag
 from pendulum_accel.recording.delay import group_delay
 
 COLUMNS: tuple[tuple[str, str, str], ...] = (
@@ -41,7 +41,13 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("max_error", "double", "max |e| (m/s²)"),
     ("delay", "double", "lag τ (s) maximising the cross-correlation of â(t) and a(t − τ)"),
     ("share_2sigma_steady", "double", "share of steady-state errors beyond 2σ of the published variance"),
-    ("share_2sigma_after_change", "double", "the same within 2 s after a change of a(t)"),
+    ("trials_steady", "double", "independent errors behind share_2sigma_steady (recording/coverage.py)"),
+    ("share_2sigma_steady_low", "double", "lower end of that share's 95 % Wilson interval at those trials"),
+    ("share_2sigma_steady_high", "double", "upper end of that interval"),
+    ("share_2sigma_after_change", "double", "share of errors beyond 2σ within 2 s after a change of a(t)"),
+    ("trials_after_change", "double", "independent errors behind share_2sigma_after_change"),
+    ("share_2sigma_after_change_low", "double", "lower end of that share's 95 % Wilson interval"),
+    ("share_2sigma_after_change_high", "double", "upper end of that interval"),
     ("nees_mean", "double", "mean e²/σ² over every estimate (1 when σ tells the truth)"),
     ("duration", "double", "the bag's span of angles (s)"),
     ("angles", "int64", "joint-state samples in the bag"),
@@ -65,6 +71,18 @@ def _row(bag: str, **values: Any) -> dict[str, Any]:
     return row
 
 
+def _share_cells(window: str, stats: NeesStats | None) -> dict[str, float | None]:
+    """share_2sigma_{window}, trials_{window} and the share's 95 % interval share_2sigma_{window}_low/_high
+    (NeesStats.interval); None where the window has no samples."""
+    span = None if stats is None else stats.interval()
+    return {
+        f"share_2sigma_{window}": None if stats is None else _float(stats.share_2sigma),
+        f"trials_{window}": None if stats is None else _float(stats.trials),
+        f"share_2sigma_{window}_low": None if span is None else _float(span[0]),
+        f"share_2sigma_{window}_high": None if span is None else _float(span[1]),
+    }
+
+
 def _figures(result: Analysis, complete: bool) -> dict[str, Any]:
     """The table's figures of one re-run."""
     keep = np.isfinite(result.accel_est) & (result.t >= result.t[0] + result.skip)
@@ -85,8 +103,8 @@ def _figures(result: Analysis, complete: bool) -> dict[str, Any]:
         "bias": _float(result.stats.bias),
         "max_error": _float(result.stats.max_abs),
         "delay": _float(delay),
-        "share_2sigma_steady": _float(cal.steady.share_2sigma) if cal is not None else None,
-        "share_2sigma_after_change": _float(cal.after_change.share_2sigma) if cal is not None else None,
+        **_share_cells("steady", None if cal is None else cal.steady),
+        **_share_cells("after_change", None if cal is None else cal.after_change),
         "nees_mean": _float(float(nees.mean())) if nees.size else None,
         "duration": _float(float(result.t[-1] - result.t[0])),
         "angles": int(result.t.size),

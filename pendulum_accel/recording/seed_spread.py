@@ -6,13 +6,15 @@ published variance promises (at rest, kalman: 1–12 % over seeds where the pool
 the bag's scene again with sensor seeds 0 … N−1 and the same estimator settings gives both figures: the
 pooled calibration (what the variance promises) and the 10th–90th percentile of one seed's share (how
 far a single bag may stray from it). ``pendulum-accel analyze BAG --seeds N`` prints them next to the
-bag's own.
+bag's own. The seeds are independent runs, so the pooled share rests on the sum of their independent
+trials: n_eff = Σ_i n_eff,i, the share Σ exceedances / Σ n, its 95 % interval Wilson's at n_eff.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +22,7 @@ from numpy.typing import NDArray
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import estimate_batch
-from pendulum_accel.recording.analyze import NeesStats, nees_split
+from pendulum_accel.recording.analyze import NeesStats, nees_windows
 from pendulum_accel.recording.changes import CHANGE_WINDOW
 from pendulum_accel.scene import Scene
 from pendulum_accel.scene_run import run_scene
@@ -43,23 +45,29 @@ class WindowSpread:
     share_high: float
 
     @classmethod
-    def of(cls, parts: list[NDArray[np.float64]]) -> WindowSpread | None:
-        """NeesStats of all parts' NEES together and the percentiles of each part's share (NEES > 4);
-        None when no part has a sample."""
-        kept = [p[np.isfinite(p)] for p in parts]
-        kept = [p for p in kept if p.size]
+    def of(
+        cls, parts: Sequence[NDArray[np.float64]], trials: Sequence[float] | None = None
+    ) -> WindowSpread | None:
+        """NeesStats of all parts' NEES together, with trials Σ trials_i over the parts that have a sample
+        (independent runs: their independent trials add; NaN when ``trials`` is not given), and the
+        percentiles of each part's share (NEES > 4); None when no part has a sample."""
+        counts = [0.0] * len(parts) if trials is None else list(trials)
+        kept = [(p[np.isfinite(p)], k) for p, k in zip(parts, counts, strict=True)]
+        kept = [(p, k) for p, k in kept if p.size]
         if not kept:
             return None
-        shares = [float(np.mean(p > 4.0)) for p in kept]
+        shares = [float(np.mean(p > 4.0)) for p, _ in kept]
         low, high = np.percentile(shares, PERCENTILES)
-        return cls(NeesStats.of(np.concatenate(kept)), float(low), float(high))
+        total = math.nan if trials is None else math.fsum(k for _, k in kept)
+        pooled = NeesStats.of(np.concatenate([p for p, _ in kept]), total)
+        return cls(pooled, float(low), float(high))
 
     def text(self) -> str:
-        """'pooled NEES mean m, x % beyond 2σ; one seed's share a–b %'."""
+        """'pooled NEES mean m, x % beyond 2σ (n=N, about K independent: 95 % lo–hi %); one seed's share
+        a–b %'."""
         p = self.pooled
-        share = 100 * p.share_2sigma
         lo, hi = 100 * self.share_low, 100 * self.share_high
-        return f"pooled NEES mean {p.mean:.3g}, {share:.1f} % beyond 2σ; one seed's share {lo:.1f}–{hi:.1f} %"
+        return f"pooled NEES mean {p.mean:.3g}, {p.share_text()}; one seed's share {lo:.1f}–{hi:.1f} %"
 
 
 @dataclass(frozen=True)
@@ -88,15 +96,22 @@ def seed_spread(
     scene: Scene, estimator: str, config: Mapping[str, object], seeds: int, skip: float
 ) -> SeedSpread:
     """Simulate ``scene`` with sensor seeds 0 … seeds − 1, run ``estimator`` (``config``) in batch on each,
-    and split NEES = e²/var at t ≥ t₀ + skip (recording.analyze.nees_split) into the two windows."""
+    and split NEES = e²/var at t ≥ t₀ + skip into the two windows, each seed's with its independent
+    trials (recording.analyze.nees_windows)."""
     if seeds < 1:
         raise ParameterError(f"seeds must be >= 1, got {seeds!r}")
     steady: list[NDArray[np.float64]] = []
     after: list[NDArray[np.float64]] = []
+    steady_trials: list[float] = []
+    after_trials: list[float] = []
     for seed in range(seeds):
         run = run_scene(with_seed(scene, seed))
         a, var = estimate_batch(estimator, run.t, run.theta_measured, **config)
-        s, c = nees_split(run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + skip)
+        (s, ks), (c, kc) = nees_windows(
+            run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + skip
+        )
         steady.append(s)
         after.append(c)
-    return SeedSpread(seeds, WindowSpread.of(steady), WindowSpread.of(after))
+        steady_trials.append(ks)
+        after_trials.append(kc)
+    return SeedSpread(seeds, WindowSpread.of(steady, steady_trials), WindowSpread.of(after, after_trials))
