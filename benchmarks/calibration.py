@@ -6,6 +6,7 @@ For every estimator × bundled scene (except large_swing and hill, where no esti
 scene is simulated with N sensor seeds (0 … N−1, default 10), the estimator run in batch on each, and
 NEES = e²/var (e = â − a) summarised for t ≥ 2 s, split into steady state and the 2 s after any change
 of a(t) (recording.analyze.calibration): mean, median and the share beyond 2σ, pooled over the seeds,
+with in brackets its independent trials (recording.coverage, summed over the seeds) and 95 % interval,
 and the 10th–90th percentile of the per-seed share. One recording shows only one draw of a sensor's
 errors, which a long-memory estimator correlates over seconds: the pooled figures are what the
 variance promises, the percentile range how far one bag may stray from it.
@@ -25,7 +26,7 @@ import numpy as np
 
 from benchmarks import report
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
-from pendulum_accel.recording.analyze import nees_split
+from pendulum_accel.recording.analyze import nees_windows
 from pendulum_accel.recording.seed_spread import WindowSpread, with_seed
 from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import SCENE_NAMES, load_scene
@@ -39,14 +40,19 @@ PLOT_SCENE = "stop_and_go"
 SEEDS = 10
 
 
-def _cells(parts: list[np.ndarray]) -> list[str]:
-    """Pooled mean, median, share beyond 2σ, per-seed share p10–p90, n — or dashes without samples."""
-    spread = WindowSpread.of(parts)
+def _cells(parts: list[np.ndarray], trials: list[float]) -> list[str]:
+    """Pooled mean, median, share beyond 2σ with its independent trials and 95 % interval (the seeds' trials
+    add: WindowSpread.of), per-seed share p10–p90, n — or dashes without samples."""
+    spread = WindowSpread.of(parts, trials)
     if spread is None:
         return ["—", "—", "—", "—", "0"]
     s = spread.pooled
     between = f"{100 * spread.share_low:.1f}–{100 * spread.share_high:.1f} %"
-    return [f"{s.mean:.3g}", f"{s.median:.3g}", f"{100 * s.share_2sigma:.1f} %", between, str(s.n)]
+    share = f"{100 * s.share_2sigma:.1f} %"
+    span = s.interval()
+    if span is not None:
+        share += f" ({s.trials:.0f}: {100 * span[0]:.1f}–{100 * span[1]:.1f} %)"
+    return [f"{s.mean:.3g}", f"{s.median:.3g}", share, between, str(s.n)]
 
 
 def table(seeds: int = SEEDS) -> tuple[list[str], dict[str, tuple[SceneRun, np.ndarray, np.ndarray]]]:
@@ -62,12 +68,19 @@ def table(seeds: int = SEEDS) -> tuple[list[str], dict[str, tuple[SceneRun, np.n
         for name, scene in scenes.items():
             steady: list[np.ndarray] = []
             after: list[np.ndarray] = []
+            steady_trials: list[float] = []
+            after_trials: list[float] = []
             for run in sims[name]:
                 a, var = estimate_batch(method, run.t, run.theta_measured, **estimator_options(scene, method))
-                s, c = nees_split(run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + SKIP)
+                (s, ks), (c, kc) = nees_windows(
+                    run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + SKIP
+                )
                 steady.append(s)
                 after.append(c)
-            rows.append("| " + " | ".join([method, name, *_cells(steady), *_cells(after)]) + " |")
+                steady_trials.append(ks)
+                after_trials.append(kc)
+            cells = [*_cells(steady, steady_trials), *_cells(after, after_trials)]
+            rows.append("| " + " | ".join([method, name, *cells]) + " |")
             if method == DEFAULT_ESTIMATOR:
                 own = run_scene(scene)
                 a, var = estimate_batch(method, own.t, own.theta_measured, **estimator_options(scene, method))
