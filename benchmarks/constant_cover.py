@@ -35,6 +35,7 @@ from benchmarks.real_motion import (
     Design,
     Run,
     _runs_for,
+    calibration_counts,
     calibration_miss,
     designs,
     kalman_q,
@@ -133,16 +134,7 @@ def sticky_table(seeds: int) -> tuple[list[str], list[dict[str, float]]]:
                 e = (a - run.accel)[keep]
                 beyond = e * e > 4.0 * var[keep]
                 after = after_change(run.t, run.t, run.accel)[keep]
-                counts += np.array(
-                    [
-                        float(np.sum(e * e)),
-                        np.count_nonzero(beyond & ~after),
-                        np.count_nonzero(~after),
-                        np.count_nonzero(beyond & after),
-                        np.count_nonzero(after),
-                    ],
-                    dtype=float,
-                )
+                counts += calibration_counts(e, beyond, after)
             logs += 0.5 * math.log(counts[0] / scored(runs))
             miss += calibration_miss(counts)
             scored_cells = [(counts[k], counts[n]) for k, n in ((1, 2), (3, 4)) if counts[n]]

@@ -286,20 +286,13 @@ def imm_scan(
     out = np.zeros((len(candidates), 5))
     for i, (modes, switch) in enumerate(candidates):
         for r in runs:
-            a, var, _ = kern.run_imm(
-                r.t, r.theta, params, np.array(modes), kern.chain_rates(len(modes), switch)
-            )
+            rates = kern.chain_rates(len(modes), switch)
+            lags = np.zeros(1, np.int64)
+            a, var, _ = kern.run_imm(r.t, r.theta, params, np.array(modes), rates, lags, False)
             keep = r.t >= WARMUP
-            e = (a - r.accel)[keep]
-            beyond = e * e > 4.0 * var[keep]
-            after = after_change(r.t, r.t, r.accel)[keep]
-            out[i] += (
-                float(np.sum(e * e)),
-                np.count_nonzero(beyond & ~after),
-                np.count_nonzero(~after),
-                np.count_nonzero(beyond & after),
-                np.count_nonzero(after),
-            )
+            e = (a[:, 0] - r.accel)[keep]
+            beyond = e * e > 4.0 * var[keep, 0]
+            out[i] += calibration_counts(e, beyond, after_change(r.t, r.t, r.accel)[keep])
     return out
 
 
@@ -315,6 +308,21 @@ IMM_CANDIDATES = tuple(
 RMS_SLACK = 1.05
 GAUSS_2SIGMA = math.erfc(2.0 / math.sqrt(2.0))  # 0.0455: P(|z| > 2) of a standard normal
 SHARE_FLOOR = 1e-4  # a share of 0 counts as 0.01 % (the log stays finite; 0 is as wrong as 0.01 %)
+
+
+def calibration_counts(e: np.ndarray, beyond: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """[Σ e², beyond ∧ steady, steady, beyond ∧ after, after]: one run's row of the sums the fits pool
+    (RMS from the first, ``calibration_miss`` from the rest)."""
+    return np.array(
+        [
+            float(np.sum(e * e)),
+            np.count_nonzero(beyond & ~after),
+            np.count_nonzero(~after),
+            np.count_nonzero(beyond & after),
+            np.count_nonzero(after),
+        ],
+        dtype=float,
+    )
 
 
 def calibration_miss(counts: Sequence[float] | np.ndarray) -> float:
@@ -415,16 +423,7 @@ def fit_auto(seeds: int, quick: bool) -> tuple[tuple[float, float], list[tuple[f
                     e = (a[:, 0] - r.accel)[keep]
                     beyond = e * e > 4.0 * var[keep, 0]
                     after = after_change(r.t, r.t, r.accel)[keep]
-                    counts += np.array(
-                        [
-                            float(np.sum(e * e)),
-                            np.count_nonzero(beyond & ~after),
-                            np.count_nonzero(~after),
-                            np.count_nonzero(beyond & after),
-                            np.count_nonzero(after),
-                        ],
-                        dtype=float,
-                    )
+                    counts += calibration_counts(e, beyond, after)
                 logs[i] += 0.5 * math.log(counts[0] / scored(runs))
                 miss[i] += calibration_miss(counts)
     rms = np.exp(logs / max(used, 1))
@@ -462,13 +461,7 @@ def fit_lag_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
                     ratio = np.clip(var[keep, m] / var[keep, 0], 0.0, 1.0)
                     for i, power in enumerate(LAG_POWERS):
                         beyond = e * e > 4.0 * var[keep, 0] * ratio**power
-                        counts[i, m - 1] += (
-                            float(np.sum(e * e)),
-                            np.count_nonzero(beyond & ~after),
-                            np.count_nonzero(~after),
-                            np.count_nonzero(beyond & after),
-                            np.count_nonzero(after),
-                        )
+                        counts[i, m - 1] += calibration_counts(e, beyond, after)
             miss += [sum(calibration_miss(c) for c in per_lag) for per_lag in counts]
     return LAG_POWERS[int(np.argmin(miss))], [float(m) for m in miss]
 

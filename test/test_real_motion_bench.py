@@ -7,6 +7,7 @@ import re
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from benchmarks import real_motion as rm
@@ -117,3 +118,67 @@ def test_targets_count_every_judged_cell_once(quick: tuple) -> None:
         assert total == len(shares) == inside + unsure + outside
         kinds = rm.verdicts(rows, method)
         assert (len(kinds["in"]), len(kinds["unsure"]), len(kinds["out"])) == (inside, unsure, outside)
+
+
+def _tiny_training_split() -> tuple[rm.Profile, ...]:
+    """One short training profile per preset (a step, a braking and a stop): every fit's code path in
+    seconds, not the corpus's minutes."""
+    from pendulum_accel.physics.profiles import Braking, Step
+
+    return (
+        rm.Profile("tiny_car", "train", "car", lambda: Step(3.0, 0.0, 1.0), 6.0),
+        rm.Profile("tiny_robot", "train", "robot", lambda: Braking(2.0, 2.0, 3.0), 6.0),
+        rm.Profile("tiny_lab", "train", "lab_steps", lambda: Step(3.0, 1.0, -2.0), 6.0),
+    )
+
+
+def test_fit_runs_every_fit_and_picks_from_its_grids(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--fit`` (the command every tuned constant names) runs each fit to its end on a training split, and
+    each prints a value of its own grid: q_a of Q_GRID and an IMM candidate per preset, auto's chain of
+    AUTO_CHAINS, the fixed-lag power of LAG_POWERS."""
+    monkeypatch.setattr(rm, "PROFILES", _tiny_training_split())
+    assert rm.main(["--fit", "--quick"]) == 0
+    out = capsys.readouterr().out
+    for preset in ("car", "robot", "lab_steps"):
+        q = float(re.search(rf"^{preset}: single q_a = (\S+) ", out, re.M).group(1))  # type: ignore[union-attr]
+        # printed to 3 significant digits: within half a unit of the third digit of a grid value
+        assert min(abs(q - g) / g for g in rm.Q_GRID) <= 5e-3
+        imm = re.search(rf"^{preset}: IMM modes \((\S+), (\S+)\), switch_time (\S+) s", out, re.M)
+        assert imm is not None
+        modes = (float(imm.group(1)), float(imm.group(2)))
+        assert (modes, float(imm.group(3))) in rm.IMM_CANDIDATES
+    chain = re.search(r"^auto: chain up (\S+) s, down (\S+) s", out, re.M)
+    assert chain is not None and (float(chain.group(1)), float(chain.group(2))) in rm.AUTO_CHAINS
+    power = re.search(r"^auto: fixed-lag variance power (\S+) ", out, re.M)
+    assert power is not None and float(power.group(1)) in rm.LAG_POWERS
+
+
+def test_imm_scan_counts_what_the_estimator_publishes() -> None:
+    """imm_scan's row for car's own IMM (modes 1e-4/0.03, switch 50 s) holds the same Σe² and the same
+    counts beyond 2σ, steady and after a change, as KalmanEstimator(preset='car').batch on the same runs."""
+    from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator
+    from pendulum_accel.physics.profiles import Step
+    from pendulum_accel.recording.changes import after_change
+
+    car = PRESETS["car"]
+    candidate = (car.modes, car.switch_time)
+    assert candidate in rm.IMM_CANDIDATES
+    design = rm.designs()[0]
+    runs = rm.simulate_runs(Step(3.0, 0.0, 1.0), design, 2, 8.0)
+    (row,) = rm.imm_scan(runs, design, [candidate])
+    est = KalmanEstimator(rm.kalman_q(design, 1.0).config, preset="car")
+    expected = [0.0, 0, 0, 0, 0]
+    for r in runs:
+        a, var = est.batch(r.t, r.theta)
+        keep = r.t >= rm.WARMUP
+        e = (a - r.accel)[keep]
+        beyond = e * e > 4.0 * var[keep]  # the design has no bias: the published var is the IMM's own
+        after = after_change(r.t, r.t, r.accel)[keep]
+        expected[0] += float(np.sum(e * e))
+        for k, mask in ((1, beyond & ~after), (2, ~after), (3, beyond & after), (4, after)):
+            expected[k] += int(np.count_nonzero(mask))
+    assert list(row[1:]) == expected[1:]
+    # the same compiled pass on the same inputs: only the order of the sum may differ (≤ n ε relative)
+    assert row[0] == pytest.approx(expected[0], rel=1e-9)
