@@ -27,7 +27,7 @@ from pendulum_accel.estimators import (
 )
 from pendulum_accel.estimators.base import wrap_clamp, wrap_clamp_array
 from pendulum_accel.estimators.dynamic import DynamicEstimator
-from pendulum_accel.estimators.kalman import KalmanEstimator
+from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator
 from pendulum_accel.estimators.lowpass import LowpassEstimator
 from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.estimators.swing import swing_amplitude
@@ -321,7 +321,10 @@ def test_the_imm_states_the_delay_of_its_stationary_mode_mix_and_the_range_over_
     est = make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE)
     assert isinstance(est, KalmanEstimator) and len(est.modes) > 2
     pi = est.stationary_modes()
-    np.testing.assert_allclose(pi[1:] / pi[:-1], 1.0 / 2.0, rtol=1e-9)  # auto: up every 2 s, down every 1 s
+    auto = PRESETS["auto"]
+    assert auto.down_time is not None
+    # birth-death: π_{i+1}/π_i = rate up / rate down = τ_down/τ_up
+    np.testing.assert_allclose(pi[1:] / pi[:-1], auto.down_time / auto.switch_time, rtol=1e-9)
     delays = [
         make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE, q_accel=q).nominal_delay(0.0)
         for q in est.modes

@@ -72,7 +72,7 @@ whose posterior variance shrinks as 1/n) through every hindsight optimum of the 
 step (10) and an agile robot's bursts (100: the F1TENTH cars' |a| reach 10 m/s² within a second, where
 a top mode of 10 leaves a third of the errors beyond 2σ), a decade apart where real motion lives."""
 
-# auto (the default): a birth-death chain over AUTO_MODES, up every 2 s, down every 1 s, fitted by
+# auto (the default): a birth-death chain over AUTO_MODES, up every 3 s, down every 1 s, fitted by
 # ``python -m benchmarks.real_motion --fit --quick`` (fit_auto) on every training profile of the corpus
 # (benchmarks.corpus: cars, robots, acceleration tables, the lab's step and stop_and_go; both designs, the
 # first 60 s, seed 0): of AUTO_CHAINS within 5 % of the least RMS, the best calibrated (docs/estimators.md).
@@ -87,7 +87,7 @@ a top mode of 10 leaves a third of the errors beyond 2σ), a decade apart where 
 PRESETS: dict[str, MotionPreset] = {
     "auto": MotionPreset(
         AUTO_MODES,
-        2.0,
+        3.0,
         0.0215,
         0.0,
         "every training profile of benchmarks.corpus (cars, robots, acceleration tables, the lab's step and "
@@ -95,13 +95,13 @@ PRESETS: dict[str, MotionPreset] = {
         1.0,
     ),
     "car": MotionPreset(
-        (1e-4, 0.03), 50.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"
+        (1e-4, 0.03), 200.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"
     ),
     "robot": MotionPreset(
         (1e-3, 0.03), 10.0, 0.00464, 0.0, "Husky odometry 0-195 s, both designs, seeds 0-1"
     ),
     "lab_steps": MotionPreset(
-        (1e-4, 1.0), 200.0, 0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-1"
+        (1e-3, 1.0), 200.0, 0.215, 0.0, "stop_and_go scene + a 0 → 3 m/s² step, both designs, seeds 0-1"
     ),
 }
 DEFAULT_PRESET = "auto"
