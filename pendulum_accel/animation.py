@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import os
 import shutil
 import subprocess
 from collections.abc import Callable, Iterator
@@ -36,6 +37,7 @@ from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import Scene, scene_from_yaml
 from pendulum_accel.scene_run import run_scene
+from pendulum_accel.textfile import is_partial_path, not_a_file_or_directory, partial_path
 
 FloatArray = NDArray[np.float64]
 
@@ -194,14 +196,17 @@ class SwingAnimation:
 
     def save(self, path: Path, on_frame: Callable[[], object] | None = None) -> Path:
         """Write the animation to ``path``: GIF with Pillow, MP4 with ffmpeg (ParameterError when it is not
-        installed); on an error or an interrupt the encoder is stopped and ``path`` removed if this call
-        created it.
+        installed). ``on_frame`` is called after each frame is written (a progress bar).
 
-        ``path`` is written in place: the animate command passes the hidden partial name of
-        cli.output.write_output, which renames it over the asked name once complete (one partial name,
-        made in one place). ``on_frame`` is called after each frame is written (a progress bar).
+        The file is written under its hidden partial name (textfile.partial_path) and renamed over
+        ``path`` only once complete: on an error or an interrupt the encoder is stopped and the partial
+        file removed, so a file already at ``path`` stays as it was. A ``path`` that is a partial name
+        already (the animate command passes cli.output.write_output's, which renames it itself) or a
+        device or FIFO is written in place, and removed on failure only if this call created it.
         """
         out = check_output_path(path)
+        in_place = is_partial_path(out) or not_a_file_or_directory(out) is not None
+        target = out if in_place else partial_path(out)
         writer: PillowWriter | FFMpegWriter
         if out.suffix.lower() == ".gif":
             writer = PillowWriter(fps=self.fps)
@@ -211,8 +216,8 @@ class SwingAnimation:
             writer = FFMpegWriter(fps=self.fps, codec="h264", extra_args=["-pix_fmt", "yuv420p", "-xerror"])
         # Not writer.saving(): its finally encodes every frame grabbed so far even on Ctrl-C (seconds of
         # Pillow or ffmpeg work, and a partial file). Each frame is drawn once, by the writer's savefig.
-        done, existed = False, out.exists()
-        writer.setup(self.figure, str(out), DPI)
+        done, owned = False, not (in_place and target.exists())
+        writer.setup(self.figure, str(target), DPI)
         try:
             # matplotlib logs a failed encoder's whole stderr as a warning; the one line below says it.
             with mpl.rc_context({"savefig.bbox": None}), _quiet_logger("matplotlib.animation"):
@@ -226,12 +231,14 @@ class SwingAnimation:
                 except (BrokenPipeError, subprocess.CalledProcessError) as err:
                     # ffmpeg stopped (its pipe closed) or exited non-zero: say why, in its words.
                     raise _encoder_failure(writer, err) from None
+            if target != out:
+                os.replace(target, out)
             done = True
         finally:
             if not done:
                 _abandon(writer)
-                if not existed:
-                    out.unlink(missing_ok=True)
+                if owned:
+                    target.unlink(missing_ok=True)
         return out
 
 

@@ -1,4 +1,5 @@
-"""Read a small user-given text file (scene YAML, acceleration CSV): its size, type and bytes are checked."""
+"""Read a small user-given text file (scene YAML, acceleration CSV): its size, type and bytes are checked.
+And name an output before it is complete: the one hidden partial name every writer uses."""
 
 from __future__ import annotations
 
@@ -56,3 +57,21 @@ def read_text_file(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
         raise ValueError(f"not UTF-8 text (byte 0x{data[err.start]:02x} at offset {err.start})") from None
+
+
+PARTIAL = ".partial"
+"""What a partial name adds before the suffix (partial_path)."""
+
+
+def partial_path(path: Path) -> Path:
+    """Where ``path`` is written before it is complete: a hidden sibling with the same suffix (writers
+    pick the format by it), ``.NAME.partial.SUFFIX``; the same directory, so the rename is atomic."""
+    return path.with_name(f".{path.stem}{PARTIAL}{path.suffix}")
+
+
+def is_partial_path(path: Path) -> bool:
+    """True when ``path`` is some output's partial_path (``.NAME.partial.SUFFIX``): a writer handed one
+    writes it in place, since its caller renames it (a second partial name would be ``..NAME.partial
+    .partial.SUFFIX``)."""
+    stem = path.stem
+    return len(stem) > len(PARTIAL) + 1 and stem.startswith(".") and stem.endswith(PARTIAL)

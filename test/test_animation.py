@@ -6,6 +6,7 @@ import math
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -126,11 +127,11 @@ def test_a_bag_animates_from_its_recorded_angles(tmp_path: Path) -> None:
 
 
 def test_animate_writes_through_one_partial_name(tmp_path: Path) -> None:
-    """animate writes under one hidden partial name, ``.NAME.partial.gif`` (cli.output.partial_path),
+    """animate writes under one hidden partial name, ``.NAME.partial.gif`` (textfile.partial_path),
     renamed to NAME.gif: an output whose partial name is exactly the file system's longest name is
     written, and nothing else is left beside it. A partial name made twice (``..NAME.partial.partial``,
     9 characters longer) would not fit, and the write would fail with 'File name too long'."""
-    from pendulum_accel.cli.output import partial_path
+    from pendulum_accel.textfile import partial_path
 
     name_max = os.pathconf(tmp_path, "PC_NAME_MAX")
     out = tmp_path / ("s" * (name_max - len("..partial.gif")) + ".gif")
@@ -160,3 +161,46 @@ def test_mp4_is_written_through_ffmpeg(tmp_path: Path) -> None:
     )  # fmt: skip
     width, height, frames = (int(v) for v in probe.stdout.strip().split(","))
     assert (width, height) == (WIDTH, HEIGHT) and frames == 11
+
+
+@pytest.mark.parametrize("suffix", [".gif", ".mp4"])
+def test_a_direct_save_over_a_file_keeps_it_until_the_new_one_is_complete(
+    tmp_path: Path, suffix: str
+) -> None:
+    """SwingAnimation.save called directly (a notebook) on an existing file: Ctrl-C mid-way (after the first
+    frame, once ffmpeg has opened its output: it truncates the file it writes at once) leaves the old
+    bytes as they were and no partial file; a save that completes replaces them."""
+    out = tmp_path / f"swing{suffix}"
+    old = b"the animation of last week's lab\n"
+    out.write_bytes(old)
+    anim = SwingAnimation(swing(), fps=10, duration=1.0)
+
+    def opened() -> bool:
+        """The encoder has touched the file system: the asked file changed or another file appeared."""
+        return out.read_bytes() != old or any(p != out for p in tmp_path.iterdir())
+
+    def interrupt() -> None:
+        """Ctrl-C after the first frame; for MP4 once ffmpeg's output exists (Pillow writes only at the
+        end), or after 30 s without it (the assertions below then still tell)."""
+        deadline = time.monotonic() + 30.0
+        while suffix == ".mp4" and not opened() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        anim.save(out, on_frame=interrupt)
+    assert out.read_bytes() == old
+    assert sorted(tmp_path.iterdir()) == [out]
+    assert anim.save(out) == out
+    assert sorted(tmp_path.iterdir()) == [out]
+    if suffix == ".gif":
+        with Image.open(out) as img:
+            frames = getattr(img, "n_frames", 1)
+    else:
+        probe = subprocess.run(
+            ["ffprobe", "-v", "error", "-select_streams", "v:0", "-count_frames",
+             "-show_entries", "stream=nb_read_frames", "-of", "csv=p=0", str(out)],
+            capture_output=True, text=True, check=True,
+        )  # fmt: skip
+        frames = int(probe.stdout.strip())
+    assert frames == 11  # 0, 0.1, …, 1.0 s: the whole new animation

@@ -24,12 +24,14 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording import coverage
+from pendulum_accel.recording import design_study as ds
 from pendulum_accel.recording.fleet import COLUMN_NAMES, Job, analyze_many, bag_rows, find_bags, write_csv
 from test.conftest import REPO, Spawn, cli, stop_processes, strict_json
 from test.test_network import TwoHosts, two_hosts  # noqa: F401 (the fixture)
@@ -308,8 +310,6 @@ def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path)
     """Two designs × one profile × two seeds: a row per design with the asked lags, RMS falling (not
     rising) with the lag beyond rounding, the front monotone; a LocalCluster gives the same rows (exact,
     for the reason given in test_local_cluster_gives_the_serial_table)."""
-    from pendulum_accel.recording import design_study as ds
-
     designs = ds.design_grid([0.2, 1.0], [0.7], [100.0], [1e-3])
     kwargs: dict[str, Any] = {"seeds": 2, "duration": 20.0, "lags": (0.0, 0.5)}
     rows = ds.study(designs, ["husky_odom"], distributed=False, **kwargs)
@@ -323,6 +323,47 @@ def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path)
     assert ds.study(designs, ["husky_odom"], workers=2, distributed=True, **kwargs) == rows
 
 
+def _case_trials(case: ds.Case) -> dict[str, float]:
+    """The independent trials of one design-study case's live filter per window, computed here from its
+    signals with coverage's own functions: τ of the NEES after the warm-up, n_eff of each window's mask."""
+    from pendulum_accel.estimators import DEFAULT_ESTIMATOR, make_estimator
+    from pendulum_accel.recording.changes import after_change
+
+    t, theta, accel, settings = ds.case_signals(case)
+    est, var = make_estimator(DEFAULT_ESTIMATOR, **settings, lag=0.0).batch(t, theta)
+    keep = t >= ds.WARMUP
+    nees = ((est - accel) ** 2 / var)[keep]
+    assert np.all(np.isfinite(nees))  # var > 0 everywhere: every sample counts in its window
+    tau = coverage.integrated_time(nees)
+    after = after_change(t, t, accel)[keep]
+    return {
+        "steady": coverage.effective_samples(~after, tau),
+        "after_change": coverage.effective_samples(after, tau),
+    }
+
+
+def test_design_shares_carry_their_summed_trials_and_wilson_interval() -> None:
+    """Each design row's share beyond 2σ comes with the trials of its cases summed (independent runs) and
+    the Wilson interval at them; a window no case reaches has null cells, never NaN."""
+    designs = ds.design_grid([0.2, 1.0], [0.7], [100.0], [1e-3])
+    seeds, duration = 2, 20.0
+    rows = ds.study(designs, ["husky_odom"], seeds=seeds, duration=duration, lags=(0.0,), distributed=False)
+    for design, r in zip(designs, rows, strict=True):
+        per_case = [_case_trials(ds.Case(design, "husky_odom", s, duration, (0.0,))) for s in range(seeds)]
+        for window in ("steady", "after_change"):
+            share, trials = r[f"share_2sigma_{window}"], r[f"trials_{window}"]
+            low, high = r[f"share_2sigma_{window}_low"], r[f"share_2sigma_{window}_high"]
+            # Both sides add the same two per-case floats (fsum there, + here: each one correctly rounded
+            # sum), so they agree to a rounding or two of ~1e-16 relative; 1e-12 is far above that.
+            assert trials == pytest.approx(sum(c[window] for c in per_case), rel=1e-12), (window, r)
+            assert trials >= seeds  # every case reaches both windows on 20 s of husky_odom
+            assert low <= share <= high, (window, r)
+            assert (low, high) == coverage.wilson(share, trials)  # the same function at the same arguments
+    (rest,) = ds.study(designs[:1], ["at_rest"], seeds=1, duration=5.0, lags=(0.0,), distributed=False)
+    assert isinstance(rest["trials_steady"], float) and rest["trials_steady"] >= 1.0
+    assert all(rest[k] is None for k in SHARE_CELLS if "after_change" in k), rest
+
+
 def test_design_cli_table_plot_and_one_line_refusals(tmp_path: Path) -> None:
     """The command writes its table and plot; a bad grid or scene is one line, exit 2, nothing written."""
     out, png = tmp_path / "d.csv", tmp_path / "d.png"
@@ -332,6 +373,11 @@ def test_design_cli_table_plot_and_one_line_refusals(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     header = out.read_text().splitlines()[0].split(",")
     assert "rms_lag_0.25" in header and "share_2sigma_after_change" in header
+    (row,) = list(csv.DictReader(io.StringIO(out.read_text())))
+    for window in ("steady", "after_change"):
+        share, trials = float(row[f"share_2sigma_{window}"]), float(row[f"trials_{window}"])
+        low, high = float(row[f"share_2sigma_{window}_low"]), float(row[f"share_2sigma_{window}_high"])
+        assert trials >= 1.0 and low <= share <= high, row
     assert png.stat().st_size > 0
     for bad in (["--lengths", "-1"], ["--profiles", "no_such_scene"], ["--lags", "x"], ["--seeds", "0"]):
         target = tmp_path / "bad.csv"

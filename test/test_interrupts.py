@@ -72,7 +72,7 @@ def test_animate_interrupted_while_encoding_leaves_no_file(tmp_path: Path) -> No
     out = tmp_path / "swing.mp4"
 
     def encoding() -> bool:
-        """The hidden partial MP4 (cli.output.partial_path, which ffmpeg writes) holds encoded bytes."""
+        """The hidden partial MP4 (textfile.partial_path, which ffmpeg writes) holds encoded bytes."""
         return any(
             p.name.startswith(".") and ".partial" in p.name and p.stat().st_size > 0
             for p in tmp_path.iterdir()

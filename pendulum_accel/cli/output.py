@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import TextIO
 
 from pendulum_accel.errors import OutputError
+from pendulum_accel.textfile import partial_path
 
 
 def _special(path: Path) -> bool:
@@ -123,17 +124,11 @@ def _failure(path: Path, err: OSError, removed: bool, existed: bool) -> OutputEr
     return OutputError(f"cannot write {path}: {err.strerror or err}; {kept}")
 
 
-def partial_path(path: Path) -> Path:
-    """Where ``path`` is written before it is complete: a hidden sibling with the same suffix (writers
-    pick the format by it), ``.NAME.partial.SUFFIX``; the same directory, so the rename is atomic."""
-    return path.with_name(f".{path.stem}.partial{path.suffix}")
-
-
 def write_output(path: Path, write: Callable[[Path], object]) -> Path:
     """Call ``write(target)`` (it creates the file), then rename ``target`` to ``path``; OutputError naming
     the cause on any OSError (the writes', the close's, an encoder's exit status).
 
-    ``target`` is :func:`partial_path`: until the rename, ``path`` holds nothing new, so a full disk,
+    ``target`` is textfile.partial_path: until the rename, ``path`` holds nothing new, so a full disk,
     an error or an interrupt never leaves a partial file under the asked name (nor spoils a file
     already there), and the partial file is removed. A device or FIFO (/dev/null, a pipe) is written
     directly. Returns ``path``.

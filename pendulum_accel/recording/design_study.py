@@ -6,7 +6,9 @@ design's pendulum under the profile's a(t), measured by the design's sensor, run
 estimator as the live filter and as the fixed-lag smoother at every asked lag. Per design the cases are
 pooled: RMS of e = â − a at each lag (the fixed-lag curve), the live filter's delay (cross-correlation
 peak) and its calibration (share of errors beyond 2σ in steady stretches and within 2 s after a change,
-a change being |a(t) − a(t − 1 s)| > 0.2 m/s²). The accuracy–latency front is the set of (latency, RMS)
+a change being |a(t) − a(t − 1 s)| > 0.2 m/s²), each share with the independent trials behind it
+(recording.coverage; the cases are independent runs, so their trials add) and its 95 % interval at
+those trials. The accuracy–latency front is the set of (latency, RMS)
 points, latency = lag + delay, that no other point beats on both.
 """
 
@@ -20,12 +22,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from pendulum_accel.cluster import Progress, map_tasks
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, make_estimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
-from pendulum_accel.recording.changes import after_change
+from pendulum_accel.recording import coverage
+from pendulum_accel.recording.analyze import nees_windows
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.scene import load_scene
 from pendulum_accel.sensor import SensorModel
@@ -93,10 +97,17 @@ DESIGN_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("rms_lag_LAG", "double", "√(Σe²/n) of the default estimator with a fixed lag of LAG s (0: live), m/s²"),
     ("delay", "double", "median over the cases of the live filter's cross-correlation delay (s)"),
     ("share_2sigma_steady", "double", "share of the live filter's steady-state errors beyond 2σ"),
+    ("trials_steady", "double", "independent errors behind share_2sigma_steady, summed over the cases"),
+    ("share_2sigma_steady_low", "double", "lower end of that share's 95 % Wilson interval at those trials"),
+    ("share_2sigma_steady_high", "double", "upper end of that interval"),
     ("share_2sigma_after_change", "double", "the same within 2 s after a change of a(t)"),
+    ("trials_after_change", "double", "independent errors behind share_2sigma_after_change"),
+    ("share_2sigma_after_change_low", "double", "lower end of that share's 95 % Wilson interval"),
+    ("share_2sigma_after_change_high", "double", "upper end of that interval"),
     ("nees_mean", "double", "mean e²/σ² of the live filter (1 when σ tells the truth)"),
 )
-"""The design table: (column, Arrow type, meaning); one rms_lag_LAG column per asked lag."""
+"""The design table: (column, Arrow type, meaning); one rms_lag_LAG column per asked lag. A share's cells
+are null where its window has no samples in any case."""
 
 
 @dataclass(frozen=True)
@@ -110,9 +121,15 @@ class Case:
     lags: tuple[float, ...]
 
 
-def run_case(case: Case) -> dict[str, Any]:
-    """Sums for pooling one case: per lag Σe² and n; the live filter's delay and its counts beyond 2σ
-    in steady stretches and after changes."""
+WINDOWS = ("steady", "after_change")
+"""The live filter's two calibration windows (recording.changes.after_change splits them)."""
+
+
+def case_signals(
+    case: Case,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], dict[str, float]]:
+    """(t, measured θ, the profile's a(t), the default estimator's settings) of one case: θ(t) of the
+    design's pendulum under a(t), started at equilibrium (tan θ₀ = a(0)/g), through the design's sensor."""
     from pendulum_accel.physics.simulate import simulate
 
     d = case.design
@@ -127,35 +144,65 @@ def run_case(case: Case) -> dict[str, Any]:
         rate_hz=d.rate_hz, noise_std=d.noise_std, quantization=d.quantization, seed=case.seed
     )
     theta = sensor.measure(t, np.asarray(traj.theta, dtype=np.float64))
-    keep = t >= WARMUP
     # The estimator is told the white noise it faces: σ² plus the quantiser's q²/12.
     sigma = math.sqrt(d.noise_std**2 + d.quantization**2 / 12.0)
     settings = {"length": d.length, "damping": d.damping, "noise_std": max(sigma, 1e-6), "rate_hz": d.rate_hz}
+    return t, theta, accel, settings
+
+
+def run_case(case: Case) -> dict[str, Any]:
+    """Sums for pooling one case: per lag Σe² and n; the live filter's delay and, per window (steady,
+    after a change), its samples n, those beyond 2σ (NEES = e²/var > 4), Σ NEES and the independent
+    trials behind them (recording.analyze.nees_windows)."""
+    t, theta, accel, settings = case_signals(case)
+    keep = t >= WARMUP
     out: dict[str, Any] = {"sq": {}, "n": int(keep.sum())}
-    after = after_change(t, t, accel)[keep]
     for lag in case.lags:
         est, var = make_estimator(DEFAULT_ESTIMATOR, **settings, lag=lag).batch(t, theta)
-        e = (np.asarray(est) - accel)[keep]
-        out["sq"][lag] = float(np.sum(e * e))
+        e = np.asarray(est) - accel
+        out["sq"][lag] = float(np.sum(e[keep] ** 2))
         if lag == 0.0:
-            z = e * e / np.maximum(np.asarray(var)[keep], 1e-300)
-            out["beyond_steady"] = int(np.sum(z[~after] > 4.0))
-            out["n_steady"] = int(np.sum(~after))
-            out["beyond_after"] = int(np.sum(z[after] > 4.0))
-            out["n_after"] = int(np.sum(after))
-            out["nees_sum"] = float(np.sum(z))
-            out["delay"] = group_delay(np.asarray(est)[keep], accel[keep], d.rate_hz)
+            windows = nees_windows(t, e, np.asarray(var, dtype=np.float64), t, accel, WARMUP)
+            for window, (nees, trials) in zip(WINDOWS, windows, strict=True):
+                z = nees[np.isfinite(nees)]
+                out[window] = {
+                    "n": int(z.size),
+                    "beyond": int(np.sum(z > 4.0)),
+                    "nees_sum": float(np.sum(z)),
+                    "trials": trials,
+                }
+            out["delay"] = group_delay(np.asarray(est)[keep], accel[keep], case.design.rate_hz)
     return out
 
 
-def _share(k: int, n: int) -> float | None:
-    """k/n, None for n = 0."""
-    return k / n if n else None
+def _share_cells(window: str, counts: Sequence[dict[str, Any]]) -> dict[str, float | None]:
+    """share_2sigma_{window} = Σ beyond / Σ n over the cases, trials_{window} = Σ trials (the cases are
+    independent runs: their independent trials add) and the share's 95 % interval
+    share_2sigma_{window}_low/_high = coverage.wilson(share, trials); None where no case has a sample."""
+    n = sum(c["n"] for c in counts)
+    if n == 0:
+        return dict.fromkeys(
+            (
+                f"share_2sigma_{window}",
+                f"trials_{window}",
+                f"share_2sigma_{window}_low",
+                f"share_2sigma_{window}_high",
+            )
+        )
+    share = sum(c["beyond"] for c in counts) / n
+    trials = math.fsum(c["trials"] for c in counts if c["n"])
+    low, high = coverage.wilson(share, trials)
+    return {
+        f"share_2sigma_{window}": share,
+        f"trials_{window}": trials,
+        f"share_2sigma_{window}_low": low,
+        f"share_2sigma_{window}_high": high,
+    }
 
 
 def summarise(design: SensorDesign, parts: Sequence[dict[str, Any]], lags: Sequence[float]) -> dict[str, Any]:
     """One table row: the design, RMS = √(Σe²/Σn) per lag pooled over its cases, the median delay, the
-    pooled shares beyond 2σ and mean NEES of the live filter."""
+    pooled shares beyond 2σ with their trials and 95 % intervals, and the mean NEES of the live filter."""
     n = sum(p["n"] for p in parts)
     row: dict[str, Any] = {
         "design": design.name,
@@ -169,13 +216,10 @@ def summarise(design: SensorDesign, parts: Sequence[dict[str, Any]], lags: Seque
     for lag in lags:
         row[f"rms_lag_{lag:g}"] = math.sqrt(sum(p["sq"][lag] for p in parts) / n)
     row["delay"] = float(np.median([p["delay"] for p in parts]))
-    row["share_2sigma_steady"] = _share(
-        sum(p["beyond_steady"] for p in parts), sum(p["n_steady"] for p in parts)
-    )
-    row["share_2sigma_after_change"] = _share(
-        sum(p["beyond_after"] for p in parts), sum(p["n_after"] for p in parts)
-    )
-    row["nees_mean"] = sum(p["nees_sum"] for p in parts) / n
+    for window in WINDOWS:
+        row.update(_share_cells(window, [p[window] for p in parts]))
+    n_nees = sum(p[w]["n"] for p in parts for w in WINDOWS)
+    row["nees_mean"] = sum(p[w]["nees_sum"] for p in parts for w in WINDOWS) / n_nees if n_nees else None
     return row
 
 
