@@ -48,10 +48,14 @@ def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
     ``workers`` single-threaded worker processes (default: one per CPU this process may use)."""
     try:
         from distributed import Client, LocalCluster
-    except ImportError:
-        raise PendulumAccelError(
-            "this runs on Dask distributed, which is not installed: pip install 'pendulum_accel[fleet]'"
-        ) from None
+    except ImportError as err:
+        # Only a missing package is "not installed": an installed one that fails to import (a broken or
+        # half-upgraded environment) says why, so the user does not reinstall what is there.
+        if isinstance(err, ModuleNotFoundError) and (err.name or "").split(".")[0] in ("distributed", "dask"):
+            raise PendulumAccelError(
+                "this runs on Dask distributed, which is not installed: pip install 'pendulum_accel[fleet]'"
+            ) from None
+        raise PendulumAccelError(f"this runs on Dask distributed, which failed to import: {err}") from None
     if address is not None:
         try:
             client = Client(address, timeout=10)

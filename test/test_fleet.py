@@ -421,3 +421,37 @@ def test_progress_bar_on_a_terminal_and_not_in_a_pipe(corpus: Path, tmp_path: Pa
     assert proc.returncode == 0, text
     assert "/2 [" in text and "bag" in text, text  # tqdm's "n/2 [elapsed<remaining, rate bag/s]"
     assert "analyzed 2 bag(s)" in text
+
+
+@pytest.mark.parametrize(
+    ("failure", "says"),
+    [
+        (ModuleNotFoundError("No module named 'distributed'", name="distributed"), "which is not installed"),
+        (ImportError("cannot import name 'Client' from partially initialized module"), "failed to import"),
+    ],
+)
+def test_a_dask_that_will_not_import_is_named_for_what_it_is(
+    monkeypatch: pytest.MonkeyPatch, failure: ImportError, says: str
+) -> None:
+    """dask_client's one line: 'not installed' (and the pip command) only when the package is missing; an
+    installed distributed that fails to import gives its own reason, so nobody reinstalls what is there."""
+    import builtins
+
+    from pendulum_accel.cluster import dask_client
+    from pendulum_accel.errors import PendulumAccelError
+
+    real_import = builtins.__import__
+
+    def refuse(name: str, *args: object, **kwargs: object) -> object:
+        if name.split(".")[0] == "distributed":
+            raise failure
+        return real_import(name, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(builtins, "__import__", refuse)
+    with pytest.raises(PendulumAccelError) as caught, dask_client(None, 1):
+        pass
+    line = str(caught.value)
+    assert says in line and "\n" not in line
+    assert ("pip install" in line) == (says == "which is not installed")
+    if says == "failed to import":
+        assert "partially initialized" in line
