@@ -12,6 +12,7 @@ Dask is the ``fleet`` extra (``pip install 'pendulum_accel[fleet]'``); it is imp
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
@@ -88,12 +89,21 @@ def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
         _kill_local_workers()
         raise
     timeout = CLOSE_TIMEOUT
+    interrupted = False
+    # silence_logs holds only while Dask's objects live: closing them puts their handlers back to INFO,
+    # and the in-process scheduler, still writing to workers Ctrl-C has just killed, then logs "Batched
+    # Comm Closed" with a traceback after the one-line message. The "distributed" logger itself stays
+    # at ERROR through the shutdown; after an interrupt it is left there (the process is ending).
+    dask_logger = logging.getLogger("distributed")
+    level = dask_logger.level
+    dask_logger.setLevel(logging.ERROR)
     try:
         yield client
     except KeyboardInterrupt:
         # Ctrl-C: the user wants the terminal back now, not after a graceful drain. The local workers
         # are this process's children; killing them ends their tasks at once (their results go nowhere:
         # callers write their output only after every task has returned).
+        interrupted = True
         _kill_local_workers()
         timeout = 0.2
         raise
@@ -103,6 +113,8 @@ def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
             client.close(timeout=timeout)
         with contextlib.suppress(TimeoutError, OSError, RuntimeError):
             cluster.close(timeout=timeout)
+        if not interrupted:
+            dask_logger.setLevel(level)
 
 
 def _on_client(fn: Callable[[T], R], items: Sequence[T], client: Any, progress: Progress) -> list[R]:

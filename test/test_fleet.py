@@ -455,3 +455,26 @@ def test_a_dask_that_will_not_import_is_named_for_what_it_is(
     assert ("pip install" in line) == (says == "which is not installed")
     if says == "failed to import":
         assert "partially initialized" in line
+
+
+def test_after_ctrl_c_on_a_local_cluster_dask_logs_only_errors() -> None:
+    """Ctrl-C inside dask_client: once the cluster is closed, Dask's loggers still drop INFO records (the
+    in-process scheduler's "Batched Comm Closed" with its traceback, which a run once printed after the
+    one-line message: closing the cluster puts Dask's own handlers back to INFO) and still pass errors."""
+    import logging
+    import multiprocessing
+
+    from pendulum_accel.cluster import dask_client
+
+    with contextlib.suppress(KeyboardInterrupt), dask_client(None, 1):
+        raise KeyboardInterrupt
+    batched = logging.getLogger("distributed.batched")
+    assert not batched.isEnabledFor(logging.INFO)
+    assert batched.isEnabledFor(logging.ERROR)
+    # What the CLI's exit does next (multiprocessing ends its daemon children): a worker the nanny
+    # restarted during the 0.2 s close would outlive this test otherwise.
+    deadline = time.monotonic() + 30.0
+    while multiprocessing.active_children() and time.monotonic() < deadline:
+        for child in multiprocessing.active_children():
+            child.kill()
+            child.join(1.0)
