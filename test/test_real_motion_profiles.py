@@ -343,6 +343,60 @@ def test_accel_csv_reads_date_times_and_cuts_a_window_before_the_gap_check(tmp_p
     assert "120 samples" in profile.origin  # the stretch before the gap
 
 
+PHYPHOX_LAYOUTS = [(",", "."), ("\t", "."), (";", "."), ("\t", ","), (";", ",")]
+"""The (separator, decimal mark) pairs of phyphox's CSV exports (DataExport.java, CsvFormat)."""
+
+
+def phyphox_text(separator: str, decimal: str, times: np.ndarray, accels: np.ndarray) -> str:
+    """An "Acceleration (without g)" export as phyphox writes it: quoted names, "0.000000000E0" numbers."""
+
+    def number(x: float) -> str:
+        mantissa, exponent = f"{x:.9E}".split("E")
+        return f"{mantissa}E{int(exponent)}".replace(".", decimal)
+
+    names = ["Time (s)", "Acceleration x (m/s^2)", "Acceleration y (m/s^2)", "Acceleration z (m/s^2)"]
+    rows = [separator.join(f'"{n}"' for n in names)]
+    for t, a in zip(times, accels, strict=True):
+        rows.append(separator.join(number(x) for x in (t, 0.25 * a, a, -0.5 * a)))
+    return "\n".join(rows) + "\n"
+
+
+@pytest.mark.parametrize(("separator", "decimal"), PHYPHOX_LAYOUTS)
+def test_accel_csv_reads_every_layout_phyphox_exports(separator: str, decimal: str, tmp_path: Path) -> None:
+    """Each of phyphox's five CSV layouts gives the a(t) of its comma/point twin, bit for bit: the same
+    digits are parsed, only the separator and the decimal mark differ."""
+    times = np.arange(200) * 0.01
+    accels = np.sin(2.0 * times) - 0.3
+    (tmp_path / "twin.csv").write_text(phyphox_text(",", ".", times, accels), encoding="utf-8")
+    (tmp_path / "phone.csv").write_text(phyphox_text(separator, decimal, times, accels), encoding="utf-8")
+    spec: dict[str, object] = {"type": "accel_csv", "time_column": "Time (s)",
+                               "accel_column": "Acceleration y (m/s^2)"}  # fmt: skip
+    twin = table_of(spec | {"path": "twin.csv"}, base_dir=tmp_path)
+    profile = table_of(spec | {"path": "phone.csv"}, base_dir=tmp_path)
+    assert np.array_equal(profile.times, twin.times) and np.array_equal(profile.accels, twin.accels)
+    # Against the values written: "0.000000000E0" keeps 10 significant digits, a relative error ≤ 5e-10.
+    assert np.allclose(profile.accels, accels, rtol=0.0, atol=5e-10 * 1.3)
+    # The plain `csv` profile (t, a in the first two columns) reads the same layouts.
+    plain = profile_from_dict({"type": "csv", "path": "phone.csv"}, base_dir=tmp_path)
+    assert isinstance(plain, Table) and np.array_equal(plain.times, twin.times)
+
+
+def test_a_comma_file_whose_header_holds_a_semicolon_stays_comma_separated(tmp_path: Path) -> None:
+    """The layout is the separator that splits every row, not the first one seen: a quoted header with a
+    semicolon in it does not turn a comma file into a one-column semicolon file."""
+    rows = ['"t (s)","a; forward (m/s^2)"', *(f"{0.1 * k!r},{0.5 * k!r}" for k in range(10))]
+    (tmp_path / "log.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    columns = read_columns(tmp_path / "log.csv", "t (s)", "a; forward (m/s^2)", what="accel")
+    assert np.array_equal(columns.values, [0.5 * k for k in range(10)])
+
+
+def test_a_decimal_comma_needs_a_separator_that_is_not_a_comma(tmp_path: Path) -> None:
+    """ "1,5" in a comma file is two cells: the file reads as written (columns 1 and 2), nothing guessed."""
+    (tmp_path / "log.csv").write_text("t,a\n0,5,1\n1,5,2\n", encoding="utf-8")
+    columns = read_columns(tmp_path / "log.csv", "t", "a", what="accel")
+    assert np.array_equal(columns.times, [0.0, 1.0]) and np.array_equal(columns.values, [5.0, 5.0])
+
+
 # ---------------------------------------------------------------- the bundled recordings
 
 CYCLES = {

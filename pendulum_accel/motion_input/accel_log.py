@@ -1,15 +1,16 @@
 """Logged accelerations used as recorded: the ``accel_csv`` profile (a vehicle's or a phone's
-accelerometer log, any time and acceleration columns) and the ``csv`` profile (plain ``t, a`` rows)."""
+accelerometer log, any time and acceleration columns) and the ``csv`` profile (plain ``t, a`` rows), each
+in any layout ``columns.csv_rows`` reads."""
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 
 from pendulum_accel.errors import ParameterError
+from pendulum_accel.motion_input.columns import csv_rows
 from pendulum_accel.motion_input.fields import field_number, field_text
 from pendulum_accel.motion_input.trace import csv_trace, recorded_acceleration
 from pendulum_accel.physics.profiles import Table
@@ -49,10 +50,7 @@ def csv_table(path: str | Path) -> Table:
         raise ParameterError(f"cannot read acceleration CSV {source}: {exc}") from None
     times: list[float] = []
     accels: list[float] = []
-    for line_no, row in enumerate(csv.reader(text.splitlines()), start=1):
-        cells = [c.strip() for c in row]
-        if not cells or not any(cells) or cells[0].startswith("#"):
-            continue
+    for line_no, cells in csv_rows(text):
         if len(cells) < 2:
             raise ParameterError(f"{source}:{line_no}: expected 't, a', got {','.join(cells)!r}")
         try:

@@ -6,12 +6,19 @@ e.g. ``%d/%m/%Y %H:%M:%S``), or, when none is stated, detected as ISO 8601 (``da
 other layouts such as ``03/28/2007`` are ambiguous (day or month first) and need the format stated.
 A date-time column becomes seconds since its first row, subtracted as datetimes (microseconds exact):
 a float epoch of 1.2e9 s would keep only about 0.2 µs.
+
+Columns are separated by commas, semicolons or tabs, and with a semicolon or a tab numbers may carry a
+decimal comma (``1,234E-1``): the five CSV layouts phyphox exports (its ``DataExport.CsvFormat``), and what
+spreadsheets write in locales whose decimal mark is a comma. The layout is detected from the file's first
+rows (``sniff_layout``).
 """
 
 from __future__ import annotations
 
 import csv
 import datetime as dt
+import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,6 +47,60 @@ class Columns:
     def stamp(self, i: int) -> str:
         """Row ``i``'s time as the file writes it."""
         return self.stamps[i]
+
+
+SEPARATORS = ("\t", ";", ",")
+"""Column separators, in the order ``sniff_layout`` tries them: a comma can also be a decimal mark."""
+SNIFF_ROWS = 20
+"""Rows (not comments, not blank) ``sniff_layout`` reads: a header and enough data rows to be sure."""
+_DECIMAL_COMMA = re.compile(r"[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?")
+
+
+@dataclass(frozen=True)
+class Layout:
+    """How a CSV file writes its cells: the column ``separator``, and whether numbers use a decimal comma."""
+
+    separator: str
+    decimal_comma: bool
+
+    def cell(self, text: str) -> str:
+        """A stripped cell, a decimal-comma number written with a point (``1,5E-1`` → ``1.5E-1``)."""
+        text = text.strip()
+        if self.decimal_comma and _DECIMAL_COMMA.fullmatch(text):
+            return text.replace(",", ".")
+        return text
+
+
+def _content(lines: list[str]) -> list[str]:
+    """The lines that hold cells: not blank, not ``#`` comments."""
+    return [line for line in lines if line.strip() and not line.lstrip().startswith("#")]
+
+
+def sniff_layout(lines: list[str]) -> Layout:
+    """The first of SEPARATORS that splits each of the first SNIFF_ROWS content rows into two cells or more
+    (a comma when none does); a decimal comma when the separator is not a comma and a cell there is a
+    decimal-comma number (``_DECIMAL_COMMA``)."""
+    sample = _content(lines)[:SNIFF_ROWS]
+    for separator in SEPARATORS:
+        rows = list(csv.reader(sample, delimiter=separator))
+        if rows and all(len(row) >= 2 for row in rows):
+            break
+    else:
+        separator, rows = ",", list(csv.reader(sample))
+    comma = separator != "," and any(_DECIMAL_COMMA.fullmatch(c.strip()) for row in rows for c in row)
+    return Layout(separator, comma)
+
+
+def csv_rows(text: str) -> Iterator[tuple[int, list[str]]]:
+    """(line number, cells) of each row that holds cells, in the file's own layout (``sniff_layout``):
+    cells stripped, decimal-comma numbers rewritten with a point; blank rows and ``#`` comments skipped."""
+    lines = text.splitlines()
+    layout = sniff_layout(lines)
+    for line_no, row in enumerate(csv.reader(lines, delimiter=layout.separator), start=1):
+        cells = [layout.cell(c) for c in row]
+        if not cells or not any(cells) or cells[0].startswith("#"):
+            continue
+        yield line_no, cells
 
 
 def parse_datetime(text: str, time_format: str | None) -> dt.datetime:
@@ -112,10 +173,7 @@ def read_columns(
     values: list[float] = []
     lines: list[int] = []
     stamps: list[str] = []
-    for line_no, row in enumerate(csv.reader(text.splitlines()), start=1):
-        cells = [c.strip() for c in row]
-        if not cells or not any(cells) or cells[0].startswith("#"):
-            continue
+    for line_no, cells in csv_rows(text):
         if header is None and not raw_times:
             if named and not all(is_number(c) for c in cells):
                 header = cells
