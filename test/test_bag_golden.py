@@ -133,3 +133,19 @@ def test_hill_bag_reads_g_tan_beta_where_the_truth_is_zero() -> None:
     late = result.t >= result.t[-1] - 10.0
     expected = hill.pendulum.gravity * np.tan(hill.grade)
     assert abs(float(np.mean(result.accel_est[late])) - expected) <= 0.01
+
+
+@pytest.mark.parametrize("name", ["hill", "resonant_drive"])
+def test_a_bag_that_never_settles_shows_no_nan(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """The two golden bags whose error never settles: analyze's text says 'never' and '—' for the settled
+    figures (n = 0), and no word of it is nan or inf, as a user would otherwise read "+nan m/s²"."""
+    from pendulum_accel.cli.main import main
+
+    assert main(["analyze", str(BAGS / name)]) == 0
+    out = capsys.readouterr().out
+    words = {w.strip("+-(),:;").lower() for w in out.split()}
+    assert not words & {"nan", "inf", "infinity"}
+    settled = {line.split(":")[0]: line.split(":", 1)[1].split() for line in out.splitlines()
+               if line.startswith("settled ")}  # fmt: skip
+    assert settled["settled bias"] == ["—", "—"] and settled["settled RMS"] == ["—", "—"]
+    assert settled["settled max"] == ["—", "(n=0)", "—", "(n=0)"]

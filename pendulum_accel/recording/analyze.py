@@ -384,6 +384,12 @@ def _hole_text(f: EstimateFigures) -> str:
     )
 
 
+def figure(x: float, spec: str, unit: str = " m/s²") -> str:
+    """``format(x, spec)`` and the unit, or "—" where there is no figure (NaN: no samples, as after an
+    estimate that never settled)."""
+    return f"{x:{spec}}{unit}" if math.isfinite(x) else "—"
+
+
 def figure_table(columns: list[EstimateFigures]) -> list[str]:
     """Rows 'name  value  value' of the figures of each estimate stream, one column per stream."""
 
@@ -397,13 +403,16 @@ def figure_table(columns: list[EstimateFigures]) -> list[str]:
         ("", [f"{f.source} ({f.estimator})" for f in columns]),
         ("estimates", [f"{f.count} of {f.angles} angles" for f in columns]),
         ("holes", [_hole_text(f) for f in columns]),
-        ("bias", [f"{f.stats.bias:+.5f} m/s²" for f in columns]),
-        ("RMS", [f"{f.stats.rms:.5f} m/s²" for f in columns]),
-        ("max error", [f"{f.stats.max_abs:.5f} m/s²" for f in columns]),
+        ("bias", [figure(f.stats.bias, "+.5f") for f in columns]),
+        ("RMS", [figure(f.stats.rms, ".5f") for f in columns]),
+        ("max error", [figure(f.stats.max_abs, ".5f") for f in columns]),
         ("settling", [settle(f) for f in columns]),
-        ("settled bias", [f"{f.settled_stats.bias:+.5f} m/s²" for f in columns]),
-        ("settled RMS", [f"{f.settled_stats.rms:.5f} m/s²" for f in columns]),
-        ("settled max", [f"{f.settled_stats.max_abs:.5f} m/s² (n={f.settled_stats.n})" for f in columns]),
+        ("settled bias", [figure(f.settled_stats.bias, "+.5f") for f in columns]),
+        ("settled RMS", [figure(f.settled_stats.rms, ".5f") for f in columns]),
+        (
+            "settled max",
+            [f"{figure(f.settled_stats.max_abs, '.5f')} (n={f.settled_stats.n})" for f in columns],
+        ),
     ]
     width = max(len(v) for _, values in rows for v in values) + 2
     return [f"{name + ':' if name else '':<14}" + "".join(f"{v:<{width}}" for v in values).rstrip()

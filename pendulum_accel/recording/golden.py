@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from pendulum_accel.recording.analyze import Analysis, analyze_bag
+from pendulum_accel.recording.analyze import Analysis, analyze_bag, figure
 from pendulum_accel.recording.generate import GenerateResult, generate_bag
 from pendulum_accel.scene import list_scenes
 
@@ -81,12 +81,13 @@ def readme(bags: list[GoldenBag], max_duration: float) -> str:
         settle = "never" if a.settling_time is None else f"{a.settling_time:.2f}"
         lines.append(
             f"| {b.scene} | {b.result.sim_duration:.2f} | {b.result.messages} | {b.size_bytes / 1e3:.0f} "
-            f"| {s.rms:.4f} | {s.max_abs:.4f} | {settle} | {ss.bias:+.4f} | {ss.rms:.4f} |"
+            f"| {figure(s.rms, '.4f', '')} | {figure(s.max_abs, '.4f', '')} | {settle} "
+            f"| {figure(ss.bias, '+.4f', '')} | {figure(ss.rms, '.4f', '')} |"
         )
     lines += [
         "",
         '"all" covers every sample, start-up transient included; "settled" the samples after the',
         f"error entered its ±{bags[0].analysis.tolerance if bags else 0.1:g} m/s² band for good; settling is"
-        " counted from the truth's last change.",
+        " counted from the truth's last change (— where the error never settled).",
     ]
     return "\n".join(lines) + "\n"
