@@ -739,12 +739,12 @@ def _calibration_fields(prefix: str, cal: Calibration | None) -> dict[str, str |
 
 def nees_fields(key: str, stats: NeesStats | None) -> dict[str, str | float | int | None]:
     """{key}_{mean,median,share_2sigma,trials,share_2sigma_low,share_2sigma_high}: one window's figures,
-    the share's independent trials and 95 % interval (NeesStats.interval); None without the window, and a
-    figure the window lacks stays NaN (cli.output.json_text writes both as null)."""
+    the share's independent trials and 95 % interval (coverage.share_interval_cells); None without the
+    window or where a share or its trials is missing, and a mean or median the window lacks stays NaN
+    (cli.output.json_text writes both as null)."""
     out: dict[str, str | float | int | None] = {}
-    for name in ("mean", "median", "share_2sigma", "trials"):
+    for name in ("mean", "median"):
         out[f"{key}_{name}"] = None if stats is None else getattr(stats, name)
-    span = None if stats is None else stats.interval()
-    out[f"{key}_share_2sigma_low"] = None if span is None else span[0]
-    out[f"{key}_share_2sigma_high"] = None if span is None else span[1]
+    share, trials = (math.nan, math.nan) if stats is None else (stats.share_2sigma, stats.trials)
+    out.update(coverage.share_interval_cells(share, trials, f"{key}_share_2sigma", f"{key}_trials"))
     return out
