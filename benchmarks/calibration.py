@@ -26,8 +26,7 @@ import numpy as np
 
 from benchmarks import report
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
-from pendulum_accel.recording.analyze import nees_windows
-from pendulum_accel.recording.seed_spread import WindowSpread, with_seed
+from pendulum_accel.recording.seed_spread import WindowSpread, spread_over_runs, with_seed
 from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import SCENE_NAMES, load_scene
 from pendulum_accel.scene_run import SceneRun, run_scene
@@ -40,10 +39,9 @@ PLOT_SCENE = "stop_and_go"
 SEEDS = 10
 
 
-def _cells(parts: list[np.ndarray], trials: list[float]) -> list[str]:
+def _cells(spread: WindowSpread | None) -> list[str]:
     """Pooled mean, median, share beyond 2σ with its independent trials and 95 % interval (the seeds' trials
     add: WindowSpread.of), per-seed share p10–p90, n — or dashes without samples."""
-    spread = WindowSpread.of(parts, trials)
     if spread is None:
         return ["—", "—", "—", "—", "0"]
     s = spread.pooled
@@ -66,20 +64,8 @@ def table(seeds: int = SEEDS) -> tuple[list[str], dict[str, tuple[SceneRun, np.n
     sims = {name: [run_scene(with_seed(scene, k)) for k in range(seeds)] for name, scene in scenes.items()}
     for method in ESTIMATORS:
         for name, scene in scenes.items():
-            steady: list[np.ndarray] = []
-            after: list[np.ndarray] = []
-            steady_trials: list[float] = []
-            after_trials: list[float] = []
-            for run in sims[name]:
-                a, var = estimate_batch(method, run.t, run.theta_measured, **estimator_options(scene, method))
-                (s, ks), (c, kc) = nees_windows(
-                    run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + SKIP
-                )
-                steady.append(s)
-                after.append(c)
-                steady_trials.append(ks)
-                after_trials.append(kc)
-            cells = [*_cells(steady, steady_trials), *_cells(after, after_trials)]
+            spread = spread_over_runs(sims[name], method, estimator_options(scene, method), SKIP)
+            cells = [*_cells(spread.steady), *_cells(spread.after_change)]
             rows.append("| " + " | ".join([method, name, *cells]) + " |")
             if method == DEFAULT_ESTIMATOR:
                 own = run_scene(scene)

@@ -26,7 +26,7 @@ from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import Constant, Table
 from pendulum_accel.physics.simulate import simulate
-from pendulum_accel.recording.analyze import NeesStats, calibration, nees_split
+from pendulum_accel.recording.analyze import NeesStats, calibration, nees_windows
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
 from pendulum_accel.scene_run import run_scene
@@ -276,7 +276,7 @@ def kalman_nees_over_seeds(name: str, preset: str) -> tuple[np.ndarray, np.ndarr
         a, var = estimate_batch(
             "kalman", run.t, run.theta_measured, **estimator_settings(scene), preset=preset
         )
-        s, c = nees_split(run.t, a - run.accel_true, var, run.t, run.accel_true, 2.0)
+        (s, _), (c, _) = nees_windows(run.t, a - run.accel_true, var, run.t, run.accel_true, 2.0)
         steady.append(s)
         after.append(c)
     return np.concatenate(steady), np.concatenate(after)

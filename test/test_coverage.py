@@ -68,6 +68,21 @@ def test_wilson_interval_matches_scipy(k: int, n: int) -> None:
     assert hi == pytest.approx(float(ref.high), abs=1e-12)
 
 
+def test_share_interval_cells_are_null_where_a_figure_is_missing() -> None:
+    """The cells hold the share, its trials and wilson's interval at them (the same call, so equal); a
+    missing share (no samples) nulls every cell, missing trials null the trials and the interval only."""
+    low, high = coverage.wilson(0.25, 12.5)
+    cells = coverage.share_interval_cells(0.25, 12.5, "share", "trials")
+    assert cells == {"share": 0.25, "trials": 12.5, "share_low": low, "share_high": high}
+    assert coverage.share_interval_cells(math.nan, math.nan, "s", "t") == dict.fromkeys(
+        ("s", "t", "s_low", "s_high")
+    )
+    assert coverage.share_interval_cells(0.25, math.nan, "s", "t") == {
+        "s": 0.25,
+        **dict.fromkeys(("t", "s_low", "s_high")),
+    }
+
+
 def test_verdict_needs_the_interval_to_miss_the_band() -> None:
     """28 % at 3 trials could be 12 % (unsure); at 1,000 it cannot (out). 0 % at 1,000 trials is out (the
     upper end is z²/(n + z²) = 0.38 %); at 100 it reaches 3.7 %, so unsure. 5 % is in; no trials: '—'."""

@@ -13,7 +13,7 @@ from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.cli.main import main
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.recording import coverage
-from pendulum_accel.recording.analyze import NeesStats, analyze_bag, nees_split, stored_scene
+from pendulum_accel.recording.analyze import NeesStats, analyze_bag, nees_windows, stored_scene
 from pendulum_accel.recording.changes import after_change
 from pendulum_accel.recording.generate import chain_streams, write_chain_bag
 from pendulum_accel.recording.seed_spread import WindowSpread, seed_spread, with_seed
@@ -70,7 +70,7 @@ def test_the_scene_stored_in_a_bag_reproduces_it_at_its_own_seed() -> None:
     np.testing.assert_allclose(run.t, analysis.t, rtol=0, atol=1e-9)  # stamps: whole nanoseconds in the bag
     options = estimator_options(scene, DEFAULT_ESTIMATOR)
     a, var = estimate_batch(DEFAULT_ESTIMATOR, run.t, run.theta_measured, **options)
-    steady, _ = nees_split(run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + SKIP)
+    (steady, _), _ = nees_windows(run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + SKIP)
     # The nanosecond stamps may tip a threshold of the adaptive filter on a sample or two.
     mine = NeesStats.of(steady)
     assert mine.n == own.steady.n and abs(mine.share_2sigma - own.steady.share_2sigma) <= 2 / mine.n

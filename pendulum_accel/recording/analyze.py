@@ -129,37 +129,6 @@ class Calibration:
         return f"{label}: steady {part(self.steady)}; ≤{CHANGE_WINDOW:g} s after a change {after}"
 
 
-def _nees(
-    t: NDArray[np.float64],
-    error: NDArray[np.float64],
-    variance: NDArray[np.float64],
-    t_truth: NDArray[np.float64],
-    a_truth: NDArray[np.float64],
-    t_from: float,
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """(NEES = e²/var at stamps t ≥ t_from, NaN where var ≤ 0; True where after a change): the samples
-    nees_split and calibration share."""
-    after = after_change(t, t_truth, a_truth)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        nees = np.where(variance > 0.0, error * error / variance, np.nan)
-    keep = t >= t_from
-    return nees[keep], after[keep]
-
-
-def nees_split(
-    t: NDArray[np.float64],
-    error: NDArray[np.float64],
-    variance: NDArray[np.float64],
-    t_truth: NDArray[np.float64],
-    a_truth: NDArray[np.float64],
-    t_from: float,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(steady, after-change) NEES = e²/var at stamps t ≥ t_from, split by recording.changes.after_change
-    (within CHANGE_WINDOW s after |a(t) − a(t − 1 s)| > CHANGE_JUMP on the truth); NaN where var ≤ 0."""
-    nees, after = _nees(t, error, variance, t_truth, a_truth, t_from)
-    return nees[~after], nees[after]
-
-
 def nees_windows(
     t: NDArray[np.float64],
     error: NDArray[np.float64],
@@ -168,10 +137,15 @@ def nees_windows(
     a_truth: NDArray[np.float64],
     t_from: float,
 ) -> tuple[tuple[NDArray[np.float64], float], tuple[NDArray[np.float64], float]]:
-    """((steady NEES, its trials), (after-change NEES, its trials)): nees_split's two windows, each with
-    its independent trials n_eff = coverage.effective_samples of its finite samples at the integrated
-    time τ of the whole NEES series (coverage.integrated_time)."""
-    nees, after = _nees(t, error, variance, t_truth, a_truth, t_from)
+    """((steady NEES, its trials), (after-change NEES, its trials)): NEES = e²/var at stamps t ≥ t_from
+    (NaN where var ≤ 0), split by recording.changes.after_change (within CHANGE_WINDOW s after
+    |a(t) − a(t − 1 s)| > CHANGE_JUMP on the truth), each window with its independent trials
+    n_eff = coverage.effective_samples of its finite samples at the integrated time τ of the whole NEES
+    series (coverage.integrated_time)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        all_nees = np.where(variance > 0.0, error * error / variance, np.nan)
+    keep = t >= t_from
+    nees, after = all_nees[keep], after_change(t, t_truth, a_truth)[keep]
     finite = np.isfinite(nees)
     tau = coverage.integrated_time(nees)
     return (
@@ -774,12 +748,12 @@ def _calibration_fields(prefix: str, cal: Calibration | None) -> dict[str, str |
 
 def nees_fields(key: str, stats: NeesStats | None) -> dict[str, str | float | int | None]:
     """{key}_{mean,median,share_2sigma,trials,share_2sigma_low,share_2sigma_high}: one window's figures,
-    the share's independent trials and 95 % interval (NeesStats.interval); None without the window, and a
-    figure the window lacks stays NaN (cli.output.json_text writes both as null)."""
+    the share's independent trials and 95 % interval (coverage.share_interval_cells); None without the
+    window or where a share or its trials is missing, and a mean or median the window lacks stays NaN
+    (cli.output.json_text writes both as null)."""
     out: dict[str, str | float | int | None] = {}
-    for name in ("mean", "median", "share_2sigma", "trials"):
+    for name in ("mean", "median"):
         out[f"{key}_{name}"] = None if stats is None else getattr(stats, name)
-    span = None if stats is None else stats.interval()
-    out[f"{key}_share_2sigma_low"] = None if span is None else span[0]
-    out[f"{key}_share_2sigma_high"] = None if span is None else span[1]
+    share, trials = (math.nan, math.nan) if stats is None else (stats.share_2sigma, stats.trials)
+    out.update(coverage.share_interval_cells(share, trials, f"{key}_share_2sigma", f"{key}_trials"))
     return out

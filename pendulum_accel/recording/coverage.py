@@ -78,6 +78,22 @@ def wilson(share: float, n: float, z: float = Z95) -> tuple[float, float]:
     return max(0.0, (centre - half) / scale), min(1.0, (centre + half) / scale)
 
 
+def share_interval_cells(
+    share: float, trials: float, share_key: str, trials_key: str
+) -> dict[str, float | None]:
+    """{share_key: p̂, trials_key: n_eff, share_key_low: lo, share_key_high: hi}, (lo, hi) = wilson(p̂, n_eff):
+    a share beyond 2σ, its independent trials and its 95 % interval as table cells. A cell is None where its
+    figure is not a finite number (a window without samples, trials not counted), the interval where either is
+    not: a table's null, never NaN."""
+    low, high = wilson(share, trials) if math.isfinite(share) and math.isfinite(trials) else (None, None)
+    return {
+        share_key: float(share) if math.isfinite(share) else None,
+        trials_key: float(trials) if math.isfinite(trials) else None,
+        f"{share_key}_low": low,
+        f"{share_key}_high": high,
+    }
+
+
 def verdict(share: float, n_eff: float, target: tuple[float, float] = TARGET) -> str:
     """'in' (p̂ within the band), 'out' (the 95 % interval misses the band), or 'unsure' (p̂ outside it, but
     its interval reaches it: too few independent trials to tell); '—' without samples."""

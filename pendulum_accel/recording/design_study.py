@@ -178,26 +178,11 @@ def run_case(case: Case) -> dict[str, Any]:
 def _share_cells(window: str, counts: Sequence[dict[str, Any]]) -> dict[str, float | None]:
     """share_2sigma_{window} = Σ beyond / Σ n over the cases, trials_{window} = Σ trials (the cases are
     independent runs: their independent trials add) and the share's 95 % interval
-    share_2sigma_{window}_low/_high = coverage.wilson(share, trials); None where no case has a sample."""
+    share_2sigma_{window}_low/_high (coverage.share_interval_cells); None where no case has a sample."""
     n = sum(c["n"] for c in counts)
-    if n == 0:
-        return dict.fromkeys(
-            (
-                f"share_2sigma_{window}",
-                f"trials_{window}",
-                f"share_2sigma_{window}_low",
-                f"share_2sigma_{window}_high",
-            )
-        )
-    share = sum(c["beyond"] for c in counts) / n
-    trials = math.fsum(c["trials"] for c in counts if c["n"])
-    low, high = coverage.wilson(share, trials)
-    return {
-        f"share_2sigma_{window}": share,
-        f"trials_{window}": trials,
-        f"share_2sigma_{window}_low": low,
-        f"share_2sigma_{window}_high": high,
-    }
+    share = sum(c["beyond"] for c in counts) / n if n else math.nan
+    trials = math.fsum(c["trials"] for c in counts if c["n"]) if n else math.nan
+    return coverage.share_interval_cells(share, trials, f"share_2sigma_{window}", f"trials_{window}")
 
 
 def summarise(design: SensorDesign, parts: Sequence[dict[str, Any]], lags: Sequence[float]) -> dict[str, Any]:

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.cluster import Progress, map_tasks
 from pendulum_accel.errors import BagError, PendulumAccelError
+from pendulum_accel.recording import coverage
 from pendulum_accel.recording.analyze import Analysis, NeesStats, analyze_bag
 from pendulum_accel.recording.delay import group_delay
 
@@ -73,14 +74,9 @@ def _row(bag: str, **values: Any) -> dict[str, Any]:
 
 def _share_cells(window: str, stats: NeesStats | None) -> dict[str, float | None]:
     """share_2sigma_{window}, trials_{window} and the share's 95 % interval share_2sigma_{window}_low/_high
-    (NeesStats.interval); None where the window has no samples."""
-    span = None if stats is None else stats.interval()
-    return {
-        f"share_2sigma_{window}": None if stats is None else _float(stats.share_2sigma),
-        f"trials_{window}": None if stats is None else _float(stats.trials),
-        f"share_2sigma_{window}_low": None if span is None else _float(span[0]),
-        f"share_2sigma_{window}_high": None if span is None else _float(span[1]),
-    }
+    (coverage.share_interval_cells); None where the window has no samples."""
+    share, trials = (math.nan, math.nan) if stats is None else (stats.share_2sigma, stats.trials)
+    return coverage.share_interval_cells(share, trials, f"share_2sigma_{window}", f"trials_{window}")
 
 
 def _figures(result: Analysis, complete: bool) -> dict[str, Any]:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,7 +25,7 @@ from pendulum_accel.estimators import estimate_batch
 from pendulum_accel.recording.analyze import NeesStats, nees_windows
 from pendulum_accel.recording.changes import CHANGE_WINDOW
 from pendulum_accel.scene import Scene
-from pendulum_accel.scene_run import run_scene
+from pendulum_accel.scene_run import SceneRun, run_scene
 
 PERCENTILES = (10.0, 90.0)
 
@@ -95,17 +95,25 @@ class SeedSpread:
 def seed_spread(
     scene: Scene, estimator: str, config: Mapping[str, object], seeds: int, skip: float
 ) -> SeedSpread:
-    """Simulate ``scene`` with sensor seeds 0 … seeds − 1, run ``estimator`` (``config``) in batch on each,
-    and split NEES = e²/var at t ≥ t₀ + skip into the two windows, each seed's with its independent
-    trials (recording.analyze.nees_windows)."""
+    """spread_over_runs of ``scene`` simulated with sensor seeds 0 … seeds − 1, one seed at a time (a
+    generator: only one long run is held in memory at once)."""
     if seeds < 1:
         raise ParameterError(f"seeds must be >= 1, got {seeds!r}")
+    runs = (run_scene(with_seed(scene, seed)) for seed in range(seeds))
+    return spread_over_runs(runs, estimator, config, skip)
+
+
+def spread_over_runs(
+    runs: Iterable[SceneRun], estimator: str, config: Mapping[str, object], skip: float
+) -> SeedSpread:
+    """Run ``estimator`` (``config``) in batch on each of ``runs`` (one scene at other sensor seeds), split
+    NEES = e²/var at t ≥ t₀ + skip into the two windows, each run's with its independent trials
+    (recording.analyze.nees_windows), and pool each window over the runs (WindowSpread.of)."""
     steady: list[NDArray[np.float64]] = []
     after: list[NDArray[np.float64]] = []
     steady_trials: list[float] = []
     after_trials: list[float] = []
-    for seed in range(seeds):
-        run = run_scene(with_seed(scene, seed))
+    for run in runs:
         a, var = estimate_batch(estimator, run.t, run.theta_measured, **config)
         (s, ks), (c, kc) = nees_windows(
             run.t, a - run.accel_true, var, run.t, run.accel_true, run.t[0] + skip
@@ -114,4 +122,6 @@ def seed_spread(
         after.append(c)
         steady_trials.append(ks)
         after_trials.append(kc)
-    return SeedSpread(seeds, WindowSpread.of(steady, steady_trials), WindowSpread.of(after, after_trials))
+    return SeedSpread(
+        len(steady), WindowSpread.of(steady, steady_trials), WindowSpread.of(after, after_trials)
+    )
