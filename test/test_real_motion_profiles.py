@@ -397,6 +397,52 @@ def test_a_decimal_comma_needs_a_separator_that_is_not_a_comma(tmp_path: Path) -
     assert np.array_equal(columns.times, [0.0, 1.0]) and np.array_equal(columns.values, [5.0, 5.0])
 
 
+EPOCH_NS = 1_616_000_000_123_456_789  # a logger's epoch stamp in ns: a float keeps it only to 256 ns
+
+
+def test_accel_csv_reads_epoch_nanoseconds_as_rostopic_echo_writes_them(tmp_path: Path) -> None:
+    """`rostopic echo -p` writes %time in integer epoch ns: with time_units ns the times are the integer
+    differences from the first row, scaled once (exact to the last bit of that product), and the window is
+    in s after the first row as for any time column."""
+    steps = [10_000_000 * k + (k % 3) * 1_000 for k in range(400)]  # 100 Hz with µs jitter
+    accels = [math.sin(0.05 * k) for k in range(400)]
+    rows = ["%time,field.header.seq,field.linear_acceleration.x"]
+    rows += [f"{EPOCH_NS + n},{k},{a!r}" for k, (n, a) in enumerate(zip(steps, accels, strict=True))]
+    (tmp_path / "imu.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    spec: dict[str, object] = {"type": "accel_csv", "path": "imu.csv", "time_column": "%time",
+                               "accel_column": "field.linear_acceleration.x", "time_units": "ns"}  # fmt: skip
+    profile = table_of(spec, base_dir=tmp_path)
+    assert np.array_equal(profile.times, np.array(steps, dtype=float) * 1e-9)
+    assert np.array_equal(profile.accels, accels)
+    window = table_of(spec | {"start": 1.0, "end": 3.0}, base_dir=tmp_path)
+    assert window.times[0] == 0.0 and window.times[-1] == pytest.approx(2.0, abs=1e-12)
+    # Milliseconds with a fraction are read as floats, then scaled the same way.
+    rows_ms = ["t_ms,a", *(f"{1.6e12 + n / 1e6!r},{a!r}" for n, a in zip(steps, accels, strict=True))]
+    (tmp_path / "ms.csv").write_text("\n".join(rows_ms) + "\n", encoding="utf-8")
+    ms = table_of({"type": "accel_csv", "path": "ms.csv", "time_units": "ms"}, base_dir=tmp_path)
+    # 1.6e12 ms in a float is held to 2.4e-4 ms, so each time is within 2.4e-7 s of the true one.
+    assert np.allclose(ms.times, np.array(steps) * 1e-9, rtol=0.0, atol=2.5e-7)
+
+
+@pytest.mark.parametrize(
+    ("extra", "rows", "message"),
+    [
+        ({"time_units": "minutes"}, ["0,1", "1,1"],
+         "'time_units' must be one of s, ms, us, ns, got 'minutes'"),
+        ({"time_units": "ns"}, ["2007-03-28 07:00:00,1", "2007-03-28 07:00:01,1"],
+         "log.csv:1: time_units 'ns' is for a numeric time column, and this one holds date-times"),
+    ],
+)  # fmt: skip
+def test_time_units_errors_are_one_line(
+    extra: dict[str, object], rows: list[str], message: str, tmp_path: Path
+) -> None:
+    """A unit not in the list, or a unit for a date-time column: one line naming the field or the row."""
+    (tmp_path / "log.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    with pytest.raises(ParameterError) as err:
+        table_of({"type": "accel_csv", "path": "log.csv"} | extra, base_dir=tmp_path)
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
 # ---------------------------------------------------------------- the bundled recordings
 
 CYCLES = {

@@ -5,7 +5,9 @@ The time column holds seconds (any number), or date-times as loggers write them 
 e.g. ``%d/%m/%Y %H:%M:%S``), or, when none is stated, detected as ISO 8601 (``datetime.fromisoformat``);
 other layouts such as ``03/28/2007`` are ambiguous (day or month first) and need the format stated.
 A date-time column becomes seconds since its first row, subtracted as datetimes (microseconds exact):
-a float epoch of 1.2e9 s would keep only about 0.2 µs.
+a float epoch of 1.2e9 s would keep only about 0.2 µs. A numeric time column in other units (``time_units``
+ms, us, ns: a logger's epoch nanoseconds, 1.6e18, which a float holds only to 256 ns) is counted the
+same way from its first row: integer cells as integers, then scaled to seconds.
 
 Columns are separated by commas, semicolons or tabs, and with a semicolon or a tab numbers may carry a
 decimal comma (``1,234E-1``): the five CSV layouts phyphox exports (its ``DataExport.CsvFormat``), and what
@@ -49,6 +51,8 @@ class Columns:
         return self.stamps[i]
 
 
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+"""Seconds per unit of a numeric time column (the ``time_units`` field)."""
 SEPARATORS = ("\t", ";", ",")
 """Column separators, in the order ``sniff_layout`` tries them: a comma can also be a decimal mark."""
 SNIFF_ROWS = 20
@@ -152,6 +156,7 @@ def read_columns(
     *,
     what: str = "speed",
     time_format: str | None = None,
+    time_units: str = "s",
 ) -> Columns:
     """The time and value columns of a CSV file: ``#`` comments and blank lines skipped.
 
@@ -219,8 +224,16 @@ def read_columns(
         stamps.append(t_text)
     if not raw_times:
         raise ParameterError(f"{path}: no (t, v) rows found", path="path")
+    if time_units != "s" and isinstance(raw_times[0], dt.datetime):
+        raise ParameterError(
+            f"{path}:{lines[0]}: time_units {time_units!r} is for a numeric time column, and this one holds "
+            f"date-times ({stamps[0]!r})",
+            path="time_units",
+        )
     epoch = raw_times[0] if isinstance(raw_times[0], dt.datetime) else None
-    if epoch is None:
+    if epoch is None and time_units != "s":
+        times = _since_first(stamps, TIME_UNITS[time_units])
+    elif epoch is None:
         times = np.array(raw_times, dtype=float)
     else:
         seconds: list[float] = []
@@ -234,6 +247,16 @@ def read_columns(
                 ) from None
         times = np.array(seconds)
     return Columns(times, np.array(values), lines, stamps, epoch)
+
+
+def _since_first(stamps: list[str], unit: float) -> np.ndarray:
+    """(tᵢ − t₀) × unit in s: exact integer differences where every cell is an integer, else floats."""
+    try:
+        ticks: list[int] | list[float] = [int(text) for text in stamps]
+    except ValueError:
+        ticks = [float(text) for text in stamps]
+    first = ticks[0]
+    return np.array([tick - first for tick in ticks], dtype=float) * unit
 
 
 def is_number(text: str) -> bool:

@@ -30,14 +30,14 @@ _FIELDS: dict[str, tuple[type[AccelProfile], tuple[str, ...], tuple[str, ...]]] 
     "speed_csv": (
         Table,
         ("path", "units"),
-        ("time_column", "speed_column", "time_format", "cutoff_hz", "start", "end", "signed"),
+        ("time_column", "speed_column", "time_format", "time_units", "cutoff_hz", "start", "end", "signed"),
     ),
     "bag_topic": (Table, ("path", "topic"), ("cutoff_hz", "start", "end")),
     # A phone's accelerometer log (phyphox's CSV export, or any t, a columns), used as recorded.
     "accel_csv": (
         Table,
         ("path",),
-        ("time_column", "accel_column", "time_format", "scale", "cutoff_hz", "start", "end"),
+        ("time_column", "accel_column", "time_format", "time_units", "scale", "cutoff_hz", "start", "end"),
     ),
 }
 PROFILE_TYPES: tuple[str, ...] = tuple(_FIELDS)
@@ -90,6 +90,8 @@ PROFILE_FIELD_DOCS: dict[str, str] = {
     "accel_column": "header name of the acceleration column, m/s² (default: the second column)",
     "time_format": "the time column's date-time layout in strptime codes, e.g. `%d/%m/%Y %H:%M:%S` "
     "(default: ISO 8601 detected)",
+    "time_units": "the unit of a numeric time column: s (default), ms, us or ns (a logger's epoch "
+    "nanoseconds, as `rostopic echo -p` writes them); integers are counted exactly from the first row",
     "cutoff_hz": "-3 dB cut-off of the smoothing spline, Hz (speeds: default min(1/(4 h), 1 Hz) for samples "
     "h apart; accelerations: none, used as recorded)",
     "start": "window start (default: the first sample): " + _WINDOW,

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.motion_input.columns import Columns, read_columns
+from pendulum_accel.motion_input.columns import TIME_UNITS, Columns, read_columns
 from pendulum_accel.motion_input.fields import field_number, field_path, field_text, window_fields
 from pendulum_accel.physics.lazy import lazy_module
 from pendulum_accel.physics.profiles import Table
@@ -148,14 +148,22 @@ def check_trace(
 def csv_trace(
     kind: str, d: Mapping[str, object], base_dir: Path | None, value_field: str, *, name: str
 ) -> tuple[Stretch, Columns, Path]:
-    """A profile's CSV file read (its path, ``time_column``, ``value_field`` column and ``time_format``
-    fields), and checked and cut to its ``start``/``end`` window by check_trace."""
+    """A profile's CSV file read (its path, ``time_column``, ``value_field`` column, ``time_format`` and
+    ``time_units`` fields), and checked and cut to its ``start``/``end`` window by check_trace."""
     path = field_path(kind, d["path"], base_dir)
     time_column = field_text(kind, "time_column", d["time_column"]) if "time_column" in d else None
     value_column = field_text(kind, value_field, d[value_field]) if value_field in d else None
     time_format = field_text(kind, "time_format", d["time_format"]) if "time_format" in d else None
+    time_units = field_text(kind, "time_units", d["time_units"]) if "time_units" in d else "s"
+    if time_units not in TIME_UNITS:
+        raise ParameterError(
+            f"{kind} profile field 'time_units' must be one of {', '.join(TIME_UNITS)}, got {time_units!r}",
+            path="time_units",
+        )
     what = value_field.removesuffix("_column")
-    columns = read_columns(path, time_column, value_column, what=what, time_format=time_format)
+    columns = read_columns(
+        path, time_column, value_column, what=what, time_format=time_format, time_units=time_units
+    )
     start, end = window_fields(kind, d, columns.epoch, time_format)
     stretch = check_trace(
         columns.times,
