@@ -37,7 +37,7 @@ from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import Scene, scene_from_yaml
 from pendulum_accel.scene_run import run_scene
-from pendulum_accel.textfile import is_partial_path, not_a_file_or_directory, partial_path
+from pendulum_accel.textfile import not_a_file_or_directory, partial_path
 
 FloatArray = NDArray[np.float64]
 
@@ -198,15 +198,30 @@ class SwingAnimation:
         """Write the animation to ``path``: GIF with Pillow, MP4 with ffmpeg (ParameterError when it is not
         installed). ``on_frame`` is called after each frame is written (a progress bar).
 
-        The file is written under its hidden partial name (textfile.partial_path) and renamed over
-        ``path`` only once complete: on an error or an interrupt the encoder is stopped and the partial
-        file removed, so a file already at ``path`` stays as it was. A ``path`` that is a partial name
-        already (the animate command passes cli.output.write_output's, which renames it itself) or a
-        device or FIFO is written in place, and removed on failure only if this call created it.
+        The file is written under the hidden partial name of ``path`` (textfile.partial_path, which adds
+        a leading dot, so it never is ``path``, whatever ``path`` is called) and renamed over ``path``
+        only once complete: on an error or an interrupt the encoder is stopped and the partial file
+        removed, so a file already at ``path`` stays as it was. A device or FIFO is written directly.
         """
         out = check_output_path(path)
-        in_place = is_partial_path(out) or not_a_file_or_directory(out) is not None
-        target = out if in_place else partial_path(out)
+        if not_a_file_or_directory(out) is not None:
+            return self.encode(out, on_frame)
+        partial = partial_path(out)
+        try:
+            self.encode(partial, on_frame)
+            os.replace(partial, out)
+        except BaseException:
+            with contextlib.suppress(OSError):  # the failure being raised is the one to tell
+                partial.unlink(missing_ok=True)
+            raise
+        return out
+
+    def encode(self, target: Path, on_frame: Callable[[], object] | None = None) -> Path:
+        """Write the animation into ``target`` itself, in the format its suffix names, with no rename: for
+        a caller that owns the naming (cli.output.write_output passes its partial name). On an error or
+        an interrupt the encoder is stopped (ffmpeg killed, Pillow's frames dropped, nothing encoded);
+        removing what ``target`` holds by then is the caller's part."""
+        out = check_output_path(target)
         writer: PillowWriter | FFMpegWriter
         if out.suffix.lower() == ".gif":
             writer = PillowWriter(fps=self.fps)
@@ -216,8 +231,8 @@ class SwingAnimation:
             writer = FFMpegWriter(fps=self.fps, codec="h264", extra_args=["-pix_fmt", "yuv420p", "-xerror"])
         # Not writer.saving(): its finally encodes every frame grabbed so far even on Ctrl-C (seconds of
         # Pillow or ffmpeg work, and a partial file). Each frame is drawn once, by the writer's savefig.
-        done, owned = False, not (in_place and target.exists())
-        writer.setup(self.figure, str(target), DPI)
+        done = False
+        writer.setup(self.figure, str(out), DPI)
         try:
             # matplotlib logs a failed encoder's whole stderr as a warning; the one line below says it.
             with mpl.rc_context({"savefig.bbox": None}), _quiet_logger("matplotlib.animation"):
@@ -231,14 +246,10 @@ class SwingAnimation:
                 except (BrokenPipeError, subprocess.CalledProcessError) as err:
                     # ffmpeg stopped (its pipe closed) or exited non-zero: say why, in its words.
                     raise _encoder_failure(writer, err) from None
-            if target != out:
-                os.replace(target, out)
             done = True
         finally:
             if not done:
                 _abandon(writer)
-                if owned:
-                    target.unlink(missing_ok=True)
         return out
 
 

@@ -67,11 +67,3 @@ def partial_path(path: Path) -> Path:
     """Where ``path`` is written before it is complete: a hidden sibling with the same suffix (writers
     pick the format by it), ``.NAME.partial.SUFFIX``; the same directory, so the rename is atomic."""
     return path.with_name(f".{path.stem}{PARTIAL}{path.suffix}")
-
-
-def is_partial_path(path: Path) -> bool:
-    """True when ``path`` is some output's partial_path (``.NAME.partial.SUFFIX``): a writer handed one
-    writes it in place, since its caller renames it (a second partial name would be ``..NAME.partial
-    .partial.SUFFIX``)."""
-    stem = path.stem
-    return len(stem) > len(PARTIAL) + 1 and stem.startswith(".") and stem.endswith(PARTIAL)

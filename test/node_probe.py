@@ -20,9 +20,12 @@ SPEC keys (all optional):
   "set": {"node": name, "params": {name: value}}  call SetParameters, then GetParameters
   "get": {"node": name, "names": [name, ...]}     call GetParameters only
   "linger": seconds               keep listening after feeding
+  "linger_until": [state, seconds] then keep listening until a /diagnostics status whose state is
+                                  ``state`` arrives after the feed and burst (at most seconds)
 Prints one JSON object: {"estimates": [[t, a, var], ...], "diagnostics": [[level, message, values]],
-"set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s, "diagnostics_after": [[s, state]]}
-(diagnostics_after: each /diagnostics status's arrival, seconds after the feed and burst ended).
+"set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s,
+"diagnostics_after": [[s, state, values]]} (diagnostics_after: each /diagnostics status's arrival, seconds
+after the feed and burst ended, with its state and key/values).
 """
 
 from __future__ import annotations
@@ -84,7 +87,7 @@ def main() -> None:
             values = {kv.key: kv.value for kv in status.values}
             out["diagnostics"].append([int.from_bytes(status.level, "little"), status.message, values])
             if fed_at:
-                out["diagnostics_after"].append([time.monotonic() - fed_at[0], values.get("state")])
+                out["diagnostics_after"].append([time.monotonic() - fed_at[0], values.get("state"), values])
 
     listen = spec.get("listen", [])
     if "/car/accel/estimate" in listen:
@@ -155,6 +158,10 @@ def main() -> None:
         for name, value in zip(names, reply.values, strict=True):
             out["get"][name] = Parameter.from_parameter_msg(ParameterMsg(name=name, value=value)).value
     spin_for(node, float(spec.get("linger", 0.0)))
+    if "linger_until" in spec:
+        state, end = spec["linger_until"][0], time.monotonic() + float(spec["linger_until"][1])
+        while time.monotonic() < end and not any(s == state for _, s, _ in out["diagnostics_after"]):
+            spin_for(node, 0.01)
     out["endpoints"] = {
         topic: {
             kind: [

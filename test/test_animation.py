@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import subprocess
@@ -163,14 +164,16 @@ def test_mp4_is_written_through_ffmpeg(tmp_path: Path) -> None:
     assert (width, height) == (WIDTH, HEIGHT) and frames == 11
 
 
+# A user's file may be named like a partial name (.NAME.partial.SUFFIX): it is the asked file all the same.
+@pytest.mark.parametrize("stem", ["swing", ".swing.partial"])
 @pytest.mark.parametrize("suffix", [".gif", ".mp4"])
 def test_a_direct_save_over_a_file_keeps_it_until_the_new_one_is_complete(
-    tmp_path: Path, suffix: str
+    tmp_path: Path, suffix: str, stem: str
 ) -> None:
     """SwingAnimation.save called directly (a notebook) on an existing file: Ctrl-C mid-way (after the first
     frame, once ffmpeg has opened its output: it truncates the file it writes at once) leaves the old
     bytes as they were and no partial file; a save that completes replaces them."""
-    out = tmp_path / f"swing{suffix}"
+    out = tmp_path / f"{stem}{suffix}"
     old = b"the animation of last week's lab\n"
     out.write_bytes(old)
     anim = SwingAnimation(swing(), fps=10, duration=1.0)
@@ -204,3 +207,22 @@ def test_a_direct_save_over_a_file_keeps_it_until_the_new_one_is_complete(
         )  # fmt: skip
         frames = int(probe.stdout.strip())
     assert frames == 11  # 0, 0.1, …, 1.0 s: the whole new animation
+
+
+@pytest.mark.parametrize("name", ["swing.gif", ".swing.partial.gif"])
+def test_a_direct_save_on_a_full_disk_keeps_the_old_file(tmp_path: Path, name: str) -> None:
+    """SwingAnimation.save over an existing file on a disk with no room for the new one (a 62 KiB GIF, a
+    16 KiB file system): OSError 'No space left on device', the old bytes as they were and nothing left
+    beside them, whatever the file is called (written in place, it would have been truncated first)."""
+    from test.test_hostile_inputs import _tiny_filesystem
+
+    old = b"the animation of last week's lab\n"
+    anim = SwingAnimation(swing(), fps=10, duration=1.0)
+    with _tiny_filesystem(tmp_path / "fs", "16k") as fs:
+        out = fs / name
+        out.write_bytes(old)
+        with pytest.raises(OSError) as failed:
+            anim.save(out)
+        assert failed.value.errno == errno.ENOSPC
+        assert out.read_bytes() == old
+        assert sorted(fs.iterdir()) == [out]

