@@ -390,6 +390,15 @@ def test_a_comma_file_whose_header_holds_a_semicolon_stays_comma_separated(tmp_p
     assert np.array_equal(columns.values, [0.5 * k for k in range(10)])
 
 
+def test_a_comma_file_with_trailing_tabs_stays_comma_separated(tmp_path: Path) -> None:
+    """A tab at the end of every row (a hand-edited file) splits it into one cell and an empty one: that is
+    not a tab layout, and the file reads as the comma file it is."""
+    rows = ["t,a\t", *(f"{0.1 * k!r},{0.5 * k!r}\t" for k in range(10))]
+    (tmp_path / "log.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    columns = read_columns(tmp_path / "log.csv", "t", "a", what="accel")
+    assert np.array_equal(columns.values, [0.5 * k for k in range(10)])
+
+
 def test_a_decimal_comma_needs_a_separator_that_is_not_a_comma(tmp_path: Path) -> None:
     """ "1,5" in a comma file is two cells: the file reads as written (columns 1 and 2), nothing guessed."""
     (tmp_path / "log.csv").write_text("t,a\n0,5,1\n1,5,2\n", encoding="utf-8")

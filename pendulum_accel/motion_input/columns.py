@@ -81,13 +81,13 @@ def _content(lines: list[str]) -> list[str]:
 
 
 def sniff_layout(lines: list[str]) -> Layout:
-    """The first of SEPARATORS that splits each of the first SNIFF_ROWS content rows into two cells or more
-    (a comma when none does); a decimal comma when the separator is not a comma and a cell there is a
-    decimal-comma number (``_DECIMAL_COMMA``)."""
+    """The first of SEPARATORS that splits each of the first SNIFF_ROWS content rows into two non-empty cells
+    or more (a comma when none does: a stray trailing tab does not make a tab file); a decimal comma when
+    the separator is not a comma and a cell there is a decimal-comma number (``_DECIMAL_COMMA``)."""
     sample = _content(lines)[:SNIFF_ROWS]
     for separator in SEPARATORS:
         rows = list(csv.reader(sample, delimiter=separator))
-        if rows and all(len(row) >= 2 for row in rows):
+        if rows and all(sum(1 for c in row if c.strip()) >= 2 for row in rows):
             break
     else:
         separator, rows = ",", list(csv.reader(sample))
