@@ -11,7 +11,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-import os
 import shutil
 import subprocess
 from collections.abc import Callable, Iterator
@@ -37,7 +36,7 @@ from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import Scene, scene_from_yaml
 from pendulum_accel.scene_run import run_scene
-from pendulum_accel.textfile import not_a_file_or_directory, partial_path
+from pendulum_accel.textfile import write_through_partial
 
 FloatArray = NDArray[np.float64]
 
@@ -198,23 +197,12 @@ class SwingAnimation:
         """Write the animation to ``path``: GIF with Pillow, MP4 with ffmpeg (ParameterError when it is not
         installed). ``on_frame`` is called after each frame is written (a progress bar).
 
-        The file is written under the hidden partial name of ``path`` (textfile.partial_path, which adds
-        a leading dot, so it never is ``path``, whatever ``path`` is called) and renamed over ``path``
-        only once complete: on an error or an interrupt the encoder is stopped and the partial file
+        The file is written under the hidden partial name of ``path`` (textfile.write_through_partial; the
+        name adds a leading dot, so it never is ``path``, whatever ``path`` is called) and renamed over
+        ``path`` only once complete: on an error or an interrupt the encoder is stopped and the partial file
         removed, so a file already at ``path`` stays as it was. A device or FIFO is written directly.
         """
-        out = check_output_path(path)
-        if not_a_file_or_directory(out) is not None:
-            return self.encode(out, on_frame)
-        partial = partial_path(out)
-        try:
-            self.encode(partial, on_frame)
-            os.replace(partial, out)
-        except BaseException:
-            with contextlib.suppress(OSError):  # the failure being raised is the one to tell
-                partial.unlink(missing_ok=True)
-            raise
-        return out
+        return write_through_partial(check_output_path(path), lambda target: self.encode(target, on_frame))
 
     def encode(self, target: Path, on_frame: Callable[[], object] | None = None) -> Path:
         """Write the animation into ``target`` itself, in the format its suffix names, with no rename: for

@@ -1,10 +1,12 @@
 """Read a small user-given text file (scene YAML, acceleration CSV): its size, type and bytes are checked.
-And name an output before it is complete: the one hidden partial name every writer uses."""
+And write an output through the one hidden partial name every writer uses, renamed only once complete."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
+from collections.abc import Callable
 from pathlib import Path
 
 MAX_TEXT_BYTES = 64 * 1024**2
@@ -67,3 +69,48 @@ def partial_path(path: Path) -> Path:
     """Where ``path`` is written before it is complete: a hidden sibling with the same suffix (writers
     pick the format by it), ``.NAME.partial.SUFFIX``; the same directory, so the rename is atomic."""
     return path.with_name(f".{path.stem}{PARTIAL}{path.suffix}")
+
+
+def remove_partial(path: Path) -> bool:
+    """Delete ``path`` if it is a regular file (never a device or directory); True when removed."""
+    try:
+        if not path.is_file() or not os.path.isfile(os.path.realpath(path)):
+            return False
+    except OSError:
+        return False
+    with contextlib.suppress(OSError):
+        path.unlink()
+        return True
+    return False
+
+
+def write_through_partial(
+    path: Path,
+    write: Callable[[Path], object],
+    failed: Callable[[OSError, bool], Exception] | None = None,
+) -> Path:
+    """``write(partial_path(path))`` (it creates the file), then os.replace it onto ``path``: until then
+    ``path`` holds nothing new, so a failure or an interrupt never spoils a file already there. On any
+    exception the partial file is removed (remove_partial) and the exception raised again, an OSError as
+    ``failed(err, removed)`` when given. A device or FIFO (/dev/null, a pipe) is written directly."""
+    if not_a_file_or_directory(path) is not None:
+        try:
+            write(path)
+        except OSError as err:
+            if failed is None:
+                raise
+            raise failed(err, False) from None
+        return path
+    partial = partial_path(path)
+    try:
+        write(partial)
+        os.replace(partial, path)
+    except OSError as err:
+        removed = remove_partial(partial)
+        if failed is None:
+            raise
+        raise failed(err, removed) from None
+    except BaseException:
+        remove_partial(partial)
+        raise
+    return path

@@ -23,22 +23,12 @@ import json
 import math
 import os
 import shutil
-import stat
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TextIO
 
 from pendulum_accel.errors import OutputError
-from pendulum_accel.textfile import partial_path
-
-
-def _special(path: Path) -> bool:
-    """True when ``path`` exists and is neither a regular file nor a directory (a device, a FIFO)."""
-    try:
-        mode = path.stat().st_mode
-    except OSError:
-        return False
-    return not (stat.S_ISREG(mode) or stat.S_ISDIR(mode))
+from pendulum_accel.textfile import not_a_file_or_directory, remove_partial, write_through_partial
 
 
 def _check_directory(directory: Path, shown: str, option: str) -> None:
@@ -83,7 +73,7 @@ def check_output_file(path: Path | str, suffixes: Sequence[str], *, option: str 
         raise OutputError(f"{option} {shown} is a directory; give a file name; nothing written")
     if out.suffix.lower() not in suffixes:
         raise OutputError(f"{option} {shown} must end in {' or '.join(suffixes)}; nothing written")
-    if _special(out):
+    if not_a_file_or_directory(out) is not None:
         return out
     _check_directory(out.parent, shown, option)
     if out.exists() and not os.access(out, os.W_OK):
@@ -103,19 +93,6 @@ def check_output_dir(path: Path | str, *, option: str = "--out") -> Path:
     return out
 
 
-def _remove_partial(path: Path) -> bool:
-    """Delete ``path`` if it is a regular file (never a device or directory); True when removed."""
-    try:
-        if not path.is_file() or not os.path.isfile(os.path.realpath(path)):
-            return False
-    except OSError:
-        return False
-    with contextlib.suppress(OSError):
-        path.unlink()
-        return True
-    return False
-
-
 def _failure(path: Path, err: OSError, removed: bool, existed: bool) -> OutputError:
     """The one line for a write that failed: the cause, then what was kept."""
     kept = "the partial file was removed" if removed else "nothing was kept"
@@ -128,30 +105,15 @@ def write_output(path: Path, write: Callable[[Path], object]) -> Path:
     """Call ``write(target)`` (it creates the file), then rename ``target`` to ``path``; OutputError naming
     the cause on any OSError (the writes', the close's, an encoder's exit status).
 
-    ``target`` is textfile.partial_path: until the rename, ``path`` holds nothing new, so a full disk,
-    an error or an interrupt never leaves a partial file under the asked name (nor spoils a file
-    already there), and the partial file is removed. A device or FIFO (/dev/null, a pipe) is written
-    directly. Returns ``path``.
+    ``target`` is textfile.partial_path (textfile.write_through_partial): until the rename, ``path`` holds
+    nothing new, so a full disk, an error or an interrupt never leaves a partial file under the asked name
+    (nor spoils a file already there), and the partial file is removed. A device or FIFO (/dev/null, a
+    pipe) is written directly. Returns ``path``.
     """
     if path.is_dir():
         raise OutputError(f"cannot write {path}: it is a directory; give a file name, nothing written")
-    if _special(path):
-        try:
-            write(path)
-        except OSError as err:
-            raise OutputError(f"cannot write {path}: {err.strerror or err}; nothing was kept") from None
-        return path
-    existed = path.exists()
-    partial = partial_path(path)
-    try:
-        write(partial)
-        os.replace(partial, path)
-    except OSError as err:
-        raise _failure(path, err, _remove_partial(partial), existed) from None
-    except BaseException:
-        _remove_partial(partial)
-        raise
-    return path
+    existed = path.exists() and not_a_file_or_directory(path) is None  # a device is not "as it was"
+    return write_through_partial(path, write, lambda err, removed: _failure(path, err, removed, existed))
 
 
 def write_text_output(path: Path, write: Callable[[TextIO], None]) -> None:
@@ -181,7 +143,7 @@ def output_directory(path: Path) -> Iterator[Path]:
                 if added.is_dir() and not added.is_symlink():
                     shutil.rmtree(added, ignore_errors=True)
                 else:
-                    _remove_partial(added)
+                    remove_partial(added)
             kept = "what it wrote was removed"
         else:
             shutil.rmtree(path, ignore_errors=True)
