@@ -406,6 +406,26 @@ def test_a_decimal_comma_needs_a_separator_that_is_not_a_comma(tmp_path: Path) -
     assert np.array_equal(columns.times, [0.0, 1.0]) and np.array_equal(columns.values, [5.0, 5.0])
 
 
+@pytest.mark.parametrize("named", [True, False])
+def test_a_units_row_under_the_header_is_skipped_and_a_second_text_row_is_refused(
+    named: bool, tmp_path: Path
+) -> None:
+    """Loggers often write a units row under the names ("s", "m/s^2"): it is skipped, and the columns are
+    the ones of the same file without it, bit for bit. Only one such row: a second row of text is data
+    that does not parse, refused with its line."""
+    data = [f"{0.01 * k!r},{math.sin(0.01 * k)!r}" for k in range(50)]
+    (tmp_path / "plain.csv").write_text("\n".join(["t,ax", *data]) + "\n", encoding="utf-8")
+    (tmp_path / "units.csv").write_text("\n".join(["t,ax", "s,m/s^2", *data]) + "\n", encoding="utf-8")
+    names: tuple[str | None, str | None] = ("t", "ax") if named else (None, None)
+    plain = read_columns(tmp_path / "plain.csv", *names, what="accel")
+    units = read_columns(tmp_path / "units.csv", *names, what="accel")
+    assert np.array_equal(units.times, plain.times) and np.array_equal(units.values, plain.values)
+    assert units.lines == [line + 1 for line in plain.lines]  # rows keep their own line numbers
+    (tmp_path / "two.csv").write_text("\n".join(["t,ax", "s,m/s^2", "sec,g", *data]) + "\n", encoding="utf-8")
+    with pytest.raises(ParameterError, match=r"two\.csv:3: time 'sec' is not a number"):
+        read_columns(tmp_path / "two.csv", *names, what="accel")
+
+
 EPOCH_NS = 1_616_000_000_123_456_789  # a logger's epoch stamp in ns: a float keeps it only to 256 ns
 
 

@@ -161,7 +161,8 @@ def read_columns(
     """The time and value columns of a CSV file: ``#`` comments and blank lines skipped.
 
     A first row whose time and value cells do not parse is the header; the named columns are read from
-    it (the first and second column when unnamed; quoted names such as phyphox's "Time (s)" work). The
+    it (the first and second column when unnamed; quoted names such as phyphox's "Time (s)" work). One
+    row under it with no number in any cell is its units row, skipped. The
     time column is numbers or date-times (module doc), not a mix. Every failure is one ParameterError
     naming file and line; ``what`` (speed, accel) names the file and the column field.
     """
@@ -178,7 +179,13 @@ def read_columns(
     values: list[float] = []
     lines: list[int] = []
     stamps: list[str] = []
+    units_row = False
     for line_no, cells in csv_rows(text):
+        if header is not None and not raw_times and not units_row and not any(is_number(c) for c in cells):
+            # One row of text only under the header is its units ("s", "m/s^2"), as many loggers write;
+            # a row with any number in it is data and is read (or refused) as such.
+            units_row = True
+            continue
         if header is None and not raw_times:
             if named and not all(is_number(c) for c in cells):
                 header = cells
