@@ -1,9 +1,10 @@
 """Constant cover: what a variance that covers a constant a(t) would cost on real motion.
 
-    python -m benchmarks.constant_cover [--seeds N] [--out DIR]
+    python -m benchmarks.constant_cover [--seeds N] [--bag-seeds M] [--out DIR]
 
 On a constant a (the golden lab bags' steady stretches) every model that can follow a change over-covers:
-its published variance is several times the error's. Two tables measure why, and what the cure costs.
+its published variance is several times the error's. Two tables measure why, and what the cure costs;
+a third, what one bag's share can tell.
 
 1. **Fixed-q filters on a constant.** A step to 3 m/s² at t = 1 s, then 59 s of the constant, through the
    two fitted designs, N sensor seeds; NEES and the share beyond 2σ from t = 20 s on, for the single model
