@@ -67,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=Path("out/bench"))
     parser.add_argument("--scene", default="ftp75", help="bundled scene to generate (default ftp75)")
-    parser.add_argument("--rate", type=float, default=600.0, help="sensor rate, Hz (default 600)")
+    parser.add_argument("--rate", type=report.positive, default=600.0, help="sensor rate, Hz (default 600)")
     parser.add_argument("--keep", action="store_true", help="keep the bag and the tables")
     parser.add_argument("--bag", type=Path, help="measure this chain bag (kept) instead of writing one")
     report.add_docs_argument(parser)

@@ -274,9 +274,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--scene", default="lecture_constant", help="bundled scene (default lecture_constant)"
     )
-    parser.add_argument("--rate", type=float, default=1000.0, help="sensor rate in Hz (default 1000)")
-    parser.add_argument("--duration", type=float, default=60.0, help="scene length in s (default 60)")
-    parser.add_argument("--repeat", type=int, default=3, help="runs per task, best kept (default 3)")
+    parser.add_argument(
+        "--rate", type=report.positive, default=1000.0, help="sensor rate in Hz (default 1000)"
+    )
+    parser.add_argument(
+        "--duration", type=report.positive, default=60.0, help="scene length in s (default 60)"
+    )
+    parser.add_argument("--repeat", type=report.count, default=3, help="runs per task, best kept (default 3)")
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_") as folder:

@@ -107,7 +107,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument(
         "--plot", type=Path, default=Path("out/bench/calibration_stop_and_go.png"), help="consistency plot"
     )
-    parser.add_argument("--seeds", type=int, default=SEEDS, help="sensor seeds per scene (0 … N−1)")
+    parser.add_argument("--seeds", type=report.count, default=SEEDS, help="sensor seeds per scene (0 … N−1)")
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     rows, runs = table(args.seeds)

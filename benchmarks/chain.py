@@ -328,10 +328,15 @@ def sleep_loop_floor(rate: float = 1000.0, seconds: float = 2.0) -> tuple[float,
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the live chain at each rate, then as fast as possible at 1 kHz; print a markdown table."""
     parser = argparse.ArgumentParser(prog="python -m benchmarks.chain", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rates", type=float, nargs="+", default=list(RATES), help="sensor rates, Hz")
-    parser.add_argument("--duration", type=float, default=5.0, help="scene seconds per live run")
     parser.add_argument(
-        "--fast-duration", type=float, default=30.0, help="scene seconds of the as-fast-as-possible run"
+        "--rates", type=report.positive, nargs="+", default=list(RATES), help="sensor rates, Hz"
+    )
+    parser.add_argument("--duration", type=report.positive, default=5.0, help="scene seconds per live run")
+    parser.add_argument(
+        "--fast-duration",
+        type=report.positive,
+        default=30.0,
+        help="scene seconds of the as-fast-as-possible run",
     )
     parser.add_argument(
         "--rt-priority",

@@ -262,9 +262,14 @@ def main(argv: Sequence[str] | None = None) -> None:
     """Print both tables, write constant_cover.md, the plot and the docs page."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory")
-    parser.add_argument("--seeds", type=int, default=SEEDS, help="sensor seeds of the constant (0 … N−1)")
     parser.add_argument(
-        "--bag-seeds", type=int, default=BAG_SEEDS, help="sensor seeds per golden constant scene (table 3)"
+        "--seeds", type=report.count, default=SEEDS, help="sensor seeds of the constant (0 … N−1)"
+    )
+    parser.add_argument(
+        "--bag-seeds",
+        type=report.count,
+        default=BAG_SEEDS,
+        help="sensor seeds per golden constant scene (table 3)",
     )
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)

@@ -337,10 +337,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--out", type=Path, default=Path("out/bench"), help="output directory (default out/bench)"
     )
-    parser.add_argument("--seeds", type=int, default=3, help="noise realisations per scene (default 3)")
-    parser.add_argument("--duration", type=float, default=40.0, help="scene length in s (default 40)")
-    parser.add_argument("--rate", type=float, default=200.0, help="sensor rate in Hz (default 200)")
-    parser.add_argument("--noise", type=float, default=1e-3, help="angle noise σ in rad (default 1e-3)")
+    parser.add_argument(
+        "--seeds", type=report.count, default=3, help="noise realisations per scene (default 3)"
+    )
+    parser.add_argument(
+        "--duration", type=report.positive, default=40.0, help="scene length in s (default 40)"
+    )
+    parser.add_argument("--rate", type=report.positive, default=200.0, help="sensor rate in Hz (default 200)")
+    parser.add_argument(
+        "--noise", type=report.positive, default=1e-3, help="angle noise σ in rad (default 1e-3)"
+    )
     parser.add_argument("--quick", action="store_true", help="1 seed, 25 s scenes")
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)

@@ -75,9 +75,12 @@ def measure(paths: Sequence[Path], workers: int) -> dict[str, float]:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run, print, write the page."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--bags", type=int, default=200, help="bags in the fleet (200)")
+    parser.add_argument("--bags", type=bench_report.count, default=200, help="bags in the fleet (200)")
     parser.add_argument(
-        "--workers", type=int, default=2, help="local cluster workers (2: this machine's cores)"
+        "--workers",
+        type=bench_report.count,
+        default=2,
+        help="local cluster workers (2: this machine's cores)",
     )
     bench_report.add_docs_argument(parser)
     args = parser.parse_args(argv)

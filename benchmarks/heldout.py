@@ -185,9 +185,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     intro = (__doc__ or "").split("\n\n")[0]
     parser = argparse.ArgumentParser(prog="python -m benchmarks.heldout", description=intro)
     parser.add_argument("scenes", nargs="+", type=Path, help="scene YAML files whose a(t) is held out")
-    parser.add_argument("--seeds", type=int, default=2, help="noise realisations per trace and design")
+    parser.add_argument(
+        "--seeds", type=bench_report.count, default=2, help="noise realisations per trace and design"
+    )
     parser.add_argument("--scheduler", default=None, help="a Dask scheduler (default: a local cluster)")
-    parser.add_argument("--workers", type=int, default=None, help="local cluster's workers (default: CPUs)")
+    parser.add_argument(
+        "--workers", type=bench_report.count, default=None, help="local cluster's workers (default: CPUs)"
+    )
     bench_report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     results = [

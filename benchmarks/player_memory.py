@@ -123,7 +123,9 @@ def main(argv: list[str] | None = None) -> int:
     """Write the bag, measure in a child process, write the table."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=Path("out/bench"))
-    parser.add_argument("--gib", type=float, default=1.05, help="bag size to write, GiB (default 1.05)")
+    parser.add_argument(
+        "--gib", type=report.positive, default=1.05, help="bag size to write, GiB (default 1.05)"
+    )
     parser.add_argument("--keep", action="store_true", help="keep the bag")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     report.add_docs_argument(parser)

@@ -787,12 +787,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Fit (``--fit``) or evaluate; print and write the Markdown table and the plot."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="first 60 s of each profile, 1 seed")
-    parser.add_argument("--seeds", type=int, default=3, help="sensor noise seeds 0 … N−1")
+    parser.add_argument("--seeds", type=bench_report.count, default=3, help="sensor noise seeds 0 … N−1")
     parser.add_argument("--fit", action="store_true", help="fit the presets' q_a on the training split")
     parser.add_argument(
         "--out", type=Path, default=Path("out/bench"), help="where the table's Markdown also goes"
     )
-    parser.add_argument("--workers", type=int, default=None, help="local cluster's workers (default: CPUs)")
+    parser.add_argument(
+        "--workers", type=bench_report.count, default=None, help="local cluster's workers (default: CPUs)"
+    )
     bench_report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     seeds = 1 if args.quick else max(1, args.seeds)

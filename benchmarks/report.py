@@ -31,6 +31,29 @@ def add_docs_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def count(text: str) -> int:
+    """argparse type of a count (seeds, runs, bags, workers): an integer ≥ 1, else argparse's one-line usage
+    error. A zero would run nothing and still rewrite the docs page with empty tables."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
+
+
+def positive(text: str) -> float:
+    """argparse type of a size (s, Hz, GiB, rad): a finite number > 0, else argparse's usage error."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}") from None
+    if not (value > 0.0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
+
+
 def cpu_model() -> str:
     """The CPU's model name from /proc/cpuinfo ('model name'), else platform.processor(), else 'unknown'."""
     try:

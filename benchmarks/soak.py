@@ -93,8 +93,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     from pendulum_accel.nodes.launcher import Chain, ChainConfig
 
     parser = argparse.ArgumentParser(prog="python -m benchmarks.soak", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--minutes", type=float, default=10.0, help="scene minutes (10)")
-    parser.add_argument("--rate", type=float, default=1000.0, help="sensor rate, Hz (1000)")
+    parser.add_argument("--minutes", type=report.positive, default=10.0, help="scene minutes (10)")
+    parser.add_argument("--rate", type=report.positive, default=1000.0, help="sensor rate, Hz (1000)")
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)

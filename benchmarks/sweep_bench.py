@@ -49,9 +49,11 @@ def _rate(
 def main(argv: list[str] | None = None) -> int:
     """Run the throughput benchmark and print the target check."""
     parser = argparse.ArgumentParser(prog="python -m benchmarks.sweep_bench", description=__doc__)
-    parser.add_argument("--variants", type=int, default=1000, help="trajectories in the batch (1000)")
-    parser.add_argument("--steps", type=int, default=10_000, help="RK4 steps per trajectory (10000)")
-    parser.add_argument("--repeats", type=int, default=3, help="best of this many runs (3)")
+    parser.add_argument(
+        "--variants", type=report.count, default=1000, help="trajectories in the batch (1000)"
+    )
+    parser.add_argument("--steps", type=report.count, default=10_000, help="RK4 steps per trajectory (10000)")
+    parser.add_argument("--repeats", type=report.count, default=3, help="best of this many runs (3)")
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)

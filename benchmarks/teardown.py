@@ -172,8 +172,10 @@ def describe(code: int | None) -> str:
 def main(argv: list[str] | None = None) -> int:
     """Start and stop the recorder ``--runs`` times (with the peer unless --quiet-graph); write the table."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", type=int, default=30, help="start/stop cycles (default 30)")
-    parser.add_argument("--hold", type=float, default=1.0, help="s of recording before the stop (default 1)")
+    parser.add_argument("--runs", type=report.count, default=30, help="start/stop cycles (default 30)")
+    parser.add_argument(
+        "--hold", type=report.positive, default=1.0, help="s of recording before the stop (default 1)"
+    )
     parser.add_argument("--quiet-graph", action="store_true", help="no peer: nothing else on the graph")
     parser.add_argument(
         "--peer-leaves",

@@ -3,8 +3,10 @@ the benchmark scripts, and the README is a short landing page that links to page
 
 from __future__ import annotations
 
+import argparse
 import ast
 import datetime as dt
+import importlib
 import os
 import re
 import subprocess
@@ -97,6 +99,46 @@ def test_every_benchmark_writes_its_own_page() -> None:
             f"{script.name} must write its page with write_page({script.stem!r}, …)"
         )
         assert f"benchmarks/{script.stem}.md" in nav
+
+
+BENCHMARK_SIZE_OPTIONS = [
+    ("bag_memory", "--rate"), ("bags", "--rate"), ("bags", "--duration"), ("bags", "--repeat"),
+    ("calibration", "--seeds"), ("chain", "--rates"), ("chain", "--duration"), ("chain", "--fast-duration"),
+    ("constant_cover", "--seeds"), ("constant_cover", "--bag-seeds"), ("estimators", "--seeds"),
+    ("estimators", "--duration"), ("estimators", "--rate"), ("estimators", "--noise"), ("fleet", "--bags"),
+    ("fleet", "--workers"), ("heldout", "--seeds"), ("heldout", "--workers"), ("player_memory", "--gib"),
+    ("real_motion", "--seeds"), ("real_motion", "--workers"), ("soak", "--minutes"), ("soak", "--rate"),
+    ("sweep_bench", "--variants"), ("sweep_bench", "--steps"), ("sweep_bench", "--repeats"),
+    ("teardown", "--runs"), ("teardown", "--hold"),
+]  # fmt: skip
+"""Every count (report.count) and size (report.positive) option of the benchmarks."""
+
+
+@pytest.mark.parametrize(("name", "option"), BENCHMARK_SIZE_OPTIONS)
+def test_a_benchmark_refuses_a_zero_count_or_size_before_it_writes_its_page(
+    name: str, option: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """0 seeds, runs or seconds would run nothing and still rewrite the docs page with empty tables:
+    argparse's usage error instead (exit 2, one 'error:' line naming the option), and no page written."""
+    module = importlib.import_module(f"benchmarks.{name}")
+    extra = ["scene.yaml"] if name == "heldout" else []  # its one positional argument
+    with pytest.raises(SystemExit) as stop:
+        module.main([*extra, option, "0", "--docs", str(tmp_path / "docs")])
+    assert stop.value.code == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
+    assert len(errors) == 1 and f"argument {option}" in errors[0] and "got '0'" in errors[0], errors
+    assert not (tmp_path / "docs").exists()
+
+
+def test_the_benchmark_argument_types_take_what_they_name() -> None:
+    """count: an integer >= 1; positive: a finite number > 0; each refuses the rest as a usage error."""
+    assert report.count("3") == 3 and report.positive("0.25") == 0.25 and report.positive("1e3") == 1000.0
+    for bad in ("0", "-1", "2.5", "x", ""):
+        with pytest.raises(argparse.ArgumentTypeError):
+            report.count(bad)
+    for bad in ("0", "-0.1", "nan", "inf", "x"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            report.positive(bad)
 
 
 def test_write_page_records_the_machine_the_date_and_the_plot(tmp_path: Path) -> None:
