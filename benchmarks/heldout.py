@@ -43,6 +43,7 @@ from benchmarks.real_motion import (
     simulate_runs,
 )
 from pendulum_accel.cluster import map_tasks
+from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.estimators import make_estimator
 from pendulum_accel.recording.settings import motion_choice
 from pendulum_accel.scene import load_scene
@@ -194,6 +195,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     bench_report.add_docs_argument(parser)
     args = parser.parse_args(argv)
+    for path in args.scenes:  # every scene read before any runs: a typo in the last costs no run
+        try:
+            load_scene(path)
+        except PendulumAccelError as exc:
+            parser.error(str(exc))
     results = [
         r
         for path in args.scenes

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from benchmarks import heldout
 
@@ -38,3 +39,21 @@ def test_heldout_page_has_a_row_per_design_and_a_verdict_from_its_figures(tmp_pa
     page = (tmp_path / "docs" / "benchmarks" / "heldout.md").read_text()
     assert page.count("| trace | auto |") == len(results)
     assert (tmp_path / "docs" / "img" / "bench_heldout.png").stat().st_size > 0
+
+
+def test_a_scene_that_does_not_load_stops_heldout_before_any_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every scene is read before any design runs: a missing or malformed one (the last given, after a good
+    one) is argparse's usage error, exit 2, one 'error:' line naming the file, no traceback and no page."""
+    (tmp_path / "bad.yaml").write_text("x: [\n", encoding="utf-8")
+    good = Path(heldout.__file__).parent.parent / "pendulum_accel" / "scenes" / "f1tenth_ds5_odom.yaml"
+    cases = ((tmp_path / "missing.yaml", "scene file not found"), (tmp_path / "bad.yaml", "malformed"))
+    for bad, said in cases:
+        with pytest.raises(SystemExit) as stop:
+            heldout.main([str(good), str(bad), "--seeds", "1", "--docs", str(tmp_path / "docs")])
+        assert stop.value.code == 2
+        err = capsys.readouterr().err
+        errors = [line for line in err.splitlines() if "error:" in line]
+        assert len(errors) == 1 and str(bad) in errors[0] and said in errors[0], err
+        assert "Traceback" not in err and not (tmp_path / "docs").exists()
