@@ -45,6 +45,7 @@ from benchmarks.real_motion import (
 from pendulum_accel.cluster import map_tasks
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.estimators import make_estimator
+from pendulum_accel.recording.analyze import figure
 from pendulum_accel.recording.settings import motion_choice
 from pendulum_accel.scene import load_scene
 
@@ -128,7 +129,8 @@ def line(r: Result) -> str:
     return (
         f"{r.trace} [{r.preset}] {r.design}: RMS {k.rms:.4g}, ×{k.rms / r.hindsight.rms:.2f} hindsight, "
         f"×{k.rms / r.gtan.rms:.2f} g·tanθ, "
-        f"beyond 2σ {100 * k.beyond_steady:.1f} / {100 * k.beyond_after:.1f} %, "
+        f"beyond 2σ steady {share_cell(k.beyond_steady, k.eff_steady)}, "
+        f"after {share_cell(k.beyond_after, k.eff_after)}, "
         f"smoother ×{r.smoother / r.rts_hindsight:.2f} hindsight RTS"
     )
 
@@ -147,7 +149,8 @@ def table(results: Sequence[Result]) -> str:
             f"| {r.trace} | {r.preset} | {r.design} | {k.rms:.3g} | {k.rms / r.hindsight.rms:.2f} | "
             f"{k.rms / r.gtan.rms:.2f} | {share_cell(k.beyond_steady, k.eff_steady)} | "
             f"{share_cell(k.beyond_after, k.eff_after)} | "
-            f"{k.nees:.2f} | {r.smoother / r.rts_hindsight:.2f} | {'yes' if r.meets else 'no'} |"
+            f"{figure(k.nees, '.2f', '')} | {r.smoother / r.rts_hindsight:.2f} | "
+            f"{'yes' if r.meets else 'no'} |"
         )
     return "\n".join(rows)
 

@@ -3,6 +3,8 @@ figures in its own row."""
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +41,13 @@ def test_heldout_page_has_a_row_per_design_and_a_verdict_from_its_figures(tmp_pa
     page = (tmp_path / "docs" / "benchmarks" / "heldout.md").read_text()
     assert page.count("| trace | auto |") == len(results)
     assert (tmp_path / "docs" / "img" / "bench_heldout.png").stat().st_size > 0
+    # A window without samples (a trace that never holds still has no steady stretch) reads "—", never nan.
+    quiet = dataclasses.replace(results[0].kalman, beyond_steady=math.nan, eff_steady=math.nan, nees=math.nan)
+    empty = dataclasses.replace(results[0], kalman=quiet)
+    for text in (heldout.line(empty), heldout.table([empty])):
+        words = {w.strip("|,%()").lower() for w in text.split()}
+        assert not words & {"nan", "+nan", "-nan", "inf"}, text
+        assert "steady —" in text or "| — |" in text, text
 
 
 def test_a_scene_that_does_not_load_stops_heldout_before_any_run(
