@@ -101,16 +101,22 @@ def test_every_benchmark_writes_its_own_page() -> None:
         assert f"benchmarks/{script.stem}.md" in nav
 
 
-BENCHMARK_SIZE_OPTIONS = [
-    ("bag_memory", "--rate"), ("bags", "--rate"), ("bags", "--duration"), ("bags", "--repeat"),
-    ("calibration", "--seeds"), ("chain", "--rates"), ("chain", "--duration"), ("chain", "--fast-duration"),
-    ("constant_cover", "--seeds"), ("constant_cover", "--bag-seeds"), ("estimators", "--seeds"),
-    ("estimators", "--duration"), ("estimators", "--rate"), ("estimators", "--noise"), ("fleet", "--bags"),
-    ("fleet", "--workers"), ("heldout", "--seeds"), ("heldout", "--workers"), ("player_memory", "--gib"),
-    ("real_motion", "--seeds"), ("real_motion", "--workers"), ("soak", "--minutes"), ("soak", "--rate"),
-    ("sweep_bench", "--variants"), ("sweep_bench", "--steps"), ("sweep_bench", "--repeats"),
-    ("teardown", "--runs"), ("teardown", "--hold"),
-]  # fmt: skip
+def _benchmark_size_options() -> list[tuple[str, str]]:
+    """(benchmark, option) of every add_argument whose type is report.count or report.positive, read from the
+    scripts themselves, so an option added later is tested without a list to keep."""
+    found = []
+    for script in sorted((ROOT / "benchmarks").glob("*.py")):
+        for node in ast.walk(ast.parse(script.read_text(encoding="utf-8"))):
+            if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)):
+                continue
+            kind = next((k.value for k in node.keywords if k.arg == "type"), None)
+            sized = isinstance(kind, ast.Attribute) and kind.attr in ("count", "positive")
+            if node.func.attr == "add_argument" and sized and isinstance(node.args[0], ast.Constant):
+                found.append((script.stem, str(node.args[0].value)))
+    return found
+
+
+BENCHMARK_SIZE_OPTIONS = _benchmark_size_options()
 """Every count (report.count) and size (report.positive) option of the benchmarks."""
 
 
