@@ -4,7 +4,7 @@
 
 Each SCENE.yaml brings a(t) (a ``speed_csv`` of your own drive or robot, an ``accel_csv`` of a logged IMU);
 kalman runs as the package would run it (``estimators.motion``: auto unless the scene states a motion).
-Every trace runs through the benchmark's two sensor designs (``benchmarks.real_motion``), three designs no
+Every trace runs through the benchmark's two sensor designs (``benchmarks.real_motion``), the designs no
 fit uses (``real_motion.HELDOUT_DESIGNS``) and the scene's own, with seeds
 0 … N−1, like the real-motion benchmark (θ from physics.simulate, white angle noise, t ≥ 2 s).
 
@@ -229,7 +229,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 SOURCES = (
     "The page's traces are the scenes named in the command below. The corpus's validate recordings (a real "
     "robot's wheel odometry, logged accelerations as (t, a) tables: benchmarks.corpus, sources and licences "
-    "in pendulum_accel/scenes/real_motion/README.md) are in no fit; nor are the designs mid, tiny and light."
+    "in pendulum_accel/scenes/real_motion/README.md) are in no fit; nor are the designs "
+    + ", ".join(d.name.split(" (")[0] for d in HELDOUT_DESIGNS[:-1])
+    + f" and {HELDOUT_DESIGNS[-1].name.split(' (')[0]}."
 )
 
 
