@@ -14,9 +14,10 @@
 
 The bound beside each figure is the bag's own size: a command that held the bag would need at least that.
 What does grow with the bag is the arrays of samples a command computes with: analyze's re-run of the
-estimator, and the smoothed series ``export`` adds by default (the IMM's fixed-lag smoother, a forward
-pass whose state is the lag's samples: it holds t, θ, its lag-0 and lagged columns and the published
-â and variance, 64 B a sample, and is computed after the topics' tables are written).
+estimator, and the smoothed series ``export`` adds by default (kalman.imm_smoother: the IMM's mode
+probabilities, 80 B a sample, then a single-model forward pass kept whole for the backward pass, its
+priors, posteriors and transitions, about 300 B a sample at the peak, computed after the topics' tables
+are written).
 ``export --no-smoothed`` shows the tables written batch by batch alone. The merged table (``--merged``)
 is a k-way merge on the stamps, a batch of angles at a time. Every command also carries its imports:
 numba's compiled passes about 110 MiB, pandas and pyarrow.

@@ -13,11 +13,12 @@ from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators import estimate_batch, estimator_line, make_estimator
-from pendulum_accel.estimators.kalman import KalmanEstimator
+from pendulum_accel.estimators.kalman import KalmanEstimator, imm_smoother
 from pendulum_accel.physics.params import Pendulum
-from pendulum_accel.physics.profiles import Table
+from pendulum_accel.physics.profiles import Step, Table
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.recording.analyze import analyze_bag
+from pendulum_accel.recording.changes import after_change
 from test.conftest import REPO
 
 L, C, SIGMA, RATE = 0.05, 19.8, 2e-3, 200.0  # the short damped design (scene udds)
@@ -59,7 +60,7 @@ def test_smoother_beats_the_filter_and_its_variance_is_smaller() -> None:
     assert np.all(v_s <= v_f * (1.0 + 1e-9))  # same model: the smoothed variance never exceeds the filtered
     assert rms(a_s, truth, t) < rms(a_f, truth, t)
     a_imm, _ = estimate_batch("kalman", t, theta, **CFG)  # the live default (IMM)
-    a_s, v_s = estimate_batch("smoother", t, theta, **CFG)  # the IMM's fixed-lag smoother (SMOOTH_LAG)
+    a_s, v_s = estimate_batch("smoother", t, theta, **CFG)  # RTS at the smoothed mode mix (imm_smoother)
     assert rms(a_s, truth, t) < rms(a_imm, truth, t)
     assert np.all(np.isfinite(a_s)) and np.all(v_s > 0.0)
 
@@ -161,11 +162,87 @@ def test_export_and_analyze_offer_the_smoother_and_the_lag(tmp_path: Path) -> No
     smooth = analyze_bag(golden, estimator="smoother")
     lagged = analyze_bag(golden, estimator="kalman", lag=0.3)
     assert lagged.config["lag"] == 0.3 and np.isfinite(lagged.accel_est).all()
-    # The smoother is the same IMM's fixed-lag pass at SMOOTH_LAG = 1 s: more later data than 0.3 s, on the
-    # same model, never worse (5 % slack: a longer lag's extra data can only add weight to the estimate, but
-    # the IMM's mode weights are the filter's, not smoothed, so it is not a strict inequality).
+    # The smoother has the whole recording, more later data than a 0.3 s lag: not worse (5 % slack: its
+    # single model at the smoothed mode mix is not the lag's IMM, so it is not a strict inequality).
     assert smooth.stats.rms <= lagged.stats.rms * 1.05
     assert main(["analyze", str(golden), "--estimator", "instant", "--lag", "0.3"]) == 2
+
+
+def test_smooth_modes_is_the_chains_forward_backward() -> None:
+    """ekf_kernels.smooth_modes on the filtered probabilities of a hidden Markov chain (its transitions Π the
+    chain's own, _chain_step) gives the textbook forward-backward posteriors p(s_k | y_1..n), computed here
+    independently with the backward messages β.
+
+    Tolerance: both sides are sums of a few hundred products of probabilities in [0, 1], each step normalised,
+    so each carries at most ~n·m ulp of relative rounding (n 300 samples, m 3 modes: ~1e-13); 1e-10 absolute
+    on probabilities is far above that and far below any error in the recursion (a wrong Π index or a
+    missing normalisation moves them by 1e-2 or more)."""
+    rng = np.random.default_rng(7)
+    n, m, dt = 300, 3, 0.01
+    rates = kern.chain_rates(m, 0.5, 0.2)
+    pi = np.empty((m, m))
+    kern._chain_step(rates, dt, pi)
+    like = rng.uniform(0.05, 1.0, (n, m))  # any emission likelihoods
+    alpha = np.empty((n, m))
+    alpha[0] = like[0] / like[0].sum()
+    for k in range(1, n):
+        alpha[k] = like[k] * (alpha[k - 1] @ pi)
+        alpha[k] /= alpha[k].sum()
+    beta = np.ones((n, m))
+    for k in range(n - 2, -1, -1):
+        beta[k] = pi @ (like[k + 1] * beta[k + 1])
+        beta[k] /= beta[k].sum()
+    expected = alpha * beta
+    expected /= expected.sum(axis=1, keepdims=True)
+    t = np.arange(n) * dt
+    mu = alpha.copy()
+    kern.smooth_modes(t, mu, rates, 1.0)
+    np.testing.assert_allclose(mu, expected, rtol=0.0, atol=1e-10)
+    # A gap past reset_gap cuts the chain: the sample before it keeps its filtered μ.
+    t_gap = t.copy()
+    t_gap[150:] += 5.0
+    mu = alpha.copy()
+    kern.smooth_modes(t_gap, mu, rates, 1.0)
+    assert np.array_equal(mu[149], alpha[149])
+
+
+def test_the_smoothers_variance_tells_the_truth_across_a_step() -> None:
+    """On a step of a (2 m/s² at 10 s, the short damped design, 4 seeds pooled) the smoother's published
+    variance describes its errors both within 2 s of the change and in the steady stretches: mean NEES
+    within a factor 4 of 1 (σ within a factor 2 of the error's spread). The fixed-lag pass it replaced
+    carried the level after the step back across it with a calm mode's variance: NEES 2000-4000 there."""
+    prof = Step(10.0, 0.0, 2.0)
+    t = np.arange(round(20.0 * RATE)) / RATE
+    theta = simulate(Pendulum(length=L, damping=C), prof, t, theta0=0.0, rtol=1e-10, atol=1e-12).theta
+    truth = np.asarray(prof(t))
+    after = after_change(t, t, truth)
+    steady = ~after & (t >= 2.0)
+    z_after, z_steady = [], []
+    for seed in range(4):
+        noisy = np.asarray(theta) + SIGMA * np.random.default_rng(seed).standard_normal(t.size)
+        a, var = estimate_batch("smoother", t, noisy, **CFG)
+        z = (a - truth) ** 2 / var
+        z_after.append(z[after])
+        z_steady.append(z[steady])
+    for z in (np.concatenate(z_after), np.concatenate(z_steady)):
+        assert 0.25 <= float(np.mean(z)) <= 4.0
+
+
+def test_the_smoother_leaves_no_hole_where_its_single_model_pass_breaks_down() -> None:
+    """Angles jumping across ±90° every sample drive the single-model pass out of its model (its RTS leaves
+    holes there); those samples get the IMM filter's estimate, so every published â and variance is finite
+    and every variance positive."""
+    t = np.arange(2000) / 100.0
+    theta = np.where(np.arange(2000) % 2 == 0, 1.5, -1.5)
+    est = make_estimator("kalman", length=0.5, noise_std=1e-3, rate_hz=100.0)
+    assert isinstance(est, KalmanEstimator)
+    mu = kern.run_imm(t, theta, est._params, est._qs, est._rates, np.zeros(1, np.int64), True)[2]
+    kern.smooth_modes(t, mu, est._rates, 1.0)
+    keep = kern.run_pass(t, theta, est._params, np.zeros(1, np.int64), True, mu @ est._qs)[2:]
+    assert np.isnan(kern.rts(*keep)[0]).any()  # the holes this test is about
+    published = estimate_batch("smoother", t, theta, length=0.5, noise_std=1e-3, rate_hz=100.0)
+    for a, var in (imm_smoother(t, theta, est._params, est._qs, est._rates)[:2], published):
+        assert np.all(np.isfinite(a)) and np.all(np.isfinite(var)) and np.all(var > 0.0)
 
 
 def test_the_summary_line_explains_the_estimator() -> None:

@@ -266,16 +266,24 @@ def _flush(
 
 @njit(cache=True, nogil=True)  # a long batch leaves the GIL: Ctrl-C reaches the main thread
 def run_pass(
-    t: np.ndarray, y: np.ndarray, params: np.ndarray, lags: np.ndarray, keep: bool
+    t: np.ndarray,
+    y: np.ndarray,
+    params: np.ndarray,
+    lags: np.ndarray,
+    keep: bool,
+    q_accel: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Filter and fixed-lag pass over a recording (``step`` per sample).
 
     Returns (â_lag, var_lag) of shape (n, len(lags)): column m holds â_{i | i + lags[m]}, aligned to the
     sample i it describes (NaN where a divergence restart lost it; the last lags[m] samples of a segment
     use all the data there is), and, when ``keep``, what the RTS pass needs: priors x⁻, P⁻, posteriors
-    x⁺, P⁺, transitions F (from the previous sample) and the restart flags.
+    x⁺, P⁺, transitions F (from the previous sample) and the restart flags. ``q_accel``: q_a of the
+    interval into each sample (n values), or empty for params[5] throughout.
     """
     n = t.size
+    varying = q_accel.size == n
+    params = params.copy()  # params[5] takes each sample's q_a when it varies
     size = int(lags.max()) + 1 if lags.size else 1
     out_a = np.full((n, lags.size), np.nan)
     out_v = np.full((n, lags.size), np.nan)
@@ -300,6 +308,8 @@ def run_pass(
     for i in range(n):
         if i > 0 and needs_restart(state, t[i], reset_gap):
             _flush(out_a, out_v, ring_a, ring_v, i - 1, int(state[1]), lags)
+        if varying:
+            params[5] = q_accel[i]
         restarted = step(x, p, f, k, prior_x, prior_p, ring_a, ring_v, ring_c, state, t[i], y[i], params)
         if keep:
             starts[i] = restarted
@@ -816,6 +826,39 @@ def _imm_flush(
 
 
 @njit(cache=True)
+def smooth_modes(t: np.ndarray, mu: np.ndarray, rates: np.ndarray, reset_gap: float) -> None:
+    """In place: the IMM's filtered mode probabilities μ_k (run_imm, n × modes) become the smoothed ones,
+    μˢ_k(i) = μ_k(i) Σ_j Π_ij μˢ_{k+1}(j) / μ⁻_{k+1}(j), μ⁻_{k+1}(j) = Σ_l Π_lj μ_k(l), Π over t_{k+1} − t_k
+    (the chain's backward recursion, exact for a hidden Markov chain; the IMM's mode likelihoods make it an
+    approximation here). A segment's last sample (the next one restarts after a gap) keeps its μ."""
+    n, m = mu.shape
+    pi = np.empty((m, m))
+    pred = np.empty(m)
+    memo = math.nan
+    for k in range(n - 2, -1, -1):
+        dt = t[k + 1] - t[k]
+        if dt > reset_gap:
+            continue
+        if dt != memo:
+            _chain_step(rates, dt, pi)
+            memo = dt
+        for j in range(m):
+            acc = 0.0
+            for i in range(m):
+                acc += mu[k, i] * pi[i, j]
+            pred[j] = acc
+        total = 0.0
+        for i in range(m):
+            acc = 0.0
+            for j in range(m):
+                acc += pi[i, j] * mu[k + 1, j] / pred[j]
+            mu[k, i] *= acc
+            total += mu[k, i]
+        for i in range(m):
+            mu[k, i] /= total
+
+
+@njit(cache=True)
 def log_likelihood(t: np.ndarray, y: np.ndarray, params: np.ndarray) -> float:
     """Σ_k −½ (ν_k²/S_k + ln S_k) of the single-model filter at params (the first 10 samples of each
     segment left out: they hold the start-up, whatever q_a)."""
@@ -866,11 +909,14 @@ def warm() -> None:
     t = np.arange(30) / 100.0
     y = np.zeros(30)
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
-    _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, np.array([0, 5], dtype=np.int64), True)
+    for q_accel in (np.empty(0), np.full(30, 0.01)):
+        lags = np.array([0, 5], dtype=np.int64)
+        _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, lags, True, q_accel)
     rts(xpr, ppr, xpo, ppo, fk, starts)
     qs, rates = np.array([1e-3, 0.1]), chain_rates(2, 5.0)
     for keep_mu in (True, False):
         run_imm(t, y, params, qs, rates, np.array([0, 5], dtype=np.int64), keep_mu)
+    smooth_modes(t, run_imm(t, y, params, qs, rates, np.zeros(1, dtype=np.int64), True)[2], rates, 1.0)
     log_likelihood(t, y, params)
     # The live IMM's per-sample step (kalman.KalmanEstimator.update), with the arrays it keeps: left
     # out, the estimator compiled it at its first angle, while the simulator waited for it.

@@ -114,8 +114,17 @@ short_damped designs, the first 60 s, seed 0, lags 0.25 s and 1 s: of γ = 1.0 �
 one whose shares beyond 2σ (steady and after changes) are closest to a Gaussian's (calibration_miss)."""
 
 
-def lag_variance(var_lag: np.ndarray, var_filter: np.ndarray) -> np.ndarray:
-    """P_f (P_lag/P_f)^γ of 1-d columns, γ = LAG_VARIANCE_POWER, the ratio clipped to [0, 1]: the
+SMOOTHER_VARIANCE_POWER = 1.9
+"""γ of the smoother's variance, published as P_f (Pˢ/P_f)^γ (``lag_variance``, ``imm_smoother``). Fitted
+by ``python -m benchmarks.real_motion --fit --quick`` (fit_smoother_power) on the data LAG_VARIANCE_POWER
+was fitted on (lag: the whole recording): of γ = 1.0 … 4.0 in steps of 0.1, the one whose shares beyond 2σ
+(steady and after changes) are closest to a Gaussian's (calibration_miss)."""
+
+
+def lag_variance(
+    var_lag: np.ndarray, var_filter: np.ndarray, power: float = LAG_VARIANCE_POWER
+) -> np.ndarray:
+    """P_f (P_lag/P_f)^γ of 1-d columns, γ = ``power``, the ratio clipped to [0, 1]: the
     fixed-lag variance as it matches real motion (docs/estimators.md, "Fixed lag");
     ``ekf_kernels.lag_variance_one`` per sample, the formula the live fixed-lag output uses too.
 
@@ -127,8 +136,37 @@ def lag_variance(var_lag: np.ndarray, var_filter: np.ndarray) -> np.ndarray:
     # One output array and no copies of the inputs (the lag table's column views are read in place):
     # export maps a whole recording's column (a million samples and more) within its memory bound.
     out = np.empty(var_lag.shape, dtype=np.float64)
-    kern.lag_variance_into(var_lag, var_filter, LAG_VARIANCE_POWER, out)
+    kern.lag_variance_into(var_lag, var_filter, power, out)
     return out
+
+
+def imm_smoother(
+    t: np.ndarray, theta: np.ndarray, params: np.ndarray, qs: np.ndarray, rates: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(âˢ, Pˢ_aa, P_f,aa): the RTS pass of the single model at q_a,k = Σ_j μˢ_k(j) q_j (ekf_kernels.rts
+    over run_pass), μˢ the IMM's mode probabilities smoothed over the recording (ekf_kernels.smooth_modes),
+    and that pass's own filtered P_aa. Where that pass broke down (rts leaves a hole: angles far out of
+    the model, e.g. jumping across ±90°) the sample gets the IMM filter's â and P_aa for both variances,
+    as the fixed-lag output gives a sample a restart lost.
+
+    The mode mix the whole recording supports sets each interval's process noise, so a change gets the
+    agile modes' q_a on both sides of it (a pass that weighed the modes by the past alone would carry the
+    level after a step back across it), and a calm stretch the calm modes' q_a. One IMM pass, one single-model
+    pass and one backward pass: the cost of the live filter plus two single-model passes."""
+    a_f, var_imm, mu = kern.run_imm(t, theta, params, qs, rates, np.zeros(1, np.int64), True)
+    kern.smooth_modes(t, mu, rates, float(params[6]))
+    q = mu @ qs
+    del mu
+    _, _, xpr, ppr, xpo, ppo, fk, starts = kern.run_pass(t, theta, params, np.zeros(1, np.int64), True, q)
+    del q, _
+    a, var = kern.rts(xpr, ppr, xpo, ppo, fk, starts)
+    var_f = ppo[:, 2, 2].copy()
+    del xpr, ppr, xpo, ppo, fk, starts
+    hole = np.isnan(a)
+    if hole.any():
+        a[hole] = a_f[hole, 0]
+        var[hole] = var_f[hole] = var_imm[hole, 0]
+    return a, var, var_f
 
 
 def lag_samples(lag: float, rate_hz: float) -> int:
@@ -336,7 +374,7 @@ class KalmanEstimator(Estimator):
         if self.modes:
             a, var, _ = kern.run_imm(t, theta, self._params, self._qs, self._rates, lag_arr, False)
         else:
-            a, var, *_ = kern.run_pass(t, theta, self._params, lag_arr, False)
+            a, var, *_ = kern.run_pass(t, theta, self._params, lag_arr, False, np.empty(0))
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
             lost = np.isnan(a[:, m])
             a[lost, m], var[lost, m] = a[lost, 0], var[lost, 0]
@@ -356,7 +394,7 @@ class KalmanEstimator(Estimator):
         if t.size == 0:
             return np.empty(0), np.empty(0)
         _, _, xpr, ppr, xpo, ppo, fk, starts = kern.run_pass(
-            t, theta, self._params, np.zeros(1, np.int64), True
+            t, theta, self._params, np.zeros(1, np.int64), True, np.empty(0)
         )
         a, var = kern.rts(xpr, ppr, xpo, ppo, fk, starts)
         return self._publish(t, a, var)
@@ -475,17 +513,12 @@ class KalmanEstimator(Estimator):
         return f"{line}; preset {self.preset} ({model}), latency {latency:.3f} s (lag)"
 
 
-SMOOTH_LAG = 1.0
-"""s: the smoother's lag. Beyond about 0.5 s a fixed-lag smoother is the fixed-interval one on the corpus
-(the latency–accuracy curve of docs/benchmarks/real_motion.md flattens there)."""
-
-
 class SmootherEstimator(KalmanEstimator):
     """The kalman model's smoother: offline only (batch), the best a history can be.
 
-    Without ``q_accel``: the IMM's fixed-lag smoother at SMOOTH_LAG, the last SMOOTH_LAG of each segment
-    using all the data there is, so it follows the motion as the filter does. With ``q_accel``: the
-    fixed-interval RTS smoother of the single model (ekf_kernels.rts).
+    Without ``q_accel``: the RTS smoother at the mode mix the whole recording supports (``imm_smoother``),
+    its variance P_f (Pˢ/P_f)^γ, γ = SMOOTHER_VARIANCE_POWER. With ``q_accel``: the fixed-interval RTS
+    smoother of the single model (ekf_kernels.rts).
     """
 
     name: ClassVar[str] = "smoother"
@@ -517,12 +550,15 @@ class SmootherEstimator(KalmanEstimator):
         )
 
     def batch(self, t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(âˢ, var âˢ): the IMM's fixed-lag pass at SMOOTH_LAG, or with q_accel the RTS pass."""
+        """(âˢ, var âˢ): the RTS pass at the smoothed mode mix (``imm_smoother``), or with q_accel the single
+        model's RTS pass."""
         t, theta = check_batch_input(t, theta)
-        if self.modes:
-            a, var = self.lagged(t, theta, (lag_samples(SMOOTH_LAG, self.config.rate_hz),))
-            return a[:, 0], var[:, 0]
-        return self.smoothed(t, theta)
+        if not self.modes:
+            return self.smoothed(t, theta)
+        if t.size == 0:
+            return np.empty(0), np.empty(0)
+        a, var_s, var_f = imm_smoother(t, theta, self._params, self._qs, self._rates)
+        return self._publish(t, a, lag_variance(var_s, var_f, SMOOTHER_VARIANCE_POWER))
 
     def nominal_delay(self, accel: float) -> float:
         """0: a smoother has no lag (its latency is the recording)."""
