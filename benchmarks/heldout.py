@@ -230,8 +230,8 @@ SOURCES = (
     "The page's traces are the scenes named in the command below. The corpus's validate recordings (a real "
     "robot's wheel odometry, logged accelerations as (t, a) tables: benchmarks.corpus, sources and licences "
     "in pendulum_accel/scenes/real_motion/README.md) are in no fit; nor are the designs "
-    + ", ".join(d.name.split(" (")[0] for d in HELDOUT_DESIGNS[:-1])
-    + f" and {HELDOUT_DESIGNS[-1].name.split(' (')[0]}."
+    + ", ".join(d.short for d in HELDOUT_DESIGNS[:-1])
+    + f" and {HELDOUT_DESIGNS[-1].short}."
 )
 
 
