@@ -447,6 +447,14 @@ LAG_POWERS = tuple(round(1.0 + 0.1 * i, 1) for i in range(31))
 FIT_LAGS = (0.25, 1.0)  # s: the live fixed lag the issue names, and a lag past which the curve flattens
 
 
+def power_counts(e: np.ndarray, var_filter: np.ndarray, ratio: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """calibration_counts of e against the variance P_f ratio^γ for every γ of LAG_POWERS (rows): what
+    fit_lag_power and fit_smoother_power pool to choose γ."""
+    return np.array(
+        [calibration_counts(e, e * e > 4.0 * var_filter * ratio**power, after) for power in LAG_POWERS]
+    )
+
+
 def fit_lag_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
     """γ of kalman.lag_variance on every training profile (all kinds), both designs, lags FIT_LAGS, pooled
     over the seeds: of LAG_POWERS the one with the least calibration miss (Σ over profiles × designs × lags);
@@ -469,9 +477,7 @@ def fit_lag_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
                 for m in range(1, lags.size):
                     e = (a[:, m] - r.accel)[keep]
                     ratio = np.clip(var[keep, m] / var[keep, 0], 0.0, 1.0)
-                    for i, power in enumerate(LAG_POWERS):
-                        beyond = e * e > 4.0 * var[keep, 0] * ratio**power
-                        counts[i, m - 1] += calibration_counts(e, beyond, after)
+                    counts[:, m - 1] += power_counts(e, var[keep, 0], ratio, after)
             miss += [sum(calibration_miss(c) for c in per_lag) for per_lag in counts]
     return LAG_POWERS[int(np.argmin(miss))], [float(m) for m in miss]
 
@@ -495,8 +501,7 @@ def fit_smoother_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
                 after = after_change(r.t, r.t, r.accel)[keep]
                 e = (a - r.accel)[keep]
                 ratio = np.clip(var_s[keep] / var_f[keep], 0.0, 1.0)
-                for i, power in enumerate(LAG_POWERS):
-                    counts[i] += calibration_counts(e, e * e > 4.0 * var_f[keep] * ratio**power, after)
+                counts += power_counts(e, var_f[keep], ratio, after)
             miss += [calibration_miss(c) for c in counts]
     return LAG_POWERS[int(np.argmin(miss))], [float(m) for m in miss]
 
