@@ -300,3 +300,20 @@ def test_every_benchmark_figure_on_the_page_is_on_a_benchmark_page(path: Path) -
         "figures typed by hand that no generated benchmark page holds (quote the page, include its "
         "table, or drop the figure and link the page):\n" + "\n".join(stray)
     )
+
+
+def test_the_default_reason_counts_the_cells_the_real_motion_page_holds() -> None:
+    """The run summary's reason for the default ('lowest RMS of the live methods on N of the M real-motion
+    validation cells') counts what docs/benchmarks/real_motion.md holds: per design × profile, the live
+    methods' RMS rows, compared as numbers."""
+    from pendulum_accel.estimators import DEFAULT_ESTIMATOR, DEFAULT_REASON, LIVE_ESTIMATORS
+
+    claim = re.search(r"on (\d+) of the (\d+) real-motion validation", DEFAULT_REASON)
+    assert claim is not None
+    rms: dict[tuple[str, str], dict[str, float]] = {}
+    for line in (BENCHMARK_PAGES / "real_motion.md").read_text().splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) > 3 and cells[2] in LIVE_ESTIMATORS:
+            rms.setdefault((cells[0], cells[1]), {})[cells[2]] = float(cells[3])
+    best = [min(by_method, key=by_method.__getitem__) for by_method in rms.values()]
+    assert (int(claim.group(1)), int(claim.group(2))) == (best.count(DEFAULT_ESTIMATOR), len(best))
