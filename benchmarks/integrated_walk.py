@@ -76,6 +76,14 @@ def _swing(th: float, om: float, a: float, g: float, length: float, c: float) ->
 
 
 @njit(cache=True)
+def _flow(jac: np.ndarray, s: float) -> np.ndarray:
+    """Φ(s) = I + Js + (Js)²/2 + (Js)³/6: e^{Js} to third order."""
+    js = jac * s
+    js2 = js @ js
+    return np.eye(4) + js + js2 / 2.0 + js2 @ js / 6.0
+
+
+@njit(cache=True)
 def _predict(
     x: np.ndarray, p: np.ndarray, h: float, g: float, length: float, c: float, q_a: float, q_j: float
 ) -> None:
@@ -98,14 +106,9 @@ def _predict(
     qc[2, 2], qc[3, 3] = q_a, q_j
     q = np.zeros((4, 4))
     for i in range(4):
-        s = 0.5 * h * (_GAUSS_X[i] + 1.0)
-        js = jac * s
-        js2 = js @ js
-        phi = np.eye(4) + js + js2 / 2.0 + js2 @ js / 6.0
+        phi = _flow(jac, 0.5 * h * (_GAUSS_X[i] + 1.0))
         q += (0.5 * h * _GAUSS_W[i]) * (phi @ qc @ phi.T)
-    jh = jac * h
-    jh2 = jh @ jh
-    f = np.eye(4) + jh + jh2 / 2.0 + jh2 @ jh / 6.0
+    f = _flow(jac, h)
     x[0] = th + h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t)
     x[1] = om + h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o)
     x[2] = a + j * h
@@ -207,7 +210,7 @@ def imm_pass(
     m, n = q_a.size, t.size
     xs, ps, mu = np.zeros((m, 4)), np.zeros((m, 4, 4)), np.full(m, 1.0 / m)
     x0, p0 = np.zeros((m, 4)), np.zeros((m, 4, 4))
-    pi, cj, logl = np.empty((m, m)), np.empty(m), np.empty(m)
+    pi, cj, logl, w = np.empty((m, m)), np.empty(m), np.empty(m), np.empty(m)
     out_a, out_v = np.empty(n), np.empty(n)
     for k in range(m):
         _start(xs[k], ps[k], theta[0], g, length, r, jerk[k])
@@ -222,16 +225,17 @@ def imm_pass(
             cj[j] = 0.0
             for k in range(m):
                 cj[j] += pi[k, j] * mu[k]
+            for k in range(m):
+                w[k] = pi[k, j] * mu[k] / cj[j]  # the mixing weight of mode k into mode j
             x0[j] = 0.0
             for k in range(m):
-                x0[j] += pi[k, j] * mu[k] / cj[j] * xs[k]
+                x0[j] += w[k] * xs[k]
             p0[j] = 0.0
             for k in range(m):
-                w = pi[k, j] * mu[k] / cj[j]
                 for a_ in range(4):
                     da = xs[k, a_] - x0[j, a_]
                     for b_ in range(4):
-                        p0[j, a_, b_] += w * (ps[k, a_, b_] + da * (xs[k, b_] - x0[j, b_]))
+                        p0[j, a_, b_] += w[k] * (ps[k, a_, b_] + da * (xs[k, b_] - x0[j, b_]))
             if not jerk[j]:
                 x0[j, 3] = 0.0
                 p0[j, 3, :] = 0.0
@@ -371,9 +375,14 @@ def _geo(x: np.ndarray) -> str:
     return f"{math.exp(float(np.mean(np.log(x)))):.2f} ({x.min():.2f}–{x.max():.2f})"
 
 
+def _shares(score: Score) -> list[float]:
+    """The score's steady and after-change shares beyond 2σ that have samples (NaN: none)."""
+    return [x for x in (score.beyond_steady, score.beyond_after) if x == x]
+
+
 def _outside(score: Score) -> int:
-    """How many of the score's steady and after-change shares lie outside 1–12 % (NaN: no samples)."""
-    return sum(1 for x in (score.beyond_steady, score.beyond_after) if x == x and not 0.01 <= x <= 0.12)
+    """How many of the score's shares beyond 2σ lie outside 1–12 %."""
+    return sum(1 for x in _shares(score) if not 0.01 <= x <= 0.12)
 
 
 def _beaten(cells: Sequence[Cell], rms: Callable[[Cell], float]) -> str:
@@ -397,15 +406,10 @@ def summary(cells: Sequence[Cell]) -> str:
             f"both walks / kalman {_geo(both)}. "
             f"g·tanθ beats kalman on: {_beaten(mine, lambda c: c.kalman.rms)}; "
             f"beats both walks on: {_beaten(mine, lambda c: c.both.rms)}. Shares beyond 2σ outside 1–12 % "
-            f"(steady and after, of {sum(2 - _outside_nan(c.kalman) for c in mine)}): kalman "
+            f"(steady and after, of {sum(len(_shares(c.kalman)) for c in mine)}): kalman "
             f"{sum(_outside(c.kalman) for c in mine)}, both walks {sum(_outside(c.both) for c in mine)}."
         )
     return "\n".join(out) + "\n"
-
-
-def _outside_nan(score: Score) -> int:
-    """How many of the score's two shares have no samples (NaN)."""
-    return sum(1 for x in (score.beyond_steady, score.beyond_after) if x != x)
 
 
 def plot(cells: Sequence[Cell], path: Path) -> None:
