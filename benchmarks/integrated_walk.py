@@ -2,19 +2,17 @@
 
     python -m benchmarks.integrated_walk [--full] [--seeds N] [--workers N] [--out DIR]
 
-Every filter in the package, the live default included, models a(t) as a random walk: a' = white noise
-of density q_a. A real car's a(t) is smoother than that: it has a trend, which a random walk cannot
-predict, so the filter lags behind it. An integrated walk (a' = j, j' = white noise of density q_j) predicts
-the trend. This page measures what that model would buy, as a bound: the extended Kalman filter on the
-state (θ, ω, a, j) at the q_j that minimises its RMS against the truth (``iw_hindsight``), beside the
-random-walk EKF at its own hindsight q_a (``ekf_hindsight``, real_motion's bound), the live default
-(``kalman``, preset auto) and g·tanθ (``instant``).
+A random walk (a' = white noise of density q_a), the model of every other filter in the package, cannot
+predict a trend, and a real car's a(t) has one: such a filter lags behind it. An integrated walk (a' = j,
+j' = white noise of density q_j) predicts the trend. This page measures what that model would buy, as a
+bound: the extended Kalman filter on the state (θ, ω, a, j) at the q_j that minimises its RMS against the
+truth (``iw_hindsight``), beside the random-walk EKF at its own hindsight q_a (``ekf_hindsight``,
+real_motion's bound), the live default (``kalman``, preset auto) and g·tanθ (``instant``).
 
-The page's second table runs such a model live, as the next default could: an IMM over both walks
-(``both_walks``, ``imm_pass``), auto's random-walk modes beside as many integrated-walk ones, with the
-figures the real-motion page judges (RMS, shares beyond 2σ steady and after a change, with n_eff). It is a
-prototype for that decision, not an estimator of the package: with the random-walk modes alone it is the
-package's IMM (to 0.06 % of the error on a real trace; test/test_bench_integrated_walk.py).
+The live default runs such a model: auto pairs four of its random-walk modes with integrated-walk
+modes (kalman.AUTO_TRENDS, ekf_kernels.with_trends). The page's second table sets it beside auto's
+random-walk modes alone (``walks only``, the default before the trend modes), with the figures the
+real-motion page judges (RMS, shares beyond 2σ steady and after a change, with n_eff).
 
 Profiles: the validation split of ``benchmarks.corpus`` (real_motion.PROFILES, role validate); designs: the
 two every fit uses and real_motion.REPORTED_HELDOUT; the first 60 s of each profile unless ``--full``;
@@ -57,9 +55,10 @@ from benchmarks.real_motion import (
     simulate_runs,
 )
 from pendulum_accel.cluster import map_tasks
+from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators import make_estimator
-from pendulum_accel.estimators.ekf_kernels import MAX_STEP, _chain_step, _update_modes, chain_rates
-from pendulum_accel.estimators.kalman import PRESETS
+from pendulum_accel.estimators.ekf_kernels import MAX_STEP
+from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator
 
 QJ_GRID = tuple(float(q) for q in np.logspace(-4, 4, 17))  # (m/s³)²/s, 2 per decade
 """q_j of the integrated walk scanned for its hindsight optimum."""
@@ -160,112 +159,6 @@ def iw_pass(
     return out
 
 
-IW_FACTOR = 10.0
-"""q_j of each integrated-walk mode over the q_a of its random-walk partner ((m/s³)²/s per (m/s²)²/s): a
-decade above it, chosen before any run and not fitted."""
-
-CROSS_TIME = 10.0
-"""s: the mean time before the chain moves from a random-walk mode to its integrated-walk partner or back.
-Of 1, 3 and 10 s, the one with the least RMS on the training split (benchmarks.corpus's train entries,
-the teaching and short_damped designs, first 60 s, seed 0; geometric mean over the profiles, relative to
-auto: 0.904, 0.897 and 0.895 on teaching, 0.732, 0.708 and 0.701 on short_damped)."""
-
-
-def both_walks() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(q_a, q_j, jerk, R) of the IMM over both walks: auto's random-walk modes (kalman.AUTO_MODES, q_j = 0,
-    jerk False) and as many integrated-walk modes (q_a = 0, q_j = IW_FACTOR × the same grid, jerk True),
-    each family a birth-death chain at auto's rates (ekf_kernels.chain_rates), mode k of each family linked
-    to mode k of the other at 1/CROSS_TIME both ways."""
-    auto = PRESETS["auto"]
-    m = len(auto.modes)
-    rates = np.zeros((2 * m, 2 * m))
-    family = chain_rates(m, auto.switch_time, auto.down_time)
-    rates[:m, :m] = family
-    rates[m:, m:] = family
-    for k in range(m):
-        rates[k, m + k] = rates[m + k, k] = 1.0 / CROSS_TIME
-    q_a = np.array([*auto.modes, *([0.0] * m)])
-    q_j = np.array([*([0.0] * m), *(IW_FACTOR * q for q in auto.modes)])
-    jerk = np.array([False] * m + [True] * m)
-    return q_a, q_j, jerk, rates
-
-
-@njit(cache=True)
-def imm_pass(
-    t: np.ndarray,
-    theta: np.ndarray,
-    g: float,
-    length: float,
-    c: float,
-    r: float,
-    q_a: np.ndarray,
-    q_j: np.ndarray,
-    jerk: np.ndarray,
-    rates: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(â, P_aa) of the interacting-multiple-model filter over four-state modes (ekf_kernels.imm_step's
-    scheme: mix with Π over Δt, predict and update each mode, μ_j ∝ c_j N(ν_j; 0, S_j), combine). A mode
-    without ``jerk`` is a random walk: after the mixing its j and j's covariance are set to 0, so it never
-    carries a trend its partner handed it. Restarts where the combination is not finite."""
-    m, n = q_a.size, t.size
-    xs, ps, mu = np.zeros((m, 4)), np.zeros((m, 4, 4)), np.full(m, 1.0 / m)
-    x0, p0 = np.zeros((m, 4)), np.zeros((m, 4, 4))
-    pi, cj, logl, w = np.empty((m, m)), np.empty(m), np.empty(m), np.empty(m)
-    out_a, out_v = np.empty(n), np.empty(n)
-    for k in range(m):
-        _start(xs[k], ps[k], theta[0], g, length, r, jerk[k])
-    out_a[0], out_v[0] = xs[0, 2], ps[0, 2, 2]
-    last_dt = -1.0
-    for i in range(1, n):
-        dt = t[i] - t[i - 1]
-        if dt != last_dt:
-            _chain_step(rates, dt, pi)
-            last_dt = dt
-        for j in range(m):
-            cj[j] = 0.0
-            for k in range(m):
-                cj[j] += pi[k, j] * mu[k]
-            for k in range(m):
-                w[k] = pi[k, j] * mu[k] / cj[j]  # the mixing weight of mode k into mode j
-            x0[j] = 0.0
-            for k in range(m):
-                x0[j] += w[k] * xs[k]
-            p0[j] = 0.0
-            for k in range(m):
-                for a_ in range(4):
-                    da = xs[k, a_] - x0[j, a_]
-                    for b_ in range(4):
-                        p0[j, a_, b_] += w[k] * (ps[k, a_, b_] + da * (xs[k, b_] - x0[j, b_]))
-            if not jerk[j]:
-                x0[j, 3] = 0.0
-                p0[j, 3, :] = 0.0
-                p0[j, :, 3] = 0.0
-        steps = max(1, math.ceil(dt / MAX_STEP))
-        for j in range(m):
-            for _ in range(steps):
-                _predict(x0[j], p0[j], dt / steps, g, length, c, q_a[j], q_j[j])
-            s = p0[j, 0, 0] + r
-            nu = theta[i] - x0[j, 0]
-            _correct(x0[j], p0[j], theta[i], r)
-            logl[j] = -0.5 * (nu * nu / s + math.log(s)) + math.log(cj[j])
-        xs[:, :] = x0
-        ps[:, :, :] = p0
-        _update_modes(logl, mu)
-        a = 0.0
-        for j in range(m):
-            a += mu[j] * xs[j, 2]
-        v = 0.0
-        for j in range(m):
-            v += mu[j] * (ps[j, 2, 2] + (xs[j, 2] - a) ** 2)
-        if not (math.isfinite(a) and math.isfinite(v)):
-            for k in range(m):
-                _start(xs[k], ps[k], theta[i], g, length, r, jerk[k])
-            mu[:] = 1.0 / m
-            a, v = xs[0, 2], ps[0, 2, 2]
-        out_a[i], out_v[i] = a, v
-    return out_a, out_v
-
-
 @dataclass(frozen=True)
 class Cell:
     """One validation profile × design: each estimator's figures and the hindsight optima."""
@@ -273,14 +166,14 @@ class Cell:
     design: str
     profile: str
     kalman: Score
-    """The live default (kalman, preset auto)."""
+    """The live default (kalman, preset auto: random-walk modes and their trend partners)."""
     instant: float
     ekf_hindsight: float
     q_a: float
     iw_hindsight: float
     q_j: float
-    both: Score
-    """The IMM over both walks (``both_walks``), live: no hindsight."""
+    walks: Score
+    """auto's random-walk modes alone (the default before its trend modes), live: no hindsight."""
 
 
 def _runs(profile: Profile, design: Design, seeds: int, full: bool) -> list[Run]:
@@ -305,12 +198,15 @@ def _cell(seeds: int, full: bool, case: tuple[Design, Profile]) -> Cell:
     design, profile = case
     runs = _runs(profile, design, seeds, full)
     live = make_estimator("kalman", **design.settings())
+    assert isinstance(live, KalmanEstimator)
+    qs, _, rates = PRESETS["auto"].imm(walks_only=True)
+    walks = [
+        kern.run_imm(run.t, run.theta, live._params, qs, rates, np.zeros(1, np.int64), False) for run in runs
+    ]
     gtan = make_estimator("instant", **design.settings())
     rw = q_scan(runs, design)
     iw = iw_scan(runs, design)
     n = sum(int(np.count_nonzero(r.t >= WARMUP)) for r in runs)
-    g, length, c, r = kalman_q(design, 1.0)._params[:4]
-    modes = both_walks()
     return Cell(
         design.short,
         profile.name,
@@ -320,7 +216,7 @@ def _cell(seeds: int, full: bool, case: tuple[Design, Profile]) -> Cell:
         Q_GRID[int(np.argmin(rw))],
         math.sqrt(float(iw.min()) / n),
         QJ_GRID[int(np.argmin(iw))],
-        Score.of(runs, [imm_pass(run.t, run.theta, g, length, c, r, *modes) for run in runs], design.rate_hz),
+        Score.of(runs, [(a[:, 0], var[:, 0]) for a, var, _ in walks], design.rate_hz),
     )
 
 
@@ -353,14 +249,14 @@ def bound_table(cells: Sequence[Cell]) -> str:
 
 
 def live_table(cells: Sequence[Cell]) -> str:
-    """The live table: the default and the IMM over both walks, RMS and shares beyond 2σ (with n_eff)."""
+    """The live table: the default and auto's random walks alone, RMS and shares beyond 2σ (with n_eff)."""
     lines = [
-        "| design | profile | kalman | both walks | both / kalman | both / g·tanθ | kalman >2σ steady "
-        "| both >2σ steady | kalman >2σ after | both >2σ after |",
+        "| design | profile | kalman | walks only | walks / kalman | walks / g·tanθ | kalman >2σ steady "
+        "| walks >2σ steady | kalman >2σ after | walks >2σ after |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for c in cells:
-        k, b = c.kalman, c.both
+        k, b = c.kalman, c.walks
         lines.append(
             f"| {c.design} | {c.profile} | {k.rms:.3g} | {b.rms:.3g} | {b.rms / k.rms:.2f} "
             f"| {b.rms / c.instant:.2f} | {share_cell(k.beyond_steady, k.eff_steady)} "
@@ -392,22 +288,22 @@ def _beaten(cells: Sequence[Cell], rms: Callable[[Cell], float]) -> str:
 
 
 def summary(cells: Sequence[Cell]) -> str:
-    """Per design: kalman and ekf_hindsight over iw_hindsight, both walks over kalman (geometric mean and
-    range), where g·tanθ beats each live filter, and how many shares beyond 2σ lie outside 1–12 %."""
+    """Per design: kalman and ekf_hindsight over iw_hindsight, the random walks alone over kalman (geometric
+    mean and range), where g·tanθ beats each live filter, and how many shares beyond 2σ lie outside 1–12 %."""
     out = []
     for design in dict.fromkeys(c.design for c in cells):
         mine = [c for c in cells if c.design == design]
         live = np.array([c.kalman.rms / c.iw_hindsight for c in mine])
         rw = np.array([c.ekf_hindsight / c.iw_hindsight for c in mine])
-        both = np.array([c.both.rms / c.kalman.rms for c in mine])
+        walks = np.array([c.walks.rms / c.kalman.rms for c in mine])
 
         out.append(
             f"- {design}: kalman / iw_hindsight {_geo(live)}; ekf_hindsight / iw_hindsight {_geo(rw)}; "
-            f"both walks / kalman {_geo(both)}. "
+            f"walks only / kalman {_geo(walks)}. "
             f"g·tanθ beats kalman on: {_beaten(mine, lambda c: c.kalman.rms)}; "
-            f"beats both walks on: {_beaten(mine, lambda c: c.both.rms)}. Shares beyond 2σ outside 1–12 % "
+            f"beats walks only on: {_beaten(mine, lambda c: c.walks.rms)}. Shares beyond 2σ outside 1–12 % "
             f"(steady and after, of {sum(len(_shares(c.kalman)) for c in mine)}): kalman "
-            f"{sum(_outside(c.kalman) for c in mine)}, both walks {sum(_outside(c.both) for c in mine)}."
+            f"{sum(_outside(c.kalman) for c in mine)}, walks only {sum(_outside(c.walks) for c in mine)}."
         )
     return "\n".join(out) + "\n"
 

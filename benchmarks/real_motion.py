@@ -28,8 +28,9 @@ latency–accuracy curve is the RMS of kalman's fixed-lag smoother against its l
 over the validation profiles, beside the live IMM filter at lag 0.
 
 ``--fit`` fits on the training split only, pooled over the seeds, on grids, and prints the values to put in
-``estimators.kalman.PRESETS``: auto's chain (up and down times, AUTO_CHAINS) and its fixed-lag variance
-power (LAG_POWERS, ``kalman.LAG_VARIANCE_POWER``) on every training profile;
+``estimators.kalman.PRESETS``: auto's chain (up and down times, AUTO_CHAINS), its trend partners
+(TREND_SPANS × TREND_FACTORS, ``kalman.AUTO_TRENDS``) and its fixed-lag variance power (LAG_POWERS,
+``kalman.LAG_VARIANCE_POWER``) on every training profile;
 each prior preset's (car, robot, lab_steps) single q_a with the least RMS (geometric mean over both
 designs) and IMM (modes, switch time) on its own training profiles (PRESET_OF). Each IMM is the candidate
 whose own variance is best calibrated on training (share beyond 2σ, steady and after changes, closest to a
@@ -45,7 +46,7 @@ import os
 import platform
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -369,6 +370,15 @@ def _runs_for(profile: Profile, design: Design, seeds: int, quick: bool) -> list
     return simulate_runs(profile.build(), design, seeds, duration)
 
 
+def _training(seeds: int, quick: bool) -> Iterator[tuple[np.ndarray, list[Run]]]:
+    """(the fitted design's EKF params, the runs) of every training profile through each fitted design."""
+    for design in designs():
+        params = kalman_q(design, 1.0)._params
+        for profile in PROFILES:
+            if profile.role == "train":
+                yield params, _runs_for(profile, design, seeds, quick)
+
+
 def fit_presets(
     seeds: int, quick: bool
 ) -> dict[str, tuple[float, list[float], tuple[tuple[float, ...], float], list[tuple[float, float]]]]:
@@ -377,7 +387,7 @@ def fit_presets(
     RMS_SLACK of the least such RMS, the one with the least calibration miss, Σ over the designs); returns
     (q_a, mean RMS per q, (modes, switch_time), (mean RMS, calibration miss) per candidate)."""
     out: dict[str, tuple[float, list[float], tuple[tuple[float, ...], float], list[tuple[float, float]]]] = {}
-    for preset in (p for p in PRESETS if p != "auto"):  # auto: fit_auto
+    for preset in (p for p in PRESETS if p != "auto"):  # auto: fit_auto, fit_trends
         logs = np.zeros(len(Q_GRID))
         logs_imm = np.zeros(len(IMM_CANDIDATES))
         miss = np.zeros(len(IMM_CANDIDATES))
@@ -412,34 +422,85 @@ AUTO_CHAINS = tuple((up, down) for up in (2.0, 3.0, 6.0) for down in (0.5, 1.0, 
 def fit_auto(seeds: int, quick: bool) -> tuple[tuple[float, float], list[tuple[float, float]]]:
     """auto's chain on every training profile (all kinds), both designs, pooled over the seeds: of
     AUTO_CHAINS within RMS_SLACK of the least RMS (geometric mean over profiles × designs), the one with the
-    least calibration miss (Σ over profiles × designs); returns ((up, down), (mean RMS, miss) per chain)."""
+    least calibration miss (Σ over profiles × designs); returns ((up, down), (mean RMS, miss) per chain).
+    The chain is fitted on the random-walk modes alone, before their trend partners (``fit_trends``)."""
     modes = np.array(PRESETS["auto"].modes)
     logs = np.zeros(len(AUTO_CHAINS))
     miss = np.zeros(len(AUTO_CHAINS))
     used = 0
-    for design in designs():
-        params = kalman_q(design, 1.0)._params
-        for profile in PROFILES:
-            if profile.role != "train":
-                continue
-            runs = _runs_for(profile, design, seeds, quick)
-            used += 1
-            for i, (up, down) in enumerate(AUTO_CHAINS):
-                rates = kern.chain_rates(modes.size, up, down)
-                counts = np.zeros(5)
-                for r in runs:
-                    a, var, _ = kern.run_imm(r.t, r.theta, params, modes, rates, np.zeros(1, np.int64))
-                    keep = r.t >= WARMUP
-                    e = (a[:, 0] - r.accel)[keep]
-                    beyond = e * e > 4.0 * var[keep, 0]
-                    after = after_change(r.t, r.t, r.accel)[keep]
-                    counts += calibration_counts(e, beyond, after)
-                logs[i] += 0.5 * math.log(counts[0] / scored(runs))
-                miss[i] += calibration_miss(counts)
+    for params, runs in _training(seeds, quick):
+        used += 1
+        for i, (up, down) in enumerate(AUTO_CHAINS):
+            counts = _imm_counts(runs, params, modes, None, kern.chain_rates(modes.size, up, down))
+            logs[i] += 0.5 * math.log(counts[0] / scored(runs))
+            miss[i] += calibration_miss(counts)
     rms = np.exp(logs / max(used, 1))
     eligible = rms <= RMS_SLACK * rms.min()
     best = AUTO_CHAINS[int(np.argmin(np.where(eligible, miss, np.inf)))]
     return best, [(float(r), float(m)) for r, m in zip(rms, miss, strict=True)]
+
+
+MAX_TREND_PARTNERS = 4
+"""At most this many of auto's modes get a trend partner: the cost bound. Each partner is a four-state mode;
+with four, the IMM's pass costs about 4.0 µs a sample against 2.5 µs for the random walks alone (run_imm at
+200 Hz), which keeps analyze ≥ 10× a plain rosbags loop (docs/benchmarks/bags.md) and the streaming update
+≤ 2× the two-mode presets' (docs/benchmarks/estimators.md)."""
+TREND_SPANS = tuple(
+    (lo, hi)
+    for lo in range(len(PRESETS["auto"].modes))
+    for hi in range(lo + 1, min(lo + MAX_TREND_PARTNERS, len(PRESETS["auto"].modes)) + 1)
+)
+"""(first, past-the-last) index of the auto modes that get a trend partner, tried by ``fit_trends``."""
+TREND_FACTORS = (3.0, 10.0, 30.0, 100.0)
+"""q_j of a trend partner over its mode's q_a ((m/s³)²/s per (m/s²)²/s), tried by ``fit_trends``."""
+
+
+def trend_candidate(span: tuple[int, int], factor: float) -> tuple[float, ...]:
+    """kalman.MotionPreset.trends for a span of auto's modes: q_j = factor · q_a inside it, 0 outside."""
+    return tuple(factor * q if span[0] <= k < span[1] else 0.0 for k, q in enumerate(PRESETS["auto"].modes))
+
+
+def fit_trends(seeds: int, quick: bool) -> tuple[tuple[float, ...], list[tuple[float, float, float]]]:
+    """auto's trend partners on every training profile (all kinds), both designs, pooled over the seeds: of
+    TREND_SPANS × TREND_FACTORS, the candidates whose every training cell (profile × design) has an RMS
+    within RMS_SLACK of auto's random walks alone, then of those within RMS_SLACK of the least RMS
+    (geometric mean over profiles × designs), the one with the least calibration miss (Σ over profiles ×
+    designs); returns (trends, (mean RMS over the walks', worst cell's, miss) per candidate)."""
+    auto = PRESETS["auto"]
+    walks, _, rates = auto.imm(walks_only=True)
+    cands = [trend_candidate(span, f) for span in TREND_SPANS for f in TREND_FACTORS]
+    logs = np.zeros(len(cands))
+    worst = np.zeros(len(cands))
+    miss = np.zeros(len(cands))
+    used = 0
+    for params, runs in _training(seeds, quick):
+        used += 1
+        base = _imm_counts(runs, params, walks, None, rates)
+        for i, trends in enumerate(cands):
+            qs, jerks, both = kern.with_trends(walks, rates, np.array(trends), auto.cross_time)
+            counts = _imm_counts(runs, params, qs, jerks, both)
+            ratio = math.sqrt(counts[0] / base[0])
+            logs[i] += math.log(ratio)
+            worst[i] = max(worst[i], ratio)
+            miss[i] += calibration_miss(counts)
+    rms = np.exp(logs / max(used, 1))
+    safe = worst <= RMS_SLACK
+    eligible = safe & (rms <= RMS_SLACK * rms[safe].min())
+    best = cands[int(np.argmin(np.where(eligible, miss, np.inf)))]
+    return best, [(float(r), float(w), float(m)) for r, w, m in zip(rms, worst, miss, strict=True)]
+
+
+def _imm_counts(
+    runs: Sequence[Run], params: np.ndarray, qs: np.ndarray, jerks: np.ndarray | None, rates: np.ndarray
+) -> np.ndarray:
+    """calibration_counts of the IMM's own variance over the runs (t ≥ WARMUP), pooled."""
+    counts = np.zeros(5)
+    for r in runs:
+        a, var, _ = kern.run_imm(r.t, r.theta, params, qs, rates, np.zeros(1, np.int64), False, jerks)
+        keep = r.t >= WARMUP
+        e = (a[:, 0] - r.accel)[keep]
+        counts += calibration_counts(e, e * e > 4.0 * var[keep, 0], after_change(r.t, r.t, r.accel)[keep])
+    return counts
 
 
 LAG_POWERS = tuple(round(1.0 + 0.1 * i, 1) for i in range(31))
@@ -458,12 +519,11 @@ def power_counts(e: np.ndarray, var_filter: np.ndarray, ratio: np.ndarray, after
 def fit_lag_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
     """γ of kalman.lag_variance on every training profile (all kinds), both designs, lags FIT_LAGS, pooled
     over the seeds: of LAG_POWERS the one with the least calibration miss (Σ over profiles × designs × lags);
-    returns (γ, miss per γ)."""
-    modes = np.array(PRESETS["auto"].modes)
+    returns (γ, miss per γ). The IMM is auto's whole: random-walk modes and trend partners."""
+    modes, jerks, rates = PRESETS["auto"].imm()
     miss = np.zeros(len(LAG_POWERS))
     for design in designs():
         params = kalman_q(design, 1.0)._params
-        rates = kern.chain_rates(modes.size, PRESETS["auto"].switch_time, PRESETS["auto"].down_time)
         lags = np.array([0, *(lag_samples(lag, design.rate_hz) for lag in FIT_LAGS)], dtype=np.int64)
         for profile in PROFILES:
             if profile.role != "train":
@@ -471,7 +531,7 @@ def fit_lag_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
             runs = _runs_for(profile, design, seeds, quick)
             counts = np.zeros((len(LAG_POWERS), len(FIT_LAGS), 5))
             for r in runs:
-                a, var, _ = kern.run_imm(r.t, r.theta, params, modes, rates, lags)
+                a, var, _ = kern.run_imm(r.t, r.theta, params, modes, rates, lags, False, jerks)
                 keep = r.t >= WARMUP
                 after = after_change(r.t, r.t, r.accel)[keep]
                 for m in range(1, lags.size):
@@ -485,12 +545,11 @@ def fit_lag_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
 def fit_smoother_power(seeds: int, quick: bool) -> tuple[float, list[float]]:
     """γ of the smoother's variance P_f (Pˢ/P_f)^γ (kalman.imm_smoother) on every training profile (all
     kinds), both designs, pooled over the seeds: of LAG_POWERS the one with the least calibration miss (Σ over
-    profiles × designs); returns (γ, miss per γ)."""
-    modes = np.array(PRESETS["auto"].modes)
+    profiles × designs); returns (γ, miss per γ). The smoother's IMM is auto's random-walk modes alone."""
+    modes, _, rates = PRESETS["auto"].imm(walks_only=True)
     miss = np.zeros(len(LAG_POWERS))
     for design in designs():
         params = kalman_q(design, 1.0)._params
-        rates = kern.chain_rates(modes.size, PRESETS["auto"].switch_time, PRESETS["auto"].down_time)
         for profile in PROFILES:
             if profile.role != "train":
                 continue
@@ -852,6 +911,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{c}: RMS {r:.3g} miss {m:.2f}" for c, (r, m) in zip(AUTO_CHAINS, per_chain, strict=True)
         )
         print(f"auto: chain up {chain[0]:g} s, down {chain[1]:g} s   [per (up, down): {cands}]")
+        trends, per_trend = fit_trends(seeds, args.quick)
+        cands = ", ".join(
+            f"{span} ×{f:g}: RMS {r:.3f} worst {w:.2f} miss {m:.1f}"
+            for (span, f), (r, w, m) in zip(
+                ((s, f) for s in TREND_SPANS for f in TREND_FACTORS), per_trend, strict=True
+            )
+        )
+        print(f"auto: trend partners q_j {trends}   [per (span, factor), over the walks alone: {cands}]")
         power, per_power = fit_lag_power(seeds, args.quick)
         cands = ", ".join(f"{g:g}: {m:.1f}" for g, m in zip(LAG_POWERS, per_power, strict=True))
         print(f"auto: fixed-lag variance power {power:g}   [calibration miss per power: {cands}]")

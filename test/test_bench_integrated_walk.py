@@ -13,9 +13,6 @@ from scipy.linalg import expm
 
 from benchmarks import integrated_walk as iw
 from benchmarks import real_motion as rm
-from pendulum_accel.estimators import make_estimator
-from pendulum_accel.estimators.ekf_kernels import chain_rates
-from pendulum_accel.estimators.kalman import PRESETS
 from pendulum_accel.physics.profiles import Ramp
 
 G = 9.80665
@@ -77,46 +74,6 @@ def test_a_ramp_is_tracked_without_the_lag_a_random_walk_has() -> None:
         for q in rm.Q_GRID
     )
     assert rms_rw > 30.0 * rms_iw
-
-
-def test_the_imm_over_random_walks_alone_is_the_packages_imm() -> None:
-    """imm_pass with auto's random-walk modes and chain only (no integrated walk) against the package's
-    IMM (kalman, preset auto) on 30 s of a real speed trace through the short damped design: the page's
-    IMM differs from it in nothing but the prediction's order (F to (Jh)³/6 here, (Jh)²/2 there, a
-    difference of about (ω₀h)³/6 ≈ 6e-5 per step at ω₀ ≈ 14 /s, h = 5 ms) and its start (a fixed 0.1 rad
-    swing; t < 2 s is not compared). Measured: â differs by 0.06 % of the error's RMS, P_aa by at most
-    0.3 %; asserted within 1 % and 3 %, which a wrong mixing (no spread term, or a mode's j carried
-    into a random walk) would exceed many times over."""
-    design = rm.designs()[1]
-    udds = next(p for p in rm.PROFILES if p.name == "udds_p2")
-    run = rm.simulate_runs(udds.build(), design, 1, 30.0)[0]
-    g, length, c, r = rm.kalman_q(design, 1.0)._params[:4]
-    auto = PRESETS["auto"]
-    m = len(auto.modes)
-    rates = chain_rates(m, auto.switch_time, auto.down_time)
-    mine, var = iw.imm_pass(
-        run.t, run.theta, g, length, c, r, np.array(auto.modes), np.zeros(m), np.zeros(m, bool), rates
-    )
-    theirs, their_var = make_estimator("kalman", **design.settings()).batch(run.t, run.theta)
-    keep = run.t >= rm.WARMUP
-    error_rms = float(np.sqrt(np.mean((theirs - run.accel)[keep] ** 2)))
-    assert float(np.sqrt(np.mean((mine - theirs)[keep] ** 2))) < 0.01 * error_rms
-    np.testing.assert_allclose(var[keep], their_var[keep], rtol=0.03)
-
-
-def test_the_imm_over_both_walks_follows_a_ramp_the_default_lags() -> None:
-    """A 0.3 m/s³ ramp through a 0.1 mrad design: the IMM over both walks has an integrated-walk mode that
-    holds the ramp, the default has none and lags it. Measured (t ≥ 5 s): 3.8e-4 against 0.0139 m/s², 37×;
-    asserted 10×."""
-    design = rm.Design("ramp", 0.1, 0.5, 1e-4, 200.0)
-    run = rm.simulate_runs(Ramp(0.0, 20.0, 0.0, 6.0), design, 1, 20.0)[0]
-    g, length, c, r = rm.kalman_q(design, 1.0)._params[:4]
-    both, var = iw.imm_pass(run.t, run.theta, g, length, c, r, *iw.both_walks())
-    default = make_estimator("kalman", **design.settings()).batch(run.t, run.theta)[0]
-    late = run.t >= 5.0
-    assert np.all(np.isfinite(both)) and np.all(var > 0.0)
-    rms_both = float(np.sqrt(np.mean((both - run.accel)[late] ** 2)))
-    assert rms_both < 0.1 * float(np.sqrt(np.mean((default - run.accel)[late] ** 2)))
 
 
 @pytest.fixture(scope="module")

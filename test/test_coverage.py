@@ -68,6 +68,17 @@ def test_wilson_interval_matches_scipy(k: int, n: int) -> None:
     assert hi == pytest.approx(float(ref.high), abs=1e-12)
 
 
+@pytest.mark.parametrize("n", [22.172715418453166, 0.3, 1.0, 7.7, 1e6])
+def test_wilson_interval_holds_the_share_at_0_and_1(n: float) -> None:
+    """At p̂ = 0 the lower bound is 0 and at p̂ = 1 the upper is 1, exactly: the square root's rounding once
+    left 1.2e-17 > 0 at n = 22.17 (a fleet row's steady share, whose interval then missed it)."""
+    assert coverage.wilson(0.0, n)[0] == 0.0
+    assert coverage.wilson(1.0, n)[1] == 1.0
+    for share in (0.0, 0.3, 1.0):
+        lo, hi = coverage.wilson(share, n)
+        assert lo <= share <= hi
+
+
 def test_share_interval_cells_are_null_where_a_figure_is_missing() -> None:
     """The cells hold the share, its trials and wilson's interval at them (the same call, so equal); a
     missing share (no samples) nulls every cell, missing trials null the trials and the interval only."""

@@ -313,26 +313,41 @@ def test_noise_equivalent_samples_match_their_definitions() -> None:
 
 
 def test_the_imm_states_the_delay_of_its_stationary_mode_mix_and_the_range_over_its_modes() -> None:
-    """auto's delay is Σ π_j d_j, π the birth-death chain's stationary law (π_{i+1}/π_i = τ_down/τ_up) and
-    d_j each mode's steady-filter delay, between the most agile mode's and the calmest's; describe() says
-    so. Tolerances: π from a 10 × 10 least-squares solve (round-off ~1e-15 relative, 1e-9 allowed); the
-    mix's Σ π m_j / Σ π w_j equals Σ π d_j exactly when every mode's DC gain Σ w_j is the same (g sec²θ:
-    each filter is unbiased at rest), which the DAREs give to ~1e-12 relative (1e-6 allowed)."""
+    """auto's delay is Σ π_j d_j, π the mode chain's stationary law (πᵀG = 0, Σ π = 1) and d_j each IMM
+    mode's steady-filter delay (a trend mode's on its four states), between the most agile mode's and the
+    calmest's; describe() says so. Tolerances: π from a least-squares solve of at most 20 × 20 with rates
+    ≤ 1 /s (round-off ~1e-15, 1e-12 allowed on πᵀG); the mix's Σ π m_j / Σ π w_j equals Σ π d_j exactly
+    when every mode's DC gain Σ w_j is the same (g sec²θ: each filter is unbiased at rest), which the DAREs
+    give to ~1e-12 relative (1e-6 allowed). The random walks' own chain is birth-death:
+    π_{i+1}/π_i = τ_down/τ_up (1e-9 relative)."""
     est = make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE)
     assert isinstance(est, KalmanEstimator) and len(est.modes) > 2
     pi = est.stationary_modes()
+    gen = est._rates - np.diag(est._rates.sum(axis=1))
+    np.testing.assert_allclose(pi @ gen, 0.0, atol=1e-12)
+    assert float(pi.sum()) == pytest.approx(1.0, abs=1e-12) and (pi > 0.0).all()
     auto = PRESETS["auto"]
     assert auto.down_time is not None
-    # birth-death: π_{i+1}/π_i = rate up / rate down = τ_down/τ_up
-    np.testing.assert_allclose(pi[1:] / pi[:-1], auto.down_time / auto.switch_time, rtol=1e-9)
-    delays = [
+    walks = make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE, preset="car")
+    assert isinstance(walks, KalmanEstimator)
+    walks._rates = auto.imm(walks_only=True)[2]  # auto's random walks alone: a birth-death chain
+    walks._qs = np.array(auto.modes)
+    pw = walks.stationary_modes()
+    np.testing.assert_allclose(pw[1:] / pw[:-1], auto.down_time / auto.switch_time, rtol=1e-9)
+    delays = []
+    for q_a, q_j in zip(est._qs, est._jerks, strict=True):
+        F, K, _ = est.steady_state(0.0, float(q_a), float(q_j))
+        M = (np.eye(K.size) - np.outer(K, np.eye(K.size)[0])) @ F
+        inv = np.linalg.inv(np.eye(K.size) - M)
+        delays.append(float((M @ inv @ inv @ K)[2] / (inv @ K)[2]) / RATE)
+    mixed = est.nominal_delay(0.0)
+    assert mixed == pytest.approx(float(np.dot(pi, delays)), rel=1e-6)
+    single = [
         make_estimator("kalman", length=L, noise_std=SIGMA, rate_hz=RATE, q_accel=q).nominal_delay(0.0)
         for q in est.modes
     ]
-    mixed = est.nominal_delay(0.0)
-    assert mixed == pytest.approx(float(np.dot(pi, delays)), rel=1e-6)
     agile, calm = est.mode_delays(0.0)
-    assert agile == pytest.approx(delays[-1], rel=1e-9) and calm == pytest.approx(delays[0], rel=1e-9)
+    assert agile == pytest.approx(single[-1], rel=1e-9) and calm == pytest.approx(single[0], rel=1e-9)
     assert min(delays) <= mixed <= max(delays)
     assert "stationary probabilities" in est.describe()
 

@@ -106,7 +106,9 @@ def test_lag_variance_map_matches_smooth_motion_and_keeps_the_filters_where_the_
     assert isinstance(est, KalmanEstimator)
     n = round(0.25 * RATE)
     a, var = est.lagged(t, theta, (0, n))
-    _, raw, _ = kern.run_imm(t, theta, est._params, est._qs, est._rates, np.array([0, n]))
+    _, raw, _ = kern.run_imm(
+        t, theta, est._params, est._qs, est._rates, np.array([0, n]), False, est._trend()
+    )
     # CFG states no sensor bias: the published var adds nothing. P_f r^γ ≤ P_f r = P_lag for r ≤ 1, γ ≥ 1,
     # up to rounding: r's quotient (½ ulp), pow (≤ 4 ulp in numpy's SIMD kernels, e.g. SVML on AVX-512,
     # < 1 ulp in glibc) and the product (½ ulp): 16 ulp of slack covers it on any CPU.
@@ -236,12 +238,13 @@ def test_the_smoother_leaves_no_hole_where_its_single_model_pass_breaks_down() -
     theta = np.where(np.arange(2000) % 2 == 0, 1.5, -1.5)
     est = make_estimator("kalman", length=0.5, noise_std=1e-3, rate_hz=100.0)
     assert isinstance(est, KalmanEstimator)
-    mu = kern.run_imm(t, theta, est._params, est._qs, est._rates, np.zeros(1, np.int64), True)[2]
-    kern.smooth_modes(t, mu, est._rates, 1.0)
-    keep = kern.run_pass(t, theta, est._params, np.zeros(1, np.int64), True, mu @ est._qs)[2:]
+    qs, rates = est._walks  # the smoother's IMM: the random-walk modes alone
+    mu = kern.run_imm(t, theta, est._params, qs, rates, np.zeros(1, np.int64), True)[2]
+    kern.smooth_modes(t, mu, rates, 1.0)
+    keep = kern.run_pass(t, theta, est._params, np.zeros(1, np.int64), True, mu @ qs)[2:]
     assert np.isnan(kern.rts(*keep)[0]).any()  # the holes this test is about
     published = estimate_batch("smoother", t, theta, length=0.5, noise_std=1e-3, rate_hz=100.0)
-    for a, var in (imm_smoother(t, theta, est._params, est._qs, est._rates)[:2], published):
+    for a, var in (imm_smoother(t, theta, est._params, qs, rates)[:2], published):
         assert np.all(np.isfinite(a)) and np.all(np.isfinite(var)) and np.all(var > 0.0)
 
 
@@ -262,28 +265,42 @@ def test_the_imm_pass_without_mode_probabilities_gives_the_same_estimates() -> N
     assert isinstance(est, KalmanEstimator)
     lags = np.array([0, round(RATE)], dtype=np.int64)
     args = (t, theta, est._params, est._qs, est._rates, lags)
-    a_kept, v_kept, mus = kern.run_imm(*args, True)
-    a, v, none = kern.run_imm(*args, False)
-    assert mus.shape == (t.size, len(est.modes)) and none.shape == (0, len(est.modes))
+    a_kept, v_kept, mus = kern.run_imm(*args, True, est._trend())
+    a, v, none = kern.run_imm(*args, False, est._trend())
+    assert mus.shape == (t.size, est._qs.size) and none.shape == (0, est._qs.size)
     np.testing.assert_array_equal(a, a_kept)
     np.testing.assert_array_equal(v, v_kept)
 
 
 def _imm_fixed_lag_reference(
-    t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, rates: np.ndarray, lag: int
+    t: np.ndarray,
+    y: np.ndarray,
+    params: np.ndarray,
+    qs: np.ndarray,
+    rates: np.ndarray,
+    lag: int,
+    jerks: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(â_{k−N|k}, var) of the IMM fixed-lag smoother written the textbook way, for a test to hold the kernel
     against: each mode's state is augmented with the N last a's, z = [θ, θ', a_k, a_{k−1} … a_{k−N}], with its
     full covariance; IMM mixing on the whole of z, the EKF prediction (ekf_kernels.predict) on the x block
-    and F on its cross-covariances, the Kalman update of z with H = e₁. No ring, no band, no shortcut."""
+    and F on its cross-covariances, the Kalman update of z with H = e₁. No ring, no band, no shortcut.
+    With ``jerks`` (trend modes, ekf_kernels.with_trends) x is [θ, θ', a, j], predicted by predict_trend,
+    and a random-walk mode's j row and column are zeroed after the mixing."""
     g, length, c, r, q_rate = params[0], params[1], params[2], params[3], params[4]
     m = qs.size
+    d = 3 if jerks is None else 4
     x, p = np.zeros(3), np.zeros((3, 3))
     kern.initialise(x, p, float(y[0]), g, length, r, params[7], params[8])
-    zs = [x.copy() for _ in range(m)]
-    ps = [p.copy() for _ in range(m)]
+    zs, ps = [], []
+    for j in range(m):
+        zs.append(np.zeros(d))
+        ps.append(np.zeros((d, d)))
+        zs[j][:3], ps[j][:3, :3] = x, p
+        if jerks is not None and jerks[j] > 0.0:
+            ps[j][3, 3] = kern.INIT_JERK_STD**2
     mu = np.full(m, 1.0 / m)
-    pi, f = np.empty((m, m)), np.empty((3, 3))
+    pi, f, work = np.empty((m, m)), np.empty((d, d)), np.empty((3, 4, 4))
     out_a, out_v = np.full(t.size, np.nan), np.full(t.size, np.nan)
     for k in range(1, t.size):
         kern._chain_step(rates, float(t[k] - t[k - 1]), pi)
@@ -294,18 +311,24 @@ def _imm_fixed_lag_reference(
         for j in range(m):
             z0 = sum(w[i, j] * zs[i] for i in range(m))
             p0 = sum(w[i, j] * (ps[i] + np.outer(zs[i] - z0, zs[i] - z0)) for i in range(m))
+            if jerks is not None and jerks[j] == 0.0:  # a random walk carries no trend
+                z0[3], p0[3, :], p0[:, 3] = 0.0, 0.0, 0.0
             # Prediction: x ← f(x), the old a_k joins the history, the oldest a leaves it.
-            xk, pk = z0[:3].copy(), p0[:3, :3].copy()
-            kern.predict(xk, pk, f, float(t[k] - t[k - 1]), g, 1.0 / length, c, q_rate, qs[j])
+            xk, pk = z0[:d].copy(), p0[:d, :d].copy()
+            dt = float(t[k] - t[k - 1])
+            if jerks is None:
+                kern.predict(xk, pk, f, dt, g, 1.0 / length, c, q_rate, qs[j])
+            else:
+                kern.predict_trend(xk, pk, f, dt, g, 1.0 / length, c, q_rate, qs[j], jerks[j], work)
             keep = min(k, lag)  # a's kept in the history after this step
-            hist_z = np.concatenate(([z0[2]], z0[3:]))[:keep]
-            idx = np.concatenate(([2], np.arange(3, z0.size)))[:keep]
+            hist_z = np.concatenate(([z0[2]], z0[d:]))[:keep]
+            idx = np.concatenate(([2], np.arange(d, z0.size)))[:keep]
             z = np.concatenate((xk, hist_z))
             pz = np.empty((z.size, z.size))
-            pz[:3, :3] = pk
-            pz[:3, 3:] = f @ p0[:3, idx]
-            pz[3:, :3] = pz[:3, 3:].T
-            pz[3:, 3:] = p0[np.ix_(idx, idx)]
+            pz[:d, :d] = pk
+            pz[:d, d:] = f @ p0[:d, idx]
+            pz[d:, :d] = pz[:d, d:].T
+            pz[d:, d:] = p0[np.ix_(idx, idx)]
             s = pz[0, 0] + r
             nu = float(y[k] - z[0])
             gain = pz[:, 0] / s
@@ -316,7 +339,7 @@ def _imm_fixed_lag_reference(
         mu = np.exp(logl - logl.max())
         mu = np.maximum(mu / mu.sum(), 1e-12)
         if k >= lag:
-            last = 2 if lag == 0 else 2 + lag
+            last = 2 if lag == 0 else d - 1 + lag
             a = sum(mu[j] * zs[j][last] for j in range(m))
             out_a[k - lag] = a
             out_v[k - lag] = sum(mu[j] * (ps[j][last, last] + (zs[j][last] - a) ** 2) for j in range(m))

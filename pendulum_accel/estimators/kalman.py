@@ -4,8 +4,10 @@
     E[w_a w_a] = q_a δ (a random walk of a),  E[w_ω w_ω] = q_ω δ,   y = θ + v,  E[v²] = σ².
 
 The filter separates the swing from the tilt a produces because the model knows how a swing looks.
-q_a ((m/s²)²/s) is a property of the motion, not of the sensor: how fast a real a(t) wanders. It is
-taken from a ``preset`` (:data:`PRESETS`), each fitted on the training split of the real-motion corpus
+q_a ((m/s²)²/s) is a property of the motion, not of the sensor: how fast a real a(t) wanders. Beside some
+of its random-walk modes the default IMM runs trend modes, an integrated walk of a on [θ, θ', a, j]
+(a' = j, j' = w_j, E[w_j w_j] = q_j δ), which predict the trend a random walk lags (MotionPreset.trends).
+It is taken from a ``preset`` (:data:`PRESETS`), each fitted on the training split of the real-motion corpus
 (``python -m benchmarks.real_motion --fit``), and may be overridden with ``q_accel``.
 
 The published variance is the filter's own P_aa plus the sensor bias the filter cannot tell from a tilt,
@@ -50,6 +52,9 @@ class MotionPreset:
     before the chain leaves a mode (to any other), or with ``down_time`` before it steps up to the next
     more agile mode, ``down_time`` the mean time before it steps down (ekf_kernels.chain_rates);
     ``q_accel``: the single-model q_a of the fixed-lag smoother (lag > 0); q_ω ((rad/s)²/s) on θ'.
+    ``trends``: per mode, the q_j ((m/s³)²/s) of its trend partner, a mode whose a(t) is an integrated walk
+    (a' = j, j' white of density q_j: it predicts a trend, which a random walk cannot), 0 for none; the
+    pair swaps every ``cross_time`` s on average (ekf_kernels.with_trends). Empty: random walks only.
     """
 
     modes: tuple[float, ...]
@@ -58,6 +63,17 @@ class MotionPreset:
     q_rate: float
     fitted_on: str
     down_time: float | None = None
+    trends: tuple[float, ...] = ()
+    cross_time: float = 10.0
+
+    def imm(self, walks_only: bool = False) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """(q_a per IMM mode, q_j per mode or None without trend modes, the chain's R): the preset's IMM
+        (ekf_kernels.chain_rates, with_trends); ``walks_only``: its random-walk modes alone."""
+        qs = np.array(self.modes, dtype=float)
+        rates = kern.chain_rates(qs.size, self.switch_time, self.down_time)
+        if walks_only or not any(self.trends):
+            return qs, None, rates
+        return kern.with_trends(qs, rates, np.array(self.trends, dtype=float), self.cross_time)
 
     def chain(self) -> str:
         """The mode chain in words: 'switching every τ s' or 'up every τ s, down every τ_d s'."""
@@ -71,6 +87,21 @@ AUTO_MODES = (1e-9, 1e-7, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
 whose posterior variance shrinks as 1/n) through every hindsight optimum of the corpus (1e-4 … 100) to a
 step (10) and an agile robot's bursts (100: the F1TENTH cars' |a| reach 10 m/s² within a second, where
 a top mode of 10 leaves a third of the errors beyond 2σ), a decade apart where real motion lives."""
+
+AUTO_TRENDS = (0.0, 0.0, 0.0, 0.01, 0.1, 1.0, 10.0, 0.0, 0.0, 0.0)
+"""(m/s³)²/s: the q_j of each of auto's modes' trend partner (0: none), q_j = 100 q_a beside the modes
+1e-4 … 0.1. Fitted by ``python -m benchmarks.real_motion --fit --quick`` (fit_trends) on auto's training
+data (every training profile of benchmarks.corpus, both designs, the first 60 s, seed 0): of the spans
+and factors of TREND_SPANS × TREND_FACTORS with at most MAX_TREND_PARTNERS partners (the cost bound) and
+no training cell above RMS_SLACK × auto's random walks alone, those within RMS_SLACK of the least RMS,
+the one with the least calibration miss."""
+
+AUTO_CROSS_TIME = 10.0
+"""s: the mean time before auto's chain moves between a random-walk mode and its trend partner. Of 1, 3
+and 10 s, the one with the least RMS on the training split with every mode partnered (benchmarks.corpus's
+train entries, the teaching and short_damped designs, the first 60 s, seed 0; geometric mean over the
+profiles relative to the random walks alone: 0.904, 0.897 and 0.895 on teaching, 0.732, 0.708 and 0.701
+on short_damped)."""
 
 # auto (the default): a birth-death chain over AUTO_MODES, up every 3 s, down every 1 s, fitted by
 # ``python -m benchmarks.real_motion --fit --quick`` (fit_auto) on every training profile of the corpus
@@ -93,6 +124,8 @@ PRESETS: dict[str, MotionPreset] = {
         "every training profile of benchmarks.corpus (cars, robots, acceleration tables, the lab's step and "
         "stop_and_go), both designs, the first 60 s, seed 0",
         1.0,
+        AUTO_TRENDS,
+        AUTO_CROSS_TIME,
     ),
     "car": MotionPreset(
         (1e-4, 0.03), 200.0, 0.0215, 0.0, "UDDS 0-505 s (FTP-75 phase 1), both designs, seeds 0-1"
@@ -106,7 +139,7 @@ PRESETS: dict[str, MotionPreset] = {
 }
 DEFAULT_PRESET = "auto"
 
-LAG_VARIANCE_POWER = 1.8
+LAG_VARIANCE_POWER = 1.4
 """γ of the IMM's fixed-lag variance, published as P_f (P_lag/P_f)^γ (``lag_variance``). Fitted by
 ``python -m benchmarks.real_motion --fit --quick`` (fit_lag_power) on every training profile of
 benchmarks.corpus (cars, robots, acceleration tables, the lab's step and stop_and_go), the teaching and
@@ -214,6 +247,17 @@ class KalmanEstimator(Estimator):
         self.chain = chosen.chain()
         self._qs = np.array(self.modes, dtype=float)
         self._rates = kern.chain_rates(max(len(self.modes), 1), self.switch_time, chosen.down_time)
+        self._jerks = np.empty(0)  # q_j per IMM mode; empty: random-walk modes only
+        self._walks = (self._qs, self._rates)  # the random-walk modes alone: the smoother's (imm_smoother)
+        self.trends = tuple(q for q in chosen.trends if q > 0.0) if self.modes else ()
+        if self.trends:
+            self._qs, jerks, self._rates = chosen.imm()
+            self._jerks = np.asarray(jerks)
+            partners = [q for q, j in zip(self.modes, chosen.trends, strict=True) if j > 0.0]
+            self.chain += (
+                f"; trend modes q_j={'/'.join(f'{q:.3g}' for q in self.trends)} (m/s³)²/s beside the q_a "
+                f"modes {'/'.join(f'{q:.3g}' for q in partners)}, swapped every {chosen.cross_time:g} s"
+            )
         self._a_max = config.gravity * math.tan(config.clamp_angle)
         # The compiled passes load (from numba's cache) here, not at the first sample: a live chain's first
         # angles must not wait behind the loader (the node builds its estimator before it subscribes).
@@ -259,14 +303,15 @@ class KalmanEstimator(Estimator):
         self._ring_t = [0.0] * size
         self._ring_f = np.zeros(size)  # the IMM filter's own variance of each buffered sample
         self._state = np.array([math.nan, 0.0])
-        m = max(len(self.modes), 1)
+        m = max(self._qs.size, 1)
+        d = 4 if self._jerks.size else 3  # a trend mode's fourth state, j
         self._ra = np.zeros((m, size))
         self._rv = np.zeros((m, size))
-        self._rc = np.zeros((m, 3, size))
-        self._xs = np.zeros((m, 3))
-        self._ps = np.zeros((m, 3, 3))
+        self._rc = np.zeros((m, d, size))
+        self._xs = np.zeros((m, d))
+        self._ps = np.zeros((m, d, d))
         self._mu = np.full(m, 1.0 / m)
-        self._scratch = kern.imm_scratch(m, size)
+        self._scratch = kern.imm_scratch(m, size, d)
         self._first_t: float | None = None  # sensor turn-on, for the bias variance
 
     def update(self, t: float, theta: float) -> Estimate | None:
@@ -291,6 +336,7 @@ class KalmanEstimator(Estimator):
                 self._params,
                 self._qs,
                 self._rates,
+                self._jerks,
                 self._scratch,
             )
         else:
@@ -359,10 +405,17 @@ class KalmanEstimator(Estimator):
         return a[:, 0], var[:, 0]
 
     def mode_probabilities(self, t: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """μ (n × modes): the IMM's probability of each mode after each sample (one column without modes)."""
+        """μ (n × modes): the IMM's probability of each mode after each sample (one column without modes;
+        with trend modes, in ekf_kernels.with_trends' order: each random-walk mode, then its partner)."""
         t, theta = check_batch_input(t, theta)
         qs = self._qs if self.modes else np.array([self.q_accel])
-        return kern.run_imm(t, theta, self._params, qs, self._rates, np.zeros(1, np.int64), True)[2]
+        return kern.run_imm(
+            t, theta, self._params, qs, self._rates, np.zeros(1, np.int64), True, self._trend()
+        )[2]
+
+    def _trend(self) -> np.ndarray | None:
+        """The IMM modes' q_j for the passes (ekf_kernels.run_imm), or None without trend modes."""
+        return self._jerks if self._jerks.size else None
 
     def lagged(
         self, t: np.ndarray, theta: np.ndarray, lags: tuple[int, ...]
@@ -372,7 +425,9 @@ class KalmanEstimator(Estimator):
         it describes."""
         lag_arr = np.array((0, *lags), dtype=np.int64)
         if self.modes:
-            a, var, _ = kern.run_imm(t, theta, self._params, self._qs, self._rates, lag_arr, False)
+            a, var, _ = kern.run_imm(
+                t, theta, self._params, self._qs, self._rates, lag_arr, False, self._trend()
+            )
         else:
             a, var, *_ = kern.run_pass(t, theta, self._params, lag_arr, False, np.empty(0))
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
@@ -400,11 +455,13 @@ class KalmanEstimator(Estimator):
         return self._publish(t, a, var)
 
     def steady_state(
-        self, accel: float, q_accel: float | None = None
+        self, accel: float, q_accel: float | None = None, q_jerk: float = 0.0
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(F, K, P⁺) at rest at θ_eq(a): DARE prior P⁻, K = P⁻Hᵀ/S, P⁺ = (I − KH)P⁻ (Q as ekf_kernels),
         at q_a = ``q_accel`` (default: the single model's, or the IMM's quiet mode, which holds nearly all
-        μ at rest)."""
+        μ at rest); with ``q_jerk`` > 0 a trend mode's, on [θ, θ', a, j] (ekf_kernels.trend_noise)."""
+        if q_jerk > 0.0:
+            return self._trend_steady_state(accel, 0.0 if q_accel is None else q_accel, q_jerk)
         cfg = self.config
         dt = 1.0 / cfg.rate_hz
         th = math.atan2(accel, cfg.gravity)
@@ -434,14 +491,34 @@ class KalmanEstimator(Estimator):
         posterior = (np.eye(3) - K @ H) @ prior
         return F, K[:, 0], posterior
 
+    def _trend_steady_state(
+        self, accel: float, q_accel: float, q_jerk: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``steady_state`` of a trend mode: F = e^{J Δt} on [θ, θ', a, j] (a' = j), Q = trend_noise."""
+        cfg = self.config
+        dt = 1.0 / cfg.rate_hz
+        th = math.atan2(accel, cfg.gravity)
+        j12 = math.cos(th) / cfg.length
+        jac = np.zeros((4, 4))
+        jac[0, 1], jac[1, 1], jac[1, 2], jac[2, 3] = 1.0, -cfg.damping, j12, 1.0
+        jac[1, 0] = -(cfg.gravity * math.cos(th) + accel * math.sin(th)) / cfg.length
+        F = linalg.expm(jac * dt)
+        Q = np.empty((4, 4))
+        kern.trend_noise(Q, j12, dt, q_accel, q_jerk, self.q_rate)
+        H = np.array([[1.0, 0.0, 0.0, 0.0]])
+        R = np.array([[self.config.sigma**2]])
+        prior = linalg.solve_discrete_are(F.T, H.T, Q, R)
+        K = prior @ H.T / (H @ prior @ H.T + R)
+        return F, K[:, 0], (np.eye(4) - K @ H) @ prior
+
     def stationary_modes(self) -> np.ndarray:
         """π: the mode chain's stationary probabilities, πᵀ G = 0 with G = R − diag(Σ_j R_ij), Σ π = 1
         (a birth-death chain: π_{i+1}/π_i = down_time/up_time); [1] for the single model."""
         if not self.modes:
             return np.ones(1)
         gen = self._rates - np.diag(self._rates.sum(axis=1))
-        system = np.vstack((gen.T, np.ones(len(self.modes))))
-        rhs = np.zeros(len(self.modes) + 1)
+        system = np.vstack((gen.T, np.ones(self._qs.size)))
+        rhs = np.zeros(self._qs.size + 1)
         rhs[-1] = 1.0
         return np.linalg.lstsq(system, rhs, rcond=None)[0]
 
@@ -450,21 +527,22 @@ class KalmanEstimator(Estimator):
         M_m = (I − K_m H) F: the single model's, or for the IMM the mix of its modes' steady filters weighted
         by the chain's stationary probabilities π (``stationary_modes``). Σ_j w⁽ᵐ⁾_j w⁽ⁿ⁾_j = e₃ᵀ X e₃ with
         X = M_m X M_nᵀ + K_m K_nᵀ, solved as vec X = (I − M_n ⊗ M_m)⁻¹ vec(K_m K_nᵀ)."""
-        qs = self.modes if self.modes else (self.q_accel,)
+        qs = self._qs if self.modes else np.array([self.q_accel])
+        jerks = self._jerks if self._jerks.size else np.zeros(qs.size)
         weights = self.stationary_modes()
-        H = np.array([[1.0, 0.0, 0.0]])
         loops = []
-        for q in qs:
-            F, K, _ = self.steady_state(accel, q)
-            loops.append(((np.eye(3) - np.outer(K, H)) @ F, K))
+        for q, q_j in zip(qs, jerks, strict=True):  # a trend mode's loop has four states
+            F, K, _ = self.steady_state(accel, float(q), float(q_j))
+            loops.append(((np.eye(K.size) - np.outer(K, np.eye(K.size)[0])) @ F, K))
         total, moment, energy = 0.0, 0.0, 0.0
         for (M, K), w in zip(loops, weights, strict=True):
-            inv = np.linalg.inv(np.eye(3) - M)
+            inv = np.linalg.inv(np.eye(K.size) - M)
             total += w * float((inv @ K)[2])
             moment += w * float((M @ inv @ inv @ K)[2])
             for (M2, K2), w2 in zip(loops, weights, strict=True):
-                vec = np.linalg.solve(np.eye(9) - np.kron(M2, M), np.outer(K, K2).reshape(-1, order="F"))
-                energy += w * w2 * float(vec.reshape(3, 3, order="F")[2, 2])
+                size = K.size * K2.size
+                vec = np.linalg.solve(np.eye(size) - np.kron(M2, M), np.outer(K, K2).reshape(-1, order="F"))
+                energy += w * w2 * float(vec.reshape(K.size, K2.size, order="F")[2, 2])
         return total, energy, moment
 
     def noise_equivalent_samples(self, accel: float) -> float:
@@ -557,7 +635,9 @@ class SmootherEstimator(KalmanEstimator):
             return self.smoothed(t, theta)
         if t.size == 0:
             return np.empty(0), np.empty(0)
-        a, var_s, var_f = imm_smoother(t, theta, self._params, self._qs, self._rates)
+        # With trend modes too, the backward pass is the random walks' (there is no four-state RTS pass): the
+        # smoother of the preset's random-walk modes alone.
+        a, var_s, var_f = imm_smoother(t, theta, self._params, *self._walks)
         return self._publish(t, a, lag_variance(var_s, var_f, SMOOTHER_VARIANCE_POWER))
 
     def nominal_delay(self, accel: float) -> float:

@@ -45,5 +45,5 @@ def motion_of(profile: AccelProfile) -> MotionChoice:
     """The preset for a(t) = ``profile`` when nothing states one: ``auto``, whatever the profile (where
     the data came from is not used; the argument keeps the callers' signature)."""
     del profile
-    why = "learned from the angles (an IMM from a constant a(t) to steps)"
+    why = "learned from the angles (an IMM from a constant a(t) to steps and trends)"
     return MotionChoice(DEFAULT_PRESET, why)

@@ -68,14 +68,17 @@ def effective_samples(mask: NDArray[np.bool_], tau: float) -> float:
 
 def wilson(share: float, n: float, z: float = Z95) -> tuple[float, float]:
     """(lo, hi) = (p̂ + z²/2n ∓ z √(p̂(1 − p̂)/n + z²/4n²)) / (1 + z²/n): Wilson's score interval of a share p̂
-    of n trials (n need not be whole: effective trials); (0, 1) without trials."""
+    of n trials (n need not be whole: effective trials); (0, 1) without trials. The interval always holds p̂;
+    at p̂ = 0 (or 1) its bound is p̂ itself, which the square root's rounding can miss by an ulp (1e-17 at
+    n = 22.17), so each bound is clipped to p̂."""
     if not n > 0.0 or not math.isfinite(share):
         return 0.0, 1.0
     z2 = z * z
     centre = share + z2 / (2.0 * n)
     half = z * math.sqrt(max(share * (1.0 - share), 0.0) / n + z2 / (4.0 * n * n))
     scale = 1.0 + z2 / n
-    return max(0.0, (centre - half) / scale), min(1.0, (centre + half) / scale)
+    low, high = max(0.0, (centre - half) / scale), min(1.0, (centre + half) / scale)
+    return min(low, share), max(high, share)
 
 
 def share_interval_cells(
