@@ -592,7 +592,8 @@ class KalmanEstimator(Estimator):
 
 
 class SmootherEstimator(KalmanEstimator):
-    """The kalman model's smoother: offline only (batch), the best a history can be.
+    """The kalman model's smoother: offline only (batch), on the preset's random-walk modes (its trend modes
+    have no backward pass with a calibrated variance yet: docs/estimators.md, "smoother").
 
     Without ``q_accel``: the RTS smoother at the mode mix the whole recording supports (``imm_smoother``),
     its variance P_f (Pˢ/P_f)^γ, γ = SMOOTHER_VARIANCE_POWER. With ``q_accel``: the fixed-interval RTS
