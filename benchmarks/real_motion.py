@@ -443,8 +443,8 @@ def fit_auto(seeds: int, quick: bool) -> tuple[tuple[float, float], list[tuple[f
 MAX_TREND_PARTNERS = 4
 """At most this many of auto's modes get a trend partner: the cost bound. Each partner is a four-state mode;
 with four, the IMM's pass costs about 4.0 µs a sample against 2.5 µs for the random walks alone (run_imm at
-200 Hz), which keeps analyze ≥ 10× a plain rosbags loop (docs/benchmarks/bags.md) and the streaming update
-≤ 2× the two-mode presets' (docs/benchmarks/estimators.md)."""
+200 Hz): the streaming update stays ≤ 2× the two-mode presets' (1.6×, docs/benchmarks/estimators.md), and
+analyze keeps 6.0× a plain rosbags loop where the random walks alone gave 7.8× (docs/benchmarks/bags.md)."""
 TREND_SPANS = tuple(
     (lo, hi)
     for lo in range(len(PRESETS["auto"].modes))

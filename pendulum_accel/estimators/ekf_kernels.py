@@ -61,6 +61,17 @@ def _rk4(
     return th + sixth * (om + 2.0 * om2 + 2.0 * om3 + om4), om + sixth * (w1 + 2.0 * w2 + 2.0 * w3 + w4)
 
 
+@njit(cache=True, inline="always")
+def _flow_rows(j10: float, j12: float, c: float, h: float) -> tuple[float, float, float, float, float, float]:
+    """(f00, f01, f02, f10, f11, f12): the θ and θ' rows of F_h = I + J h + J² h²/2 on [θ, θ', a] (a held),
+    J's rows (0, 1, 0) and (j₁₀, −c, j₁₂)."""
+    h2 = 0.5 * h * h
+    return (
+        1.0 + j10 * h2, h - c * h2, j12 * h2,
+        j10 * h - c * j10 * h2, 1.0 - c * h + (j10 + c * c) * h2, j12 * h - c * j12 * h2,
+    )  # fmt: skip
+
+
 @njit(cache=True)
 def predict(
     x: np.ndarray,
@@ -85,11 +96,7 @@ def predict(
         cos_th, sin_th = math.cos(th), math.sin(th)
         j10 = -(g * cos_th + ac * sin_th) * linv
         j12 = cos_th * linv
-        h2 = 0.5 * h * h
-        f00, f01, f02 = 1.0 + j10 * h2, h - c * h2, j12 * h2
-        f10 = j10 * h - c * j10 * h2
-        f11 = 1.0 - c * h + (j10 + c * c) * h2
-        f12 = j12 * h - c * j12 * h2
+        f00, f01, f02, f10, f11, f12 = _flow_rows(j10, j12, c, h)
         x[0], x[1] = _rk4(th, om, ac, ac, ac, h, g, linv, c)
         # A = F_h P (row 2 of A is row 2 of P), then P ← A F_hᵀ.
         a00 = f00 * p[0, 0] + f01 * p[1, 0] + f02 * p[2, 0]
@@ -178,15 +185,11 @@ def predict_trend(
         cos_th, sin_th = math.cos(th), math.sin(th)
         j10 = -(g * cos_th + ac * sin_th) * linv
         j12 = cos_th * linv
-        h2 = 0.5 * h * h
         for i in range(4):
             for j in range(4):
                 fh[i, j] = 0.0
-        fh[0, 0], fh[0, 1], fh[0, 2] = 1.0 + j10 * h2, h - c * h2, j12 * h2
-        fh[1, 0] = j10 * h - c * j10 * h2
-        fh[1, 1] = 1.0 - c * h + (j10 + c * c) * h2
-        fh[1, 2] = j12 * h - c * j12 * h2
-        fh[1, 3] = j12 * h2
+        fh[0, 0], fh[0, 1], fh[0, 2], fh[1, 0], fh[1, 1], fh[1, 2] = _flow_rows(j10, j12, c, h)
+        fh[1, 3] = j12 * (0.5 * h * h)
         fh[2, 2], fh[2, 3], fh[3, 3] = 1.0, h, 1.0
         a_end = ac + h * jk
         x[0], x[1] = _rk4(th, om, ac, ac + 0.5 * h * jk, a_end, h, g, linv, c)
@@ -663,8 +666,9 @@ def _mix(
 def _mix_trend(
     j: int, xs: np.ndarray, ps: np.ndarray, w: np.ndarray, x0: np.ndarray, p0: np.ndarray, lo: int, hi: int
 ) -> None:
-    """``_mix``'s x⁰_j, P⁰_j over four states: the terms with w_ij = 0 skipped (interleaved, two of the
-    band's five modes do not reach j: ekf_kernels.with_trends) and P⁰_j's upper triangle mirrored."""
+    """``_mix``'s x⁰_j, P⁰_j over four states: the terms with w_ij = 0 skipped (modes of the band the chain
+    does not link to j: interleaved by ``with_trends``, a walk's neighbour's partner) and P⁰_j's upper
+    triangle mirrored."""
     for a in range(4):
         x0[j, a] = 0.0
     for i in range(lo, hi):
@@ -823,20 +827,18 @@ def _imm_step_into(
     # The loops run over every slot, held or not: a slot not yet held holds nothing anyone reads (it is
     # written whole before it is read), and whole contiguous rows run as vector arithmetic.
     new = count % size
+    linv = 1.0 / length
     for j in range(m):
         if held:
             _mix_ring(j, xs, x0, w, ra, rv, rc, new_a[j], new_v[j], new_c[j], band, jerks)
             row_a, row_v, row_c = new_a[j], new_v[j], new_c[j]
         else:
             row_a, row_v, row_c = ra[j], rv[j], rc[j]
-        xj = x0[j]
-        pj = p0[j]
         if trend and jerks[j] > 0.0:
-            predict_trend(xj, pj, f, dt, g, 1.0 / length, c, q_rate, qs[j], jerks[j], work)
-            nu, s_nu = _trend_lag_update(xj, pj, f, k, y, r, row_a, row_v, row_c, new, held)
+            predict_trend(x0[j], p0[j], f, dt, g, linv, c, q_rate, qs[j], jerks[j], work)
+            nu, s_nu = _trend_lag_update(x0[j], p0[j], f, k, y, r, row_a, row_v, row_c, new, held)
             logl[j] = -0.5 * (nu * nu / s_nu + math.log(s_nu)) + math.log(cj[j])
             continue
-        linv = 1.0 / length
         if trend:  # a random walk beside trend modes: j ≡ 0 with no covariance (``_mix``) and its buffer's
             # fourth entry stays 0, so the three-state lines run on the leading block
             fw = f[:3, :3]
@@ -861,7 +863,7 @@ def _imm_step_into(
             )
         else:
             nu, s_nu = _walk_lag_update(
-                xj, pj, f, k, y, r, row_a, row_v, row_c, new, held, dt, g, linv, c, q_rate, qs[j]
+                x0[j], p0[j], f, k, y, r, row_a, row_v, row_c, new, held, dt, g, linv, c, q_rate, qs[j]
             )
         logl[j] = -0.5 * (nu * nu / s_nu + math.log(s_nu)) + math.log(cj[j])
     if held:
@@ -952,9 +954,9 @@ def _trend_lag_update(
     new: int,
     held: int,
 ) -> tuple[float, float]:
-    """One four-state mode's update and its buffer (``_imm_step_into``'s three-state lines over d = 4): the
-    buffered a's c ← F c, the new slot takes the prior's a row, then the innovation moves â, var and c of
-    every slot and the state (``correct``); returns (ν, S)."""
+    """One four-state mode's update and its buffer (``_walk_lag_update`` over d = 4, after the prediction):
+    the buffered a's c ← F c, the new slot takes the prior's a row, then the innovation moves â, var and c
+    of every slot and the state (``correct``); returns (ν, S)."""
     size = row_a.size
     if held:
         for s in range(size):

@@ -457,59 +457,28 @@ class KalmanEstimator(Estimator):
     def steady_state(
         self, accel: float, q_accel: float | None = None, q_jerk: float = 0.0
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(F, K, P⁺) at rest at θ_eq(a): DARE prior P⁻, K = P⁻Hᵀ/S, P⁺ = (I − KH)P⁻ (Q as ekf_kernels),
-        at q_a = ``q_accel`` (default: the single model's, or the IMM's quiet mode, which holds nearly all
-        μ at rest); with ``q_jerk`` > 0 a trend mode's, on [θ, θ', a, j] (ekf_kernels.trend_noise)."""
-        if q_jerk > 0.0:
-            return self._trend_steady_state(accel, 0.0 if q_accel is None else q_accel, q_jerk)
+        """(F, K, P⁺) at rest at θ_eq(a): DARE prior P⁻, K = P⁻Hᵀ/S, P⁺ = (I − KH)P⁻, F = e^{J Δt}, Q as the
+        kernels' (ekf_kernels.trend_noise, whose leading block is ``predict``'s), at q_a = ``q_accel``
+        (default: the single model's, or the IMM's quiet mode, which holds nearly all μ at rest); on
+        [θ, θ', a], or with ``q_jerk`` > 0 a trend mode's, on [θ, θ', a, j]."""
         cfg = self.config
         dt = 1.0 / cfg.rate_hz
         th = math.atan2(accel, cfg.gravity)
         j12 = math.cos(th) / cfg.length
-        jac = np.array(
-            [
-                [0.0, 1.0, 0.0],
-                [-(cfg.gravity * math.cos(th) + accel * math.sin(th)) / cfg.length, -cfg.damping, j12],
-                [0.0, 0.0, 0.0],
-            ]
-        )
-        F = linalg.expm(jac * dt)
         if q_accel is None:
             q_accel = self.modes[0] if self.modes else self.q_accel
-        Q = q_accel * np.array(
-            [
-                [j12 * j12 * dt**5 / 20.0, j12 * j12 * dt**4 / 8.0, j12 * dt**3 / 6.0],
-                [j12 * j12 * dt**4 / 8.0, j12 * j12 * dt**3 / 3.0, j12 * dt**2 / 2.0],
-                [j12 * dt**3 / 6.0, j12 * dt**2 / 2.0, dt],
-            ]
-        )
-        Q[1, 1] += self.q_rate * dt
-        H = np.array([[1.0, 0.0, 0.0]])
-        R = np.array([[cfg.sigma**2]])
-        prior = linalg.solve_discrete_are(F.T, H.T, Q, R)
-        K = prior @ H.T / (H @ prior @ H.T + R)
-        posterior = (np.eye(3) - K @ H) @ prior
-        return F, K[:, 0], posterior
-
-    def _trend_steady_state(
-        self, accel: float, q_accel: float, q_jerk: float
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``steady_state`` of a trend mode: F = e^{J Δt} on [θ, θ', a, j] (a' = j), Q = trend_noise."""
-        cfg = self.config
-        dt = 1.0 / cfg.rate_hz
-        th = math.atan2(accel, cfg.gravity)
-        j12 = math.cos(th) / cfg.length
+        d = 4 if q_jerk > 0.0 else 3
         jac = np.zeros((4, 4))
         jac[0, 1], jac[1, 1], jac[1, 2], jac[2, 3] = 1.0, -cfg.damping, j12, 1.0
         jac[1, 0] = -(cfg.gravity * math.cos(th) + accel * math.sin(th)) / cfg.length
-        F = linalg.expm(jac * dt)
+        F = linalg.expm(jac[:d, :d] * dt)
         Q = np.empty((4, 4))
         kern.trend_noise(Q, j12, dt, q_accel, q_jerk, self.q_rate)
-        H = np.array([[1.0, 0.0, 0.0, 0.0]])
-        R = np.array([[self.config.sigma**2]])
-        prior = linalg.solve_discrete_are(F.T, H.T, Q, R)
+        H = np.eye(d)[:1]
+        R = np.array([[cfg.sigma**2]])
+        prior = linalg.solve_discrete_are(F.T, H.T, Q[:d, :d], R)
         K = prior @ H.T / (H @ prior @ H.T + R)
-        return F, K[:, 0], (np.eye(4) - K @ H) @ prior
+        return F, K[:, 0], (np.eye(d) - K @ H) @ prior
 
     def stationary_modes(self) -> np.ndarray:
         """π: the mode chain's stationary probabilities, πᵀ G = 0 with G = R − diag(Σ_j R_ij), Σ π = 1
