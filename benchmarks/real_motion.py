@@ -214,7 +214,7 @@ class Score:
     @staticmethod
     def of(runs: Sequence[Run], outputs: Sequence[tuple[np.ndarray, np.ndarray]], rate_hz: float) -> Score:
         """Pool e = â − a and NEES = e²/var over the runs (t ≥ WARMUP); the shares' effective trials
-        (coverage.effective_samples at each run's coverage.integrated_time of its NEES)."""
+        (coverage.window_trials of each run's NEES: each window at its own τ)."""
         errs, nees, steady, after, delays = [], [], [], [], []
         eff_steady, eff_after = 0.0, 0.0
         for run, (a, var) in zip(runs, outputs, strict=True):
@@ -227,9 +227,8 @@ class Score:
             nees.append(z)
             steady.append(z[~after_mask] > 4.0)
             after.append(z[after_mask] > 4.0)
-            tau = coverage.integrated_time(z)
-            eff_steady += coverage.effective_samples(~after_mask, tau)
-            eff_after += coverage.effective_samples(after_mask, tau)
+            eff_steady += coverage.window_trials(z, ~after_mask)
+            eff_after += coverage.window_trials(z, after_mask)
             delays.append(group_delay(a[keep], run.accel[keep], rate_hz))
         e_all = np.concatenate(errs)
         z_all = np.concatenate(nees)

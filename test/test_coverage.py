@@ -42,6 +42,78 @@ def test_the_square_of_a_gaussian_series_is_less_correlated() -> None:
     assert tau_sq < coverage.integrated_time(x)
 
 
+def test_a_whole_mask_is_the_whole_series() -> None:
+    """A mask of every sample is one stretch: the same FFT over the same deviations, so the same τ to the bit;
+    a non-finite sample ends a stretch (and is left out of the mean) whether or not a mask is given."""
+    x = _ar1(0.8, 5_000, seed=3)
+    assert coverage.integrated_time(x, np.ones(x.size, dtype=bool)) == coverage.integrated_time(x)
+    y = x.copy()
+    y[2_500] = np.nan
+    assert coverage.integrated_time(y) == coverage.integrated_time(y, np.ones(y.size, dtype=bool))
+
+
+def test_each_window_is_judged_by_its_own_errors() -> None:
+    """A window of slow errors (AR(1), φ = 0.95: τ = 39) beside one of spikes (white, 100× its spread, as a
+    step's first samples are): τ over both is set by the spikes (near 1); τ of the slow window alone is its
+    own. Tolerance: 25 stretches of 800 samples (20,000 pairs-worth), τ 39, Sokal's σ ≈ τ √(2(2M+1)/n) with
+    M ≈ 5τ: 39 · √(782/20,000) = 7.7, 20 %; 40 % is two of them."""
+    rng = np.random.default_rng(5)
+    slow = [_ar1(0.95, 800, seed=100 + k) for k in range(25)]
+    spikes = [100.0 * rng.normal(size=200) for _ in range(25)]
+    z = np.concatenate([part for pair in zip(slow, spikes, strict=True) for part in pair])
+    steady = np.concatenate([np.r_[np.ones(800, bool), np.zeros(200, bool)] for _ in range(25)])
+    assert coverage.integrated_time(z) < 2.0
+    tau = coverage.integrated_time(z, steady)
+    assert tau == pytest.approx(39.0, rel=0.4)
+    trials = coverage.window_trials(z, steady)
+    assert trials == coverage.effective_samples(steady, tau)
+    assert trials < 0.05 * np.count_nonzero(steady)  # ≈ 20,000/39 = 513, not 20,000
+
+
+def _geyer_direct(z: np.ndarray, mask: np.ndarray) -> float:
+    """integrated_time's definition written out: ρ_k = Σ over the stretches of Σ_i d_i d_{i+k} (both in one
+    stretch) / Σ d², d = z − mean over the mask; τ = −1 + 2 Σ Γ_m while positive, each capped by the last."""
+    d = z - z[mask].mean()
+    stretches, cur = [], []
+    for i in range(z.size):
+        if mask[i]:
+            cur.append(d[i])
+        elif cur:
+            stretches.append(np.array(cur))
+            cur = []
+    if cur:
+        stretches.append(np.array(cur))
+    longest = max(seg.size for seg in stretches)
+    lagged = [
+        [float(np.dot(seg[: max(seg.size - k, 0)], seg[k:])) for seg in stretches] for k in range(longest)
+    ]
+    cov = np.array([sum(row) for row in lagged])
+    rho = cov / cov[0]
+    total, cap = 0.0, math.inf
+    for m in range(longest // 2):
+        gamma = rho[2 * m] + rho[2 * m + 1]
+        if gamma <= 0.0:
+            break
+        cap = min(cap, gamma)
+        total += cap
+    return max(1.0, 2.0 * total - 1.0)
+
+
+def test_pairs_never_span_a_gap() -> None:
+    """Against the definition summed pair by pair: stretches of 7 to 60 samples of a slow AR(1), between
+    gaps whose samples are huge (a change's spikes, left out by the mask). Tolerance: the FFT's
+    autocovariance differs from the direct sums by rounding, O(ε log n) of Σ d² (≈ 1e-15 here); Γ's capped
+    sum adds at most a few hundred such terms, so 1e-9 relative is far above it."""
+    rng = np.random.default_rng(9)
+    z = _ar1(0.9, 600, seed=4)
+    mask = np.ones(z.size, dtype=bool)
+    for start, length in ((40, 3), (47, 9), (120, 30), (300, 1), (360, 5), (560, 20)):
+        mask[start : start + length] = False
+        z[start : start + length] = 1e3 * rng.normal(size=length)
+    assert coverage.integrated_time(z, mask) == pytest.approx(_geyer_direct(z, mask), rel=1e-9)
+    assert coverage.integrated_time(z, mask) > 5.0  # the slow series' own τ (19), not the spikes'
+
+
 def test_integrated_time_is_one_for_series_it_cannot_judge() -> None:
     """Too short, constant, or all non-finite: one trial a sample (no correlation to estimate)."""
     assert coverage.integrated_time(np.array([1.0, 2.0, 3.0])) == 1.0

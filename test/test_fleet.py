@@ -325,7 +325,8 @@ def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path)
 
 def _case_trials(case: ds.Case) -> dict[str, float]:
     """The independent trials of one design-study case's live filter per window, computed here from its
-    signals with coverage's own functions: τ of the NEES after the warm-up, n_eff of each window's mask."""
+    signals with coverage's own functions: each window's τ of the NEES after the warm-up over that window's
+    stretches, n_eff of the window's mask at it."""
     from pendulum_accel.estimators import DEFAULT_ESTIMATOR, make_estimator
     from pendulum_accel.recording.changes import after_change
 
@@ -334,11 +335,10 @@ def _case_trials(case: ds.Case) -> dict[str, float]:
     keep = t >= ds.WARMUP
     nees = ((est - accel) ** 2 / var)[keep]
     assert np.all(np.isfinite(nees))  # var > 0 everywhere: every sample counts in its window
-    tau = coverage.integrated_time(nees)
     after = after_change(t, t, accel)[keep]
     return {
-        "steady": coverage.effective_samples(~after, tau),
-        "after_change": coverage.effective_samples(after, tau),
+        "steady": coverage.effective_samples(~after, coverage.integrated_time(nees, ~after)),
+        "after_change": coverage.effective_samples(after, coverage.integrated_time(nees, after)),
     }
 
 

@@ -108,8 +108,8 @@ def _json_of(capsys: pytest.CaptureFixture[str], bag: Path) -> str:
 
 def _parts(bag: Path, seeds: int) -> dict[str, list[tuple[int, int, float]]]:
     """Per window, per seed: (samples, samples beyond 2σ, independent trials) of the bag's scene at that
-    seed, counted here from coverage's primitives: NEES = e²/var at t ≥ t₀ + SKIP, τ over the whole series,
-    n_eff = Σ max(1, L/τ) over the window's stretches."""
+    seed, counted here from coverage's primitives: NEES = e²/var at t ≥ t₀ + SKIP, τ over the window's
+    finite stretches, n_eff = Σ max(1, L/τ) over them."""
     scene = stored_scene(read_bag(bag))
     assert scene is not None
     out: dict[str, list[tuple[int, int, float]]] = {"steady": [], "after_change": []}
@@ -122,9 +122,9 @@ def _parts(bag: Path, seeds: int) -> dict[str, list[tuple[int, int, float]]]:
         with np.errstate(divide="ignore", invalid="ignore"):
             nees = np.where(var > 0.0, (a - run.accel_true) ** 2 / var, np.nan)[keep]
         after = after_change(run.t, run.t, run.accel_true)[keep]
-        tau = coverage.integrated_time(nees)
         for window, mask in (("steady", ~after), ("after_change", after)):
             mask = mask & np.isfinite(nees)
+            tau = coverage.integrated_time(nees, mask)
             counted = (int(mask.sum()), int((nees[mask] > 4.0).sum()), coverage.effective_samples(mask, tau))
             out[window].append(counted)
     return out

@@ -140,17 +140,14 @@ def nees_windows(
     """((steady NEES, its trials), (after-change NEES, its trials)): NEES = e²/var at stamps t ≥ t_from
     (NaN where var ≤ 0), split by recording.changes.after_change (within CHANGE_WINDOW s after
     |a(t) − a(t − 1 s)| > CHANGE_JUMP on the truth), each window with its independent trials
-    n_eff = coverage.effective_samples of its finite samples at the integrated time τ of the whole NEES
-    series (coverage.integrated_time)."""
+    n_eff = coverage.window_trials (its finite samples at the window's own integrated time τ)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         all_nees = np.where(variance > 0.0, error * error / variance, np.nan)
     keep = t >= t_from
     nees, after = all_nees[keep], after_change(t, t_truth, a_truth)[keep]
-    finite = np.isfinite(nees)
-    tau = coverage.integrated_time(nees)
     return (
-        (nees[~after], coverage.effective_samples(~after & finite, tau)),
-        (nees[after], coverage.effective_samples(after & finite, tau)),
+        (nees[~after], coverage.window_trials(nees, ~after)),
+        (nees[after], coverage.window_trials(nees, after)),
     )
 
 

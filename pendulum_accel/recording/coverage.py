@@ -6,14 +6,17 @@ next. A share counted over n samples is then not a binomial share of n trials, a
 0.8 s steady stretch (an agile robot's) holds a few independent trials, not 80. A share is read, and
 the benchmarks judge it against a band (TARGET, issue 33's 1–12 %), only as far as its trials allow:
 
-    τ = 1 + 2 Σ_{k≥1} ρ_k of z = e²/var (NEES), Geyer's initial monotone sequence estimator;
-    n_eff = Σ over the stretches of the mask of max(1, L/τ) (a stretch shorter than τ is one trial);
+    τ = 1 + 2 Σ_{k≥1} ρ_k of z = e²/var (NEES) within the window (its steady state, or its stretches
+        after changes; pairs inside one stretch), Geyer's initial monotone sequence estimator;
+    n_eff = Σ over the stretches of the window of max(1, L/τ) (a stretch shorter than τ is one trial);
     the interval: Wilson's score interval of the share at n_eff trials.
 
 Why z = e²/var: for a Gaussian error u = e/σ the exceedance 1{|u| > 2} and u² are even functions of u, and
 by Mehler's expansion corr(g(u_i), g(u_j)) = Σ_{even k ≥ 2} c_k² ρ^k / Σ c_k² ≤ ρ² = corr(u_i², u_j²) for
 ρ ≥ 0. So τ of z bounds τ of the exceedances from above: n_eff is at most as many trials as there are,
-and the interval errs wide, never narrow. A verdict of "outside" is therefore one the data forces.
+and the interval errs wide, never narrow. A verdict of "outside" is therefore one the data forces. That
+holds for the window's own errors only: each window gets its own τ (``window_trials``), since the errors of
+a steady stretch and of a step's first second are two different series (integrated_time).
 """
 
 from __future__ import annotations
@@ -27,25 +30,41 @@ Z95 = 1.959963984540054  # the standard normal's two-sided 95 % point, Φ⁻¹(0
 TARGET = (0.01, 0.12)  # the issue's band of the share beyond 2σ
 
 
-def integrated_time(z: NDArray[np.float64]) -> float:
+def integrated_time(z: NDArray[np.float64], mask: NDArray[np.bool_] | None = None) -> float:
     """τ = −1 + 2 Σ_{m<M} Γ_m, Γ_m = ρ_{2m} + ρ_{2m+1}: Geyer's initial monotone sequence estimate of the
-    integrated autocorrelation time of z (Γ_m summed while positive, each capped by the one before); 1 for a
-    series too short or constant to estimate one."""
+    integrated autocorrelation time of z over the finite samples of ``mask`` (all of z without one), ρ_k from
+    the pairs k apart inside one stretch of the mask (Γ_m summed while positive, each capped by the one
+    before); 1 for a series too short or constant to estimate one.
+
+    Pairs never span a gap: a window made of stretches cut from one recording (its steady state, or the
+    2 s after each change) is judged by its own errors. τ over the whole recording would be set by the
+    window whose NEES varies most: the spikes of a step's first samples, which decorrelate within a few
+    samples, gave a braking's 14 s of steady state τ = 1.3 samples (1,848 trials) where its own errors have
+    τ = 71 (34 trials)."""
     z = np.asarray(z, dtype=np.float64)
-    z = z[np.isfinite(z)]
-    n = z.size
+    use = np.isfinite(z) if mask is None else np.asarray(mask, dtype=bool) & np.isfinite(z)
+    n = int(np.count_nonzero(use))
     if n < 4:
         return 1.0
-    dev = z - z.mean()
-    var = float(np.dot(dev, dev))
+    dev = z - float(np.mean(z[use]))
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], use.astype(np.int8), [0]))))
+    starts, ends = edges[::2], edges[1::2]
+    longest = int(np.max(ends - starts))
+    cov = np.zeros(longest)
+    # Σ over stretches of Σ_i dev_i dev_{i+k} for every k at once: each stretch's autocovariance through a
+    # zero-padded FFT (no circular wrap-around, no pair across a gap), summed; over n as the usual biased
+    # estimate, which keeps the sequence positive definite.
+    for start, end in zip(starts, ends, strict=True):
+        seg = dev[start:end]
+        size = 1 << (2 * seg.size - 1).bit_length()
+        spec = np.fft.rfft(seg, size)
+        cov[: seg.size] += np.fft.irfft(spec * np.conj(spec), size)[: seg.size]
+    var = float(cov[0])
     if not var > 0.0:
         return 1.0
-    # ρ_k for every k at once: the autocovariance through a zero-padded FFT (no circular wrap-around).
-    size = 1 << (2 * n - 1).bit_length()
-    spec = np.fft.rfft(dev, size)
-    rho = np.fft.irfft(spec * np.conj(spec), size)[:n] / var
+    rho = cov / var
     total, cap = 0.0, math.inf
-    for m in range(n // 2):
+    for m in range(longest // 2):
         gamma = float(rho[2 * m] + rho[2 * m + 1])
         if gamma <= 0.0:
             break
@@ -64,6 +83,13 @@ def effective_samples(mask: NDArray[np.bool_], tau: float) -> float:
     """n_eff = Σ_s max(1, L_s/τ) over the stretches of ``mask`` (0 for an empty mask)."""
     lengths = stretch_lengths(mask)
     return float(np.sum(np.maximum(1.0, lengths / max(tau, 1.0)))) if lengths.size else 0.0
+
+
+def window_trials(z: NDArray[np.float64], mask: NDArray[np.bool_]) -> float:
+    """n_eff of a window: effective_samples of its finite samples at the window's own τ (integrated_time of
+    z over those samples' stretches)."""
+    use = np.asarray(mask, dtype=bool) & np.isfinite(z)
+    return effective_samples(use, integrated_time(z, use))
 
 
 def wilson(share: float, n: float, z: float = Z95) -> tuple[float, float]:
