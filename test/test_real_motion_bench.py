@@ -137,7 +137,7 @@ def test_fit_runs_every_fit_and_picks_from_its_grids(
 ) -> None:
     """``--fit`` (the command every tuned constant names) runs each fit to its end on a training split, and
     each prints a value of its own grid: q_a of Q_GRID and an IMM candidate per preset, auto's chain of
-    AUTO_CHAINS, the fixed-lag power and the smoother's power of LAG_POWERS."""
+    AUTO_CHAINS, the fixed-lag and the smoother's variance maps of LAG_POWERS × LAG_WEIGHTS."""
     monkeypatch.setattr(rm, "PROFILES", _tiny_training_split())
     assert rm.main(["--fit", "--quick"]) == 0
     out = capsys.readouterr().out
@@ -152,8 +152,9 @@ def test_fit_runs_every_fit_and_picks_from_its_grids(
     chain = re.search(r"^auto: chain up (\S+) s, down (\S+) s", out, re.M)
     assert chain is not None and (float(chain.group(1)), float(chain.group(2))) in rm.AUTO_CHAINS
     for name in ("fixed-lag", "smoother"):
-        power = re.search(rf"^auto: {name} variance power (\S+) ", out, re.M)
-        assert power is not None and float(power.group(1)) in rm.LAG_POWERS
+        fitted = re.search(rf"^auto: {name} variance map γ (\S+) κ (\S+) ", out, re.M)
+        assert fitted is not None, name
+        assert float(fitted.group(1)) in rm.LAG_POWERS and float(fitted.group(2)) in rm.LAG_WEIGHTS
 
 
 def test_imm_scan_counts_what_the_estimator_publishes() -> None:

@@ -13,7 +13,12 @@ from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators import estimate_batch, estimator_line, make_estimator
-from pendulum_accel.estimators.kalman import KalmanEstimator, imm_smoother
+from pendulum_accel.estimators.kalman import (
+    LAG_REVISION_WEIGHT,
+    LAG_VARIANCE_POWER,
+    KalmanEstimator,
+    imm_smoother,
+)
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Step, Table
 from pendulum_accel.physics.simulate import simulate
@@ -96,29 +101,32 @@ def test_lag_trades_latency_for_accuracy() -> None:
 
 
 def test_lag_variance_map_matches_smooth_motion_and_keeps_the_filters_where_the_future_adds_nothing() -> None:
-    """The published fixed-lag variance P_f (P_lag/P_f)^γ (kalman.lag_variance) against the IMM's raw
-    combination P_lag, at 0.25 s on the smooth drive: never wider than P_lag (ratio ≤ 1, γ ≥ 1; to rounding,
-    argued below), equal to the filter's at the recording's last sample (no
-    future there: ratio 1 exactly), and a mean NEES nearer 1 than the raw's (the raw one over-covers smooth
-    motion by a factor of about 5 in variance, the map by under 1.3: the comparison has that margin)."""
+    """The published fixed-lag variance P_f (P_lag/P_f)^γ + κ (â_lag − â_f)² (kalman.lag_variance) against the
+    IMM's raw combination P_lag, at 0.25 s on the smooth drive: the formula sample by sample (to rounding,
+    argued below), the filter's own at the recording's last sample (no future there: ratio 1 and no
+    revision, exactly), and a share of errors beyond 2σ inside issue 33's 1–12 %, where the raw variance
+    over-covers the smooth drive (0.3 % beyond 2σ; the map: 4.8 %, with margin on both sides)."""
     t, theta, truth = drive()
     est = make_estimator("kalman", **CFG)
     assert isinstance(est, KalmanEstimator)
     n = round(0.25 * RATE)
     a, var = est.lagged(t, theta, (0, n))
-    _, raw, _ = kern.run_imm(
+    a_raw, raw, _ = kern.run_imm(
         t, theta, est._params, est._qs, est._rates, np.array([0, n]), False, est._trend()
     )
-    # CFG states no sensor bias: the published var adds nothing. P_f r^γ ≤ P_f r = P_lag for r ≤ 1, γ ≥ 1,
-    # up to rounding: r's quotient (½ ulp), pow (≤ 4 ulp in numpy's SIMD kernels, e.g. SVML on AVX-512,
-    # < 1 ulp in glibc) and the product (½ ulp): 16 ulp of slack covers it on any CPU.
-    assert np.all(var[:, 1] <= raw[:, 1] * (1.0 + 16.0 * np.finfo(np.float64).eps))
+    np.testing.assert_array_equal(a[:, 1], a_raw[:, 1])  # CFG has no clamp in reach: â as the pass gives it
+    # CFG states no sensor bias: the published var adds nothing. Each side forms r = P_lag/P_f (½ ulp), r^γ
+    # (≤ 4 ulp in numpy's SIMD pow, e.g. SVML on AVX-512; < 1 ulp in glibc), two products and d² (½ ulp
+    # each) and a sum of two positive terms (½ ulp, no cancellation): under 8 ulp ≈ 1.8e-15 apart relative;
+    # 1e-13 is 50 times that.
+    ratio = np.clip(raw[:, 1] / raw[:, 0], 0.0, 1.0)
+    formula = raw[:, 0] * ratio**LAG_VARIANCE_POWER + LAG_REVISION_WEIGHT * (a_raw[:, 1] - a_raw[:, 0]) ** 2
+    np.testing.assert_allclose(var[:, 1], formula, rtol=1e-13, atol=0.0)
     assert var[-1, 1] == var[-1, 0]
     keep = t >= 2.0
     err2 = (a[:, 1] - truth)[keep] ** 2
-    nees_mapped = float(np.mean(err2 / var[keep, 1]))
-    nees_raw = float(np.mean(err2 / raw[keep, 1]))
-    assert abs(math.log(nees_mapped)) < abs(math.log(nees_raw))
+    assert 0.01 <= float(np.mean(err2 > 4.0 * var[keep, 1])) <= 0.12
+    assert float(np.mean(err2 > 4.0 * raw[keep, 1])) < 0.01
 
 
 def test_lagged_streaming_equals_batch_and_is_stamped_with_the_described_sample() -> None:

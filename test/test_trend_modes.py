@@ -18,6 +18,7 @@ from pendulum_accel.estimators.kalman import (
     AUTO_MODES,
     AUTO_TRENDS,
     PRESETS,
+    SMOOTHER_REVISION_WEIGHT,
     SMOOTHER_VARIANCE_POWER,
     KalmanEstimator,
     imm_smoother,
@@ -135,9 +136,11 @@ def test_the_smoother_is_the_random_walks_and_the_mode_probabilities_take_the_tr
     assert isinstance(est, KalmanEstimator)
     a_s, v_s = estimate_batch("smoother", t, theta, **TREND)
     qs, _, rates = PRESETS["auto"].imm(walks_only=True)
-    a_w, v_w, var_f = imm_smoother(t, theta, est._params, qs, rates)
+    a_w, v_w, var_f, a_f = imm_smoother(t, theta, est._params, qs, rates)
     np.testing.assert_array_equal(a_s, a_w)
-    np.testing.assert_array_equal(v_s, lag_variance(v_w, var_f, SMOOTHER_VARIANCE_POWER))
+    np.testing.assert_array_equal(
+        v_s, lag_variance(v_w, var_f, a_w, a_f, SMOOTHER_VARIANCE_POWER, SMOOTHER_REVISION_WEIGHT)
+    )
     mu = est.mode_probabilities(t, theta)
     assert mu.shape == (t.size, len(AUTO_MODES) + sum(1 for q in AUTO_TRENDS if q > 0.0))
     np.testing.assert_allclose(mu.sum(axis=1), 1.0, rtol=0.0, atol=2.5e-11)

@@ -979,19 +979,31 @@ def _trend_lag_update(
 
 
 @njit(cache=True)
-def lag_variance_one(var_lag: float, var_filter: float, power: float) -> float:
-    """P_f (P_lag/P_f)^γ with the ratio clipped to [0, 1]; P_lag where P_f ≤ 0 (kalman.lag_variance)."""
+def lag_variance_one(
+    var_lag: float, var_filter: float, power: float, revision: float, weight: float
+) -> float:
+    """P_f (P_lag/P_f)^γ + κ d² with the ratio clipped to [0, 1], d = â_lag − â_f (``revision``), κ =
+    ``weight``; P_lag where P_f ≤ 0 (kalman.lag_variance)."""
     if not var_filter > 0.0 or var_lag != var_lag:  # no filter variance, or no lagged one (NaN) to map
         return var_lag
     ratio = min(max(var_lag / var_filter, 0.0), 1.0)
-    return var_filter * ratio**power
+    return var_filter * ratio**power + weight * revision * revision
 
 
 @njit(cache=True)
-def lag_variance_into(var_lag: np.ndarray, var_filter: np.ndarray, power: float, out: np.ndarray) -> None:
-    """out ← lag_variance_one of each sample (one pass, no temporaries; column views are read in place)."""
+def lag_variance_into(
+    var_lag: np.ndarray,
+    var_filter: np.ndarray,
+    a_lag: np.ndarray,
+    a_filter: np.ndarray,
+    power: float,
+    weight: float,
+    out: np.ndarray,
+) -> None:
+    """out ← lag_variance_one of each sample, d = a_lag − a_filter (one pass, no temporaries; column views
+    are read in place)."""
     for i in range(out.size):
-        out[i] = lag_variance_one(var_lag[i], var_filter[i], power)
+        out[i] = lag_variance_one(var_lag[i], var_filter[i], power, a_lag[i] - a_filter[i], weight)
 
 
 @njit(cache=True)
@@ -1245,10 +1257,11 @@ def warm() -> None:
             tk, yk = float(t[k]), float(y[k])
             imm_step(xs, ps, mu, x, p, ra, rv, rc, state, tk, yk, params, qs, rates, jerks, scratch)
     imm_lagged(mu, ra, rv, 0)  # the live fixed-lag output (lag > 0) and its variance map's filter column
+    lag_variance_one(1.0, 2.0, 2.0, 0.5, 1.0)  # that output's variance map, a sample at a time
     # The batch map (kalman.lag_variance) on whole columns and on column views of the lag table.
     table = np.ones((2, 2))
-    lag_variance_into(np.ones(2), np.full(2, 2.0), 2.0, np.empty(2))
-    lag_variance_into(table[:, 1], table[:, 0], 2.0, np.empty(2))
+    lag_variance_into(np.ones(2), np.full(2, 2.0), np.ones(2), np.zeros(2), 2.0, 1.0, np.empty(2))
+    lag_variance_into(table[:, 1], table[:, 0], table[:, 1], table[:, 0], 2.0, 1.0, np.empty(2))
 
 
 if __name__ == "__main__":

@@ -139,48 +139,66 @@ PRESETS: dict[str, MotionPreset] = {
 }
 DEFAULT_PRESET = "auto"
 
-LAG_VARIANCE_POWER = 1.4
-"""γ of the IMM's fixed-lag variance, published as P_f (P_lag/P_f)^γ (``lag_variance``). Fitted by
-``python -m benchmarks.real_motion --fit --quick`` (fit_lag_power) on every training profile of
-benchmarks.corpus (cars, robots, acceleration tables, the lab's step and stop_and_go), the teaching and
-short_damped designs, the first 60 s, seed 0, lags 0.25 s and 1 s: of γ = 1.0 … 4.0 in steps of 0.1, the
-one whose shares beyond 2σ (steady and after changes) are closest to a Gaussian's (calibration_miss)."""
+LAG_VARIANCE_POWER = 2.8
+"""γ of the IMM's fixed-lag variance, published as P_f (P_lag/P_f)^γ + κ d² (``lag_variance``, κ =
+LAG_REVISION_WEIGHT). Fitted with κ by ``python -m benchmarks.real_motion --fit --quick`` (fit_lag_map) on
+every training profile of benchmarks.corpus (cars, robots, acceleration tables, the lab's step and
+stop_and_go), the teaching and short_damped designs, the first 60 s, seed 0, lags 0.25 s and 1 s: of
+LAG_POWERS × LAG_WEIGHTS, the pair whose shares beyond 2σ (steady and after changes) are closest to a
+Gaussian's and whose mean NEES is closest to 1 (map_miss)."""
+
+LAG_REVISION_WEIGHT = 2.0
+"""κ of the fixed-lag variance map: the weight of d² = (â_lag − â_f)², the revision the lag's samples made
+to the filter's estimate of the same sample. Fitted with LAG_VARIANCE_POWER (see there)."""
 
 
-SMOOTHER_VARIANCE_POWER = 1.9
-"""γ of the smoother's variance, published as P_f (Pˢ/P_f)^γ (``lag_variance``, ``imm_smoother``). Fitted
-by ``python -m benchmarks.real_motion --fit --quick`` (fit_smoother_power) on the data LAG_VARIANCE_POWER
-was fitted on (lag: the whole recording): of γ = 1.0 … 4.0 in steps of 0.1, the one whose shares beyond 2σ
-(steady and after changes) are closest to a Gaussian's (calibration_miss)."""
+SMOOTHER_VARIANCE_POWER = 3.6
+"""γ of the smoother's variance, published as P_f (Pˢ/P_f)^γ + κ (âˢ − â_f)² (``lag_variance``, κ =
+SMOOTHER_REVISION_WEIGHT; ``imm_smoother``: P_f and â_f its single-model pass's filtered ones). Fitted with κ
+by ``python -m benchmarks.real_motion --fit --quick`` (fit_smoother_map) on the data LAG_VARIANCE_POWER was
+fitted on (lag: the whole recording), by the same rule (map_miss over LAG_POWERS × LAG_WEIGHTS)."""
+
+SMOOTHER_REVISION_WEIGHT = 1.5
+"""κ of the smoother's variance map (see SMOOTHER_VARIANCE_POWER)."""
 
 
 def lag_variance(
-    var_lag: np.ndarray, var_filter: np.ndarray, power: float = LAG_VARIANCE_POWER
+    var_lag: np.ndarray,
+    var_filter: np.ndarray,
+    a_lag: np.ndarray,
+    a_filter: np.ndarray,
+    power: float = LAG_VARIANCE_POWER,
+    weight: float = LAG_REVISION_WEIGHT,
 ) -> np.ndarray:
-    """P_f (P_lag/P_f)^γ of 1-d columns, γ = ``power``, the ratio clipped to [0, 1]: the
-    fixed-lag variance as it matches real motion (docs/estimators.md, "Fixed lag");
+    """P_f (P_lag/P_f)^γ + κ (â_lag − â_f)² of 1-d columns, γ = ``power``, κ = ``weight``, the ratio clipped
+    to [0, 1]: the fixed-lag variance as it matches real motion (docs/estimators.md, "Fixed lag");
     ``ekf_kernels.lag_variance_one`` per sample, the formula the live fixed-lag output uses too.
 
     Under the random walk the IMM assumes, P_lag is the error variance (NEES 0.9 on a simulated walk). Real
     a(t) is smoother than a walk of the q_a that follows its changes: the filter's error is mostly its lag
-    behind the trend, which the future samples remove, so the lagged error shrinks faster than P_lag/P_f
-    (NEES 0.1–0.5 with γ = 1). The map leaves P_f where the future adds nothing (ratio 1: lag 0, a
-    segment's end) and shrinks the rest as a power of the model's own ratio."""
+    behind the trend, which the future samples remove, so the lagged error shrinks faster than P_lag/P_f.
+    How much is left depends on the motion, and the motion shows in the revision d = â_lag − â_f that the
+    lag's samples made: small where a(t) went as the filter predicted, large where it turned, and the error
+    still left after a revision is of its order. The first term shrinks the model's ratio hard (γ > 1);
+    the second gives back a variance in proportion to the revision, so the errors after a turn, which the
+    power alone left at up to 10⁵ times their variance, are covered. The price is the bulk: where d is
+    large the σ is far above the typical error (docs/estimators.md, "Calibration"). The map leaves P_f where
+    the future adds nothing (ratio 1, d = 0: lag 0, a segment's end)."""
     # One output array and no copies of the inputs (the lag table's column views are read in place):
     # export maps a whole recording's column (a million samples and more) within its memory bound.
     out = np.empty(var_lag.shape, dtype=np.float64)
-    kern.lag_variance_into(var_lag, var_filter, power, out)
+    kern.lag_variance_into(var_lag, var_filter, a_lag, a_filter, power, weight, out)
     return out
 
 
 def imm_smoother(
     t: np.ndarray, theta: np.ndarray, params: np.ndarray, qs: np.ndarray, rates: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(âˢ, Pˢ_aa, P_f,aa): the RTS pass of the single model at q_a,k = Σ_j μˢ_k(j) q_j (ekf_kernels.rts
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(âˢ, Pˢ_aa, P_f,aa, â_f): the RTS pass of the single model at q_a,k = Σ_j μˢ_k(j) q_j (ekf_kernels.rts
     over run_pass), μˢ the IMM's mode probabilities smoothed over the recording (ekf_kernels.smooth_modes),
-    and that pass's own filtered P_aa. Where that pass broke down (rts leaves a hole: angles far out of
-    the model, e.g. jumping across ±90°) the sample gets the IMM filter's â and P_aa for both variances,
-    as the fixed-lag output gives a sample a restart lost.
+    and that pass's own filtered P_aa and â. Where that pass broke down (rts leaves a hole: angles far out
+    of the model, e.g. jumping across ±90°) the sample gets the IMM filter's â for both estimates and its P_aa
+    for both variances, as the fixed-lag output gives a sample a restart lost.
 
     The mode mix the whole recording supports sets each interval's process noise, so a change gets the
     agile modes' q_a on both sides of it (a pass that weighed the modes by the past alone would carry the
@@ -194,12 +212,13 @@ def imm_smoother(
     del q, _
     a, var = kern.rts(xpr, ppr, xpo, ppo, fk, starts)
     var_f = ppo[:, 2, 2].copy()
+    a_pass = xpo[:, 2].copy()
     del xpr, ppr, xpo, ppo, fk, starts
     hole = np.isnan(a)
     if hole.any():
-        a[hole] = a_f[hole, 0]
+        a[hole] = a_pass[hole] = a_f[hole, 0]
         var[hole] = var_f[hole] = var_imm[hole, 0]
-    return a, var, var_f
+    return a, var, var_f, a_pass
 
 
 def lag_samples(lag: float, rate_hz: float) -> int:
@@ -302,6 +321,7 @@ class KalmanEstimator(Estimator):
         self._ring_c = np.zeros((size, 3))
         self._ring_t = [0.0] * size
         self._ring_f = np.zeros(size)  # the IMM filter's own variance of each buffered sample
+        self._ring_af = np.zeros(size)  # and its own â, for the lag's revision (lag_variance)
         self._state = np.array([math.nan, 0.0])
         m = max(self._qs.size, 1)
         d = 4 if self._jerks.size else 3  # a trend mode's fourth state, j
@@ -360,14 +380,22 @@ class KalmanEstimator(Estimator):
         self._ring_t[(count - 1) % size] = t
         if self.modes and self.lag_n:
             newest = (count - 1) % size
-            self._ring_f[newest] = kern.imm_lagged(self._mu, self._ra, self._rv, newest)[1]
+            self._ring_af[newest], self._ring_f[newest] = kern.imm_lagged(
+                self._mu, self._ra, self._rv, newest
+            )
         if count <= self.lag_n:
             return None
         slot = (count - 1 - self.lag_n) % size
         if self.modes:
             a, var = kern.imm_lagged(self._mu, self._ra, self._rv, slot)
             if self.lag_n:
-                var = kern.lag_variance_one(var, float(self._ring_f[slot]), LAG_VARIANCE_POWER)
+                var = kern.lag_variance_one(
+                    var,
+                    float(self._ring_f[slot]),
+                    LAG_VARIANCE_POWER,
+                    a - float(self._ring_af[slot]),
+                    LAG_REVISION_WEIGHT,
+                )
             return self._estimate(a, var, self._ring_t[slot])
         return self._estimate(float(self._ring_a[slot]), float(self._ring_v[slot]), self._ring_t[slot])
 
@@ -434,7 +462,7 @@ class KalmanEstimator(Estimator):
             lost = np.isnan(a[:, m])
             a[lost, m], var[lost, m] = a[lost, 0], var[lost, 0]
             if self.modes and lag_arr[m]:
-                var[:, m] = lag_variance(var[:, m], var[:, 0])
+                var[:, m] = lag_variance(var[:, m], var[:, 0], a[:, m], a[:, 0])
         published = [self._publish(t, a[:, m], var[:, m]) for m in range(1, lag_arr.size)]
         del a, var
         if len(published) == 1:  # the usual single lag: its columns as they are, no second copy
@@ -565,8 +593,8 @@ class SmootherEstimator(KalmanEstimator):
     have no backward pass with a calibrated variance yet: docs/estimators.md, "smoother").
 
     Without ``q_accel``: the RTS smoother at the mode mix the whole recording supports (``imm_smoother``),
-    its variance P_f (Pˢ/P_f)^γ, γ = SMOOTHER_VARIANCE_POWER. With ``q_accel``: the fixed-interval RTS
-    smoother of the single model (ekf_kernels.rts).
+    its variance P_f (Pˢ/P_f)^γ + κ (âˢ − â_f)², γ = SMOOTHER_VARIANCE_POWER, κ = SMOOTHER_REVISION_WEIGHT.
+    With ``q_accel``: the fixed-interval RTS smoother of the single model (ekf_kernels.rts).
     """
 
     name: ClassVar[str] = "smoother"
@@ -607,8 +635,9 @@ class SmootherEstimator(KalmanEstimator):
             return np.empty(0), np.empty(0)
         # With trend modes too, the backward pass is the random walks' (there is no four-state RTS pass): the
         # smoother of the preset's random-walk modes alone.
-        a, var_s, var_f = imm_smoother(t, theta, self._params, *self._walks)
-        return self._publish(t, a, lag_variance(var_s, var_f, SMOOTHER_VARIANCE_POWER))
+        a, var_s, var_f, a_f = imm_smoother(t, theta, self._params, *self._walks)
+        var = lag_variance(var_s, var_f, a, a_f, SMOOTHER_VARIANCE_POWER, SMOOTHER_REVISION_WEIGHT)
+        return self._publish(t, a, var)
 
     def nominal_delay(self, accel: float) -> float:
         """0: a smoother has no lag (its latency is the recording)."""
