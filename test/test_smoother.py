@@ -101,11 +101,11 @@ def test_lag_trades_latency_for_accuracy() -> None:
 
 
 def test_lag_variance_map_matches_smooth_motion_and_keeps_the_filters_where_the_future_adds_nothing() -> None:
-    """The published fixed-lag variance P_f (P_lag/P_f)^γ + κ (â_lag − â_f)² (kalman.lag_variance) against the
-    IMM's raw combination P_lag, at 0.25 s on the smooth drive: the formula sample by sample (to rounding,
-    argued below), the filter's own at the recording's last sample (no future there: ratio 1 and no
-    revision, exactly), and a share of errors beyond 2σ inside issue 33's 1–12 %, where the raw variance
-    over-covers the smooth drive (0.3 % beyond 2σ; the map: 4.8 %, with margin on both sides)."""
+    """The published fixed-lag variance min(P_f (P_lag/P_f)^γ + κ (â_lag − â_f)², P_lag) (kalman.lag_variance)
+    against the IMM's raw combination P_lag, at 0.25 s on the smooth drive: the formula sample by sample (to
+    rounding, argued below), never wider than P_lag, the filter's own at the recording's last sample (no
+    future there: ratio 1 and no revision, exactly), and a share of errors beyond 2σ inside issue 33's
+    1–12 %, where the raw variance over-covers the smooth drive (0.3 % beyond 2σ; the map: 5.5 %)."""
     t, theta, truth = drive()
     est = make_estimator("kalman", **CFG)
     assert isinstance(est, KalmanEstimator)
@@ -117,11 +117,13 @@ def test_lag_variance_map_matches_smooth_motion_and_keeps_the_filters_where_the_
     np.testing.assert_array_equal(a[:, 1], a_raw[:, 1])  # CFG has no clamp in reach: â as the pass gives it
     # CFG states no sensor bias: the published var adds nothing. Each side forms r = P_lag/P_f (½ ulp), r^γ
     # (≤ 4 ulp in numpy's SIMD pow, e.g. SVML on AVX-512; < 1 ulp in glibc), two products and d² (½ ulp
-    # each) and a sum of two positive terms (½ ulp, no cancellation): under 8 ulp ≈ 1.8e-15 apart relative;
-    # 1e-13 is 50 times that.
+    # each) and a sum of two positive terms (½ ulp, no cancellation), then the exact min: under 8 ulp ≈
+    # 1.8e-15 apart relative; 1e-13 is 50 times that.
     ratio = np.clip(raw[:, 1] / raw[:, 0], 0.0, 1.0)
-    formula = raw[:, 0] * ratio**LAG_VARIANCE_POWER + LAG_REVISION_WEIGHT * (a_raw[:, 1] - a_raw[:, 0]) ** 2
+    revision = a_raw[:, 1] - a_raw[:, 0]
+    formula = np.minimum(raw[:, 0] * ratio**LAG_VARIANCE_POWER + LAG_REVISION_WEIGHT * revision**2, raw[:, 1])
     np.testing.assert_allclose(var[:, 1], formula, rtol=1e-13, atol=0.0)
+    assert np.all(var[:, 1] <= raw[:, 1])  # the min is exact: no rounding between it and P_lag
     assert var[-1, 1] == var[-1, 0]
     keep = t >= 2.0
     err2 = (a[:, 1] - truth)[keep] ** 2

@@ -982,12 +982,12 @@ def _trend_lag_update(
 def lag_variance_one(
     var_lag: float, var_filter: float, power: float, revision: float, weight: float
 ) -> float:
-    """P_f (P_lag/P_f)^γ + κ d² with the ratio clipped to [0, 1], d = â_lag − â_f (``revision``), κ =
-    ``weight``; P_lag where P_f ≤ 0 (kalman.lag_variance)."""
+    """min(P_f (P_lag/P_f)^γ + κ d², P_lag) with the ratio clipped to [0, 1], d = â_lag − â_f (``revision``),
+    κ = ``weight``; P_lag where P_f ≤ 0 (kalman.lag_variance)."""
     if not var_filter > 0.0 or var_lag != var_lag:  # no filter variance, or no lagged one (NaN) to map
         return var_lag
     ratio = min(max(var_lag / var_filter, 0.0), 1.0)
-    return var_filter * ratio**power + weight * revision * revision
+    return min(var_filter * ratio**power + weight * revision * revision, var_lag)
 
 
 @njit(cache=True)

@@ -139,26 +139,26 @@ PRESETS: dict[str, MotionPreset] = {
 }
 DEFAULT_PRESET = "auto"
 
-LAG_VARIANCE_POWER = 2.8
-"""γ of the IMM's fixed-lag variance, published as P_f (P_lag/P_f)^γ + κ d² (``lag_variance``, κ =
-LAG_REVISION_WEIGHT). Fitted with κ by ``python -m benchmarks.real_motion --fit --quick`` (fit_lag_map) on
-every training profile of benchmarks.corpus (cars, robots, acceleration tables, the lab's step and
+LAG_VARIANCE_POWER = 2.6
+"""γ of the IMM's fixed-lag variance, published as min(P_f (P_lag/P_f)^γ + κ d², P_lag) (``lag_variance``,
+κ = LAG_REVISION_WEIGHT). Fitted with κ by ``python -m benchmarks.real_motion --fit --quick`` (fit_lag_map)
+on every training profile of benchmarks.corpus (cars, robots, acceleration tables, the lab's step and
 stop_and_go), the teaching and short_damped designs, the first 60 s, seed 0, lags 0.25 s and 1 s: of
-LAG_POWERS × LAG_WEIGHTS, the pair whose shares beyond 2σ (steady and after changes) are closest to a
-Gaussian's and whose mean NEES is closest to 1 (map_miss)."""
+LAG_POWERS × LAG_WEIGHTS, the pair whose shares beyond 2σ (steady and after changes), mean NEES and median
+NEES are closest to a Gaussian error's (map_miss)."""
 
-LAG_REVISION_WEIGHT = 2.0
+LAG_REVISION_WEIGHT = 1.5
 """κ of the fixed-lag variance map: the weight of d² = (â_lag − â_f)², the revision the lag's samples made
 to the filter's estimate of the same sample. Fitted with LAG_VARIANCE_POWER (see there)."""
 
 
-SMOOTHER_VARIANCE_POWER = 3.6
-"""γ of the smoother's variance, published as P_f (Pˢ/P_f)^γ + κ (âˢ − â_f)² (``lag_variance``, κ =
+SMOOTHER_VARIANCE_POWER = 2.9
+"""γ of the smoother's variance, published as min(P_f (Pˢ/P_f)^γ + κ (âˢ − â_f)², Pˢ) (``lag_variance``, κ =
 SMOOTHER_REVISION_WEIGHT; ``imm_smoother``: P_f and â_f its single-model pass's filtered ones). Fitted with κ
 by ``python -m benchmarks.real_motion --fit --quick`` (fit_smoother_map) on the data LAG_VARIANCE_POWER was
 fitted on (lag: the whole recording), by the same rule (map_miss over LAG_POWERS × LAG_WEIGHTS)."""
 
-SMOOTHER_REVISION_WEIGHT = 1.5
+SMOOTHER_REVISION_WEIGHT = 0.5
 """κ of the smoother's variance map (see SMOOTHER_VARIANCE_POWER)."""
 
 
@@ -170,20 +170,20 @@ def lag_variance(
     power: float = LAG_VARIANCE_POWER,
     weight: float = LAG_REVISION_WEIGHT,
 ) -> np.ndarray:
-    """P_f (P_lag/P_f)^γ + κ (â_lag − â_f)² of 1-d columns, γ = ``power``, κ = ``weight``, the ratio clipped
-    to [0, 1]: the fixed-lag variance as it matches real motion (docs/estimators.md, "Fixed lag");
-    ``ekf_kernels.lag_variance_one`` per sample, the formula the live fixed-lag output uses too.
+    """min(P_f (P_lag/P_f)^γ + κ (â_lag − â_f)², P_lag) of 1-d columns, γ = ``power``, κ = ``weight``, the
+    ratio clipped to [0, 1]: the fixed-lag variance as it matches real motion (docs/estimators.md, "Fixed
+    lag"); ``ekf_kernels.lag_variance_one`` per sample, the formula the live fixed-lag output uses too.
 
     Under the random walk the IMM assumes, P_lag is the error variance (NEES 0.9 on a simulated walk). Real
     a(t) is smoother than a walk of the q_a that follows its changes: the filter's error is mostly its lag
     behind the trend, which the future samples remove, so the lagged error shrinks faster than P_lag/P_f.
     How much is left depends on the motion, and the motion shows in the revision d = â_lag − â_f that the
     lag's samples made: small where a(t) went as the filter predicted, large where it turned, and the error
-    still left after a revision is of its order. The first term shrinks the model's ratio hard (γ > 1);
-    the second gives back a variance in proportion to the revision, so the errors after a turn, which the
-    power alone left at up to 10⁵ times their variance, are covered. The price is the bulk: where d is
-    large the σ is far above the typical error (docs/estimators.md, "Calibration"). The map leaves P_f where
-    the future adds nothing (ratio 1, d = 0: lag 0, a segment's end)."""
+    still left after a large revision is of its order. The first term shrinks the model's ratio hard
+    (γ > 1); the second gives back a variance in proportion to the revision, so the errors after a turn,
+    which the power alone left at up to 10⁵ times their variance, are covered; P_lag caps the sum, so the
+    map is never wider than the model's own fixed-lag variance (which over-covers real motion already). It
+    leaves P_f where the future adds nothing (ratio 1, d = 0: lag 0, a segment's end)."""
     # One output array and no copies of the inputs (the lag table's column views are read in place):
     # export maps a whole recording's column (a million samples and more) within its memory bound.
     out = np.empty(var_lag.shape, dtype=np.float64)
@@ -593,7 +593,8 @@ class SmootherEstimator(KalmanEstimator):
     have no backward pass with a calibrated variance yet: docs/estimators.md, "smoother").
 
     Without ``q_accel``: the RTS smoother at the mode mix the whole recording supports (``imm_smoother``),
-    its variance P_f (Pˢ/P_f)^γ + κ (âˢ − â_f)², γ = SMOOTHER_VARIANCE_POWER, κ = SMOOTHER_REVISION_WEIGHT.
+    its variance min(P_f (Pˢ/P_f)^γ + κ (âˢ − â_f)², Pˢ), γ = SMOOTHER_VARIANCE_POWER, κ =
+    SMOOTHER_REVISION_WEIGHT.
     With ``q_accel``: the fixed-interval RTS smoother of the single model (ekf_kernels.rts).
     """
 
