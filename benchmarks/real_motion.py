@@ -58,7 +58,13 @@ from benchmarks.corpus import CORPUS
 from pendulum_accel.cluster import map_tasks
 from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
 from pendulum_accel.estimators import ekf_kernels as kern
-from pendulum_accel.estimators.kalman import PRESETS, KalmanEstimator, imm_smoother, lag_samples
+from pendulum_accel.estimators.kalman import (
+    PRESETS,
+    KalmanEstimator,
+    imm_smoother,
+    lag_samples,
+    lag_variance,
+)
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import AccelProfile
 from pendulum_accel.recording import coverage
@@ -530,25 +536,27 @@ def map_miss(counts: np.ndarray, nees_mean: float, nees_median: float) -> float:
     )
 
 
+MapSums = tuple[np.ndarray, np.ndarray, np.ndarray]  # map_counts' three arrays, pooled over runs
+
+
 def map_counts(
     e: np.ndarray,
     var_filter: np.ndarray,
     var_lag: np.ndarray,
-    revision: np.ndarray,
+    a_lag: np.ndarray,
+    a_filter: np.ndarray,
     after: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> MapSums:
     """(calibration_counts, Σ NEES, histogram of log10 NEES over NEES_DECADES) of e against
-    min(P_f r^γ + κ d², P_lag) (r = P_lag/P_f clipped to [0, 1], d the revision) for every (γ, κ) of
-    LAG_POWERS × LAG_WEIGHTS: the sums fit_lag_map and fit_smoother_map pool (a histogram pools, a median
-    does not)."""
-    ratio = np.clip(var_lag / var_filter, 0.0, 1.0)
+    kalman.lag_variance(var_lag, var_filter, a_lag, a_filter, γ, κ) for every (γ, κ) of LAG_POWERS ×
+    LAG_WEIGHTS: the sums fit_lag_map and fit_smoother_map pool (a histogram pools, a median does not). The
+    fit scores the very function the estimators publish, not a copy of its formula."""
     shape = (len(LAG_POWERS), len(LAG_WEIGHTS))
     counts, nees = np.zeros((*shape, 5)), np.zeros(shape)
     hist = np.zeros((*shape, NEES_DECADES.size - 1))
     for g, power in enumerate(LAG_POWERS):
-        shrunk = var_filter * ratio**power
         for k, weight in enumerate(LAG_WEIGHTS):
-            z = e * e / np.minimum(shrunk + weight * revision * revision, var_lag)
+            z = e * e / lag_variance(var_lag, var_filter, a_lag, a_filter, power, weight)
             counts[g, k] = calibration_counts(e, z > 4.0, after)
             nees[g, k] = float(np.sum(z))
             bins = np.searchsorted(NEES_DECADES, np.log10(np.maximum(z, 1e-300)), side="right") - 1
@@ -562,9 +570,7 @@ def _median_nees(hist: np.ndarray) -> float:
     return float(10.0 ** (0.5 * (NEES_DECADES[k] + NEES_DECADES[k + 1])))
 
 
-def _map_fit(
-    cells: Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]],
-) -> tuple[tuple[float, float], np.ndarray]:
+def _map_fit(cells: Iterator[MapSums]) -> tuple[tuple[float, float], np.ndarray]:
     """((γ, κ), miss per pair): Σ over the cells (each its pooled map_counts) of map_miss, the least."""
     miss = np.zeros((len(LAG_POWERS), len(LAG_WEIGHTS)))
     for counts, nees, hist in cells:
@@ -574,9 +580,6 @@ def _map_fit(
                 miss[g, k] += map_miss(cell, nees[g, k] / (cell[2] + cell[4]), _median_nees(hist[g, k]))
     best_g, best_k = (int(i) for i in np.unravel_index(int(np.argmin(miss)), miss.shape))
     return (LAG_POWERS[best_g], LAG_WEIGHTS[best_k]), miss
-
-
-MapSums = tuple[np.ndarray, np.ndarray, np.ndarray]  # map_counts' three arrays, pooled over runs
 
 
 def _pooled(parts: Iterator[MapSums]) -> MapSums:
@@ -601,7 +604,7 @@ def fit_lag_map(seeds: int, quick: bool) -> tuple[tuple[float, float], np.ndarra
             after = after_change(r.t, r.t, r.accel)[keep]
             yield [
                 map_counts(
-                    (a[:, m] - r.accel)[keep], var[keep, 0], var[keep, m], (a[:, m] - a[:, 0])[keep], after
+                    (a[:, m] - r.accel)[keep], var[keep, 0], var[keep, m], a[keep, m], a[keep, 0], after
                 )
                 for m in range(1, lags.size)
             ]
@@ -631,7 +634,7 @@ def fit_smoother_map(seeds: int, quick: bool) -> tuple[tuple[float, float], np.n
             a, var_s, var_f, a_f = imm_smoother(r.t, r.theta, params, modes, rates)
             keep = r.t >= WARMUP
             after = after_change(r.t, r.t, r.accel)[keep]
-            yield map_counts((a - r.accel)[keep], var_f[keep], var_s[keep], (a - a_f)[keep], after)
+            yield map_counts((a - r.accel)[keep], var_f[keep], var_s[keep], a[keep], a_f[keep], after)
 
     def cells() -> Iterator[MapSums]:
         for design in designs():
