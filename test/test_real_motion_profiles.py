@@ -602,7 +602,7 @@ def test_bag_topic_differentiates_odometry_from_any_bag(storage: str, tmp_path: 
     profile = table_of({"type": "bag_topic", "path": str(path), "topic": "/odom"})
     assert profile.times[0] == 0.0 and profile.times[-1] == pytest.approx(TIMES[-1], abs=1e-9)
     assert np.max(np.abs(np.array(profile.accels) - 0.4)) <= 1e-9  # a straight line (units test's bound)
-    assert "nav_msgs/msg/Odometry, 600 messages, header stamps" in profile.origin
+    assert "nav_msgs/msg/Odometry twist.twist.linear.x, 600 messages, header stamps" in profile.origin
     assert profile_from_dict(profile.to_dict()) == profile  # a standalone speed_table
 
 
@@ -651,6 +651,80 @@ def test_bag_topic_errors_are_one_line(spec: dict[str, object], message: str, tm
     full = {"type": "bag_topic", "path": "odom.bag", **spec}
     with pytest.raises(ParameterError) as info:
         profile_from_dict(full, base_dir=tmp_path)
+    assert message in str(info.value) and "\n" not in str(info.value)
+
+
+def write_imu(path: Path, forward: np.ndarray) -> Path:
+    """An MCAP bag of /imu (sensor_msgs/Imu at TIMES) from an IMU mounted z backward, x up: the car's forward
+    acceleration is −z and x holds g, as a robot's IMU often is (the Husky's in robot_localization)."""
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Writer2
+    from rosbags.typesys import Stores, get_typestore
+
+    typestore = get_typestore(Stores.ROS2_HUMBLE)
+    types = typestore.types
+    msgtype = "sensor_msgs/msg/Imu"
+    vec, quat = types["geometry_msgs/msg/Vector3"], types["geometry_msgs/msg/Quaternion"]
+    with Writer2(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conn = w.add_connection("/imu", msgtype, typestore=typestore)
+        for t, a in zip(TIMES, forward, strict=True):
+            ns = EPOCH_NS + round(t * 1e9)
+            time = types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+            msg = types[msgtype](
+                header=types["std_msgs/msg/Header"](stamp=time, frame_id="imu"),
+                orientation=quat(x=0.0, y=0.0, z=0.0, w=1.0),
+                orientation_covariance=np.zeros(9),
+                angular_velocity=vec(x=0.0, y=0.0, z=0.0),
+                angular_velocity_covariance=np.zeros(9),
+                linear_acceleration=vec(x=9.81, y=0.0, z=-float(a)),
+                linear_acceleration_covariance=np.zeros(9),
+            )
+            w.write(conn, ns, typestore.serialize_cdr(msg, msgtype))
+    return path
+
+
+def test_bag_topic_reads_the_stated_field_and_scale(tmp_path: Path) -> None:
+    """An IMU mounted z backward: ``field: linear_acceleration.z`` with ``scale: -1`` gives the forward a(t)
+    exactly (a copy times −1: no rounding), where the default field reads the IMU's x (g here); and
+    odometry with ``scale: -1`` (an odometry whose x points backward) gives a = −0.4 to the units test's
+    bound. The origin names the field and the scale, and the standalone copy keeps the scaled speeds."""
+    accels = 0.8 * np.sin(0.5 * TIMES)
+    path = write_imu(tmp_path / "imu", accels)
+    spec: dict[str, object] = {"type": "bag_topic", "path": str(path), "topic": "/imu"}
+    stated = table_of({**spec, "field": "linear_acceleration.z", "scale": -1})
+    assert np.array_equal(np.array(stated.accels), accels)
+    assert "sensor_msgs/msg/Imu linear_acceleration.z x -1," in stated.origin
+    default = table_of(spec)
+    assert np.all(np.array(default.accels) == 9.81)
+    assert "sensor_msgs/msg/Imu linear_acceleration.x," in default.origin
+    odom = write_odometry(tmp_path / "odom.bag", "ros1")
+    backward = table_of({"type": "bag_topic", "path": str(odom), "topic": "/odom", "scale": -1})
+    assert np.max(np.abs(np.array(backward.accels) + 0.4)) <= 1e-9
+    assert profile_from_dict(backward.to_dict()) == backward
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        (
+            {"field": "linear_acceleration.w"},
+            "sensor_msgs/msg/Imu has no number field 'linear_acceleration.w' (its number fields: "
+            "orientation.x, orientation.y",
+        ),
+        ({"field": "header"}, "has no number field 'header'"),
+        ({"field": "orientation_covariance"}, "has no number field 'orientation_covariance'"),
+        ({"field": 3}, "bag_topic profile field 'field' must be text, got 3"),
+        ({"scale": 0}, "bag_topic profile field 'scale' must not be 0"),
+    ],
+)
+def test_bag_topic_field_and_scale_errors_are_one_line(
+    spec: dict[str, object], message: str, tmp_path: Path
+) -> None:
+    """A field the type lacks (or that is no single number), a field that is not text, a zero scale: one
+    line each, the first listing the type's number fields."""
+    write_imu(tmp_path / "imu", np.zeros(TIMES.size))
+    with pytest.raises(ParameterError) as info:
+        profile_from_dict({"type": "bag_topic", "path": "imu", "topic": "/imu", **spec}, base_dir=tmp_path)
     assert message in str(info.value) and "\n" not in str(info.value)
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.motion_input.columns import csv_rows
-from pendulum_accel.motion_input.fields import field_number, field_text
+from pendulum_accel.motion_input.fields import field_scale, field_text
 from pendulum_accel.motion_input.trace import csv_trace, recorded_acceleration
 from pendulum_accel.physics.profiles import Table
 from pendulum_accel.textfile import read_text_file
@@ -29,9 +29,7 @@ def accel_csv_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     """
     kind = "accel_csv"
     accel_column = field_text(kind, "accel_column", d["accel_column"]) if "accel_column" in d else None
-    scale = field_number(kind, "scale", d["scale"]) if "scale" in d else 1.0
-    if scale == 0.0:
-        raise ParameterError(f"{kind} profile field 'scale' must not be 0", path="scale")
+    scale = field_scale(kind, d)
     stretch, _, path = csv_trace(kind, d, base_dir, "accel_column", name="acceleration")
     column = accel_column if accel_column is not None else "column 2"
     scaled = f", x {scale:g}" if scale != 1.0 else ""

@@ -13,6 +13,11 @@ geometry_msgs/msg/AccelStamped           accel.linear.x            smoothing spl
 geometry_msgs/msg/AccelWithCovarianceSt. accel.accel.linear.x      profile states cutoff_hz)
 =======================================  ========================  =====================================
 
+``field`` reads another numeric field of the same message instead (dotted, e.g. ``linear_acceleration.z``
+for an IMU mounted with z forward), and ``scale`` multiplies what is read (-1 for an axis pointing
+backward): a real robot's IMU is seldom mounted x forward. The type still decides whether the value is a
+speed or an acceleration.
+
 Times are the messages' header stamps, shifted so the first is t = 0 (the bag's log times when every
 stamp is zero, i.e. never set). Stamps that go back, gaps, NaN: one-line errors naming the message.
 """
@@ -26,7 +31,13 @@ from typing import Any
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.motion_input.fields import field_number, field_path, field_text, window_fields
+from pendulum_accel.motion_input.fields import (
+    field_number,
+    field_path,
+    field_scale,
+    field_text,
+    window_fields,
+)
 from pendulum_accel.motion_input.speed_trace import speed_recipe
 from pendulum_accel.motion_input.trace import (
     check_trace,
@@ -52,6 +63,60 @@ ACCEL_FIELDS: dict[str, Callable[[Any], float]] = {
 }
 """Types whose forward acceleration (m/s²) is a(t) itself."""
 
+DEFAULT_FIELDS: dict[str, str] = {
+    "nav_msgs/msg/Odometry": "twist.twist.linear.x",
+    "geometry_msgs/msg/TwistStamped": "twist.linear.x",
+    "sensor_msgs/msg/Imu": "linear_acceleration.x",
+    "geometry_msgs/msg/AccelStamped": "accel.linear.x",
+    "geometry_msgs/msg/AccelWithCovarianceStamped": "accel.accel.linear.x",
+}
+"""The field each type's readers above read: what ``field`` replaces."""
+
+
+def numeric_fields(message: Any, prefix: str = "") -> list[str]:
+    """Dotted paths of a message's scalar number fields (header and arrays left out): the choices a
+    ``field`` error lists."""
+    names: list[str] = []
+    for name in getattr(message, "__dataclass_fields__", {}):
+        if name in ("header", "__msgtype__"):
+            continue
+        value = getattr(message, name)
+        path = f"{prefix}{name}"
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            names.append(path)
+        elif hasattr(value, "__dataclass_fields__"):
+            names.extend(numeric_fields(value, path + "."))
+    return names
+
+
+def field_reader(msgtype: str, field: str, message: Any) -> Callable[[Any], float]:
+    """A reader of the dotted ``field`` of messages shaped as ``message`` (the first one), checked on it:
+    ParameterError listing the type's numeric fields when the path leads to no scalar number."""
+    parts = field.split(".")
+    value: Any = message
+    for part in parts:
+        if (
+            part.startswith("_")
+            or not hasattr(value, "__dataclass_fields__")
+            or part not in (value.__dataclass_fields__)
+        ):
+            value = None
+            break
+        value = getattr(value, part)
+    if not isinstance(value, int | float) or isinstance(value, bool):
+        raise ParameterError(
+            f"{msgtype} has no number field {field!r} (its number fields: "
+            f"{', '.join(numeric_fields(message))})",
+            path="field",
+        )
+
+    def read(m: Any) -> float:
+        for part in parts:
+            m = getattr(m, part)
+        return float(m)
+
+    return read
+
 
 def _bag_source(path: Path) -> Path:
     """What AnyReader opens: a ROS 1 .bag file, or the rosbag2 directory (also when given its .mcap/.db3)."""
@@ -60,8 +125,9 @@ def _bag_source(path: Path) -> Path:
     return path
 
 
-def read_topic(path: Path, topic: str) -> tuple[str, np.ndarray, np.ndarray, bool]:
-    """(msgtype, t in s, x values, stamped) of every message on ``topic``, in the bag's log order.
+def read_topic(path: Path, topic: str, field: str | None = None) -> tuple[str, np.ndarray, np.ndarray, bool]:
+    """(msgtype, t in s, values, stamped) of every message on ``topic``, in the bag's log order: the type's
+    DEFAULT_FIELDS entry, or the dotted ``field``.
 
     ``stamped`` is False when every header stamp is zero and the log times were used instead.
     """
@@ -107,6 +173,8 @@ def read_topic(path: Path, topic: str) -> tuple[str, np.ndarray, np.ndarray, boo
                 )
             for connection, log_ns, raw in reader.messages(connections=connections):
                 message: Any = reader.deserialize(raw, connection.msgtype)
+                if field is not None and not values:  # checked on the first message, then read as it
+                    read = field_reader(msgtype, field, message)
                 stamps.append(
                     int(message.header.stamp.sec) * 1_000_000_000 + int(message.header.stamp.nanosec)
                 )
@@ -130,13 +198,20 @@ def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     kind = "bag_topic"
     path = field_path(kind, d["path"], base_dir)
     topic = field_text(kind, "topic", d["topic"])
-    msgtype, times, values, stamped = read_topic(path, topic)
+    field = field_text(kind, "field", d["field"]) if "field" in d else None
+    scale = field_scale(kind, d)
+    msgtype, times, values, stamped = read_topic(path, topic, field)
+    values = values * scale
     where: Callable[[int], str] = lambda i: f"bag {path.name} {topic} message {i}"  # noqa: E731
     start, end = window_fields(kind, d)
     name = "speed" if msgtype in SPEED_FIELDS else "acceleration"
     stretch = check_trace(times, values, where, name=name, start=start, end=end)
     clock = "header stamps" if stamped else "log times (header stamps unset)"
-    label = f"bag_topic {path.name} {topic} ({msgtype}, {stretch.times.size} messages, {clock})"
+    read = field if field is not None else DEFAULT_FIELDS[msgtype]
+    scaled = f" x {scale:g}" if scale != 1.0 else ""
+    label = (
+        f"bag_topic {path.name} {topic} ({msgtype} {read}{scaled}, {stretch.times.size} messages, {clock})"
+    )
     if msgtype in SPEED_FIELDS:
         default = "cutoff_hz" not in d
         cutoff = (

@@ -32,6 +32,14 @@ def field_path(kind: str, raw: object, base_dir: Path | None) -> Path:
     return path
 
 
+def field_scale(kind: str, d: Mapping[str, object]) -> float:
+    """The optional 'scale' field (default 1): a non-zero number multiplying the values read."""
+    scale = field_number(kind, "scale", d["scale"]) if "scale" in d else 1.0
+    if scale == 0.0:
+        raise ParameterError(f"{kind} profile field 'scale' must not be 0", path="scale")
+    return scale
+
+
 def field_text(kind: str, name: str, value: object, choices: Sequence[str] = ()) -> str:
     """Profile field ``name`` as text (one of ``choices`` when given), else ParameterError naming it."""
     if not isinstance(value, str) or (choices and value not in choices):

@@ -32,7 +32,7 @@ _FIELDS: dict[str, tuple[type[AccelProfile], tuple[str, ...], tuple[str, ...]]] 
         ("path", "units"),
         ("time_column", "speed_column", "time_format", "time_units", "cutoff_hz", "start", "end", "signed"),
     ),
-    "bag_topic": (Table, ("path", "topic"), ("cutoff_hz", "start", "end")),
+    "bag_topic": (Table, ("path", "topic"), ("field", "scale", "cutoff_hz", "start", "end")),
     # A phone's accelerometer log (phyphox's CSV export, or any t, a columns), used as recorded.
     "accel_csv": (
         Table,
@@ -97,7 +97,10 @@ PROFILE_FIELD_DOCS: dict[str, str] = {
     "start": "window start (default: the first sample): " + _WINDOW,
     "end": "window end (default: the last sample): " + _WINDOW,
     "signed": "true lets the speed go negative (reversing); default false",
-    "scale": "multiplies the column (default 1; -1 when the logger's axis points backward), ≠ 0",
+    "scale": "multiplies the column or the bag field (default 1; -1 when the logger's axis points backward), "
+    "≠ 0",
+    "field": "the message field read, dotted (default by type: twist.twist.linear.x, linear_acceleration.x, "
+    "accel.linear.x; e.g. linear_acceleration.z for an IMU mounted z forward); a speed type's is a speed",
 }
 """Each profile field's meaning and unit, for the scene reference page."""
 
