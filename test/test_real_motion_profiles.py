@@ -703,6 +703,54 @@ def test_bag_topic_reads_the_stated_field_and_scale(tmp_path: Path) -> None:
     assert profile_from_dict(backward.to_dict()) == backward
 
 
+def test_bag_topic_reads_twist_with_covariance_and_vector3_stamped(tmp_path: Path) -> None:
+    """robot_localization's twist input (TwistWithCovarianceStamped: a speed, differentiated: a = 0.4 to the
+    units test's bound) and an IMU driver's free acceleration (Vector3Stamped: copied exactly), each from an
+    MCAP bag written by rosbags."""
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Writer2
+    from rosbags.typesys import Stores, get_typestore
+
+    typestore = get_typestore(Stores.ROS2_HUMBLE)
+    types = typestore.types
+    vec = types["geometry_msgs/msg/Vector3"]
+    accels = 0.3 * np.cos(TIMES)
+
+    def header(ns: int) -> object:
+        time = types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
+        return types["std_msgs/msg/Header"](stamp=time, frame_id="base_link")
+
+    def twist(ns: int, k: int) -> object:
+        moving = types["geometry_msgs/msg/Twist"](
+            linear=vec(x=float(SPEEDS[k]), y=0.0, z=0.0), angular=vec(x=0.0, y=0.0, z=0.0)
+        )
+        with_cov = types["geometry_msgs/msg/TwistWithCovariance"](twist=moving, covariance=np.zeros(36))
+        return types["geometry_msgs/msg/TwistWithCovarianceStamped"](header=header(ns), twist=with_cov)
+
+    def vector(ns: int, k: int) -> object:
+        return types["geometry_msgs/msg/Vector3Stamped"](
+            header=header(ns), vector=vec(x=float(accels[k]), y=0.0, z=0.0)
+        )
+
+    cases = (
+        ("geometry_msgs/msg/TwistWithCovarianceStamped", twist),
+        ("geometry_msgs/msg/Vector3Stamped", vector),
+    )
+    for msgtype, build in cases:
+        path = tmp_path / msgtype.rsplit("/", 1)[1]
+        with Writer2(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+            conn = w.add_connection("/motion", msgtype, typestore=typestore)
+            for k, t in enumerate(TIMES):
+                ns = EPOCH_NS + round(t * 1e9)
+                w.write(conn, ns, typestore.serialize_cdr(build(ns, k), msgtype))
+        profile = table_of({"type": "bag_topic", "path": str(path), "topic": "/motion"})
+        assert msgtype in profile.origin
+        if build is twist:
+            assert np.max(np.abs(np.array(profile.accels) - 0.4)) <= 1e-9
+        else:
+            assert np.array_equal(np.array(profile.accels), accels)
+
+
 @pytest.mark.parametrize(
     ("spec", "message"),
     [

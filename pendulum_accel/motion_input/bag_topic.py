@@ -3,15 +3,17 @@
 The bag is read with ``rosbags.highlevel.AnyReader`` (pure Python, no ROS). What a(t) is depends on the
 topic's type:
 
-=======================================  ========================  =====================================
-type                                     field read                a(t)
-=======================================  ========================  =====================================
-nav_msgs/msg/Odometry                    twist.twist.linear.x      speed, differentiated (trace)
-geometry_msgs/msg/TwistStamped           twist.linear.x            speed, differentiated (trace)
-sensor_msgs/msg/Imu                      linear_acceleration.x     used as recorded (low-passed by the
-geometry_msgs/msg/AccelStamped           accel.linear.x            smoothing spline only when the
-geometry_msgs/msg/AccelWithCovarianceSt. accel.accel.linear.x      profile states cutoff_hz)
-=======================================  ========================  =====================================
+============================================  =====================  ==================================
+type                                          field read             a(t)
+============================================  =====================  ==================================
+nav_msgs/msg/Odometry                         twist.twist.linear.x   speed, differentiated (trace)
+geometry_msgs/msg/TwistStamped                twist.linear.x         speed, differentiated (trace)
+geometry_msgs/msg/TwistWithCovarianceStamped  twist.twist.linear.x   speed, differentiated (trace)
+sensor_msgs/msg/Imu                           linear_acceleration.x  used as recorded (low-passed by
+geometry_msgs/msg/AccelStamped                accel.linear.x         the smoothing spline only when
+geometry_msgs/msg/AccelWithCovarianceStamped  accel.accel.linear.x   the profile states cutoff_hz)
+geometry_msgs/msg/Vector3Stamped              vector.x
+============================================  =====================  ==================================
 
 ``field`` reads another numeric field of the same message instead (dotted, e.g. ``linear_acceleration.z``
 for an IMU mounted with z forward), and ``scale`` multiplies what is read (-1 for an axis pointing
@@ -50,27 +52,21 @@ from pendulum_accel.motion_input.trace import (
 from pendulum_accel.physics.profiles import Table
 from pendulum_accel.textfile import not_a_file_or_directory
 
-SPEED_FIELDS: dict[str, Callable[[Any], float]] = {
-    "nav_msgs/msg/Odometry": lambda m: m.twist.twist.linear.x,
-    "geometry_msgs/msg/TwistStamped": lambda m: m.twist.linear.x,
-}
-"""Types whose forward speed (m/s) is differentiated into a(t)."""
-
-ACCEL_FIELDS: dict[str, Callable[[Any], float]] = {
-    "sensor_msgs/msg/Imu": lambda m: m.linear_acceleration.x,
-    "geometry_msgs/msg/AccelStamped": lambda m: m.accel.linear.x,
-    "geometry_msgs/msg/AccelWithCovarianceStamped": lambda m: m.accel.accel.linear.x,
-}
-"""Types whose forward acceleration (m/s²) is a(t) itself."""
-
-DEFAULT_FIELDS: dict[str, str] = {
+SPEED_FIELDS: dict[str, str] = {
     "nav_msgs/msg/Odometry": "twist.twist.linear.x",
     "geometry_msgs/msg/TwistStamped": "twist.linear.x",
+    "geometry_msgs/msg/TwistWithCovarianceStamped": "twist.twist.linear.x",
+}
+"""Types whose forward speed (m/s) is differentiated into a(t), and the field each is read from."""
+
+ACCEL_FIELDS: dict[str, str] = {
     "sensor_msgs/msg/Imu": "linear_acceleration.x",
     "geometry_msgs/msg/AccelStamped": "accel.linear.x",
     "geometry_msgs/msg/AccelWithCovarianceStamped": "accel.accel.linear.x",
+    "geometry_msgs/msg/Vector3Stamped": "vector.x",
 }
-"""The field each type's readers above read: what ``field`` replaces."""
+"""Types whose forward acceleration (m/s²) is a(t) itself, and the field each is read from (a
+Vector3Stamped: an IMU driver's free or filtered acceleration, e.g. an Xsens's)."""
 
 
 def numeric_fields(message: Any, prefix: str = "") -> list[str]:
@@ -127,7 +123,7 @@ def _bag_source(path: Path) -> Path:
 
 def read_topic(path: Path, topic: str, field: str | None = None) -> tuple[str, np.ndarray, np.ndarray, bool]:
     """(msgtype, t in s, values, stamped) of every message on ``topic``, in the bag's log order: the type's
-    DEFAULT_FIELDS entry, or the dotted ``field``.
+    SPEED_FIELDS or ACCEL_FIELDS entry, or the dotted ``field``.
 
     ``stamped`` is False when every header stamp is zero and the log times were used instead.
     """
@@ -164,8 +160,8 @@ def read_topic(path: Path, topic: str, field: str | None = None) -> tuple[str, n
                 raise ParameterError(
                     f"bag {path} topic {topic} has several types: {', '.join(sorted(msgtypes))}"
                 )
-            read = SPEED_FIELDS.get(msgtype) or ACCEL_FIELDS.get(msgtype)
-            if read is None:
+            default = SPEED_FIELDS.get(msgtype) or ACCEL_FIELDS.get(msgtype)
+            if default is None:
                 raise ParameterError(
                     f"bag {path} topic {topic} is {msgtype}; bag_topic reads "
                     f"{', '.join([*SPEED_FIELDS, *ACCEL_FIELDS])}",
@@ -173,8 +169,8 @@ def read_topic(path: Path, topic: str, field: str | None = None) -> tuple[str, n
                 )
             for connection, log_ns, raw in reader.messages(connections=connections):
                 message: Any = reader.deserialize(raw, connection.msgtype)
-                if field is not None and not values:  # checked on the first message, then read as it
-                    read = field_reader(msgtype, field, message)
+                if not values:  # the field is checked on the first message, then read from each as from it
+                    read = field_reader(msgtype, field or default, message)
                 stamps.append(
                     int(message.header.stamp.sec) * 1_000_000_000 + int(message.header.stamp.nanosec)
                 )
@@ -207,7 +203,7 @@ def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     name = "speed" if msgtype in SPEED_FIELDS else "acceleration"
     stretch = check_trace(times, values, where, name=name, start=start, end=end)
     clock = "header stamps" if stamped else "log times (header stamps unset)"
-    read = field if field is not None else DEFAULT_FIELDS[msgtype]
+    read = field if field is not None else (SPEED_FIELDS | ACCEL_FIELDS)[msgtype]
     scaled = f" x {scale:g}" if scale != 1.0 else ""
     label = (
         f"bag_topic {path.name} {topic} ({msgtype} {read}{scaled}, {stretch.times.size} messages, {clock})"

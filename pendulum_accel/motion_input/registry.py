@@ -82,8 +82,9 @@ PROFILE_FIELD_DOCS: dict[str, str] = {
     "relative to the scene file",
     "units": "the speeds' unit: m/s, km/h or mph",
     "speeds": "in `units`, one per time",
-    "topic": "the bag topic: nav_msgs/Odometry, geometry_msgs/TwistStamped, sensor_msgs/Imu, "
-    "geometry_msgs/AccelStamped or AccelWithCovarianceStamped",
+    "topic": "the bag topic: nav_msgs/Odometry, geometry_msgs/TwistStamped or TwistWithCovarianceStamped "
+    "(speeds), sensor_msgs/Imu, geometry_msgs/AccelStamped, AccelWithCovarianceStamped or Vector3Stamped "
+    "(accelerations)",
     "time_column": "header name of the time column (default: the first column); it holds seconds or "
     "date-times such as `2007-03-28 07:33:05`",
     "speed_column": "header name of the speed column (default: the second column)",
