@@ -10,6 +10,7 @@ from __future__ import annotations
 import datetime as dt
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -716,7 +717,7 @@ def test_bag_topic_reads_twist_with_covariance_and_vector3_stamped(tmp_path: Pat
     vec = types["geometry_msgs/msg/Vector3"]
     accels = 0.3 * np.cos(TIMES)
 
-    def header(ns: int) -> object:
+    def header(ns: int) -> Any:  # a rosbags message class instance
         time = types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
         return types["std_msgs/msg/Header"](stamp=time, frame_id="base_link")
 
