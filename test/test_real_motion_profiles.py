@@ -165,12 +165,12 @@ def test_speed_csv_reads_named_columns_and_round_trips(tmp_path: Path) -> None:
         (
             [(0.0, 1.0), (1.0, 1.0), (1.0, 2.0), (2.0, 2.0), (3.0, 2.0)],
             {},
-            ":5: times must be strictly increasing",
+            "speed trace needs at least 5 distinct times to differentiate, got 4 (5 rows)",
         ),
         (
             [(0.0, 1.0), (1.0, 1.0), (0.5, 2.0), (2.0, 2.0), (3.0, 2.0)],
             {},
-            ":5: times must be strictly increasing",
+            ":5: time steps back, got '0.5' after '1.0'",
         ),
         (
             [(0.0, 1.0), (1.0, math.nan), (2.0, 2.0), (3.0, 2.0), (4.0, 2.0)],
@@ -286,11 +286,42 @@ def test_a_headerless_date_time_log_keeps_its_first_row(tmp_path: Path) -> None:
     ) == one_trip(tmp_path)
 
 
+def test_rows_at_a_repeated_time_are_averaged_and_later_errors_name_their_own_rows(tmp_path: Path) -> None:
+    """A logger that writes a time twice (a phone's millisecond clock, a GPS fix written again): the rows at
+    one time become one sample, their mean (1.0 and 2.0 give 1.5, exact in binary), the origin says how
+    many rows were averaged, and an error about a later sample still names that sample's own line."""
+    times = [0.01 * k for k in range(40)]
+    accels = [0.5] * 40
+    rows = [f"{t!r},{a!r}" for t, a in zip(times, accels, strict=True)]
+    rows.insert(11, f"{times[10]!r},{1.0!r}")  # line 13: a second row at t = 0.1
+    rows[10] = f"{times[10]!r},{2.0!r}"
+    rows.insert(21, f"{times[19]!r},{0.5!r}")  # the same row written twice
+    (tmp_path / "imu.csv").write_text("t,ax\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    spec: dict[str, object] = {"type": "accel_csv", "path": "imu.csv"}
+    profile = table_of(spec, base_dir=tmp_path)
+    # Used as recorded (no cut-off): the samples joined linearly, one per distinct time.
+    assert profile.times == pytest.approx(times, abs=1e-12)  # shifted to t0 = 0: exact here (t0 = 0.0)
+    assert profile.accels[10] == 1.5 and profile.accels[19] == 0.5
+    assert "40 samples, 2 rows at a repeated time averaged" in profile.origin
+    # A NaN after the repeats, in rows[31]: line 1 is the header, so line 33 (the 30th distinct time).
+    rows[31] = rows[31].split(",")[0] + ",nan"
+    (tmp_path / "imu.csv").write_text("t,ax\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    with pytest.raises(ParameterError, match=r"imu.csv:33: acceleration is not a finite number"):
+        profile_from_dict(spec, base_dir=tmp_path)
+    # A negative speed after a repeat: named on its own line too.
+    speeds = [(float(k), 3.0) for k in range(12)]
+    speeds.insert(3, (2.0, 3.0))
+    speeds[9] = (speeds[9][0], -1.0)
+    path = write_speed_csv(tmp_path / "v.csv", speeds)  # a comment and a header: row k on line k + 3
+    with pytest.raises(ParameterError, match=r"v.csv:12: speed -1.0 mph is negative"):
+        profile_from_dict({"type": "speed_csv", "path": str(path), "units": "mph"})
+
+
 @pytest.mark.parametrize(
     ("edit", "extra", "message"),
     [
         # A time that steps back: the row is named, with its time as the file writes it.
-        (lambda r: [*r[:4], r[5], r[4], *r[6:]], {}, "day.csv:6: times must be strictly increasing, "
+        (lambda r: [*r[:4], r[5], r[4], *r[6:]], {}, "day.csv:6: time steps back, "
          "got '2007-03-28 07:00:03' after '2007-03-28 07:00:04'"),
         (lambda r: r, {"start": "2007-03-28 07:05:00", "end": "2007-03-28 09:15:00"},
          "day.csv:603: gap of 7200 s before this sample"),
@@ -782,7 +813,7 @@ def test_bag_topic_refuses_stamps_that_go_back_and_gaps(tmp_path: Path) -> None:
     back = TIMES.copy()
     back[100] = back[98]
     write_odometry(tmp_path / "back.bag", "ros1", back)
-    with pytest.raises(ParameterError, match=r"/odom message 100: times must be strictly increasing"):
+    with pytest.raises(ParameterError, match=r"/odom message 100: time steps back"):
         profile_from_dict({"type": "bag_topic", "path": str(tmp_path / "back.bag"), "topic": "/odom"})
     holed = TIMES.copy()
     holed[300:] += 2.0

@@ -33,7 +33,7 @@ def accel_csv_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     stretch, _, path = csv_trace(kind, d, base_dir, "accel_column", name="acceleration")
     column = accel_column if accel_column is not None else "column 2"
     scaled = f", x {scale:g}" if scale != 1.0 else ""
-    label = f"accel_csv {path.name} ({column}{scaled}, {stretch.times.size} samples)"
+    label = f"accel_csv {path.name} ({column}{scaled}, {stretch.times.size} samples{stretch.note()})"
     return recorded_acceleration(kind, d, replace(stretch, values=stretch.values * scale), label)
 
 

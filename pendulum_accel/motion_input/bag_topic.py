@@ -205,9 +205,8 @@ def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     clock = "header stamps" if stamped else "log times (header stamps unset)"
     read = field if field is not None else (SPEED_FIELDS | ACCEL_FIELDS)[msgtype]
     scaled = f" x {scale:g}" if scale != 1.0 else ""
-    label = (
-        f"bag_topic {path.name} {topic} ({msgtype} {read}{scaled}, {stretch.times.size} messages, {clock})"
-    )
+    count = f"{stretch.times.size} messages, {clock}{stretch.note()}"
+    label = f"bag_topic {path.name} {topic} ({msgtype} {read}{scaled}, {count})"
     if msgtype in SPEED_FIELDS:
         default = "cutoff_hz" not in d
         cutoff = (

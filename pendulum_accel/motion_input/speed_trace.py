@@ -54,14 +54,16 @@ def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
         if negative.size:
             i = int(negative[0])
             raise ParameterError(
-                f"{where(stretch.first + i)}: speed {float(stretch.values[i])!r} {units} is negative (set "
+                f"{where(int(stretch.rows[i]))}: speed {float(stretch.values[i])!r} {units} is negative (set "
                 "signed: true for a trace that reverses)"
             )
     times, values = stretch.times, stretch.values
     default = "cutoff_hz" not in d
     cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
     recipe = speed_recipe(units, stretch, cutoff, d, signed=signed)
-    origin = f"{label} ({units}): " + describe_differentiation(cutoff, median_step(times), default)
+    origin = f"{label} ({units}{stretch.note()}): " + describe_differentiation(
+        cutoff, median_step(times), default
+    )
     speeds = values * SPEED_UNITS[units]
     return differentiate(
         times, speeds, cutoff, start=stretch.lo, end=stretch.hi, origin=origin, recipe=recipe

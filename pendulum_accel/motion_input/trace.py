@@ -66,10 +66,33 @@ class Stretch:
     values: np.ndarray
     lo: float
     hi: float
-    first: int
-    """Index of the stretch's first sample in the whole trace."""
+    rows: np.ndarray
+    """Index in the whole trace of each sample's (first) row: what an error about a sample names."""
     whole: bool
     """True when the stretch is the whole trace."""
+    repeated: int = 0
+    """Rows of the whole trace at the time of the row before, averaged into it (``merge_repeated``)."""
+
+    def note(self) -> str:
+        """', k rows at a repeated time averaged' for an origin line, or '' when there were none."""
+        if not self.repeated:
+            return ""
+        return f", {self.repeated} row{'s' if self.repeated > 1 else ''} at a repeated time averaged"
+
+
+def merge_repeated(times: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(times, values, rows) with each run of rows at one time made one sample, its value their mean and its
+    row the run's first: v̄ = (Σ v) / k over the k rows at that time.
+
+    Loggers repeat a time now and then (a phone's millisecond clock at 400 Hz, a GPS fix written twice); the
+    rows describe the same moment, and their mean is its best estimate. A time that steps back is not merged
+    (check_trace refuses it)."""
+    rows = np.flatnonzero(np.r_[True, np.diff(times) != 0.0])
+    if rows.size == times.size:
+        return times, values, rows
+    sums = np.add.reduceat(values, rows)
+    counts = np.diff(np.r_[rows, times.size])
+    return times[rows], sums / counts, rows
 
 
 def check_trace(
@@ -87,8 +110,8 @@ def check_trace(
 
     The window is cut before the gap check, so one trip can be cut from a day-long log with gaps:
 
-    - every time finite and strictly increasing, over the whole trace (a time that steps back is
-      refused, not sorted);
+    - every time finite and never stepping back, over the whole trace (a time that steps back is refused,
+      not sorted; rows at the time of the row before are averaged into it, ``merge_repeated``);
     - 0 ≤ start < end ≤ the trace's length;
     - no step longer than ``MAX_GAP_STEPS`` × the median step (of the whole trace) between the samples
       that bracket the window;
@@ -104,13 +127,18 @@ def check_trace(
     bad = np.flatnonzero(~np.isfinite(times))
     if bad.size:
         raise ParameterError(f"{where(int(bad[0]))}: time is not a finite number ({float(times[bad[0]])!r})")
-    steps = np.diff(times)
-    back = np.flatnonzero(steps <= 0.0)
+    back = np.flatnonzero(np.diff(times) < 0.0)
     if back.size:
         i = int(back[0]) + 1
+        raise ParameterError(f"{where(i)}: time steps back, got {shown(i)} after {shown(i - 1)}")
+    whole_rows = times.size
+    times, values, rows = merge_repeated(times, values)
+    if times.size < 5:
         raise ParameterError(
-            f"{where(i)}: times must be strictly increasing, got {shown(i)} after {shown(i - 1)}"
+            f"{name} trace needs at least 5 distinct times to differentiate, got {times.size} "
+            f"({whole_rows} rows)"
         )
+    steps = np.diff(times)
     t = times - times[0]
     lo, hi = _window_bounds(t, start, end)
     first = int(np.searchsorted(t, lo, side="right")) - 1  # the samples that bracket [lo, hi]
@@ -122,27 +150,28 @@ def check_trace(
         i = int(inside[0]) + 1
         hint = "" if start is not None or end is not None else "; start/end can cut a window without it"
         raise ParameterError(
-            f"{where(i)}: gap of {steps[i - 1]:.6g} s before this sample, more than {MAX_GAP_STEPS:g} × "
-            f"the median step {median:.6g} s{hint}"
+            f"{where(int(rows[i]))}: gap of {steps[i - 1]:.6g} s before this sample, more than "
+            f"{MAX_GAP_STEPS:g} × the median step {median:.6g} s{hint}"
         )
     before, after = gaps[gaps < first], gaps[gaps >= last]
     s0 = int(before[-1]) + 1 if before.size else 0
     s1 = int(after[0]) if after.size else times.size - 1
     if s1 - s0 + 1 < 5:
         raise ParameterError(
-            f"{where(s0)}: the gap-free stretch around the window has {s1 - s0 + 1} samples; the {name} "
-            "trace needs at least 5 to differentiate"
+            f"{where(int(rows[s0]))}: the gap-free stretch around the window has {s1 - s0 + 1} samples; the "
+            f"{name} trace needs at least 5 to differentiate"
         )
     bad = np.flatnonzero(~np.isfinite(values[s0 : s1 + 1]))
     if bad.size:
         i = s0 + int(bad[0])
-        raise ParameterError(f"{where(i)}: {name} is not a finite number ({float(values[i])!r})")
+        raise ParameterError(f"{where(int(rows[i]))}: {name} is not a finite number ({float(values[i])!r})")
     span = times[s0 : s1 + 1] - times[s0]
     # On the stretch's own axis; clipped because t[j] − t[s0] and times[j] − times[s0] may differ by an ulp.
     lo_s = min(max(lo - float(t[s0]), 0.0), float(span[-1]))
     hi_s = min(max(hi - float(t[s0]), lo_s), float(span[-1]))
     whole = s0 == 0 and s1 == times.size - 1
-    return Stretch(times[s0 : s1 + 1], values[s0 : s1 + 1], lo_s, hi_s, s0, whole)
+    repeated = whole_rows - times.size
+    return Stretch(times[s0 : s1 + 1], values[s0 : s1 + 1], lo_s, hi_s, rows[s0 : s1 + 1], whole, repeated)
 
 
 def csv_trace(
