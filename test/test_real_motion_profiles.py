@@ -165,7 +165,7 @@ def test_speed_csv_reads_named_columns_and_round_trips(tmp_path: Path) -> None:
         (
             [(0.0, 1.0), (1.0, 1.0), (1.0, 2.0), (2.0, 2.0), (3.0, 2.0)],
             {},
-            "speed trace needs at least 5 distinct times to differentiate, got 4 (5 rows)",
+            ":5: 1 of 5 rows repeat the time of the row before",
         ),
         (
             [(0.0, 1.0), (1.0, 1.0), (0.5, 2.0), (2.0, 2.0), (3.0, 2.0)],
@@ -314,6 +314,14 @@ def test_rows_at_a_repeated_time_are_averaged_and_later_errors_name_their_own_ro
     speeds[9] = (speeds[9][0], -1.0)
     path = write_speed_csv(tmp_path / "v.csv", speeds)  # a comment and a header: row k on line k + 3
     with pytest.raises(ParameterError, match=r"v.csv:12: speed -1.0 mph is negative"):
+        profile_from_dict({"type": "speed_csv", "path": str(path), "units": "mph"})
+    # Whole seconds for a 10 Hz log (ros2 topic echo --csv's sec column): 9 of every 10 rows repeat a time,
+    # past MAX_REPEATED_SHARE, so it is refused, naming the first repeated row (line 4: the 2nd row).
+    coarse = [(float(k // 10), 3.0) for k in range(100)]
+    path = write_speed_csv(tmp_path / "coarse.csv", coarse)
+    with pytest.raises(
+        ParameterError, match=r"coarse.csv:4: 90 of 100 rows repeat the time of the row before"
+    ):
         profile_from_dict({"type": "speed_csv", "path": str(path), "units": "mph"})
 
 

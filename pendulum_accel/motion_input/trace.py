@@ -80,6 +80,12 @@ class Stretch:
         return f", {self.repeated} row{'s' if self.repeated > 1 else ''} at a repeated time averaged"
 
 
+MAX_REPEATED_SHARE = 0.1
+"""Rows at a repeated time are averaged while they are at most this share of all rows; beyond it the time
+column is coarser than the samples (a `ros2 topic echo --csv` file's whole-second column, a date without
+its time), and averaging would quietly resample the trace, so it is refused."""
+
+
 def merge_repeated(times: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(times, values, rows) with each run of rows at one time made one sample, its value their mean and its
     row the run's first: v̄ = (Σ v) / k over the k rows at that time.
@@ -133,11 +139,14 @@ def check_trace(
         raise ParameterError(f"{where(i)}: time steps back, got {shown(i)} after {shown(i - 1)}")
     whole_rows = times.size
     times, values, rows = merge_repeated(times, values)
-    if times.size < 5:
+    if whole_rows - times.size > MAX_REPEATED_SHARE * whole_rows:
+        first = int(rows[np.flatnonzero(np.diff(np.r_[rows, whole_rows]) > 1)[0]]) + 1  # its first repeat
         raise ParameterError(
-            f"{name} trace needs at least 5 distinct times to differentiate, got {times.size} "
-            f"({whole_rows} rows)"
+            f"{where(first)}: {whole_rows - times.size} of {whole_rows} rows repeat the time of the row "
+            "before: the time column is coarser than the samples (whole seconds?); give a finer one "
+            "(time_column, time_units)"
         )
+    # ≥ 5 rows and at most a tenth repeated leave ≥ 5 distinct times: no second count check.
     steps = np.diff(times)
     t = times - times[0]
     lo, hi = _window_bounds(t, start, end)
