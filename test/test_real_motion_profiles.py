@@ -308,6 +308,12 @@ def test_rows_at_a_repeated_time_are_averaged_and_later_errors_name_their_own_ro
     (tmp_path / "imu.csv").write_text("t,ax\n" + "\n".join(rows) + "\n", encoding="utf-8")
     with pytest.raises(ParameterError, match=r"imu.csv:33: acceleration is not a finite number"):
         profile_from_dict(spec, base_dir=tmp_path)
+    # A NaN in the second row of a repeated time (rows[11], line 13): that row is named, not the run's first.
+    rows[31] = rows[31].split(",")[0] + ",0.5"
+    rows[11] = rows[11].split(",")[0] + ",nan"
+    (tmp_path / "imu.csv").write_text("t,ax\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    with pytest.raises(ParameterError, match=r"imu.csv:13: acceleration is not a finite number \(nan\)"):
+        profile_from_dict(spec, base_dir=tmp_path)
     # A negative speed after a repeat: named on its own line too.
     speeds = [(float(k), 3.0) for k in range(12)]
     speeds.insert(3, (2.0, 3.0))
@@ -800,6 +806,7 @@ def test_bag_topic_reads_twist_with_covariance_and_vector3_stamped(tmp_path: Pat
             "orientation.x, orientation.y",
         ),
         ({"field": "header"}, "has no number field 'header'"),
+        ({"field": ""}, "sensor_msgs/msg/Imu has no number field ''"),
         ({"field": "orientation_covariance"}, "has no number field 'orientation_covariance'"),
         ({"field": 3}, "bag_topic profile field 'field' must be text, got 3"),
         ({"scale": 0}, "bag_topic profile field 'scale' must not be 0"),

@@ -170,7 +170,7 @@ def read_topic(path: Path, topic: str, field: str | None = None) -> tuple[str, n
             for connection, log_ns, raw in reader.messages(connections=connections):
                 message: Any = reader.deserialize(raw, connection.msgtype)
                 if not values:  # the field is checked on the first message, then read from each as from it
-                    read = field_reader(msgtype, field or default, message)
+                    read = field_reader(msgtype, default if field is None else field, message)
                 stamps.append(
                     int(message.header.stamp.sec) * 1_000_000_000 + int(message.header.stamp.nanosec)
                 )

@@ -74,7 +74,7 @@ PROFILE_FIELD_DOCS: dict[str, str] = {
     "frequency_hz": "Hz, ≥ 0",
     "offset": "m/s², added (default 0)",
     "phase": "rad (default 0)",
-    "times": "s, strictly increasing",
+    "times": "s, increasing (strictly for `table`; `speed_table` averages rows at a repeated time)",
     "accels": "m/s², one per time",
     "v0": "m/s, > 0: the speed braking starts from",
     "decel": "m/s², > 0",

@@ -137,7 +137,7 @@ def check_trace(
     if back.size:
         i = int(back[0]) + 1
         raise ParameterError(f"{where(i)}: time steps back, got {shown(i)} after {shown(i - 1)}")
-    whole_rows = times.size
+    whole_rows, raw_values = times.size, values
     times, values, rows = merge_repeated(times, values)
     if whole_rows - times.size > MAX_REPEATED_SHARE * whole_rows:
         first = int(rows[np.flatnonzero(np.diff(np.r_[rows, whole_rows]) > 1)[0]]) + 1  # its first repeat
@@ -173,7 +173,11 @@ def check_trace(
     bad = np.flatnonzero(~np.isfinite(values[s0 : s1 + 1]))
     if bad.size:
         i = s0 + int(bad[0])
-        raise ParameterError(f"{where(int(rows[i]))}: {name} is not a finite number ({float(values[i])!r})")
+        run = raw_values[
+            rows[i] : rows[i + 1] if i + 1 < rows.size else whole_rows
+        ]  # its rows (several: a repeat)
+        row = int(rows[i]) + int(np.flatnonzero(~np.isfinite(run))[0])
+        raise ParameterError(f"{where(row)}: {name} is not a finite number ({float(raw_values[row])!r})")
     span = times[s0 : s1 + 1] - times[s0]
     # On the stretch's own axis; clipped because t[j] − t[s0] and times[j] − times[s0] may differ by an ulp.
     lo_s = min(max(lo - float(t[s0]), 0.0), float(span[-1]))
