@@ -286,6 +286,38 @@ def test_a_headerless_date_time_log_keeps_its_first_row(tmp_path: Path) -> None:
     ) == one_trip(tmp_path)
 
 
+def test_columns_are_chosen_by_number_in_a_file_with_no_header(tmp_path: Path) -> None:
+    """A logger's headerless CSV (t, then x, y, z): ``accel_column: 3`` reads y, and a number works beside a
+    name in a file with a header; the values are copied, so the comparison is exact. A number below 1, an
+    empty name or a boolean is one line naming the field; a number past the row's end names the line."""
+    times = [0.02 * k for k in range(30)]
+    ys = [0.25 * math.sin(t) for t in times]
+    body = "\n".join(f"{t!r},9.81,{y!r},0.0" for t, y in zip(times, ys, strict=True)) + "\n"
+    (tmp_path / "raw.csv").write_text(body, encoding="utf-8")
+    (tmp_path / "named.csv").write_text("stamp,ax,ay,az\n" + body, encoding="utf-8")
+    by_number = table_of({"type": "accel_csv", "path": "raw.csv", "accel_column": 3}, base_dir=tmp_path)
+    assert list(by_number.accels) == ys and "(column 3, 30 samples)" in by_number.origin
+    mixed = table_of(
+        {"type": "accel_csv", "path": "named.csv", "time_column": "stamp", "accel_column": 3},
+        base_dir=tmp_path,
+    )
+    assert list(mixed.accels) == ys
+    speeds = table_of(
+        {"type": "speed_csv", "path": "raw.csv", "units": "m/s", "time_column": 1, "speed_column": 2},
+        base_dir=tmp_path,
+    )
+    assert np.max(np.abs(np.array(speeds.accels))) <= 1e-9  # a constant 9.81 m/s: a = 0 (units test's bound)
+    for value in (0, -2, "", True):
+        with pytest.raises(
+            ParameterError, match=r"field 'accel_column' must be a header name or a column number"
+        ):
+            profile_from_dict(
+                {"type": "accel_csv", "path": "raw.csv", "accel_column": value}, base_dir=tmp_path
+            )
+    with pytest.raises(ParameterError, match=r"raw.csv:1: expected 7 columns, got 4"):
+        profile_from_dict({"type": "accel_csv", "path": "raw.csv", "accel_column": 7}, base_dir=tmp_path)
+
+
 def test_rows_at_a_repeated_time_are_averaged_and_later_errors_name_their_own_rows(tmp_path: Path) -> None:
     """A logger that writes a time twice (a phone's millisecond clock, a GPS fix written again): the rows at
     one time become one sample, their mean (1.0 and 2.0 give 1.5, exact in binary), the origin says how

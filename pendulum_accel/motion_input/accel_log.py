@@ -11,7 +11,7 @@ from pathlib import Path
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.motion_input.columns import csv_rows
-from pendulum_accel.motion_input.fields import field_scale, field_text
+from pendulum_accel.motion_input.fields import field_column, field_scale
 from pendulum_accel.motion_input.trace import csv_trace, recorded_acceleration
 from pendulum_accel.physics.profiles import Table
 from pendulum_accel.textfile import read_text_file
@@ -28,10 +28,10 @@ def accel_csv_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     to start at 0; checked as any trace (check_trace), then used as recorded (recorded_acceleration).
     """
     kind = "accel_csv"
-    accel_column = field_text(kind, "accel_column", d["accel_column"]) if "accel_column" in d else None
+    accel_column = field_column(kind, "accel_column", d["accel_column"]) if "accel_column" in d else None
     scale = field_scale(kind, d)
     stretch, _, path = csv_trace(kind, d, base_dir, "accel_column", name="acceleration")
-    column = accel_column if accel_column is not None else "column 2"
+    column = accel_column if isinstance(accel_column, str) else f"column {accel_column or 2}"
     scaled = f", x {scale:g}" if scale != 1.0 else ""
     label = f"accel_csv {path.name} ({column}{scaled}, {stretch.times.size} samples{stretch.note()})"
     return recorded_acceleration(kind, d, replace(stretch, values=stretch.values * scale), label)

@@ -151,8 +151,8 @@ def _is_data(cells: list[str], columns: list[int], time_format: str | None) -> b
 
 def read_columns(
     path: Path,
-    time_column: str | None,
-    value_column: str | None,
+    time_column: str | int | None,
+    value_column: str | int | None,
     *,
     what: str = "speed",
     time_format: str | None = None,
@@ -172,9 +172,10 @@ def read_columns(
         raise ParameterError(f"cannot read {what} CSV {path}: {exc.strerror or exc}", path="path") from None
     except ValueError as exc:
         raise ParameterError(f"cannot read {what} CSV {path}: {exc}", path="path") from None
-    named = time_column is not None or value_column is not None
+    named = isinstance(time_column, str) or isinstance(value_column, str)
     header: list[str] | None = None
-    columns = [0, 1]
+    # A column number (from 1) picks its column with or without a header row; a name needs the header.
+    columns = [c - 1 if isinstance(c, int) else d for c, d in ((time_column, 0), (value_column, 1))]
     raw_times: list[float | dt.datetime] = []
     values: list[float] = []
     lines: list[int] = []
@@ -190,7 +191,7 @@ def read_columns(
             if named and not all(is_number(c) for c in cells):
                 header = cells
                 for k, name in enumerate((time_column, value_column)):
-                    if name is not None:
+                    if isinstance(name, str):
                         if name not in cells:
                             raise ParameterError(
                                 f"{path}:{line_no}: no column {name!r} in header {','.join(cells)!r}",
@@ -202,8 +203,9 @@ def read_columns(
                 raise ParameterError(
                     f"{path}:{line_no}: column names are given but the file has no header row"
                 )
-            if not _is_data(cells, columns, time_format):
-                header = cells
+            numbered = isinstance(time_column, int) or isinstance(value_column, int)
+            if not (numbered and len(cells) <= max(columns)) and not _is_data(cells, columns, time_format):
+                header = cells  # (a first row too short for a stated column number is no header: refused)
                 continue
         if len(cells) <= max(columns):
             raise ParameterError(f"{path}:{line_no}: expected {max(columns) + 1} columns, got {len(cells)}")

@@ -85,10 +85,11 @@ PROFILE_FIELD_DOCS: dict[str, str] = {
     "topic": "the bag topic: nav_msgs/Odometry, geometry_msgs/TwistStamped or TwistWithCovarianceStamped "
     "(speeds), sensor_msgs/Imu, geometry_msgs/AccelStamped, AccelWithCovarianceStamped or Vector3Stamped "
     "(accelerations)",
-    "time_column": "header name of the time column (default: the first column); it holds seconds or "
+    "time_column": "header name or number (from 1) of the time column (default: 1); it holds seconds or "
     "date-times such as `2007-03-28 07:33:05`",
-    "speed_column": "header name of the speed column (default: the second column)",
-    "accel_column": "header name of the acceleration column, m/s² (default: the second column)",
+    "speed_column": "header name or number (from 1: a file with no header) of the speed column (default: 2)",
+    "accel_column": "header name or number (from 1: a file with no header) of the acceleration column, m/s² "
+    "(default: 2)",
     "time_format": "the time column's date-time layout in strptime codes, e.g. `%d/%m/%Y %H:%M:%S` "
     "(default: ISO 8601 detected)",
     "time_units": "the unit of a numeric time column: s (default), ms, us or ns (a logger's epoch "

@@ -30,7 +30,13 @@ import numpy as np
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.motion_input.columns import TIME_UNITS, Columns, read_columns
-from pendulum_accel.motion_input.fields import field_number, field_path, field_text, window_fields
+from pendulum_accel.motion_input.fields import (
+    field_column,
+    field_number,
+    field_path,
+    field_text,
+    window_fields,
+)
 from pendulum_accel.physics.lazy import lazy_module
 from pendulum_accel.physics.profiles import Table
 
@@ -193,8 +199,8 @@ def csv_trace(
     """A profile's CSV file read (its path, ``time_column``, ``value_field`` column, ``time_format`` and
     ``time_units`` fields), and checked and cut to its ``start``/``end`` window by check_trace."""
     path = field_path(kind, d["path"], base_dir)
-    time_column = field_text(kind, "time_column", d["time_column"]) if "time_column" in d else None
-    value_column = field_text(kind, value_field, d[value_field]) if value_field in d else None
+    time_column = field_column(kind, "time_column", d["time_column"]) if "time_column" in d else None
+    value_column = field_column(kind, value_field, d[value_field]) if value_field in d else None
     time_format = field_text(kind, "time_format", d["time_format"]) if "time_format" in d else None
     time_units = field_text(kind, "time_units", d["time_units"]) if "time_units" in d else "s"
     if time_units not in TIME_UNITS:
