@@ -21,7 +21,8 @@ SPEC keys (all optional):
   "get": {"node": name, "names": [name, ...]}     call GetParameters only
   "linger": seconds               keep listening after feeding
   "linger_until": [state, seconds] then keep listening until a /diagnostics status whose state is
-                                  ``state`` arrives after the feed and burst (at most seconds)
+                                  ``state`` arrives after the feed and burst and after every angle
+                                  published was acknowledged (at most seconds)
 Prints one JSON object: {"estimates": [[t, a, var], ...], "diagnostics": [[level, message, values]],
 "set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s,
 "diagnostics_after": [[s, state, values]]} (diagnostics_after: each /diagnostics status's arrival, seconds
@@ -41,6 +42,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import AccelWithCovarianceStamped
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
@@ -160,7 +162,16 @@ def main() -> None:
     spin_for(node, float(spec.get("linger", 0.0)))
     if "linger_until" in spec:
         state, end = spec["linger_until"][0], time.monotonic() + float(spec["linger_until"][1])
-        while time.monotonic() < end and not any(s == state for _, s, _ in out["diagnostics_after"]):
+        # A reliable writer repairs lost samples only after a heartbeat (Fast DDS: every 3 s), so under load
+        # the node may see a silence, and say STALE, with the burst's tail still undelivered. Exiting then
+        # would destroy the writer with that tail: wait (spinning, so statuses keep their arrival times)
+        # until every angle is acknowledged, then for a status in ``state`` that came after it.
+        while time.monotonic() < end and not publisher.wait_for_all_acked(Duration(seconds=0)):
+            spin_for(node, 0.01)
+        acked = time.monotonic() - fed_at[0]
+        while time.monotonic() < end and not any(
+            s == state and at >= acked for at, s, _ in out["diagnostics_after"]
+        ):
             spin_for(node, 0.01)
     out["endpoints"] = {
         topic: {
