@@ -173,6 +173,7 @@ def read_columns(
     except ValueError as exc:
         raise ParameterError(f"cannot read {what} CSV {path}: {exc}", path="path") from None
     named = isinstance(time_column, str) or isinstance(value_column, str)
+    numbered = isinstance(time_column, int) or isinstance(value_column, int)
     header: list[str] | None = None
     # A column number (from 1) picks its column with or without a header row; a name needs the header.
     columns = [c - 1 if isinstance(c, int) else d for c, d in ((time_column, 0), (value_column, 1))]
@@ -203,7 +204,6 @@ def read_columns(
                 raise ParameterError(
                     f"{path}:{line_no}: column names are given but the file has no header row"
                 )
-            numbered = isinstance(time_column, int) or isinstance(value_column, int)
             if not (numbered and len(cells) <= max(columns)) and not _is_data(cells, columns, time_format):
                 header = cells  # (a first row too short for a stated column number is no header: refused)
                 continue

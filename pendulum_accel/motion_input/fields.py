@@ -43,19 +43,14 @@ def field_scale(kind: str, d: Mapping[str, object]) -> float:
 def field_column(kind: str, name: str, value: object) -> str | int:
     """Profile column field ``name``: a header name (text) or a column number counted from 1 (an int, for
     files with no header row), else ParameterError naming it."""
-    if isinstance(value, int) and not isinstance(value, bool):
-        if value < 1:
-            raise ParameterError(
-                f"{kind} profile field '{name}' must be a header name or a column number ≥ 1, got {value!r}",
-                path=name,
-            )
+    if isinstance(value, str) and value:
         return value
-    if not isinstance(value, str) or not value:
-        raise ParameterError(
-            f"{kind} profile field '{name}' must be a header name or a column number ≥ 1, got {value!r}",
-            path=name,
-        )
-    return value
+    if isinstance(value, int) and not isinstance(value, bool) and value >= 1:
+        return value
+    raise ParameterError(
+        f"{kind} profile field '{name}' must be a header name or a column number ≥ 1, got {value!r}",
+        path=name,
+    )
 
 
 def field_text(kind: str, name: str, value: object, choices: Sequence[str] = ()) -> str:
