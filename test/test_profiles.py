@@ -138,7 +138,7 @@ def test_csv_loader(tmp_path: Path):
 @pytest.mark.parametrize(
     ("text", "needle"),
     [
-        ("t,a\n0,0\n1,x\n", ":3: not a number"),
+        ("t,a\n0,0\n1,x\n", ":3: 'x' is not a number"),
         ("0,0\n1,1\n1,2\n", ":3: times must be strictly increasing"),
         ("0,0\n1\n", ":2: expected 't, a'"),
         ("0,0\n1,nan\n", ":2: t and a must be finite"),

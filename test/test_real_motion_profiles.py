@@ -484,6 +484,24 @@ def test_a_decimal_comma_needs_a_separator_that_is_not_a_comma(tmp_path: Path) -
     assert np.array_equal(columns.times, [0.0, 1.0]) and np.array_equal(columns.values, [5.0, 5.0])
 
 
+@pytest.mark.parametrize("separator", ["\t", ";"])
+def test_a_thousands_comma_in_a_decimal_point_file_is_refused_not_read_as_a_decimal_comma(
+    separator: str, tmp_path: Path
+) -> None:
+    """A tab or semicolon file whose numbers have a decimal point (0.5) writes "1,000" for a thousand, not
+    for 1.0: the layout is a decimal point, and the cell is refused on its own line, naming it (both readers:
+    accel_csv's columns and the plain csv profile), where it was once read as 1.0."""
+    rows = ["t,a", "0.0,0.5", "0.1,1,000", "0.2,0.7"]
+    (tmp_path / "log.csv").write_text("\n".join(r.replace(",", separator, 1) for r in rows) + "\n", "utf-8")
+    with pytest.raises(ParameterError, match=r"log\.csv:3: accel '1,000' is not a number \(a comma grouping"):
+        read_columns(tmp_path / "log.csv", None, None, what="accel")
+    with pytest.raises(ParameterError, match=r"log\.csv:3: '1,000' is not a number \(a comma grouping"):
+        profile_from_dict({"type": "csv", "path": "log.csv"}, base_dir=tmp_path)
+    # Without a decimal point anywhere the same cells are a decimal comma, as phyphox writes them.
+    (tmp_path / "comma.csv").write_text(f"t{separator}a\n0{separator}1,000\n1{separator}1,25\n", "utf-8")
+    assert np.array_equal(read_columns(tmp_path / "comma.csv", None, None, what="accel").values, [1.0, 1.25])
+
+
 @pytest.mark.parametrize("named", [True, False])
 def test_a_units_row_under_the_header_is_skipped_and_a_second_text_row_is_refused(
     named: bool, tmp_path: Path

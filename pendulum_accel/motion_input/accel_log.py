@@ -10,7 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.motion_input.columns import csv_rows
+from pendulum_accel.motion_input.columns import comma_hint, csv_rows, is_number
 from pendulum_accel.motion_input.fields import field_column, field_scale
 from pendulum_accel.motion_input.trace import csv_trace, recorded_acceleration
 from pendulum_accel.physics.profiles import Table
@@ -56,7 +56,8 @@ def csv_table(path: str | Path) -> Table:
         except ValueError:
             if not times and not accels:
                 continue  # a header row such as "t,a"
-            raise ParameterError(f"{source}:{line_no}: not a number in {','.join(cells)!r}") from None
+            bad = next(c for c in cells[:2] if not is_number(c))
+            raise ParameterError(f"{source}:{line_no}: {bad!r} is not a number{comma_hint(bad)}") from None
         if not (math.isfinite(t_value) and math.isfinite(a_value)):
             raise ParameterError(f"{source}:{line_no}: t and a must be finite, got {t_value!r}, {a_value!r}")
         if times and t_value <= times[-1]:

@@ -58,6 +58,8 @@ SEPARATORS = ("\t", ";", ",")
 SNIFF_ROWS = 20
 """Rows (not comments, not blank) ``sniff_layout`` reads: a header and enough data rows to be sure."""
 _DECIMAL_COMMA = re.compile(r"[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?")
+_THOUSANDS = re.compile(r"[+-]?\d{1,3}(,\d{3})+(\.\d*)?([eE][+-]?\d+)?")
+_DECIMAL_POINT = re.compile(r"[+-]?(\d+\.\d*|\.\d+)([eE][+-]?\d+)?")
 
 
 @dataclass(frozen=True)
@@ -83,7 +85,11 @@ def _content(lines: list[str]) -> list[str]:
 def sniff_layout(lines: list[str]) -> Layout:
     """The first of SEPARATORS that splits each of the first SNIFF_ROWS content rows into two non-empty cells
     or more (a comma when none does: a stray trailing tab does not make a tab file); a decimal comma when
-    the separator is not a comma and a cell there is a decimal-comma number (``_DECIMAL_COMMA``)."""
+    the separator is not a comma, a cell there is a decimal-comma number (``_DECIMAL_COMMA``) and none is a
+    decimal-point number (``_DECIMAL_POINT``).
+
+    A file that writes ``0.5`` has a decimal point, so its ``1,000`` is a thousands separator, which no
+    reader here takes: read as a decimal comma it would be a silent 1.0, so it is left to be refused."""
     sample = _content(lines)[:SNIFF_ROWS]
     for separator in SEPARATORS:
         rows = list(csv.reader(sample, delimiter=separator))
@@ -91,7 +97,12 @@ def sniff_layout(lines: list[str]) -> Layout:
             break
     else:
         separator, rows = ",", list(csv.reader(sample))
-    comma = separator != "," and any(_DECIMAL_COMMA.fullmatch(c.strip()) for row in rows for c in row)
+    cells = [c.strip() for row in rows for c in row]
+    comma = (
+        separator != ","
+        and any(_DECIMAL_COMMA.fullmatch(c) for c in cells)
+        and not any(_DECIMAL_POINT.fullmatch(c) for c in cells)
+    )
     return Layout(separator, comma)
 
 
@@ -223,10 +234,13 @@ def read_columns(
             raise ParameterError(
                 f"{path}:{line_no}: time {t_text!r} mixes numbers and date-times in one column"
             )
+        v_text = cells[columns[1]]
         try:
-            v_value = float(cells[columns[1]])
+            v_value = float(v_text)
         except ValueError:
-            raise ParameterError(f"{path}:{line_no}: not a number in {','.join(cells)!r}") from None
+            raise ParameterError(
+                f"{path}:{line_no}: {what} {v_text!r} is not a number{comma_hint(v_text)}"
+            ) from None
         raw_times.append(t_value)
         values.append(v_value)
         lines.append(line_no)
@@ -256,6 +270,14 @@ def read_columns(
                 ) from None
         times = np.array(seconds)
     return Columns(times, np.array(values), lines, stamps, epoch)
+
+
+def comma_hint(text: str) -> str:
+    """Why a cell such as ``1,000.5`` is no number: its file writes a decimal point (sniff_layout), so the
+    comma groups thousands, which a reader could take for a decimal mark only by guessing."""
+    if not _THOUSANDS.fullmatch(text):
+        return ""
+    return " (a comma grouping thousands is not read: write the number without it)"
 
 
 def _since_first(stamps: list[str], unit: float) -> np.ndarray:
