@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import datetime as dt
 import math
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -547,6 +548,73 @@ def test_accel_csv_reads_epoch_nanoseconds_as_rostopic_echo_writes_them(tmp_path
     ms = table_of({"type": "accel_csv", "path": "ms.csv", "time_units": "ms"}, base_dir=tmp_path)
     # 1.6e12 ms in a float is held to 2.4e-4 ms, so each time is within 2.4e-7 s of the true one.
     assert np.allclose(ms.times, np.array(steps) * 1e-9, rtol=0.0, atol=2.5e-7)
+
+
+STAMPED: dict[str, object] = {"type": "accel_csv", "time_column": [1, 2]}
+"""An accel_csv spec whose time is a ROS 2 stamp in columns 1 and 2 (sec, nanosec)."""
+
+
+def ros2_echo_csv_imu(stamp_ns: int, accel_x: float) -> str:
+    """One sensor_msgs/Imu line as ``ros2 topic echo --csv`` prints it: rosidl_runtime_py's message_to_csv
+    (convert.py), the fields in .msg order with arrays flattened and no header: header.stamp.sec,
+    .nanosec, frame_id, orientation (4), its covariance (9), angular_velocity (3), its covariance (9),
+    linear_acceleration (3: x is column 29), its covariance (9)."""
+    sec, nanosec = divmod(stamp_ns, 10**9)
+    nine = ",".join(["0.0"] * 9)
+    return f"{sec},{nanosec},imu_link,0.0,0.0,0.0,1.0,{nine},0.0,0.0,0.0,{nine},{accel_x!r},0.0,9.81,{nine}"
+
+
+def test_accel_csv_reads_the_two_stamp_columns_ros2_topic_echo_csv_writes(tmp_path: Path) -> None:
+    """time_column [1, 2] reads a ROS 2 stamp's sec and nanosec as one time: the integer ns difference from
+    the first row divided by 10⁹ once, correctly rounded (the difference, below 2⁵³, is exact as a float),
+    so each time is within half an ulp of its exact value, across whole-second boundaries too. The value
+    column is copied exactly. Named columns (an exporter's header) read the same."""
+    first = 1_700_000_000_995_000_000  # 5 ms before a second boundary
+    stamps = [first + 10_000_000 * k + (k % 3) * 1_000 for k in range(400)]  # 100 Hz with µs jitter
+    accels = [0.5 * math.sin(0.01 * k) for k in range(400)]
+    rows = [ros2_echo_csv_imu(n, a) for n, a in zip(stamps, accels, strict=True)]
+    (tmp_path / "imu.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    spec = STAMPED | {"path": "imu.csv", "accel_column": 29}
+    profile = table_of(spec, base_dir=tmp_path)
+    for t, n in zip(profile.times, stamps, strict=True):
+        exact = Fraction(n - first, 10**9)
+        assert abs(Fraction(float(t)) - exact) <= Fraction(math.ulp(float(t))) / 2
+    assert np.array_equal(profile.accels, accels)
+    named = ["header.stamp.sec,header.stamp.nanosec,a"]
+    named += [f"{n // 10**9},{n % 10**9},{a!r}" for n, a in zip(stamps, accels, strict=True)]
+    (tmp_path / "named.csv").write_text("\n".join(named) + "\n", encoding="utf-8")
+    stamp = ["header.stamp.sec", "header.stamp.nanosec"]
+    again = table_of(spec | {"path": "named.csv", "time_column": stamp, "accel_column": "a"}, tmp_path)
+    assert np.array_equal(again.times, profile.times) and np.array_equal(again.accels, profile.accels)
+
+
+@pytest.mark.parametrize(
+    ("extra", "line", "message"),
+    [
+        ({"time_column": [1, 2, 3]}, None, "'time_column' must be one column or two .*got 3"),
+        ({"time_column": [1, True]}, None, "'time_column' must be a header name or a column number"),
+        ({"accel_column": None}, None, "needs accel_column stated"),
+        ({"time_units": "ns"}, None, "takes no time_format or time_units"),
+        (
+            {},
+            "1,1000000000,0.5",
+            r"log\.csv:3: time '1\.1000000000' is no ROS 2 stamp .*nanosec '1000000000'",
+        ),
+        ({}, "1,5e8,0.5", r"log\.csv:3: time '1\.5e8' is no ROS 2 stamp .*whole numbers"),
+    ],
+)
+def test_a_stamp_time_column_is_refused_in_one_line_naming_what_is_wrong(
+    extra: dict[str, object], line: str | None, message: str, tmp_path: Path
+) -> None:
+    """A stamp needs exactly two columns, the value column stated, no time_units or time_format, integer
+    cells and nanosec below 10⁹; each failure is one ParameterError naming the field or the line."""
+    rows = ["0,0,0.5", "0,10000000,0.5", line or "0,20000000,0.5", "0,30000000,0.5"]
+    (tmp_path / "log.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    spec = {
+        k: v for k, v in (STAMPED | {"path": "log.csv", "accel_column": 3} | extra).items() if v is not None
+    }
+    with pytest.raises(ParameterError, match=message):
+        profile_from_dict(spec, base_dir=tmp_path)
 
 
 @pytest.mark.parametrize(

@@ -7,7 +7,9 @@ other layouts such as ``03/28/2007`` are ambiguous (day or month first) and need
 A date-time column becomes seconds since its first row, subtracted as datetimes (microseconds exact):
 a float epoch of 1.2e9 s would keep only about 0.2 µs. A numeric time column in other units (``time_units``
 ms, us, ns: a logger's epoch nanoseconds, 1.6e18, which a float holds only to 256 ns) is counted the
-same way from its first row: integer cells as integers, then scaled to seconds.
+same way from its first row: integer cells as integers, then scaled to seconds. A ROS 2 time stamp split
+over two columns (``sec``, ``nanosec``: ``ros2 topic echo --csv`` writes ``header.stamp`` so) is read as
+one time, its integer nanoseconds counted exactly from the first row.
 
 Columns are separated by commas, semicolons or tabs, and with a semicolon or a tab numbers may carry a
 decimal comma (``1,234E-1``): the five CSV layouts phyphox exports (its ``DataExport.CsvFormat``), and what
@@ -148,13 +150,43 @@ def _time_value(text: str, time_format: str | None) -> float | dt.datetime:
     return parse_datetime(text, time_format)
 
 
+ColumnSpec = str | int
+"""A column: its header name, or its number counted from 1."""
+TimeColumns = ColumnSpec | tuple[ColumnSpec, ColumnSpec]
+"""The time column, or a ROS 2 stamp's two (sec, nanosec)."""
+NANOS = 1_000_000_000  # ns per s: a builtin_interfaces/Time's nanosec is below it
+
+
+def stamp_nanoseconds(sec: str, nanosec: str) -> int:
+    """sec × 10⁹ + nanosec of a ROS 2 time stamp's two cells (builtin_interfaces/Time); ValueError unless
+    both are integers and 0 ≤ nanosec < 10⁹."""
+    try:
+        whole, part = int(sec), int(nanosec)
+    except ValueError:
+        raise ValueError("sec and nanosec must be whole numbers") from None
+    if not 0 <= part < NANOS:
+        raise ValueError(f"nanosec {nanosec!r} is not in 0 … 999999999")
+    return whole * NANOS + part
+
+
+def _time_text(cells: list[str], columns: list[int]) -> str:
+    """The row's time as written: its time cell, or a stamp's sec.nanosec (columns[:-1] the time's)."""
+    if len(columns) == 2:
+        return cells[columns[0]]
+    sec, nanosec = cells[columns[0]], cells[columns[1]]
+    return f"{sec}.{nanosec.zfill(9)}" if nanosec.isdigit() else f"{sec}.{nanosec}"
+
+
 def _is_data(cells: list[str], columns: list[int], time_format: str | None) -> bool:
     """True when the row's time and value cells parse (a data row), False for a header."""
     if len(cells) <= max(columns):
         return False
     try:
-        _time_value(cells[columns[0]], time_format)
-        float(cells[columns[1]])
+        if len(columns) == 3:
+            stamp_nanoseconds(cells[columns[0]], cells[columns[1]])
+        else:
+            _time_value(cells[columns[0]], time_format)
+        float(cells[columns[-1]])
     except ValueError:
         return False
     return True
@@ -162,8 +194,8 @@ def _is_data(cells: list[str], columns: list[int], time_format: str | None) -> b
 
 def read_columns(
     path: Path,
-    time_column: str | int | None,
-    value_column: str | int | None,
+    time_column: TimeColumns | None,
+    value_column: ColumnSpec | None,
     *,
     what: str = "speed",
     time_format: str | None = None,
@@ -174,8 +206,9 @@ def read_columns(
     A first row whose time and value cells do not parse is the header; the named columns are read from
     it (the first and second column when unnamed; quoted names such as phyphox's "Time (s)" work). One
     row under it with no number in any cell is its units row, skipped. The
-    time column is numbers or date-times (module doc), not a mix. Every failure is one ParameterError
-    naming file and line; ``what`` (speed, accel) names the file and the column field.
+    time column is numbers or date-times (module doc), not a mix; a pair of time columns is a ROS 2 stamp's
+    (sec, nanosec), which needs the value column stated. Every failure is one ParameterError naming file
+    and line; ``what`` (speed, accel) names the file and the column field.
     """
     try:
         text = read_text_file(path)
@@ -183,12 +216,23 @@ def read_columns(
         raise ParameterError(f"cannot read {what} CSV {path}: {exc.strerror or exc}", path="path") from None
     except ValueError as exc:
         raise ParameterError(f"cannot read {what} CSV {path}: {exc}", path="path") from None
-    named = isinstance(time_column, str) or isinstance(value_column, str)
-    numbered = isinstance(time_column, int) or isinstance(value_column, int)
+    stamped = isinstance(time_column, tuple)
+    if stamped and (value_column is None or time_format is not None or time_units != "s"):
+        raise ParameterError(
+            f"{what} CSV {path}: a time in two columns (sec, nanosec) is a ROS 2 stamp in s and ns: it "
+            f"needs {what}_column stated, and takes no time_format or time_units",
+            path="time_column",
+        )
+    specs: list[ColumnSpec | None] = [*(time_column if isinstance(time_column, tuple) else (time_column,))]
+    specs.append(value_column)
+    field_names = ["time_column"] * (len(specs) - 1) + [f"{what}_column"]
+    named = any(isinstance(c, str) for c in specs)
+    numbered = any(isinstance(c, int) for c in specs)
     header: list[str] | None = None
     # A column number (from 1) picks its column with or without a header row; a name needs the header.
-    columns = [c - 1 if isinstance(c, int) else d for c, d in ((time_column, 0), (value_column, 1))]
+    columns = [c - 1 if isinstance(c, int) else d for d, c in enumerate(specs)]
     raw_times: list[float | dt.datetime] = []
+    ticks: list[int] = []  # a stamp's integer ns, row by row
     values: list[float] = []
     lines: list[int] = []
     stamps: list[str] = []
@@ -202,12 +246,12 @@ def read_columns(
         if header is None and not raw_times:
             if named and not all(is_number(c) for c in cells):
                 header = cells
-                for k, name in enumerate((time_column, value_column)):
+                for k, name in enumerate(specs):
                     if isinstance(name, str):
                         if name not in cells:
                             raise ParameterError(
                                 f"{path}:{line_no}: no column {name!r} in header {','.join(cells)!r}",
-                                path="time_column" if k == 0 else f"{what}_column",
+                                path=field_names[k],
                             ) from None
                         columns[k] = cells.index(name)
                 continue
@@ -220,10 +264,16 @@ def read_columns(
                 continue
         if len(cells) <= max(columns):
             raise ParameterError(f"{path}:{line_no}: expected {max(columns) + 1} columns, got {len(cells)}")
-        t_text = cells[columns[0]]
+        t_text = _time_text(cells, columns)
         try:
-            t_value = _time_value(t_text, time_format)
-        except ValueError:
+            if stamped:
+                ticks.append(stamp_nanoseconds(cells[columns[0]], cells[columns[1]]))
+            t_value = float(ticks[-1]) if stamped else _time_value(t_text, time_format)
+        except ValueError as exc:
+            if stamped:
+                raise ParameterError(
+                    f"{path}:{line_no}: time {t_text!r} is no ROS 2 stamp (integer sec, nanosec): {exc}"
+                ) from None
             layout = (
                 f"the time_format {time_format!r}" if time_format else "a number or an ISO 8601 date-time"
             )
@@ -234,7 +284,7 @@ def read_columns(
             raise ParameterError(
                 f"{path}:{line_no}: time {t_text!r} mixes numbers and date-times in one column"
             )
-        v_text = cells[columns[1]]
+        v_text = cells[columns[-1]]
         try:
             v_value = float(v_text)
         except ValueError:
@@ -254,7 +304,9 @@ def read_columns(
             path="time_units",
         )
     epoch = raw_times[0] if isinstance(raw_times[0], dt.datetime) else None
-    if epoch is None and time_units != "s":
+    if stamped:  # integer ns: exact differences from the first row, scaled once
+        times = np.array([tick - ticks[0] for tick in ticks], dtype=float) / NANOS
+    elif epoch is None and time_units != "s":
         times = _since_first(stamps, TIME_UNITS[time_units])
     elif epoch is None:
         times = np.array(raw_times, dtype=float)

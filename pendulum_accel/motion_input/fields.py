@@ -53,6 +53,21 @@ def field_column(kind: str, name: str, value: object) -> str | int:
     )
 
 
+def field_time_columns(kind: str, value: object) -> str | int | tuple[str | int, str | int]:
+    """Profile field 'time_column': one column (field_column), or a list of two, a ROS 2 stamp's sec and
+    nanosec columns (``ros2 topic echo --csv`` writes ``header.stamp`` so), else ParameterError naming it."""
+    if isinstance(value, list | tuple):
+        if len(value) != 2:
+            raise ParameterError(
+                f"{kind} profile field 'time_column' must be one column or two (a stamp's sec and nanosec), "
+                f"got {len(value)}: {value!r}",
+                path="time_column",
+            )
+        sec, nanosec = (field_column(kind, "time_column", c) for c in value)
+        return sec, nanosec
+    return field_column(kind, "time_column", value)
+
+
 def field_text(kind: str, name: str, value: object, choices: Sequence[str] = ()) -> str:
     """Profile field ``name`` as text (one of ``choices`` when given), else ParameterError naming it."""
     if not isinstance(value, str) or (choices and value not in choices):

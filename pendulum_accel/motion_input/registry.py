@@ -86,7 +86,8 @@ PROFILE_FIELD_DOCS: dict[str, str] = {
     "(speeds), sensor_msgs/Imu, geometry_msgs/AccelStamped, AccelWithCovarianceStamped or Vector3Stamped "
     "(accelerations)",
     "time_column": "header name or number (from 1) of the time column (default: 1); it holds seconds or "
-    "date-times such as `2007-03-28 07:33:05`",
+    "date-times such as `2007-03-28 07:33:05`. Or a list of two, a ROS 2 stamp's sec and nanosec columns "
+    "(`[1, 2]` for `ros2 topic echo --csv`)",
     "speed_column": "header name or number (from 1: a file with no header) of the speed column (default: 2)",
     "accel_column": "header name or number (from 1: a file with no header) of the acceleration column, m/s² "
     "(default: 2)",

@@ -35,6 +35,7 @@ from pendulum_accel.motion_input.fields import (
     field_number,
     field_path,
     field_text,
+    field_time_columns,
     window_fields,
 )
 from pendulum_accel.physics.lazy import lazy_module
@@ -199,7 +200,7 @@ def csv_trace(
     """A profile's CSV file read (its path, ``time_column``, ``value_field`` column, ``time_format`` and
     ``time_units`` fields), and checked and cut to its ``start``/``end`` window by check_trace."""
     path = field_path(kind, d["path"], base_dir)
-    time_column = field_column(kind, "time_column", d["time_column"]) if "time_column" in d else None
+    time_column = field_time_columns(kind, d["time_column"]) if "time_column" in d else None
     value_column = field_column(kind, value_field, d[value_field]) if value_field in d else None
     time_format = field_text(kind, "time_format", d["time_format"]) if "time_format" in d else None
     time_units = field_text(kind, "time_units", d["time_units"]) if "time_units" in d else "s"
