@@ -3,10 +3,12 @@ And write an output through the one hidden partial name every writer uses, renam
 
 from __future__ import annotations
 
+import codecs
 import contextlib
+import io
 import os
 import stat
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 MAX_TEXT_BYTES = 64 * 1024**2
@@ -59,6 +61,86 @@ def read_text_file(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
         raise ValueError(f"not UTF-8 text (byte 0x{data[err.start]:02x} at offset {err.start})") from None
+
+
+MAX_DATA_BYTES = 1024**3
+"""A data file (a logger's CSV) is read line by line, so it may be large: an hour of a phone's 400 Hz
+accelerometer in phyphox's layout is 85 MiB, and this bound (about half a day of it) only refuses what no
+log is, before anything is read."""
+HEAD_BYTES = 1024**2
+"""The start of a data file that ``text_encoding`` decides its encoding on."""
+LEGACY_ENCODING = "cp1252"
+"""Windows-1252: what Excel writes a "CSV" in, in western locales, where "m/s²" is the byte 0xB2."""
+_BOMS = ((codecs.BOM_UTF8, "utf-8-sig"), (codecs.BOM_UTF16_LE, "utf-16"), (codecs.BOM_UTF16_BE, "utf-16"))
+
+
+def text_encoding(head: bytes) -> str:
+    """The encoding of a text file that starts with ``head``: the one its byte-order mark names (UTF-8, or
+    UTF-16 as Excel's "Unicode Text" writes), else UTF-8 when ``head`` decodes as UTF-8 (a character cut
+    at its end allowed), else Windows-1252 (LEGACY_ENCODING); ValueError for a NUL byte (binary data, or
+    UTF-16 without its mark) or bytes that are neither.
+
+    Pure ASCII reads the same in all of them, so the choice matters only for the text a file holds beyond
+    ASCII, as in its header names."""
+    for bom, encoding in _BOMS:
+        if head.startswith(bom):
+            return encoding
+    nul = head.find(b"\x00")
+    if nul >= 0:
+        raise ValueError(f"not text: a NUL byte at offset {nul} (binary data, or UTF-16 without its mark?)")
+    try:
+        codecs.getincrementaldecoder("utf-8")().decode(head, final=False)
+    except UnicodeDecodeError as err:
+        try:
+            head.decode(LEGACY_ENCODING)
+        except UnicodeDecodeError:
+            raise ValueError(
+                f"not UTF-8 text (byte 0x{head[err.start]:02x} at offset {err.start}), nor Windows-1252"
+            ) from None
+        return LEGACY_ENCODING
+    return "utf-8"
+
+
+def _decoded_lines(text: Iterator[str], encoding: str) -> Iterator[str]:
+    """The lines of ``text`` (decoded with surrogateescape), each checked: a byte the encoding could not
+    decode is a ValueError naming its line, not a chunk's worth of lines later."""
+    for number, line in enumerate(text, start=1):
+        try:
+            line.encode("utf-8")  # a surrogate escape (an undecodable byte) does not encode
+        except UnicodeEncodeError as err:
+            byte = ord(line[err.start]) - 0xDC00
+            raise ValueError(
+                f"line {number} is not {encoding} text (byte 0x{byte:02x}); the encoding is read from a "
+                "byte-order mark or the file's first MiB: save the file as UTF-8"
+            ) from None
+        yield line
+
+
+@contextlib.contextmanager
+def text_lines(path: Path, limit: int = MAX_DATA_BYTES) -> Iterator[Iterator[str]]:
+    """The lines of regular file ``path`` (≤ ``limit`` bytes), decoded in its encoding (text_encoding) with
+    universal newlines (``\\n``, ``\\r\\n``, and the ``\\r`` old Mac spreadsheets end rows with), read as
+    they are iterated; OSError when unreadable, ValueError when not a regular file, too large or not text,
+    or, from the iteration, at a line the encoding cannot decode. A byte-order mark is dropped.
+
+    Opened without blocking and checked on the open descriptor before any read, as read_text_file is."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        status = os.fstat(fd)
+        kind = stat.S_IFMT(status.st_mode)
+        if kind != stat.S_IFREG:
+            raise ValueError(f"{_KINDS.get(kind, 'not a regular file')}, not a text file")
+        if status.st_size > limit:
+            size, most = status.st_size / 1024**2, limit / 1024**2
+            raise ValueError(f"{size:.0f} MiB, more than the {most:g} MiB a data file may hold")
+        os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb", closefd=False) as raw:
+            encoding = text_encoding(raw.read(HEAD_BYTES))
+            raw.seek(0)
+            with io.TextIOWrapper(raw, encoding=encoding, errors="surrogateescape", newline=None) as text:
+                yield _decoded_lines(iter(text), encoding)
+    finally:
+        os.close(fd)
 
 
 PARTIAL = ".partial"

@@ -364,7 +364,7 @@ def test_odd_files_are_one_line(tmp_path: Path) -> None:
     text = cli("scenes", "lecture_constant").stdout
     start = text.index("acceleration:")
     end = text.index("sensor:")
-    for source, words in (("binary.csv", ("not UTF-8",)), ("/dev/zero", ("character device",))):
+    for source, words in (("binary.csv", ("not text", "NUL byte")), ("/dev/zero", ("character device",))):
         scene = tmp_path / "csv_scene.yaml"
         scene.write_text(text[:start] + profile.format(source) + text[end:])
         one_line_error(cli("simulate", str(scene)), *words)

@@ -10,11 +10,10 @@ from dataclasses import replace
 from pathlib import Path
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.motion_input.columns import comma_hint, csv_rows, is_number
+from pendulum_accel.motion_input.columns import comma_hint, is_number, read_csv_rows
 from pendulum_accel.motion_input.fields import field_column, field_scale
 from pendulum_accel.motion_input.trace import csv_trace, recorded_acceleration
 from pendulum_accel.physics.profiles import Table
-from pendulum_accel.textfile import read_text_file
 
 PHYPHOX_TIME_COLUMN = "Time (s)"
 """phyphox's "Acceleration (without g)" CSV export: "Time (s)", then "Acceleration x (m/s^2)", y, z (and,
@@ -40,15 +39,9 @@ def accel_csv_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
 def csv_table(path: str | Path) -> Table:
     """The ``csv`` profile: a Table from CSV rows ``t, a`` (s, m/s²); a header row, ``#`` comments skipped."""
     source = Path(path)
-    try:
-        text = read_text_file(source)
-    except OSError as exc:
-        raise ParameterError(f"cannot read acceleration CSV {source}: {exc.strerror}") from None
-    except ValueError as exc:
-        raise ParameterError(f"cannot read acceleration CSV {source}: {exc}") from None
     times: list[float] = []
     accels: list[float] = []
-    for line_no, cells in csv_rows(text):
+    for line_no, cells in read_csv_rows(source, "acceleration"):
         if len(cells) < 2:
             raise ParameterError(f"{source}:{line_no}: expected 't, a', got {','.join(cells)!r}")
         try:

@@ -21,15 +21,16 @@ from __future__ import annotations
 
 import csv
 import datetime as dt
+import itertools
 import re
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.textfile import read_text_file
+from pendulum_accel.textfile import text_lines
 
 
 @dataclass(frozen=True)
@@ -108,16 +109,45 @@ def sniff_layout(lines: list[str]) -> Layout:
     return Layout(separator, comma)
 
 
-def csv_rows(text: str) -> Iterator[tuple[int, list[str]]]:
-    """(line number, cells) of each row that holds cells, in the file's own layout (``sniff_layout``):
-    cells stripped, decimal-comma numbers rewritten with a point; blank rows and ``#`` comments skipped."""
-    lines = text.splitlines()
-    layout = sniff_layout(lines)
-    for line_no, row in enumerate(csv.reader(lines, delimiter=layout.separator), start=1):
-        cells = [layout.cell(c) for c in row]
-        if not cells or not any(cells) or cells[0].startswith("#"):
-            continue
-        yield line_no, cells
+def csv_rows(lines: Iterable[str], where: Path) -> Iterator[tuple[int, list[str]]]:
+    """(line number, cells) of each row that holds cells, in the file's own layout (``sniff_layout`` on its
+    first SNIFF_ROWS content rows): cells stripped, decimal-comma numbers rewritten with a point; blank rows
+    and ``#`` comments skipped. ``lines`` are read as the rows are (textfile.text_lines streams a file); a
+    row the csv module refuses is a ParameterError naming ``where`` and the line."""
+    stream = iter(lines)
+    line_no = 0
+    try:
+        head: list[str] = []
+        content = 0
+        for line in stream:
+            head.append(line)
+            content += len(_content([line]))
+            if content >= SNIFF_ROWS:
+                break
+        layout = sniff_layout(head)
+        for line_no, row in enumerate(
+            csv.reader(itertools.chain(head, stream), delimiter=layout.separator), 1
+        ):
+            cells = [layout.cell(c) for c in row]
+            if not cells or not any(cells) or cells[0].startswith("#"):
+                continue
+            yield line_no, cells
+    except csv.Error as err:  # e.g. a cell past csv's field size limit: binary data
+        raise ParameterError(f"{where}:{line_no + 1}: not a CSV row ({err})") from None
+
+
+def read_csv_rows(path: Path, what: str) -> Iterator[tuple[int, list[str]]]:
+    """csv_rows of the file at ``path`` (textfile.text_lines: streamed, in its own encoding); a file that
+    cannot be opened or is not text is one ParameterError naming the ``what`` CSV and the path."""
+    try:
+        with text_lines(path) as lines:
+            yield from csv_rows(lines, path)
+    except OSError as exc:
+        raise ParameterError(f"cannot read {what} CSV {path}: {exc.strerror or exc}", path="path") from None
+    except ParameterError:
+        raise
+    except ValueError as exc:
+        raise ParameterError(f"cannot read {what} CSV {path}: {exc}", path="path") from None
 
 
 def parse_datetime(text: str, time_format: str | None) -> dt.datetime:
@@ -210,12 +240,6 @@ def read_columns(
     (sec, nanosec), which needs the value column stated. Every failure is one ParameterError naming file
     and line; ``what`` (speed, accel) names the file and the column field.
     """
-    try:
-        text = read_text_file(path)
-    except OSError as exc:
-        raise ParameterError(f"cannot read {what} CSV {path}: {exc.strerror or exc}", path="path") from None
-    except ValueError as exc:
-        raise ParameterError(f"cannot read {what} CSV {path}: {exc}", path="path") from None
     stamped = isinstance(time_column, tuple)
     if stamped and (value_column is None or time_format is not None or time_units != "s"):
         raise ParameterError(
@@ -237,7 +261,7 @@ def read_columns(
     lines: list[int] = []
     stamps: list[str] = []
     units_row = False
-    for line_no, cells in csv_rows(text):
+    for line_no, cells in read_csv_rows(path, what):
         if header is not None and not raw_times and not units_row and not any(is_number(c) for c in cells):
             # One row of text only under the header is its units ("s", "m/s^2"), as many loggers write;
             # a row with any number in it is data and is read (or refused) as such.
