@@ -34,7 +34,7 @@ from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.settings import estimator_options
-from pendulum_accel.scene import Scene, scene_from_yaml
+from pendulum_accel.scene import Scene, scene_from_yaml, scene_text_without_motion
 from pendulum_accel.scene_run import run_scene
 from pendulum_accel.textfile import write_through_partial
 
@@ -321,7 +321,7 @@ def swing_from_bag(path: Path | str | Bag, estimator: str | None = None) -> Swin
     grade = 0.0
     if text:
         try:
-            grade = scene_from_yaml(text, label=str(path)).grade
+            grade = scene_from_yaml(scene_text_without_motion(text) or text, label=str(path)).grade
         except SceneError:
             grade = 0.0  # an older or foreign scene text: draw the car level
     return SwingData(

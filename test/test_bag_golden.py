@@ -17,9 +17,9 @@ import pytest
 from rosbags.rosbag2 import Reader
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.reader import read_bag, scene_name
+from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.planner import plan_scene
-from pendulum_accel.recording.analyze import analyze_bag
+from pendulum_accel.recording.analyze import analyze_bag, stored_scene_name
 from pendulum_accel.scene import list_scenes, scene_from_yaml
 from test.figures import assert_same_figures
 
@@ -69,7 +69,7 @@ def test_golden_bag_content(name: str) -> None:
     assert bag.topics[bm.TOPIC_IMU].count == bag.topics[bm.TOPIC_ACCEL_ESTIMATE].count
     assert bag.topics[bm.TOPIC_ROBOT_DESCRIPTION].count == 1
     stored = scene_from_yaml(bag.custom_data["pendulum_accel.scene"])
-    assert scene_name(bag) == name == stored.name
+    assert stored_scene_name(bag) == name == stored.name
     assert stored.pendulum == scene.pendulum and stored.sensor == scene.sensor
     # The plan line is today's planner's for the stored scene: a planner change means `make bags`.
     # Its words and counts exactly; its figures as numbers (test.figures), not as printed last digits.

@@ -14,6 +14,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from pendulum_accel import scene as scene_module
 from pendulum_accel.errors import SceneError
 from pendulum_accel.physics.profiles import Constant, Table
 from pendulum_accel.scene import (
@@ -23,6 +24,7 @@ from pendulum_accel.scene import (
     list_scenes,
     load_scene,
     scene_from_yaml,
+    scene_text_without_motion,
     scene_to_yaml,
 )
 
@@ -80,6 +82,37 @@ def test_yaml_round_trip(name: str, tmp_path: Path) -> None:
     path.write_text(text, encoding="utf-8")
     assert load_scene(path) == scene
     assert scene_from_yaml(text) == scene
+
+
+@pytest.mark.parametrize("name", SCENE_NAMES)
+def test_a_stored_scene_read_without_its_motion_keeps_everything_else(name: str) -> None:
+    """scene_text_without_motion cuts the acceleration block out of scene_to_yaml's text and puts a = 0 in
+    its place: the scene read from it equals the whole one in every field but the profile. libyaml's loader
+    (tried first) and the Python loader read each text to equal data."""
+    scene = load_scene(name)
+    text = scene_to_yaml(scene)
+    light = scene_text_without_motion(text)
+    assert light is not None
+    assert scene_from_yaml(light) == dataclasses.replace(scene, profile=Constant(0.0))
+    for each in (text, light):
+        assert yaml.load(each, Loader=scene_module._CSceneLoader) == yaml.load(
+            each, Loader=scene_module._SceneLoader
+        )
+
+
+def test_the_motion_block_is_not_parsed_when_it_is_not_needed() -> None:
+    """A stored scene whose table would not even parse still gives its name and settings without it (so a
+    recorded log's million-number table is never read for them), and the whole scene is still refused.
+    Text not laid out as scene_to_yaml writes it (flow style) is not cut: None."""
+    text = scene_to_yaml(load_scene("lecture_constant"))
+    start = text.index("acceleration:")
+    end = text.index("\n", text.index("a: 2.0", start)) + 1
+    broken = text[:start] + "acceleration:\n  type: table\n  times: [0.0, 1.0\n" + text[end:]
+    with pytest.raises(SceneError, match="malformed YAML"):
+        scene_from_yaml(broken)
+    light = scene_text_without_motion(broken)
+    assert light is not None and scene_from_yaml(light).name == "lecture_constant"
+    assert scene_text_without_motion("{name: x, acceleration: {type: constant, a: 1}}") is None
 
 
 def test_exponent_without_dot_is_a_number(tmp_path: Path) -> None:

@@ -1435,16 +1435,3 @@ def salvage_note(bag: Bag) -> str | None:
         f"{bag.problem}; read the {bag.message_count} messages that are intact{unverified} "
         f"(`pendulum-accel repair {bag.path}` rewrites the bag from them)"
     )
-
-
-def scene_name(bag: Bag) -> str | None:
-    """Scene name from the bag's stored scene YAML (custom_data), None when absent or unreadable."""
-    text = bag.custom_data.get("pendulum_accel.scene")
-    if not text:
-        return None
-    try:
-        doc = load_yaml(text)
-    except yaml.YAMLError:
-        return None
-    name = doc.get("name") if isinstance(doc, dict) else None
-    return str(name) if name is not None else None

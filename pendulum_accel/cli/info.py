@@ -12,12 +12,13 @@ from numpy.typing import NDArray
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.integrity import damage_origin
-from pendulum_accel.bag.reader import Bag, read_bag, salvage_note, scene_name
+from pendulum_accel.bag.reader import Bag, read_bag, salvage_note
 from pendulum_accel.bag.repair import CUSTOM_REPAIRED
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_VERSION
 from pendulum_accel.cli.topics import add_topic_flags, choose_topics
 from pendulum_accel.errors import SeveralChainsError
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting, unexplained_missing
+from pendulum_accel.recording.analyze import stored_scene_name
 
 
 def register(subparsers: Any) -> None:
@@ -177,7 +178,7 @@ def info_lines(path: str, args: argparse.Namespace | None = None) -> tuple[list[
         f"file:      {bag.mcap_path.name}  {size / 1e6:.2f} MB",
         f"duration:  {bag.duration_s:.3f} s  (log time {bag.start_ns * 1e-9:.3f}-{bag.end_ns * 1e-9:.3f} s)",
         f"messages:  {bag.message_count}",
-        f"scene:     {scene_name(bag) or '(not stored)'}",
+        f"scene:     {stored_scene_name(bag) or '(not stored)'}",
         f"plan:      {bag.custom_data.get(CUSTOM_PLAN, '(not stored)').removeprefix('plan: ')}",
         f"written by pendulum_accel {bag.custom_data.get(CUSTOM_VERSION, '?')}",
         "topics:",

@@ -31,7 +31,7 @@ from pendulum_accel.bag.messages import (
     DiagnosticArrayMsg,
     deserialize_as,
 )
-from pendulum_accel.bag.reader import Bag, TopicArrays, read_bag, scene_name
+from pendulum_accel.bag.reader import Bag, TopicArrays, read_bag
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.estimators import (
@@ -47,7 +47,7 @@ from pendulum_accel.recording import coverage
 from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change, change_rule
 from pendulum_accel.recording.contract import decode_chain
 from pendulum_accel.recording.settings import estimator_settings, motion_choice, uses_preset
-from pendulum_accel.scene import Scene, scene_from_yaml
+from pendulum_accel.scene import Scene, scene_from_yaml, scene_text_without_motion
 
 DEFAULT_REL_TOLERANCE = 0.02
 DEFAULT_ABS_TOLERANCE = 0.1  # m/s², about 1 % of g: below it sensor noise, not the method, dominates
@@ -499,7 +499,7 @@ def analyze_bag(
     offline = estimate_figures("offline re-run", name, t, t, a_est, a_true, tol, t[0] + skip)
     return Analysis(
         path=data.path,
-        scene=scene_name(data),
+        scene=stored_scene_name(data),
         estimator=name,
         config=cfg,
         t=t,
@@ -622,10 +622,10 @@ def smoothed_estimate(bag: Bag) -> dict[str, NDArray[np.float64]] | None:
 def bag_motion(bag: Bag) -> MotionChoice:
     """kalman's preset for the bag's re-run: its stored scene's (recording.settings.motion_choice), which is
     the one its recording chose; without a stored scene, the default preset."""
-    scene = stored_scene(bag)
-    if scene is None:
+    text = bag.custom_data.get(CUSTOM_SCENE)
+    if not text:
         return MotionChoice(DEFAULT_PRESET, "the bag stores no scene: the default preset")
-    return motion_choice(scene)
+    return motion_choice(_scene_but_motion(text))
 
 
 def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
@@ -643,7 +643,27 @@ def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
 
 def _scene_config(text: str) -> dict[str, float]:
     """Estimator settings of a scene stored as YAML text; BagError when it no longer loads."""
-    return estimator_settings(_stored_scene(text))
+    return estimator_settings(_scene_but_motion(text))
+
+
+@functools.lru_cache(maxsize=4)
+def _scene_but_motion(text: str) -> Scene:
+    """The stored scene with a(t) = 0 in place of its profile (scene.scene_text_without_motion), for what
+    does not depend on a(t): its name, estimator settings and motion key; the whole scene when the text
+    is not laid out as recorders write it. BagError when it no longer loads."""
+    light = scene_text_without_motion(text)
+    return _stored_scene(text if light is None else light)
+
+
+def stored_scene_name(bag: Bag) -> str | None:
+    """The name of the scene the bag stores, None when it stores none or it no longer loads."""
+    text = bag.custom_data.get(CUSTOM_SCENE)
+    if not text:
+        return None
+    try:
+        return _scene_but_motion(text).name
+    except BagError:
+        return None
 
 
 @functools.lru_cache(maxsize=4)
