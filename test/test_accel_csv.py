@@ -106,7 +106,7 @@ def test_a_bad_row_names_its_line(tmp_path: Path) -> None:
     """A value that is not a number is reported with file and line; a missing file as a scene error too."""
     path = tmp_path / "log.csv"
     path.write_text(f"{HEADER}\n0.0,0,0,0\n0.01,0,oops,0\n", encoding="utf-8")
-    with pytest.raises(ParameterError, match=r"log\.csv:3: not a number"):
+    with pytest.raises(ParameterError, match=r"log\.csv:3: accel 'oops' is not a number"):
         profile_from_dict({"type": "accel_csv", "path": str(path), "accel_column": FORWARD})
     with pytest.raises((ParameterError, SceneError), match="cannot read accel CSV"):
         profile_from_dict({"type": "accel_csv", "path": str(tmp_path / "missing.csv")})
