@@ -503,6 +503,23 @@ def test_a_thousands_comma_in_a_decimal_point_file_is_refused_not_read_as_a_deci
     assert np.array_equal(read_columns(tmp_path / "comma.csv", None, None, what="accel").values, [1.0, 1.25])
 
 
+@pytest.mark.parametrize("separator", ["\t", ";"])
+def test_a_file_has_one_decimal_mark_and_a_cell_with_the_other_is_refused(
+    separator: str, tmp_path: Path
+) -> None:
+    """A decimal-comma file (its first rows say so) writes "1.000" for a thousand, not for 1.0: a cell
+    with a decimal point further down is refused on its line, as is a decimal comma in a file whose first
+    rows write decimal points; neither is read as a number of the other mark."""
+    rows = ["t,a", *(f"{k},{k}|5" for k in range(30)), "30,1.000"]
+    text = "\n".join(r.replace(",", separator).replace("|", ",") for r in rows) + "\n"
+    (tmp_path / "comma.csv").write_text(text, encoding="utf-8")
+    with pytest.raises(ParameterError, match=r"comma\.csv:32: '1\.000' has a decimal point in a file whose"):
+        read_columns(tmp_path / "comma.csv", None, None, what="accel")
+    (tmp_path / "mixed.csv").write_text(f"t{separator}a\n0{separator}0.5\n1{separator}1,5\n", "utf-8")
+    with pytest.raises(ParameterError, match=r"mixed\.csv:3: accel '1,5' is not a number \(its first rows"):
+        read_columns(tmp_path / "mixed.csv", None, None, what="accel")
+
+
 @pytest.mark.parametrize("named", [True, False])
 def test_a_units_row_under_the_header_is_skipped_and_a_second_text_row_is_refused(
     named: bool, tmp_path: Path

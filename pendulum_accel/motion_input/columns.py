@@ -125,15 +125,27 @@ def csv_rows(lines: Iterable[str], where: Path) -> Iterator[tuple[int, list[str]
             if content >= SNIFF_ROWS:
                 break
         layout = sniff_layout(head)
-        for line_no, row in enumerate(
-            csv.reader(itertools.chain(head, stream), delimiter=layout.separator), 1
-        ):
+        rows = csv.reader(itertools.chain(head, stream), delimiter=layout.separator)
+        for line_no, row in enumerate(rows, start=1):
+            if layout.decimal_comma:
+                _refuse_decimal_point(row, f"{where}:{line_no}")
             cells = [layout.cell(c) for c in row]
             if not cells or not any(cells) or cells[0].startswith("#"):
                 continue
             yield line_no, cells
     except csv.Error as err:  # e.g. a cell past csv's field size limit: binary data
         raise ParameterError(f"{where}:{line_no + 1}: not a CSV row ({err})") from None
+
+
+def _refuse_decimal_point(row: list[str], where: str) -> None:
+    """ParameterError for a cell written with a decimal point (``1.000``) in a decimal-comma file: there a
+    point groups thousands, and float() would read the cell as 1.0, silently."""
+    stray = next((c.strip() for c in row if _DECIMAL_POINT.fullmatch(c.strip())), None)
+    if stray is not None:
+        raise ParameterError(
+            f"{where}: {stray!r} has a decimal point in a file whose numbers have a decimal comma (seen in "
+            "its first rows): a point grouping thousands is not read; write the number without it"
+        )
 
 
 def read_csv_rows(path: Path, what: str) -> Iterator[tuple[int, list[str]]]:
@@ -349,11 +361,14 @@ def read_columns(
 
 
 def comma_hint(text: str) -> str:
-    """Why a cell such as ``1,000.5`` is no number: its file writes a decimal point (sniff_layout), so the
-    comma groups thousands, which a reader could take for a decimal mark only by guessing."""
-    if not _THOUSANDS.fullmatch(text):
-        return ""
-    return " (a comma grouping thousands is not read: write the number without it)"
+    """Why a cell such as ``1,000.5`` or ``1,5`` is no number: its file writes a decimal point (sniff_layout),
+    so the comma groups thousands, which a reader could take for a decimal mark only by guessing, or the
+    file mixes the two marks."""
+    if _THOUSANDS.fullmatch(text):
+        return " (a comma grouping thousands is not read: write the number without it)"
+    if _DECIMAL_COMMA.fullmatch(text):
+        return " (its first rows write numbers with a decimal point, and a file has one decimal mark)"
+    return ""
 
 
 def _since_first(stamps: list[str], unit: float) -> np.ndarray:
