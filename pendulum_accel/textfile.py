@@ -1,5 +1,6 @@
-"""Read a small user-given text file (scene YAML, acceleration CSV): its size, type and bytes are checked.
-And write an output through the one hidden partial name every writer uses, renamed only once complete."""
+"""Read a user-given text file, its size, type and bytes checked: a scene's YAML whole (read_text_file), a
+logger's CSV line by line in the encoding it was written in (text_lines). And write an output through the
+one hidden partial name every writer uses, renamed only once complete."""
 
 from __future__ import annotations
 
