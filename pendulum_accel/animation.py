@@ -30,11 +30,11 @@ from matplotlib.quiver import Quiver
 from numpy.typing import NDArray
 
 from pendulum_accel.bag.reader import Bag, read_bag
-from pendulum_accel.errors import ParameterError, SceneError
+from pendulum_accel.errors import BagError, ParameterError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
-from pendulum_accel.recording.analyze import analyze_bag
+from pendulum_accel.recording.analyze import analyze_bag, scene_but_motion
 from pendulum_accel.recording.settings import estimator_options
-from pendulum_accel.scene import Scene, scene_from_yaml, scene_text_without_motion
+from pendulum_accel.scene import Scene
 from pendulum_accel.scene_run import run_scene
 from pendulum_accel.textfile import write_through_partial
 
@@ -321,8 +321,8 @@ def swing_from_bag(path: Path | str | Bag, estimator: str | None = None) -> Swin
     grade = 0.0
     if text:
         try:
-            grade = scene_from_yaml(scene_text_without_motion(text) or text, label=str(path)).grade
-        except SceneError:
+            grade = scene_but_motion(text).grade
+        except BagError:
             grade = 0.0  # an older or foreign scene text: draw the car level
     return SwingData(
         t=result.t,

@@ -37,25 +37,34 @@ def not_a_file_or_directory(path: Path) -> str | None:
     return _KINDS.get(kind, "not a regular file")
 
 
+@contextlib.contextmanager
+def _regular_file(path: Path) -> Iterator[tuple[io.BufferedReader, int]]:
+    """(binary handle, size in bytes) of regular file ``path``; OSError when it cannot be opened, ValueError
+    when it is not a regular file. Opened without blocking and its type checked on the open descriptor
+    before any read: a FIFO would block until a writer came, a device (/dev/zero) never ends."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        status = os.fstat(fd)
+        kind = stat.S_IFMT(status.st_mode)
+        if kind != stat.S_IFREG:
+            raise ValueError(f"{_KINDS.get(kind, 'not a regular file')}, not a text file")
+        os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb", closefd=False) as handle:
+            yield handle, status.st_size
+    finally:
+        os.close(fd)
+
+
 def read_text_file(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
     """UTF-8 text of regular file ``path`` (≤ ``limit`` bytes); OSError when unreadable, else ValueError.
 
     A leading byte-order mark (U+FEFF, which Excel and Windows tools write) is dropped: it is not part of
     the first value or header name.
 
-    The file is opened without blocking and its type checked on the open descriptor before any read: a
-    FIFO would block until a writer came, a device (/dev/zero) never ends.
+    The file is opened as _regular_file opens it: a FIFO or a device is refused before any read.
     """
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    try:
-        kind = stat.S_IFMT(os.fstat(fd).st_mode)
-        if kind != stat.S_IFREG:
-            raise ValueError(f"{_KINDS.get(kind, 'not a regular file')}, not a text file")
-        os.set_blocking(fd, True)
-        with os.fdopen(fd, "rb", closefd=False) as handle:
-            data = handle.read(limit + 1)
-    finally:
-        os.close(fd)
+    with _regular_file(path) as (handle, _):
+        data = handle.read(limit + 1)
     if len(data) > limit:
         raise ValueError(f"more than {limit / 1024**2:g} MiB, not a text file of this kind")
     try:
@@ -124,24 +133,16 @@ def text_lines(path: Path, limit: int = MAX_DATA_BYTES) -> Iterator[Iterator[str
     they are iterated; OSError when unreadable, ValueError when not a regular file, too large or not text,
     or, from the iteration, at a line the encoding cannot decode. A byte-order mark is dropped.
 
-    Opened without blocking and checked on the open descriptor before any read, as read_text_file is."""
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    try:
-        status = os.fstat(fd)
-        kind = stat.S_IFMT(status.st_mode)
-        if kind != stat.S_IFREG:
-            raise ValueError(f"{_KINDS.get(kind, 'not a regular file')}, not a text file")
-        if status.st_size > limit:
-            size, most = status.st_size / 1024**2, limit / 1024**2
-            raise ValueError(f"{size:.0f} MiB, more than the {most:g} MiB a data file may hold")
-        os.set_blocking(fd, True)
-        with os.fdopen(fd, "rb", closefd=False) as raw:
-            encoding = text_encoding(raw.read(HEAD_BYTES))
-            raw.seek(0)
-            with io.TextIOWrapper(raw, encoding=encoding, errors="surrogateescape", newline=None) as text:
-                yield _decoded_lines(iter(text), encoding)
-    finally:
-        os.close(fd)
+    Opened by _regular_file, as read_text_file's is."""
+    with _regular_file(path) as (raw, size):
+        if size > limit:
+            raise ValueError(
+                f"{size / 1024**2:.0f} MiB, more than the {limit / 1024**2:g} MiB a data file may hold"
+            )
+        encoding = text_encoding(raw.read(HEAD_BYTES))
+        raw.seek(0)
+        with io.TextIOWrapper(raw, encoding=encoding, errors="surrogateescape", newline=None) as text:
+            yield _decoded_lines(iter(text), encoding)
 
 
 PARTIAL = ".partial"

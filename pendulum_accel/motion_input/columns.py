@@ -127,7 +127,7 @@ def csv_rows(lines: Iterable[str], where: Path) -> Iterator[tuple[int, list[str]
         layout = sniff_layout(head)
         rows = csv.reader(itertools.chain(head, stream), delimiter=layout.separator)
         for line_no, row in enumerate(rows, start=1):
-            if layout.decimal_comma:
+            if layout.decimal_comma and any("." in c for c in row):  # a substring scan before the regex
                 _refuse_decimal_point(row, f"{where}:{line_no}")
             cells = [layout.cell(c) for c in row]
             if not cells or not any(cells) or cells[0].startswith("#"):

@@ -625,7 +625,7 @@ def bag_motion(bag: Bag) -> MotionChoice:
     text = bag.custom_data.get(CUSTOM_SCENE)
     if not text:
         return MotionChoice(DEFAULT_PRESET, "the bag stores no scene: the default preset")
-    return motion_choice(_scene_but_motion(text))
+    return motion_choice(scene_but_motion(text))
 
 
 def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
@@ -643,11 +643,11 @@ def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
 
 def _scene_config(text: str) -> dict[str, float]:
     """Estimator settings of a scene stored as YAML text; BagError when it no longer loads."""
-    return estimator_settings(_scene_but_motion(text))
+    return estimator_settings(scene_but_motion(text))
 
 
 @functools.lru_cache(maxsize=4)
-def _scene_but_motion(text: str) -> Scene:
+def scene_but_motion(text: str) -> Scene:
     """The stored scene with a(t) = 0 in place of its profile (scene.scene_text_without_motion), for what
     does not depend on a(t): its name, estimator settings and motion key; the whole scene when the text
     is not laid out as recorders write it. BagError when it no longer loads."""
@@ -661,7 +661,7 @@ def stored_scene_name(bag: Bag) -> str | None:
     if not text:
         return None
     try:
-        return _scene_but_motion(text).name
+        return scene_but_motion(text).name
     except BagError:
         return None
 
