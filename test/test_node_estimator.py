@@ -39,7 +39,11 @@ def test_every_diagnostic_state_and_no_nonfinite_output(spawn: Spawn) -> None:
     jumped = [[0.001 + 0.05 * i, THETA_2] for i in range(30)]
     # Each stage waits for its diagnostic before the next is provoked: a busy machine may hold the
     # estimator back long enough for two stages to share one diagnostics period.
+    # The first wait is for the probe's own /diagnostics subscription: the estimator may match the probe's
+    # publisher (wait_subscribers) before the probe's listener matches the estimator's diagnostics, and
+    # then the STALE it published before the first sample never reached the probe (CI, stop 48).
     feed = [
+        ["until", "STALE", 10.0],
         *normal,
         ["until", "OK", 10.0],
         *nan_sample,
