@@ -86,9 +86,10 @@ def run_probe(spawn: Spawn, spec: Mapping[str, Any], timeout: float = 60.0) -> d
     return result
 
 
-def start_chain(spawn: Spawn, *args: str) -> Output:
-    """Spawn launch_scripts/chain.py with ``args`` and collect its (and its nodes') output."""
-    return Output(spawn([PYTHON, LAUNCHER, *args]))
+def start_chain(spawn: Spawn, *args: str, env: dict[str, str] | None = None) -> Output:
+    """Spawn launch_scripts/chain.py with ``args`` (and ``env`` in place of this process's environment)
+    and collect its (and its nodes') output."""
+    return Output(spawn([PYTHON, LAUNCHER, *args], env=env))
 
 
 def child_pids(output: Output) -> dict[str, int]:

@@ -143,8 +143,13 @@ def _generated_matches_live(live: Bag, out: Path) -> None:
 
 
 def _start_long_chain(spawn: Spawn, bag: Path) -> tuple[Output, dict[str, int]]:
-    """A real-time chain on a 60 s scene, once its simulator publishes; (output, {role: pid})."""
-    chain = start_chain(spawn, "lecture_constant", "--set", "duration=60", "--record", str(bag))
+    """A real-time chain on a 60 s scene, once its simulator publishes; (output, {role: pid}). The
+    launcher's temporary directory (scene file, node summaries) goes beside the bag: a launcher killed
+    with SIGKILL cannot remove it, and it must not outlive the test in the machine's /tmp."""
+    scratch = bag.parent / "launcher_tmp"
+    scratch.mkdir(exist_ok=True)
+    env = {**os.environ, "TMPDIR": str(scratch)}
+    chain = start_chain(spawn, "lecture_constant", "--set", "duration=60", "--record", str(bag), env=env)
     # The readers' acknowledgement of the first sample, not the matching before it, starts the stream.
     chain.wait_for(r"\[pendulum_sim\]: first sample acknowledged by every reader", timeout=60)
     time.sleep(2.0)  # a couple of seconds of data
@@ -159,6 +164,7 @@ def test_sigint_stops_every_node_and_leaves_a_valid_bag(spawn: Spawn, tmp_path: 
     chain.proc.send_signal(signal.SIGINT)
     assert chain.finish(timeout=60) == 130, chain.text
     assert pids_alive(list(pids.values())) == []
+    assert list((tmp_path / "launcher_tmp").iterdir()) == []  # an interrupted launcher removes its scratch
     bag = read_bag(tmp_path / "bag")
     assert bag.problem is None and bag.complete
     assert bag.topics["/pendulum/joint_states"].count > 50
@@ -172,6 +178,7 @@ def test_killed_node_stops_the_chain_and_nothing_lingers(spawn: Spawn, tmp_path:
     assert chain.finish(timeout=60) == 1, chain.text
     assert "estimator" in chain.text and "died with killed by SIGKILL" in chain.text
     assert pids_alive(list(pids.values())) == []
+    assert list((tmp_path / "launcher_tmp").iterdir()) == []
     bag = read_bag(tmp_path / "bag")  # the recorder still closed its bag
     assert bag.problem is None and bag.topics["/pendulum/joint_states"].count > 50
 
@@ -186,3 +193,6 @@ def test_killed_launcher_takes_its_nodes_with_it(spawn: Spawn, tmp_path: Path) -
     assert pids_alive(list(pids.values())) == []
     bag = read_bag(tmp_path / "bag")  # SIGTERM from the dying parent: the recorder closed the bag
     assert bag.problem is None and bag.topics["/pendulum/joint_states"].count > 50
+    # The launcher's scratch went where TMPDIR said, so tmp_path's cleanup removes what it left.
+    left = [p.name for p in (tmp_path / "launcher_tmp").iterdir()]
+    assert len(left) == 1 and left[0].startswith("pendulum_accel_chain_"), left
