@@ -61,9 +61,10 @@ import yaml
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.estimators.motion import MOTIONS
 from pendulum_accel.motion_input import profile_from_dict
+from pendulum_accel.motion_input.accel_log import write_table_csv
 from pendulum_accel.physics.integrators import METHODS
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
-from pendulum_accel.physics.profiles import AccelProfile
+from pendulum_accel.physics.profiles import AccelProfile, Table
 from pendulum_accel.physics.rigid import level_equivalent
 from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, MODELS
 from pendulum_accel.sensor import SENSOR_LIMITS, SensorModel, check_sensor_field, noise_std_from_density
@@ -183,6 +184,12 @@ class _CSceneLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ign
 
 
 _CSceneLoader.yaml_implicit_resolvers = _SceneLoader.yaml_implicit_resolvers
+
+_DUMP_STYLE: dict[str, Any] = {"sort_keys": False, "allow_unicode": True, "width": 100}
+"""scene_to_yaml's layout: the scene's own field order, characters as they are, lines up to 100."""
+
+_NUMBERS = "pendulum-accel-numbers-{}"
+"""scene_to_yaml's placeholder for a list of floats, written in its place by _float_block."""
 
 
 @dataclass(frozen=True)
@@ -678,6 +685,65 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def write_scene_file(scene: Scene, directory: Path) -> Path:
+    """``directory``/NAME.yaml, a file ``load_scene`` reads back into an equal scene (what the launcher hands
+    its nodes). A table profile goes beside it as NAME.accel.csv, the ``csv`` profile's file (write_table_csv,
+    read back bit for bit): an hour of a phone's 400 Hz log inline is 100 MB of YAML, past the scene file's
+    64 MiB bound and half a minute and 3 GB to parse in each node, where the CSV streams in seconds."""
+    path = directory / f"{scene.name}.yaml"
+    profile = scene.profile
+    if isinstance(profile, Table) and profile.recipe is None:
+        data = directory / f"{scene.name}.accel.csv"
+        write_table_csv(profile, data)
+        scene = replace(scene, profile=replace(profile, recipe={"type": "csv", "path": data.name}))
+    path.write_text(scene_to_yaml(scene), encoding="utf-8")
+    return path
+
+
 def scene_to_yaml(scene: Scene) -> str:
-    """YAML text that ``scene_from_yaml`` reads back into an equal scene (the text stored in bags)."""
-    return yaml.safe_dump(scene_to_dict(scene), sort_keys=False, allow_unicode=True, width=100)
+    """YAML text that ``scene_from_yaml`` reads back into an equal scene (the text stored in bags).
+
+    yaml.safe_dump's text, character for character (test_scene holds it to the library). Its representer
+    makes a node per number, so a recorded log's table (a million rows) took a minute and 1.2 GB; each
+    list of floats is put in as a placeholder and its lines are written here instead (_float_block).
+    """
+    data = scene_to_dict(scene)
+    lists: list[list[float]] = []
+    _pull_float_lists(data, lists)
+    text: str = yaml.safe_dump(data, **_DUMP_STYLE)  # the pure-Python emitter: libyaml's escapes emoji
+    markers = [f": {_NUMBERS.format(k)}\n" for k in range(len(lists))]
+    if any(text.count(marker) != 1 for marker in markers):  # a string of the scene spells one: no splice
+        return str(yaml.safe_dump(scene_to_dict(scene), **_DUMP_STYLE))
+    for marker, values in zip(markers, lists, strict=True):
+        at = text.index(marker)
+        start = text.rindex("\n", 0, at) + 1
+        indent = " " * (len(text[start:at]) - len(text[start:at].lstrip(" ")))
+        text = f"{text[:at]}:\n{_float_block(values, indent)}{text[at + len(marker) :]}"
+    return text
+
+
+def _pull_float_lists(node: dict[str, Any], lists: list[list[float]]) -> None:
+    """Each non-empty list of floats in ``node``'s mappings, moved to ``lists`` and replaced by its
+    placeholder (_NUMBERS with its index), in place."""
+    for key, value in node.items():
+        if isinstance(value, dict):
+            _pull_float_lists(value, lists)
+        elif isinstance(value, list) and value and all(type(v) is float for v in value):
+            node[key] = _NUMBERS.format(len(lists))
+            lists.append(value)
+
+
+def _float_block(values: list[float], indent: str) -> str:
+    """A block sequence of floats as yaml's emitter writes it under a mapping key: ``indent- x`` per line,
+    x as SafeRepresenter.represent_float spells it (repr, lower case, '.0' put before an exponent that has
+    no point, so YAML 1.1 resolves it as a float; .nan, .inf, -.inf)."""
+    out = []
+    for v in values:
+        if not math.isfinite(v):
+            r = ".nan" if v != v else (".inf" if v > 0 else "-.inf")
+        else:
+            r = repr(v).lower()
+            if "." not in r and "e" in r:
+                r = r.replace("e", ".0e", 1)
+        out.append(f"{indent}- {r}\n")
+    return "".join(out)

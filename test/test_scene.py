@@ -25,7 +25,9 @@ from pendulum_accel.scene import (
     load_scene,
     scene_from_yaml,
     scene_text_without_motion,
+    scene_to_dict,
     scene_to_yaml,
+    write_scene_file,
 )
 
 Doc = dict[str, Any]
@@ -82,6 +84,84 @@ def test_yaml_round_trip(name: str, tmp_path: Path) -> None:
     path.write_text(text, encoding="utf-8")
     assert load_scene(path) == scene
     assert scene_from_yaml(text) == scene
+
+
+def _library_text(scene: Any) -> str:
+    """The scene's text as PyYAML's pure-Python safe dumper writes it, scene_to_yaml's layout."""
+    return str(
+        yaml.dump(
+            scene_to_dict(scene), Dumper=yaml.SafeDumper, sort_keys=False, allow_unicode=True, width=100
+        )
+    )
+
+
+@pytest.mark.parametrize("name", SCENE_NAMES)
+def test_scene_text_is_the_librarys_character_for_character(name: str) -> None:
+    """scene_to_yaml writes float lists itself (a node per number made a million-row table take a minute):
+    the text is yaml.safe_dump's, exactly, on every bundled scene (tables, speed traces given inline,
+    unicode descriptions). Text equality, no tolerance: both spell each float as repr does."""
+    scene = load_scene(name)
+    assert scene_to_yaml(scene) == _library_text(scene)
+
+
+# Values up to 1e100 and steps from 1e-3: the table's slopes (Δa/Δt, at most 2e103) stay finite, while the
+# values still span subnormals, ±0.0 and exponents of every width.
+finite = st.floats(min_value=-1e100, max_value=1e100)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    steps=st.lists(st.floats(min_value=1e-3, max_value=1e6), min_size=1, max_size=40),
+    accels=st.lists(finite, min_size=41, max_size=41),
+    description=st.text(max_size=30),
+)
+def test_any_table_is_written_as_the_library_writes_it(
+    steps: list[float], accels: list[float], description: str
+) -> None:
+    """Any values (subnormal, ±0.0, 1e100, exponents with no point such as 1e-05, which YAML 1.1 reads as a
+    float only as 1.0e-05) and any description: the library's text, and it reads back equal."""
+    times = [0.0]
+    for step in steps:
+        if times[-1] + step > times[-1]:
+            times.append(times[-1] + step)
+    table = Table(tuple(times), tuple(accels[: len(times)]))
+    scene = dataclasses.replace(load_scene("lecture_constant"), profile=table, description=description)
+    text = scene_to_yaml(scene)
+    assert text == _library_text(scene)
+    assert scene_from_yaml(text) == scene
+
+
+def test_non_finite_floats_and_a_placeholder_lookalike_are_the_librarys() -> None:
+    """The float lines spell nan and ±inf as the representer does, and a scene whose description spells
+    the placeholder scene_to_yaml uses is dumped by the library whole (its text is still the library's)."""
+    values = [math.nan, math.inf, -math.inf, 1e-05, -0.0, 5e-324]
+    assert scene_module._float_block(values, "  ") == yaml.safe_dump({"k": {"v": values}}).split("\n", 2)[2]
+    lookalike = f"x: {scene_module._NUMBERS.format(0)}\ny"
+    scene = dataclasses.replace(
+        load_scene("stop_and_go"), description=f"a: {scene_module._NUMBERS.format(0)}\n{lookalike}"
+    )
+    assert scene_to_yaml(scene) == _library_text(scene)
+    assert scene_from_yaml(scene_to_yaml(scene)) == scene
+
+
+def test_the_launchers_scene_file_keeps_a_table_beside_it(tmp_path: Path) -> None:
+    """write_scene_file puts a table profile in NAME.accel.csv (the csv profile's file) and the rest in
+    NAME.yaml: load_scene reads back an equal scene, every float bit for bit (Table equality is tuple
+    equality: exact). A scene without a table is one file."""
+    scene = load_scene("stop_and_go")
+    assert isinstance(scene.profile, Table)
+    path = write_scene_file(scene, tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["stop_and_go.accel.csv", "stop_and_go.yaml"]
+    assert yaml.safe_load(path.read_text(encoding="utf-8"))["acceleration"] == {
+        "type": "csv",
+        "path": "stop_and_go.accel.csv",
+    }
+    assert load_scene(path) == scene
+    other = tmp_path / "other"
+    other.mkdir()
+    constant = load_scene("lecture_constant")
+    assert load_scene(write_scene_file(constant, other)) == constant
+    assert [p.name for p in other.iterdir()] == ["lecture_constant.yaml"]
 
 
 @pytest.mark.parametrize("name", SCENE_NAMES)

@@ -62,3 +62,11 @@ def csv_table(path: str | Path) -> Table:
     if not times:
         raise ParameterError(f"{source}: no (t, a) rows found")
     return Table(tuple(times), tuple(accels))
+
+
+def write_table_csv(table: Table, path: Path) -> None:
+    """The ``csv`` profile's file of ``table``: a ``t,a`` header, then one row per point, each float at its
+    shortest repr, so csv_table reads back the very same floats (float(repr(x)) == x)."""
+    with path.open("w", encoding="utf-8", newline="\n") as out:
+        out.write("t,a\n")
+        out.writelines(f"{t!r},{a!r}\n" for t, a in zip(table.times, table.accels, strict=True))

@@ -158,12 +158,10 @@ def effective_scene_file(config: ChainConfig, directory: Path) -> str:
     if not config.overrides:
         return config.scene
     from pendulum_accel.overrides import apply_overrides
-    from pendulum_accel.scene import load_scene, scene_to_yaml
+    from pendulum_accel.scene import load_scene, write_scene_file
 
     scene = apply_overrides(load_scene(config.scene), config.overrides)
-    path = directory / f"{scene.name}.yaml"
-    path.write_text(scene_to_yaml(scene))
-    return str(path)
+    return str(write_scene_file(scene, directory))
 
 
 def describe_exit(code: int | None) -> str:
