@@ -118,6 +118,11 @@ def test_invalid_parameters_are_rejected_with_a_reason(spawn: Spawn) -> None:
     assert not length_ok and "length" in length_reason
     assert noise_ok, noise_reason
     assert result["get"] == {"method": "kalman", "length": 1.0, "noise_std": 0.002}
+    # One rebuild, for the one accepted change: none at start up, where each publisher declares its
+    # qos_overrides parameters (those had rebuilt the estimator 20 times, the scene read each time).
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=20) == 0
+    assert estimator.text.count("estimator rebuilt") == 1, estimator.text
 
 
 def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:

@@ -20,6 +20,7 @@ velocity are not measured: zeros, with covariance[0] = -1 as sensor_msgs/Imu ask
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 import time
@@ -80,6 +81,8 @@ from pendulum_accel.scene import Scene, load_scene
 
 NODE_NAME = "accel_estimator"
 HARDWARE_ID = "pendulum_accel"
+ESTIMATOR_PARAMETERS = ("method", "lag", "preset", *(spec.name for spec in ESTIMATOR_CONFIG))
+"""The parameters the estimator is built from: a change of one of them rebuilds it."""
 _DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
 _DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
 # Angles taken but not yet estimated. Taking is cheap, so the executor keeps serving the parameter
@@ -124,7 +127,10 @@ class EstimatorNode(ManagedNode):
         """Declare parameters, then configure and activate when ``autostart`` (subscribing to the angles
         once the named readers of the outputs are there)."""
         super().__init__(NODE_NAME)
-        values = declare_parameters(self, ESTIMATOR, lambda name: estimator_settings(load_scene(name)))
+        # The parameters' defaults and configure's sensor figures come from one read of the scene (a
+        # recorded log's table takes seconds to read); the scene parameter is read-only.
+        self._scene_once = functools.cache(load_scene)
+        values = declare_parameters(self, ESTIMATOR, lambda name: estimator_settings(self._scene_once(name)))
         self.method = str(values["method"])
         self.warn_angle_deg = float(values["warn_angle_deg"])
         self.stale_after = float(values["stale_after"])
@@ -242,8 +248,7 @@ class EstimatorNode(ManagedNode):
 
     def _config_values(self, changes: Sequence[Parameter] = ()) -> dict[str, Any]:
         """method, lag, preset and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
-        names = ("method", "lag", "preset", *(spec.name for spec in ESTIMATOR_CONFIG))
-        return parameter_values(self, names, changes)
+        return parameter_values(self, ESTIMATOR_PARAMETERS, changes)
 
     def _build(self, values: dict[str, Any]) -> Estimator:
         """make_estimator(method, l, g, noise_std, rate_hz, damping[, lag, preset]); ParameterError if bad."""
@@ -274,7 +279,7 @@ class EstimatorNode(ManagedNode):
     def _own_scene(self) -> Scene | None:
         """The scene the ``scene`` parameter names, None when it does not load (no sensor figures then)."""
         try:
-            return load_scene(str(self.get_parameter("scene").value))
+            return self._scene_once(str(self.get_parameter("scene").value))
         except PendulumAccelError:
             return None
 
@@ -312,11 +317,18 @@ class EstimatorNode(ManagedNode):
         return 0.0 if self._scene is None else float(self._scene.sensor.range)
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        """Accept a change only if the estimator it makes is valid; else keep the old value and say why."""
+        """Accept a change only if the estimator it makes is valid; else keep the old value and say why.
+        Other parameters (the qos_overrides each publisher declares) are not the estimator's: accepted."""
+        if not any(p.name in ESTIMATOR_PARAMETERS for p in params):
+            return SetParametersResult(successful=True)
         return change_result(lambda: self._build(self._config_values(params)))
 
     def _parameters_applied(self, params: list[Parameter]) -> None:
-        """Rebuild the estimator from the new values; it starts over from the next sample."""
+        """Rebuild the estimator from the new values; it starts over from the next sample. Only a change
+        of what it is built from rebuilds it: each qos_overrides parameter a publisher declares at start
+        up had rebuilt it once (20 times, the scene's motion read again each time)."""
+        if not any(p.name in ESTIMATOR_PARAMETERS for p in params):
+            return
         values = self._config_values()
         self.method = str(values["method"])
         if not hasattr(self, "guarded"):  # not configured yet: configure builds it from these values

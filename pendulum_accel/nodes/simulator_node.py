@@ -24,6 +24,7 @@ subscribers change nothing), and the first sample is acknowledged by every match
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 import time
@@ -63,6 +64,8 @@ from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import run_scene
 
 NODE_NAME = "pendulum_sim"
+OVERRIDE_NAMES = frozenset(spec.name for spec in OVERRIDES)
+"""The parameters the scene is built from (overrides.OVERRIDES): a change of one restarts it."""
 _ACK_WARN_S = 10.0  # s between warnings about a reader that does not acknowledge
 
 
@@ -85,10 +88,13 @@ class SimulatorNode(ManagedNode):
         """Declare parameters (PendulumAccelError on a bad scene), then configure and activate when
         ``autostart``."""
         super().__init__(NODE_NAME)
+        # The parameters' defaults and the base scene come from one read of the scene (a recorded log's
+        # table takes seconds to read).
+        scene_once = functools.cache(load_scene)
         values = declare_parameters(
-            self, SIMULATOR, lambda name: {spec.name: spec.get(load_scene(name)) for spec in OVERRIDES}
+            self, SIMULATOR, lambda name: {spec.name: spec.get(scene_once(name)) for spec in OVERRIDES}
         )
-        self._base_scene = load_scene(str(values["scene"]))
+        self._base_scene = scene_once(str(values["scene"]))
         self.realtime = bool(values["realtime"])
         self.exit_on_end = bool(values["exit_on_end"])
         self.time_source = str(values["time_source"])
@@ -167,17 +173,20 @@ class SimulatorNode(ManagedNode):
         return apply_overrides(self._base_scene, values)
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        """Accept a change only if the scene it makes is valid; otherwise keep the old value and say why."""
+        """Accept a change only if the scene it makes is valid; otherwise keep the old value and say why.
+        Other parameters (the qos_overrides each publisher declares at start up) leave the scene alone."""
         for param in params:
             if isinstance(param.value, float) and not math.isfinite(param.value):
                 return SetParametersResult(
                     successful=False, reason=f"{param.name} must be finite, got {param.value}"
                 )
+        if not any(p.name in OVERRIDE_NAMES for p in params):
+            return SetParametersResult(successful=True)
         return change_result(lambda: self._scene_from(self._override_values(params)))
 
     def _parameters_applied(self, params: list[Parameter]) -> None:
         """A physics change restarts the scene at t = 0 with the new values (receivers see time jump back)."""
-        if any(p.name in {spec.name for spec in OVERRIDES} for p in params):
+        if any(p.name in OVERRIDE_NAMES for p in params):
             self.scene = self._scene_from(self._override_values())
             if self._extra:
                 self._publish_description()
