@@ -28,13 +28,16 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pendulum_accel.errors import ParameterError, PendulumAccelError, RosMissingError
 from pendulum_accel.nodes.accounting import Accounting
 from pendulum_accel.nodes.names import fully_qualified_namespace
 from pendulum_accel.nodes.preflight import check_chain
 from pendulum_accel.nodes.scheduling import RT_PRIORITY_ENV
+
+if TYPE_CHECKING:
+    from pendulum_accel.scene import Scene
 
 _PR_SET_PDEATHSIG = 1
 _STOP_TIMEOUT = 15.0  # s a node gets to exit after SIGINT before SIGKILL
@@ -153,14 +156,13 @@ class Child:
         return self.process.pid
 
 
-def effective_scene_file(config: ChainConfig, directory: Path) -> str:
-    """Scene argument for the nodes: the name, or (with overrides) a YAML file of the overridden scene."""
+def effective_scene_file(config: ChainConfig, scene: Scene, directory: Path) -> str:
+    """Scene argument for the nodes: the name, or (with overrides) a file of ``scene``, the overridden
+    scene check_chain loaded (scene.write_scene_file)."""
     if not config.overrides:
         return config.scene
-    from pendulum_accel.overrides import apply_overrides
-    from pendulum_accel.scene import load_scene, write_scene_file
+    from pendulum_accel.scene import write_scene_file
 
-    scene = apply_overrides(load_scene(config.scene), config.overrides)
     return str(write_scene_file(scene, directory))
 
 
@@ -181,7 +183,7 @@ class Chain:
 
     def __init__(self, config: ChainConfig, *, log: bool = True, output: Path | None = None) -> None:
         """Check the configuration (no process is started yet); ``output``: file for the nodes' logs."""
-        check_chain(config)
+        self._scene = check_chain(config)  # read once: a recorded log's table takes seconds to read
         if config.effective_time_source not in ("sim", "wall"):
             raise ParameterError(f"time source must be sim or wall, got {config.time_source!r}")
         if config.effective_time_source == "wall" and not config.realtime:
@@ -316,7 +318,7 @@ class Chain:
         previous = {s: signal.signal(s, self._on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         try:
             with tempfile.TemporaryDirectory(prefix="pendulum_accel_chain_") as tmp:
-                scene_arg = effective_scene_file(self.config, Path(tmp))
+                scene_arg = effective_scene_file(self.config, self._scene, Path(tmp))
                 self._say(f"time source: {self.config.effective_time_source}")
                 self._summaries = Path(tmp)
                 for role, command in self.commands(scene_arg, Path(tmp)):

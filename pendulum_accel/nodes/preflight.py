@@ -14,10 +14,12 @@ from pendulum_accel.errors import ParameterError
 
 if TYPE_CHECKING:
     from pendulum_accel.nodes.launcher import ChainConfig
+    from pendulum_accel.scene import Scene
 
 
-def check_chain(config: ChainConfig) -> None:
-    """ParameterError/SceneError (one line) for anything the nodes would refuse, checked in that order.
+def check_chain(config: ChainConfig) -> Scene:
+    """The scene the chain runs, its overrides applied; ParameterError/SceneError (one line) for anything
+    the nodes would refuse, checked in that order.
 
     Scene loads and validates with its overrides applied (ranges, whole seeds); the namespace and
     remap rules are names ROS accepts for every node (nodes.names, rcl's rules); the estimator is a
@@ -29,12 +31,13 @@ def check_chain(config: ChainConfig) -> None:
     from pendulum_accel.overrides import apply_overrides
     from pendulum_accel.scene import load_scene
 
-    apply_overrides(load_scene(config.scene), config.overrides)
+    scene = apply_overrides(load_scene(config.scene), config.overrides)
     check_chain_names(config.namespace, config.remaps)
     if config.estimator is not None and config.estimator not in ESTIMATORS:
         raise ParameterError(f"unknown estimator {config.estimator!r}; choose one of {', '.join(ESTIMATORS)}")
     if config.record is not None:
         check_output_dir(config.record, overwrite=config.overwrite)
+    return scene
 
 
 def check_output_dir(path: os.PathLike[str] | str, *, overwrite: bool) -> None:
