@@ -257,6 +257,19 @@ class Sinusoid(AccelProfile):
         }
 
 
+def _finite_floats(name: str, values: Sequence[float]) -> tuple[float, ...]:
+    """tuple(require_finite(f"{name}[i]", v) for each v): the floats, or the ParameterError naming the
+    first bad entry. The per-entry names are made only on a failure: a recorded log's table has millions
+    of entries, and naming each took seconds."""
+    try:
+        floats = tuple(map(float, values))
+    except (TypeError, ValueError):
+        floats = None
+    if floats is None or not all(map(math.isfinite, floats)):
+        return tuple(require_finite(f"{name}[{i}]", v) for i, v in enumerate(values))  # raises, naming it
+    return floats
+
+
 @dataclass(frozen=True)
 class Table(AccelProfile):
     """a(t) piecewise linear through (times[i], accels[i]), flat beyond the first and last point.
@@ -277,24 +290,26 @@ class Table(AccelProfile):
     _breaks: tuple[float, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        times = tuple(require_finite(f"times[{i}]", v) for i, v in enumerate(self.times))
-        accels = tuple(require_finite(f"accels[{i}]", v) for i, v in enumerate(self.accels))
+        times = _finite_floats("times", self.times)
+        accels = _finite_floats("accels", self.accels)
         if not times:
             raise ParameterError("table needs at least one (t, a) point, got none")
         if len(times) != len(accels):
             raise ParameterError(f"table times and accels differ in length: {len(times)} vs {len(accels)}")
-        for i in range(1, len(times)):
-            if times[i] <= times[i - 1]:
-                raise ParameterError(
-                    f"table times must be strictly increasing: times[{i}]={times[i]} <= {times[i - 1]}"
-                )
+        t = np.array(times)
+        back = np.flatnonzero(t[1:] <= t[:-1])
+        if back.size:
+            i = int(back[0]) + 1
+            raise ParameterError(
+                f"table times must be strictly increasing: times[{i}]={times[i]} <= {times[i - 1]}"
+            )
         object.__setattr__(self, "times", times)
         object.__setattr__(self, "accels", accels)
-        object.__setattr__(self, "_t", np.array(times))
+        object.__setattr__(self, "_t", t)
         object.__setattr__(self, "_a", np.array(accels))
         # Flat extrapolation means slope 0 before the first point and after the last.
         slopes = np.concatenate(([0.0], np.diff(self._a) / np.diff(self._t), [0.0]))
-        breaks = tuple(t for i, t in enumerate(times) if slopes[i] != slopes[i + 1])
+        breaks = tuple(t[np.flatnonzero(slopes[:-1] != slopes[1:])].tolist())
         object.__setattr__(self, "_breaks", breaks)
 
     def __call__(self, t: ArrayLike) -> np.ndarray:
