@@ -163,18 +163,23 @@ class _SceneLoader(yaml.SafeLoader):
     """yaml.SafeLoader whose floats follow YAML 1.2, so ``1e-3`` is a number and not the string '1e-3'."""
 
 
-_SceneLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(
-        r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-        |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-        |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
-        |[-+]?\.(?:inf|Inf|INF)
-        |\.(?:nan|NaN|NAN))$""",
-        re.VERBOSE,
-    ),
-    list("-+0123456789."),
+_YAML12_FLOAT = re.compile(
+    r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+    |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""",
+    re.VERBOSE,
 )
+_SceneLoader.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT, list("-+0123456789."))
+
+
+class _SceneDumper(yaml.SafeDumper):
+    """yaml.SafeDumper that resolves plain scalars as _SceneLoader does, so a string such as '1e5' (a
+    number to the scene loader, a string to YAML 1.1) is quoted: scene_to_yaml's text always reads back."""
+
+
+_SceneDumper.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT, list("-+0123456789."))
 
 
 class _CSceneLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
@@ -674,7 +679,7 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
 
 
 def _plain(value: Any) -> Any:
-    """``value`` with tuples as lists and numpy scalars as Python numbers, for yaml.safe_dump."""
+    """``value`` with tuples as lists and numpy scalars as Python numbers, for the YAML dumper."""
     convert: Callable[[Any], Any] = _plain
     if isinstance(value, Mapping):
         return {str(k): convert(v) for k, v in value.items()}
@@ -703,17 +708,17 @@ def write_scene_file(scene: Scene, directory: Path) -> Path:
 def scene_to_yaml(scene: Scene) -> str:
     """YAML text that ``scene_from_yaml`` reads back into an equal scene (the text stored in bags).
 
-    yaml.safe_dump's text, character for character (test_scene holds it to the library). Its representer
+    _SceneDumper's text, character for character (test_scene holds it to the library). Its representer
     makes a node per number, so a recorded log's table (a million rows) took a minute and 1.2 GB; each
     list of floats is put in as a placeholder and its lines are written here instead (_float_block).
     """
     data = scene_to_dict(scene)
     lists: list[list[float]] = []
     _pull_float_lists(data, lists)
-    text: str = yaml.safe_dump(data, **_DUMP_STYLE)  # the pure-Python emitter: libyaml's escapes emoji
+    text: str = yaml.dump(data, Dumper=_SceneDumper, **_DUMP_STYLE)  # pure Python: libyaml escapes emoji
     markers = [f": {_NUMBERS.format(k)}\n" for k in range(len(lists))]
     if any(text.count(marker) != 1 for marker in markers):  # a string of the scene spells one: no splice
-        return str(yaml.safe_dump(scene_to_dict(scene), **_DUMP_STYLE))
+        return str(yaml.dump(scene_to_dict(scene), Dumper=_SceneDumper, **_DUMP_STYLE))
     for marker, values in zip(markers, lists, strict=True):
         at = text.index(marker)
         start = text.rindex("\n", 0, at) + 1
