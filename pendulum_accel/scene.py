@@ -171,7 +171,6 @@ _YAML12_FLOAT = re.compile(
     |\.(?:nan|NaN|NAN))$""",
     re.VERBOSE,
 )
-_SceneLoader.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT, list("-+0123456789."))
 
 
 class _SceneDumper(yaml.SafeDumper):
@@ -179,7 +178,8 @@ class _SceneDumper(yaml.SafeDumper):
     number to the scene loader, a string to YAML 1.1) is quoted: scene_to_yaml's text always reads back."""
 
 
-_SceneDumper.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT, list("-+0123456789."))
+for _resolving in (_SceneLoader, _SceneDumper):
+    _resolving.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT, list("-+0123456789."))
 
 
 class _CSceneLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]

@@ -64,7 +64,7 @@ from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import run_scene
 
 NODE_NAME = "pendulum_sim"
-OVERRIDE_NAMES = frozenset(spec.name for spec in OVERRIDES)
+OVERRIDE_NAMES = tuple(spec.name for spec in OVERRIDES)
 """The parameters the scene is built from (overrides.OVERRIDES): a change of one restarts it."""
 _ACK_WARN_S = 10.0  # s between warnings about a reader that does not acknowledge
 
@@ -166,7 +166,7 @@ class SimulatorNode(ManagedNode):
 
     def _override_values(self, changes: Sequence[Parameter] = ()) -> dict[str, float]:
         """Current override parameter values, with ``changes`` applied on top."""
-        return parameter_values(self, [spec.name for spec in OVERRIDES], changes)
+        return parameter_values(self, OVERRIDE_NAMES, changes)
 
     def _scene_from(self, values: dict[str, float]) -> Scene:
         """The base scene with the override values (PendulumAccelError naming a bad value)."""
