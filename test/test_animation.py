@@ -5,6 +5,7 @@ from __future__ import annotations
 import errno
 import math
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -207,6 +208,37 @@ def test_a_direct_save_over_a_file_keeps_it_until_the_new_one_is_complete(
         )  # fmt: skip
         frames = int(probe.stdout.strip())
     assert frames == 11  # 0, 0.1, …, 1.0 s: the whole new animation
+
+
+@pytest.mark.parametrize("suffix", [".gif", ".mp4"])
+def test_a_sigint_inside_a_draw_stops_between_frames(
+    tmp_path: Path, suffix: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A real SIGINT arriving while a frame is drawn: KeyboardInterrupt after that frame, no file left, and
+    SIGINT's default handler back. The draw here turns a KeyboardInterrupt raised inside it into
+    ``ValueError('Invalid bounding box')``, as matplotlib's Agg converters did on CI (a traceback and
+    exit 1 where Ctrl-C must give 130); the SIGINT must reach no code inside a draw."""
+    draw = SwingAnimation.draw_frame
+    drawn: list[int] = []
+
+    def draw_with_sigint(self: SwingAnimation, k: int) -> object:
+        """Frame 2 gets a SIGINT half way, which a KeyboardInterrupt there would turn into a ValueError."""
+        if k == 2:
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)  # the handler runs here, between bytecodes
+            except KeyboardInterrupt:
+                raise ValueError("Invalid bounding box") from None
+        drawn.append(k)
+        return draw(self, k)
+
+    monkeypatch.setattr(SwingAnimation, "draw_frame", draw_with_sigint)
+    anim = SwingAnimation(swing(), fps=10, duration=1.0)
+    with pytest.raises(KeyboardInterrupt):
+        anim.save(tmp_path / f"swing{suffix}")
+    assert drawn == [0, 1, 2]
+    assert list(tmp_path.iterdir()) == []
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
 @pytest.mark.parametrize("name", ["swing.gif", ".swing.partial.gif"])

@@ -87,7 +87,7 @@ def test_generate_interrupted_while_writing_leaves_no_bag(tmp_path: Path) -> Non
     scene = _long_scene(tmp_path, 3000.0)  # 300 000 samples: seconds of writing
     out = tmp_path / "bag"
     code, err = _interrupt_when(["generate", str(scene), "--out", str(out), "-e", "instant"], out.exists)
-    assert code == 130
+    assert code == 130, err
     assert err.strip().splitlines() == ["pendulum-accel generate: interrupted"]
     assert not out.exists()
 
@@ -107,7 +107,7 @@ def test_animate_interrupted_while_encoding_leaves_no_file(tmp_path: Path) -> No
 
     scene = _long_scene(tmp_path, 600.0)
     code, err = _interrupt_when(["animate", str(scene), "--out", str(out), "--duration", "600"], encoding)
-    assert code == 130
+    assert code == 130, err
     assert err.strip().splitlines() == ["pendulum-accel animate: interrupted"]
     assert sorted(os.listdir(tmp_path)) == ["long.yaml"]
 
@@ -121,6 +121,6 @@ def test_animate_gif_interrupted_leaves_no_file(tmp_path: Path) -> None:
     mark = tmp_path / "drawing"
     args = ["animate", str(scene), "--out", str(outputs / "swing.gif"), "--duration", "600"]
     code, err = _interrupt_when(args, mark.exists, ("-c", _MARK_DRAWING), MARK=str(mark))
-    assert code == 130
+    assert code == 130, err
     assert err.strip().splitlines() == ["pendulum-accel animate: interrupted"]
     assert os.listdir(outputs) == []
