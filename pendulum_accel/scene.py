@@ -48,6 +48,7 @@ A copied bundled scene that keeps its bundled ``name`` is named after its file i
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import re
@@ -543,10 +544,7 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
 def scene_from_yaml(text: str, *, label: str = "<scene>", base_dir: Path | None = None) -> Scene:
     """Scene from YAML text; errors read '<label>: <field>: expected …' ('<label>:<line>: …' for bad YAML)."""
     try:
-        try:
-            data = yaml.load(text, Loader=_CSceneLoader)  # safe loaders both: no objects
-        except yaml.YAMLError:
-            data = yaml.load(text, Loader=_SceneLoader)  # the same refusal, worded as users see it
+        data = _load_scene_data(text)
     except yaml.MarkedYAMLError as err:
         mark = err.problem_mark or err.context_mark
         line = f":{mark.line + 1}" if mark is not None else ""
@@ -563,6 +561,137 @@ def scene_from_yaml(text: str, *, label: str = "<scene>", base_dir: Path | None 
         raise SceneError(f"{label}: {err}") from None
 
 
+def _load_scene_data(text: str) -> Any:
+    """The data yaml.load(text, Loader=_SceneLoader) gives, its long float lists read by hand.
+
+    A recorded log's table is millions of numbers, one line each, and the library makes a node per number:
+    half a minute and 3 GB for an hour of a phone's 400 Hz log. Each long block sequence of floats spelled
+    as scene_to_yaml spells them, the whole value of a plain key, is cut out of the text (_float_runs) and
+    its floats put back into the data the rest parses to (_put_back_float_lists). Where the cut cannot be
+    sure (the placeholder in a flow collection or a string, the rest refused), the whole text is parsed:
+    the data is always the library's, and a refusal the library's, with the user's own line."""
+    cut = _float_runs(text)
+    if cut is not None:
+        light, lists = cut
+        try:
+            data = yaml.load(light, Loader=_CSceneLoader)
+            trusted = _in_block_context(light, lists) and _put_back_float_lists(data, lists)
+        except yaml.YAMLError:
+            trusted = False
+        if trusted:
+            return data
+    try:
+        return yaml.load(text, Loader=_CSceneLoader)  # safe loaders both: no objects
+    except yaml.YAMLError:
+        return yaml.load(text, Loader=_SceneLoader)  # the same refusal, worded as users see it
+
+
+_FLOAT_TOKEN = r"(?:-?[0-9]+\.[0-9]+(?:e[-+][0-9]+)?|\.nan|-?\.inf)"  # as _float_block spells a float
+_KEY_THEN_ITEM = re.compile(r"^( *)[A-Za-z_][A-Za-z0-9_]*:\n( *)- ", re.MULTILINE)  # KEY: alone, then an item
+_SAFE = yaml.constructor.SafeConstructor
+_SPECIAL_FLOATS = {".nan": _SAFE.nan_value, ".inf": _SAFE.inf_value, "-.inf": -_SAFE.inf_value}  # its own
+_FLOAT_RUN_MIN = 64  # a shorter list costs the library microseconds: not worth a cut
+
+
+@functools.cache
+def _item_patterns(indent: int) -> tuple[re.Pattern[str], re.Pattern[str]]:
+    """For items at ``indent``: the first line break not followed by one, and one float item's line.
+
+    A run is checked by removing every item line (subn) rather than by one repeated pattern, which keeps a
+    backtracking frame per line (0.5 GB for a million) on the Pythons before 3.11's possessive repeats."""
+    prefix = " " * indent + "- "
+    return re.compile(rf"\n(?!{prefix})"), re.compile(rf"{prefix}{_FLOAT_TOKEN}\n")
+
+
+def _float_runs(text: str) -> tuple[str, dict[str, list[float]]] | None:
+    """``text`` with each run of at least _FLOAT_RUN_MIN float items that is a plain key's whole value cut
+    out (``KEY:`` + run → ``KEY: PLACEHOLDER``), and each placeholder's floats; None when nothing is cut.
+
+    The whole value: the line before the run is ``KEY:`` alone, indented no deeper than the items, and the
+    line after is a line no deeper than that key that is not blank, a comment or an item (any of which
+    could carry the sequence on). Text that already spells a placeholder is not cut. Each float is
+    float(item) as the loader's constructor takes it, .nan and ±.inf its own values."""
+    if _NUMBERS.format("") in text:
+        return None
+    pieces: list[str] = []
+    lists: dict[str, list[float]] = {}
+    done = 0
+    for head in _KEY_THEN_ITEM.finditer(text):
+        key_indent, indent = len(head.group(1)), len(head.group(2))
+        start = head.end() - indent - 2  # the first item's line
+        if key_indent > indent or start < done:
+            continue
+        run_end, item_line = _item_patterns(indent)
+        stop = run_end.search(text, start)
+        if stop is None:  # the text ends in an item with no line break: it could be anything
+            continue
+        end = stop.start() + 1
+        count = text.count("\n", start, end)
+        line_end = text.find("\n", end)
+        after = text[end:] if line_end < 0 else text[end:line_end]
+        rest = after.lstrip(" ")
+        ends = end == len(text) or (len(after) - len(rest) <= key_indent and rest[:1] not in ("", "#", "-"))
+        if count < _FLOAT_RUN_MIN or not ends:
+            continue
+        if item_line.subn("", text[start:end]) != ("", count):  # an item that is not a float as written
+            continue
+        tokens = text[start + indent + 2 : end - 1].split(f"\n{' ' * indent}- ")
+        name = _NUMBERS.format(len(lists))
+        lists[name] = [float(t) if t[-1].isdigit() else _SPECIAL_FLOATS[t] for t in tokens]
+        pieces += [text[done : start - 1], f" {name}\n"]
+        done = end
+    if not lists:
+        return None
+    pieces.append(text[done:])
+    return "".join(pieces), lists
+
+
+def _in_block_context(light: str, lists: dict[str, list[float]]) -> bool:
+    """True when no placeholder of ``lists`` sits inside a flow collection of ``light`` (``{…}``, ``[…]``,
+    where YAML refuses a block sequence: there the whole text must be parsed, to be refused)."""
+    depth = 0
+    for token in yaml.scan(light, Loader=_CSceneLoader):
+        if isinstance(token, (yaml.FlowMappingStartToken, yaml.FlowSequenceStartToken)):
+            depth += 1
+        elif isinstance(token, (yaml.FlowMappingEndToken, yaml.FlowSequenceEndToken)):
+            depth -= 1
+        elif depth and isinstance(token, yaml.ScalarToken) and token.value in lists:
+            return False
+    return True
+
+
+def _put_back_float_lists(data: Any, lists: dict[str, list[float]]) -> bool:
+    """Each placeholder that is a mapping's value in ``data`` replaced by its floats, in place; False (the
+    data to be thrown away) unless each was found exactly once and nowhere else (cut out of a block scalar,
+    one would sit inside a string; under a merge key, twice; in a !!set, lost)."""
+    found: set[str] = set()
+    marker = _NUMBERS.format("")
+    stack, seen = [data], set()  # iterative: nesting as deep as the loader takes; an alias visited once
+    while stack:
+        node = stack.pop()
+        if id(node) in seen:
+            continue
+        seen.add(id(node))
+        items = (
+            list(node.items())
+            if isinstance(node, dict)
+            else list(enumerate(node))
+            if isinstance(node, list)
+            else []
+        )
+        for key, value in items:
+            if isinstance(key, str) and marker in key:
+                return False
+            if isinstance(value, str) and marker in value:
+                if not isinstance(node, dict) or value not in lists or value in found:
+                    return False
+                found.add(value)
+                node[key] = lists[value]
+            elif isinstance(value, (dict, list)):
+                stack.append(value)
+    return found == set(lists)
+
+
 _TOP_LEVEL_KEY = re.compile(r"^[^\s#-][^:\n]*:", re.MULTILINE)  # a mapping key at column 0
 _STILL = "acceleration:\n  type: constant\n  a: 0.0\n"  # a(t) = 0: stands in for a profile not read
 
@@ -574,7 +703,7 @@ def scene_text_without_motion(text: str) -> str | None:
 
     What depends on the name, the pendulum, the sensor or the motion key but not on a(t) (a bag's
     ``info``, ``analyze``'s estimator settings) reads this in milliseconds: a recorded log's table of
-    millions of numbers takes half a minute to parse."""
+    millions of numbers takes seconds to parse and convert."""
     start = re.search(r"^acceleration:[ \t]*\n", text, re.MULTILINE)
     if start is None:
         return None
@@ -694,7 +823,7 @@ def write_scene_file(scene: Scene, directory: Path) -> Path:
     """``directory``/NAME.yaml, a file ``load_scene`` reads back into an equal scene (what the launcher hands
     its nodes). A table profile goes beside it as NAME.accel.csv, the ``csv`` profile's file (write_table_csv,
     read back bit for bit): an hour of a phone's 400 Hz log inline is 100 MB of YAML, past the scene file's
-    64 MiB bound and half a minute and 3 GB to parse in each node, where the CSV streams in seconds."""
+    64 MiB bound."""
     path = directory / f"{scene.name}.yaml"
     profile = scene.profile
     if isinstance(profile, Table) and profile.recipe is None:

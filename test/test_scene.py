@@ -152,6 +152,98 @@ def test_non_finite_floats_and_a_placeholder_lookalike_are_the_librarys() -> Non
     assert scene_from_yaml(scene_to_yaml(scene)) == scene
 
 
+def _library_data(text: str) -> Any:
+    """What the scene loader's library parse gives for ``text``, or the refusal's type and message."""
+    try:
+        return yaml.load(text, Loader=scene_module._SceneLoader)
+    except yaml.YAMLError as err:
+        return (type(err).__name__, str(err))
+
+
+def _hand_data(text: str) -> Any:
+    """What scene_from_yaml's parse (_load_scene_data) gives for ``text``, or the refusal's type and text."""
+    try:
+        return scene_module._load_scene_data(text)
+    except yaml.YAMLError as err:
+        return (type(err).__name__, str(err))
+
+
+@pytest.mark.parametrize("name", SCENE_NAMES)
+def test_float_lists_read_by_hand_are_the_librarys(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every float list of a bundled scene's stored text, cut out and read by hand (down to one item, so
+    every list is), gives the library's data. Compared through repr: exact, and nan equal to nan."""
+    monkeypatch.setattr(scene_module, "_FLOAT_RUN_MIN", 1)
+    text = scene_to_yaml(load_scene(name))
+    lists = sum(
+        isinstance(v, list) and v != [] and all(type(x) is float for x in v)
+        for v in _walk_values(_library_data(text))
+    )
+    cut = scene_module._float_runs(text)
+    assert (cut is not None) == (lists > 0)
+    assert repr(_hand_data(text)) == repr(_library_data(text))
+
+
+def _walk_values(node: Any) -> list[Any]:
+    """Every value below ``node``'s mappings and sequences, depth first."""
+    values = list(node.values()) if isinstance(node, dict) else list(node) if isinstance(node, list) else []
+    return values + [v for value in values for v in _walk_values(value)]
+
+
+# Items: the writer's spellings (any float through _float_block) and ones the cut must leave to the library
+# (YAML 1.2's 1e5, a sign, underscores, ints, hex, a comment, other nan spellings, a string, an empty item).
+_ITEM = st.one_of(
+    st.floats().map(lambda v: scene_module._float_block([v], "")[2:-1]),
+    st.sampled_from(["1e5", "+1.0", "1_0.5", "7", "0x1f", "1.5E3", ".NaN", "abc", "1.0 # c", "", "1.0:"]),
+)
+# What comes around the run: nothing, a block scalar, a flow mapping, an anchor and a merge, a set.
+_BEFORE = ["", "description: |\n", "inline: {a: 1,\n", "base: &b\n", "s: !!set\n", "d: 'a\n"]
+# What follows it: the end, a sibling key, a deeper line, a blank line, a comment, another item (at the
+# items' indent, or deeper), a closing brace, the merge of the anchored mapping.
+_AFTER = ["", "other: 1\n", "     deeper\n", "\n- 2.0\n", "# c\n", "- 2.0\n", "    - 2.0\n", "}\n",
+          "m:\n  <<: *b\n", "'\n"]  # fmt: skip
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    before=st.sampled_from(_BEFORE),
+    key_indent=st.sampled_from(["", "  "]),
+    extra=st.sampled_from(["", "  ", "    "]),
+    items=st.lists(_ITEM, min_size=1, max_size=6),
+    after=st.sampled_from(_AFTER),
+    missing_newline=st.booleans(),
+)
+def test_any_layout_around_a_float_run_reads_as_the_library_reads_it(
+    before: str, key_indent: str, extra: str, items: list[str], after: str, missing_newline: bool
+) -> None:
+    """A run of items under a key, in any of the layouts around it that could make it something else than
+    the key's whole list (a block scalar's text, a flow mapping, an anchor merged twice, a set, a string,
+    a sequence going on after a blank line or a comment, a last item continued on a deeper line): the hand
+    read gives the library's data, or the library's refusal word for word."""
+    indent = key_indent + extra
+    text = before + f"{key_indent}times:\n" + "".join(f"{indent}- {item}\n" for item in items) + after
+    if missing_newline:
+        text = text.rstrip("\n")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(scene_module, "_FLOAT_RUN_MIN", 1)
+        assert repr(_hand_data(text)) == repr(_library_data(text))
+
+
+def test_a_long_table_is_read_by_hand(monkeypatch: pytest.MonkeyPatch) -> None:
+    """At the real threshold: a 2000-row table's text is cut (both lists), reads back to the equal scene,
+    and a table one row short of _FLOAT_RUN_MIN is left to the library."""
+    n = 2000
+    table = Table(tuple(0.01 * k for k in range(n)), tuple(math.sin(0.37 * k) * 1e-3 for k in range(n)))
+    scene = dataclasses.replace(load_scene("lecture_constant"), profile=table)
+    text = scene_to_yaml(scene)
+    cut = scene_module._float_runs(text)
+    assert cut is not None and [len(v) for v in cut[1].values()] == [n, n]
+    assert len(cut[0]) < 2000
+    assert scene_from_yaml(text) == scene
+    short = scene_module._FLOAT_RUN_MIN - 1
+    small = Table(table.times[:short], table.accels[:short])
+    assert scene_module._float_runs(scene_to_yaml(dataclasses.replace(scene, profile=small))) is None
+
+
 def test_the_launchers_scene_file_keeps_a_table_beside_it(tmp_path: Path) -> None:
     """write_scene_file puts a table profile in NAME.accel.csv (the csv profile's file) and the rest in
     NAME.yaml: load_scene reads back an equal scene, every float bit for bit (Table equality is tuple
