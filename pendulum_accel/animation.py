@@ -18,6 +18,7 @@ import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from types import FrameType
 
 import matplotlib as mpl
 import numpy as np
@@ -247,34 +248,35 @@ class SwingAnimation:
 
 @contextlib.contextmanager
 def _interrupts_between_frames() -> Iterator[Callable[[], None]]:
-    """While the body runs, a SIGINT is held until the body calls the yielded check, which raises it as
-    KeyboardInterrupt: frames are then stopped between two draws, never inside one.
+    """While the body runs, a SIGINT is held until the body calls the yielded check, which hands it to the
+    handler that was in place (Python's own raises KeyboardInterrupt): frames stop between two draws,
+    never inside one.
 
     Why: a KeyboardInterrupt raised inside matplotlib's Agg renderer (its C++ converters check for
-    signals) can come out as ``ValueError: Invalid bounding box``, a traceback and exit 1 where Ctrl-C
-    must give exit 130 (seen once on CI, and 1 in 40 interrupts on a loaded machine). A frame draws in
-    milliseconds, so the stop comes as soon. Outside the main thread, or when SIGINT is not Python's
-    default handler (a caller handles it its own way), nothing is changed."""
+    signals) can come out as ``ValueError: Invalid bounding box``, where a notebook or the command expects
+    the interrupt. A frame draws in milliseconds, so the stop comes as soon. Outside the main thread, or
+    when SIGINT is ignored or left to the system, nothing is changed."""
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield lambda: None
+        return
     caught: list[int] = []
 
-    def hold(signum: int, frame: object) -> None:
-        """Remember the SIGINT; the check raises it."""
+    def hold(signum: int, frame: FrameType | None) -> None:
+        """Remember the SIGINT; the check hands it on."""
         caught.append(signum)
 
     def check() -> None:
-        """KeyboardInterrupt if a SIGINT came since the body started."""
+        """Hand a SIGINT that came since the last check to the handler that was in place."""
         if caught:
-            raise KeyboardInterrupt
+            caught.clear()
+            previous(signal.SIGINT, None)
 
-    own = threading.current_thread() is threading.main_thread()
-    if not own or signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
-        yield lambda: None
-        return
     signal.signal(signal.SIGINT, hold)
     try:
         yield check
     finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signal.SIGINT, previous)
     check()  # a SIGINT that came during the body's last moment, after its last check
 
 

@@ -241,6 +241,41 @@ def test_a_sigint_inside_a_draw_stops_between_frames(
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+def test_a_sigint_held_between_frames_reaches_the_callers_own_handler(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A caller that handles SIGINT its own way (a flag, as the launcher does) gets the SIGINT that came
+    inside a draw once, after that frame, and the animation, which its handler did not stop, is whole."""
+    calls: list[int] = []
+
+    def flag(signum: int, frame: object) -> None:
+        """The caller's handler: note how many frames were drawn by then."""
+        calls.append(len(drawn))
+
+    previous = signal.signal(signal.SIGINT, flag)
+    draw = SwingAnimation.draw_frame
+    drawn: list[int] = []
+
+    def draw_with_sigint(self: SwingAnimation, k: int) -> object:
+        """Frame 2 gets a SIGINT half way."""
+        if k == 2:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+        drawn.append(k)
+        return draw(self, k)
+
+    monkeypatch.setattr(SwingAnimation, "draw_frame", draw_with_sigint)
+    try:
+        anim = SwingAnimation(swing(), fps=10, duration=1.0)
+        out = anim.save(tmp_path / "swing.gif")
+        with Image.open(out) as img:
+            assert getattr(img, "n_frames", 1) == anim.times.size
+        assert calls == [3]  # after frame 2 (the third) was written, not inside its draw
+        assert signal.getsignal(signal.SIGINT) is flag
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 @pytest.mark.parametrize("name", ["swing.gif", ".swing.partial.gif"])
 def test_a_direct_save_on_a_full_disk_keeps_the_old_file(tmp_path: Path, name: str) -> None:
     """SwingAnimation.save over an existing file on a disk with no room for the new one (a 62 KiB GIF, a

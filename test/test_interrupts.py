@@ -124,3 +124,43 @@ def test_animate_gif_interrupted_leaves_no_file(tmp_path: Path) -> None:
     assert code == 130, err
     assert err.strip().splitlines() == ["pendulum-accel animate: interrupted"]
     assert os.listdir(outputs) == []
+
+
+# ``scenes`` as the console script runs it, its work replaced by code that swallows Ctrl-C as matplotlib's
+# Agg converters did on CI: a KeyboardInterrupt raised inside comes out as a ValueError. With SIGNAL unset
+# the same ValueError comes with no Ctrl-C at all, as a bug would.
+_SWALLOWING_COMMAND = """
+import os, signal, sys, time
+import pendulum_accel.cli.scenes as scenes
+def swallowing(args):
+    try:
+        if os.environ.get("SIGNAL"):
+            os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+    raise ValueError("Invalid bounding box")
+scenes.run = swallowing
+from pendulum_accel.cli.main import main
+sys.exit(main())
+"""
+
+
+@pytest.mark.parametrize("sigint", [True, False])
+def test_an_error_raised_by_a_swallowed_ctrl_c_is_the_interrupt(sigint: bool) -> None:
+    """Any command: an error that escapes after a Ctrl-C (code that turned the KeyboardInterrupt into an
+    error of its own) ends as the interrupt, one line and exit 130. The same error with no Ctrl-C is a bug
+    and keeps its traceback and exit 1."""
+    env = {**os.environ, "SIGNAL": "1" if sigint else ""}
+    proc = subprocess.run(
+        [sys.executable, "-c", _SWALLOWING_COMMAND, "scenes"],
+        capture_output=True, text=True, env=env, timeout=EXIT_TIMEOUT_S,
+    )  # fmt: skip
+    if sigint:
+        assert (proc.returncode, proc.stderr.strip().splitlines()) == (
+            130,
+            ["pendulum-accel scenes: interrupted"],
+        )
+    else:
+        assert proc.returncode == 1
+        assert proc.stderr.strip().splitlines()[-1] == "ValueError: Invalid bounding box"

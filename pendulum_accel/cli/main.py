@@ -11,8 +11,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Callable, Sequence
+from types import FrameType
 
 from pendulum_accel import __version__
 from pendulum_accel.errors import PendulumAccelError
@@ -87,17 +90,51 @@ def main(argv: Sequence[str] | None = None) -> int:
     own_process = argv is None  # the console script or python -m: this process is the command's own
     argv = list(sys.argv[1:] if argv is None else argv)
     command = command_in(argv)
+    interrupts: list[int] = []
+    restore = _note_interrupts(interrupts)
     try:
         return _run(argv, command)
     except KeyboardInterrupt:
-        print(f"pendulum-accel {command or ''}: interrupted".replace(" :", ":"), file=sys.stderr)
-        if own_process:
-            # The command has removed its partial output already; the interpreter's own teardown (numba,
-            # llvmlite, matplotlib finalizers) took 2-3 s of a loaded machine after a long generate.
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(130)
-        return 130
+        return _interrupted(command, own_process)
+    except Exception:
+        # Code that checks for signals inside C (matplotlib's Agg converters) can turn the KeyboardInterrupt
+        # into an error of its own ("Invalid bounding box"): after a Ctrl-C, still the interrupt.
+        if not interrupts:
+            raise
+        return _interrupted(command, own_process)
+    finally:
+        restore()
+
+
+def _note_interrupts(seen: list[int]) -> Callable[[], object]:
+    """Make SIGINT raise KeyboardInterrupt as Python's default handler does, noting it in ``seen``; returns
+    the call that puts the default back. Outside the main thread, or when a caller has SIGINT handled its
+    own way, nothing changes."""
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
+        return lambda: None
+
+    def note(signum: int, frame: FrameType | None) -> None:
+        """Note the SIGINT, then raise it."""
+        seen.append(signum)
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, note)
+    return lambda: signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+def _interrupted(command: str | None, own_process: bool) -> int:
+    """Say 'pendulum-accel COMMAND: interrupted'; exit 130 (os._exit for the command's own process)."""
+    print(f"pendulum-accel {command or ''}: interrupted".replace(" :", ":"), file=sys.stderr)
+    if own_process:
+        # The command has removed its partial output already; the interpreter's own teardown (numba,
+        # llvmlite, matplotlib finalizers) took 2-3 s of a loaded machine after a long generate.
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)
+    return 130
 
 
 def _run(argv: list[str], command: str | None) -> int:
