@@ -195,12 +195,13 @@ _ITEM = st.one_of(
     st.floats().map(lambda v: scene_module._float_block([v], "")[2:-1]),
     st.sampled_from(["1e5", "+1.0", "1_0.5", "7", "0x1f", "1.5E3", ".NaN", "abc", "1.0 # c", "", "1.0:"]),
 )
-# What comes around the run: nothing, a block scalar, a flow mapping, an anchor and a merge, a set.
+# What comes before the run: nothing, a block scalar, a flow mapping, an anchor (merged after), a set, a quote.
 _BEFORE = ["", "description: |\n", "inline: {a: 1,\n", "base: &b\n", "s: !!set\n", "d: 'a\n"]
 # What follows it: the end, a sibling key, a deeper line, a blank line, a comment, another item (at the
-# items' indent, or deeper), a closing brace, the merge of the anchored mapping.
+# items' indent, or deeper), a closing brace, the merge of the anchored mapping, the closing quote, a tab,
+# a document's end, a second document.
 _AFTER = ["", "other: 1\n", "     deeper\n", "\n- 2.0\n", "# c\n", "- 2.0\n", "    - 2.0\n", "}\n",
-          "m:\n  <<: *b\n", "'\n"]  # fmt: skip
+          "m:\n  <<: *b\n", "'\n", "\tother: 1\n", "...\n", "---\nx: 1\n"]  # fmt: skip
 
 
 @settings(max_examples=400, deadline=None)
