@@ -195,7 +195,8 @@ _ITEM = st.one_of(
     st.floats().map(lambda v: scene_module._float_block([v], "")[2:-1]),
     st.sampled_from(["1e5", "+1.0", "1_0.5", "7", "0x1f", "1.5E3", ".NaN", "abc", "1.0 # c", "", "1.0:"]),
 )
-# What comes before the run: nothing, a block scalar, a flow mapping, an anchor (merged after), a set, a quote.
+# What comes before the run: nothing, a block scalar, a flow mapping, an anchor (merged after), a set,
+# an open quote.
 _BEFORE = ["", "description: |\n", "inline: {a: 1,\n", "base: &b\n", "s: !!set\n", "d: 'a\n"]
 # What follows it: the end, a sibling key, a deeper line, a blank line, a comment, another item (at the
 # items' indent, or deeper), a closing brace, the merge of the anchored mapping, the closing quote, a tab,
