@@ -594,13 +594,14 @@ _FLOAT_RUN_MIN = 64  # a shorter list costs the library microseconds: not worth 
 
 
 @functools.cache
-def _item_patterns(indent: int) -> tuple[re.Pattern[str], re.Pattern[str]]:
-    """For items at ``indent``: the first line break not followed by one, and one float item's line.
+def _item_patterns(indent: int) -> tuple[str, re.Pattern[str], re.Pattern[str]]:
+    """For items at ``indent``: their prefix (``indent- ``), the first line break not followed by one, and
+    one float item's line.
 
     A run is checked by removing every item line (subn) rather than by one repeated pattern, which keeps a
     backtracking frame per line (0.5 GB for a million) on the Pythons before 3.11's possessive repeats."""
     prefix = " " * indent + "- "
-    return re.compile(rf"\n(?!{prefix})"), re.compile(rf"{prefix}{_FLOAT_TOKEN}\n")
+    return prefix, re.compile(rf"\n(?!{prefix})"), re.compile(rf"{prefix}{_FLOAT_TOKEN}\n")
 
 
 def _float_runs(text: str) -> tuple[str, dict[str, list[float]]] | None:
@@ -621,7 +622,7 @@ def _float_runs(text: str) -> tuple[str, dict[str, list[float]]] | None:
         start = head.end() - indent - 2  # the first item's line
         if key_indent > indent or start < done:
             continue
-        run_end, item_line = _item_patterns(indent)
+        prefix, run_end, item_line = _item_patterns(indent)
         stop = run_end.search(text, start)
         if stop is None:  # the text ends in an item with no line break: it could be anything
             continue
@@ -635,7 +636,7 @@ def _float_runs(text: str) -> tuple[str, dict[str, list[float]]] | None:
             continue
         if item_line.subn("", text[start:end]) != ("", count):  # an item that is not a float as written
             continue
-        tokens = text[start + indent + 2 : end - 1].split(f"\n{' ' * indent}- ")
+        tokens = text[start + len(prefix) : end - 1].split(f"\n{prefix}")
         name = _NUMBERS.format(len(lists))
         lists[name] = [float(t) if t[-1].isdigit() else _SPECIAL_FLOATS[t] for t in tokens]
         pieces += [text[done : start - 1], f" {name}\n"]
@@ -666,19 +667,14 @@ def _put_back_float_lists(data: Any, lists: dict[str, list[float]]) -> bool:
     one would sit inside a string; under a merge key, twice; in a !!set, lost)."""
     found: set[str] = set()
     marker = _NUMBERS.format("")
-    stack, seen = [data], set()  # iterative: nesting as deep as the loader takes; an alias visited once
+    stack = [data] if isinstance(data, (dict, list)) else []  # iterative: nesting as deep as the loader's
+    seen: set[int] = set()  # an alias visited once
     while stack:
         node = stack.pop()
         if id(node) in seen:
             continue
         seen.add(id(node))
-        items = (
-            list(node.items())
-            if isinstance(node, dict)
-            else list(enumerate(node))
-            if isinstance(node, list)
-            else []
-        )
+        items = list(node.items()) if isinstance(node, dict) else list(enumerate(node))  # a dict or a list
         for key, value in items:
             if isinstance(key, str) and marker in key:
                 return False
@@ -848,12 +844,13 @@ def scene_to_yaml(scene: Scene) -> str:
     markers = [f": {_NUMBERS.format(k)}\n" for k in range(len(lists))]
     if any(text.count(marker) != 1 for marker in markers):  # a string of the scene spells one: no splice
         return str(yaml.dump(scene_to_dict(scene), Dumper=_SceneDumper, **_DUMP_STYLE))
-    for marker, values in zip(markers, lists, strict=True):
-        at = text.index(marker)
+    pieces, done = [], 0
+    for at, marker, values in sorted((text.index(m), m, v) for m, v in zip(markers, lists, strict=True)):
         start = text.rindex("\n", 0, at) + 1
         indent = " " * (len(text[start:at]) - len(text[start:at].lstrip(" ")))
-        text = f"{text[:at]}:\n{_float_block(values, indent)}{text[at + len(marker) :]}"
-    return text
+        pieces += [text[done:at], ":\n", _float_block(values, indent)]
+        done = at + len(marker)
+    return "".join([*pieces, text[done:]])
 
 
 def _pull_float_lists(node: dict[str, Any], lists: list[list[float]]) -> None:
