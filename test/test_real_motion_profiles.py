@@ -19,7 +19,7 @@ import pytest
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.motion_input import profile_from_dict
-from pendulum_accel.motion_input.columns import read_columns
+from pendulum_accel.motion_input.columns import SNIFF_ROWS, read_columns
 from pendulum_accel.motion_input.speed_trace import SPEED_UNITS
 from pendulum_accel.motion_input.trace import (
     DEFAULT_MAX_CUTOFF_HZ,
@@ -516,8 +516,55 @@ def test_a_file_has_one_decimal_mark_and_a_cell_with_the_other_is_refused(
     with pytest.raises(ParameterError, match=r"comma\.csv:32: '1\.000' has a decimal point in a file whose"):
         read_columns(tmp_path / "comma.csv", None, None, what="accel")
     (tmp_path / "mixed.csv").write_text(f"t{separator}a\n0{separator}0.5\n1{separator}1,5\n", "utf-8")
-    with pytest.raises(ParameterError, match=r"mixed\.csv:3: accel '1,5' is not a number \(its first rows"):
+    with pytest.raises(ParameterError, match=r"mixed\.csv:3: accel '1,5' is not a number \(the file writes"):
         read_columns(tmp_path / "mixed.csv", None, None, what="accel")
+
+
+@pytest.mark.parametrize("separator", ["\t", ";"])
+@pytest.mark.parametrize("whole_rows", [0, 5, SNIFF_ROWS, 3 * SNIFF_ROWS])
+def test_the_decimal_mark_is_the_first_one_the_file_writes_however_far_down(
+    separator: str, whole_rows: int, tmp_path: Path
+) -> None:
+    """A log that starts at rest in whole numbers (``0;0``, ``1;0``) and only later writes ``0,5`` has a
+    decimal comma: the mark is decided by the first number that has one, not by the first SNIFF_ROWS
+    rows, and the file reads as its decimal-point twin, float for float. After that the other mark is
+    refused on its line in both directions, as in a file whose first rows show the mark."""
+    times = [f"{k}" for k in range(whole_rows)] + [f"{whole_rows + k}{{}}25" for k in range(10)]
+    accels = ["0"] * whole_rows + [f"{k}{{}}5" for k in range(10)]
+
+    def text(mark: str, last: str = "") -> str:
+        pairs = zip(times, accels, strict=True)
+        rows = [f"t{separator}a", *(f"{t.format(mark)}{separator}{a.format(mark)}" for t, a in pairs)]
+        return "\n".join([*rows, *([last] if last else [])]) + "\n"
+
+    (tmp_path / "point.csv").write_text(text("."), encoding="utf-8")
+    (tmp_path / "comma.csv").write_text(text(","), encoding="utf-8")
+    point = read_columns(tmp_path / "point.csv", "t", "a", what="accel")
+    comma = read_columns(tmp_path / "comma.csv", "t", "a", what="accel")
+    assert np.array_equal(comma.times, point.times) and np.array_equal(comma.values, point.values)
+    assert comma.values[-1] == 9.5  # read as a decimal comma, not refused and not 9 or 95
+    plain = profile_from_dict({"type": "csv", "path": "comma.csv"}, base_dir=tmp_path)
+    assert isinstance(plain, Table) and np.array_equal(plain.accels, point.values)
+    line = whole_rows + 12  # the header, the data rows, then the added row
+    (tmp_path / "late_point.csv").write_text(text(",", f"{whole_rows + 10}{separator}1.000"), "utf-8")
+    with pytest.raises(ParameterError, match=rf"late_point\.csv:{line}: '1\.000' has a decimal point"):
+        read_columns(tmp_path / "late_point.csv", "t", "a", what="accel")
+    (tmp_path / "late_comma.csv").write_text(text(".", f"{whole_rows + 10}{separator}1,5"), "utf-8")
+    with pytest.raises(ParameterError, match=rf"late_comma\.csv:{line}: accel '1,5' is not a number \(the"):
+        read_columns(tmp_path / "late_comma.csv", "t", "a", what="accel")
+
+
+@pytest.mark.parametrize("separator", ["\t", ";"])
+def test_a_comment_decides_no_decimal_mark(separator: str, tmp_path: Path) -> None:
+    """A ``#`` comment is not data: its "0,5" neither makes the file a decimal-comma one nor is refused
+    when the data write points, and its "1.5" is not refused in a decimal-comma file."""
+    rows = ["t;a", "# tilt;0,5 deg", "0;0", "# rev;1.5", "1;0.25", "2;0.75"]
+    (tmp_path / "log.csv").write_text("\n".join(r.replace(";", separator) for r in rows) + "\n", "utf-8")
+    point = read_columns(tmp_path / "log.csv", "t", "a", what="accel")
+    comma = [r.replace("0.", "0,") for r in rows]
+    (tmp_path / "comma.csv").write_text("\n".join(r.replace(";", separator) for r in comma) + "\n", "utf-8")
+    for columns in (point, read_columns(tmp_path / "comma.csv", "t", "a", what="accel")):
+        assert np.array_equal(columns.values, [0.0, 0.25, 0.75])
 
 
 @pytest.mark.parametrize("named", [True, False])

@@ -14,7 +14,8 @@ one time, its integer nanoseconds counted exactly from the first row.
 Columns are separated by commas, semicolons or tabs, and with a semicolon or a tab numbers may carry a
 decimal comma (``1,234E-1``): the five CSV layouts phyphox exports (its ``DataExport.CsvFormat``), and what
 spreadsheets write in locales whose decimal mark is a comma. The layout is detected from the file's first
-rows (``sniff_layout``).
+rows (``sniff_layout``); the decimal mark from the first number written with one, which in a log that
+starts with whole numbers (``0;0``) may come many rows down (``Layout.decide``).
 """
 
 from __future__ import annotations
@@ -67,10 +68,11 @@ _DECIMAL_POINT = re.compile(r"[+-]?(\d+\.\d*|\.\d+)([eE][+-]?\d+)?")
 
 @dataclass(frozen=True)
 class Layout:
-    """How a CSV file writes its cells: the column ``separator``, and whether numbers use a decimal comma."""
+    """How a CSV file writes its cells: the column ``separator``, and whether numbers use a decimal comma
+    (None while no number seen has a decimal mark: whole numbers read the same with either)."""
 
     separator: str
-    decimal_comma: bool
+    decimal_comma: bool | None
 
     def cell(self, text: str) -> str:
         """A stripped cell, a decimal-comma number written with a point (``1,5E-1`` → ``1.5E-1``)."""
@@ -78,6 +80,19 @@ class Layout:
         if self.decimal_comma and _DECIMAL_COMMA.fullmatch(text):
             return text.replace(",", ".")
         return text
+
+    def decide(self, cells: Iterable[str]) -> Layout:
+        """This layout with its decimal mark set by ``cells`` when still undecided: a comma when, the
+        separator not being a comma, a cell is a decimal-comma number and none a decimal-point one; a
+        point when a cell is a decimal-point number; unchanged when no cell has a mark."""
+        if self.decimal_comma is not None:
+            return self
+        stripped = [c.strip() for c in cells]
+        if any(_DECIMAL_POINT.fullmatch(c) for c in stripped):
+            return Layout(self.separator, False)
+        if self.separator != "," and any(_DECIMAL_COMMA.fullmatch(c) for c in stripped):
+            return Layout(self.separator, True)
+        return self
 
 
 def _content(lines: list[str]) -> list[str]:
@@ -87,9 +102,9 @@ def _content(lines: list[str]) -> list[str]:
 
 def sniff_layout(lines: list[str]) -> Layout:
     """The first of SEPARATORS that splits each of the first SNIFF_ROWS content rows into two non-empty cells
-    or more (a comma when none does: a stray trailing tab does not make a tab file); a decimal comma when
-    the separator is not a comma, a cell there is a decimal-comma number (``_DECIMAL_COMMA``) and none is a
-    decimal-point number (``_DECIMAL_POINT``).
+    or more (a comma when none does: a stray trailing tab does not make a tab file). The decimal mark is a
+    point in a comma-separated file, else left to the first row that writes a number with a mark
+    (``Layout.decide``, called by csv_rows row by row).
 
     A file that writes ``0.5`` has a decimal point, so its ``1,000`` is a thousands separator, which no
     reader here takes: read as a decimal comma it would be a silent 1.0, so it is left to be refused."""
@@ -100,20 +115,15 @@ def sniff_layout(lines: list[str]) -> Layout:
             break
     else:
         separator, rows = ",", list(csv.reader(sample))
-    cells = [c.strip() for row in rows for c in row]
-    comma = (
-        separator != ","
-        and any(_DECIMAL_COMMA.fullmatch(c) for c in cells)
-        and not any(_DECIMAL_POINT.fullmatch(c) for c in cells)
-    )
-    return Layout(separator, comma)
+    return Layout(separator, False if separator == "," else None)
 
 
 def csv_rows(lines: Iterable[str], where: Path) -> Iterator[tuple[int, list[str]]]:
     """(line number, cells) of each row that holds cells, in the file's own layout (``sniff_layout`` on its
-    first SNIFF_ROWS content rows): cells stripped, decimal-comma numbers rewritten with a point; blank rows
-    and ``#`` comments skipped. ``lines`` are read as the rows are (textfile.text_lines streams a file); a
-    row the csv module refuses is a ParameterError naming ``where`` and the line."""
+    first SNIFF_ROWS content rows; the decimal mark from the first row that writes one): cells stripped,
+    decimal-comma numbers rewritten with a point; blank rows and ``#`` comments skipped. ``lines`` are read
+    as the rows are (textfile.text_lines streams a file); a row the csv module refuses is a ParameterError
+    naming ``where`` and the line."""
     stream = iter(lines)
     line_no = 0
     try:
@@ -127,12 +137,13 @@ def csv_rows(lines: Iterable[str], where: Path) -> Iterator[tuple[int, list[str]
         layout = sniff_layout(head)
         rows = csv.reader(itertools.chain(head, stream), delimiter=layout.separator)
         for line_no, row in enumerate(rows, start=1):
+            if not any(c.strip() for c in row) or row[0].strip().startswith("#"):
+                continue  # a comment's numbers ("# 0,5 g") decide no mark and are not refused
+            if layout.decimal_comma is None:
+                layout = layout.decide(row)
             if layout.decimal_comma and any("." in c for c in row):  # a substring scan before the regex
                 _refuse_decimal_point(row, f"{where}:{line_no}")
-            cells = [layout.cell(c) for c in row]
-            if not cells or not any(cells) or cells[0].startswith("#"):
-                continue
-            yield line_no, cells
+            yield line_no, [layout.cell(c) for c in row]
     except csv.Error as err:  # e.g. a cell past csv's field size limit: binary data
         raise ParameterError(f"{where}:{line_no + 1}: not a CSV row ({err})") from None
 
@@ -144,7 +155,7 @@ def _refuse_decimal_point(row: list[str], where: str) -> None:
     if stray is not None:
         raise ParameterError(
             f"{where}: {stray!r} has a decimal point in a file whose numbers have a decimal comma (seen in "
-            "its first rows): a point grouping thousands is not read; write the number without it"
+            "its earlier rows): a point grouping thousands is not read; write the number without it"
         )
 
 
@@ -361,13 +372,13 @@ def read_columns(
 
 
 def comma_hint(text: str) -> str:
-    """Why a cell such as ``1,000.5`` or ``1,5`` is no number: its file writes a decimal point (sniff_layout),
-    so the comma groups thousands, which a reader could take for a decimal mark only by guessing, or the
-    file mixes the two marks."""
+    """Why a cell such as ``1,000.5`` or ``1,5`` is no number: its file writes a decimal point (its first
+    number with a mark has one: Layout.decide), so the comma groups thousands, which a reader could take
+    for a decimal mark only by guessing, or the file mixes the two marks."""
     if _THOUSANDS.fullmatch(text):
         return " (a comma grouping thousands is not read: write the number without it)"
     if _DECIMAL_COMMA.fullmatch(text):
-        return " (its first rows write numbers with a decimal point, and a file has one decimal mark)"
+        return " (the file writes numbers with a decimal point up to here, and a file has one decimal mark)"
     return ""
 
 
