@@ -486,9 +486,32 @@ def _sensor_error(err: ParameterError) -> SceneError:
     return SceneError(f"sensor.{text[len('sensor ') :]}" if text.startswith("sensor ") else f"sensor: {text}")
 
 
+_REQUIRED = (
+    ("name", "text"), ("description", "text"), ("duration", "a number > 0"),
+    ("pendulum", "a mapping with length, ..."), ("acceleration", "a mapping with a 'type'"),
+    ("sensor", "a mapping with rate_hz, ..."), ("accuracy", "a mapping with max_angle_error"),
+)  # fmt: skip
+"""A scene's required top-level keys, with what each expects (docs/scenes.md)."""
+_EXPECTED = dict(_REQUIRED)
+_START_FROM = "'pendulum-accel scenes step_start > scene.yaml' writes a whole scene to start from"
+
+
+def _missing_keys(top: _Fields) -> None:
+    """SceneError naming every required top-level key ``top`` lacks, when it lacks two or more: a scene
+    written from scratch learns them in one run, not one per run. One missing key is left to its own read
+    ('<key>: missing (expected …)')."""
+    missing = [(key, expected) for key, expected in _REQUIRED if not top.has(key)]
+    if len(missing) > 1:
+        keys = ", ".join(key for key, _ in missing)
+        wants = "; ".join(f"{key}: {expected}" for key, expected in missing)
+        raise SceneError(f"{keys}: missing (expected {wants}); {_START_FROM}")
+
+
 def _parse(data: object, base_dir: Path | None) -> Scene:
-    """Scene from a parsed YAML document; SceneError('<field>: …') on the first bad field."""
+    """Scene from a parsed YAML document; SceneError('<field>: …') on the first bad field, or naming every
+    missing top-level key at once."""
     top = _Fields(data, "", _TOP)
+    _missing_keys(top)
     name = top.text("name")
     description = top.text("description")
     duration = top.number("duration", low=0.0, strict=True)
@@ -496,7 +519,7 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
     grade = top.number("grade", 0.0)
     motion = top.text("motion", choices=MOTIONS) if top.has("motion") else None
 
-    pend = _Fields(top.raw("pendulum", "a mapping with length, ..."), "pendulum", _PENDULUM)
+    pend = _Fields(top.raw("pendulum", _EXPECTED["pendulum"]), "pendulum", _PENDULUM)
     length = pend.number("length", low=0.0, strict=True)
     mass = pend.number("mass", 1.0, low=0.0, strict=True)
     damping = pend.number("damping", 0.0, low=0.0)
@@ -505,15 +528,15 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
     stiffness = pend.number("stiffness", low=0.0, strict=True) if pend.has("stiffness") else None
     pendulum = Pendulum(length, mass=mass, gravity=gravity, damping=damping, stiffness=stiffness)
 
-    accel = top.raw("acceleration", "a mapping with a 'type'")
+    accel = top.raw("acceleration", _EXPECTED["acceleration"])
     try:
         profile = profile_from_dict(accel, base_dir)  # type: ignore[arg-type]
     except ParameterError as err:
         where = f"acceleration.{err.path}" if err.path else "acceleration"
         raise SceneError(f"{where}: {err}") from None
 
-    sensor = _sensor(_Fields(top.raw("sensor", "a mapping with rate_hz, ..."), "sensor", _SENSOR))
-    acc = _Fields(top.raw("accuracy", "a mapping with max_angle_error"), "accuracy", ("max_angle_error",))
+    sensor = _sensor(_Fields(top.raw("sensor", _EXPECTED["sensor"]), "sensor", _SENSOR))
+    acc = _Fields(top.raw("accuracy", _EXPECTED["accuracy"]), "accuracy", ("max_angle_error",))
     accuracy = acc.number("max_angle_error", low=0.0, strict=True)
 
     model: str | None = None
