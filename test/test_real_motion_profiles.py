@@ -865,6 +865,52 @@ def test_bag_topic_reads_the_projects_own_mcap_truth(tmp_path: Path) -> None:
     assert window.accels[0] == pytest.approx(math.sin(10.0), abs=0.05**2 / 8)
 
 
+def split_mcap(source: Path, out_dir: Path, parts: int) -> None:
+    """``source``'s messages in ``parts`` MCAP files of out_dir (a split recording, ros2 profile), each
+    with the schemas and channels it uses, and no metadata.yaml (written with the mcap library)."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with source.open("rb") as stream:
+        messages = list(make_reader(stream).iter_messages())
+    out_dir.mkdir()
+    for part, chunk in enumerate(np.array_split(np.arange(len(messages)), parts)):
+        with (out_dir / f"part_{part}.mcap").open("wb") as out:
+            writer = Writer(out)
+            writer.start(profile="ros2")
+            schemas: dict[int, int] = {}
+            channels: dict[int, int] = {}
+            for i in chunk:
+                schema, channel, message = messages[i]
+                if schema.id not in schemas:
+                    schemas[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
+                if channel.id not in channels:
+                    channels[channel.id] = writer.register_channel(
+                        channel.topic, channel.message_encoding, schemas[schema.id], channel.metadata
+                    )
+                writer.add_message(channels[channel.id], message.log_time, message.data, message.publish_time)
+            writer.finish()
+
+
+def test_bag_topic_reads_mcap_files_in_a_directory_without_metadata(tmp_path: Path) -> None:
+    """A rosbag2 directory that lost its metadata.yaml (a recorder killed before writing it), or MCAP
+    files copied into one: its .mcap files are read, one or a split recording's several, merged in log
+    order, and give the table of the whole bag, float for float. With none: one line saying so."""
+    bag = write_odometry(tmp_path / "odom", "mcap")
+    whole = table_of({"type": "bag_topic", "path": str(bag), "topic": "/odom"})
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    mcap_file = next(bag.glob("*.mcap"))
+    (lone / mcap_file.name).write_bytes(mcap_file.read_bytes())
+    split_mcap(mcap_file, tmp_path / "split", parts=3)
+    for directory in (lone, tmp_path / "split"):
+        profile = table_of({"type": "bag_topic", "path": str(directory), "topic": "/odom"})
+        assert np.array_equal(profile.times, whole.times) and np.array_equal(profile.accels, whole.accels)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ParameterError, match=r"^cannot read bag .*empty: no metadata\.yaml and no \.mcap"):
+        profile_from_dict({"type": "bag_topic", "path": str(tmp_path / "empty"), "topic": "/odom"})
+
+
 @pytest.mark.parametrize(
     ("spec", "message"),
     [

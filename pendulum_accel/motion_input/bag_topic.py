@@ -1,4 +1,5 @@
-"""The ``bag_topic`` profile: a(t) from one topic of a recorded bag (ROS 1, rosbag2 sqlite3 or MCAP).
+"""The ``bag_topic`` profile: a(t) from one topic of a recorded bag (ROS 1, rosbag2 sqlite3 or MCAP, or
+the MCAP files of a directory that has no metadata.yaml).
 
 The bag is read with ``rosbags.highlevel.AnyReader`` (pure Python, no ROS). What a(t) is depends on the
 topic's type:
@@ -114,11 +115,22 @@ def field_reader(msgtype: str, field: str, message: Any) -> Callable[[Any], floa
     return lambda m: float(getter(m))
 
 
-def _bag_source(path: Path) -> Path:
-    """What AnyReader opens: a ROS 1 .bag file, or the rosbag2 directory (also when given its .mcap/.db3)."""
+def _bag_sources(path: Path) -> list[Path]:
+    """What AnyReader opens: a ROS 1 .bag file, or the rosbag2 directory (also when given its .mcap/.db3);
+    for a directory without its metadata.yaml (a recorder that was killed, or MCAP files copied into one)
+    the .mcap files in it, which carry their own schemas and which AnyReader merges in log-time order."""
     if path.is_file() and path.suffix in (".mcap", ".db3") and (path.parent / "metadata.yaml").is_file():
-        return path.parent
-    return path
+        return [path.parent]
+    if path.is_dir() and not (path / "metadata.yaml").exists():
+        files = sorted(f for f in path.glob("*.mcap") if f.is_file())
+        if not files:
+            raise ParameterError(
+                f"cannot read bag {path}: no metadata.yaml and no .mcap file in it (a ROS 1 bag is one "
+                ".bag file: name it)",
+                path="path",
+            )
+        return files
+    return [path]
 
 
 def read_topic(path: Path, topic: str, field: str | None = None) -> tuple[str, np.ndarray, np.ndarray, bool]:
@@ -130,12 +142,12 @@ def read_topic(path: Path, topic: str, field: str | None = None) -> tuple[str, n
     from rosbags.highlevel import AnyReader  # a heavy import, needed only for this profile type
     from rosbags.typesys import Stores, get_typestore
 
-    source = _bag_source(path)
-    if not source.exists():
+    if not path.exists():
         raise ParameterError(f"cannot read bag {path}: no such file or directory", path="path")
     # AnyReader opens the file (or every file of a rosbag2 directory) and would wait forever on a FIFO.
     try:
-        members = [source, *(sorted(source.iterdir()) if source.is_dir() else [])]
+        sources = _bag_sources(path)
+        members = [*sources, *(m for s in sources if s.is_dir() for m in sorted(s.iterdir()))]
     except OSError as exc:
         raise ParameterError(f"cannot read bag {path}: {exc.strerror or exc}", path="path") from None
     for member in members:
@@ -149,7 +161,7 @@ def read_topic(path: Path, topic: str, field: str | None = None) -> tuple[str, n
     values: list[float] = []
     try:
         # The default typestore decodes rosbag2 sqlite3 bags that carry no message definitions.
-        with AnyReader([source], default_typestore=get_typestore(Stores.LATEST)) as reader:
+        with AnyReader(sources, default_typestore=get_typestore(Stores.LATEST)) as reader:
             connections = [c for c in reader.connections if c.topic == topic]
             if not connections:
                 listed = ", ".join(sorted({c.topic for c in reader.connections})) or "none"
