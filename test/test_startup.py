@@ -93,3 +93,38 @@ def test_summaries_are_the_commands_own_help() -> None:
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     registered = {action.dest: action.help for action in sub._choices_actions}
     assert registered == {name: summary for name, (_, summary) in COMMANDS.items()}
+
+
+# Each command with what it requires (never run: the unknown option is refused while parsing).
+WELL_FORMED: dict[str, list[str]] = {
+    "simulate": [], "scenes": [], "sweep": ["at_rest", "--length", "1"], "lecture": [],
+    "animate": ["at_rest", "--out", "a.gif"], "info": ["bag"], "analyze": ["bag"],
+    "design": ["--out", "t.csv"], "allan": ["bag"], "export": ["bag", "--out", "dir"],
+    "generate": ["at_rest", "--out", "bag"],
+    "repair": ["bag"], "urdf": [], "golden-bags": ["dir"], "run": [], "lab": ["check"],
+}  # fmt: skip
+
+
+def test_every_command_has_a_well_formed_call() -> None:
+    """WELL_FORMED covers every command, and each call parses."""
+    assert sorted(WELL_FORMED) == sorted(COMMANDS)
+    for command, args in WELL_FORMED.items():
+        assert build_parser(command).parse_args([command, *args]).command == command
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_an_unknown_argument_is_refused_by_the_commands_own_parser(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An option a command does not take is refused as argparse refuses a subcommand's missing argument:
+    exit 2, the command's own usage and 'pendulum-accel COMMAND: error: unrecognized arguments: …', not
+    the top level's usage, which lists no option of the command."""
+    from pendulum_accel.cli.main import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, *WELL_FORMED[command], "--no-such-option=1"])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2
+    assert err.startswith(f"usage: pendulum-accel {command} ")
+    last = err.rstrip().splitlines()[-1]
+    assert last == f"pendulum-accel {command}: error: unrecognized arguments: --no-such-option=1"

@@ -16,6 +16,7 @@ import sys
 import threading
 from collections.abc import Callable, Sequence
 from types import FrameType
+from typing import cast
 
 from pendulum_accel import __version__
 from pendulum_accel.errors import PendulumAccelError
@@ -84,6 +85,12 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _command_parser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    """``command``'s own parser among ``parser``'s subcommands."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return cast(argparse.ArgumentParser, sub.choices[command])
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one subcommand; a PendulumAccelError becomes a one-line message and exit code 2, Ctrl-C (even
     while the command's modules are still importing) one line and exit code 130."""
@@ -146,7 +153,9 @@ def _run(argv: list[str], command: str | None) -> int:
         from pendulum_accel.cli.sweep import attach_negative_values
 
         parser = build_parser(command)
-        args = parser.parse_args(attach_negative_values(argv))
+        args, extras = parser.parse_known_args(attach_negative_values(argv))
+        if extras:  # said by the command's own parser, with its usage (argparse's top level would say it)
+            _command_parser(parser, command).error(f"unrecognized arguments: {' '.join(extras)}")
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
