@@ -111,27 +111,62 @@ def text_encoding(head: bytes) -> str:
     return "utf-8"
 
 
-def _decoded_lines(text: Iterator[str], encoding: str) -> Iterator[str]:
+def _decoded_lines(text: Iterator[str], encoding: str, ascii_head: bool) -> Iterator[str]:
     """The lines of ``text`` (decoded with surrogateescape), each checked: a byte the encoding could not
-    decode is a ValueError naming its line, not a chunk's worth of lines later."""
+    decode is a ValueError naming its line, not a chunk's worth of lines later.
+
+    ``ascii_head``: the file's head was ASCII, which reads the same in every encoding here, so UTF-8 was
+    only a default: the first line with other bytes decides, as text_encoding decides on a head (UTF-8 when
+    they decode as UTF-8, else Windows-1252). A long ASCII log whose first "°" or "ü" is a Windows-1252
+    byte, past the head, reads as Windows-1252 from that line on."""
+    legacy = 0  # the line that chose Windows-1252, once one has
     for number, line in enumerate(text, start=1):
+        if line.isascii():
+            yield line
+            continue
+        if legacy:
+            yield _legacy_line(line, number, legacy)
+            continue
         try:
             line.encode("utf-8")  # a surrogate escape (an undecodable byte) does not encode
         except UnicodeEncodeError as err:
+            if ascii_head:
+                legacy = number
+                yield _legacy_line(line, number, legacy)
+                continue
             byte = ord(line[err.start]) - 0xDC00
             raise ValueError(
-                f"line {number} is not {encoding} text (byte 0x{byte:02x}); the encoding is read from a "
-                "byte-order mark or the file's first MiB: save the file as UTF-8"
+                f"line {number} is not {encoding} text (byte 0x{byte:02x}), the encoding of the file's byte-"
+                "order mark or its earlier text: save the file as UTF-8"
             ) from None
+        ascii_head = False  # the first non-ASCII bytes are UTF-8: so is the file
         yield line
+
+
+def _legacy_line(line: str, number: int, chosen: int) -> str:
+    """``line`` (decoded as UTF-8 with surrogateescape, so its bytes come back whole) read as Windows-1252,
+    the encoding line ``chosen`` decided; ValueError naming the line for a byte Windows-1252 leaves
+    undefined."""
+    raw = line.encode("utf-8", "surrogateescape")
+    try:
+        return raw.decode(LEGACY_ENCODING)
+    except UnicodeDecodeError as err:
+        byte = f"byte 0x{raw[err.start]:02x}"
+        if number == chosen:
+            raise ValueError(f"line {number} is neither UTF-8 nor Windows-1252 text ({byte})") from None
+        raise ValueError(
+            f"line {number} is not Windows-1252 text ({byte}), the encoding line {chosen} chose: save the "
+            "file as UTF-8"
+        ) from None
 
 
 @contextlib.contextmanager
 def text_lines(path: Path, limit: int = MAX_DATA_BYTES) -> Iterator[Iterator[str]]:
-    """The lines of regular file ``path`` (≤ ``limit`` bytes), decoded in its encoding (text_encoding) with
-    universal newlines (``\\n``, ``\\r\\n``, and the ``\\r`` old Mac spreadsheets end rows with), read as
-    they are iterated; OSError when unreadable, ValueError when not a regular file, too large or not text,
-    or, from the iteration, at a line the encoding cannot decode. A byte-order mark is dropped.
+    """The lines of regular file ``path`` (≤ ``limit`` bytes), decoded in its encoding (text_encoding on its
+    first HEAD_BYTES, or on its first non-ASCII line when those are ASCII: _decoded_lines) with universal
+    newlines (``\\n``, ``\\r\\n``, and the ``\\r`` old Mac spreadsheets end rows with), read as they are
+    iterated; OSError when unreadable, ValueError when not a regular file, too large or not text, or, from
+    the iteration, at a line the encoding cannot decode. A byte-order mark is dropped.
 
     Opened by _regular_file, as read_text_file's is."""
     with _regular_file(path) as (raw, size):
@@ -139,10 +174,11 @@ def text_lines(path: Path, limit: int = MAX_DATA_BYTES) -> Iterator[Iterator[str
             raise ValueError(
                 f"{size / 1024**2:.0f} MiB, more than the {limit / 1024**2:g} MiB a data file may hold"
             )
-        encoding = text_encoding(raw.read(HEAD_BYTES))
+        head = raw.read(HEAD_BYTES)
+        encoding = text_encoding(head)
         raw.seek(0)
         with io.TextIOWrapper(raw, encoding=encoding, errors="surrogateescape", newline=None) as text:
-            yield _decoded_lines(iter(text), encoding)
+            yield _decoded_lines(iter(text), encoding, encoding == "utf-8" and head.isascii())
 
 
 PARTIAL = ".partial"

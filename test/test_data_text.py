@@ -66,12 +66,51 @@ def test_a_late_undecodable_byte_and_binary_data_are_one_line_each(tmp_path: Pat
     """A byte the file's encoding cannot decode, past the head the encoding was read from, is refused
     naming its own line (not the line a read-ahead chunk had reached); a NUL byte is binary data."""
     rows = "".join(f"{k},{k}\n" for k in range(200_000))  # 1.3 MiB of ASCII: past the 1 MiB head
-    (tmp_path / "late.csv").write_bytes(("t,a\n" + rows).encode() + "1,m/s²\n".encode("cp1252"))
+    # The head says UTF-8 ("m/s²" in UTF-8), and a Windows-1252 "²" comes past it.
+    head = "t,a (m/s²)\n".encode()
+    (tmp_path / "late.csv").write_bytes(head + rows.encode() + "# 1 m/s²\n".encode("cp1252"))
     with pytest.raises(ParameterError, match=r"late\.csv: line 200002 is not utf-8 text \(byte 0xb2\)"):
         read_columns(tmp_path / "late.csv", None, None, what="accel")
     (tmp_path / "nul.csv").write_bytes(b"t,a\n0,1\x00\n")
     with pytest.raises(ParameterError, match=r"nul\.csv: not text: a NUL byte at offset 7"):
         profile_from_dict({"type": "csv", "path": str(tmp_path / "nul.csv")})
+
+
+@pytest.mark.parametrize("late", ["Windows-1252", "UTF-8"])
+def test_an_ascii_head_leaves_the_encoding_to_the_first_other_bytes(late: str, tmp_path: Path) -> None:
+    """ASCII reads the same in every encoding, so a file whose first MiB is ASCII has its encoding decided
+    by its first non-ASCII line, however far down: a Windows-1252 "°" there reads as "°" (in a comment
+    and in a text column), as does a UTF-8 one. The columns are those of the same file in pure ASCII."""
+    rows = [f"{k},{0.001 * k!r},ok" for k in range(150_000)]  # 1.6 MiB of ASCII: past the 1 MiB head
+    rows[120_000] = "# slope 3°, Zürich"
+    rows[140_000] = f"140000,{0.001 * 140_000!r},Straße"
+    text = "t,a,note\n" + "\n".join(rows) + "\n"
+    encoded = text.encode("cp1252" if late == "Windows-1252" else "utf-8")
+    (tmp_path / "log.csv").write_bytes(encoded)
+    (tmp_path / "ascii.csv").write_text(text.encode("ascii", "replace").decode(), encoding="ascii")
+    got = read_columns(tmp_path / "log.csv", "t", "a", what="accel")
+    want = read_columns(tmp_path / "ascii.csv", "t", "a", what="accel")
+    assert np.array_equal(got.times, want.times) and np.array_equal(got.values, want.values)
+    read = all_lines(tmp_path / "log.csv")
+    assert read[120_001] == "# slope 3°, Zürich\n" and read[140_001].endswith(",Straße\n")
+    # After the choice the other encoding's bytes are refused on their line, naming the line that chose.
+    if late == "Windows-1252":
+        (tmp_path / "bad.csv").write_bytes(encoded + b"1,2,\x81\n")
+        refusal = r"line 150002 is not Windows-1252 text \(byte 0x81\), the encoding line 120002 chose"
+    else:
+        (tmp_path / "bad.csv").write_bytes(encoded + "1,2,°\n".encode("cp1252"))
+        refusal = r"line 150002 is not utf-8 text \(byte 0xb0\)"
+    with pytest.raises(ValueError, match=refusal):
+        all_lines(tmp_path / "bad.csv")
+    (tmp_path / "neither.csv").write_bytes(b"t,a\n" * 300_000 + b"# \x81\n")
+    with pytest.raises(ValueError, match=r"line 300001 is neither UTF-8 nor Windows-1252 text \(byte 0x81\)"):
+        all_lines(tmp_path / "neither.csv")
+
+
+def all_lines(path: Path) -> list[str]:
+    """Every line text_lines gives of ``path``."""
+    with text_lines(path) as lines:
+        return list(lines)
 
 
 def test_a_data_file_past_its_bound_is_refused_before_it_is_read(tmp_path: Path) -> None:
