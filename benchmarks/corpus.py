@@ -51,7 +51,8 @@ class Entry:
 
 def window(scene: str, start: float | None = None, end: float | None = None) -> Callable[[], AccelProfile]:
     """A builder of bundled scene ``scene``'s profile cut to [start, end] s (the window is cut from the
-    spline of the whole trace, so it adds no end effects of its own), as the scene's YAML states it."""
+    spline of its gap-free stretch, up to spline_margin beyond it, so it adds no end effects of its own),
+    as the scene's YAML states it."""
 
     def build() -> AccelProfile:
         spec = dict(

@@ -24,8 +24,12 @@ from pendulum_accel.motion_input.speed_trace import SPEED_UNITS
 from pendulum_accel.motion_input.trace import (
     DEFAULT_MAX_CUTOFF_HZ,
     TABLE_TOLERANCE,
+    check_trace,
     default_cutoff_hz,
     differentiate,
+    median_step,
+    spline_lambda,
+    spline_margin,
 )
 from pendulum_accel.overrides import OVERRIDE_BY_NAME, SENSOR_DESIGNS, apply_overrides
 from pendulum_accel.physics.profiles import Table
@@ -141,6 +145,36 @@ def test_window_starts_at_zero_and_keeps_the_whole_trace_fit(tmp_path: Path) -> 
     assert part.times[0] == 0.0 and part.times[-1] == pytest.approx(70.0, abs=1e-9)
     probe = np.linspace(0.0, 70.0, 301)
     assert np.max(np.abs(part(probe) - whole(probe + 50.0))) <= 2 * TABLE_TOLERANCE
+
+
+@pytest.mark.parametrize(("cutoff", "step"), [(0.25, 1.0), (0.05, 0.5)])
+def test_a_window_fitted_on_its_margin_alone_is_the_whole_stretchs_fit(cutoff: float, step: float) -> None:
+    """Cutting a long stretch to the window and spline_margin on each side (Stretch.around_window) leaves
+    the window's a(t) as the whole stretch's spline gives it, and cutting again changes nothing.
+
+    Bound: the data cut off weigh e^(−56.6) ≈ 3e-25 in the window (SPLINE_MARGIN_WIDTHS); what is left is
+    each fit's rounding, a banded solve of n ≤ 20,000 equations losing about n ε ≈ 4e-12 of the speeds'
+    ≤ 30 m/s, ≲ 1e-10 m/s² in a slope over h ≥ 0.5 s (measured 1.6e-13 and 1.0e-12): 1e-9 m/s²."""
+    rng = np.random.default_rng(7)
+    n = round(3000 / step) if step == 1.0 else 20_000
+    t = 1000.0 + step * np.arange(n)
+    v = 15.0 + np.cumsum(rng.normal(0.0, 0.3 * math.sqrt(step), n))  # a wandering speed, m/s
+    length = float(t[-1] - t[0])
+    stretch = check_trace(t, v, str, start=0.4 * length, end=0.5 * length)
+    margin = spline_margin(cutoff)
+    near = stretch.around_window(margin)
+    assert near.around_window(margin) is near  # idempotent: a bag's copy, read back, is cut no further
+    assert near.times.size < stretch.times.size / 3 and not near.whole
+    assert near.times[0] <= stretch.times[0] + stretch.lo - margin < near.times[1]
+    part = differentiate(near.times, near.values, cutoff, start=near.lo, end=near.hi)
+    # The whole stretch's s'(t) at the part's table points (its grid is its own: the step follows max|a''|).
+    from scipy.interpolate import make_smoothing_spline
+
+    lam = spline_lambda(cutoff, median_step(stretch.times - stretch.times[0]))
+    slope = make_smoothing_spline(stretch.times - stretch.times[0], stretch.values, lam=lam).derivative()
+    shift = near.lo + float(near.times[0] - stretch.times[0])  # the part's t = 0 on the whole axis
+    assert near.lo > 0.0 and shift == pytest.approx(stretch.lo, abs=1e-9)
+    assert np.max(np.abs(np.array(part.accels) - slope(np.array(part.times) + shift))) <= 1e-9
 
 
 def test_speed_csv_reads_named_columns_and_round_trips(tmp_path: Path) -> None:
@@ -266,7 +300,13 @@ def test_a_trip_is_cut_by_date_time_from_a_day_long_log_with_gaps(
     assert profile == one_trip(tmp_path, start=120.0, end=300.0)
     assert profile.times[-1] == pytest.approx(180.0, abs=1e-9)
     assert profile_from_dict(profile.to_dict()) == profile  # the bag's standalone copy holds the trip only
-    assert len(profile.to_dict()["times"]) == TRIP.size
+    # ... and of the trip only what the window's a(t) depends on: the samples that bracket the window
+    # widened by spline_margin (41 s at the default 0.25 Hz), not the whole 600 s trip.
+    kept = np.array(profile.to_dict()["times"])
+    margin = spline_margin(0.25)
+    lo, hi = SECOND_TRIP_S + 120.0 - margin, SECOND_TRIP_S + 300.0 + margin
+    assert kept[0] <= lo < kept[1] and kept[-2] < hi <= kept[-1]
+    assert np.array_equal(kept, np.arange(kept[0], kept[-1] + 1.0))  # every 1 Hz sample between
     # YAML reads an unquoted date-time as a datetime; seconds after the first row work too.
     zone = dt.UTC if layout.endswith("Z") else None  # a zoned column wants zoned bounds
     moments = {"start": start.replace(tzinfo=zone), "end": end.replace(tzinfo=zone)}

@@ -50,6 +50,7 @@ from pendulum_accel.motion_input.trace import (
     differentiate,
     median_step,
     recorded_acceleration,
+    spline_margin,
 )
 from pendulum_accel.physics.profiles import Table
 from pendulum_accel.textfile import not_a_file_or_directory
@@ -223,6 +224,7 @@ def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
         cutoff = (
             default_cutoff_hz(stretch.times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
         )
+        stretch = stretch.around_window(spline_margin(cutoff))
         origin = f"{label}: " + describe_differentiation(cutoff, median_step(stretch.times), default)
         # A standalone copy (the scene stored in a bag): the speeds themselves, as a speed_table.
         recipe = speed_recipe("m/s", stretch, cutoff, d, signed=True)

@@ -18,6 +18,7 @@ from pendulum_accel.motion_input.trace import (
     describe_differentiation,
     differentiate,
     median_step,
+    spline_margin,
 )
 from pendulum_accel.physics.profiles import Table
 
@@ -49,6 +50,9 @@ def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
         label = "speed_table"
         start, end = window_fields(kind, d)
         stretch = check_trace(times, values, where, start=start, end=end)
+    default = "cutoff_hz" not in d
+    cutoff = default_cutoff_hz(stretch.times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
+    stretch = stretch.around_window(spline_margin(cutoff))  # only what the window's a(t) depends on
     if not signed:
         negative = np.flatnonzero(stretch.values < 0.0)
         if negative.size:
@@ -58,8 +62,6 @@ def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
                 "signed: true for a trace that reverses)"
             )
     times, values = stretch.times, stretch.values
-    default = "cutoff_hz" not in d
-    cutoff = default_cutoff_hz(times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
     recipe = speed_recipe(units, stretch, cutoff, d, signed=signed)
     origin = f"{label} ({units}{stretch.note()}): " + describe_differentiation(
         cutoff, median_step(times), default
