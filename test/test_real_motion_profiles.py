@@ -177,6 +177,27 @@ def test_a_window_fitted_on_its_margin_alone_is_the_whole_stretchs_fit(cutoff: f
     assert np.max(np.abs(np.array(part.accels) - slope(np.array(part.times) + shift))) <= 1e-9
 
 
+def test_a_window_is_not_cut_where_its_copy_would_see_a_gap() -> None:
+    """A log at 1 Hz for hours and 10 Hz around the trip, with one 0.6 s step there: the whole trace's
+    median (1 s) allows the step, the trip's own (0.1 s) would not. Cut to its margin, the bag's copy could
+    not be read back; so it is not cut, and the copy reads back to the same profile."""
+    slow = np.arange(0.0, 3000.0, 1.0)
+    fast = 3000.0 + np.round(np.arange(0.0, 300.0, 0.1), 1)
+    fast = fast[(fast < 3150.0) | (fast > 3150.5)]  # the 0.6 s step, inside the trip
+    t = np.concatenate((slow, fast))
+    v = 10.0 + np.sin(t / 30.0)
+    spec = {"type": "speed_table", "units": "m/s", "times": t.tolist(), "speeds": v.tolist(),
+            "start": 3100.0, "end": 3200.0}  # fmt: skip
+    profile = table_of(spec)
+    copy = profile.to_dict()
+    assert len(copy["times"]) == t.size  # not cut
+    assert profile_from_dict(copy) == profile
+    # The same trip at 1 Hz throughout is cut to its margin, and reads back too.
+    even = np.arange(0.0, 3300.0, 1.0)
+    cut = table_of(spec | {"times": even.tolist(), "speeds": (10.0 + np.sin(even / 30.0)).tolist()})
+    assert len(cut.to_dict()["times"]) < even.size / 10 and profile_from_dict(cut.to_dict()) == cut
+
+
 def test_speed_csv_reads_named_columns_and_round_trips(tmp_path: Path) -> None:
     """Named columns in any order; to_dict is a standalone speed_table that reads back equal."""
     rows = [(float(i), 3.6 * (2.0 + 0.5 * i)) for i in range(40)]

@@ -93,7 +93,9 @@ class Stretch:
         A spline's a(t) on the window does not depend on data further away than spline_margin (their
         weight is below 1e-24), so a trip cut from a day-long log keeps a minute of it, not the day: in
         the fit and in the bag's copy of the scene. Cutting only what lies beyond 2 × ``margin`` makes
-        the cut idempotent: the copy, read back, keeps all it holds, and gives the same profile."""
+        the cut idempotent: the copy, read back, keeps all it holds, and gives the same profile. A cut
+        whose samples would hold a step over MAX_GAP_STEPS × their own median is not made: the copy,
+        checked on its own, would refuse it as a gap."""
         t = self.times - self.times[0]
         first, last = 0, t.size - 1
         if self.lo > 2.0 * margin:
@@ -102,6 +104,9 @@ class Stretch:
             last = int(np.searchsorted(t, self.hi + margin, side="left"))
         if first == 0 and last == t.size - 1:
             return self
+        steps = np.diff(self.times[first : last + 1])
+        if steps.max() > MAX_GAP_STEPS * float(np.median(steps)):
+            return self  # a step the whole trace's median allowed would be a gap in the copy's own eyes
         span = self.times[first : last + 1] - self.times[first]
         # As check_trace's lo_s and hi_s: clipped, since the shift may move them by an ulp.
         lo = min(max(self.lo - float(t[first]), 0.0), float(span[-1]))
