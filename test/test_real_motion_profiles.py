@@ -615,6 +615,24 @@ def test_the_decimal_mark_is_the_first_one_the_file_writes_however_far_down(
         read_columns(tmp_path / "late_comma.csv", "t", "a", what="accel")
 
 
+@pytest.mark.parametrize(("separator", "decimal"), [*PHYPHOX_LAYOUTS, ("|", ","), ("|", ".")])
+def test_excels_sep_line_names_the_separator(separator: str, decimal: str, tmp_path: Path) -> None:
+    """A first line ``sep=;`` (Excel's directive, which exports made for it in many locales begin with)
+    names the separator: the rows read as the same file's without it, line numbers kept, in the plain csv
+    profile too; any one character works, as in Excel ("|")."""
+    rows = ["t,a (m/s^2)", *(f"{k}.25,{0.5 * k - 1.0!r}" for k in range(10))]
+    plain = "\n".join(rows) + "\n"
+    text = plain.replace(",", "\0").replace(".", decimal).replace("\0", separator)
+    (tmp_path / "plain.csv").write_text(plain, encoding="utf-8")
+    (tmp_path / "excel.csv").write_text(f"sep={separator}\n{text}", encoding="utf-8-sig")  # with its BOM
+    want = read_columns(tmp_path / "plain.csv", "t", "a (m/s^2)", what="accel")
+    got = read_columns(tmp_path / "excel.csv", "t", "a (m/s^2)", what="accel")
+    assert np.array_equal(got.times, want.times) and np.array_equal(got.values, want.values)
+    assert got.lines == [line + 1 for line in want.lines]
+    table = profile_from_dict({"type": "csv", "path": "excel.csv"}, base_dir=tmp_path)
+    assert isinstance(table, Table) and np.array_equal(table.accels, want.values)
+
+
 @pytest.mark.parametrize("separator", ["\t", ";"])
 def test_a_comment_decides_no_decimal_mark(separator: str, tmp_path: Path) -> None:
     """A ``#`` comment is not data: its "0,5" neither makes the file a decimal-comma one nor is refused

@@ -62,6 +62,9 @@ SEPARATORS = ("\t", ";", ",")
 SNIFF_ROWS = 20
 """Rows (not comments, not blank) ``sniff_layout`` reads: a header and enough data rows to be sure."""
 _DECIMAL_COMMA = re.compile(r"[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?")
+_EXCEL_SEPARATOR = re.compile(r"sep=([^\"\r\n])")
+"""Excel's first-line directive naming a CSV's separator (``sep=;``): its reader obeys it, and exports made
+for it in many locales begin with it."""
 _THOUSANDS = re.compile(r"[+-]?\d{1,3}(,\d{3})+(\.\d*)?([eE][+-]?\d+)?")
 _DECIMAL_POINT = re.compile(r"[+-]?(\d+\.\d*|\.\d+)([eE][+-]?\d+)?")
 
@@ -119,11 +122,12 @@ def sniff_layout(lines: list[str]) -> Layout:
 
 
 def csv_rows(lines: Iterable[str], where: Path) -> Iterator[tuple[int, list[str]]]:
-    """(line number, cells) of each row that holds cells, in the file's own layout (``sniff_layout`` on its
-    first SNIFF_ROWS content rows; the decimal mark from the first row that writes one): cells stripped,
-    decimal-comma numbers rewritten with a point; blank rows and ``#`` comments skipped. ``lines`` are read
-    as the rows are (textfile.text_lines streams a file); a row the csv module refuses is a ParameterError
-    naming ``where`` and the line."""
+    """(line number, cells) of each row that holds cells, in the file's own layout (the separator its
+    first line names, as Excel's ``sep=;``, else ``sniff_layout`` on its first SNIFF_ROWS content rows;
+    the decimal mark from the first row that writes one): cells stripped, decimal-comma numbers rewritten
+    with a point; blank rows and ``#`` comments skipped. ``lines`` are read as the rows are
+    (textfile.text_lines streams a file); a row the csv module refuses is a ParameterError naming
+    ``where`` and the line."""
     stream = iter(lines)
     line_no = 0
     try:
@@ -134,10 +138,18 @@ def csv_rows(lines: Iterable[str], where: Path) -> Iterator[tuple[int, list[str]
             content += len(_content([line]))
             if content >= SNIFF_ROWS:
                 break
-        layout = sniff_layout(head)
+        directive = _EXCEL_SEPARATOR.fullmatch(head[0].rstrip("\r\n")) if head else None
+        if directive:  # the file names its separator: no guess
+            layout = Layout(directive[1], False if directive[1] == "," else None)
+        else:
+            layout = sniff_layout(head)
         rows = csv.reader(itertools.chain(head, stream), delimiter=layout.separator)
         for line_no, row in enumerate(rows, start=1):
-            if not any(c.strip() for c in row) or row[0].strip().startswith("#"):
+            if (
+                (directive and line_no == 1)
+                or not any(c.strip() for c in row)
+                or row[0].strip().startswith("#")
+            ):
                 continue  # a comment's numbers ("# 0,5 g") decide no mark and are not refused
             if layout.decimal_comma is None:
                 layout = layout.decide(row)
