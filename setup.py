@@ -121,7 +121,7 @@ setup(
             "distributed>=2026.8.0",
         ],
     },
-    python_requires=">=3.10",
+    python_requires=">=3.11",
     zip_safe=True,
     maintainer="pendulum_accel developers",
     maintainer_email="dev@pendulum-accel.invalid",

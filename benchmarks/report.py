@@ -108,7 +108,7 @@ def write_page(
 
     ``figures`` are (png path, caption) pairs; each is copied to docs/img/bench_<name>[_k].png.
     """
-    when = when or dt.datetime.now(dt.timezone.utc)
+    when = when or dt.datetime.now(dt.UTC)
     img_dir, page_dir = docs / "img", docs / "benchmarks"
     img_dir.mkdir(parents=True, exist_ok=True)
     page_dir.mkdir(parents=True, exist_ok=True)

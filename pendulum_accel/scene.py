@@ -622,7 +622,7 @@ def _item_patterns(indent: int) -> tuple[str, re.Pattern[str], re.Pattern[str]]:
     one float item's line.
 
     A run is checked by removing every item line (subn) rather than by one repeated pattern, which keeps a
-    backtracking frame per line (0.5 GB for a million) on the Pythons before 3.11's possessive repeats."""
+    backtracking frame per line (0.5 GB for a million) unless its repeat is possessive."""
     prefix = " " * indent + "- "
     return prefix, re.compile(rf"\n(?!{prefix})"), re.compile(rf"{prefix}{_FLOAT_TOKEN}\n")
 

@@ -150,7 +150,7 @@ def test_the_benchmark_argument_types_take_what_they_name() -> None:
 def test_write_page_records_the_machine_the_date_and_the_plot(tmp_path: Path) -> None:
     png = tmp_path / "plot.png"
     png.write_bytes(b"\x89PNG\r\n\x1a\nnot a real image")
-    when = dt.datetime(2026, 1, 2, 3, 4, tzinfo=dt.timezone.utc)
+    when = dt.datetime(2026, 1, 2, 3, 4, tzinfo=dt.UTC)
     page = report.write_page(
         "demo_bench", "Demo", ["| a | b |\n|---|---|\n| 1 | 2 |"], [(png, "a plot")],
         docs=tmp_path / "docs", argv=["--quick"], when=when,

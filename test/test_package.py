@@ -95,6 +95,26 @@ def test_console_scripts_point_at_real_functions() -> None:
         assert callable(getattr(importlib.import_module(module), func)), target
 
 
+def test_the_oldest_python_declared_is_the_one_linted_and_type_checked() -> None:
+    """setup.py's python_requires floor is ruff's target and mypy's python_version, and the interpreter
+    running the tests meets it. A floor below what the checks use (3.10 once, while the install floors
+    numpy 2.4, scipy 1.17 and matplotlib 3.11 need 3.11) promised an install pip cannot make."""
+    import tomllib
+
+    tree = ast.parse((REPO / "setup.py").read_text())
+    requires = next(
+        k.value.value  # type: ignore[attr-defined]
+        for k in ast.walk(tree)
+        if isinstance(k, ast.keyword) and k.arg == "python_requires"
+    )
+    assert requires.startswith(">=")
+    floor = tuple(int(part) for part in requires[2:].split("."))
+    tools = tomllib.loads((REPO / "pyproject.toml").read_text())
+    assert tools["tool"]["ruff"]["target-version"] == f"py{floor[0]}{floor[1]}"
+    assert tools["tool"]["mypy"]["python_version"] == f"{floor[0]}.{floor[1]}"
+    assert sys.version_info[:2] >= floor
+
+
 def test_ros_wheels_are_not_a_hard_dependency() -> None:
     requires = importlib.metadata.requires("pendulum_accel") or []
     assert not [r for r in requires if r.lower().startswith(("ros-", "rclpy"))]
