@@ -732,7 +732,8 @@ def scene_text_without_motion(text: str) -> str | None:
 
 
 def scene_path(name_or_path: str | Path) -> Path:
-    """The file of a bundled scene name, or ``name_or_path`` itself when it names a file."""
+    """The file of a bundled scene name, or ``name_or_path`` itself when it names a file (``~`` expanded: a
+    launch argument such as ``scene:=~/my.yaml`` reaches us past the shell unexpanded)."""
     text = str(name_or_path)
     if (
         isinstance(name_or_path, Path)
@@ -740,7 +741,7 @@ def scene_path(name_or_path: str | Path) -> Path:
         or text.endswith((".yaml", ".yml"))
         or Path(text).is_file()
     ):
-        return Path(name_or_path)
+        return Path(name_or_path).expanduser()
     if text not in BUNDLED_SCENE_NAMES and not (SCENES_DIR / f"{text}.yaml").is_file():
         raise SceneError(
             f"no bundled scene named {text!r}; choose one of {', '.join(BUNDLED_SCENE_NAMES)} or give a path"

@@ -524,6 +524,21 @@ def test_every_missing_top_level_key_is_named_in_one_line(
     # One missing key keeps its own line (BAD_SCENES: "missing accuracy"), with no list and no hint.
 
 
+def test_a_home_relative_path_is_expanded_in_the_scene_and_its_data(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``~`` in a scene path (a launch argument ``scene:=~/my.yaml`` is not expanded by the shell) and in a
+    profile's data path (a YAML file never is) is the user's home, as it is on the command line."""
+    monkeypatch.setenv("HOME", str(tmp_path))
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "traffic.csv").write_text("t,a\n0,0\n1,2\n3,2\n4,0\n", encoding="utf-8")
+    doc = base_doc()
+    doc["acceleration"] = {"type": "csv", "path": "~/data/traffic.csv"}
+    write(tmp_path, doc, "mine.yaml")
+    scene = load_scene("~/mine.yaml")
+    assert scene.profile(2.0) == 2.0 and scene.source == tmp_path / "mine.yaml"
+
+
 def test_missing_file_and_unknown_name() -> None:
     """A missing path and an unknown bundled name are one-line SceneErrors."""
     with pytest.raises(SceneError, match="not found"):

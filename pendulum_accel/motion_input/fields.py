@@ -23,10 +23,11 @@ def field_number(kind: str, name: str, value: object) -> float:
 
 
 def field_path(kind: str, raw: object, base_dir: Path | None) -> Path:
-    """Profile field 'path' as a Path, relative ones under ``base_dir``; else ParameterError naming it."""
+    """Profile field 'path' as a Path, ``~`` expanded (a scene is typed without a shell to expand it) and
+    relative ones under ``base_dir``; else ParameterError naming it."""
     if not isinstance(raw, str | Path):
         raise ParameterError(f"{kind} profile field 'path' must be a file path, got {raw!r}", path="path")
-    path = Path(raw)
+    path = Path(raw).expanduser()
     if not path.is_absolute() and base_dir is not None:
         path = Path(base_dir) / path
     return path
