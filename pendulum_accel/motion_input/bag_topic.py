@@ -36,7 +36,6 @@ import numpy as np
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.motion_input.fields import (
-    field_number,
     field_path,
     field_scale,
     field_text,
@@ -45,12 +44,11 @@ from pendulum_accel.motion_input.fields import (
 from pendulum_accel.motion_input.speed_trace import speed_recipe
 from pendulum_accel.motion_input.trace import (
     check_trace,
-    default_cutoff_hz,
     describe_differentiation,
     differentiate,
+    fitted_stretch,
     median_step,
     recorded_acceleration,
-    spline_margin,
 )
 from pendulum_accel.physics.profiles import Table
 from pendulum_accel.textfile import not_a_file_or_directory
@@ -220,11 +218,7 @@ def bag_topic_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
     count = f"{stretch.times.size} messages, {clock}{stretch.note()}"
     label = f"bag_topic {path.name} {topic} ({msgtype} {read}{scaled}, {count})"
     if msgtype in SPEED_FIELDS:
-        default = "cutoff_hz" not in d
-        cutoff = (
-            default_cutoff_hz(stretch.times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
-        )
-        stretch = stretch.around_window(spline_margin(cutoff))
+        stretch, cutoff, default = fitted_stretch(kind, d, stretch)
         origin = f"{label}: " + describe_differentiation(cutoff, median_step(stretch.times), default)
         # A standalone copy (the scene stored in a bag): the speeds themselves, as a speed_table.
         recipe = speed_recipe("m/s", stretch, cutoff, d, signed=True)

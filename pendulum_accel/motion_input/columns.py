@@ -59,12 +59,12 @@ TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 """Seconds per unit of a numeric time column (the ``time_units`` field)."""
 SEPARATORS = ("\t", ";", ",")
 """Column separators, in the order ``sniff_layout`` tries them: a comma can also be a decimal mark."""
-SNIFF_ROWS = 20
-"""Rows (not comments, not blank) ``sniff_layout`` reads: a header and enough data rows to be sure."""
-_DECIMAL_COMMA = re.compile(r"[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?")
 _EXCEL_SEPARATOR = re.compile(r"sep=([^\"\r\n])")
 """Excel's first-line directive naming a CSV's separator (``sep=;``): its reader obeys it, and exports made
 for it in many locales begin with it."""
+SNIFF_ROWS = 20
+"""Rows (not comments, not blank) ``sniff_layout`` reads: a header and enough data rows to be sure."""
+_DECIMAL_COMMA = re.compile(r"[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?")
 _THOUSANDS = re.compile(r"[+-]?\d{1,3}(,\d{3})+(\.\d*)?([eE][+-]?\d+)?")
 _DECIMAL_POINT = re.compile(r"[+-]?(\d+\.\d*|\.\d+)([eE][+-]?\d+)?")
 
@@ -83,6 +83,12 @@ class Layout:
         if self.decimal_comma and _DECIMAL_COMMA.fullmatch(text):
             return text.replace(",", ".")
         return text
+
+    @classmethod
+    def of(cls, separator: str) -> Layout:
+        """The layout of a file with ``separator`` before any number is seen: a comma file's decimal mark is
+        a point, any other's is left to ``decide``."""
+        return cls(separator, False if separator == "," else None)
 
     def decide(self, cells: Iterable[str]) -> Layout:
         """This layout with its decimal mark set by ``cells`` when still undecided: a comma when, the
@@ -118,7 +124,7 @@ def sniff_layout(lines: list[str]) -> Layout:
             break
     else:
         separator, rows = ",", list(csv.reader(sample))
-    return Layout(separator, False if separator == "," else None)
+    return Layout.of(separator)
 
 
 def csv_rows(lines: Iterable[str], where: Path) -> Iterator[tuple[int, list[str]]]:
@@ -139,17 +145,11 @@ def csv_rows(lines: Iterable[str], where: Path) -> Iterator[tuple[int, list[str]
             if content >= SNIFF_ROWS:
                 break
         directive = _EXCEL_SEPARATOR.fullmatch(head[0].rstrip("\r\n")) if head else None
-        if directive:  # the file names its separator: no guess
-            layout = Layout(directive[1], False if directive[1] == "," else None)
-        else:
-            layout = sniff_layout(head)
-        rows = csv.reader(itertools.chain(head, stream), delimiter=layout.separator)
-        for line_no, row in enumerate(rows, start=1):
-            if (
-                (directive and line_no == 1)
-                or not any(c.strip() for c in row)
-                or row[0].strip().startswith("#")
-            ):
+        layout = Layout.of(directive[1]) if directive else sniff_layout(head)  # a named separator: no guess
+        first = 2 if directive else 1  # the directive is no row
+        rows = csv.reader(itertools.chain(head[first - 1 :], stream), delimiter=layout.separator)
+        for line_no, row in enumerate(rows, start=first):
+            if not any(c.strip() for c in row) or row[0].strip().startswith("#"):
                 continue  # a comment's numbers ("# 0,5 g") decide no mark and are not refused
             if layout.decimal_comma is None:
                 layout = layout.decide(row)

@@ -9,16 +9,15 @@ from pathlib import Path
 import numpy as np
 
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.motion_input.fields import field_number, field_numbers, field_text, window_fields
+from pendulum_accel.motion_input.fields import field_numbers, field_text, window_fields
 from pendulum_accel.motion_input.trace import (
     Stretch,
     check_trace,
     csv_trace,
-    default_cutoff_hz,
     describe_differentiation,
     differentiate,
+    fitted_stretch,
     median_step,
-    spline_margin,
 )
 from pendulum_accel.physics.profiles import Table
 
@@ -50,9 +49,7 @@ def speed_profile(d: Mapping[str, object], base_dir: Path | None) -> Table:
         label = "speed_table"
         start, end = window_fields(kind, d)
         stretch = check_trace(times, values, where, start=start, end=end)
-    default = "cutoff_hz" not in d
-    cutoff = default_cutoff_hz(stretch.times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
-    stretch = stretch.around_window(spline_margin(cutoff))  # only what the window's a(t) depends on
+    stretch, cutoff, default = fitted_stretch(kind, d, stretch)  # only what the window's a(t) depends on
     if not signed:
         negative = np.flatnonzero(stretch.values < 0.0)
         if negative.size:

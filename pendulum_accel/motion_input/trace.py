@@ -296,6 +296,15 @@ def spline_margin(cutoff_hz: float) -> float:
     return SPLINE_MARGIN_WIDTHS * (math.sqrt(2.0) - 1.0) ** 0.25 / (2.0 * math.pi * cutoff_hz)
 
 
+def fitted_stretch(kind: str, d: Mapping[str, object], stretch: Stretch) -> tuple[Stretch, float, bool]:
+    """(the stretch cut to what its window's spline depends on, f_c, whether f_c is the default): f_c is
+    the profile's ``cutoff_hz``, else default_cutoff_hz of the whole stretch; the cut is
+    Stretch.around_window at spline_margin(f_c)."""
+    default = "cutoff_hz" not in d
+    cutoff = default_cutoff_hz(stretch.times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
+    return stretch.around_window(spline_margin(cutoff)), cutoff, default
+
+
 def _window_bounds(t: np.ndarray, start: float | None, end: float | None) -> tuple[float, float]:
     """(lo, hi) of the window on the shifted axis; ParameterError unless 0 ≤ lo < hi ≤ t[-1]."""
     lo = 0.0 if start is None else start
@@ -409,12 +418,12 @@ def describe_differentiation(cutoff_hz: float, step: float, default: bool) -> st
 def recorded_acceleration(kind: str, d: Mapping[str, object], stretch: Stretch, label: str) -> Table:
     """a(t) used as recorded over the stretch's window: the samples joined linearly, or with ``cutoff_hz``
     the order-0 smoothing spline (low-passed, not differentiated)."""
-    times, values, lo, hi = stretch.times, stretch.values, stretch.lo, stretch.hi
     if "cutoff_hz" in d:
-        cutoff = field_number(kind, "cutoff_hz", d["cutoff_hz"])
+        near, cutoff, _ = fitted_stretch(kind, d, stretch)
         origin = f"{label}: a as recorded, smoothing spline -3 dB cut-off {cutoff:.3g} Hz"
-        near = stretch.around_window(spline_margin(cutoff))
         return spline_table(
             near.times, near.values, cutoff, order=0, start=near.lo, end=near.hi, origin=origin
         )
-    return windowed_table(times, values, start=lo, end=hi, origin=f"{label}: a as recorded")
+    return windowed_table(
+        stretch.times, stretch.values, start=stretch.lo, end=stretch.hi, origin=f"{label}: a as recorded"
+    )
