@@ -330,7 +330,7 @@ def test_truncated_bag_is_salvaged_and_repaired(tmp_path: Path) -> None:
     np.testing.assert_allclose(js.stamp, np.arange(kept) * 1e-3, atol=1e-9)  # a prefix, in order
     result = repair_bag(tmp_path / "bag")
     assert result.rewritten and result.counts[bm.TOPIC_JOINT_STATES] == kept
-    assert result.backup is not None and result.backup.exists()
+    assert len(result.backups) == 1 and result.backups[0].exists()
     fixed = read_bag(tmp_path / "bag", salvage=False)
     assert fixed.custom_data["pendulum_accel.plan"] == "plan line"
     with Reader(tmp_path / "bag") as reader:

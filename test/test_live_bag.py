@@ -36,6 +36,8 @@ from pendulum_accel.errors import BagError
 from pendulum_accel.recording.generate import generate_bag
 from test.chain_helpers import Output, start_node
 from test.conftest import PYTHON, REPO, Spawn, cli, rclpy_available, stop_processes, strict_json
+from test.figures import assert_same_figures
+from test.split_recording import split_recording
 
 DURATION = 3.0  # s of step_start recorded live
 SAMPLES = 301  # 100 Hz over [0, 3] s
@@ -100,6 +102,15 @@ def live_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
         )
         assert run.finish(timeout=180) == 0, run.text
     return bag
+
+
+@pytest.fixture(scope="module")
+def live_split(live_bag: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The live bag as ``ros2 bag record --max-bag-size`` leaves a recording: three MCAP files, rosbag2's
+    names and metadata (test.split_recording)."""
+    out = tmp_path_factory.mktemp("live_split") / "bag"
+    split_recording(live_bag, out, 3, chunk_size=8192)
+    return out
 
 
 def _no_traceback(result: subprocess.CompletedProcess[str]) -> None:
@@ -220,14 +231,59 @@ def test_repair(live_bag: Path, tmp_path: Path) -> None:
     assert 0 < fixed.message_count < total
 
 
+@pytest.mark.ros
+def test_every_command_reads_a_split_live_recording_as_its_one_file(
+    live_bag: Path, live_split: Path, tmp_path: Path
+) -> None:
+    """info, analyze, export, allan, animate and repair on the live bag split into three files give what
+    they give on the one file: the same counts, figures and tables (parsed, not compared as text)."""
+    assert len(read_bag(live_split).mcap_paths) == 3
+    one, split = cli("info", str(live_bag)), cli("info", str(live_split))
+    _no_traceback(split)
+    assert "[complete]" in split.stdout.splitlines()[0] and "3 files" in split.stdout.splitlines()[1]
+    # The same messages through the same code: rel 0, the printed digits' half-units only.
+    assert_same_figures("\n".join(split.stdout.splitlines()[2:]), "\n".join(one.stdout.splitlines()[2:]), 0.0)
+    one, split = cli("analyze", str(live_bag), "--json"), cli("analyze", str(live_split), "--json")
+    _no_traceback(split)
+    figures, split_figures = strict_json(one.stdout), strict_json(split.stdout)
+    figures.pop("bag", None), split_figures.pop("bag", None)
+    assert split_figures == figures  # the same computation on the same messages
+    for bag in (live_bag, live_split):
+        _no_traceback(cli("export", str(bag), "--out", str(tmp_path / bag.parent.name), "--format", "csv"))
+    tables = sorted(p.name for p in (tmp_path / live_bag.parent.name).iterdir())
+    assert tables and sorted(p.name for p in (tmp_path / live_split.parent.name).iterdir()) == tables
+    for name in tables:
+        a = pd.read_csv(tmp_path / live_bag.parent.name / name)
+        b = pd.read_csv(tmp_path / live_split.parent.name / name)
+        pd.testing.assert_frame_equal(a, b, check_exact=True)
+    one = cli("allan", str(live_bag))
+    split = cli("allan", str(live_split))
+    _no_traceback(split)
+    assert_same_figures(
+        split.stdout.replace(str(live_split), "BAG"), one.stdout.replace(str(live_bag), "BAG"), 0.0
+    )
+    out = tmp_path / "swing.gif"
+    _no_traceback(cli("animate", str(live_split), "--out", str(out), "--duration", "0.5", "--fps", "4"))
+    with Image.open(out) as img:
+        assert getattr(img, "n_frames", 1) == 3
+    copy = tmp_path / "copy"
+    shutil.copytree(live_split, copy)
+    result = cli("repair", str(copy))
+    _no_traceback(result)
+    assert "intact" in result.stdout and str(read_bag(live_bag).message_count) in result.stdout
+
+
 SEEK_TO = 2.0  # s of bag time: where the first pass starts, after the refused seeks
 
 
 @pytest.mark.ros
-def test_player(live_bag: Path, spawn: Spawn) -> None:
-    """bag_player plays every topic of the live bag to a plain subscriber (player_control): started paused,
-    seeks past the end and before the start are refused, a seek to 2 s plays [2, 3] s, a seek back to 0 at
-    the end plays the whole bag; each message arrives exactly once per pass, in order, stamps unchanged."""
+@pytest.mark.parametrize("recording", ["live_bag", "live_split"])
+def test_player(recording: str, request: pytest.FixtureRequest, spawn: Spawn) -> None:
+    """bag_player plays every topic of the live bag (one file, and split into three) to a plain subscriber
+    (player_control): started paused, seeks past the end and before the start are refused, a seek to 2 s
+    plays [2, 3] s, a seek back to 0 at the end plays the whole bag; each message arrives exactly once per
+    pass, in order, stamps unchanged."""
+    live_bag: Path = request.getfixturevalue(recording)
     bag = read_bag(live_bag)
     listen = {topic: info.msgtype for topic, info in bag.topics.items()}
     first_pass = {  # messages logged at or after the seek target (the player seeks on log time)

@@ -82,14 +82,18 @@ class ChunkDamage:
     reason: str
     recovered: int = 0
     dropped: int = 0
+    file: str = ""
+    """The MCAP file's name when the bag is split into several ("": the bag's one file)."""
 
     def span(self, origin_ns: int) -> str:
-        """'chunk 4, 3.012–3.998 s' (times from the chunk's message start/end, relative to origin_ns)."""
+        """'chunk 4, 3.012–3.998 s' (times from the chunk's message start/end, relative to origin_ns);
+        'bag_1.mcap chunk 4, …' in a bag of several files."""
+        where = f"{self.file} " if self.file else ""
         if self.chunk is None:
-            return "outside the chunks"
+            return f"{where}outside the chunks"
         t0 = (self.start_ns - origin_ns) * 1e-9
         t1 = (self.end_ns - origin_ns) * 1e-9
-        return f"chunk {self.chunk}, {t0:.3f}–{t1:.3f} s"
+        return f"{where}chunk {self.chunk}, {t0:.3f}–{t1:.3f} s"
 
     def sentence(self, origin_ns: int) -> str:
         """'chunk 4, 3.012–3.998 s: CRC mismatch; 812 message records recovered by parsing, 1 dropped'."""

@@ -22,15 +22,21 @@ with (a file changed since is a BagError, never other data), and its records are
 chunks and the records recovered from damaged chunks are held from the scan. ``read_bag(stream=False)``
 holds every message from the scan instead (the reference the streamed reads are tested against).
 
-A metadata.yaml naming its file outside the bag directory (absolute, ``..``, a symlink leading
+A recording split into several files (rosbag2's ``--max-bag-size``/``--max-bag-duration``) is one bag:
+its files are scanned in the order metadata.yaml lists them (by name without metadata), and a topic's
+channels in each file are one channel of the bag, its messages in log-time order across the files.
+
+A metadata.yaml naming a file outside the bag directory (absolute, ``..``, a symlink leading
 out) is refused: nothing outside the bag is ever read, renamed or deleted through it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import heapq
 import os
+import re
 import struct
 import weakref
 import zlib
@@ -156,10 +162,11 @@ def _block_payloads(data: _Payloads) -> list[bytes]:
 
 @dataclass(frozen=True)
 class _ChunkRef:
-    """Where an intact chunk lies: its Chunk record at file offset ``at`` (body ``length`` bytes), the
-    (offset, body length) of the MessageIndex records read with it, and the CRC-32 of those bodies, in that
-    order, as the scan read and verified them."""
+    """Where an intact chunk lies: in the bag's file number ``part``, its Chunk record at file offset ``at``
+    (body ``length`` bytes), the (offset, body length) of the MessageIndex records read with it, and the
+    CRC-32 of those bodies, in that order, as the scan read and verified them."""
 
+    part: int
     at: int
     length: int
     indexes: tuple[tuple[int, int], ...]
@@ -301,6 +308,22 @@ class _File:
         return parts[0] if len(parts) == 1 else b"".join(parts)
 
 
+class _Part:
+    """One MCAP file of a bag (a split recording has several, in recording order): its path, the open
+    file, its schemas by id, and its channel ids mapped to the bag's (``cids``). A later file's channel
+    of the same topic, type and encoding joins the earlier file's, so a topic stays one channel, in
+    log-time order, across the files; an id of its own is ``part << 16 | id`` (MCAP ids are 16-bit)."""
+
+    def __init__(self, index: int, path: Path) -> None:
+        """File number ``index`` of the bag, at ``path``; OSError when it cannot be opened."""
+        self.index, self.path = index, path
+        self.file = _File(path)
+        self.schemas: dict[int, Schema] = {}
+        self.cids: dict[int, int] = {}
+        self.complete = False
+        """The scan read this file to its footer."""
+
+
 class Bag:
     """Everything readable in one bag. ``problem`` is None for an intact bag, else one sentence.
 
@@ -309,25 +332,40 @@ class Bag:
     for replay).
     """
 
-    def __init__(self, path: Path, mcap_path: Path) -> None:
-        """Empty bag for ``path``; filled by read_bag."""
+    def __init__(self, path: Path, mcap_paths: Sequence[Path]) -> None:
+        """Empty bag for ``path`` made of the MCAP files ``mcap_paths`` (in recording order); filled by
+        read_bag."""
         self.path = path
-        self.mcap_path = mcap_path
+        self.mcap_paths = list(mcap_paths)
         self.problem: str | None = None
         self.metadata: dict[str, Any] | None = None
         self.custom_data: dict[str, str] = {}
-        self.complete = False
         self.damage: list[ChunkDamage] = []
         """Damaged chunks (and damage between chunks) in file order; empty when every CRC matched."""
+        self.missing_files: tuple[str, ...] = ()
+        """Files of the recording that metadata.yaml lists and that are not there."""
         self._channels: dict[int, _ChannelData] = {}
-        self._schemas: dict[int, Schema] = {}
-        self._file: _File | None = None
-        # Chunks read again lately: file offset -> (channels read, their messages), for passes in step.
-        self._kept: dict[int, tuple[frozenset[int], dict[int, _ChannelData]]] = {}
+        self._parts: list[_Part] = []
+        # Chunks read again lately: (file, offset) -> (channels read, their messages), for passes in step.
+        self._kept: dict[tuple[int, int], tuple[frozenset[int], dict[int, _ChannelData]]] = {}
         # topic -> the shapes of its last complete pass: the contract check and later decodes share them.
         self._shape_cache: dict[str, _ShapeBook] = {}
         self.choice = TopicChoice()
         """Which topic plays each chain role: the recording's stored map (read_bag), the user's on top."""
+
+    @property
+    def mcap_path(self) -> Path:
+        """The bag's (first) MCAP file."""
+        return self.mcap_paths[0]
+
+    @property
+    def complete(self) -> bool:
+        """Every file of the bag was read to its footer."""
+        return (
+            bool(self._parts)
+            and len(self._parts) == len(self.mcap_paths)
+            and all(p.complete for p in self._parts)
+        )
 
     def chain_topic(self, topic: str) -> str:
         """This bag's name for the chain topic ``topic`` (its root name, /pendulum/joint_states), by
@@ -399,16 +437,18 @@ class Bag:
     def _load(self, lazy: _Lazy, want: frozenset[int]) -> list[_Block]:
         """The blocks of ``lazy``'s channel in its chunk, read again from the file with those of the
         channels ``want`` (kept for the passes reading those, in step: CHUNKS_KEPT chunks)."""
-        hit = self._kept.get(lazy.ref.at)
+        key = (lazy.ref.part, lazy.ref.at)
+        hit = self._kept.get(key)
         if hit is None or lazy.cid not in hit[0]:
             want = want | {lazy.cid}
-            hit = self._kept[lazy.ref.at] = (want, self._read_chunk(lazy.ref, want))
+            hit = self._kept[key] = (want, self._read_chunk(lazy.ref, want))
             while len(self._kept) > CHUNKS_KEPT:
                 del self._kept[next(iter(self._kept))]
         got = hit[1].get(lazy.cid)
         if got is None or got.count != lazy.count:
             raise BagError(
-                f"{self.mcap_path}: chunk at byte {lazy.ref.at} no longer holds the messages it held"
+                f"{self._parts[lazy.ref.part].path}: chunk at byte {lazy.ref.at} no longer holds the "
+                "messages it held"
             )
         got.seal()
         return [b for b in got.blocks if not isinstance(b, _Lazy)]
@@ -416,20 +456,20 @@ class Bag:
     def _read_chunk(self, ref: _ChunkRef, want: frozenset[int]) -> dict[int, _ChannelData]:
         """The messages of channels ``want`` in one intact chunk, read again from the file; BagError when
         the bytes read are not those the scan verified (the file changed since it was read)."""
-        assert self._file is not None, "a bag with chunks left in the file has it open"
-        body = self._file.read(ref.at + 9, ref.at + 9 + ref.length)
+        part = self._parts[ref.part]
+        body = part.file.read(ref.at + 9, ref.at + 9 + ref.length)
         crc = zlib.crc32(body)
         bodies = []
         for offset, length in ref.indexes:
-            bodies.append(self._file.read(offset + 9, offset + 9 + length))
+            bodies.append(part.file.read(offset + 9, offset + 9 + length))
             crc = zlib.crc32(bodies[-1], crc)
         head = chunk_head(body) if len(body) == ref.length and crc == ref.crc else None
         if head is None:
             raise BagError(
-                f"{self.mcap_path} changed since it was read (chunk at byte {ref.at} differs): read it again"
+                f"{part.path} changed since it was read (chunk at byte {ref.at} differs): read it again"
             )
         indexes = [i for i in (_message_index(memoryview(b)) for b in bodies) if i is not None]
-        scanner = _Scanner(self)
+        scanner = _Scanner(self, part)
         scanner.sink, scanner.only = {}, want
         # The same bytes as the scan's: the records that preceded an error there precede it here.
         with contextlib.suppress(*_RECORD_ERRORS):
@@ -779,22 +819,58 @@ def _joined(
     )
 
 
-def _find_mcap(path: Path) -> tuple[Path, Path]:
-    """(bag directory or file, .mcap path) for a bag directory or a bare .mcap file."""
-    root, mcap_path, _ = _locate(path)
-    return root, mcap_path
+def _find_mcap(path: Path) -> tuple[Path, list[Path], str | None]:
+    """(bag directory or file, its .mcap paths in recording order, a sentence naming the files its
+    metadata.yaml lists that are missing, or None) for a bag directory or a bare .mcap file."""
+    found = _locate(path)
+    return found.root, found.files, found.missing
 
 
-def _locate(path: Path) -> tuple[Path, Path, Any]:
-    """(bag directory or file, .mcap path, parsed metadata.yaml or None) for a bag directory or a bare
-    .mcap file; the metadata is parsed here once, for the file name and for read_bag."""
+@dataclass(frozen=True)
+class _Located:
+    """A bag's directory (or bare .mcap file), its MCAP files in recording order, its parsed
+    metadata.yaml (None: none), and a sentence naming files the metadata lists that are missing."""
+
+    root: Path
+    files: list[Path]
+    doc: Any
+    gone: tuple[str, ...] = ()
+    """Files metadata.yaml lists that are not there."""
+
+    @property
+    def missing(self) -> str | None:
+        """One sentence naming the files that are not there; None when none is missing."""
+        if not self.gone:
+            return None
+        listed = len(self.files) + len(self.gone)
+        verb = "is" if len(self.gone) == 1 else "are"
+        return (
+            f"bag {self.root}: metadata.yaml lists {listed} files and {', '.join(self.gone)} {verb} missing; "
+            f"read the {len(self.files)} there"
+        )
+
+
+def _recording_order(name: str) -> list[str | int]:
+    """Sort key of a file name with its digit runs as numbers: rosbag2 names a split recording's files
+    ``<bag>_0.mcap``, ``<bag>_1.mcap``, …, ``<bag>_10.mcap``, and 10 comes after 9."""
+    return [int(part) if i % 2 else part for i, part in enumerate(re.split(r"(\d+)", name))]
+
+
+def _locate(path: Path) -> _Located:
+    """The MCAP files of a bag directory or a bare .mcap file; the metadata is parsed here once, for the
+    file names and for read_bag.
+
+    A directory's files are those its metadata.yaml lists (``relative_file_paths``; several for a split
+    recording), in that order. When none of them is there (a renamed copy) or there is no metadata, its
+    ``*.mcap`` files are the bag, in recording order by name.
+    """
     odd = not_a_file_or_directory(path)
     if odd is not None:
         # Opening a FIFO for reading would wait for a writer forever; a device is no bag either.
         raise BagError(f"bag {path} is {odd}, not a bag directory or an .mcap file")
     if path.is_file():
         _check_magic(path)
-        return path, path, None
+        return _Located(path, [path], None)
     if not path.is_dir():
         raise BagError(f"bag {path} does not exist")
     meta = path / "metadata.yaml"
@@ -803,28 +879,26 @@ def _locate(path: Path) -> tuple[Path, Path, Any]:
         doc = _load_yaml(meta)
         info = doc.get("rosbag2_bagfile_information") if isinstance(doc, dict) else None
         files = info.get("relative_file_paths") if isinstance(info, dict) else None
-        # A metadata.yaml of another shape names nothing usable: look for the MCAP file instead.
-        files = [str(f) for f in files] if isinstance(files, list) else []
-        if len(files) > 1:
-            raise BagError(
-                f"bag {path} is split into {len(files)} files; only single-file bags are supported"
-            )
-        if files:
-            inside = inside_bag(path, files[0])
-            if inside.is_file():
-                if not files[0].endswith(".mcap"):
-                    raise BagError(f"bag {path} uses storage {files[0]!r}; only MCAP bags are supported")
-                return path, inside, doc
-    named = sorted(f for f in path.glob("*.mcap") if not f.is_symlink() or _within(path, f))
+        # A metadata.yaml of another shape names nothing usable: look for the MCAP files instead.
+        names = [str(f) for f in files] if isinstance(files, list) else []
+        listed = [inside_bag(path, name) for name in names]
+        present = [p for p in listed if p.is_file()]
+        for name, target in zip(names, listed, strict=True):
+            if target.is_file() and not name.endswith(".mcap"):
+                raise BagError(f"bag {path} uses storage {name!r}; only MCAP bags are supported")
+        if present:
+            return _Located(path, present, doc, tuple(p.name for p in listed if not p.is_file()))
+    named = sorted(
+        (f for f in path.glob("*.mcap") if not f.is_symlink() or _within(path, f)),
+        key=lambda f: _recording_order(f.name),
+    )
     found = [f for f in named if f.is_file()]
     if not found and named:
         what = not_a_file_or_directory(named[0]) or "a directory"
         raise BagError(f"bag {path}: {named[0].name} is {what}, not an MCAP file")
     if not found:
         raise BagError(f"bag {path} holds no .mcap file: not a bag directory")
-    if len(found) != 1:
-        raise BagError(f"bag {path} has {len(found)} .mcap files, expected 1")
-    return path, found[0], doc
+    return _Located(path, found, doc)
 
 
 def _check_magic(path: Path) -> None:
@@ -890,9 +964,9 @@ def _decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes | memoryvi
 class _RefBuilder:
     """A chunk's _ChunkRef under construction: its MessageIndex records are added as the scan meets them."""
 
-    def __init__(self, at: int, length: int, crc: int) -> None:
-        """The Chunk record at ``at`` (body ``length`` bytes, CRC-32 ``crc``)."""
-        self.at, self.length, self.crc = at, length, crc
+    def __init__(self, part: int, at: int, length: int, crc: int) -> None:
+        """The Chunk record at ``at`` of file ``part`` (body ``length`` bytes, CRC-32 ``crc``)."""
+        self.part, self.at, self.length, self.crc = part, at, length, crc
         self.indexes: list[tuple[int, int]] = []
 
     def add(self, at: int, body: bytes | memoryview) -> None:
@@ -902,17 +976,20 @@ class _RefBuilder:
 
     def ref(self) -> _ChunkRef:
         """The finished reference."""
-        return _ChunkRef(self.at, self.length, tuple(self.indexes), self.crc)
+        return _ChunkRef(self.part, self.at, self.length, tuple(self.indexes), self.crc)
 
 
 class _Scanner:
     """Front-to-back MCAP scan that records schemas, channels and messages into a Bag."""
 
-    def __init__(self, bag: Bag, file: _File | None = None, *, stream: bool = False) -> None:
-        """Scan state for ``bag`` read from ``file``; ``stream``: leave intact chunks' messages in it."""
+    def __init__(self, bag: Bag, part: _Part, *, stream: bool = False) -> None:
+        """Scan state for ``bag``'s file ``part``; ``stream``: leave intact chunks' messages in it."""
         self.bag = bag
-        self.schemas = bag._schemas
-        self.file = file
+        self.part = part
+        self.schemas = part.schemas
+        self.cids = part.cids
+        self.file = part.file
+        self.path = part.path
         self.stream = stream
         # Where a chunk's messages go while it is read to be left in the file (None: into the bag).
         self.sink: dict[int, _ChannelData] | None = None
@@ -927,6 +1004,13 @@ class _Scanner:
         self.read_chunks: set[int] = set()  # file offsets of chunks read (or skipped as damaged)
         self.chunks_seen = 0  # chunk records met in the scan: the 1-based number of the current one
         self.data_crc = 0  # crc32 of the file's bytes before the record being read
+        self.damage_from = len(bag.damage)  # where this file's damage starts in bag.damage
+
+    def _damaged(self, damage: ChunkDamage) -> None:
+        """Note ``damage`` in the bag, naming this file when the bag has several."""
+        if len(self.bag.mcap_paths) > 1:
+            damage = dataclasses.replace(damage, file=self.path.name)
+        self.bag.damage.append(damage)
 
     def schema(self, body: memoryview) -> None:
         """Register a Schema record."""
@@ -941,13 +1025,28 @@ class _Scanner:
             raise ValueError(f"channel {rec.id} ({rec.topic}) refers to unknown schema {rec.schema_id}")
         msgtype = schema.name if schema is not None else ""
         qos = rec.metadata.get("offered_qos_profiles", "")
-        if rec.id not in self.bag._channels:
-            self.bag._channels[rec.id] = _ChannelData(rec.topic, msgtype, rec.message_encoding, qos)
+        if rec.id in self.cids:
+            return
+        channels = self.bag._channels
+        taken = set(self.cids.values())
+        joined = [
+            cid
+            for cid, ch in channels.items()
+            if self.part.index
+            and cid not in taken
+            and (ch.topic, ch.msgtype, ch.encoding) == (rec.topic, msgtype, rec.message_encoding)
+        ]
+        cid = joined[0] if joined else (self.part.index << 16) | rec.id
+        self.cids[rec.id] = cid
+        if cid not in channels:
+            channels[cid] = _ChannelData(rec.topic, msgtype, rec.message_encoding, qos)
 
-    def _target(self, cid: int) -> _ChannelData | None:
-        """Where channel ``cid``'s messages go: the bag's channel, or the sink's; None for an unknown one."""
-        ch = self.bag._channels.get(cid)
-        if ch is None or self.sink is None:
+    def _target(self, local: int) -> _ChannelData | None:
+        """Where this file's channel ``local``'s messages go: the bag's channel, or the sink's; None for
+        an unknown one."""
+        cid = self.cids.get(local)
+        ch = None if cid is None else self.bag._channels.get(cid)
+        if ch is None or cid is None or self.sink is None:
             return ch
         got = self.sink.get(cid)
         if got is None:
@@ -1023,7 +1122,7 @@ class _Scanner:
             ch = self._target(cid)
             if ch is None:
                 raise ValueError(f"message index refers to unknown channel {cid}")
-            if self.only is not None and cid not in self.only:
+            if self.only is not None and self.cids.get(cid) not in self.only:
                 continue
             sel = np.flatnonzero(cids == cid)
             if sel.size == 0:
@@ -1041,6 +1140,8 @@ class _Scanner:
     def scan(self) -> None:
         """Read every top-level record, skipping damaged chunks; then indexed chunks past broken framing."""
         bag = self.bag
+        # An earlier file's problem stays; this file's sentences follow it.
+        earlier, bag.problem = bag.problem, None
         try:
             stop = self._scan()
         finally:
@@ -1051,10 +1152,13 @@ class _Scanner:
             recovered = self._indexed_chunks(stop)
             if recovered:
                 bag.problem = f"{bag.problem}; read {recovered} chunk(s) after it through the chunk index"
-        if bag.damage:
+        mine = bag.damage[self.damage_from :]
+        if mine:
             origin = damage_origin(bag.start_ns, bag.damage)
-            note = "; ".join(f"damaged {d.sentence(origin)}" for d in bag.damage)
+            note = "; ".join(f"damaged {d.sentence(origin)}" for d in mine)
             bag.problem = note if bag.problem is None else f"{bag.problem}; {note}"
+        if earlier is not None:
+            bag.problem = earlier if bag.problem is None else f"{earlier}; {bag.problem}"
         for ch in bag._channels.values():
             ch.seal()
 
@@ -1079,7 +1183,7 @@ class _Scanner:
             self.chunk(data, indexes)
         except _RECORD_ERRORS as err:
             start, end = (head.start_ns, head.end_ns) if head is not None else (0, 0)
-            self.bag.damage.append(ChunkDamage(number, start, end, f"malformed records ({err})"))
+            self._damaged(ChunkDamage(number, start, end, f"malformed records ({err})"))
         finally:
             if ref is not None and self.sink is not None:
                 sink, self.sink = self.sink, None
@@ -1100,7 +1204,7 @@ class _Scanner:
         reason: str,
     ) -> None:
         """Keep the intact message records of a damaged chunk's ``data`` and note the damage."""
-        channels = self.bag._channels
+        channels, cids = self.bag._channels, self.cids
 
         def on_record(op: int, body: memoryview) -> None:
             """Register a schema or channel met inside the damaged chunk, if it still parses."""
@@ -1109,13 +1213,17 @@ class _Scanner:
 
         offsets = [int(o) for _, entries in indexes for o in entries[:, 1].tolist()]
         kept, dropped = recover_messages(
-            data, head, offsets, on_record, lambda: {cid: ch.msgtype for cid, ch in channels.items()}
+            data,
+            head,
+            offsets,
+            on_record,
+            lambda: {local: channels[cid].msgtype for local, cid in cids.items()},
         )
-        for cid, log_time, payload in kept:
-            ch = channels[cid]
+        for local, log_time, payload in kept:
+            ch = channels[cids[local]]
             ch.times.append(log_time)
             ch.payloads.append(payload)
-        self.bag.damage.append(ChunkDamage(number, head.start_ns, head.end_ns, reason, len(kept), dropped))
+        self._damaged(ChunkDamage(number, head.start_ns, head.end_ns, reason, len(kept), dropped))
 
     def _open_chunk(self, body: memoryview, at: int, number: int) -> bytes | memoryview | None:
         """Uncompressed data of the Chunk record ``body`` (chunk ``number``) at file offset ``at``.
@@ -1129,7 +1237,7 @@ class _Scanner:
         head = chunk_head(body)
         self.pending_head = (number, head)
         if head is None:
-            self.bag.damage.append(ChunkDamage(number, 0, 0, "its header fields do not parse"))
+            self._damaged(ChunkDamage(number, 0, 0, "its header fields do not parse"))
             return None
         packed = body[head.records_at :]
         try:
@@ -1164,12 +1272,12 @@ class _Scanner:
     def _data_end(self, body: memoryview) -> None:
         """Check DataEnd's data section CRC (when written) against the file's bytes before it."""
         (expected,) = struct.unpack_from("<I", body, 0)
-        if expected and self.data_crc != expected and not self.bag.damage:
+        if expected and self.data_crc != expected and len(self.bag.damage) == self.damage_from:
             reason = (
                 "data section CRC mismatch with every chunk intact: "
                 "a message index, schema, channel or metadata record is damaged"
             )
-            self.bag.damage.append(ChunkDamage(None, 0, 0, reason))
+            self._damaged(ChunkDamage(None, 0, 0, reason))
 
     def _scan(self) -> int | None:
         """The record loop of scan(); the offset where the framing broke, None when it held to the end."""
@@ -1178,25 +1286,25 @@ class _Scanner:
         read, size = self.file.read, self.file.size
         magic = read(0, len(_MAGIC))
         if magic != _MAGIC:
-            raise BagError(f"{bag.mcap_path} is not an MCAP file (bad magic bytes)")
+            raise BagError(f"{self.path} is not an MCAP file (bad magic bytes)")
         self.data_crc = zlib.crc32(magic)
         pos = len(_MAGIC)
         while True:
             if pos >= size:
-                bag.problem = f"{bag.mcap_path} ends at byte {size} without its MCAP footer (interrupted?)"
+                bag.problem = f"{self.path} ends at byte {size} without its MCAP footer (interrupted?)"
                 return pos
             if pos + 9 > size:
-                bag.problem = f"{bag.mcap_path} is truncated: record header cut off at byte {pos} of {size}"
+                bag.problem = f"{self.path} is truncated: record header cut off at byte {pos} of {size}"
                 return pos
             head = read(pos, pos + 9)
             op, length = _RECORD_HEAD.unpack_from(head, 0)
             stop = pos + 9 + length
             if op not in _OPCODES or op == 0:
-                bag.problem = f"{bag.mcap_path} is corrupt: unknown record opcode 0x{op:02x} at byte {pos}"
+                bag.problem = f"{self.path} is corrupt: unknown record opcode 0x{op:02x} at byte {pos}"
                 return pos
             if stop > size:
                 bag.problem = (
-                    f"{bag.mcap_path} is truncated: {Opcode(op).name} record at byte {pos} needs "
+                    f"{self.path} is truncated: {Opcode(op).name} record at byte {pos} needs "
                     f"{length} bytes, only {size - pos - 9} remain"
                 )
                 if op == Opcode.CHUNK:
@@ -1214,7 +1322,7 @@ class _Scanner:
                 else:
                     self._flush_chunk()
                     if op == Opcode.FOOTER:
-                        bag.complete = True
+                        self.part.complete = True
                         return None
                     if op == Opcode.CHUNK:
                         self.chunks_seen += 1
@@ -1224,14 +1332,14 @@ class _Scanner:
                         if chunk_data is not None:
                             self.pending, self.pending_at = (chunk_data, []), pos
                             if self.pending_damage is None:
-                                self.pending_ref = _RefBuilder(pos, len(body), body_crc)
+                                self.pending_ref = _RefBuilder(self.part.index, pos, len(body), body_crc)
                     elif op == Opcode.DATA_END:
                         self._data_end(body)
                     else:
                         self._top_level(op, body)
                         self._fold(head, body)
             except _RECORD_ERRORS as err:
-                bag.problem = f"{bag.mcap_path} is corrupt at byte {pos} ({Opcode(op).name} record): {err}"
+                bag.problem = f"{self.path} is corrupt at byte {pos} ({Opcode(op).name} record): {err}"
                 return pos
             pos = stop
 
@@ -1242,7 +1350,7 @@ class _Scanner:
         head = chunk_head(body)
         self.read_chunks.add(at)
         if head is None:
-            self.bag.damage.append(ChunkDamage(self.chunks_seen, 0, 0, "cut off by the end of the file"))
+            self._damaged(ChunkDamage(self.chunks_seen, 0, 0, "cut off by the end of the file"))
             return
         self.pending, self.pending_at = (inflate_prefix(head, body[head.records_at :]), []), at
         self.pending_head = (self.chunks_seen, head)
@@ -1288,7 +1396,10 @@ class _Scanner:
                 builder = None
                 if self.pending_damage is None:
                     builder = _RefBuilder(
-                        at, length, self.body_crc if self.body_crc is not None else zlib.crc32(body)
+                        self.part.index,
+                        at,
+                        length,
+                        self.body_crc if self.body_crc is not None else zlib.crc32(body),
                     )
                 message_indexes = []
                 for off in entry.message_index_offsets.values():
@@ -1301,7 +1412,7 @@ class _Scanner:
                             builder.add(off, index_body)
             except _RECORD_ERRORS as err:
                 t0, t1 = int(entry.message_start_time), int(entry.message_end_time)
-                self.bag.damage.append(ChunkDamage(number, t0, t1, str(err)))
+                self._damaged(ChunkDamage(number, t0, t1, str(err)))
                 self.pending_damage = None
                 continue
             self.pending, self.pending_at, self.pending_ref = (chunk_data, message_indexes), at, builder
@@ -1389,7 +1500,7 @@ def _custom_data(doc: Any) -> dict[str, str]:
 
 def stored_choice(path: Path | str) -> TopicChoice:
     """The TopicChoice of the recording's stored topic map (metadata.yaml), without reading the MCAP."""
-    return TopicChoice(stored_roles(_custom_data(_locate(Path(path))[2])))
+    return TopicChoice(stored_roles(_custom_data(_locate(Path(path)).doc)))
 
 
 def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> Bag:
@@ -1401,16 +1512,20 @@ def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> 
     ``bag.problem``; with ``salvage=False`` that is a BagError instead. Missing, empty or non-MCAP
     input: BagError.
     """
-    root, mcap_path, doc = _locate(Path(path))
-    bag = Bag(root, mcap_path)
-    try:
-        bag._file = _File(mcap_path)
-    except OSError as err:
-        raise BagError(f"cannot read {mcap_path}: {err.strerror}") from None
-    if isinstance(doc, dict):
-        bag.metadata = doc
-        bag.custom_data.update(_custom_data(doc))
-    _Scanner(bag, bag._file, stream=stream).scan()
+    found = _locate(Path(path))
+    bag = Bag(found.root, found.files)
+    for index, mcap_path in enumerate(found.files):
+        try:
+            bag._parts.append(_Part(index, mcap_path))
+        except OSError as err:
+            raise BagError(f"cannot read {mcap_path}: {err.strerror}") from None
+    if isinstance(found.doc, dict):
+        bag.metadata = found.doc
+        bag.custom_data.update(_custom_data(found.doc))
+    bag.problem = found.missing
+    bag.missing_files = found.gone
+    for part in bag._parts:
+        _Scanner(bag, part, stream=stream).scan()
     bag.choice.roles.update(stored_roles(bag.custom_data))
     if bag.problem is not None and not salvage:
         raise BagError(

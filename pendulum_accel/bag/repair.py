@@ -6,7 +6,10 @@ metadata.yaml anew. The reader keeps every chunk whose CRC matches and, of a dam
 every intact message record (``bag.integrity``: it frames, names a known channel, lies in the chunk's
 time range and decodes as CDR of the channel's type). ``DROPS`` says what is not kept. The repaired
 bag's custom_data ``pendulum_accel.repaired`` says what was recovered without a checksum, for ``info``.
-The damaged file is kept next to it as ``<name>.mcap.damaged``.
+The damaged file is kept next to it as ``<name>.mcap.damaged``. A recording split into several files
+is rewritten as one file, each of its files kept as ``<name>.mcap.damaged``; a file its metadata.yaml
+lists and that is missing is named in ``pendulum_accel.repaired``, so ``info`` never calls the result
+complete.
 Only files inside the bag directory are ever touched (the reader refuses a metadata.yaml that names
 one outside), and a write failure leaves the damaged bag as it was.
 """
@@ -46,7 +49,8 @@ class RepairResult:
     rewritten: bool
     counts: dict[str, int]
     problem: str | None
-    backup: Path | None
+    backups: tuple[Path, ...]
+    """The damaged files, kept beside the rewritten one (none with keep_backup False)."""
     damage: tuple[ChunkDamage, ...] = ()
     origin_ns: int = 0
 
@@ -91,7 +95,7 @@ def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:
         raise BagError(f"{root} is not a bag directory (no metadata.yaml, no .mcap file); nothing repaired")
     bag = read_bag(root)
     if bag.problem is None and metadata_matches(bag):
-        return RepairResult(root, False, {n: t.count for n, t in bag.topics.items()}, None, None)
+        return RepairResult(root, False, {n: t.count for n, t in bag.topics.items()}, None, ())
     for name, topic in bag.topics.items():
         if topic.msgtype not in TYPESTORE.types:
             raise BagError(
@@ -118,12 +122,14 @@ def _rewrite(root: Path, bag: Bag, staging: Path, keep_backup: bool) -> RepairRe
     new_dir = staging / root.name
     origin = damage_origin(bag.start_ns, bag.damage)
     custom = dict(bag.custom_data)
-    recovered = [d for d in bag.damage if d.recovered]
-    if recovered:
-        custom[CUSTOM_REPAIRED] = "; ".join(
-            f"{d.recovered} messages recovered by parsing from damaged {d.span(origin)} ({d.reason})"
-            for d in recovered
-        )
+    notes = [f"{name}, listed in metadata.yaml, was missing" for name in bag.missing_files]
+    notes += [
+        f"{d.recovered} messages recovered by parsing from damaged {d.span(origin)} ({d.reason})"
+        for d in bag.damage
+        if d.recovered
+    ]
+    if notes:
+        custom[CUSTOM_REPAIRED] = "; ".join(notes)
     try:
         with BagWriter(new_dir, custom_data=custom, flush_interval=None) as writer:
             for name, topic in bag.topics.items():
@@ -135,16 +141,18 @@ def _rewrite(root: Path, bag: Bag, staging: Path, keep_backup: bool) -> RepairRe
             writer.write_sorted(streams)
             counts = writer.counts
         new_mcap = new_dir / f"{root.name}.mcap"
-        backup: Path | None = None
-        if bag.mcap_path.exists():
+        backups: list[Path] = []
+        for old in bag.mcap_paths:
+            if not old.exists():
+                continue
             if keep_backup:
-                backup = bag.mcap_path.with_name(bag.mcap_path.name + ".damaged")
-                bag.mcap_path.replace(backup)
+                backups.append(old.with_name(old.name + ".damaged"))
+                old.replace(backups[-1])
             else:
-                bag.mcap_path.unlink()
+                old.unlink()
         new_mcap.replace(root / new_mcap.name)
         (new_dir / "metadata.yaml").replace(root / "metadata.yaml")
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     problem = bag.problem or "metadata.yaml was missing or listed other message counts"
-    return RepairResult(root, True, counts, problem, backup, tuple(bag.damage), origin)
+    return RepairResult(root, True, counts, problem, tuple(backups), tuple(bag.damage), origin)

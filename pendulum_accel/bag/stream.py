@@ -16,6 +16,7 @@ import heapq
 import struct
 import zlib
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
@@ -41,36 +42,69 @@ class NotIndexedError(BagError):
     """The bag has no summary with a chunk index (a killed recording): it cannot be streamed."""
 
 
+@dataclass(frozen=True)
+class FileChunk:
+    """One chunk of a bag's file number ``part`` (a split recording has several files): its index entry."""
+
+    part: int
+    index: ChunkIndex
+
+    @property
+    def message_start_time(self) -> int:
+        """Log time of the chunk's first message (ns)."""
+        return int(self.index.message_start_time)
+
+    @property
+    def message_end_time(self) -> int:
+        """Log time of the chunk's last message (ns)."""
+        return int(self.index.message_end_time)
+
+
 class StreamedBag:
-    """Topics, time span and time-ordered messages of one bag, read through its chunk index."""
+    """Topics, time span and time-ordered messages of one bag, read through its chunk index; a split
+    recording's files are read as one bag."""
 
     def __init__(self, path: Path | str) -> None:
-        """Open the bag's MCAP and read its summary; NotIndexedError without a chunk index."""
-        self.path, mcap_path = _find_mcap(Path(path))
-        self._file: BinaryIO = open(mcap_path, "rb")  # noqa: SIM115 (closed by close())
-        try:
-            self._reader = SeekingReader(self._file)
-            summary = self._reader.get_summary()
-        except (McapError, ValueError, OSError, EOFError, struct.error) as err:
-            self._file.close()
-            raise NotIndexedError(f"bag {self.path}: no readable summary ({err})") from None
-        if summary is None or not summary.chunk_indexes:
-            self._file.close()
-            raise NotIndexedError(f"bag {self.path} has no chunk index (its recording did not close)")
-        self._summary = summary
-        self.chunks: list[ChunkIndex] = sorted(summary.chunk_indexes, key=lambda c: c.message_start_time)
+        """Open the bag's MCAP files and read their summaries; NotIndexedError when one has no chunk index."""
+        self.path, mcap_paths, missing = _find_mcap(Path(path))
+        if missing is not None:
+            # What is there is read whole by bag.reader, which names what is missing.
+            raise NotIndexedError(missing)
+        self._files: list[BinaryIO] = []
+        self.chunks: list[FileChunk] = []
         self.topics: dict[str, str] = {}
-        self._channels: dict[str, list[int]] = {}
-        for channel_id, channel in summary.channels.items():
-            schema = summary.schemas.get(channel.schema_id)
-            self.topics.setdefault(channel.topic, schema.name if schema is not None else "")
-            self._channels.setdefault(channel.topic, []).append(channel_id)
+        self._channels: dict[str, list[tuple[int, int]]] = {}
+        try:
+            for part, mcap_path in enumerate(mcap_paths):
+                self._open(part, mcap_path, len(mcap_paths) > 1)
+        except BaseException:
+            self.close()
+            raise
+        self.chunks.sort(key=lambda c: c.message_start_time)
         self.start_ns = min(c.message_start_time for c in self.chunks)
         self.end_ns = max(c.message_end_time for c in self.chunks)
 
+    def _open(self, part: int, mcap_path: Path, split: bool) -> None:
+        """Open file number ``part``, add its chunks and channels; NotIndexedError without a chunk index."""
+        handle: BinaryIO = open(mcap_path, "rb")  # noqa: SIM115 (closed by close())
+        self._files.append(handle)
+        what = f"bag {self.path}" + (f" ({mcap_path.name})" if split else "")
+        try:
+            summary = SeekingReader(handle).get_summary()
+        except (McapError, ValueError, OSError, EOFError, struct.error) as err:
+            raise NotIndexedError(f"{what}: no readable summary ({err})") from None
+        if summary is None or not summary.chunk_indexes:
+            raise NotIndexedError(f"{what} has no chunk index (its recording did not close)")
+        self.chunks += [FileChunk(part, c) for c in summary.chunk_indexes]
+        for channel_id, channel in summary.channels.items():
+            schema = summary.schemas.get(channel.schema_id)
+            self.topics.setdefault(channel.topic, schema.name if schema is not None else "")
+            self._channels.setdefault(channel.topic, []).append((part, channel_id))
+
     def close(self) -> None:
-        """Close the file."""
-        self._file.close()
+        """Close the files."""
+        for handle in self._files:
+            handle.close()
 
     def messages(
         self, topics: Sequence[str], first_ns: int, last_ns: int
@@ -82,7 +116,7 @@ class StreamedBag:
         all come after its start (chunks that overlap in time are merged), so a bag whose chunks
         follow each other holds one decoded chunk at a time.
         """
-        wanted = {cid: topic for topic in topics for cid in self._channels.get(topic, [])}
+        wanted = {key: topic for topic in topics for key in self._channels.get(topic, [])}
         chunks = [
             c for c in self.chunks if c.message_end_time >= first_ns and c.message_start_time <= last_ns
         ]
@@ -100,12 +134,13 @@ class StreamedBag:
             yield topic, t, data
 
     def decode_chunk(
-        self, index: ChunkIndex, wanted: dict[int, str], first_ns: int, last_ns: int
+        self, where: FileChunk, wanted: dict[tuple[int, int], str], first_ns: int, last_ns: int
     ) -> list[tuple[int, str, bytes]]:
-        """The (log time, topic, CDR) of one chunk's messages on ``wanted`` channels inside the window,
-        sorted by log time (stable); BagError when its CRC (if written) does not match."""
-        self._file.seek(index.chunk_start_offset + 1 + 8)
-        chunk = Chunk.read(ReadDataStream(self._file))
+        """The (log time, topic, CDR) of one chunk's messages on ``wanted`` (file, channel id)s inside the
+        window, sorted by log time (stable); BagError when its CRC (if written) does not match."""
+        index, handle = where.index, self._files[where.part]
+        handle.seek(index.chunk_start_offset + 1 + 8)
+        chunk = Chunk.read(ReadDataStream(handle))
         try:
             head = ChunkHead(
                 chunk.message_start_time,
@@ -128,8 +163,9 @@ class StreamedBag:
             body = at + 9
             if opcode == _OP_MESSAGE and length >= 22:
                 channel, _sequence, log_time = message(data, body)
-                if channel in wanted and first_ns <= log_time <= last_ns:
-                    out.append((log_time, wanted[channel], bytes(data[body + 22 : body + length])))
+                topic = wanted.get((where.part, channel))
+                if topic is not None and first_ns <= log_time <= last_ns:
+                    out.append((log_time, topic, bytes(data[body + 22 : body + length])))
             at = body + length
         if any(out[i][0] > out[i + 1][0] for i in range(len(out) - 1)):
             out.sort(key=lambda m: m[0])
@@ -138,9 +174,10 @@ class StreamedBag:
     def count(self, topics: Sequence[str], first_ns: int, last_ns: int) -> int:
         """Messages of ``topics`` with first_ns ≤ log time ≤ last_ns: a chunk wholly inside by its index
         records' lengths, a chunk across an edge by reading its index entries (never the chunk itself)."""
-        wanted = {cid for topic in topics for cid in self._channels.get(topic, [])}
+        wanted = {key for topic in topics for key in self._channels.get(topic, [])}
         total = 0
-        for chunk in self.chunks:
+        for where in self.chunks:
+            chunk, handle = where.index, self._files[where.part]
             if chunk.message_end_time < first_ns or chunk.message_start_time > last_ns:
                 continue
             inside = first_ns <= chunk.message_start_time and chunk.message_end_time <= last_ns
@@ -151,14 +188,14 @@ class StreamedBag:
             # the start of the first plus their total length.
             ends = [offset for _, offset in ordered[1:]] + [ordered[0][1] + chunk.message_index_length]
             for (channel_id, offset), end in zip(ordered, ends, strict=True):
-                if channel_id not in wanted:
+                if (where.part, channel_id) not in wanted:
                     continue
                 n = (end - offset - _INDEX_HEAD) // _ENTRY.size
                 if inside:
                     total += n
                     continue
-                self._file.seek(offset + _INDEX_HEAD)
-                entries = self._file.read(n * _ENTRY.size)
+                handle.seek(offset + _INDEX_HEAD)
+                entries = handle.read(n * _ENTRY.size)
                 total += sum(
                     1
                     for t, _ in _ENTRY.iter_unpack(entries[: len(entries) // _ENTRY.size * _ENTRY.size])

@@ -121,7 +121,8 @@ def damage_state(bag: Bag) -> str:
     """'DAMAGED: chunk 4, 3.012–3.998 s; chunk 6, …': one entry per damaged chunk (times from the chunk's
     message start/end, relative to the bag's start), then a cut-off end or broken framing."""
     origin = damage_origin(bag.start_ns, bag.damage)
-    parts = [d.span(origin) for d in bag.damage]
+    parts = [f"{name} missing" for name in bag.missing_files]
+    parts += [d.span(origin) for d in bag.damage]
     problem = bag.problem or ""
     if not bag.complete:
         cut = "truncated" in problem or "without its MCAP footer" in problem
@@ -168,14 +169,17 @@ def info_lines(path: str, args: argparse.Namespace | None = None) -> tuple[list[
     bag = read_bag(path)
     if args is not None:
         choose_topics(bag, args)
-    size = bag.mcap_path.stat().st_size
+    size = sum(p.stat().st_size for p in bag.mcap_paths)
+    files = bag.mcap_path.name
+    if len(bag.mcap_paths) > 1:
+        files = f"{len(bag.mcap_paths)} files, {bag.mcap_path.name} to {bag.mcap_paths[-1].name}"
     try:
         state, losses = bag_state(bag)
     except SeveralChainsError as err:
         state, losses = f"several chains ({', '.join(err.namespaces)}): --namespace NS checks one", []
     lines = [
         f"bag:       {bag.path}  [{state}]",
-        f"file:      {bag.mcap_path.name}  {size / 1e6:.2f} MB",
+        f"file:      {files}  {size / 1e6:.2f} MB",
         f"duration:  {bag.duration_s:.3f} s  (log time {bag.start_ns * 1e-9:.3f}-{bag.end_ns * 1e-9:.3f} s)",
         f"messages:  {bag.message_count}",
         f"scene:     {stored_scene_name(bag) or '(not stored)'}",

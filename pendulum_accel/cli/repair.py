@@ -46,6 +46,6 @@ def run(args: argparse.Namespace) -> int:
             "number decodes too); info shows them as repaired"
         )
     print(f"dropped: {result.dropped} message records found not intact. {DROPS}.")
-    if result.backup is not None:
-        print(f"damaged file kept as {result.backup}")
+    for backup in result.backups:
+        print(f"damaged file kept as {backup}")
     return 0

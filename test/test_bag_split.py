@@ -1,0 +1,174 @@
+"""A recording split into several MCAP files (``ros2 bag record --max-bag-size``) is one bag.
+
+The same messages read from one file and from three (test.split_recording: rosbag2's names and
+metadata, the mcap library's writer, channel ids that differ between files) must give the same topics,
+counts, times, payloads and decoded columns, through the scan and through the chunk index the player
+streams with. A file the metadata lists that is missing, and a damaged chunk in one of the files, are
+named with the file; repair rewrites the rest as one file and says what was lost.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import SeekingReader
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag.repair import CUSTOM_REPAIRED, repair_bag
+from pendulum_accel.bag.stream import NotIndexedError, StreamedBag
+from pendulum_accel.cli.info import info_lines
+from pendulum_accel.errors import BagError
+from pendulum_accel.recording.generate import generate_bag
+from test.split_recording import split_recording
+
+PARTS = 3
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """(one-file bag, the same split into PARTS files) of step_start over 4 s."""
+    root = tmp_path_factory.mktemp("split")
+    whole = root / "whole"
+    generate_bag("step_start", whole, duration=4.0)
+    split_recording(whole, root / "rec", PARTS)
+    return whole, root / "rec"
+
+
+def _copy(src: Path, tmp_path: Path) -> Path:
+    """A copy of bag directory ``src`` to damage."""
+    dst = tmp_path / src.name
+    shutil.copytree(src, dst)
+    return dst
+
+
+@pytest.mark.parametrize("stream", [True, False])
+def test_a_split_recording_reads_as_its_one_file(recordings: tuple[Path, Path], stream: bool) -> None:
+    whole_path, split_path = recordings
+    whole, split = read_bag(whole_path, stream=stream), read_bag(split_path, stream=stream)
+    assert len(split.mcap_paths) == PARTS and [p.name for p in split.mcap_paths] == [
+        f"rec_{i}.mcap" for i in range(PARTS)
+    ]
+    assert split.problem is None and split.complete
+    assert split.topics == whole.topics
+    assert (split.start_ns, split.end_ns, split.message_count) == (
+        whole.start_ns,
+        whole.end_ns,
+        whole.message_count,
+    )
+    assert split.custom_data == whole.custom_data
+    for topic in whole.topics:
+        t_whole, p_whole = whole.raw(topic)
+        t_split, p_split = split.raw(topic)
+        assert np.array_equal(t_split, t_whole) and p_split == p_whole, topic
+    for topic in (bm.TOPIC_JOINT_STATES, bm.TOPIC_ACCEL_ESTIMATE, bm.TOPIC_IMU):
+        a, b = whole.decode(topic), split.decode(topic)
+        assert np.array_equal(a.log_time_ns, b.log_time_ns)
+        assert a.fields.keys() == b.fields.keys()
+        for name in a.fields:
+            assert np.array_equal(a[name], b[name]), (topic, name)
+        # A topic is one channel across the files, in log-time order: it streams in batches, in order.
+        batches = list(split.decode_batches(topic, rows=100))
+        assert len(batches) > 1
+        assert np.array_equal(np.concatenate([x.log_time_ns for x in batches]), a.log_time_ns)
+
+
+def test_info_counts_every_file_and_calls_the_split_recording_complete(recordings: tuple[Path, Path]) -> None:
+    whole_path, split_path = recordings
+    lines, note = info_lines(str(split_path))
+    assert note is None
+    assert lines[0].endswith("[complete]"), lines[0]
+    assert f"{PARTS} files, rec_0.mcap to rec_{PARTS - 1}.mcap" in lines[1]
+    whole_lines, _ = info_lines(str(whole_path))
+    assert lines[2:] == whole_lines[2:]  # duration, counts, scene, plan, topics and rates alike
+
+
+def test_files_are_taken_in_recording_order_without_metadata(tmp_path: Path) -> None:
+    """rosbag2 numbers its files from 0: file 10 comes after file 9, not after file 1."""
+    generate_bag("step_start", tmp_path / "whole", duration=3.0)
+    split = tmp_path / "rec"
+    split_recording(tmp_path / "whole", split, 11, chunk_size=4096)
+    (split / "metadata.yaml").unlink()
+    bag = read_bag(split)
+    assert [p.name for p in bag.mcap_paths] == [f"rec_{i}.mcap" for i in range(11)]
+    whole = read_bag(tmp_path / "whole")
+    for topic in whole.topics:
+        assert np.array_equal(bag.raw(topic)[0], whole.raw(topic)[0]), topic
+    assert bag.topics[bm.TOPIC_JOINT_STATES].count == whole.topics[bm.TOPIC_JOINT_STATES].count
+
+
+def test_the_player_streams_a_split_recording_as_its_one_file(recordings: tuple[Path, Path]) -> None:
+    whole_path, split_path = recordings
+    whole, split = StreamedBag(whole_path), StreamedBag(split_path)
+    try:
+        assert split.topics == whole.topics
+        assert (split.start_ns, split.end_ns) == (whole.start_ns, whole.end_ns)
+        topics = sorted(whole.topics)
+        span = whole.end_ns - whole.start_ns
+        for first, last in (
+            (whole.start_ns, whole.end_ns),
+            (whole.start_ns + span // 3, whole.end_ns - span // 5),
+        ):
+            expected = list(whole.messages(topics, first, last))
+            assert list(split.messages(topics, first, last)) == expected
+            assert split.count(topics, first, last) == whole.count(topics, first, last) == len(expected)
+    finally:
+        whole.close()
+        split.close()
+
+
+def test_a_missing_file_is_named_and_the_rest_is_read(recordings: tuple[Path, Path], tmp_path: Path) -> None:
+    _, split_path = recordings
+    copy = _copy(split_path, tmp_path)
+    kept = read_bag(split_path)
+    (copy / "rec_1.mcap").unlink()
+    bag = read_bag(copy)
+    assert bag.missing_files == ("rec_1.mcap",)
+    assert bag.problem is not None and "metadata.yaml lists 3 files and rec_1.mcap is missing" in bag.problem
+    assert 0 < bag.message_count < kept.message_count
+    with pytest.raises(BagError, match=r"rec_1\.mcap is missing"):
+        read_bag(copy, salvage=False)
+    lines, note = info_lines(str(copy))
+    assert "[DAMAGED: rec_1.mcap missing]" in lines[0], lines[0]
+    assert note is not None and "rec_1.mcap is missing" in note
+    # The player cannot stream a bag with a hole: the whole-bag reader reads what is there.
+    with pytest.raises(NotIndexedError, match=r"rec_1\.mcap is missing"):
+        StreamedBag(copy)
+    result = repair_bag(copy)
+    assert result.rewritten and sorted(p.name for p in result.backups) == [
+        "rec_0.mcap.damaged",
+        "rec_2.mcap.damaged",
+    ]
+    fixed = read_bag(copy, salvage=False)
+    assert fixed.mcap_paths == [copy / "rec.mcap"] and fixed.message_count == bag.message_count
+    assert fixed.custom_data[CUSTOM_REPAIRED] == "rec_1.mcap, listed in metadata.yaml, was missing"
+    lines, _ = info_lines(str(copy))
+    assert "[repaired: rec_1.mcap, listed in metadata.yaml, was missing]" in lines[0], lines[0]
+    assert kept.message_count > fixed.message_count
+
+
+def test_damage_in_one_file_names_that_file(recordings: tuple[Path, Path], tmp_path: Path) -> None:
+    _, split_path = recordings
+    copy = _copy(split_path, tmp_path)
+    target = copy / "rec_2.mcap"
+    data = bytearray(target.read_bytes())
+    intact = read_bag(copy)
+    with target.open("rb") as stream:
+        summary = SeekingReader(stream).get_summary()
+    assert summary is not None
+    first = min(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+    # A byte of the first chunk's records: its CRC no longer matches.
+    data[first.chunk_start_offset + first.chunk_length - 10] ^= 0xFF
+    target.write_bytes(bytes(data))
+    bag = read_bag(copy)
+    assert bag.problem is not None and "rec_2.mcap" in bag.problem
+    assert bag.damage and all(d.file == "rec_2.mcap" for d in bag.damage)
+    lines, _ = info_lines(str(copy))
+    assert "DAMAGED: rec_2.mcap chunk 1," in lines[0], lines[0]
+    assert bag.message_count <= intact.message_count
+    result = repair_bag(copy)
+    assert result.rewritten and len(result.backups) == PARTS
+    assert read_bag(copy, salvage=False).problem is None
