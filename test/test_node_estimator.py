@@ -166,6 +166,49 @@ def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
     assert errors and int(errors[-1]["dropped_wrong_joint"]) == 50, result["diagnostics"]
 
 
+def test_the_joint_parameter_names_the_pendulum_among_a_robots_joints(spawn: Spawn) -> None:
+    """joint = encoder: a real sensor's JointState naming its joints its own way (the pendulum's after a
+    wheel) gives one estimate per angle, from the encoder's position; the chain's own pendulum_joint is
+    then another robot's joint: dropped, counted, no estimate."""
+    estimator = start_node(
+        spawn,
+        "estimator_node",
+        {"scene": "lecture_constant", "method": "instant", "joint": "encoder", "diagnostics_period": 0.2},
+    )
+    estimator.wait_for(r"estimating with", timeout=60)
+    theta = math.atan2(2.0, G)
+    feed = [[0.01 * i, theta] for i in range(50)]
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/car/accel/estimate"],
+            "wait_subscribers": 1,
+            "joints": ["wheel", "encoder"],
+            "others": 0.3,
+            "feed": feed,
+            "linger": 1.0,
+        },
+    )
+    assert [t for t, _, _ in result["estimates"]] == pytest.approx([t for t, _ in feed], abs=1e-9)
+    for _, accel, _ in result["estimates"]:
+        assert accel == pytest.approx(2.0, rel=1e-12)  # g tan(atan(2/g)), as above: the encoder's θ
+    result = run_probe(
+        spawn,
+        {
+            "listen": ["/car/accel/estimate", "/diagnostics"],
+            "wait_subscribers": 1,
+            "joints": ["pendulum_joint"],
+            "feed": [[1.0 + 0.01 * i, theta] for i in range(50)],
+            "linger": 1.0,
+        },
+    )
+    assert result["estimates"] == []
+    errors = [values for level, _, values in result["diagnostics"] if level == 2]
+    assert errors and int(errors[-1]["dropped_wrong_joint"]) == 50, result["diagnostics"]
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=20) == 0
+
+
 def test_lag_stamps_each_estimate_with_the_sample_it_describes(spawn: Spawn) -> None:
     """lag = 0.2 s at the scene's 100 Hz is N = 20 samples: the node states its latency (log, /diagnostics),
     gives nothing for the first 20 inputs, then one estimate per input stamped with the input 20 back."""

@@ -151,6 +151,10 @@ CUSTOM_TOPICS = "pendulum_accel.topics"
 """custom_data key of a recording's topic map: JSON {role: recorded name} (a remap or a namespace applied)."""
 
 
+PENDULUM_JOINT = "pendulum_joint"
+"""The pendulum's joint in the chain's JointState (the URDF's, the simulator's; the estimator's default)."""
+
+
 @dataclass
 class TopicChoice:
     """Which of a bag's topics plays each chain role: ``roles`` (role -> name: the recording's stored map,
@@ -159,6 +163,8 @@ class TopicChoice:
 
     roles: dict[str, str] = field(default_factory=dict)
     namespace: str = ""
+    joint: str = PENDULUM_JOINT
+    """The pendulum's joint in the angles' JointState (``--joint``; the estimator node's ``joint``)."""
 
 
 def stored_roles(custom_data: Mapping[str, str]) -> dict[str, str]:
@@ -224,7 +230,6 @@ def chain_topic(names: Iterable[str], topic: str, choice: TopicChoice | None = N
 
 
 FRAME_ID = "base_link"
-PENDULUM_JOINT = "pendulum_joint"
 STRING_JOINT = "string_joint"
 
 _NUMERIC: dict[str, str] = {

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from pendulum_accel.cli.output import check_output_file, write_output
+from pendulum_accel.cli.topics import topic_rules
 from pendulum_accel.errors import BagError, ParameterError
 from pendulum_accel.recording.fleet import (
     COLUMNS,
@@ -62,6 +63,7 @@ def run_fleet(args: argparse.Namespace) -> int:
         estimators=tuple(args.estimator) if args.estimator else (None,),
         skip=args.skip,
         lag=args.lag,
+        topics=topic_rules(args),
     )
     tick, close = stderr_progress(len(paths))
     try:

@@ -1,7 +1,5 @@
-"""``--topic ROLE=NAME`` and ``--namespace NS``: which of a bag's topics the offline commands read.
-
-A recording stores its chain's topic map (a remap or a namespace applied), and the commands follow it;
-these options override it, or pick one chain of a bag that holds several.
+"""``--topic ROLE=NAME``, ``--namespace NS`` and ``--joint NAME``: which of a bag's topics, and which
+joint of its angles, the offline commands read (``recording.topic_rules``).
 """
 
 from __future__ import annotations
@@ -10,7 +8,7 @@ import argparse
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import Bag
-from pendulum_accel.errors import BagError
+from pendulum_accel.recording.topic_rules import TopicRules
 
 
 def add_topic_flags(parser: argparse.ArgumentParser) -> None:
@@ -30,33 +28,13 @@ def add_topic_flags(parser: argparse.ArgumentParser) -> None:
         metavar="NS",
         help="of a bag holding several chains (/car1/..., /car2/...), read the one in namespace NS",
     )
-
-
-def topic_choice(
-    topics: list[str], roles: dict[str, str], texts: list[str], namespace: str
-) -> bm.TopicChoice:
-    """The TopicChoice of a bag with ``topics`` and a stored map ``roles``, with the user's ``--topic``
-    rules (``texts``) on top and ``namespace``; BagError (one line) for a rule that does not read
-    ROLE=NAME, names no role, or names a topic the bag lacks, and for a namespace the bag has no topic in."""
-    ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
-    # The stored map names one chain's topics: another namespace asked for sets it aside.
-    chosen = {role: name for role, name in roles.items() if not ns or bm.in_namespace(name, ns)}
-    for text in texts:
-        role_text, sep, name = text.partition("=")
-        if not sep or not name:
-            raise BagError(f"--topic {text!r} must read ROLE=NAME (e.g. pendulum/joint_states=/angle)")
-        try:
-            role = bm.role_name(role_text)
-        except ValueError as err:
-            raise BagError(f"--topic {text!r}: {err}") from None
-        if name not in topics:
-            raise BagError(f"--topic {text!r}: the bag has no topic {name} (it has {', '.join(topics)})")
-        chosen[role] = name
-    if ns and not any(t.startswith(ns + "/") for t in topics):
-        raise BagError(
-            f"--namespace {namespace}: the bag has no topic under {ns}/ (it has {', '.join(topics)})"
-        )
-    return bm.TopicChoice(chosen, ns)
+    parser.add_argument(
+        "--joint",
+        default=bm.PENDULUM_JOINT,
+        metavar="NAME",
+        help="the pendulum's joint in the angles' JointState, as the estimator node's joint parameter "
+        f"(default {bm.PENDULUM_JOINT})",
+    )
 
 
 def namespace_topics(bag: Bag) -> list[str]:
@@ -65,9 +43,14 @@ def namespace_topics(bag: Bag) -> list[str]:
     return [t for t in bag.topics if not ns or bm.in_namespace(t, ns)]
 
 
-def choose_topics(bag: Bag, args: argparse.Namespace) -> Bag:
-    """``bag`` reading the topics ``args`` choose (--topic, --namespace) on top of its stored map."""
-    bag.choice = topic_choice(
-        list(bag.topics), bag.choice.roles, list(args.topic_roles), str(args.namespace or "")
+def topic_rules(args: argparse.Namespace) -> TopicRules:
+    """The TopicRules of a command's --topic, --namespace and --joint."""
+    return TopicRules(
+        tuple(args.topic_roles), str(args.namespace or ""), str(getattr(args, "joint", bm.PENDULUM_JOINT))
     )
-    return bag
+
+
+def choose_topics(bag: Bag, args: argparse.Namespace) -> Bag:
+    """``bag`` reading the topics and joint ``args`` choose (--topic, --namespace, --joint) on top of its
+    stored map."""
+    return topic_rules(args).apply(bag)

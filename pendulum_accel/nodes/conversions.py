@@ -85,10 +85,10 @@ def joint_state(stamp: Time, theta: float, theta_dot: float) -> JointState:
     return msg
 
 
-def pendulum_angle(msg: JointState) -> float:
-    """θ = position[index of pendulum_joint] (or position[0] when the message has no names); NaN if absent."""
+def pendulum_angle(msg: JointState, joint: str = PENDULUM_JOINT) -> float:
+    """θ = position[index of ``joint``] (or position[0] when the message has no names); NaN if absent."""
     names = list(msg.name)
-    index = names.index(PENDULUM_JOINT) if PENDULUM_JOINT in names else 0
+    index = names.index(joint) if joint in names else 0
     position = msg.position
     return float(position[index]) if len(position) > index else math.nan
 

@@ -7,8 +7,9 @@ variance in covariance[0]. Nothing non-finite is ever published.
 The executor only takes each angle into a backlog (with its arrival time); a worker thread estimates
 them in order and publishes /diagnostics every ``diagnostics_period``, so the parameter services and
 the health report are served while a burst is worked off, and a silent input goes STALE
-``stale_after`` after its last arrival. The angles are taken by name (``pendulum_joint`` among any
-other joints), from a reliable or a best-effort publisher (``nodes.qos``).
+``stale_after`` after its last arrival. The angles are taken by name (the ``joint`` parameter,
+``pendulum_joint`` by default, among any other joints), from a reliable or a best-effort publisher
+(``nodes.qos``).
 
 Beside it, a ``sensor_msgs/Imu`` on ``imu/data_raw`` (REP-145): linear_acceleration is the specific
 force in the car frame (REP-103), as an accelerometer at rest on a level road reads it: x = â (on
@@ -136,6 +137,9 @@ class EstimatorNode(ManagedNode):
         self.stale_after = float(values["stale_after"])
         self.diagnostics_period = float(values["diagnostics_period"])
         self.time_source = str(values["time_source"])
+        self.joint = str(values["joint"])
+        if not self.joint.strip():
+            raise ParameterError("joint must name the pendulum's joint in the input JointState, got ''")
         self.frame_id = str(values["frame_id"])
         self.imu_frame_id = str(values["imu_frame_id"]) or self.frame_id
         self.frame_prefix = str(values["frame_prefix"])  # the viewers' frames: Imu, markers, /tf_static
@@ -154,11 +158,12 @@ class EstimatorNode(ManagedNode):
         self._last_stamp: tuple[int, int] | None = None  # (sec, nanosec) of the latest input
         # (t, sec, nanosec) of the inputs a lagged estimate may describe: its stamp is the described sample's.
         self._stamps: deque[tuple[float, int, int]] = deque()
-        # Per message: our own JointState shape read at fixed offsets, the estimate written into a
-        # template (Layout.reader/writer); anything else goes through rclpy's deserializer.
-        self._read_input = bm.Layout.of(
-            bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE
-        ).reader(("header.stamp.sec", "header.stamp.nanosec", "position[0]"))
+        # Per message: our own JointState shape (the one joint, named ``joint``) read at fixed offsets,
+        # the estimate written into a template (Layout.reader/writer); anything else goes through
+        # rclpy's deserializer.
+        self._read_input = bm.Layout.of(bm.joint_state(0, [self.joint], [0.0], [0.0]), bm.JOINT_STATE).reader(
+            ("header.stamp.sec", "header.stamp.nanosec", "position[0]")
+        )
         self._last_input = time.monotonic()
         # (arrival, CDR) of the angles taken by the executor, estimated in order by the worker thread.
         self._backlog: deque[tuple[float, bytes]] = deque()
@@ -294,6 +299,7 @@ class EstimatorNode(ManagedNode):
             warn_angle=math.radians(self.warn_angle_deg),
             stale_after=self.stale_after if self.stale_after > 0.0 else None,
             saturation_range=self._sensor_range(),
+            joint=self.joint,
         )
 
     def _build_writers(self) -> None:
@@ -454,13 +460,17 @@ class EstimatorNode(ManagedNode):
         """â for one angle sample (CDR) that arrived at ``now``, stamped like it; nothing when the guard
         drops it or it warms up."""
         fields = self._read_input(data)
-        # The fast path's shape names pendulum_joint in base_link already; any other shape (no velocity,
+        # The fast path's shape names ``joint`` in base_link already; any other shape (no velocity,
         # more joints, another frame) goes through rclpy and the guard's joint_state_problem.
         names: list[str] | None = None
         frame_id: str | None = None
         if fields is None:
             msg = deserialize_message(data, JointState)
-            sec, nanosec, theta = msg.header.stamp.sec, msg.header.stamp.nanosec, pendulum_angle(msg)
+            sec, nanosec, theta = (
+                msg.header.stamp.sec,
+                msg.header.stamp.nanosec,
+                pendulum_angle(msg, self.joint),
+            )
             names, frame_id = list(msg.name), str(msg.header.frame_id)
         else:
             sec, nanosec, theta = fields

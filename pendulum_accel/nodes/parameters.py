@@ -204,6 +204,9 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
               "prior: car, robot or lab_steps; 'scene' takes the scene's motion key, else auto",
               choices=(SCENE_PRESET, *MOTIONS)),
     *(override_param(spec, "default: the scene's") for spec in ESTIMATOR_CONFIG),
+    _fixed("joint", "string", bm.PENDULUM_JOINT,
+           "the pendulum's joint in the input JointState: its position is θ, other joints are ignored, and "
+           "a message without it is dropped (ERROR); a message naming no joint is a bare angle"),
     _fixed("warn_angle_deg", "double", 80.0,
            "|θ| from which the input is flagged ill-conditioned (WARN), degrees", low=1.0, high=89.9),
     _fixed("stale_after", "double", 0.0,

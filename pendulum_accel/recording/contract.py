@@ -48,6 +48,7 @@ def check_chain_contract(bag: Bag) -> None:
     message of FRAMED_TOPICS passes frame_problem, each found by its role under any namespace; topics the
     bag lacks are not checked here."""
     checks = _checks()
+    hint = "; --joint NAME reads another joint's angles" if bag.choice.joint == bm.PENDULUM_JOINT else ""
     bag.find_shapes([bag.chain_topic(root) for root, _ in checks])  # one pass for all
     for root, msgtype in checks:
         topic = bag.chain_topic(root)
@@ -59,15 +60,15 @@ def check_chain_contract(bag: Bag) -> None:
             frame = str(header.frame_id) if header is not None else None
             if root == bm.TOPIC_JOINT_STATES:
                 names = [str(n) for n in getattr(msg, "name", [])]
-                problem = joint_state_problem(names, frame)
-                if problem is None and names and names[0] != bm.PENDULUM_JOINT:
-                    problem = (
-                        f"{bm.PENDULUM_JOINT!r} is not the first joint: the offline commands read position[0]"
-                    )
+                joint = bag.choice.joint
+                problem = joint_state_problem(names, frame, joint)
+                if problem is None and names and names[0] != joint:
+                    problem = f"{joint!r} is not the first joint: the offline commands read position[0]"
             else:
                 problem = frame_problem(frame) if frame is not None else None
             if problem is not None:
                 raise BagError(
                     f"bag {bag.path}: {count} of {total} {topic} messages are not the pendulum chain's "
                     f"({problem}); refused: another robot's data would pass for this pendulum's"
+                    + (hint if root == bm.TOPIC_JOINT_STATES else "")
                 )

@@ -32,6 +32,7 @@ from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.recording import coverage
 from pendulum_accel.recording.analyze import Analysis, NeesStats, analyze_bag
 from pendulum_accel.recording.delay import group_delay
+from pendulum_accel.recording.topic_rules import TopicRules
 
 COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("bag", "string", "the bag's path, as found"),
@@ -118,13 +119,15 @@ class Job:
     skip: float = 0.0
     lag: float = 0.0
     config: dict[str, float] = field(default_factory=dict)
+    topics: TopicRules = field(default_factory=TopicRules)
+    """--topic, --namespace and --joint, applied to every bag."""
 
 
 def bag_rows(path: str, job: Job) -> list[dict[str, Any]]:
     """One row per estimator of ``job`` for the bag at ``path``; one row with ``error`` when the bag
     cannot be analysed. Never raises for a bad bag: a fleet's other bags must still finish."""
     try:
-        bag = read_bag(path, salvage=False)
+        bag = job.topics.apply(read_bag(path, salvage=False))
     except PendulumAccelError as err:
         return [_row(path, error=str(err), complete=False)]
     except (OSError, ValueError, MemoryError) as err:

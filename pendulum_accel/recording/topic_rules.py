@@ -1,0 +1,61 @@
+"""Which of a bag's topics, and which joint of its angles, the offline commands read.
+
+A recording stores its chain's topic map (a remap or a namespace applied), and the commands follow it.
+The user's rules (``--topic ROLE=NAME``, ``--namespace NS``, ``--joint NAME``) go on top: they override
+the map, pick one chain of a bag that holds several, or name the pendulum's joint as the estimator node's
+``joint`` parameter does. One value, so that a fleet's every bag (on any worker) reads by the same rules.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import Bag
+from pendulum_accel.errors import BagError
+
+
+@dataclass(frozen=True)
+class TopicRules:
+    """The user's ``--topic`` rules (``roles``, each 'ROLE=NAME'), ``--namespace`` and ``--joint``."""
+
+    roles: tuple[str, ...] = ()
+    namespace: str = ""
+    joint: str = bm.PENDULUM_JOINT
+
+    def apply(self, bag: Bag) -> Bag:
+        """``bag`` reading by these rules on top of its stored map; BagError (one line) for a rule that
+        does not read ROLE=NAME, names no role or a topic the bag lacks, a namespace the bag has no topic
+        in, or an empty joint name."""
+        if not self.joint.strip():
+            raise BagError("--joint must name the pendulum's joint, got ''")
+        bag.choice = topic_choice(list(bag.topics), bag.choice.roles, list(self.roles), self.namespace)
+        bag.choice.joint = self.joint
+        return bag
+
+
+def topic_choice(
+    topics: list[str], roles: dict[str, str], texts: list[str], namespace: str
+) -> bm.TopicChoice:
+    """The TopicChoice of a bag with ``topics`` and a stored map ``roles``, with the user's ``--topic``
+    rules (``texts``) on top and ``namespace``; BagError (one line) for a rule that does not read
+    ROLE=NAME, names no role, or names a topic the bag lacks, and for a namespace the bag has no topic in."""
+    ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
+    # The stored map names one chain's topics: another namespace asked for sets it aside.
+    chosen = {role: name for role, name in roles.items() if not ns or bm.in_namespace(name, ns)}
+    for text in texts:
+        role_text, sep, name = text.partition("=")
+        if not sep or not name:
+            raise BagError(f"--topic {text!r} must read ROLE=NAME (e.g. pendulum/joint_states=/angle)")
+        try:
+            role = bm.role_name(role_text)
+        except ValueError as err:
+            raise BagError(f"--topic {text!r}: {err}") from None
+        if name not in topics:
+            raise BagError(f"--topic {text!r}: the bag has no topic {name} (it has {', '.join(topics)})")
+        chosen[role] = name
+    if ns and not any(t.startswith(ns + "/") for t in topics):
+        raise BagError(
+            f"--namespace {namespace}: the bag has no topic under {ns}/ (it has {', '.join(topics)})"
+        )
+    return bm.TopicChoice(chosen, ns)

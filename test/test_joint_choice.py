@@ -1,0 +1,104 @@
+"""A real sensor names its joint its own way: ``--joint NAME`` (the offline commands) and the estimator
+node's ``joint`` parameter read the pendulum's angle by that name, the rule the chain applies to
+``pendulum_joint``. Without it, such angles are refused in one line that says how to read them. A fleet
+table applies --joint, --topic and --namespace to every bag (it ignored them before)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag.writer import BagWriter
+from pendulum_accel.recording.generate import generate_bag
+from test.conftest import cli, strict_json
+
+JOINT = "encoder"
+
+
+def _renamed(source: Path, out: Path, names: list[str]) -> Path:
+    """``source`` rewritten with its angles naming ``names`` (the pendulum's value on the one named JOINT,
+    0 on the others), every other message as it was."""
+    bag = read_bag(source)
+    with BagWriter(out, custom_data=bag.custom_data) as writer:
+        for name, info in bag.topics.items():
+            writer.add_topic(name, info.msgtype)
+        for topic, ns, data in bag.iter_raw():
+            if topic == bm.TOPIC_JOINT_STATES:
+                msg: Any = bm.deserialize(data, bm.JOINT_STATE)
+                theta, rate = float(msg.position[0]), float(msg.velocity[0])
+                msg.name = names
+                msg.position = np.array([theta if n == JOINT else 0.0 for n in names])
+                msg.velocity = np.array([rate if n == JOINT else 0.0 for n in names])
+                data = bm.serialize(msg, bm.JOINT_STATE)
+            writer.write(topic, ns, data)
+    return out
+
+
+@pytest.fixture(scope="module")
+def bags(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """(the chain's step_start bag over 4 s, the same with its angles naming JOINT only)."""
+    root = tmp_path_factory.mktemp("joint")
+    generate_bag("step_start", root / "chain", duration=4.0)
+    return root / "chain", _renamed(root / "chain", root / "fleet" / "sensor", [JOINT])
+
+
+def test_analyze_reads_a_named_joint_as_the_pendulum(bags: tuple[Path, Path]) -> None:
+    chain, sensor = bags
+    refused = cli("analyze", str(sensor))
+    assert refused.returncode == 2 and refused.stdout == ""
+    line = refused.stderr.strip()
+    assert "\n" not in line and "Traceback" not in line
+    assert f"names joint(s) '{JOINT}', not 'pendulum_joint'" in line and "--joint NAME" in line
+    got = cli("analyze", str(sensor), "--joint", JOINT, "--json")
+    assert got.returncode == 0, got.stderr
+    want = cli("analyze", str(chain), "--json")
+    figures, expected = strict_json(got.stdout), strict_json(want.stdout)
+    figures.pop("bag"), expected.pop("bag")
+    assert figures == expected  # the same angles, read by name: the same computation
+    for command in (["export", "--out", str(sensor.parent.parent / "tables")], ["allan"]):
+        assert cli(command[0], str(sensor), *command[1:]).returncode == 2
+        done = cli(command[0], str(sensor), *command[1:], "--joint", JOINT)
+        assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+
+
+def test_the_named_joint_must_come_first_offline(bags: tuple[Path, Path], tmp_path: Path) -> None:
+    """The offline commands read position[0]: the named joint after another is refused, saying why."""
+    chain, _ = bags
+    mixed = _renamed(chain, tmp_path / "mixed", ["wheel", JOINT])
+    refused = cli("analyze", str(mixed), "--joint", JOINT)
+    assert refused.returncode == 2
+    assert f"'{JOINT}' is not the first joint: the offline commands read position[0]" in refused.stderr
+
+
+def test_an_empty_joint_name_is_refused(bags: tuple[Path, Path]) -> None:
+    chain, _ = bags
+    refused = cli("analyze", str(chain), "--joint", "")
+    assert refused.returncode == 2 and "--joint must name the pendulum's joint" in refused.stderr
+
+
+def test_a_fleet_table_applies_joint_topic_and_namespace_to_every_bag(bags: tuple[Path, Path]) -> None:
+    chain, sensor = bags
+    fleet = sensor.parent
+    _renamed(chain, fleet / "sensor2", [JOINT])
+    out = fleet.parent / "table.csv"
+
+    refused = cli("analyze", str(fleet), "--out", str(out))
+    assert refused.returncode == 1
+    rows = pd.read_csv(out, keep_default_na=False)
+    assert len(rows) == 2 and all("--joint NAME" in e for e in rows["error"])
+    done = cli("analyze", str(fleet), "--out", str(out), "--joint", JOINT)
+    assert done.returncode == 0, done.stderr
+    rows = pd.read_csv(out, keep_default_na=False)
+    assert len(rows) == 2 and set(rows["error"]) == {""}
+    single = strict_json(cli("analyze", str(sensor), "--joint", JOINT, "--json").stdout)
+    assert rows["rms"].tolist() == [single["rms"]] * 2  # CSV keeps the float's shortest repr
+    asked = cli("analyze", str(fleet), "--out", str(out), "--joint", JOINT, "--namespace", "car7")
+    assert asked.returncode == 1
+    rows = pd.read_csv(out, keep_default_na=False)
+    assert all("--namespace car7: the bag has no topic under /car7/" in e for e in rows["error"])
