@@ -244,7 +244,9 @@ class Score:
         return Score(
             rms=float(np.sqrt(np.mean(e_all**2))),
             max_err=float(np.max(np.abs(e_all))),
-            delay=float(np.median(delays)),
+            # A profile whose truth is constant has no delay (NaN): the others' median (the same value
+            # when every profile varies, as every corpus profile does).
+            delay=float(np.nanmedian(delays)) if np.isfinite(delays).any() else math.nan,
             nees=float(np.mean(z_all)),
             nees_median=float(np.median(z_all)),
             beyond_steady=float(np.mean(s_all)) if s_all.size else math.nan,

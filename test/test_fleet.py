@@ -32,6 +32,7 @@ from pendulum_accel.cli.main import main
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording import coverage
 from pendulum_accel.recording import design_study as ds
+from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.recording.fleet import COLUMN_NAMES, Job, analyze_many, bag_rows, find_bags, write_csv
 from test.conftest import REPO, Spawn, cli, stop_processes, strict_json
 from test.test_network import TwoHosts, two_hosts  # noqa: F401 (the fixture)
@@ -362,6 +363,27 @@ def test_design_shares_carry_their_summed_trials_and_wilson_interval() -> None:
     (rest,) = ds.study(designs[:1], ["at_rest"], seeds=1, duration=5.0, lags=(0.0,), distributed=False)
     assert isinstance(rest["trials_steady"], float) and rest["trials_steady"] >= 1.0
     assert all(rest[k] is None for k in SHARE_CELLS if "after_change" in k), rest
+
+
+def test_a_constant_truth_has_no_delay() -> None:
+    """After the 2 s warm-up, step_start's a(t) is 3 m/s² throughout: a − mean a is rounding, and the
+    cross-correlation's peak fell on any lag (−0.75 s was reported). The delay is null there, and the
+    front counts the lag alone; a profile that varies keeps its delay."""
+    rng = np.random.default_rng(0)
+    flat = np.full(500, 3.0)
+    assert math.isnan(group_delay(flat + 1e-3 * rng.standard_normal(500), flat, 100.0))
+    moving = rng.standard_normal(500)  # white: its autocorrelation peaks at 0 alone
+    late = np.concatenate([np.zeros(7), moving[:-7]])  # 7 samples late at 100 Hz
+    assert group_delay(late, moving, 100.0) == pytest.approx(0.07, abs=1e-12)  # an exact sample count
+    designs = ds.design_grid([0.2], [0.7], [100.0], [1e-3])
+    (row,) = ds.study(designs, ["step_start"], seeds=1, duration=5.0, lags=(0.0, 0.5), distributed=False)
+    assert row["delay"] is None
+    points = ds.front([row])
+    assert points and all(p[0] in (0.0, 0.5) for p in points)  # latency = the lag alone
+    (row,) = ds.study(
+        designs, ["step_start", "husky_odom"], seeds=1, duration=5.0, lags=(0.0,), distributed=False
+    )
+    assert isinstance(row["delay"], float) and math.isfinite(row["delay"])  # husky's, the one measured
 
 
 def test_design_cli_table_plot_and_one_line_refusals(tmp_path: Path) -> None:

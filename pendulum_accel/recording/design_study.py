@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -95,7 +95,12 @@ DESIGN_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("quantization", "double", "angle quantisation step (rad; 0: none)"),
     ("cases", "int64", "profiles × seeds pooled in the row"),
     ("rms_lag_LAG", "double", "√(Σe²/n) of the default estimator with a fixed lag of LAG s (0: live), m/s²"),
-    ("delay", "double", "median over the cases of the live filter's cross-correlation delay (s)"),
+    (
+        "delay",
+        "double",
+        "median over the cases of the live filter's cross-correlation delay (s); null where "
+        "no case's a(t) varies after the warm-up (a constant has no delay to measure)",
+    ),
     ("share_2sigma_steady", "double", "share of the live filter's steady-state errors beyond 2σ"),
     ("trials_steady", "double", "independent errors behind share_2sigma_steady, summed over the cases"),
     ("share_2sigma_steady_low", "double", "lower end of that share's 95 % Wilson interval at those trials"),
@@ -200,7 +205,8 @@ def summarise(design: SensorDesign, parts: Sequence[dict[str, Any]], lags: Seque
     }
     for lag in lags:
         row[f"rms_lag_{lag:g}"] = math.sqrt(sum(p["sq"][lag] for p in parts) / n)
-    row["delay"] = float(np.median([p["delay"] for p in parts]))
+    delays = [p["delay"] for p in parts if math.isfinite(p["delay"])]
+    row["delay"] = float(np.median(delays)) if delays else None
     for window in WINDOWS:
         row.update(_share_cells(window, [p[window] for p in parts]))
     n_nees = sum(p[w]["n"] for p in parts for w in WINDOWS)
@@ -238,15 +244,23 @@ def study(
     return [summarise(d, per_design[d], lag_set) for d in designs]
 
 
+def design_latency(lag: float, row: Mapping[str, Any]) -> float:
+    """lag + max(delay, 0) of a design row: a filter's delay is a latency only when it lags; an unmeasured
+    delay (null: a constant a(t)) counts as 0, so the lag alone is the latency."""
+    delay = row["delay"]
+    return lag + (max(float(delay), 0.0) if delay is not None else 0.0)
+
+
 def front(rows: Sequence[dict[str, Any]]) -> list[tuple[float, float, str]]:
     """(latency, RMS, design) points on the accuracy–latency front: latency = lag + the live filter's
-    delay; a point is on the front when no other has both a lower latency and a lower RMS."""
+    delay (``design_latency``); a point is on the front when no other has both a lower latency and a
+    lower RMS."""
     points = []
     for row in rows:
         for key, value in row.items():
             if key.startswith("rms_lag_"):
                 lag = float(key[len("rms_lag_") :])
-                points.append((lag + max(row["delay"], 0.0), float(value), str(row["design"])))
+                points.append((design_latency(lag, row), float(value), str(row["design"])))
     points.sort()
     best, out = math.inf, []
     for latency, rms, name in points:
@@ -266,7 +280,7 @@ def plot_front(rows: Sequence[dict[str, Any]], path: Path) -> None:
     fig, ax = plt.subplots(figsize=(8, 5))
     for row in rows:
         lags = sorted(float(k[len("rms_lag_") :]) for k in row if k.startswith("rms_lag_"))
-        x = [g + max(row["delay"], 0.0) for g in lags]
+        x = [design_latency(g, row) for g in lags]
         y = [row[f"rms_lag_{g:g}"] for g in lags]
         ax.plot(x, y, color="0.75", lw=0.8, marker=".", ms=3)
     pts = front(rows)

@@ -41,7 +41,12 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("rms", "double", "√(mean e²) of e = â − a over the re-run's estimates (m/s²)"),
     ("bias", "double", "mean e (m/s²)"),
     ("max_error", "double", "max |e| (m/s²)"),
-    ("delay", "double", "lag τ (s) maximising the cross-correlation of â(t) and a(t − τ)"),
+    (
+        "delay",
+        "double",
+        "lag τ (s) maximising the cross-correlation of â(t) and a(t − τ); null where a(t) "
+        "does not vary (a constant has no delay to measure)",
+    ),
     ("share_2sigma_steady", "double", "share of steady-state errors beyond 2σ of the published variance"),
     ("trials_steady", "double", "independent errors behind share_2sigma_steady (recording/coverage.py)"),
     ("share_2sigma_steady_low", "double", "lower end of that share's 95 % Wilson interval at those trials"),
