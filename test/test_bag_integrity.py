@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 from mcap.reader import NonSeekingReader, SeekingReader, make_reader
-from mcap.records import Chunk, DataEnd, Message
+from mcap.records import Chunk, DataEnd, Message, MessageIndex
 from mcap.stream_reader import CRCValidationError, StreamReader
 from rosbags.rosbag2 import Reader
 
@@ -34,6 +34,7 @@ from pendulum_accel.scene import Scene, load_scene
 from test.chain_helpers import child_pids, start_chain
 from test.conftest import Spawn
 from test.figures import assert_figure
+from test.split_recording import split_recording
 
 CHUNK_HEAD = struct.Struct("<QQQII")  # message start, end, uncompressed size, CRC, compression length
 
@@ -348,3 +349,40 @@ def test_killed_simulator_leaves_an_incomplete_bag(spawn: Spawn, tmp_path: Path)
     assert note is not None and "simulator died" in note
     recorded = read_bag(bag, salvage=False)  # the recorder closed a valid bag: only its ending is short
     assert 1.0 < recorded.duration_s < 30.0
+
+
+def _first_chunk_messages(path: Path) -> int:
+    """Messages the first chunk of MCAP file ``path`` holds, by its MessageIndex records (mcap library)."""
+    chunks = count = 0
+    with path.open("rb") as stream:
+        for record in StreamReader(stream, emit_chunks=True).records:
+            if isinstance(record, Chunk):
+                chunks += 1
+                if chunks > 1:
+                    break
+            elif isinstance(record, MessageIndex) and chunks == 1:
+                count += len(record.records)
+    return count
+
+
+def test_a_damaged_chunk_holding_the_channel_records_loses_only_its_own_messages(tmp_path: Path) -> None:
+    """The mcap library (and rosbag2's MCAP storage) write a channel's record into the chunk of its first
+    message, and repeat it in the summary. A damaged first chunk took every channel with it: each later
+    chunk's messages named unknown channels, and 0 of 2253 messages were read. The summary's channels
+    (its CRC checked) are registered before the scan: only the damaged chunk's messages are lost."""
+    generate_bag("step_start", tmp_path / "ours", duration=4.0)
+    split_recording(tmp_path / "ours", tmp_path / "theirs", 1)  # rewritten by the mcap library
+    mcap_path = tmp_path / "theirs" / "theirs_0.mcap"
+    total = read_bag(tmp_path / "theirs").message_count
+    lost = _first_chunk_messages(mcap_path)
+    with mcap_path.open("rb") as stream:
+        summary = SeekingReader(stream).get_summary()
+    assert summary is not None
+    first = min(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+    data = bytearray(mcap_path.read_bytes())
+    data[first.chunk_start_offset + first.chunk_length - 10] ^= 0xFF  # inside its compressed records
+    mcap_path.write_bytes(bytes(data))
+    bag = read_bag(tmp_path / "theirs")
+    assert [d.chunk for d in bag.damage] == [1]
+    assert 0 < lost < total and bag.message_count == total - lost
+    assert all(info.count > 0 for name, info in bag.topics.items() if name != bm.TOPIC_ROBOT_DESCRIPTION)

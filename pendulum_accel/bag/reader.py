@@ -1,6 +1,8 @@
 """Read a rosbag2 MCAP bag into numpy arrays, chunk by chunk, salvaging what precedes any damage.
 
-The file is scanned front to back, without the summary or index, one record at a time (``os.pread``):
+The file is scanned front to back, one record at a time (``os.pread``), after the schemas and channels
+its summary repeats are registered (when the footer and the summary's CRC hold: a writer may put a
+channel's only other record inside a chunk, which damage can take):
 every top-level record is framed (opcode, length) and checked against the file size; Header, Schema,
 Channel, Chunk and Metadata records are parsed by the ``mcap`` library; inside a chunk, each message
 record's channel, log time and payload slice are taken with one ``struct.unpack_from``. Every chunk's
@@ -1142,6 +1144,7 @@ class _Scanner:
         bag = self.bag
         # An earlier file's problem stays; this file's sentences follow it.
         earlier, bag.problem = bag.problem, None
+        self._summary_channels()
         try:
             stop = self._scan()
         finally:
@@ -1357,6 +1360,34 @@ class _Scanner:
         self.pending_damage = f"cut off by the end of the file at byte {at + 9 + len(body)}"
         self._flush_chunk()
 
+    def _summary_channels(self) -> None:
+        """Register the schemas and channels of the file's summary section, when its footer is intact and
+        the summary's CRC (when written) matches.
+
+        A writer may put a channel's only record in the data section inside a chunk (the mcap library
+        and rosbag2's MCAP storage write each where the channel's first message goes). Were that chunk
+        damaged, every later message of the channel would name an unknown channel and its chunks would
+        be lost with it; the summary repeats every schema and channel, so they are known before any
+        chunk is read. A file without a usable summary (a killed recorder) is scanned as before."""
+        read, size = self.file.read, self.file.size
+        tail = size - len(_MAGIC) - 9 - 20
+        if tail <= len(_MAGIC):
+            return
+        end = read(tail, size)
+        if end[-len(_MAGIC) :] != _MAGIC or end[0] != Opcode.FOOTER:
+            return
+        try:
+            footer = Footer.read(ReadDataStream(BytesIO(end[9:29])))
+            start = int(footer.summary_start)
+            if not len(_MAGIC) < start <= tail:
+                return
+            # The CRC covers the summary and the footer through its summary_offset_start field.
+            if footer.summary_crc and zlib.crc32(read(start, tail + 25)) != footer.summary_crc:
+                return
+            self._summary(read(start, tail), chunks=False)
+        except _RECORD_ERRORS:
+            return
+
     def _indexed_chunks(self, broken_at: int) -> int:
         """Read the chunks the summary's chunk index places past ``broken_at``; how many were read.
 
@@ -1420,8 +1451,9 @@ class _Scanner:
             count += 1
         return count
 
-    def _summary(self, data: bytes) -> list[ChunkIndex]:
-        """Chunk indexes of the summary section ``data``; registers its schemas and channels."""
+    def _summary(self, data: bytes, *, chunks: bool = True) -> list[ChunkIndex]:
+        """Chunk indexes of the summary section ``data`` (none read with ``chunks`` False); registers its
+        schemas and channels."""
         view = memoryview(data)
         found: list[ChunkIndex] = []
         pos, stop = 0, len(data)
@@ -1435,7 +1467,7 @@ class _Scanner:
                 self.schema(body)
             elif op == Opcode.CHANNEL:
                 self.channel(body)
-            elif op == Opcode.CHUNK_INDEX:
+            elif op == Opcode.CHUNK_INDEX and chunks:
                 found.append(ChunkIndex.read(ReadDataStream(BytesIO(body))))
             pos = end
         return found
