@@ -5,6 +5,8 @@ recorder's counts in custom_data."""
 from __future__ import annotations
 
 import json
+import os
+import shutil
 import signal
 from pathlib import Path
 
@@ -18,8 +20,9 @@ from pendulum_accel.bag.metadata import complete_qos, parse_qos
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting
+from pendulum_accel.nodes.launcher import node_command
 from pendulum_accel.recording.generate import generate_bag
-from test.chain_helpers import start_node
+from test.chain_helpers import Output, start_node
 from test.conftest import PYTHON, REPO, Spawn
 
 GOLDEN = REPO / "bags" / "step_start"
@@ -103,3 +106,39 @@ def test_live_recording_stores_published_qos_rclpy_type_hashes_and_counts(
     channels = _channel_metadata(out)
     assert channels[bm.TOPIC_JOINT_STATES]["topic_type_hash"] == live["/hash_probe/j"]
     assert channels[bm.TOPIC_DIAGNOSTICS]["topic_type_hash"] == live["/hash_probe/d"]
+
+
+@pytest.mark.ros
+def test_node_bag_paths_expand_the_home_directory(spawn: Spawn, tmp_path: Path) -> None:
+    """``-p path:=~/bags/run``: no shell expands a ``~`` after ``:=``, so the recorder made a directory
+    named ``~`` in its working directory, and the player found no bag. Both now read ``~`` as the home
+    directory (HOME set to a temporary one here)."""
+    home = tmp_path / "home"
+    (home / "bags").mkdir(parents=True)
+    shutil.copytree(GOLDEN, home / "bags" / "golden")
+    env = {**os.environ, "HOME": str(home)}
+    topics = [bm.TOPIC_JOINT_STATES]
+    recorder = Output(
+        spawn(
+            node_command("recorder_node", {"path": "~/bags/run", "topics": topics}),
+            env=env,
+            cwd=str(tmp_path),
+        )
+    )
+    recorder.wait_for("recording 1 topics", timeout=60)
+    player = Output(
+        spawn(
+            node_command(
+                "player_node",
+                {"path": "~/bags/golden", "topics": topics, "rate": 10.0, "wait_for_recorder": True},
+            ),
+            env=env,
+            cwd=str(tmp_path),
+        )
+    )
+    assert player.finish(timeout=120) == 0, player.text
+    recorder.proc.send_signal(signal.SIGINT)
+    assert recorder.finish(timeout=60) == 0, recorder.text
+    assert not (tmp_path / "~").exists()
+    n = read_bag(GOLDEN).topics[bm.TOPIC_JOINT_STATES].count
+    assert read_bag(home / "bags" / "run").topics[bm.TOPIC_JOINT_STATES].count == n

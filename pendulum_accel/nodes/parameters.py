@@ -238,7 +238,7 @@ PLAYER_CLOCK_RATE_HZ = 40.0
 """The player's default /clock rate, rosbag2's (``ros2 bag play --clock`` without a value: 40 Hz)."""
 
 PLAYER: tuple[ParamSpec, ...] = (
-    _fixed("path", "string", "", "bag to play"),
+    _fixed("path", "string", "", "bag to play (~: the home directory)"),
     ParamSpec("rate", "double", 1.0, "speed factor (2: twice as fast); settable while playing (~/set_rate)",
               low=1e-3, high=1e3),
     _fixed("start_paused", "bool", False, "start paused (~/resume, ~/play_next, space key to go on)"),
@@ -276,7 +276,7 @@ PLAYER: tuple[ParamSpec, ...] = (
 )  # fmt: skip
 
 RECORDER: tuple[ParamSpec, ...] = (
-    _fixed("path", "string", "", "bag directory to create"),
+    _fixed("path", "string", "", "bag directory to create (~: the home directory)"),
     _fixed("overwrite", "bool", False, "replace an existing bag"),
     _fixed("topics", "string_array", bm.CHAIN_ROLES,
            "topics to record (relative names resolve in this node's namespace and follow its remaps; a "

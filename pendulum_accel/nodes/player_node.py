@@ -179,7 +179,8 @@ class PlayerNode(ThreadedNode):
         start playing (or wait, paused)."""
         super().__init__(NODE_NAME)
         values = declare_parameters(self, PLAYER)
-        path = str(values["path"])
+        # ``path:=~/bags/run`` reaches a node past the shell unexpanded (no shell expands after ``:=``).
+        path = os.path.expanduser(str(values["path"]))
         self.loop = bool(values["loop"])
         self.delay = float(values["delay"])
         self.clock = bool(values["clock"])

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import json
+import os
 import struct
 import time
 from collections.abc import Sequence
@@ -103,7 +104,8 @@ class RecorderNode(ChainNode):
         """Declare parameters, create the bag (BagError if it exists and overwrite is false), subscribe."""
         super().__init__(NODE_NAME)
         values = declare_parameters(self, RECORDER)
-        path = str(values["path"])
+        # ``path:=~/bags/run`` reaches a node past the shell unexpanded (no shell expands after ``:=``).
+        path = os.path.expanduser(str(values["path"]))
         overwrite = bool(values["overwrite"])
         # Relative names resolve in this node's namespace and through its remaps, as the publishers' do;
         # the bag holds the resolved names.
