@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
+import zstandard
 from mcap.reader import SeekingReader
 
 from pendulum_accel.bag import messages as bm
@@ -23,6 +25,7 @@ from pendulum_accel.bag.stream import NotIndexedError, StreamedBag
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording.generate import generate_bag
+from test.conftest import cli
 from test.split_recording import split_recording
 
 PARTS = 3
@@ -172,3 +175,31 @@ def test_damage_in_one_file_names_that_file(recordings: tuple[Path, Path], tmp_p
     result = repair_bag(copy)
     assert result.rewritten and len(result.backups) == PARTS
     assert read_bag(copy, salvage=False).problem is None
+
+
+def test_a_file_compressed_whole_is_named_with_what_to_do(
+    recordings: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """rosbag2's --compression-mode file leaves <bag>_0.mcap.zstd (one zstd frame of the whole file) and
+    lists it in metadata.yaml: one line says so and how to decompress it; done so, the bag reads."""
+    whole_path, _ = recordings
+    copy = _copy(whole_path, tmp_path)
+    mcap_path = next(copy.glob("*.mcap"))
+    packed = mcap_path.with_name(mcap_path.name + ".zstd")
+    packed.write_bytes(zstandard.ZstdCompressor().compress(mcap_path.read_bytes()))
+    mcap_path.unlink()
+    meta = yaml.safe_load((copy / "metadata.yaml").read_text(encoding="utf8"))
+    meta["rosbag2_bagfile_information"]["relative_file_paths"] = [packed.name]
+    meta["rosbag2_bagfile_information"]["compression_mode"] = "FILE"
+    meta["rosbag2_bagfile_information"]["compression_format"] = "zstd"
+    (copy / "metadata.yaml").write_text(yaml.safe_dump(meta), encoding="utf8")
+    refused = cli("info", str(copy))
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    line = refused.stderr.strip()
+    assert "\n" not in line and "compressed whole (rosbag2's --compression-mode file)" in line
+    assert f"zstd -d --rm {packed}" in line
+    # What the line says to do: the .mcap back, the .zstd gone; metadata.yaml may still name the .zstd.
+    mcap_path.write_bytes(zstandard.ZstdDecompressor().decompress(packed.read_bytes()))
+    packed.unlink()
+    bag = read_bag(copy, salvage=False)
+    assert bag.message_count == read_bag(whole_path).message_count

@@ -886,6 +886,12 @@ def _locate(path: Path) -> _Located:
         listed = [inside_bag(path, name) for name in names]
         present = [p for p in listed if p.is_file()]
         for name, target in zip(names, listed, strict=True):
+            if target.is_file() and name.endswith(".mcap.zstd"):
+                # rosbag2's --compression-mode file: the whole MCAP file is one zstd frame.
+                raise BagError(
+                    f"bag {path}: {name} is an MCAP file compressed whole (rosbag2's --compression-mode "
+                    f"file); decompress it first: zstd -d --rm {target}"
+                )
             if target.is_file() and not name.endswith(".mcap"):
                 raise BagError(f"bag {path} uses storage {name!r}; only MCAP bags are supported")
         if present:
