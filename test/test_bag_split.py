@@ -203,3 +203,21 @@ def test_a_file_compressed_whole_is_named_with_what_to_do(
     packed.unlink()
     bag = read_bag(copy, salvage=False)
     assert bag.message_count == read_bag(whole_path).message_count
+
+
+def test_messages_compressed_one_by_one_are_refused_in_one_line(
+    recordings: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """rosbag2's --compression-mode message makes every payload a zstd frame: read as CDR each would look
+    damaged. The metadata says so, and the bag is refused in one line that says what to do."""
+    whole_path, _ = recordings
+    copy = _copy(whole_path, tmp_path)
+    meta = yaml.safe_load((copy / "metadata.yaml").read_text(encoding="utf8"))
+    meta["rosbag2_bagfile_information"]["compression_mode"] = "MESSAGE"
+    meta["rosbag2_bagfile_information"]["compression_format"] = "zstd"
+    (copy / "metadata.yaml").write_text(yaml.safe_dump(meta), encoding="utf8")
+    for command in ("info", "analyze"):
+        refused = cli(command, str(copy))
+        line = refused.stderr.strip()
+        assert refused.returncode == 2 and "\n" not in line and "Traceback" not in line
+        assert "compressed one by one (rosbag2's --compression-mode message, zstd)" in line

@@ -880,7 +880,15 @@ def _locate(path: Path) -> _Located:
     if meta.is_file():
         doc = _load_yaml(meta)
         info = doc.get("rosbag2_bagfile_information") if isinstance(doc, dict) else None
-        files = info.get("relative_file_paths") if isinstance(info, dict) else None
+        info = info if isinstance(info, dict) else {}
+        files = info.get("relative_file_paths")
+        if str(info.get("compression_mode") or "").upper() == "MESSAGE":
+            # Each payload is a zstd frame, not CDR: read as CDR, every message would look damaged.
+            raise BagError(
+                f"bag {path}: its messages are compressed one by one (rosbag2's --compression-mode "
+                f"message, {info.get('compression_format') or 'unnamed'}), which is not supported: "
+                "rewrite it uncompressed with `ros2 bag convert`"
+            )
         # A metadata.yaml of another shape names nothing usable: look for the MCAP files instead.
         names = [str(f) for f in files] if isinstance(files, list) else []
         listed = [inside_bag(path, name) for name in names]
