@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 import yaml
 import zstandard
-from mcap.reader import SeekingReader
+from mcap.reader import SeekingReader, make_reader
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
@@ -221,3 +221,31 @@ def test_messages_compressed_one_by_one_are_refused_in_one_line(
         line = refused.stderr.strip()
         assert refused.returncode == 2 and "\n" not in line and "Traceback" not in line
         assert "compressed one by one (rosbag2's --compression-mode message, zstd)" in line
+
+
+@pytest.mark.parametrize(("keep", "ending"), [(0, "empty"), (0.6, "cut off before its footer")])
+def test_a_killed_recorder_s_last_file_is_named_and_the_rest_is_read(
+    recordings: tuple[Path, Path], tmp_path: Path, keep: float, ending: str
+) -> None:
+    """A recorder killed as it opened its next file (empty), or while writing it (cut off): the bag is
+    damaged in that file, named so, and the files before it are read whole."""
+    _, split_path = recordings
+    copy = _copy(split_path, tmp_path)
+    last = copy / "rec_2.mcap"
+    data = last.read_bytes()
+    last.write_bytes(data[: int(len(data) * keep)])
+    before = read_bag(split_path)
+    first_two = 0
+    for name in ("rec_0.mcap", "rec_1.mcap"):
+        with (split_path / name).open("rb") as stream:
+            first_two += sum(1 for _ in make_reader(stream).iter_messages())
+    bag = read_bag(copy)
+    assert bag.endings() == [f"rec_2.mcap {ending}"]
+    assert first_two <= bag.message_count < before.message_count
+    lines, note = info_lines(str(copy))
+    assert lines[0].endswith(f"[DAMAGED: rec_2.mcap {ending}]") or f"; rec_2.mcap {ending}]" in lines[0], (
+        lines[0]
+    )
+    assert note is not None and "rec_2.mcap" in note
+    result = repair_bag(copy)
+    assert result.rewritten and read_bag(copy, salvage=False).message_count == bag.message_count

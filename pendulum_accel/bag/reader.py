@@ -310,6 +310,10 @@ class _File:
         return parts[0] if len(parts) == 1 else b"".join(parts)
 
 
+CUT_OFF = "cut off before its footer"
+FRAMING_BROKEN = "record framing broken"
+
+
 class _Part:
     """One MCAP file of a bag (a split recording has several, in recording order): its path, the open
     file, its schemas by id, and its channel ids mapped to the bag's (``cids``). A later file's channel
@@ -324,6 +328,8 @@ class _Part:
         self.cids: dict[int, int] = {}
         self.complete = False
         """The scan read this file to its footer."""
+        self.ending = FRAMING_BROKEN
+        """Why the scan stopped before the footer (when not ``complete``)."""
 
 
 class Bag:
@@ -359,6 +365,12 @@ class Bag:
     def mcap_path(self) -> Path:
         """The bag's (first) MCAP file."""
         return self.mcap_paths[0]
+
+    def endings(self) -> list[str]:
+        """Why each file the scan did not read to its footer stopped short ('cut off before its footer',
+        'record framing broken', 'empty', …), its name first in a bag of several files."""
+        split = len(self._parts) > 1
+        return [f"{p.path.name} {p.ending}" if split else p.ending for p in self._parts if not p.complete]
 
     @property
     def complete(self) -> bool:
@@ -1303,15 +1315,24 @@ class _Scanner:
         read, size = self.file.read, self.file.size
         magic = read(0, len(_MAGIC))
         if magic != _MAGIC:
-            raise BagError(f"{self.path} is not an MCAP file (bad magic bytes)")
+            what = "empty" if size == 0 else "not an MCAP file (bad magic bytes)"
+            if len(bag.mcap_paths) == 1:
+                raise BagError(f"{self.path} is {what}")
+            # One file of a split recording (a recorder killed as it opened the next file): the others
+            # are still the recording.
+            bag.problem = f"{self.path} is {what}"
+            self.part.ending = what
+            return 0
         self.data_crc = zlib.crc32(magic)
         pos = len(_MAGIC)
         while True:
             if pos >= size:
                 bag.problem = f"{self.path} ends at byte {size} without its MCAP footer (interrupted?)"
+                self.part.ending = CUT_OFF
                 return pos
             if pos + 9 > size:
                 bag.problem = f"{self.path} is truncated: record header cut off at byte {pos} of {size}"
+                self.part.ending = CUT_OFF
                 return pos
             head = read(pos, pos + 9)
             op, length = _RECORD_HEAD.unpack_from(head, 0)
@@ -1324,6 +1345,7 @@ class _Scanner:
                     f"{self.path} is truncated: {Opcode(op).name} record at byte {pos} needs "
                     f"{length} bytes, only {size - pos - 9} remain"
                 )
+                self.part.ending = CUT_OFF
                 if op == Opcode.CHUNK:
                     self._cut_chunk(memoryview(read(pos + 9, size)), pos)
                 return pos

@@ -119,14 +119,12 @@ def _holes_whole(bag: Bag, joint: str, estimate: str) -> int:
 
 def damage_state(bag: Bag) -> str:
     """'DAMAGED: chunk 4, 3.012–3.998 s; chunk 6, …': one entry per damaged chunk (times from the chunk's
-    message start/end, relative to the bag's start), then a cut-off end or broken framing."""
+    message start/end, relative to the bag's start), then a cut-off end or broken framing (of each file it
+    befell, in a split recording; a file metadata.yaml lists that is missing comes first)."""
     origin = damage_origin(bag.start_ns, bag.damage)
     parts = [f"{name} missing" for name in bag.missing_files]
     parts += [d.span(origin) for d in bag.damage]
-    problem = bag.problem or ""
-    if not bag.complete:
-        cut = "truncated" in problem or "without its MCAP footer" in problem
-        parts.append("cut off before its footer" if cut else "record framing broken")
+    parts += bag.endings()
     return "DAMAGED: " + "; ".join(parts or ["see the warning"])
 
 
