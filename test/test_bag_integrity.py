@@ -19,6 +19,7 @@ import zlib
 from pathlib import Path
 
 import pytest
+import yaml
 from mcap.reader import NonSeekingReader, SeekingReader, make_reader
 from mcap.records import Chunk, DataEnd, Message, MessageIndex
 from mcap.stream_reader import CRCValidationError, StreamReader
@@ -26,7 +27,7 @@ from rosbags.rosbag2 import Reader
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
-from pendulum_accel.bag.repair import CUSTOM_REPAIRED
+from pendulum_accel.bag.repair import CUSTOM_REPAIRED, repair_bag
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.cli.main import main
 from pendulum_accel.recording.generate import generate_bag
@@ -386,3 +387,33 @@ def test_a_damaged_chunk_holding_the_channel_records_loses_only_its_own_messages
     assert [d.chunk for d in bag.damage] == [1]
     assert 0 < lost < total and bag.message_count == total - lost
     assert all(info.count > 0 for name, info in bag.topics.items() if name != bm.TOPIC_ROBOT_DESCRIPTION)
+
+
+def _listed(bag_dir: Path, topic: str, count: int) -> None:
+    """Set metadata.yaml's message count of ``topic`` (and the total by the same step) to ``count``."""
+    meta = yaml.safe_load((bag_dir / "metadata.yaml").read_text(encoding="utf8"))
+    info = meta["rosbag2_bagfile_information"]
+    for entry in info["topics_with_message_count"]:
+        if entry["topic_metadata"]["name"] == topic:
+            info["message_count"] += count - entry["message_count"]
+            entry["message_count"] = count
+    (bag_dir / "metadata.yaml").write_text(yaml.safe_dump(meta, sort_keys=False), encoding="utf8")
+
+
+def test_fewer_messages_than_metadata_lists_is_not_complete(tmp_path: Path) -> None:
+    """metadata.yaml lists 999 /clock messages and the file holds 401 (its framing and checksums intact):
+    598 messages were written and are gone, so `info` says INCOMPLETE, names the topic and exits 1
+    (it said [complete]). More than listed loses nothing (a recorder killed before rewriting its
+    metadata): still complete. `repair` rewrites the metadata from what the file holds."""
+    generate_bag("step_start", tmp_path / "bag", duration=4.0)
+    held = read_bag(tmp_path / "bag").topics[bm.TOPIC_CLOCK].count
+    _listed(tmp_path / "bag", bm.TOPIC_CLOCK, held + 598)
+    lines, note = info_lines(str(tmp_path / "bag"))
+    expected = f"metadata.yaml lists {held + 598} {bm.TOPIC_CLOCK} messages, the bag holds {held}"
+    assert lines[0].endswith(f"[INCOMPLETE: {expected}]") and note == expected
+    assert main(["info", str(tmp_path / "bag")]) == 1
+    _listed(tmp_path / "bag", bm.TOPIC_CLOCK, held - 1)
+    lines, note = info_lines(str(tmp_path / "bag"))
+    assert lines[0].endswith("[complete]") and note is None
+    assert repair_bag(tmp_path / "bag").rewritten  # the metadata did not match: written anew
+    assert not repair_bag(tmp_path / "bag").rewritten

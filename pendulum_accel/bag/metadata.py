@@ -180,6 +180,22 @@ ROS_DISTRO = "kilted"
 the ros-kilted-* wheels of requirements-ros.txt)."""
 
 
+def listed_counts(document: object) -> tuple[dict[str, int], int] | None:
+    """({topic: message_count}, message_count) that a parsed metadata.yaml lists; None when it lists no
+    counts in rosbag2's shape (no metadata, another shape, a count that is not a number)."""
+    info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
+    if not isinstance(info, dict):
+        return None
+    try:
+        topics = {
+            str(t["topic_metadata"]["name"]): int(t["message_count"])
+            for t in info.get("topics_with_message_count") or []
+        }
+        return topics, int(info.get("message_count", -1))
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
 def ros_distro() -> str:
     """metadata.yaml's ``ros_distro``, as rosbag2 writes it: $ROS_DISTRO when a ROS 2 install is sourced,
     else the distribution of the message definitions in use ("kilted")."""

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from pendulum_accel.bag.integrity import ChunkDamage, damage_origin
 from pendulum_accel.bag.messages import TYPESTORE
-from pendulum_accel.bag.metadata import parse_qos
+from pendulum_accel.bag.metadata import listed_counts, parse_qos
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.errors import BagError
@@ -67,20 +67,11 @@ class RepairResult:
 
 def metadata_matches(bag: Bag) -> bool:
     """True when metadata.yaml exists and its per-topic message counts equal what the file holds."""
-    if bag.metadata is None:
-        return False
-    info = bag.metadata.get("rosbag2_bagfile_information")
-    if not isinstance(info, dict):
-        return False
-    try:
-        listed = {
-            str(t["topic_metadata"]["name"]): int(t["message_count"])
-            for t in info.get("topics_with_message_count") or []
-        }
-    except (KeyError, TypeError, ValueError):
+    listed = listed_counts(bag.metadata)
+    if listed is None:
         return False
     actual = {name: topic.count for name, topic in bag.topics.items()}
-    return listed == actual and int(info.get("message_count", -1)) == bag.message_count
+    return listed == (actual, bag.message_count)
 
 
 def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:

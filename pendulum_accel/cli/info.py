@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.integrity import damage_origin
+from pendulum_accel.bag.metadata import listed_counts
 from pendulum_accel.bag.reader import Bag, read_bag, salvage_note
 from pendulum_accel.bag.repair import CUSTOM_REPAIRED
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_VERSION
@@ -128,6 +129,23 @@ def damage_state(bag: Bag) -> str:
     return "DAMAGED: " + "; ".join(parts or ["see the warning"])
 
 
+def fewer_than_listed(bag: Bag) -> list[str]:
+    """'metadata.yaml lists 999 /clock messages, the bag holds 401', one per topic of which the files
+    hold fewer messages than metadata.yaml lists: messages written and since lost (a file replaced or cut
+    short while its framing still holds). More than listed is no loss (a recorder killed before it
+    rewrote its metadata); no counts listed, nothing to check."""
+    listed = listed_counts(bag.metadata)
+    if listed is None:
+        return []
+    topics = bag.topics
+    held = {name: topics[name].count if name in topics else 0 for name in listed[0]}
+    return [
+        f"metadata.yaml lists {n} {name} messages, the bag holds {held[name]}"
+        for name, n in listed[0].items()
+        if held[name] < n
+    ]
+
+
 def bag_state(bag: Bag) -> tuple[str, list[str]]:
     """('complete' | 'DAMAGED …' | 'INCOMPLETE: …' | 'recorded intact; …', the losses found).
 
@@ -138,6 +156,9 @@ def bag_state(bag: Bag) -> tuple[str, list[str]]:
     """
     if bag.problem is not None:
         return damage_state(bag), []
+    short = fewer_than_listed(bag)
+    if short:
+        return f"INCOMPLETE: {short[0]}", short
     if CUSTOM_REPAIRED in bag.custom_data:
         # Intact as a file now, but these records came back without a checksum to vouch for them.
         return f"repaired: {bag.custom_data[CUSTOM_REPAIRED]}", []
