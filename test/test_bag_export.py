@@ -3,6 +3,7 @@ decodes, under PlotJuggler's column names; the merged table sits on the angle's 
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -97,3 +98,87 @@ def test_missing_extra_and_bad_input_are_one_line_errors(
         export_bag(read_bag(GOLDEN), tmp_path)
     assert main(["export", str(GOLDEN), "--out", str(tmp_path)]) == 2
     assert "needs pandas" in capsys.readouterr().err
+
+
+def _robot_bag(path: Path, messages: list[tuple[str, str, Any]]) -> Path:
+    """A rosbag2 MCAP bag of ``(topic, type, message)`` written by rosbags, 10 ms apart (ROS 2 Humble
+    types): a robot's recording, not the chain's."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conns: dict[str, Any] = {}
+        for i, (topic, msgtype, msg) in enumerate(messages):
+            if topic not in conns:
+                conns[topic] = writer.add_connection(topic, msgtype, typestore=store)
+            writer.write(conns[topic], 10_000_000 * (i + 1), store.serialize_cdr(msg, msgtype))
+    return path
+
+
+def test_a_robot_s_topics_of_other_types_are_exported_when_they_are_tables(tmp_path: Path) -> None:
+    """A robot's Odometry (87 numbers a message, frame strings aside) is a table: its columns carry the
+    values written, PlotJuggler's names, t from its header. Messages of varying length, and messages of
+    more than MAX_COLUMNS numbers (a camera image), are refused in one line before any file is written."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    odometry, header = store.types["nav_msgs/msg/Odometry"], store.types["std_msgs/msg/Header"]
+    time, pwc = (
+        store.types["builtin_interfaces/msg/Time"],
+        store.types["geometry_msgs/msg/PoseWithCovariance"],
+    )
+    twc, twist = store.types["geometry_msgs/msg/TwistWithCovariance"], store.types["geometry_msgs/msg/Twist"]
+    pose, point = store.types["geometry_msgs/msg/Pose"], store.types["geometry_msgs/msg/Point"]
+    quat, vec = store.types["geometry_msgs/msg/Quaternion"], store.types["geometry_msgs/msg/Vector3"]
+    speeds = np.linspace(0.0, 2.0, 50)
+
+    def odom(i: int, v: float) -> Any:
+        return odometry(
+            header(time(100 + i // 10, (i % 10) * 100_000_000), "odom"),
+            "base_link",
+            pwc(pose(point(0.1 * i, 0.0, 0.0), quat(0.0, 0.0, 0.0, 1.0)), np.zeros(36)),
+            twc(twist(vec(v, 0.0, 0.0), vec(0.0, 0.0, 0.5)), np.eye(6).ravel()),
+        )
+
+    bag = _robot_bag(
+        tmp_path / "robot", [("/odom", "nav_msgs/msg/Odometry", odom(i, v)) for i, v in enumerate(speeds)]
+    )
+    assert main(["export", str(bag), "--out", str(tmp_path / "tables")]) == 0
+    table = pd.read_csv(tmp_path / "tables" / "odom.csv")
+    assert len(table) == speeds.size and len(table.columns) == 2 + 87
+    np.testing.assert_array_equal(table["/odom/twist/twist/linear/x"], speeds)  # shortest repr: exact
+    np.testing.assert_array_equal(table["/odom/twist/twist/angular/z"], 0.5)
+    np.testing.assert_array_equal(table["/odom/pose/pose/position/x"], 0.1 * np.arange(speeds.size))
+    np.testing.assert_array_equal(table["t"], 100 + np.arange(speeds.size) * 0.1)  # header stamps, s
+    array, layout = (
+        store.types["std_msgs/msg/Float64MultiArray"],
+        store.types["std_msgs/msg/MultiArrayLayout"],
+    )
+    image = store.types["sensor_msgs/msg/Image"]
+    for name, msgs, problem in (
+        (
+            "ragged",
+            [
+                ("/scores", "std_msgs/msg/Float64MultiArray", array(layout([], 0), np.arange(n, dtype=float)))
+                for n in (2, 3)
+            ],
+            "its messages come in 2 shapes with different fields (arrays of varying length)",
+        ),
+        (
+            "camera",
+            [
+                (
+                    "/image",
+                    "sensor_msgs/msg/Image",
+                    image(header(time(1, 0), "cam"), 40, 40, "mono8", 0, 40, np.zeros(1600, np.uint8)),
+                )
+            ],
+            "1606 numbers a message; a table takes at most 1000 columns",  # stamp 2, sizes 4, data 1600,
+        ),
+    ):
+        bag = _robot_bag(tmp_path / name, [("/odom", "nav_msgs/msg/Odometry", odom(0, 1.0)), *msgs])
+        out = tmp_path / f"{name}_tables"
+        with pytest.raises(ExportError, match=re.escape(problem)):
+            export_bag(read_bag(bag), out)
+        assert not out.exists()  # nothing half-exported: the odometry was not written either

@@ -7,10 +7,12 @@ joint's values are ``topic/<joint name>/position`` (``velocity``, ``effort``), a
 status's key/value pairs are ``topic/<hardware_id>/<name>/<key>`` (numbers where every value of the
 key parses as one), to which ``level`` and ``message`` are added under the same prefix. Every table
 starts with ``t`` (the message stamp, s) and ``log_time`` (s). Fixed-layout topics are decoded in
-bulk by the package's reader; /diagnostics is deserialised message by message. A topic's table is
-written as it is decoded, ``BATCH_ROWS`` messages at a time (``Bag.decode_batches``): memory does not
-grow with the bag. ``--merged`` is a k-way merge on the stamps: the angles a batch at a time, each other
-topic read ahead as far as they go (``merged_frames``). pandas (and pyarrow for Parquet) are the optional
+bulk by the package's reader, those of other types too (a robot's Odometry, Twist, …) when every
+message has the same numeric fields, at most ``MAX_COLUMNS``; /diagnostics is deserialised message by
+message. A topic's table is written as it is decoded, ``BATCH_ROWS`` messages at a time
+(``Bag.decode_batches``): memory does not grow with the bag. ``--merged`` is a k-way merge on the
+stamps: the angles a batch at a time, each other topic read ahead as far as they go
+(``merged_frames``). pandas (and pyarrow for Parquet) are the optional
 ``export`` extra, imported only here.
 """
 
@@ -144,7 +146,9 @@ def topic_frames(bag: Bag, topic: str, rows: int | None = BATCH_ROWS) -> Iterato
     """topic_table of ``topic`` in consecutive pieces of about ``rows`` rows (None: one piece)."""
     pd = _pandas()
     msgtype = bag.topics[topic].msgtype if topic in bag.topics else None
-    if msgtype in BULK_TYPES:
+    if msgtype == bm.DIAGNOSTIC_ARRAY:
+        yield _frame(pd, *_diagnostic_columns(bag, topic, pd))
+    elif msgtype in BULK_TYPES or flatten_problem(bag, topic) is None:
         batches = [bag.decode(topic)] if rows is None else bag.decode_batches(topic, rows=rows)
         renames: dict[str, str] | None = None
         for arrays in batches:
@@ -155,10 +159,34 @@ def topic_frames(bag: Bag, topic: str, rows: int | None = BATCH_ROWS) -> Iterato
                 column_name(topic, renames.get(p, p)): col for p, col in arrays.fields.items()
             }
             yield _frame(pd, arrays.stamp, arrays.log_time_ns, columns)
-    elif msgtype == bm.DIAGNOSTIC_ARRAY:
-        yield _frame(pd, *_diagnostic_columns(bag, topic, pd))
     else:
-        raise ExportError(f"topic {topic} has type {msgtype}, which export does not flatten")
+        raise ExportError(
+            f"topic {topic} has type {msgtype}, which export does not flatten ({flatten_problem(bag, topic)})"
+        )
+
+
+MAX_COLUMNS = 1000
+"""Numbers a message of another type than the chain's may hold to be exported (an Odometry holds 87, an
+Image or a point cloud hundreds of thousands: not a table)."""
+
+
+def flatten_problem(bag: Bag, topic: str) -> str | None:
+    """None when ``topic``'s messages (of any type) flatten into one table: every message has the same
+    numeric fields (strings may differ), at most MAX_COLUMNS of them; else why not (a phrase). A topic
+    of the chain's types, or with no message, flattens."""
+    msgtype = bag.topics[topic].msgtype
+    if msgtype in BULK_TYPES or msgtype == bm.DIAGNOSTIC_ARRAY:
+        return None
+    shapes = bag.shapes(topic)
+    fields = {tuple(bm.Layout.of(msg, msgtype).fields) for msg, _ in shapes}
+    if len(fields) > 1:
+        return f"its messages come in {len(fields)} shapes with different fields (arrays of varying length)"
+    width = len(next(iter(fields))) if fields else 0
+    if shapes and width == 0:
+        return "its messages hold no numbers"
+    if width > MAX_COLUMNS:
+        return f"{width} numbers a message; a table takes at most {MAX_COLUMNS} columns"
+    return None
 
 
 def _frame(
@@ -428,12 +456,12 @@ def export_tables(
         raise ExportError(f"bag {bag.path} has no topic {unknown[0]} (it has {', '.join(bag.topics)})")
     if merged and bag.chain_topic(bm.TOPIC_JOINT_STATES) not in bag.topics:
         raise ExportError(f"bag {bag.path} has no {bm.TOPIC_JOINT_STATES} to merge on")
-    flattened = (bm.DIAGNOSTIC_ARRAY, *BULK_TYPES)
-    odd = [t for t in chosen if bag.topics[t].msgtype not in flattened]
-    if odd:
-        raise ExportError(
-            f"topic {odd[0]} has type {bag.topics[odd[0]].msgtype}, which export does not flatten"
-        )
+    # Checked before any file is written: a topic that cannot be a table leaves nothing half-exported.
+    for topic in chosen:
+        problem = flatten_problem(bag, topic)
+        if problem is not None:
+            msgtype = bag.topics[topic].msgtype
+            raise ExportError(f"topic {topic} has type {msgtype}, which export does not flatten ({problem})")
     if merged:
         return {MERGED_NAME: merged_frames(bag, chosen, derived)}
     tables: dict[str, Iterable[DataFrame]] = {file_stem(t): topic_frames(bag, t) for t in chosen}
