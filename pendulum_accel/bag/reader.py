@@ -898,8 +898,7 @@ def _locate(path: Path) -> _Located:
             # Each payload is a zstd frame, not CDR: read as CDR, every message would look damaged.
             raise BagError(
                 f"bag {path}: its messages are compressed one by one (rosbag2's --compression-mode "
-                f"message, {info.get('compression_format') or 'unnamed'}), which is not supported: "
-                "rewrite it uncompressed with `ros2 bag convert`"
+                f"message, {info.get('compression_format') or 'unnamed'}); {convert_hint(path)}"
             )
         # A metadata.yaml of another shape names nothing usable: look for the MCAP files instead.
         names = [str(f) for f in files] if isinstance(files, list) else []
@@ -910,10 +909,10 @@ def _locate(path: Path) -> _Located:
                 # rosbag2's --compression-mode file: the whole MCAP file is one zstd frame.
                 raise BagError(
                     f"bag {path}: {name} is an MCAP file compressed whole (rosbag2's --compression-mode "
-                    f"file); decompress it first: zstd -d --rm {target}"
+                    f"file); {convert_hint(path)}"
                 )
             if target.is_file() and not name.endswith(".mcap"):
-                raise BagError(f"bag {path} uses storage {name!r}; only MCAP bags are supported")
+                raise BagError(f"bag {path} uses storage {name!r}, not MCAP; {convert_hint(path)}")
         if present:
             return _Located(path, present, doc, tuple(p.name for p in listed if not p.is_file()))
     named = sorted(
@@ -929,14 +928,36 @@ def _locate(path: Path) -> _Located:
     return _Located(path, found, doc)
 
 
+def convert_hint(source: Path) -> str:
+    """'convert it: rosbags-convert --src SRC --dst SRC-mcap --dst-storage mcap': rosbags (a dependency,
+    so the command is installed beside ours) rewrites a ROS 1 bag, a rosbag2 SQLite bag or a compressed
+    one as an uncompressed MCAP bag, which every command reads."""
+    name = source.name.removesuffix(".bag") if source.is_file() else source.name
+    dst = source.parent / f"{name}-mcap"
+    return f"convert it: rosbags-convert --src {source} --dst {dst} --dst-storage mcap"
+
+
+_ROS1_MAGIC = b"#ROSBAG V2.0"
+_ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+
+
 def _check_magic(path: Path) -> None:
     """BagError unless the regular file ``path`` starts with the MCAP magic bytes (or cannot be read)."""
     try:
         with path.open("rb") as handle:
-            head = handle.read(len(_MAGIC))
+            head = handle.read(len(_ROS1_MAGIC))
     except OSError as err:
         raise BagError(f"cannot read {path}: {err.strerror or err}") from None
-    if head != _MAGIC:
+    if head.startswith(_ROS1_MAGIC):
+        raise BagError(f"{path} is a ROS 1 bag, not MCAP; {convert_hint(path)}")
+    if head.startswith(_ZSTD_MAGIC):
+        # rosbags converts a bag directory; a file compressed on its own is decompressed on its own.
+        parent = path.parent
+        hint = (
+            convert_hint(parent) if (parent / "metadata.yaml").is_file() else f"decompress it: zstd -d {path}"
+        )
+        raise BagError(f"{path} is compressed whole (zstd), not MCAP; {hint}")
+    if not head.startswith(_MAGIC):
         raise BagError(f"{path} is not an MCAP file (bad magic bytes)")
 
 
