@@ -375,11 +375,7 @@ class Bag:
     @property
     def complete(self) -> bool:
         """Every file of the bag was read to its footer."""
-        return (
-            bool(self._parts)
-            and len(self._parts) == len(self.mcap_paths)
-            and all(p.complete for p in self._parts)
-        )
+        return bool(self._parts) and all(p.complete for p in self._parts)
 
     def chain_topic(self, topic: str) -> str:
         """This bag's name for the chain topic ``topic`` (its root name, /pendulum/joint_states), by
@@ -831,13 +827,6 @@ def _joined(
     return TopicArrays(
         topic, mtype, times, {p: np.concatenate([c[p] for _, c in parts]) for p in parts[0][1]}
     )
-
-
-def _find_mcap(path: Path) -> tuple[Path, list[Path], str | None]:
-    """(bag directory or file, its .mcap paths in recording order, a sentence naming the files its
-    metadata.yaml lists that are missing, or None) for a bag directory or a bare .mcap file."""
-    found = _locate(path)
-    return found.root, found.files, found.missing
 
 
 @dataclass(frozen=True)
@@ -1426,24 +1415,34 @@ class _Scanner:
         damaged, every later message of the channel would name an unknown channel and its chunks would
         be lost with it; the summary repeats every schema and channel, so they are known before any
         chunk is read. A file without a usable summary (a killed recorder) is scanned as before."""
-        read, size = self.file.read, self.file.size
-        tail = size - len(_MAGIC) - 9 - 20
-        if tail <= len(_MAGIC):
+        span = self._summary_span(len(_MAGIC))
+        if span is None:
             return
-        end = read(tail, size)
-        if end[-len(_MAGIC) :] != _MAGIC or end[0] != Opcode.FOOTER:
-            return
+        start, tail, crc = span
         try:
-            footer = Footer.read(ReadDataStream(BytesIO(end[9:29])))
-            start = int(footer.summary_start)
-            if not len(_MAGIC) < start <= tail:
-                return
             # The CRC covers the summary and the footer through its summary_offset_start field.
-            if footer.summary_crc and zlib.crc32(read(start, tail + 25)) != footer.summary_crc:
+            if crc and zlib.crc32(self.file.read(start, tail + 25)) != crc:
                 return
-            self._summary(read(start, tail), chunks=False)
+            self._summary(self.file.read(start, tail), chunks=False)
         except _RECORD_ERRORS:
             return
+
+    def _summary_span(self, after: int) -> tuple[int, int, int] | None:
+        """(summary start, footer offset, summary CRC) from the file's footer, when the file ends in its
+        footer and magic and the summary starts past byte ``after``; None otherwise."""
+        size = self.file.size
+        tail = size - len(_MAGIC) - 9 - 20
+        if tail <= after:
+            return None
+        end = self.file.read(tail, size)
+        if end[-len(_MAGIC) :] != _MAGIC or end[0] != Opcode.FOOTER:
+            return None
+        try:
+            footer = Footer.read(ReadDataStream(BytesIO(end[9:29])))
+        except _RECORD_ERRORS:
+            return None
+        start = int(footer.summary_start)
+        return (start, tail, int(footer.summary_crc)) if after < start <= tail else None
 
     def _indexed_chunks(self, broken_at: int) -> int:
         """Read the chunks the summary's chunk index places past ``broken_at``; how many were read.
@@ -1452,19 +1451,12 @@ class _Scanner:
         registered first. Each chunk and its message indexes are read as in the scan; a damaged one is
         skipped and noted. Nothing happens without a usable summary (a killed recorder writes none).
         """
-        assert self.file is not None, "a scan reads a file"
-        read, size = self.file.read, self.file.size
-        tail = size - len(_MAGIC) - 9 - 20
-        if tail <= broken_at:
+        read = self.file.read
+        span = self._summary_span(broken_at)
+        if span is None:
             return 0
-        end = read(tail, size)
-        if end[-len(_MAGIC) :] != _MAGIC or end[0] != Opcode.FOOTER:
-            return 0
+        start, tail, _ = span
         try:
-            footer = Footer.read(ReadDataStream(BytesIO(end[9:29])))
-            start = int(footer.summary_start)
-            if not broken_at < start <= tail:
-                return 0
             indexes = self._summary(read(start, tail))
         except _RECORD_ERRORS:
             return 0

@@ -27,7 +27,7 @@ from mcap.reader import SeekingReader
 from mcap.records import Chunk, ChunkIndex
 
 from pendulum_accel.bag.integrity import ChunkHead
-from pendulum_accel.bag.reader import _decompress, _find_mcap
+from pendulum_accel.bag.reader import _decompress, _locate
 from pendulum_accel.errors import BagError
 
 _INDEX_HEAD = 1 + 8 + 2 + 4  # MessageIndex record: opcode, length, channel id, entries byte length
@@ -66,10 +66,11 @@ class StreamedBag:
 
     def __init__(self, path: Path | str) -> None:
         """Open the bag's MCAP files and read their summaries; NotIndexedError when one has no chunk index."""
-        self.path, mcap_paths, missing = _find_mcap(Path(path))
-        if missing is not None:
+        found = _locate(Path(path))
+        self.path, mcap_paths = found.root, found.files
+        if found.missing is not None:
             # What is there is read whole by bag.reader, which names what is missing.
-            raise NotIndexedError(missing)
+            raise NotIndexedError(found.missing)
         self._files: list[BinaryIO] = []
         self.chunks: list[FileChunk] = []
         self.topics: dict[str, str] = {}

@@ -29,17 +29,19 @@ class TopicRules:
         in, or an empty joint name."""
         if not self.joint.strip():
             raise BagError("--joint must name the pendulum's joint, got ''")
-        bag.choice = topic_choice(list(bag.topics), bag.choice.roles, list(self.roles), self.namespace)
-        bag.choice.joint = self.joint
+        bag.choice = topic_choice(
+            list(bag.topics), bag.choice.roles, list(self.roles), self.namespace, self.joint
+        )
         return bag
 
 
 def topic_choice(
-    topics: list[str], roles: dict[str, str], texts: list[str], namespace: str
+    topics: list[str], roles: dict[str, str], texts: list[str], namespace: str, joint: str = bm.PENDULUM_JOINT
 ) -> bm.TopicChoice:
     """The TopicChoice of a bag with ``topics`` and a stored map ``roles``, with the user's ``--topic``
-    rules (``texts``) on top and ``namespace``; BagError (one line) for a rule that does not read
-    ROLE=NAME, names no role, or names a topic the bag lacks, and for a namespace the bag has no topic in."""
+    rules (``texts``) on top, ``namespace`` and the pendulum's ``joint``; BagError (one line) for a rule
+    that does not read ROLE=NAME, names no role, or names a topic the bag lacks, and for a namespace the
+    bag has no topic in."""
     ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
     # The stored map names one chain's topics: another namespace asked for sets it aside.
     chosen = {role: name for role, name in roles.items() if not ns or bm.in_namespace(name, ns)}
@@ -58,4 +60,4 @@ def topic_choice(
         raise BagError(
             f"--namespace {namespace}: the bag has no topic under {ns}/ (it has {', '.join(topics)})"
         )
-    return bm.TopicChoice(chosen, ns)
+    return bm.TopicChoice(chosen, ns, joint)
