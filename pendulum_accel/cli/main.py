@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import signal
 import sys
 import threading
@@ -144,6 +145,21 @@ def _interrupted(command: str | None, own_process: bool) -> int:
     return 130
 
 
+_OPTION_AT_HOME = re.compile(r"(--[A-Za-z][\w-]*=)(~[^/]*(?:/.*)?)$", re.DOTALL)
+
+
+def expand_home_values(argv: Sequence[str]) -> list[str]:
+    """argv with ``--opt=~/x`` written ``--opt=$HOME/x`` (``~user/x`` too): os.path.expanduser of the value.
+
+    A shell expands a ``~`` that starts a word (``--record ~/x``) but not one after ``--record=``, so
+    without this the same option made a directory named ``~`` when given with an ``=``."""
+    out: list[str] = []
+    for token in argv:
+        match = _OPTION_AT_HOME.match(token)
+        out.append(match.group(1) + os.path.expanduser(match.group(2)) if match else token)
+    return out
+
+
 def _run(argv: list[str], command: str | None) -> int:
     """Parse argv (only ``command``'s module imported) and run it; PendulumAccelError → one line, exit 2."""
     if command is None:  # --version, --help, or an unknown command: argparse answers without the modules
@@ -153,7 +169,7 @@ def _run(argv: list[str], command: str | None) -> int:
         from pendulum_accel.cli.sweep import attach_negative_values
 
         parser = build_parser(command)
-        args, extras = parser.parse_known_args(attach_negative_values(argv))
+        args, extras = parser.parse_known_args(attach_negative_values(expand_home_values(argv)))
         if extras:  # said by the command's own parser, with its usage (argparse's top level would say it)
             _command_parser(parser, command).error(f"unrecognized arguments: {' '.join(extras)}")
     if not getattr(args, "func", None):
