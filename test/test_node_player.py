@@ -255,6 +255,31 @@ def test_pause_resume_play_next_burst_and_rate_services(spawn: Spawn, tmp_path: 
     assert re.search(r"bag_player \[paused\] bag time 0\.000 s of 10\.000 s \(0/1001 messages\)", player.text)
 
 
+def test_play_next_waits_for_the_named_reader(spawn: Spawn) -> None:
+    """A paused player's play_next publishes nothing before the reader_nodes are there (a stranger on the
+    angles does not count) and says what it waits for; once the estimator is up, play_next waits until it
+    is matched, so the estimator gets that first angle (before, a message sent before a volatile reader
+    matched never reached it: the estimator once missed the first 10 angles of a play_next and a burst)."""
+    player = start_node(
+        spawn,
+        "player_node",
+        {"path": str(GOLDEN), "topics": [JOINT], "start_paused": True, "reader_nodes": ["accel_estimator"]},
+    )
+    player.wait_for("paused", timeout=60)
+    steps: list[list[Any]] = [["call", "play_next"], ["count", JOINT]]
+    alone = _control(spawn, {"listen": {JOINT: JOINT_STATE}, "steps": steps})
+    assert alone["results"] == [[False, f"waiting for its readers ({JOINT}: /accel_estimator)"], 0]
+    estimator = start_node(spawn, "estimator_node", {"scene": "step_start"})
+    steps = [["sleep", 1.0], ["call", "play_next"], ["wait_count", ESTIMATE, 1]]
+    result = _control(spawn, {"listen": LISTEN, "matched": [ESTIMATE], "steps": steps})
+    assert result["results"][1:] == [[True, "played 1 message"], 1]
+    golden = read_bag(GOLDEN).decode(JOINT)
+    assert [m[1] for m in result["messages"][ESTIMATE]] == [golden.stamp[0]]  # the bag's first angle
+    _stop(estimator)
+    assert re.search(r"\b1 inputs, 1 estimates published", estimator.text), estimator.text
+    _stop(player)
+
+
 def test_seek_forwards_and_backwards_with_clock_and_estimator_reset(spawn: Spawn) -> None:
     """A seek past the end fails; seeks forwards (6 s) and backwards (to 2 s) move the stream, /clock jumps
     with it, and the estimator resets on the jump back, then matches a fresh offline run from 2 s."""

@@ -56,6 +56,9 @@ from pendulum_accel.nodes.runtime import (
 
 NODE_NAME = "bag_player"
 _ACK_TIMEOUT_S = 10.0
+READY_WAIT_S = 5.0
+"""s play_next and burst wait for the readers playing waits for before they answer that they are not there:
+a message published before a volatile reader matched never reaches it (rosbag2's play_next waits too)."""
 RATE_STEP = 0.1
 """↑/↓ change the rate by this much, as rosbag2's keyboard controls do (get_rate() ± 0.1)."""
 KEY_PAUSE = b" "
@@ -239,6 +242,7 @@ class PlayerNode(ThreadedNode):
         self._clock_origin = timeline.first_ns
         self._last_tick: int | None = None
         self._publish_lock = threading.Lock()
+        self._ready = threading.Event()  # set once the readers _wait asks for are there
         self.passes = 0
         self.published = 0
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -308,14 +312,23 @@ class PlayerNode(ThreadedNode):
         return self._reply(response, True, "true" if self.playback.paused else "false")
 
     def play_next(self) -> bool:
-        """Publish the next message now (only while paused, as rosbag2); True if one was published."""
+        """Publish the next message now (only while paused, as rosbag2, and once the readers playing
+        waits for are there: up to READY_WAIT_S); True if one was published."""
+        if not self._ready.wait(READY_WAIT_S):
+            return False
         taken = self.playback.step()
         return taken is not None and self._publish(taken)
+
+    def _not_played(self) -> str:
+        """Why play_next published nothing: the readers it waits for, or the state."""
+        if not self._ready.is_set():
+            return f"waiting for its readers ({self._waiting_for() or 'stopping'})"
+        return "not paused, or at the end"
 
     def _srv_play_next(self, request: Any, response: Any) -> Any:
         """~/play_next: success when a message was published."""
         ok = self.play_next()
-        return self._reply(response, ok, "played 1 message" if ok else "not paused, or at the end")
+        return self._reply(response, ok, "played 1 message" if ok else self._not_played())
 
     def _srv_burst(self, request: Any, response: Any) -> Any:
         """~/burst: play ``burst_size`` messages (0: to the end) while paused; message: how many."""
@@ -326,6 +339,8 @@ class PlayerNode(ThreadedNode):
         while (size == 0 or played < size) and not self._stop.is_set() and self.play_next():
             played += 1
         self.get_logger().info(f"burst {played} messages")
+        if played == 0 and not self._ready.is_set():
+            return self._reply(response, False, f"burst 0 messages: {self._not_played()}")
         return self._reply(response, played > 0, f"burst {played} messages")
 
     def _srv_seek(self, request: Any, response: Any) -> Any:
@@ -406,34 +421,32 @@ class PlayerNode(ThreadedNode):
 
     # -- playing ------------------------------------------------------------------------------------
 
-    def _wait(self) -> bool:
-        """True once the named readers (reader_nodes on the angles, the bag's pendulum/joint_states under
-        any namespace; recorder_node on every topic) are subscribed and matched, the angles have
-        wait_for_subscribers subscribers and, with wait_for_recorder, every published topic has one
-        (False if stopped while waiting)."""
+    def _waiting_for(self) -> str:
+        """What playing still waits for, '' when nothing: the named readers (reader_nodes on the angles, the
+        bag's pendulum/joint_states under any namespace; recorder_node on every topic; by name, since a
+        count a stranger could satisfy is not theirs), wait_for_subscribers on the angles and, with
+        wait_for_recorder, a subscriber on every published topic."""
+        for topic, publisher in self._outputs.items():
+            wanted = list(self.recorder_node) + (self.reader_nodes if topic == self._joint_topic else [])
+            missing = missing_readers(self, publisher, wanted) if wanted else []
+            if missing:
+                return f"{topic}: {', '.join(missing)}"
         joint = self._outputs.get(self._joint_topic) if self._joint_topic else None
-
-        def named_ready() -> bool:
-            """Every named reader is matched on its topics (a count a stranger could satisfy is not)."""
+        if joint is not None and joint.get_subscription_count() < self.wait_for_subscribers:
+            return f"{self._joint_topic}: {self.wait_for_subscribers} subscribers"
+        if self.wait_for_recorder:
             for topic, publisher in self._outputs.items():
-                wanted = list(self.recorder_node) + (self.reader_nodes if topic == self._joint_topic else [])
-                if wanted and missing_readers(self, publisher, wanted):
-                    return False
-            return True
+                if publisher.get_subscription_count() < 1:
+                    return f"{topic}: a subscriber"
+        return ""
 
-        def ready() -> bool:
-            """The named readers and the subscriber counts asked for are there."""
-            if not named_ready():
-                return False
-            if joint is not None and joint.get_subscription_count() < self.wait_for_subscribers:
-                return False
-            return not self.wait_for_recorder or all(
-                publisher.get_subscription_count() >= 1 for publisher in self._outputs.values()
-            )
-
-        while not ready():
+    def _wait(self) -> bool:
+        """True once nothing is waited for (_waiting_for), then play_next may publish too; False if stopped
+        while waiting."""
+        while self._waiting_for():
             if self._stop.wait(0.01):
                 return False
+        self._ready.set()
         return True
 
     def _publish(self, taken: Taken) -> bool:
