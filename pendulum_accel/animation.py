@@ -109,6 +109,7 @@ class SwingAnimation:
         self.fps = fps
         self.times = data.frame_times(fps, duration)
         self.theta, self.a_true, self.a_est = data.at(self.times)
+        self.has_truth = bool(np.isfinite(data.accel_true).any())  # a real sensor's bag has none
         self.figure = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
         FigureCanvasAgg(self.figure)
         top, bottom = self.figure.subplots(2, 1, height_ratios=(2.2, 1.0))
@@ -135,7 +136,7 @@ class SwingAnimation:
         self.text = self.figure.text(0.02, 0.90, "", va="top", ha="left", fontsize=9, family="monospace")
         self.figure.legend(
             handles=[
-                Line2D([], [], color=TRUE_COLOR, lw=3, label="true a"),
+                *([Line2D([], [], color=TRUE_COLOR, lw=3, label="true a")] if self.has_truth else []),
                 Line2D([], [], color=EST_COLOR, lw=3, label="estimated â"),
             ],
             loc="upper right",
@@ -184,15 +185,16 @@ class SwingAnimation:
         self.bob.set_data([float(bx)], [float(bz)])
         a_est = float(self.a_est[k]) if math.isfinite(self.a_est[k]) else 0.0
         scale = ARROW_M_PER_MS2 * length
-        u, v = _rotate(np.array([self.a_true[k], a_est]) * scale, np.zeros(2), beta)
+        a_true = float(self.a_true[k]) if math.isfinite(self.a_true[k]) else 0.0  # no truth: no arrow
+        u, v = _rotate(np.array([a_true, a_est]) * scale, np.zeros(2), beta)
         self.arrows.set_UVC(u, v)
         t = float(self.times[k])
         self.cursor.set_xdata([t, t])
         shown = self.data.t <= t
         self.trace.set_data(self.data.t[shown], np.degrees(self.data.theta[shown]))
+        truth = f"a = {a_true:+6.3f} m/s²\n" if self.has_truth else ""
         self.text.set_text(
-            f"t = {t:6.2f} s\nθ = {math.degrees(self.theta[k]):+6.2f}°\n"
-            f"a = {self.a_true[k]:+6.3f} m/s²\nâ = {a_est:+6.3f} m/s²"
+            f"t = {t:6.2f} s\nθ = {math.degrees(self.theta[k]):+6.2f}°\n{truth}â = {a_est:+6.3f} m/s²"
         )
         return [self.rod, self.bob, self.arrows, self.cursor, self.trace, self.text]
 
@@ -350,12 +352,15 @@ def swing_from_scene(scene: Scene, estimator: str | None = None) -> SwingData:
     )
 
 
-def swing_from_bag(path: Path | str | Bag, estimator: str | None = None) -> SwingData:
-    """SwingData of a bag (read here, refused when damaged, or already read): its recorded θ and truth,
-    ``estimator`` re-run offline (recording.analyze)."""
+def swing_from_bag(
+    path: Path | str | Bag, estimator: str | None = None, config: dict[str, float] | None = None
+) -> SwingData:
+    """SwingData of a bag (read here, refused when damaged, or already read): its recorded θ and truth
+    (NaN in a bag without one), ``estimator`` re-run offline (recording.analyze, ``config`` overriding
+    the stored scene's length and noise: needed for a bag that stores no scene)."""
     bag = path if isinstance(path, Bag) else read_bag(path, salvage=False)
     path = bag.path
-    result = analyze_bag(bag, estimator=estimator)
+    result = analyze_bag(bag, estimator=estimator, config=config)
     text = bag.custom_data.get("pendulum_accel.scene")
     grade = 0.0
     if text:

@@ -128,6 +128,36 @@ def test_a_bag_animates_from_its_recorded_angles(tmp_path: Path) -> None:
         assert img.size == (WIDTH, HEIGHT) and getattr(img, "n_frames", 1) == 3
 
 
+def test_a_bag_without_truth_or_scene_animates_with_its_length_given(tmp_path: Path) -> None:
+    """A real sensor's bag (no truth, no scene): refused in one line naming --length without it; with it,
+    the GIF comes out, the readout has no true a, and the frames carry the estimate only. --length with a
+    scene is refused: a scene's pendulum is its own."""
+    from test.sensor_bag import LENGTH, write_step_bag
+
+    bag = write_step_bag(tmp_path / "sensor", truth=False)
+
+    def animate(*args: str) -> subprocess.CompletedProcess[str]:
+        """pendulum-accel animate ARGS --duration 0.5 --fps 4, captured."""
+        command = [sys.executable, "-m", "pendulum_accel.cli.main", "animate", *args]
+        return subprocess.run([*command, "--duration", "0.5", "--fps", "4"], capture_output=True, text=True)
+
+    refused = animate(str(bag), "--out", str(tmp_path / "no.gif"))
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and "--length" in refused.stderr
+    out = tmp_path / "sensor.gif"
+    done = animate(str(bag), "--out", str(out), "--length", str(LENGTH))
+    assert done.returncode == 0, done.stderr
+    with Image.open(out) as img:
+        assert img.size == (WIDTH, HEIGHT) and getattr(img, "n_frames", 1) == 3
+    from pendulum_accel.animation import swing_from_bag
+
+    anim = SwingAnimation(swing_from_bag(bag, config={"length": LENGTH}), fps=4, duration=0.5)
+    anim.draw_frame(1)
+    readout = anim.text.get_text()
+    assert "â =" in readout and "a =" not in readout.replace("â =", "") and "nan" not in readout
+    scene = animate("step_start", "--out", str(tmp_path / "s.gif"), "--length", "1")
+    assert scene.returncode == 2 and "a scene's pendulum is its own" in scene.stderr
+
+
 def test_animate_writes_through_one_partial_name(tmp_path: Path) -> None:
     """animate writes under one hidden partial name, ``.NAME.partial.gif`` (textfile.partial_path),
     renamed to NAME.gif: an output whose partial name is exactly the file system's longest name is

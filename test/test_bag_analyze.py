@@ -28,30 +28,13 @@ from pendulum_accel.recording.contract import decode_chain
 from pendulum_accel.recording.generate import chain_streams, generate_bag, write_chain_bag
 from test.conftest import strict_json
 from test.figures import assert_figure
-
-LENGTH = 0.5
-RATE = 200.0
-NOISE = 1e-3
-A_STEP = 3.0
-DAMPING = 0.8
-CONFIG = {"length": LENGTH, "noise_std": NOISE, "damping": DAMPING}
-T_STEP = 2.0
+from test.sensor_bag import A_STEP, CONFIG, DAMPING, LENGTH, NOISE, RATE, T_STEP, write_step_bag
 
 
 @pytest.fixture(scope="module")
 def step_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """0 → 3 m/s² step at t = 2 s, damped pendulum, 200 Hz angles with 1 mrad noise, 12 s."""
-    pendulum = Pendulum(LENGTH, damping=DAMPING)
-    t = np.arange(0.0, 12.0, 1.0 / RATE)
-    traj = simulate(pendulum, Step(T_STEP, 0.0, A_STEP), t, theta0=0.0)
-    theta = traj.theta + np.random.default_rng(7).normal(0.0, NOISE, t.size)
-    a_est, var = estimate_batch(DEFAULT_ESTIMATOR, t, theta, rate_hz=RATE, **CONFIG)
-    streams = chain_streams(
-        t, theta, traj.theta_dot, traj.accel, a_est, var, estimator=DEFAULT_ESTIMATOR, rate_hz=RATE
-    )
-    path = tmp_path_factory.mktemp("analyze") / "step"
-    write_chain_bag(path, streams, custom_data={"pendulum_accel.plan": "rigid/DOP853 (test)"})
-    return path
+    return write_step_bag(tmp_path_factory.mktemp("analyze") / "step")
 
 
 def test_analyze_recovers_the_step(step_bag: Path) -> None:
@@ -200,6 +183,54 @@ def test_analyze_json_carries_both_streams(holed_bag: Path, capsys: pytest.Captu
         for key in ("bias", "rms", "max_error", "settled_bias", "settled_rms", "settled_max_error"):
             assert math.isfinite(stream[key])
     assert off["rms"] == figures["rms"] and off["settling_time"] == figures["settling_time"]
+
+
+@pytest.fixture(scope="module")
+def sensor_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """step_bag as a real sensor's recording: the same angles and live estimate, and no truth topic."""
+    return write_step_bag(tmp_path_factory.mktemp("analyze") / "sensor", truth=False)
+
+
+def test_a_bag_without_truth_gets_the_figures_that_need_none(sensor_bag: Path, step_bag: Path) -> None:
+    """No truth topic (a real sensor's bag): counts, holes, the estimates' mean and range and median σ,
+    equal to those of the same angles and estimate beside a truth; no error figure, settling or
+    calibration, and the report says why. Before, the bag was refused ("has no topic /car/accel/truth")."""
+    bare, full = analyze_bag(sensor_bag, config=CONFIG), analyze_bag(step_bag, config=CONFIG)
+    assert not bare.has_truth and full.has_truth
+    for with_truth, without in ((full.offline_figures, bare.offline_figures),
+                                (full.recorded_figures, bare.recorded_figures)):  # fmt: skip
+        assert with_truth is not None and without is not None
+        # The same floats through the same code: the same figures, whatever the truth beside them.
+        assert without.values == with_truth.values and without.count == with_truth.count == 2400
+        assert without.stats.n == 0 and math.isnan(without.stats.rms) and without.settling_time is None
+    assert bare.calibration is None and bare.recorded_calibration is None
+    assert np.isnan(bare.accel_true).all()
+    values = bare.offline_figures.values
+    # The step's estimate, from its start at rest to 3 m/s²: its mean lies between (10 of 12 s at 3 m/s²)
+    # and the range spans both levels.
+    assert 2.0 < values.mean < A_STEP and values.low < 0.5 and values.high > A_STEP - 0.1
+    assert values.sigma_median == pytest.approx(float(np.sqrt(np.median(bare.variance))))
+    report = "\n".join(bare.lines())
+    assert "no truth in the bag (/car/accel/truth)" in report
+    assert "RMS:" not in report and "settling" not in report
+    assert_figure(report, "mean â:", values.mean, rel=1e-4)
+
+
+def test_analyze_cli_on_a_bag_without_truth(
+    sensor_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`analyze --json` is strict JSON with "truth": false and null error figures; --plot draws the 2σ."""
+    png = tmp_path / "sensor.png"
+    assert main(["analyze", str(sensor_bag), "--length", str(LENGTH), "--json", "--plot", str(png)]) == 0
+    figures = strict_json(capsys.readouterr().out)
+    assert figures["truth"] is False
+    for key in ("rms", "bias", "max_error", "settling_time", "tolerance", "nees_steady_mean"):
+        assert figures[key] is None, key
+    for stream in (figures["offline"], figures["recorded"]):
+        assert stream["estimates"] == 2400 and stream["rms"] is None
+        assert stream["estimate_min"] < stream["estimate_mean"] < stream["estimate_max"]
+        assert stream["sigma_median"] > 0.0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 # ---------------------------------------------------------------- the change rule, strict JSON, the model

@@ -86,7 +86,12 @@ def test_info_counts_every_file_and_calls_the_split_recording_complete(recording
     assert lines[0].endswith("[complete]"), lines[0]
     assert f"{PARTS} files, rec_0.mcap to rec_{PARTS - 1}.mcap" in lines[1]
     whole_lines, _ = info_lines(str(whole_path))
-    assert lines[2:] == whole_lines[2:]  # duration, counts, scene, plan, topics and rates alike
+    # The split files were written by the mcap library (split_recording), the whole one by our writer:
+    # each says so; duration, counts, scene, plan, topics and rates are alike.
+    (i,) = [k for k, line in enumerate(lines) if line.startswith("written by")]
+    assert whole_lines[i].startswith("written by pendulum_accel-")
+    assert lines[i] == "written by test split_recording"
+    assert lines[2:i] + lines[i + 1 :] == whole_lines[2:i] + whole_lines[i + 1 :]
 
 
 def test_files_are_taken_in_recording_order_without_metadata(tmp_path: Path) -> None:
@@ -229,8 +234,13 @@ def test_bags_we_do_not_read_name_the_command_that_converts_them(
     tool = Path(PYTHON).parent / "rosbags-convert"  # beside this interpreter, as a user's venv has it
     done = subprocess.run([str(tool), *command[1:]], capture_output=True, text=True, timeout=120, cwd=REPO)
     assert done.returncode == 0, done.stderr
-    converted = read_bag(Path(command[command.index("--dst") + 1]), salvage=False)
+    converted_path = Path(command[command.index("--dst") + 1])
+    converted = read_bag(converted_path, salvage=False)
     assert converted.complete and converted.topics["/x"].count == 10
+    # info names the writer from the file's MCAP Header (it said "written by pendulum_accel ?" of any bag).
+    lines = cli("info", str(converted_path)).stdout.splitlines()
+    writer = next(x for x in lines if x.startswith("written by"))
+    assert writer.startswith("written by rosbags-"), writer
 
 
 @pytest.mark.parametrize(("keep", "ending"), [(0, "empty"), (0.6, "cut off before its footer")])

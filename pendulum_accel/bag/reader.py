@@ -53,7 +53,7 @@ import yaml
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import Channel, ChunkIndex, Footer, Metadata, Schema
+from mcap.records import Channel, ChunkIndex, Footer, Header, Metadata, Schema
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
@@ -1614,6 +1614,19 @@ def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> 
             f"to use only its intact records, or run `pendulum-accel repair {bag.path}`"
         )
     return bag
+
+
+def header_library(path: Path) -> str | None:
+    """The ``library`` an MCAP file's Header record names (who wrote it: ``pendulum_accel-0.1.0``,
+    ``rosbags-0.11.9``, rosbag2's), read by the mcap library; None when it names none or cannot be read."""
+    from mcap.stream_reader import StreamReader
+
+    try:
+        with path.open("rb") as stream:
+            first = next(iter(StreamReader(stream).records), None)
+    except Exception:  # the mcap library raises its own errors, struct's and OSError on a bad file
+        return None
+    return first.library if isinstance(first, Header) and first.library else None
 
 
 def salvage_note(bag: Bag) -> str | None:

@@ -8,9 +8,9 @@ from typing import Any
 from pendulum_accel.cli.fleet import fleet_wanted, run_fleet
 from pendulum_accel.cli.output import check_output_file, json_text, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.cli.sensor_flags import add_sensor_flags, sensor_config
 from pendulum_accel.cli.topics import add_topic_flags, choose_topics
 from pendulum_accel.errors import BagError
-from pendulum_accel.overrides import OVERRIDE_BY_NAME
 from pendulum_accel.recording.analyze import (
     analysis_dict,
     analyze_bag,
@@ -20,7 +20,6 @@ from pendulum_accel.recording.analyze import (
 )
 from pendulum_accel.recording.seed_spread import SeedSpread, seed_spread
 
-ESTIMATOR_OVERRIDES = ("length", "noise_std")
 """Scene fields ``analyze`` lets the user replace in the estimator's settings (ranges: overrides.py)."""
 
 
@@ -88,14 +87,7 @@ def register(subparsers: Any) -> None:
         "--estimator smoother: the whole bag)",
     )
     parser.add_argument("--tolerance", type=float, default=None, metavar="A", help="settling band, m/s²")
-    for name in ESTIMATOR_OVERRIDES:
-        spec = OVERRIDE_BY_NAME[name]
-        parser.add_argument(
-            "--" + name.replace("_", "-"),
-            type=float,
-            default=None,
-            help=f"{spec.description} ({spec.unit}), overrides the stored scene's",
-        )
+    add_sensor_flags(parser)
     parser.add_argument(
         "--seeds",
         type=int,
@@ -126,11 +118,7 @@ def run(args: argparse.Namespace) -> int:
     if args.skip > 0 and not args.skip < bag.duration_s:
         # Nothing would be left to average: the report would be NaN figures.
         raise BagError(f"--skip {args.skip:g} s leaves no samples: {bag.path} spans {bag.duration_s:.3f} s")
-    config = {
-        name: OVERRIDE_BY_NAME[name].check(getattr(args, name))
-        for name in ESTIMATOR_OVERRIDES
-        if getattr(args, name) is not None
-    }
+    config = sensor_config(args)
     if args.seeds < 0:
         raise BagError(f"--seeds must be >= 0, got {args.seeds}")
     scene = stored_scene(bag) if args.seeds else None

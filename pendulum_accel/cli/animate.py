@@ -11,6 +11,7 @@ from tqdm import tqdm
 
 from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.cli.sensor_flags import add_sensor_flags, sensor_config
 from pendulum_accel.cli.topics import add_topic_flags, choose_topics
 from pendulum_accel.errors import ParameterError
 
@@ -44,6 +45,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--estimator", "-e", default=None, help="estimator method (default: the package default)"
     )
+    add_sensor_flags(parser)
     add_salvage_flag(parser)
     add_topic_flags(parser)
     parser.set_defaults(func=run)
@@ -69,7 +71,11 @@ def run(args: argparse.Namespace) -> int:
         raise ParameterError(f"--fps must be an integer >= 1, got {args.fps}")
     bag = choose_topics(read_intact(args.source, args.salvage), args) if _is_bag(args.source) else None
     if bag is not None:
-        data = swing_from_bag(bag, args.estimator)
+        data = swing_from_bag(bag, args.estimator, sensor_config(args))
+    elif sensor_config(args):
+        raise ParameterError(
+            "--length and --noise-std describe a bag's sensor; a scene's pendulum is its own (edit the scene)"
+        )
     else:
         data = swing_from_scene(load_scene(args.source), args.estimator)
     anim = SwingAnimation(data, fps=args.fps, duration=args.duration)

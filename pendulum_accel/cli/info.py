@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.integrity import damage_origin
 from pendulum_accel.bag.metadata import listed_counts
-from pendulum_accel.bag.reader import Bag, read_bag, salvage_note
+from pendulum_accel.bag.reader import Bag, header_library, read_bag, salvage_note
 from pendulum_accel.bag.repair import CUSTOM_REPAIRED
 from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_VERSION
 from pendulum_accel.cli.topics import add_topic_flags, choose_topics
@@ -203,7 +203,7 @@ def info_lines(path: str, args: argparse.Namespace | None = None) -> tuple[list[
         f"messages:  {bag.message_count}",
         f"scene:     {stored_scene_name(bag) or '(not stored)'}",
         f"plan:      {bag.custom_data.get(CUSTOM_PLAN, '(not stored)').removeprefix('plan: ')}",
-        f"written by pendulum_accel {bag.custom_data.get(CUSTOM_VERSION, '?')}",
+        f"written by {_writer(bag)}",
         "topics:",
     ]
     topics = bag.topics
@@ -228,3 +228,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"pendulum-accel info: warning: {note}", file=sys.stderr)
         return 1
     return 0
+
+
+def _writer(bag: Bag) -> str:
+    """Who wrote the bag: its MCAP Header's library (pendulum_accel-0.1.0, rosbags-0.11.9, …), else the
+    pendulum_accel version its custom data stores, else '(not stated)'."""
+    library = header_library(bag.mcap_path)
+    if library:
+        return library
+    version = bag.custom_data.get(CUSTOM_VERSION)
+    return f"pendulum_accel-{version}" if version else "(not stated)"

@@ -89,7 +89,7 @@ def _figures(result: Analysis, complete: bool) -> dict[str, Any]:
     """The table's figures of one re-run."""
     keep = np.isfinite(result.accel_est) & (result.t >= result.t[0] + result.skip)
     delay = math.nan
-    if keep.sum() >= 8:
+    if keep.sum() >= 8 and result.has_truth:  # a delay behind the truth: none without one
         rate = (keep.sum() - 1) / max(float(result.t[keep][-1] - result.t[keep][0]), 1e-12)
         delay = group_delay(result.accel_est[keep], result.accel_true[keep], rate)
     with np.errstate(divide="ignore", invalid="ignore"):
