@@ -19,14 +19,32 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 
-def split_recording(source: Path, out_dir: Path, parts: int, *, chunk_size: int = 16384) -> list[Path]:
+def split_recording(
+    source: Path,
+    out_dir: Path,
+    parts: int,
+    *,
+    chunk_size: int = 16384,
+    drop: tuple[str, ...] = (),
+    custom_data: bool = True,
+) -> list[Path]:
     """Bag directory ``source`` (one MCAP file) rewritten in ``out_dir`` as ``parts`` files, split by
-    message count in log-time order, with rosbag2's metadata.yaml; the files in order."""
+    message count in log-time order, with rosbag2's metadata.yaml; the files in order. Topics in ``drop``
+    are left out, as a recording of the other topics only would have them (a real sensor's bag has no
+    truth); without ``custom_data``, metadata.yaml's custom_data (the stored scene) is left out too."""
     mcap_file = next(source.glob("*.mcap"))
     with mcap_file.open("rb") as stream:
-        messages = list(make_reader(stream).iter_messages(log_time_order=True))
+        messages = [
+            m for m in make_reader(stream).iter_messages(log_time_order=True) if m[1].topic not in drop
+        ]
     meta: dict[str, Any] = yaml.safe_load((source / "metadata.yaml").read_text(encoding="utf8"))
     info = meta["rosbag2_bagfile_information"]
+    info["topics_with_message_count"] = [
+        t for t in info["topics_with_message_count"] if t["topic_metadata"]["name"] not in drop
+    ]
+    info["message_count"] = len(messages)
+    if not custom_data:
+        info.pop("custom_data", None)
     out_dir.mkdir()
     files: list[Path] = []
     entries = []
