@@ -185,6 +185,18 @@ def test_analyze_and_animate_a_live_recording_without_truth(
     gif = tmp_path / "sensor.gif"
     _no_traceback(cli("animate", str(live_sensor), "--out", str(gif), "--length", length, "--duration", "1"))
     assert gif.stat().st_size > 0
+    # export writes the smoother's series for it once --length gives the sensor, as analyze's smoother.
+    _no_traceback(cli("export", str(live_sensor), "--out", str(tmp_path / "bare")))
+    assert not (tmp_path / "bare" / f"{file_stem(SMOOTHED)}.csv").exists()  # no sensor, no smoother
+    _no_traceback(cli("export", str(live_sensor), "--out", str(tmp_path / "told"), "--length", length))
+    smoothed = pd.read_csv(tmp_path / "told" / f"{file_stem(SMOOTHED)}.csv")
+    assert len(smoothed) == SAMPLES and np.isfinite(smoothed[f"{SMOOTHED}/a"]).all()
+    told = cli("analyze", str(live_sensor), "--json", "--length", length, "--estimator", "smoother")
+    # The same smoother, settings and samples: the two means differ only by their summation order, at most
+    # n ε Σ|a| / |Σ a| relative (the sum's condition number; the CSV keeps every digit, 17 significant).
+    a = smoothed[f"{SMOOTHED}/a"].to_numpy()
+    rel = SAMPLES * np.finfo(float).eps * float(np.abs(a).sum() / abs(a.sum()))
+    assert strict_json(told.stdout)["offline"]["estimate_mean"] == pytest.approx(float(a.mean()), rel=rel)
 
 
 @pytest.mark.ros

@@ -11,6 +11,7 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.export import FORMATS, VISUAL_ROLES, export_bag, export_tables, write_csv_table
 from pendulum_accel.cli.output import check_output_dir, output_directory
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
+from pendulum_accel.cli.sensor_flags import add_sensor_flags, sensor_config
 from pendulum_accel.cli.topics import add_topic_flags, choose_topics, namespace_topics
 from pendulum_accel.errors import OutputError
 
@@ -45,8 +46,9 @@ def register(subparsers: Any) -> None:
         "--no-smoothed",
         action="store_true",
         help=f"leave out {SMOOTHED}/a and /variance, the RTS smoother's acceleration over the whole bag "
-        "(written by default when the bag stores its scene)",
+        "(written by default when the bag stores its scene, or --length gives its sensor)",
     )
+    add_sensor_flags(parser)
     parser.set_defaults(func=run)
 
 
@@ -71,8 +73,9 @@ def run(args: argparse.Namespace) -> int:
 
     # Computed when its table is written (after the topics'; first for --merged): the smoother's memory
     # and the topics' batches are not held at once.
-    smooth = not args.no_smoothed and smoothable(bag)
-    derived = {SMOOTHED: functools.partial(smoothed_estimate, bag)} if smooth else {}
+    config = sensor_config(args)
+    smooth = not args.no_smoothed and smoothable(bag, config)
+    derived = {SMOOTHED: functools.partial(smoothed_estimate, bag, config)} if smooth else {}
     # With --namespace, by default that chain's topics (but the visual ones, as export_bag leaves them).
     in_ns = [t for t in namespace_topics(bag) if bm.role_of(t) not in VISUAL_ROLES]
     topics = args.topics or (in_ns if bag.choice.namespace else [])

@@ -17,7 +17,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -682,17 +682,21 @@ def _recorded_figures(
     )
 
 
-def smoothable(bag: Bag) -> bool:
-    """True when the bag stores its scene and at least 2 angles: what smoothed_estimate needs."""
+def smoothable(bag: Bag, config: Mapping[str, float] | None = None) -> bool:
+    """True when the bag has at least 2 angles and a sensor to configure the smoother with: its stored
+    scene, or a ``config`` naming the length (a real sensor's bag): what smoothed_estimate needs."""
     angles = bag.topics.get(TOPIC_JOINT_STATES)
-    return angles is not None and angles.count >= 2 and bool(bag.custom_data.get(CUSTOM_SCENE))
+    told = config is not None and "length" in config
+    return angles is not None and angles.count >= 2 and (told or bool(bag.custom_data.get(CUSTOM_SCENE)))
 
 
-def smoothed_estimate(bag: Bag) -> dict[str, NDArray[np.float64]] | None:
+def smoothed_estimate(
+    bag: Bag, config: Mapping[str, float] | None = None
+) -> dict[str, NDArray[np.float64]] | None:
     """{t, a, variance}: the kalman model's smoother (``smoother``) over the bag's angles, configured from
-    its stored scene; None when the bag stores no scene or fewer than 2 angles (nothing to configure or
-    smooth)."""
-    if not smoothable(bag):
+    its stored scene with ``config`` overriding it (length, noise_std); None when neither gives a length
+    or the bag has fewer than 2 angles (nothing to configure or smooth)."""
+    if not smoothable(bag, config):
         return None
     js = bag.decode(
         TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
@@ -708,7 +712,8 @@ def smoothed_estimate(bag: Bag) -> dict[str, NDArray[np.float64]] | None:
     if not keep.all():
         t, theta = t[keep], theta[keep]
     del keep
-    a, var = estimate_batch("smoother", t, theta, **estimator_config(bag, t), preset=bag_motion(bag).preset)
+    cfg = {**estimator_config(bag, t), **(config or {})}
+    a, var = estimate_batch("smoother", t, theta, **cfg, preset=bag_motion(bag).preset)
     return {"t": t, "a": np.asarray(a, dtype=np.float64), "variance": np.asarray(var, dtype=np.float64)}
 
 
