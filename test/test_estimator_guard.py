@@ -146,3 +146,33 @@ def test_saturated_readings_warn_and_are_counted() -> None:
     assert dict(report.values)["saturated"] == "2"
     with pytest.raises(ParameterError, match="saturation_range must be >= 0"):
         InputGuard(saturation_range=-1.0)
+
+
+def _fed(rate_hz: float, stamps: np.ndarray) -> InputGuard:
+    """A guard at ``rate_hz`` that accepted a sample at each of ``stamps``."""
+    guard = InputGuard(rate_hz=rate_hz)
+    for t in stamps:
+        assert guard.check(float(t), 0.01) is Decision.ACCEPT
+    return guard
+
+
+def test_an_input_rate_other_than_rate_hz_warns_and_is_reported() -> None:
+    """A 400 Hz sensor read by a node at rate_hz 100 (the fixed lag would be a quarter as long as asked):
+    WARN naming both rates; the measured rate is a diagnostics value. At the configured rate, with 30 %
+    of the samples lost and ±20 % jitter, the median interval is the sensor's: OK. Before a full window,
+    nothing is claimed."""
+    guard = _fed(100.0, np.arange(200) / 400.0)
+    report = guard.report()
+    assert report.state is GuardState.WARN
+    assert "input at 400 Hz by its stamps, not rate_hz 100 Hz" in report.message
+    # 1/400 s steps of integer multiples: the median Δt is 1/400 s to a few ulps of the stamps' division.
+    assert float(dict(report.values)["input_rate_hz"]) == pytest.approx(400.0, rel=1e-9)
+    rng = np.random.default_rng(3)
+    stamps = np.arange(400) / 100.0 + rng.uniform(-0.002, 0.002, 400)  # ±20 % of a period
+    kept = np.sort(stamps[rng.random(400) > 0.3])
+    lossy = _fed(100.0, kept)
+    report = lossy.report()
+    assert report.state is GuardState.OK, report.message
+    rate = float(dict(report.values)["input_rate_hz"])
+    assert abs(rate / 100.0 - 1.0) <= 0.1  # within the tolerance that warns
+    assert dict(_fed(100.0, np.arange(10) / 400.0).report().values)["input_rate_hz"] == "none"

@@ -87,6 +87,8 @@ def test_every_diagnostic_state_and_no_nonfinite_output(spawn: Spawn) -> None:
     assert levels == {"OK": 0, "WARN": 1, "ERROR": 2, "RESET": 1, "STALE": 3}
     assert "non-finite" in messages[first["ERROR"]]
     assert "time jumped back" in messages[first["RESET"]]
+    # The input's rate by its stamps (1 / median Δt of the last 64): 50 ms steps, 20 Hz to the stamps' ulps.
+    assert float(result["diagnostics"][-1][2]["input_rate_hz"]) == pytest.approx(20.0, rel=1e-9)
     # Estimates: finite, variance ≥ 0, each stamped with an input's stamp, none for the NaN input.
     fed_stamps = {round(t, 9) for t, _ in [*normal, *after_nan, *steep, *jumped]}
     estimates = result["estimates"]

@@ -14,13 +14,17 @@ Each input sample gets a decision:
 reading is clipped, not measured: state WARN "saturated", counted in ``saturated``.
 ``check_stale(now)`` (called by the node on a timer) turns the state STALE when no input arrived
 for ``stale_after`` seconds. ``report()`` returns the worst state since the previous report, so a
-single dropped NaN between two diagnostics publications is still seen.
+single dropped NaN between two diagnostics publications is still seen. It also measures the input's
+rate from its stamps and warns when it is not ``rate_hz`` within RATE_TOLERANCE (the rate a real
+sensor's node was configured with, which the fixed lag's length in samples assumes).
 """
 
 from __future__ import annotations
 
 import enum
 import math
+import statistics
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -28,6 +32,14 @@ from pendulum_accel.bag.messages import FRAME_ID, PENDULUM_JOINT
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators.base import Estimate, Estimator
 from pendulum_accel.physics.params import require_finite, require_positive
+
+RATE_WINDOW = 64
+"""Sample intervals the measured input rate is taken over: 1 / their median, so sporadic losses (up to
+half the window) and jitter leave it at the sensor's rate."""
+
+RATE_TOLERANCE = 0.1
+"""Relative mismatch of the measured input rate and ``rate_hz`` that warns: diagnostic_updater's
+FrequencyStatus default tolerance."""
 
 PENDULUM_FRAMES = (FRAME_ID, "")
 """frame_ids the chain's messages may carry: the car's (REP-103 base_link), or none given."""
@@ -122,6 +134,8 @@ class InputGuard:
         """Validate the thresholds (saturation_range 0: the sensor has no range); start with no input seen.
         ``joint``: the name a sample must carry."""
         rate = require_positive("rate_hz", rate_hz)
+        self.rate_hz = rate
+        self._intervals: deque[float] = deque(maxlen=RATE_WINDOW)  # the last accepted samples' Δt
         self.warn_angle = require_positive("warn_angle", warn_angle)
         self.reset_jump = require_positive("reset_jump", reset_jump)
         self.saturation_range = require_finite("saturation_range", saturation_range)
@@ -202,9 +216,27 @@ class InputGuard:
                 f"saturated: θ = {theta:+.4f} rad at the sensor's range ±{self.saturation_range:g} rad "
                 f"({self.saturated} samples so far)",
             )
+        if decision is Decision.ACCEPT and self.last_t is not None:
+            self._intervals.append(t - self.last_t)
         self.accepted += 1
         self.last_t, self.last_theta = t, theta
         return decision
+
+    def input_rate(self) -> float | None:
+        """1 / median Δt of the last RATE_WINDOW accepted samples (Hz); None before a full window."""
+        if len(self._intervals) < RATE_WINDOW:
+            return None
+        return 1.0 / statistics.median(self._intervals)
+
+    def _check_rate(self) -> None:
+        """WARN when the measured input rate is not rate_hz within RATE_TOLERANCE."""
+        rate = self.input_rate()
+        if rate is not None and abs(rate / self.rate_hz - 1.0) > RATE_TOLERANCE:
+            self.note(
+                GuardState.WARN,
+                f"input at {rate:.4g} Hz by its stamps, not rate_hz {self.rate_hz:g} Hz: set rate_hz "
+                "(the fixed lag's length in samples and the stale limit assume it)",
+            )
 
     def check_stale(self, now: float, last_arrival: float | None = None) -> bool:
         """True (and state STALE) when no input arrived for more than stale_after seconds before ``now``.
@@ -241,10 +273,12 @@ class InputGuard:
             ("last_t", fmt(self.last_t)),
             ("last_theta", fmt(self.last_theta)),
             ("stale_for_s", fmt(self._stale_for)),
+            ("input_rate_hz", fmt(self.input_rate())),
         )
 
     def report(self) -> GuardReport:
         """The worst state since the previous report, then re-arm (check_stale re-raises STALE each tick)."""
+        self._check_rate()
         state, message = self._worst, self._worst_message
         if state is GuardState.OK:
             message = f"input normal: {self.accepted} samples accepted"
