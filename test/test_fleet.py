@@ -35,6 +35,7 @@ from pendulum_accel.recording import design_study as ds
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.recording.fleet import COLUMN_NAMES, Job, analyze_many, bag_rows, find_bags, write_csv
 from test.conftest import REPO, Spawn, cli, stop_processes, strict_json
+from test.split_recording import split_recording
 from test.test_network import TwoHosts, two_hosts  # noqa: F401 (the fixture)
 
 SCENES = ("step_start", "braking")
@@ -146,6 +147,23 @@ def test_share_cells_are_the_single_bag_reports_and_null_without_samples(
     fields = dict(zip(*csv.reader(io.StringIO(text.getvalue())), strict=True))
     assert all(fields[k] == "" for k in SHARE_CELLS if "after_change" in k)
     assert all(math.isfinite(float(fields[k])) for k in SHARE_CELLS if "steady" in k)
+
+
+def test_a_bag_without_truth_is_a_row_of_its_own_figures(corpus: Path, tmp_path: Path) -> None:
+    """A recording without its truth topic (as a real sensor's, with its scene kept) is a row, not an
+    error: truth false, the error, delay and calibration cells null, and the estimate's mean and median σ
+    those of the same angles beside their truth (the same floats through the same code: equal)."""
+    whole = corpus / "site_a" / "step_start"
+    bare = tmp_path / "no_truth"
+    split_recording(whole, bare, 1, drop=("/car/accel/truth",))
+    (with_truth,) = bag_rows(str(whole), Job())
+    (row,) = bag_rows(str(bare), Job())
+    assert row["error"] == "" and row["truth"] is False and with_truth["truth"] is True
+    for key in ("rms", "bias", "max_error", "delay", "nees_mean", *SHARE_CELLS):
+        assert row[key] is None, key
+    for key in ("estimate_mean", "sigma_median", "angles", "duration", "estimator", "motion_model"):
+        assert row[key] == with_truth[key], key
+    assert isinstance(row["estimate_mean"], float) and row["sigma_median"] > 0.0
 
 
 def test_local_cluster_gives_the_serial_table(corpus: Path) -> None:

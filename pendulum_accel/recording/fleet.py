@@ -38,6 +38,14 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("bag", "string", "the bag's path, as found"),
     ("estimator", "string", "the method re-run on the bag's angles"),
     ("motion_model", "string", "the motion model the estimate used (kalman's preset), empty for others"),
+    (
+        "truth",
+        "bool",
+        "the bag has a truth topic; without one (a real sensor's bag) the error and calibration columns "
+        "are null",
+    ),
+    ("estimate_mean", "double", "mean â over the re-run's estimates (m/s²): no truth needed"),
+    ("sigma_median", "double", "median published σ of the re-run's estimates (m/s²): no truth needed"),
     ("rms", "double", "√(mean e²) of e = â − a over the re-run's estimates (m/s²)"),
     ("bias", "double", "mean e (m/s²)"),
     ("max_error", "double", "max |e| (m/s²)"),
@@ -101,6 +109,9 @@ def _figures(result: Analysis, complete: bool) -> dict[str, Any]:
     return {
         "estimator": result.estimator,
         "motion_model": result.motion.preset if result.motion is not None else "",
+        "truth": result.has_truth,
+        "estimate_mean": _float(result.offline_figures.values.mean),
+        "sigma_median": _float(result.offline_figures.values.sigma_median),
         "rms": _float(result.stats.rms),
         "bias": _float(result.stats.bias),
         "max_error": _float(result.stats.max_abs),
