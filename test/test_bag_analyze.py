@@ -214,6 +214,8 @@ def test_a_bag_without_truth_gets_the_figures_that_need_none(sensor_bag: Path, s
     assert "no truth in the bag (/car/accel/truth)" in report
     assert "RMS:" not in report and "settling" not in report
     assert_figure(report, "mean â:", values.mean, rel=1e-4)
+    with pytest.raises(BagError, match=r"settling band around the truth, and bag .* has none"):
+        analyze_bag(sensor_bag, config=CONFIG, tolerance=0.1)
 
 
 def test_analyze_cli_on_a_bag_without_truth(

@@ -535,6 +535,8 @@ def analyze_bag(
         raise BagError(f"bag {data.path} holds {len(js)} joint states; at least 2 are needed")
     if truth is not None and len(truth) == 0:
         raise BagError(f"bag {data.path} holds no {TOPIC_ACCEL_TRUTH} messages to compare with")
+    if truth is None and tolerance is not None:
+        raise BagError(f"--tolerance is a settling band around the truth, and bag {data.path} has none")
     t = js.stamp
     order = np.argsort(t, kind="stable")
     t, theta = t[order], js["position[0]"][order]
