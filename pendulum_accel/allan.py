@@ -288,15 +288,14 @@ def bag_series(path: str | Bag) -> StaticSeries:
         TOPIC_JOINT_STATES,
     )
     from pendulum_accel.bag.reader import Bag, read_bag
-    from pendulum_accel.recording.contract import decode_chain
+    from pendulum_accel.recording.contract import angle_field, decode_chain
 
     bag = path if isinstance(path, Bag) else read_bag(path, salvage=False)
     path = str(bag.path)
     angles, estimate = bag.chain_topic(TOPIC_JOINT_STATES), bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
     stamp = ["header.stamp.sec", "header.stamp.nanosec"]
-    requests: dict[str, tuple[str | None, list[str] | None]] = {
-        angles: (JOINT_STATE, [*stamp, "position[0]"])
-    }
+    theta_field = angle_field(bag)
+    requests: dict[str, tuple[str | None, list[str] | None]] = {angles: (JOINT_STATE, [*stamp, theta_field])}
     with_estimate = estimate in bag.topics and bag.topics[estimate].count >= MIN_SAMPLES
     if with_estimate and estimate != angles:
         requests[estimate] = (ACCEL_WITH_COVARIANCE_STAMPED, [*stamp, "accel.accel.linear.x"])
@@ -315,5 +314,5 @@ def bag_series(path: str | Bag) -> StaticSeries:
         est = decoded[estimate]
         accel = est["accel.accel.linear.x"][np.argsort(est.stamp, kind="stable")]
     return StaticSeries(
-        f"bag {path}", rate, js["position[0]"][order], accel, "recorded" if accel is not None else None
+        f"bag {path}", rate, js[theta_field][order], accel, "recorded" if accel is not None else None
     )

@@ -67,13 +67,43 @@ def test_analyze_reads_a_named_joint_as_the_pendulum(bags: tuple[Path, Path]) ->
         assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
 
 
-def test_the_named_joint_must_come_first_offline(bags: tuple[Path, Path], tmp_path: Path) -> None:
-    """The offline commands read position[0]: the named joint after another is refused, saying why."""
+def test_the_named_joint_is_read_at_its_place_among_a_robots_joints(
+    bags: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """A robot's aggregated JointState with the pendulum's joint second: the offline commands read it at
+    its place (position[1]) and give the chain's own figures (they refused it: "not the first joint").
+    Its place changing between messages is refused in one line, saying why."""
     chain, _ = bags
     mixed = _renamed(chain, tmp_path / "mixed", ["wheel", JOINT])
-    refused = cli("analyze", str(mixed), "--joint", JOINT)
-    assert refused.returncode == 2
-    assert f"'{JOINT}' is not the first joint: the offline commands read position[0]" in refused.stderr
+    got = cli("analyze", str(mixed), "--joint", JOINT, "--json")
+    assert got.returncode == 0, got.stderr
+    figures, expected = strict_json(got.stdout), strict_json(cli("analyze", str(chain), "--json").stdout)
+    figures.pop("bag"), expected.pop("bag")
+    assert figures == expected  # the same angles, read at their place: the same computation
+    for command in (["allan"], ["export", "--out", str(tmp_path / "tables")]):
+        done = cli(command[0], str(mixed), *command[1:], "--joint", JOINT)
+        assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    swapped = _renamed(chain, tmp_path / "swapped", [JOINT, "wheel"])  # the same joints, other order
+    refused = cli("analyze", str(_alternated(mixed, swapped, tmp_path / "alternated")), "--joint", JOINT)
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    assert f"'{JOINT}' is at places [0, 1] among the joints of different messages" in refused.stderr
+
+
+def _alternated(first: Path, second: Path, out: Path) -> Path:
+    """``first`` with every other angle taken from ``second`` (the same stamps, another joint order)."""
+    a, b = read_bag(first), read_bag(second)
+    others = iter(b.raw_payloads(bm.TOPIC_JOINT_STATES))
+    with BagWriter(out, custom_data=a.custom_data) as writer:
+        for name, info in a.topics.items():
+            writer.add_topic(name, info.msgtype)
+        k = 0
+        for topic, ns, data in a.iter_raw():
+            if topic == bm.TOPIC_JOINT_STATES:
+                other = next(others)
+                data = other if k % 2 else data
+                k += 1
+            writer.write(topic, ns, data)
+    return out
 
 
 def test_an_empty_joint_name_is_refused(bags: tuple[Path, Path]) -> None:

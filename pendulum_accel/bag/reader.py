@@ -155,6 +155,16 @@ _Block = tuple[NDArray[np.int64], _Payloads]
 """Messages in file order: (log times, payloads as (n, size) rows, slices of a chunk, or a list of bytes)."""
 
 
+def _first_payload(data: _Payloads) -> bytes | None:
+    """A block's first payload (None when it holds none), without copying the others out."""
+    if isinstance(data, _Slices):
+        start = int(data.starts[0]) if data.starts.size else None
+        return None if start is None else data.data[start : start + data.size].tobytes()
+    if isinstance(data, np.ndarray):
+        return data[0].tobytes() if data.shape[0] else None
+    return data[0] if data else None
+
+
 def _block_payloads(data: _Payloads) -> list[bytes]:
     """A block's payloads as bytes, one per message, in order."""
     if isinstance(data, _Slices):
@@ -206,6 +216,9 @@ class _ChannelData:
     last_time: int = -1
     track: bool = True
     """Follow ``ordered``: False for the scratch channels a chunk is read into."""
+    head: bytes | None = None
+    """The channel's first payload in file order, kept by the scan when its chunk is left in the file: what
+    a reader needs to see of a message's layout (the pendulum joint's place) without reading it again."""
 
     def _note(self, times: NDArray[np.int64]) -> None:
         """Follow the file order of log times (``ordered``) over the next ``times``."""
@@ -529,6 +542,21 @@ class Bag:
             order = np.argsort(times, kind="stable")
             return times[order], [payloads[i] for i in order]
         return times, payloads
+
+    def first_payload(self, topic: str, msgtype: str | None = None) -> bytes | None:
+        """The first payload in file order of ``topic``'s first channel (of ``msgtype``), read no further
+        than the scan kept it (a chunk left in the file is not read again); None when it has none."""
+        for ch in self._channels_of(topic, msgtype):
+            if ch.head is not None:
+                return ch.head
+            for block in ch.blocks:
+                if not isinstance(block, _Lazy):
+                    first = _first_payload(block[1])
+                    if first is not None:
+                        return first
+            if ch.payloads:
+                return ch.payloads[0]
+        return None
 
     def raw_payloads(self, topic: str, msgtype: str | None = None) -> Iterator[bytes]:
         """raw(topic, msgtype)'s payloads one at a time, in its order; when the topic's log times never go
@@ -1232,7 +1260,11 @@ class _Scanner:
                     if got.count:
                         t = np.concatenate(times)
                         lazy = _Lazy(ref, cid, got.count, int(t.min()), int(t.max()))
-                        self.bag._channels[cid].add_lazy(lazy, t)
+                        channel = self.bag._channels[cid]
+                        if channel.sealed == 0 and not channel.payloads and channel.head is None:
+                            first = next(b for b in got.blocks if not isinstance(b, _Lazy))
+                            channel.head = _first_payload(first[1])
+                        channel.add_lazy(lazy, t)
 
     def _recover(
         self,

@@ -223,14 +223,15 @@ class InputGuard:
         return decision
 
     def input_rate(self) -> float | None:
-        """1 / median Δt of the last RATE_WINDOW accepted samples (Hz); None before a full window."""
-        if len(self._intervals) < RATE_WINDOW:
+        """1 / median Δt of the last RATE_WINDOW accepted samples, or of those so far (Hz); None before
+        two."""
+        if not self._intervals:
             return None
         return 1.0 / statistics.median(self._intervals)
 
     def _check_rate(self) -> None:
-        """WARN when the measured input rate is not rate_hz within RATE_TOLERANCE."""
-        rate = self.input_rate()
+        """WARN when the input rate over a full window is not rate_hz within RATE_TOLERANCE."""
+        rate = self.input_rate() if len(self._intervals) == RATE_WINDOW else None
         if rate is not None and abs(rate / self.rate_hz - 1.0) > RATE_TOLERANCE:
             self.note(
                 GuardState.WARN,

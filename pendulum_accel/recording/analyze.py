@@ -51,7 +51,7 @@ from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice
 from pendulum_accel.recording import coverage
 from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change, change_rule
-from pendulum_accel.recording.contract import decode_chain
+from pendulum_accel.recording.contract import angle_field, decode_chain
 from pendulum_accel.recording.settings import estimator_settings, motion_choice, uses_preset
 from pendulum_accel.scene import Scene, scene_from_yaml, scene_text_without_motion
 
@@ -518,8 +518,9 @@ def analyze_bag(
     )
     stamp = ["header.stamp.sec", "header.stamp.nanosec"]
     has_truth = truth_topic in data.topics and truth_topic != joint_topic  # a real sensor's bag has none
+    theta_field = angle_field(data)
     requests: dict[str, tuple[str | None, list[str] | None]] = {
-        joint_topic: (JOINT_STATE, [*stamp, "position[0]"]),
+        joint_topic: (JOINT_STATE, [*stamp, theta_field]),
     }
     if has_truth:
         requests[truth_topic] = (ACCEL_STAMPED, [*stamp, "accel.linear.x"])
@@ -539,7 +540,7 @@ def analyze_bag(
         raise BagError(f"--tolerance is a settling band around the truth, and bag {data.path} has none")
     t = js.stamp
     order = np.argsort(t, kind="stable")
-    t, theta = t[order], js["position[0]"][order]
+    t, theta = t[order], js[theta_field][order]
     del js, order
     truth_t: NDArray[np.float64] | None = None
     truth_a: NDArray[np.float64] | None = None
@@ -687,7 +688,7 @@ def _recorded_figures(
 def smoothable(bag: Bag, config: Mapping[str, float] | None = None) -> bool:
     """True when the bag has at least 2 angles and a sensor to configure the smoother with: its stored
     scene, or a ``config`` naming the length (a real sensor's bag): what smoothed_estimate needs."""
-    angles = bag.topics.get(TOPIC_JOINT_STATES)
+    angles = bag.topics.get(bag.chain_topic(TOPIC_JOINT_STATES))
     told = config is not None and "length" in config
     return angles is not None and angles.count >= 2 and (told or bool(bag.custom_data.get(CUSTOM_SCENE)))
 
@@ -700,12 +701,15 @@ def smoothed_estimate(
     or the bag has fewer than 2 angles (nothing to configure or smooth)."""
     if not smoothable(bag, config):
         return None
+    field = angle_field(bag)
     js = bag.decode(
-        TOPIC_JOINT_STATES, JOINT_STATE, fields=["header.stamp.sec", "header.stamp.nanosec", "position[0]"]
+        bag.chain_topic(TOPIC_JOINT_STATES),
+        JOINT_STATE,
+        fields=["header.stamp.sec", "header.stamp.nanosec", field],
     )
     if len(js) < 2:
         return None
-    t, theta = js.stamp, js["position[0]"]
+    t, theta = js.stamp, js[field]
     del js  # only t and θ are held while the smoother runs
     if np.any(np.diff(t) < 0.0):
         order = np.argsort(t, kind="stable")

@@ -1,10 +1,10 @@
 """Is a bag the pendulum chain's? The offline commands ask the same question the estimator node asks of
 each message (estimators.guard.joint_state_problem), once per shape of message in the bag.
 
-A bag whose angles name another joint and not the pendulum's, name the pendulum's joint after another
-(the offline readers take position[0]), or whose angle, truth or estimate carry another frame is refused
-with one line (analyze, allan, animate, export): figures computed from another robot's data would look
-like figures of this one.
+A bag whose angles name another joint and not the pendulum's, or whose angle, truth or estimate carry
+another frame is refused with one line (analyze, allan, animate, export): figures computed from another
+robot's data would look like figures of this one. Among a robot's joints, the pendulum's may be at any
+place, the same in every message: the offline readers take ``angle_field`` (``position[k]``).
 """
 
 from __future__ import annotations
@@ -43,6 +43,26 @@ def decode_chain(
     return decoded
 
 
+def joint_index(names: Sequence[str], joint: str) -> int:
+    """The place of ``joint`` among a JointState's ``names``; 0 for a bare angle (no names) or a message
+    without it (which the contract refuses)."""
+    return names.index(joint) if joint in names else 0
+
+
+def angle_field(bag: Bag) -> str:
+    """``position[k]``: the column the offline readers take θ from, k the chosen joint's place in the
+    angles' first message (check_chain_contract refuses a bag where another message has it elsewhere)."""
+    topic = bag.chain_topic(bm.TOPIC_JOINT_STATES)
+    first = bag.first_payload(topic) if topic in bag.topics else None
+    if first is None:
+        return "position[0]"
+    try:
+        msg = bm.deserialize(first, bm.JOINT_STATE)
+    except BagError:
+        return "position[0]"  # the decoding pass says what is wrong with it
+    return f"position[{joint_index([str(n) for n in getattr(msg, 'name', [])], bag.choice.joint)}]"
+
+
 def check_chain_contract(bag: Bag) -> None:
     """BagError (one line) unless every pendulum/joint_states message passes joint_state_problem and every
     message of FRAMED_TOPICS passes frame_problem, each found by its role under any namespace; topics the
@@ -50,6 +70,7 @@ def check_chain_contract(bag: Bag) -> None:
     checks = _checks()
     hint = "; --joint NAME reads another joint's angles" if bag.choice.joint == bm.PENDULUM_JOINT else ""
     bag.find_shapes([bag.chain_topic(root) for root, _ in checks])  # one pass for all
+    places: set[int] = set()
     for root, msgtype in checks:
         topic = bag.chain_topic(root)
         if topic not in bag.topics or bag.topics[topic].count == 0:
@@ -62,8 +83,12 @@ def check_chain_contract(bag: Bag) -> None:
                 names = [str(n) for n in getattr(msg, "name", [])]
                 joint = bag.choice.joint
                 problem = joint_state_problem(names, frame, joint)
-                if problem is None and names and names[0] != joint:
-                    problem = f"{joint!r} is not the first joint: the offline commands read position[0]"
+                places.add(joint_index(names, joint))
+                if problem is None and len(places) > 1:
+                    problem = (
+                        f"{joint!r} is at places {sorted(places)} among the joints of different messages: "
+                        "the offline commands read it at one place"
+                    )
             else:
                 problem = frame_problem(frame) if frame is not None else None
             if problem is not None:
