@@ -285,14 +285,13 @@ def bag_series(path: str | Bag) -> StaticSeries:
         ACCEL_WITH_COVARIANCE_STAMPED,
         JOINT_STATE,
         TOPIC_ACCEL_ESTIMATE,
-        TOPIC_JOINT_STATES,
     )
     from pendulum_accel.bag.reader import Bag, read_bag
-    from pendulum_accel.recording.contract import angle_field, decode_chain
+    from pendulum_accel.recording.contract import angle_field, decode_chain, require_angles
 
     bag = path if isinstance(path, Bag) else read_bag(path, salvage=False)
     path = str(bag.path)
-    angles, estimate = bag.chain_topic(TOPIC_JOINT_STATES), bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
+    angles, estimate = require_angles(bag), bag.chain_topic(TOPIC_ACCEL_ESTIMATE)
     stamp = ["header.stamp.sec", "header.stamp.nanosec"]
     theta_field = angle_field(bag)
     requests: dict[str, tuple[str | None, list[str] | None]] = {angles: (JOINT_STATE, [*stamp, theta_field])}

@@ -218,6 +218,28 @@ def test_a_bag_without_truth_gets_the_figures_that_need_none(sensor_bag: Path, s
         analyze_bag(sensor_bag, config=CONFIG, tolerance=0.1)
 
 
+def test_angles_on_another_topic_are_refused_with_the_flag_that_reads_them(
+    sensor_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A sensor's angles on its own topic (/sensor/angle): analyze says the bag has no angles, names its
+    topics and the --topic rule, in one line; with that rule it reads them."""
+    bag = read_bag(sensor_bag)
+    moved = tmp_path / "moved"
+    with BagWriter(moved, custom_data=bag.custom_data) as writer:
+        rename = {bm.TOPIC_JOINT_STATES: "/sensor/angle"}
+        for name, info in bag.topics.items():
+            writer.add_topic(rename.get(name, name), info.msgtype)
+        for topic, ns, data in bag.iter_raw():
+            writer.write(rename.get(topic, topic), ns, data)
+    assert main(["analyze", str(moved), "--length", str(LENGTH)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "has no angles: no topic /pendulum/joint_states (topics: " in err
+    assert "/sensor/angle" in err and "--topic pendulum/joint_states=NAME" in err
+    rule = ["--topic", "pendulum/joint_states=/sensor/angle"]
+    assert main(["analyze", str(moved), "--length", str(LENGTH), "--json", *rule]) == 0
+    assert strict_json(capsys.readouterr().out)["offline"]["estimates"] == 2400
+
+
 def test_analyze_cli_on_a_bag_without_truth(
     sensor_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

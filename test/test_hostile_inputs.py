@@ -439,7 +439,7 @@ def test_preflight_is_a_function_of_the_config(tmp_path: Path) -> None:
 # as they were afterwards: nothing is written outside the path asked for, not even on refusal.
 #   {ws}  a workspace: {ws}/afile (a file), {ws}/adir (a directory), {ws}/ro (a read-only tmpfs),
 #         {ws}/fifo.yaml (a FIFO), {ws}/dir.yaml (a directory), {ws}/missing (absent)
-#   {bag} a small generated bag; {elbow}, {two}, {odom}, {est_odom}: copies carrying foreign data
+#   {bag} a small generated bag; {elbow}, {moving}, {odom}, {est_odom}: copies carrying foreign data
 #   {huge_FIELD}: lecture_constant with sensor FIELD at 1e300 (bias_random_walk 1e307)
 
 HUGE_SENSOR = {
@@ -505,7 +505,7 @@ RED_TEAM: list[tuple[str, str, int]] = [
         (f"{command} {{{bag}}}{tail}", fragment, 2)
         for bag, fragment in (
             ("elbow", "names joint(s) 'elbow_joint', not 'pendulum_joint'"),
-            ("two", "'pendulum_joint' is not the first joint: the offline commands read position[0]"),
+            ("moving", "'pendulum_joint' is at places [0, 1] among the joints of different messages"),
             ("odom", "/pendulum/joint_states messages are not the pendulum chain's (frame_id 'odom'"),
             ("est_odom", "/car/accel/estimate messages are not the pendulum chain's (frame_id 'odom'"),
         )
@@ -542,6 +542,19 @@ def _joints(names: list[str]) -> Callable[[Any], None]:
         msg.name = names
         msg.position = np.resize(msg.position, len(names))
         msg.velocity = np.resize(msg.velocity, len(names))
+
+    return edit
+
+
+def _moving_joint() -> Callable[[Any], None]:
+    """Edit: the pendulum's joint first in one message and second, after elbow_joint, in the next (a robot
+    whose joint order changes: the offline commands read one place, so they refuse it)."""
+    count = itertools.count()
+
+    def edit(msg: Any) -> None:
+        """In place."""
+        names = [bm.PENDULUM_JOINT, "elbow_joint"]
+        _joints(names[::-1] if next(count) % 2 else names)(msg)
 
     return edit
 
@@ -583,7 +596,7 @@ def red_team(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, str
     places = {"ws": str(ws), "bag": str(bags / "bag")}
     for name, topic, edit in (
         ("elbow", bm.TOPIC_JOINT_STATES, _joints(["elbow_joint"])),
-        ("two", bm.TOPIC_JOINT_STATES, _joints(["elbow_joint", bm.PENDULUM_JOINT])),
+        ("moving", bm.TOPIC_JOINT_STATES, _moving_joint()),
         ("odom", bm.TOPIC_JOINT_STATES, _frame("odom")),
         ("est_odom", bm.TOPIC_ACCEL_ESTIMATE, _frame("odom")),
         ("alt90", bm.TOPIC_JOINT_STATES, _across_90()),

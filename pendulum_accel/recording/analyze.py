@@ -51,7 +51,7 @@ from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice
 from pendulum_accel.recording import coverage
 from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change, change_rule
-from pendulum_accel.recording.contract import angle_field, decode_chain
+from pendulum_accel.recording.contract import angle_field, decode_chain, require_angles
 from pendulum_accel.recording.settings import estimator_settings, motion_choice, uses_preset
 from pendulum_accel.scene import Scene, scene_from_yaml, scene_text_without_motion
 
@@ -512,7 +512,7 @@ def analyze_bag(
             "for the whole recording use --estimator smoother"
         )
     joint_topic, truth_topic, estimate_topic = (
-        data.chain_topic(TOPIC_JOINT_STATES),
+        require_angles(data),
         data.chain_topic(TOPIC_ACCEL_TRUTH),
         data.chain_topic(TOPIC_ACCEL_ESTIMATE),
     )

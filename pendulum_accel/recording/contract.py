@@ -43,6 +43,19 @@ def decode_chain(
     return decoded
 
 
+def require_angles(bag: Bag) -> str:
+    """The bag's angle topic (its chain name for pendulum/joint_states); BagError when it has none, in one
+    line that names the bag's topics and the flag that reads the angles from another."""
+    topic = bag.chain_topic(bm.TOPIC_JOINT_STATES)
+    if topic not in bag.topics:
+        known = ", ".join(sorted(bag.topics)) or "none"
+        raise BagError(
+            f"bag {bag.path} has no angles: no topic {topic} (topics: {known}); "
+            f"--topic {bm.TOPIC_JOINT_STATES.lstrip('/')}=NAME reads them from topic NAME"
+        )
+    return topic
+
+
 def joint_index(names: Sequence[str], joint: str) -> int:
     """The place of ``joint`` among a JointState's ``names``; 0 for a bare angle (no names) or a message
     without it (which the contract refuses)."""
