@@ -48,6 +48,7 @@ A copied bundled scene that keeps its bundled ``name`` is named after its file i
 
 from __future__ import annotations
 
+import bisect
 import functools
 import logging
 import math
@@ -852,6 +853,24 @@ def write_scene_file(scene: Scene, directory: Path) -> Path:
         scene = replace(scene, profile=replace(profile, recipe={"type": "csv", "path": data.name}))
     path.write_text(scene_to_yaml(scene), encoding="utf-8")
     return path
+
+
+def stored_scene_text(scene: Scene) -> str:
+    """The scene text a bag stores: scene_to_yaml of ``scene`` with a table a(t) cut to the points its
+    [0, duration] run reads (the last point at or before 0 to the first at or after the duration).
+
+    A table is linear between its points and flat beyond its ends, so the cut table gives the same a(t)
+    on [0, duration], and a run of the stored scene (analyze --seeds, the player's scene) is the recorded
+    one. A 10 s run of a day-long log stored the whole day's table (megabytes a minute of log)."""
+    profile = scene.profile
+    if isinstance(profile, Table) and profile.recipe is None and len(profile.times) > 2:
+        times = profile.times
+        first = max(bisect.bisect_right(times, 0.0) - 1, 0)
+        last = min(bisect.bisect_left(times, scene.duration), len(times) - 1)
+        if last - first + 1 < len(times):
+            cut = Table(times[first : last + 1], profile.accels[first : last + 1], origin=profile.origin)
+            scene = replace(scene, profile=cut)
+    return scene_to_yaml(scene)
 
 
 def scene_to_yaml(scene: Scene) -> str:

@@ -598,3 +598,29 @@ def test_sensor_density_form_converts_and_excludes_noise_std() -> None:
     assert scene_from_yaml(scene_to_yaml(scene)) == scene
     with pytest.raises(SceneError, match=r"noise_std .* or noise_density .* not both"):
         scene_from_yaml(base + "sensor: {rate_hz: 100.0, noise_std: 1.0e-3, noise_density: 1.0e-4}")
+
+
+def test_a_bag_stores_the_table_its_run_reads() -> None:
+    """A 5 s run of a 357 s logged table stores the table's points over [0, 5 s] (and one each side), and
+    that stored scene gives the same a(t) on [0, 5 s], float for float (linear between the same points),
+    and the same simulated angles; a run as long as its table stores all of it."""
+    import numpy as np
+
+    from pendulum_accel.scene import stored_scene_text
+    from pendulum_accel.scene_run import run_scene
+
+    full = load_scene("phone_corolla_trip2")
+    assert isinstance(full.profile, Table) and full.profile.times[-1] > 300.0
+    short = dataclasses.replace(full, duration=5.0)
+    stored = scene_from_yaml(stored_scene_text(short))
+    assert isinstance(stored.profile, Table)
+    times = stored.profile.times
+    assert times[0] <= 0.0 and times[-1] >= 5.0 and times[-2] < 5.0 and len(times) < len(full.profile.times)
+    t = np.linspace(0.0, 5.0, 5001)
+    assert np.array_equal(stored.profile(t), full.profile(t))
+    original, again = run_scene(short), run_scene(stored)
+    # Each run meets the scene's accuracy (its plan's predicted max angle error): they differ by at most
+    # twice that, whatever step the planner picked for the shorter table.
+    np.testing.assert_allclose(again.theta_measured, original.theta_measured, rtol=0, atol=2 * short.accuracy)
+    whole = dataclasses.replace(full, duration=full.profile.times[-1])  # a run that reads all of it
+    assert scene_from_yaml(stored_scene_text(whole)).profile == full.profile

@@ -87,11 +87,11 @@ def custom_data_for(scene_name: str) -> dict[str, str]:
     if not scene_name:
         return {CUSTOM_VERSION: __version__}
     from pendulum_accel.planner import plan_scene
-    from pendulum_accel.scene import load_scene, scene_to_yaml
+    from pendulum_accel.scene import load_scene, stored_scene_text
 
     scene = load_scene(scene_name)
     return {
-        CUSTOM_SCENE: scene_to_yaml(scene),
+        CUSTOM_SCENE: stored_scene_text(scene),
         CUSTOM_PLAN: plan_scene(scene).explain(),
         CUSTOM_VERSION: __version__,
     }

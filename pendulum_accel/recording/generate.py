@@ -38,7 +38,7 @@ from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.estimators.guard import InputGuard
 from pendulum_accel.recording import visual
 from pendulum_accel.recording.settings import estimator_options
-from pendulum_accel.scene import Scene, load_scene, scene_to_yaml
+from pendulum_accel.scene import Scene, load_scene, stored_scene_text
 from pendulum_accel.scene_run import SceneRun, run_scene
 
 DIAGNOSTIC_NAME = "accel_estimator"
@@ -372,7 +372,7 @@ def generate_bag(
         gravity=float(scene.pendulum.gravity),
     )
     custom = {
-        CUSTOM_SCENE: scene_to_yaml(scene),
+        CUSTOM_SCENE: stored_scene_text(scene),
         CUSTOM_PLAN: run.plan.explain(),
         CUSTOM_VERSION: __version__,
         CUSTOM_ESTIMATOR: method,
