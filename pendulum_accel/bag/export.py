@@ -130,8 +130,12 @@ def _diagnostic_columns(
         if str(name).endswith("/message"):
             columns[str(name)] = table[name].to_numpy()
             continue
-        try:  # numbers when every value of the key is one (PlotJuggler: per value), else strings
-            columns[str(name)] = pd.to_numeric(table[name]).to_numpy()
+        # Numbers when every value of the key is one (PlotJuggler: per value), else strings. "none" (how
+        # the estimator reports a figure it does not have yet: input_rate_hz before two angles) is a
+        # missing number, so the key's column stays numeric rather than all strings.
+        values = table[name]
+        try:
+            columns[str(name)] = pd.to_numeric(values.where(values != "none")).to_numpy()
         except (ValueError, TypeError):
             columns[str(name)] = table[name].to_numpy()
     return np.array(stamps, dtype=np.float64), log_times[np.array(kept, dtype=np.int64)], columns
