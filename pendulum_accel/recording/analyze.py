@@ -354,6 +354,18 @@ class Analysis:
     """False for a bag without a truth topic: accel_true is NaN and only the estimates' own figures exist."""
 
     @property
+    def agreement(self) -> ErrorStats | None:
+        """recorded â − re-run â at the recorded estimates' stamps (after ``skip``): whether the live node
+        computed what the offline estimator does, a check that needs no truth; None without a recording."""
+        rec = self.recorded_figures
+        if rec is None:
+            return None
+        at = np.searchsorted(self.t, rec.t)
+        found = (at < self.t.size) & (self.t[np.minimum(at, self.t.size - 1)] == rec.t)
+        keep = found & (rec.t >= self.t[0] + self.skip)
+        return ErrorStats.of(rec.accel[keep] - self.accel_est[at[keep]])
+
+    @property
     def options(self) -> dict[str, object]:
         """What the re-run was given: the configuration, and the motion preset for a method that takes one."""
         return {**self.config, **({"preset": self.motion.preset} if self.motion is not None else {})}
@@ -386,6 +398,12 @@ class Analysis:
         if self.recorded_figures is None:
             out.append("recorded:   the bag holds no /car/accel/estimate")
         out += figure_table(columns, truth=self.has_truth)
+        agreement = self.agreement
+        if agreement is not None and agreement.n:
+            out.append(
+                f"recorded − re-run: RMS {agreement.rms:.3g}, max {agreement.max_abs:.3g} m/s² over "
+                f"{agreement.n} estimates (0 when the live node computed what the re-run does)"
+            )
         if self.calibration is not None or self.recorded_calibration is not None:
             out.append(f"changes:    {change_rule()} (the calibration's 'after a change')")
         if self.calibration is not None:
@@ -880,9 +898,25 @@ def analysis_dict(result: Analysis) -> dict[str, object]:
         "tolerance": result.tolerance if result.has_truth else None,
         "samples": result.stats.n,
         "recorded": result.recorded_figures.as_dict() if result.recorded_figures is not None else None,
+        **_agreement_fields(result.agreement),
         "offline": result.offline_figures.as_dict(),
         **_calibration_fields("", result.calibration),
         **_calibration_fields("recorded_", result.recorded_calibration),
+    }
+
+
+def _agreement_fields(stats: ErrorStats | None) -> dict[str, float | int | None]:
+    """recorded_vs_offline_{rms,max,samples}: Analysis.agreement's figures; None without a recording."""
+    if stats is None or stats.n == 0:
+        return {
+            "recorded_vs_offline_rms": None,
+            "recorded_vs_offline_max": None,
+            "recorded_vs_offline_samples": 0,
+        }
+    return {
+        "recorded_vs_offline_rms": stats.rms,
+        "recorded_vs_offline_max": stats.max_abs,
+        "recorded_vs_offline_samples": stats.n,
     }
 
 
