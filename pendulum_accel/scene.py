@@ -750,8 +750,12 @@ def scene_path(name_or_path: str | Path) -> Path:
     return SCENES_DIR / f"{text}.yaml"
 
 
-def load_scene(name_or_path: str | Path) -> Scene:
-    """Scene from a bundled name (see SCENE_NAMES) or a YAML file path; SceneError naming file and field."""
+def load_scene(name_or_path: str | Path, *, motion: bool = True) -> Scene:
+    """Scene from a bundled name (see SCENE_NAMES) or a YAML file path; SceneError naming file and field.
+
+    ``motion`` False: a(t) = 0 in place of its ``acceleration`` (scene_text_without_motion), for a reader
+    of everything else (the estimator node: pendulum, sensor, motion key): a day-long log's file is then
+    not read and fitted again (seconds) by a process that never uses it."""
     path = scene_path(name_or_path)
     try:
         text = read_text_file(path)
@@ -761,7 +765,8 @@ def load_scene(name_or_path: str | Path) -> Scene:
         raise SceneError(f"{path}: cannot read scene file ({err.strerror or err})") from None
     except ValueError as err:
         raise SceneError(f"{path}: cannot read scene file ({err})") from None
-    scene = scene_from_yaml(text, label=str(path), base_dir=path.parent)
+    light = None if motion else scene_text_without_motion(text)
+    scene = scene_from_yaml(text if light is None else light, label=str(path), base_dir=path.parent)
     return _with_source(_named_after_copy(scene, path), path)
 
 

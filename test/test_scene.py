@@ -624,3 +624,20 @@ def test_a_bag_stores_the_table_its_run_reads() -> None:
     np.testing.assert_allclose(again.theta_measured, original.theta_measured, rtol=0, atol=2 * short.accuracy)
     whole = dataclasses.replace(full, duration=full.profile.times[-1])  # a run that reads all of it
     assert scene_from_yaml(stored_scene_text(whole)).profile == full.profile
+
+
+def test_a_scene_without_its_motion_reads_no_log(tmp_path: Path) -> None:
+    """load_scene(motion=False), the estimator node's: the pendulum, sensor and motion key as written, a(t)
+    = 0, and the acceleration's file not read (here it does not even exist, which load_scene refuses)."""
+    text = (SCENES_DIR / "phone_corolla_trip2.yaml").read_text(encoding="utf8")
+    doc = yaml.safe_load(text)
+    doc["acceleration"]["path"] = str(tmp_path / "gone.csv")
+    doc["motion"] = "car"
+    path = tmp_path / "sensor.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf8")
+    with pytest.raises(SceneError, match=r"gone\.csv"):
+        load_scene(path)
+    light = load_scene(path, motion=False)
+    full = load_scene("phone_corolla_trip2")
+    assert light.profile == Constant(0.0) and light.motion == "car"
+    assert (light.pendulum, light.sensor, light.duration) == (full.pendulum, full.sensor, full.duration)

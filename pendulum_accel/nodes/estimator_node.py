@@ -130,7 +130,8 @@ class EstimatorNode(ManagedNode):
         super().__init__(NODE_NAME)
         # The parameters' defaults and configure's sensor figures come from one read of the scene (a
         # recorded log's table takes seconds to read); the scene parameter is read-only.
-        self._scene_once = functools.cache(load_scene)
+        # Everything but a(t), which the estimator never reads (a long log's file is not read again here).
+        self._scene_once = functools.cache(functools.partial(load_scene, motion=False))
         values = declare_parameters(self, ESTIMATOR, lambda name: estimator_settings(self._scene_once(name)))
         self.method = str(values["method"])
         self.warn_angle_deg = float(values["warn_angle_deg"])
