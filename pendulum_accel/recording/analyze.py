@@ -815,7 +815,8 @@ def plot_analysis(result: Analysis, out: Path | str) -> Path:
     t = result.t
     axes[0].plot(t, np.degrees(result.theta), lw=0.8, color="tab:gray")
     axes[0].set_ylabel("θ (deg)")
-    title = f"{result.scene or result.path.name}: recorded estimate and {result.estimator} re-run"
+    shown = "recorded estimate and " if result.recorded_figures is not None else ""
+    title = f"{result.scene or result.path.name}: {shown}{result.estimator} re-run"
     axes[0].set_title(title)
     rec = result.recorded_figures
     if result.has_truth:
