@@ -67,7 +67,13 @@ class AllanResult:
             f"{self.label}: overlapping Allan deviation at {self.taus.size} τ from {self.taus[0]:.3g} "
             f"to {self.taus[-1]:.3g} s (fit over {self.fit_from:.3g} … {self.fit_to:.3g} s)",
             f"  white noise density N  {self.white_density:.4g} {self.unit}/√Hz (σ at τ = 1 s, −½ line)",
-            f"  bias random walk    K  {self.random_walk:.4g} {self.unit}/√s  (σ at τ = 3 s, +½ line)",
+            (
+                f"  bias random walk    K  {self.random_walk:.4g} {self.unit}/√s  (σ at τ = 3 s, +½ line)"
+                if self.random_walk > 0.0
+                # The NNLS fit's +½ term at its bound 0: no walk resolved, which is not K = 0.
+                else f"  bias random walk    K  — (none resolved: the fit up to τ = {self.fit_to:.3g} s "
+                "has no +½ slope; a longer record bounds it)"
+            ),
             f"  bias instability    B  {self.instability:.4g} {self.unit}     (floor σ_min / 0.664)",
         ]
 

@@ -102,3 +102,16 @@ def test_overlapping_adev_is_allantools_oadev(size: int) -> None:
     eps = np.finfo(np.float64).eps
     np.testing.assert_array_less(np.abs(adev - ref[1]), terms * eps * ref[1] + 1e-300)
     np.testing.assert_array_less(np.abs(err - ref[2]), terms * eps * ref[2] + 1e-300)
+
+
+def test_an_unresolved_walk_is_said_so_not_printed_as_zero() -> None:
+    """A fit whose +½ term sits at its bound 0 (no walk resolved in the record) prints no K figure: a K of
+    0 would read as a sensor without bias drift. A resolved K prints its value."""
+    import dataclasses
+
+    rng = np.random.default_rng(5)
+    result = allan_deviation(2e-3 * rng.standard_normal(20_000), 100.0, unit="rad")
+    unresolved = "\n".join(dataclasses.replace(result, random_walk=0.0).lines())
+    assert "bias random walk    K  — (none resolved: the fit up to τ = " in unresolved
+    resolved = "\n".join(dataclasses.replace(result, random_walk=1.5e-5).lines())
+    assert "bias random walk    K  1.5e-05 rad/√s" in resolved
