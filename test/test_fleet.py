@@ -166,6 +166,31 @@ def test_a_bag_without_truth_is_a_row_of_its_own_figures(corpus: Path, tmp_path:
     assert isinstance(row["estimate_mean"], float) and row["sigma_median"] > 0.0
 
 
+def test_one_sensors_recordings_without_a_scene_take_its_length(tmp_path: Path) -> None:
+    """Two recordings of one real sensor (no truth, no scene): without --length each row says what to
+    give; with it, every bag is re-run with that length, and its row is the single-bag report's."""
+    from test.sensor_bag import LENGTH, write_step_bag
+
+    for name in ("a", "b"):
+        write_step_bag(tmp_path / "sensor" / name, truth=False)
+    out = tmp_path / "t.csv"
+    bare = cli("analyze", str(tmp_path / "sensor"), "--out", str(out))
+    assert bare.returncode == 1
+    with out.open() as table:
+        rows = list(csv.DictReader(table))
+    assert len(rows) == 2 and all("give the pendulum length (--length)" in r["error"] for r in rows)
+    told = cli("analyze", str(tmp_path / "sensor"), "--out", str(out), "--length", str(LENGTH))
+    assert told.returncode == 0, told.stderr
+    with out.open() as table:
+        rows = list(csv.DictReader(table))
+    single = strict_json(
+        cli("analyze", str(tmp_path / "sensor" / "a"), "--length", str(LENGTH), "--json").stdout
+    )
+    assert [r["error"] for r in rows] == ["", ""] and {r["truth"] for r in rows} == {"False"}
+    # The CSV writes each float's shortest repr: the same float as the single report's.
+    assert [float(r["estimate_mean"]) for r in rows] == [single["offline"]["estimate_mean"]] * 2
+
+
 def test_local_cluster_gives_the_serial_table(corpus: Path) -> None:
     """Two worker processes of a LocalCluster give exactly the serial rows. Exact: each task runs the
     same compiled code on the same inputs on the same machine, only in another process, so no rounding

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from pendulum_accel.cli.output import check_output_file, write_output
+from pendulum_accel.cli.sensor_flags import sensor_config
 from pendulum_accel.cli.topics import topic_rules
 from pendulum_accel.errors import BagError, ParameterError
 from pendulum_accel.recording.fleet import (
@@ -22,7 +23,7 @@ from pendulum_accel.recording.fleet import (
 
 TABLE_SUFFIXES = (".parquet", ".csv")
 
-SINGLE_BAG_ONLY = ("plot", "seeds", "json", "salvage", "tolerance", "length", "noise_std")
+SINGLE_BAG_ONLY = ("plot", "seeds", "json", "salvage", "tolerance")
 """analyze options that describe one bag's report; a fleet table refuses them in one line."""
 
 
@@ -63,6 +64,7 @@ def run_fleet(args: argparse.Namespace) -> int:
         estimators=tuple(args.estimator) if args.estimator else (None,),
         skip=args.skip,
         lag=args.lag,
+        config=sensor_config(args),  # --length, --noise-std: one sensor's recordings without a scene
         topics=topic_rules(args),
     )
     tick, close = stderr_progress(len(paths))
