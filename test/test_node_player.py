@@ -270,6 +270,7 @@ def test_play_next_waits_for_the_named_reader(spawn: Spawn) -> None:
     alone = _control(spawn, {"listen": {JOINT: JOINT_STATE}, "steps": steps})
     assert alone["results"] == [[False, f"waiting for its readers ({JOINT}: /accel_estimator)"], 0]
     estimator = start_node(spawn, "estimator_node", {"scene": "step_start"})
+    estimator.wait_for("estimating with", timeout=60)  # started (imports take seconds under load)
     steps = [["sleep", 1.0], ["call", "play_next"], ["wait_count", ESTIMATE, 1]]
     result = _control(spawn, {"listen": LISTEN, "matched": [ESTIMATE], "steps": steps})
     assert result["results"][1:] == [[True, "played 1 message"], 1]
