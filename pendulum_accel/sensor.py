@@ -203,6 +203,23 @@ class SensorModel:
         return _first_order_recursion(float(start), phi, drive, bias)
 
 
+NOISE_DIFFERENCE_ORDER = 3
+"""Differences of this order estimate the angle noise (noise_from_angles): white noise's grow as √20 σ,
+a smooth swing's as (ω Δt)³ θ, which a sample rate well above the pendulum's frequency makes small."""
+
+
+def noise_from_angles(theta: ArrayLike) -> float | None:
+    """σ ≈ 1.4826 · median |d − median d| / √20, d = Δ³θ: the white noise of equally spaced angles, from
+    their third differences (a robust scale: the odd jump does not move it); an upper bound where the
+    swing is fast beside the sample rate. None below 8 angles."""
+    values = np.asarray(theta, dtype=np.float64)
+    values = values[np.isfinite(values)]
+    if values.size < 8:
+        return None
+    d = np.diff(values, NOISE_DIFFERENCE_ORDER)
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(20.0))
+
+
 def measured_rate(t: ArrayLike, measured: ArrayLike) -> FloatArray:
     """θ'_k = (y_k − y_{k−1})/(t_k − t_{k−1}): the rate a sensor's driver publishes from its own samples.
 

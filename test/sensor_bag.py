@@ -23,14 +23,14 @@ CONFIG = {"length": LENGTH, "noise_std": NOISE, "damping": DAMPING}
 T_STEP = 2.0
 
 
-def write_step_bag(path: Path, truth: bool = True) -> Path:
-    """0 → 3 m/s² step at t = 2 s, damped pendulum, 200 Hz angles with 1 mrad noise, 12 s, and the default
-    estimator's estimate; ``truth`` False: without the truth topic (a real sensor's recording)."""
+def write_step_bag(path: Path, truth: bool = True, noise: float = NOISE) -> Path:
+    """0 → 3 m/s² step at t = 2 s, damped pendulum, 200 Hz angles with ``noise`` (1 mrad), 12 s, and the
+    default estimator's estimate; ``truth`` False: without the truth topic (a real sensor's recording)."""
     pendulum = Pendulum(LENGTH, damping=DAMPING)
     t = np.arange(0.0, 12.0, 1.0 / RATE)
     traj = simulate(pendulum, Step(T_STEP, 0.0, A_STEP), t, theta0=0.0)
-    theta = traj.theta + np.random.default_rng(7).normal(0.0, NOISE, t.size)
-    a_est, var = estimate_batch(DEFAULT_ESTIMATOR, t, theta, rate_hz=RATE, **CONFIG)
+    theta = traj.theta + np.random.default_rng(7).normal(0.0, noise, t.size)
+    a_est, var = estimate_batch(DEFAULT_ESTIMATOR, t, theta, rate_hz=RATE, **{**CONFIG, "noise_std": noise})
     streams = chain_streams(
         t, theta, traj.theta_dot, traj.accel, a_est, var, estimator=DEFAULT_ESTIMATOR, rate_hz=RATE
     )

@@ -246,6 +246,26 @@ def test_angles_on_another_topic_are_refused_with_the_flag_that_reads_them(
     assert strict_json(capsys.readouterr().out)["offline"]["estimates"] == 2400
 
 
+def test_without_a_scene_the_noise_is_measured_from_the_angles(tmp_path: Path) -> None:
+    """A sensor bag without a scene whose noise is 4 mrad, not the estimators' default 1 mrad: the re-run
+    measures σ from the angles (sensor.noise_from_angles) and says so. With it the published variance
+    keeps both windows within 12 % beyond 2σ; with the default σ, a quarter of the errors lie beyond."""
+    bag = write_step_bag(tmp_path / "noisy", noise=4e-3)
+    sensor = {"length": LENGTH, "damping": DAMPING}
+    measured = analyze_bag(bag, config=sensor)
+    assert measured.noise_from_angles
+    # A robust scale (MAD) of 2400 third differences: a few % standard error; 15 % is several of them.
+    assert measured.config["noise_std"] == pytest.approx(4e-3, rel=0.15)
+    assert "noise_std from the angles' third differences" in "\n".join(measured.lines())
+    default = analyze_bag(bag, config={**sensor, "noise_std": 1e-3})
+    assert not default.noise_from_angles
+    for result, within in ((measured, True), (default, False)):
+        cal = result.calibration
+        assert cal is not None
+        shares = (cal.steady.share_2sigma, cal.after_change.share_2sigma)
+        assert all(share <= 0.12 for share in shares) is within, shares
+
+
 def test_analyze_cli_on_a_bag_without_truth(
     sensor_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -54,6 +54,7 @@ from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change, change
 from pendulum_accel.recording.contract import angle_field, decode_chain, require_angles
 from pendulum_accel.recording.settings import estimator_settings, motion_choice, uses_preset
 from pendulum_accel.scene import Scene, scene_from_yaml, scene_text_without_motion
+from pendulum_accel.sensor import noise_from_angles
 
 DEFAULT_REL_TOLERANCE = 0.02
 DEFAULT_ABS_TOLERANCE = 0.1  # m/s², about 1 % of g: below it sensor noise, not the method, dominates
@@ -352,6 +353,8 @@ class Analysis:
     else the preset's name; None for a method without one."""
     has_truth: bool = True
     """False for a bag without a truth topic: accel_true is NaN and only the estimates' own figures exist."""
+    noise_from_angles: bool = False
+    """True when the re-run's noise_std was estimated from the angles (no stored scene, none given)."""
 
     @property
     def agreement(self) -> ErrorStats | None:
@@ -389,6 +392,10 @@ class Analysis:
             ),
             f"re-run:     {self.estimator}  ({cfg})",
         ]
+        if self.noise_from_angles:
+            out.append(
+                "            noise_std from the angles' third differences (no scene says it; --noise-std)"
+            )
         if self.motion_model is not None:
             why = f" ({self.motion.line()})" if self.motion is not None else ""
             out.append(f"            motion model {self.motion_model}{why}")
@@ -570,8 +577,10 @@ def analyze_bag(
     a_true = (
         np.full(t.size, math.nan) if truth_t is None or truth_a is None else np.interp(t, truth_t, truth_a)
     )
-    cfg = estimator_config(data, t)
+    cfg = estimator_config(data, t, theta)
+    noise_measured = "noise_std" in cfg and not data.custom_data.get(CUSTOM_SCENE)
     cfg.update(config or {})
+    noise_measured = noise_measured and "noise_std" not in (config or {})
     if "length" not in cfg:
         raise BagError(f"bag {data.path} stores no scene: give the pendulum length (--length)")
     has_recorded = recorded_in_step or _has_messages(data, estimate_topic)
@@ -631,6 +640,7 @@ def analyze_bag(
         motion=motion,
         motion_model=motion_model,
         has_truth=truth_t is not None,
+        noise_from_angles=noise_measured,
     )
 
 
@@ -736,7 +746,7 @@ def smoothed_estimate(
     if not keep.all():
         t, theta = t[keep], theta[keep]
     del keep
-    cfg = {**estimator_config(bag, t), **(config or {})}
+    cfg = {**estimator_config(bag, t, theta), **(config or {})}
     a, var = estimate_batch("smoother", t, theta, **cfg, preset=bag_motion(bag).preset)
     return {"t": t, "a": np.asarray(a, dtype=np.float64), "variance": np.asarray(var, dtype=np.float64)}
 
@@ -750,8 +760,12 @@ def bag_motion(bag: Bag) -> MotionChoice:
     return motion_choice(scene_but_motion(text))
 
 
-def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
-    """length, gravity, noise_std, rate_hz from the bag's stored scene; rate from the stamps otherwise."""
+def estimator_config(
+    bag: Bag, t: NDArray[np.float64], theta: NDArray[np.float64] | None = None
+) -> dict[str, float]:
+    """length, gravity, noise_std, rate_hz from the bag's stored scene; otherwise the rate from the stamps
+    and, given the angles ``theta``, noise_std from them (sensor.noise_from_angles: a real sensor's bag
+    says neither, and a default σ would make the published variance a guess)."""
     cfg: dict[str, float] = {}
     dt = np.diff(t)
     dt = dt[dt > 0]
@@ -760,6 +774,8 @@ def estimator_config(bag: Bag, t: NDArray[np.float64]) -> dict[str, float]:
     text = bag.custom_data.get(CUSTOM_SCENE)
     if text:
         cfg.update(_scene_config(text))
+    elif theta is not None and (noise := noise_from_angles(theta)) is not None:
+        cfg["noise_std"] = noise
     return cfg
 
 
@@ -891,6 +907,7 @@ def analysis_dict(result: Analysis) -> dict[str, object]:
         "motion_model": result.motion_model,
         "motion_reason": result.motion.reason if result.motion is not None else None,
         "truth": result.has_truth,
+        "noise_std_from_angles": result.noise_from_angles,
         "change_rule": change_rule(),
         "bias": result.stats.bias,
         "rms": result.stats.rms,
