@@ -210,13 +210,19 @@ a smooth swing's as (ω Δt)³ θ, which a sample rate well above the pendulum's
 
 def noise_from_angles(theta: ArrayLike) -> float | None:
     """σ ≈ 1.4826 · median |d − median d| / √20, d = Δ³θ: the white noise of equally spaced angles, from
-    their third differences (a robust scale: the odd jump does not move it); an upper bound where the
-    swing is fast beside the sample rate. None below 8 angles."""
+    their third differences (noise_from_differences); an upper bound where the swing is fast beside the
+    sample rate. None below 8 angles."""
     values = np.asarray(theta, dtype=np.float64)
     values = values[np.isfinite(values)]
     if values.size < 8:
         return None
-    d = np.diff(values, NOISE_DIFFERENCE_ORDER)
+    return noise_from_differences(np.diff(values, NOISE_DIFFERENCE_ORDER))
+
+
+def noise_from_differences(third: ArrayLike) -> float:
+    """σ = 1.4826 · median |d − median d| / √20 of third differences d = Δ³θ: white noise's have variance
+    20 σ², and the median absolute deviation (1.4826 for a Gaussian's σ) lets the odd jump pass."""
+    d = np.asarray(third, dtype=np.float64)
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(20.0))
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import make_estimator
-from pendulum_accel.estimators.guard import Decision, GuardedEstimator, GuardState, InputGuard
+from pendulum_accel.estimators.guard import Decision, GuardedEstimator, GuardReport, GuardState, InputGuard
 
 
 def feed(guard: InputGuard, n: int, t0: float = 0.0, theta: float = 0.05) -> None:
@@ -180,3 +180,29 @@ def test_an_input_rate_other_than_rate_hz_warns_and_is_reported() -> None:
     ).report()  # shown from the second sample, warned on a full window
     assert early.state is GuardState.OK and float(dict(early.values)["input_rate_hz"]) == pytest.approx(400.0)
     assert dict(_fed(100.0, np.zeros(1)).report().values)["input_rate_hz"] == "none"
+
+
+def test_an_angle_noise_other_than_noise_std_warns_and_is_reported() -> None:
+    """A 4 mrad sensor read by a node told noise_std 1 mrad (the published variance 16× too small in its
+    noise part): WARN naming both; the measured noise is a diagnostics value. Told 4 mrad, or 3 mrad (within
+    the factor 2): OK. A quantised angle at rest (third differences all 0) and no noise_std: no check."""
+    t = np.arange(600) / 100.0
+    swing = 0.2 * np.sin(2.0 * np.pi * 0.5 * t)  # a slow swing: its third differences are ~1e-5 rad
+    theta = swing + np.random.default_rng(2).normal(0.0, 4e-3, t.size)
+
+    def report(noise_std: float | None, angles: np.ndarray) -> GuardReport:
+        guard = InputGuard(rate_hz=100.0, noise_std=noise_std)
+        for ti, th in zip(t, angles, strict=True):
+            assert guard.check(float(ti), float(th)) is Decision.ACCEPT
+        return guard.report()
+
+    told_less = report(1e-3, theta)
+    assert (
+        told_less.state is GuardState.WARN and "not noise_std 0.001 rad: set noise_std" in told_less.message
+    )
+    # A robust scale of 256 third differences: ~7 % standard error; 25 % is over three of them.
+    assert float(dict(told_less.values)["angle_noise_rad"]) == pytest.approx(4e-3, rel=0.25)
+    assert report(4e-3, theta).state is GuardState.OK
+    assert report(3e-3, theta).state is GuardState.OK
+    assert report(1e-3, np.zeros(t.size)).state is GuardState.OK
+    assert report(None, theta).state is GuardState.OK

@@ -233,12 +233,15 @@ def test_export_every_topic(live_bag: Path, tmp_path: Path, fmt: str) -> None:
     assert set(diagnostics[f"{bm.TOPIC_DIAGNOSTICS}/pendulum_accel/accel_estimator/method"]) == {"kalman"}
     # A figure the estimator does not have yet is "none" on /diagnostics (the input rate before two angles,
     # the time since the last when not stale): a missing number, so its column is numbers, not strings.
-    for key in ("input_rate_hz", "stale_for_s", "last_t"):
+    for key in ("input_rate_hz", "angle_noise_rad", "stale_for_s", "last_t"):
         column = diagnostics[f"{bm.TOPIC_DIAGNOSTICS}/pendulum_accel/accel_estimator/{key}"]
         assert column.dtype.kind == "f", (key, column.dtype)
     rates = diagnostics[f"{bm.TOPIC_DIAGNOSTICS}/pendulum_accel/accel_estimator/input_rate_hz"].dropna()
     # 1 / the median of 10 ms stamp steps, as the report prints it (6 significant digits).
     assert len(rates) > 0 and np.allclose(rates, 100.0, rtol=1e-5)
+    noise = diagnostics[f"{bm.TOPIC_DIAGNOSTICS}/pendulum_accel/accel_estimator/angle_noise_rad"].dropna()
+    # The scene's 1 mrad, from the last report's window (≥ 200 third differences: ~8 % standard error).
+    assert len(noise) > 0 and noise.iloc[-1] == pytest.approx(1e-3, rel=0.25)
     merged_dir = tmp_path / "merged"
     _no_traceback(cli("export", str(live_bag), "--out", str(merged_dir), "--format", fmt, "--merged"))
     merged_path = merged_dir / f"merged.{fmt}"

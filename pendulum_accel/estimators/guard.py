@@ -30,8 +30,9 @@ from dataclasses import dataclass
 
 from pendulum_accel.bag.messages import FRAME_ID, PENDULUM_JOINT
 from pendulum_accel.errors import ParameterError
-from pendulum_accel.estimators.base import Estimate, Estimator
+from pendulum_accel.estimators.base import MIN_NOISE_STD, Estimate, Estimator
 from pendulum_accel.physics.params import require_finite, require_positive
+from pendulum_accel.sensor import noise_from_differences
 
 RATE_WINDOW = 64
 """Sample intervals the measured input rate is taken over: 1 / their median, so sporadic losses (up to
@@ -40,6 +41,14 @@ half the window) and jitter leave it at the sensor's rate."""
 RATE_TOLERANCE = 0.1
 """Relative mismatch of the measured input rate and ``rate_hz`` that warns: diagnostic_updater's
 FrequencyStatus default tolerance."""
+
+NOISE_WINDOW = 256
+"""Third differences of the last accepted angles the measured angle noise is taken over (its robust
+scale has a ~7 % standard error there)."""
+
+NOISE_FACTOR = 2.0
+"""Ratio of the measured angle noise to ``noise_std`` (either way) that warns: the published variance's
+noise part is then off by 4× or more, far beyond the measurement's own error."""
 
 PENDULUM_FRAMES = (FRAME_ID, "")
 """frame_ids the chain's messages may carry: the car's (REP-103 base_link), or none given."""
@@ -130,12 +139,17 @@ class InputGuard:
         stale_after: float | None = None,
         saturation_range: float = 0.0,
         joint: str = PENDULUM_JOINT,
+        noise_std: float | None = None,
     ) -> None:
         """Validate the thresholds (saturation_range 0: the sensor has no range); start with no input seen.
-        ``joint``: the name a sample must carry."""
+        ``joint``: the name a sample must carry; ``noise_std``: the angle noise the estimator assumes (rad),
+        checked against the angles' own (None: not checked)."""
         rate = require_positive("rate_hz", rate_hz)
         self.rate_hz = rate
         self._intervals: deque[float] = deque(maxlen=RATE_WINDOW)  # the last accepted samples' Δt
+        self.noise_std = noise_std
+        self._angles: deque[float] = deque(maxlen=4)  # the last accepted θ, for their third difference
+        self._third: deque[float] = deque(maxlen=NOISE_WINDOW)
         self.warn_angle = require_positive("warn_angle", warn_angle)
         self.reset_jump = require_positive("reset_jump", reset_jump)
         self.saturation_range = require_finite("saturation_range", saturation_range)
@@ -218,6 +232,12 @@ class InputGuard:
             )
         if decision is Decision.ACCEPT and self.last_t is not None:
             self._intervals.append(t - self.last_t)
+        if decision is Decision.RESET:
+            self._angles.clear()  # a jump back: no difference across it
+        self._angles.append(theta)
+        if len(self._angles) == 4:
+            a0, a1, a2, a3 = self._angles
+            self._third.append(a3 - 3.0 * a2 + 3.0 * a1 - a0)
         self.accepted += 1
         self.last_t, self.last_theta = t, theta
         return decision
@@ -228,6 +248,27 @@ class InputGuard:
         if not self._intervals:
             return None
         return 1.0 / statistics.median(self._intervals)
+
+    def angle_noise(self) -> float | None:
+        """The angle noise σ (rad) of the last NOISE_WINDOW third differences (sensor.noise_from_differences);
+        None before 32."""
+        if len(self._third) < 32:
+            return None
+        return noise_from_differences(list(self._third))
+
+    def _check_noise(self) -> None:
+        """WARN when the angle noise over a full window is not noise_std within NOISE_FACTOR either way (a
+        measured 0, a quantised angle at rest, says nothing of the noise and is not checked)."""
+        if self.noise_std is None or len(self._third) < NOISE_WINDOW:
+            return
+        measured = self.angle_noise()
+        assumed = max(self.noise_std, MIN_NOISE_STD)
+        if measured and not 1.0 / NOISE_FACTOR <= measured / assumed <= NOISE_FACTOR:
+            self.note(
+                GuardState.WARN,
+                f"angle noise {measured:.3g} rad by the angles' third differences, not noise_std "
+                f"{self.noise_std:g} rad: set noise_std (the published variance assumes it)",
+            )
 
     def _check_rate(self) -> None:
         """WARN when the input rate over a full window is not rate_hz within RATE_TOLERANCE."""
@@ -275,11 +316,13 @@ class InputGuard:
             ("last_theta", fmt(self.last_theta)),
             ("stale_for_s", fmt(self._stale_for)),
             ("input_rate_hz", fmt(self.input_rate())),
+            ("angle_noise_rad", fmt(self.angle_noise())),
         )
 
     def report(self) -> GuardReport:
         """The worst state since the previous report, then re-arm (check_stale re-raises STALE each tick)."""
         self._check_rate()
+        self._check_noise()
         state, message = self._worst, self._worst_message
         if state is GuardState.OK:
             message = f"input normal: {self.accepted} samples accepted"

@@ -294,13 +294,14 @@ class EstimatorNode(ManagedNode):
         return {} if self._scene is None else sensor_bias_settings(self._scene)
 
     def _new_guard(self) -> InputGuard:
-        """InputGuard at the configured rate, warn angle and stale limit."""
+        """InputGuard at the configured rate, warn angle, stale limit and angle noise."""
         return InputGuard(
             rate_hz=float(self.get_parameter("rate_hz").value),
             warn_angle=math.radians(self.warn_angle_deg),
             stale_after=self.stale_after if self.stale_after > 0.0 else None,
             saturation_range=self._sensor_range(),
             joint=self.joint,
+            noise_std=float(self.get_parameter("noise_std").value),
         )
 
     def _build_writers(self) -> None:
@@ -343,6 +344,9 @@ class EstimatorNode(ManagedNode):
         with self._work_lock:
             self.guarded.estimator = self._build(values)
             self._build_writers()
+            # The guard checks the input against these two (its counters go on).
+            self.guarded.guard.rate_hz = float(values["rate_hz"])
+            self.guarded.guard.noise_std = float(values["noise_std"])
         self.get_logger().info(f"estimator rebuilt: {self.guarded.estimator.describe()}")
         self.get_logger().info(f"latency {self.latency():.3f} s")
 
