@@ -554,8 +554,6 @@ class Bag:
                     first = _first_payload(block[1])
                     if first is not None:
                         return first
-            if ch.payloads:
-                return ch.payloads[0]
         return None
 
     def raw_payloads(self, topic: str, msgtype: str | None = None) -> Iterator[bytes]:

@@ -15,8 +15,8 @@ reading is clipped, not measured: state WARN "saturated", counted in ``saturated
 ``check_stale(now)`` (called by the node on a timer) turns the state STALE when no input arrived
 for ``stale_after`` seconds. ``report()`` returns the worst state since the previous report, so a
 single dropped NaN between two diagnostics publications is still seen. It also measures the input's
-rate from its stamps and warns when it is not ``rate_hz`` within RATE_TOLERANCE (the rate a real
-sensor's node was configured with, which the fixed lag's length in samples assumes).
+rate from its stamps and its angle noise from their third differences, and warns when either is not what
+the node was configured with (``rate_hz`` within RATE_TOLERANCE, ``noise_std`` within NOISE_FACTOR).
 """
 
 from __future__ import annotations
@@ -45,6 +45,9 @@ FrequencyStatus default tolerance."""
 NOISE_WINDOW = 256
 """Third differences of the last accepted angles the measured angle noise is taken over (its robust
 scale has a ~7 % standard error there)."""
+
+NOISE_MIN_DIFFERENCES = 32
+"""Third differences before the angle noise is shown (its robust scale has a ~18 % standard error there)."""
 
 NOISE_FACTOR = 2.0
 """Ratio of the measured angle noise to ``noise_std`` (either way) that warns: the published variance's
@@ -251,8 +254,8 @@ class InputGuard:
 
     def angle_noise(self) -> float | None:
         """The angle noise σ (rad) of the last NOISE_WINDOW third differences (sensor.noise_from_differences);
-        None before 32."""
-        if len(self._third) < 32:
+        None before NOISE_MIN_DIFFERENCES."""
+        if len(self._third) < NOISE_MIN_DIFFERENCES:
             return None
         return noise_from_differences(list(self._third))
 

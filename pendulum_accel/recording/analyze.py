@@ -577,10 +577,10 @@ def analyze_bag(
     a_true = (
         np.full(t.size, math.nan) if truth_t is None or truth_a is None else np.interp(t, truth_t, truth_a)
     )
-    cfg = estimator_config(data, t, theta)
-    noise_measured = "noise_std" in cfg and not data.custom_data.get(CUSTOM_SCENE)
-    cfg.update(config or {})
-    noise_measured = noise_measured and "noise_std" not in (config or {})
+    given = config or {}
+    measure = theta if "noise_std" not in given else None  # a σ given is not measured as well
+    cfg = {**estimator_config(data, t, measure), **given}
+    noise_measured = measure is not None and not data.custom_data.get(CUSTOM_SCENE) and "noise_std" in cfg
     if "length" not in cfg:
         raise BagError(f"bag {data.path} stores no scene: give the pendulum length (--length)")
     has_recorded = recorded_in_step or _has_messages(data, estimate_topic)
@@ -746,7 +746,8 @@ def smoothed_estimate(
     if not keep.all():
         t, theta = t[keep], theta[keep]
     del keep
-    cfg = {**estimator_config(bag, t, theta), **(config or {})}
+    given = config or {}
+    cfg = {**estimator_config(bag, t, theta if "noise_std" not in given else None), **given}
     a, var = estimate_batch("smoother", t, theta, **cfg, preset=bag_motion(bag).preset)
     return {"t": t, "a": np.asarray(a, dtype=np.float64), "variance": np.asarray(var, dtype=np.float64)}
 
