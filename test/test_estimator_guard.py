@@ -113,6 +113,24 @@ def test_stale_when_nothing_ever_arrived() -> None:
 def test_default_stale_threshold_and_validation() -> None:
     assert InputGuard(rate_hz=200.0).stale_after == 0.5
     assert InputGuard(rate_hz=10.0).stale_after == pytest.approx(2.0)
+    with pytest.raises(ParameterError, match="rate_hz"):
+        InputGuard(rate_hz=0.0)
+
+
+def test_default_stale_limit_follows_a_changed_rate() -> None:
+    """A node's rate_hz changed after start: the default limit is 20 periods of the new rate (a 10 Hz
+    input had gone STALE after 0.5 s, the limit of the 200 Hz it was built with); a limit given stays."""
+    guard = InputGuard(rate_hz=200.0)
+    guard.rate_hz = 10.0
+    assert guard.stale_after == pytest.approx(2.0)
+    assert not guard.check_stale(0.0)
+    assert not guard.check_stale(1.5)  # 15 periods of silence at 10 Hz: not stale
+    assert guard.check_stale(2.5)
+    given = InputGuard(rate_hz=200.0, stale_after=0.7)
+    given.rate_hz = 10.0
+    assert given.stale_after == 0.7
+    with pytest.raises(ParameterError, match="rate_hz"):
+        guard.rate_hz = -1.0
     with pytest.raises(ParameterError, match="reset_jump"):
         InputGuard(reset_jump=0.0)
 

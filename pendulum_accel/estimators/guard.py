@@ -147,8 +147,7 @@ class InputGuard:
         """Validate the thresholds (saturation_range 0: the sensor has no range); start with no input seen.
         ``joint``: the name a sample must carry; ``noise_std``: the angle noise the estimator assumes (rad),
         checked against the angles' own (None: not checked)."""
-        rate = require_positive("rate_hz", rate_hz)
-        self.rate_hz = rate
+        self.rate_hz = rate_hz
         self._intervals: deque[float] = deque(maxlen=RATE_WINDOW)  # the last accepted samples' Δt
         self.noise_std = noise_std
         self._angles: deque[float] = deque(maxlen=4)  # the last accepted θ, for their third difference
@@ -159,9 +158,7 @@ class InputGuard:
         if self.saturation_range < 0.0:
             raise ParameterError(f"saturation_range must be >= 0 rad, got {saturation_range!r}")
         self.saturated = 0
-        self.stale_after = (
-            max(0.5, 20.0 / rate) if stale_after is None else require_positive("stale_after", stale_after)
-        )
+        self._stale_after = None if stale_after is None else require_positive("stale_after", stale_after)
         self.accepted = 0
         self.dropped_nonfinite = 0
         self.dropped_out_of_order = 0
@@ -177,6 +174,22 @@ class InputGuard:
         self._stale_for: float | None = None
         self._worst = GuardState.OK
         self._worst_message = ""
+
+    @property
+    def rate_hz(self) -> float:
+        """The input rate the estimator was configured for (Hz)."""
+        return self._rate_hz
+
+    @rate_hz.setter
+    def rate_hz(self, value: float) -> None:
+        """Validate it: the rate and stale checks divide by it."""
+        self._rate_hz = require_positive("rate_hz", value)
+
+    @property
+    def stale_after(self) -> float:
+        """The silence (s) that turns the state STALE: as given, else max(0.5, 20 / rate_hz), so it
+        follows a rate_hz changed after construction (a node's parameter)."""
+        return max(0.5, 20.0 / self._rate_hz) if self._stale_after is None else self._stale_after
 
     def note(self, state: GuardState, message: str) -> None:
         """Latch ``state`` if it is worse than what was seen since the last report."""
@@ -259,12 +272,11 @@ class InputGuard:
             return None
         return noise_from_differences(list(self._third))
 
-    def _check_noise(self) -> None:
-        """WARN when the angle noise over a full window is not noise_std within NOISE_FACTOR either way (a
-        measured 0, a quantised angle at rest, says nothing of the noise and is not checked)."""
+    def _check_noise(self, measured: float | None) -> None:
+        """WARN when ``measured`` (angle_noise()) over a full window is not noise_std within NOISE_FACTOR
+        either way (a measured 0, a quantised angle at rest, says nothing of the noise and is not checked)."""
         if self.noise_std is None or len(self._third) < NOISE_WINDOW:
             return
-        measured = self.angle_noise()
         assumed = max(self.noise_std, MIN_NOISE_STD)
         if measured and not 1.0 / NOISE_FACTOR <= measured / assumed <= NOISE_FACTOR:
             self.note(
@@ -273,9 +285,10 @@ class InputGuard:
                 f"{self.noise_std:g} rad: set noise_std (the published variance assumes it)",
             )
 
-    def _check_rate(self) -> None:
-        """WARN when the input rate over a full window is not rate_hz within RATE_TOLERANCE."""
-        rate = self.input_rate() if len(self._intervals) == RATE_WINDOW else None
+    def _check_rate(self, rate: float | None) -> None:
+        """WARN when ``rate`` (input_rate()) over a full window is not rate_hz within RATE_TOLERANCE."""
+        if len(self._intervals) < RATE_WINDOW:
+            return
         if rate is not None and abs(rate / self.rate_hz - 1.0) > RATE_TOLERANCE:
             self.note(
                 GuardState.WARN,
@@ -299,8 +312,9 @@ class InputGuard:
             return True
         return False
 
-    def values(self) -> tuple[tuple[str, str], ...]:
-        """Counters and the last sample as (key, value) strings."""
+    def values(self, rate: float | None = None, noise: float | None = None) -> tuple[tuple[str, str], ...]:
+        """Counters and the last sample as (key, value) strings; ``rate``/``noise``: input_rate() and
+        angle_noise() when the caller took them already (report: one median each per report)."""
 
         def fmt(x: float | None) -> str:
             """'none' or x with 6 significant digits."""
@@ -318,18 +332,19 @@ class InputGuard:
             ("last_t", fmt(self.last_t)),
             ("last_theta", fmt(self.last_theta)),
             ("stale_for_s", fmt(self._stale_for)),
-            ("input_rate_hz", fmt(self.input_rate())),
-            ("angle_noise_rad", fmt(self.angle_noise())),
+            ("input_rate_hz", fmt(self.input_rate() if rate is None else rate)),
+            ("angle_noise_rad", fmt(self.angle_noise() if noise is None else noise)),
         )
 
     def report(self) -> GuardReport:
         """The worst state since the previous report, then re-arm (check_stale re-raises STALE each tick)."""
-        self._check_rate()
-        self._check_noise()
+        rate, noise = self.input_rate(), self.angle_noise()
+        self._check_rate(rate)
+        self._check_noise(noise)
         state, message = self._worst, self._worst_message
         if state is GuardState.OK:
             message = f"input normal: {self.accepted} samples accepted"
-        report = GuardReport(state, message, self.values())
+        report = GuardReport(state, message, self.values(rate, noise))
         self._worst, self._worst_message = GuardState.OK, ""
         return report
 

@@ -356,10 +356,11 @@ class Analysis:
     noise_from_angles: bool = False
     """True when the re-run's noise_std was estimated from the angles (no stored scene, none given)."""
 
-    @property
+    @functools.cached_property
     def agreement(self) -> ErrorStats | None:
         """recorded â − re-run â at the recorded estimates' stamps (after ``skip``): whether the live node
-        computed what the offline estimator does, a check that needs no truth; None without a recording."""
+        computed what the offline estimator does, a check that needs no truth; None without a recording.
+        Cached: the text and the JSON each read it, and the arrays it compares never change."""
         rec = self.recorded_figures
         if rec is None:
             return None
