@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -112,6 +113,29 @@ def test_an_unresolved_walk_is_said_so_not_printed_as_zero() -> None:
     rng = np.random.default_rng(5)
     result = allan_deviation(2e-3 * rng.standard_normal(20_000), 100.0, unit="rad")
     unresolved = "\n".join(dataclasses.replace(result, random_walk=0.0).lines())
-    assert "bias random walk    K  — (none resolved: the fit up to τ = " in unresolved
+    assert "(none resolved: no +½ slope up to τ = " in unresolved
+    bound = float(re.search(r"K  ≤ (\S+) rad/√s", unresolved).group(1))  # type: ignore[union-attr]
+    # Printed to 3 significant digits: within 5e-3 of the field.
+    assert bound == pytest.approx(result.random_walk_bound, rel=5e-3)
     resolved = "\n".join(dataclasses.replace(result, random_walk=1.5e-5).lines())
     assert "bias random walk    K  1.5e-05 rad/√s" in resolved
+
+
+@pytest.mark.parametrize("walk", [0.0, 1e-5, 3e-5, 1e-4, 1e-3])
+def test_the_walk_bound_holds_at_its_confidence(walk: float) -> None:
+    """walk_bound is an upper bound on the true K at BOUND_LEVEL (97.5 %), whether or not the fit resolves
+    the walk: 200 s at 100 Hz of white noise σ 2e-3 (N = 2e-4/√Hz) plus a walk K, 200 seeds. The bound
+    fails for a given seed with probability ≤ 2.5 %, so the count of failures is at most binomial(200,
+    0.025): mean 5, sd 2.2; 12 is its 99.9th percentile. A never-failing bound (K = 0) also says nothing,
+    so its size is checked too: above (3σ²/τ)^½ at the last fitted τ by its χ² factor √(ν/χ²_ν(2.5 %)),
+    which for ν ≥ 8 (at least 9 clusters) is at most √(8/2.18) = 1.92."""
+    failures = 0
+    for seed in range(200):
+        rng = np.random.default_rng(seed)
+        y = 2e-3 * rng.standard_normal(20_000) + walk * np.cumsum(rng.standard_normal(20_000)) / 10.0
+        result = allan_deviation(y, 100.0)
+        failures += walk > result.random_walk_bound
+        last = int(np.flatnonzero(result.taus == result.fit_to)[0])
+        plain = np.sqrt(3.0 * result.adev[last] ** 2 / result.fit_to)
+        assert plain <= result.random_walk_bound <= 1.92 * plain
+    assert failures <= 12
