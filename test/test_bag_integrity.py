@@ -415,5 +415,8 @@ def test_fewer_messages_than_metadata_lists_is_not_complete(tmp_path: Path) -> N
     _listed(tmp_path / "bag", bm.TOPIC_CLOCK, held - 1)
     lines, note = info_lines(str(tmp_path / "bag"))
     assert lines[0].endswith("[complete]") and note is None
-    assert repair_bag(tmp_path / "bag").rewritten  # the metadata did not match: written anew
+    result = repair_bag(tmp_path / "bag")
+    assert result.rewritten  # the metadata did not match: written anew
+    # Its MCAP file read whole: kept as the intact original, not named damaged.
+    assert [p.name for p in result.backups] == ["bag.mcap.orig"]
     assert not repair_bag(tmp_path / "bag").rewritten

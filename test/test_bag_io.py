@@ -331,6 +331,7 @@ def test_truncated_bag_is_salvaged_and_repaired(tmp_path: Path) -> None:
     result = repair_bag(tmp_path / "bag")
     assert result.rewritten and result.counts[bm.TOPIC_JOINT_STATES] == kept
     assert len(result.backups) == 1 and result.backups[0].exists()
+    assert result.backups[0].name == "bag.mcap.damaged"  # the cut-off file
     fixed = read_bag(tmp_path / "bag", salvage=False)
     assert fixed.custom_data["pendulum_accel.plan"] == "plan line"
     with Reader(tmp_path / "bag") as reader:

@@ -146,9 +146,10 @@ def test_a_missing_file_is_named_and_the_rest_is_read(recordings: tuple[Path, Pa
     with pytest.raises(NotIndexedError, match=r"rec_1\.mcap is missing"):
         StreamedBag(copy)
     result = repair_bag(copy)
+    # Both files left were read whole: kept as intact, not as damaged.
     assert result.rewritten and sorted(p.name for p in result.backups) == [
-        "rec_0.mcap.damaged",
-        "rec_2.mcap.damaged",
+        "rec_0.mcap.orig",
+        "rec_2.mcap.orig",
     ]
     fixed = read_bag(copy, salvage=False)
     assert fixed.mcap_paths == [copy / "rec.mcap"] and fixed.message_count == bag.message_count
@@ -177,9 +178,18 @@ def test_damage_in_one_file_names_that_file(recordings: tuple[Path, Path], tmp_p
     lines, _ = info_lines(str(copy))
     assert "DAMAGED: rec_2.mcap chunk 1," in lines[0], lines[0]
     assert bag.message_count <= intact.message_count
+    assert bag.damaged_files == [target]
     result = repair_bag(copy)
     assert result.rewritten and len(result.backups) == PARTS
+    # Only the file with the flipped byte is kept as damaged; the others are the intact originals.
+    assert sorted(p.name for p in result.backups) == [
+        "rec_0.mcap.orig",
+        "rec_1.mcap.orig",
+        "rec_2.mcap.damaged",
+    ]
     assert read_bag(copy, salvage=False).problem is None
+    # The kept originals still read as the recording they were, bit for bit.
+    assert (copy / "rec_0.mcap.orig").read_bytes() == (split_path / "rec_0.mcap").read_bytes()
 
 
 def _float_bag(path: Path, kind: str) -> Path:

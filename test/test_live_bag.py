@@ -285,6 +285,7 @@ def test_repair(live_bag: Path, tmp_path: Path) -> None:
     mcap.write_bytes(data[: len(data) // 2])  # the recorder killed half-way
     result = cli("repair", str(copy))
     _no_traceback(result)
+    assert f"damaged file kept as {mcap}.damaged" in result.stdout
     fixed = read_bag(copy, salvage=False)
     assert 0 < fixed.message_count < total
 

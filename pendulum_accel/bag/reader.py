@@ -365,6 +365,8 @@ class Bag:
         """Damaged chunks (and damage between chunks) in file order; empty when every CRC matched."""
         self.missing_files: tuple[str, ...] = ()
         """Files of the recording that metadata.yaml lists and that are not there."""
+        self.damaged_files: list[Path] = []
+        """The MCAP files whose own scan found a problem (cut off, corrupt, a CRC mismatch), in order."""
         self._channels: dict[int, _ChannelData] = {}
         self._parts: list[_Part] = []
         # Chunks read again lately: (file, offset) -> (channels read, their messages), for passes in step.
@@ -1222,6 +1224,8 @@ class _Scanner:
             origin = damage_origin(bag.start_ns, bag.damage)
             note = "; ".join(f"damaged {d.sentence(origin)}" for d in mine)
             bag.problem = note if bag.problem is None else f"{bag.problem}; {note}"
+        if bag.problem is not None:  # this file's own sentences, before the earlier ones join them
+            bag.damaged_files.append(self.path)
         if earlier is not None:
             bag.problem = earlier if bag.problem is None else f"{earlier}; {bag.problem}"
         for ch in bag._channels.values():

@@ -6,10 +6,11 @@ metadata.yaml anew. The reader keeps every chunk whose CRC matches and, of a dam
 every intact message record (``bag.integrity``: it frames, names a known channel, lies in the chunk's
 time range and decodes as CDR of the channel's type). ``DROPS`` says what is not kept. The repaired
 bag's custom_data ``pendulum_accel.repaired`` says what was recovered without a checksum, for ``info``.
-The damaged file is kept next to it as ``<name>.mcap.damaged``. A recording split into several files
-is rewritten as one file, each of its files kept as ``<name>.mcap.damaged``; a file its metadata.yaml
-lists and that is missing is named in ``pendulum_accel.repaired``, so ``info`` never calls the result
-complete.
+Each file it replaces is kept next to the new one: a damaged file as ``<name>.mcap.damaged``, an intact
+one (another file of a split recording, or a file whose metadata.yaml was missing or wrong) as
+``<name>.mcap.orig``, so the names say which held the damage. A recording split into several files is
+rewritten as one file; a file its metadata.yaml lists and that is missing is named in
+``pendulum_accel.repaired``, so ``info`` never calls the result complete.
 Only files inside the bag directory are ever touched (the reader refuses a metadata.yaml that names
 one outside), and a write failure leaves the damaged bag as it was.
 """
@@ -29,6 +30,9 @@ from pendulum_accel.errors import BagError
 
 CUSTOM_REPAIRED = "pendulum_accel.repaired"
 """custom_data key of a repaired bag: what repair recovered by parsing, without a checksum (one line)."""
+
+BACKUP_SUFFIXES = {True: ".damaged", False: ".orig"}
+"""What a replaced file's kept copy is named by, keyed by whether its own read found damage."""
 
 DROPS = (
     "repair drops only what is not intact: in a damaged or cut-off chunk, the records that do not frame, "
@@ -50,7 +54,8 @@ class RepairResult:
     counts: dict[str, int]
     problem: str | None
     backups: tuple[Path, ...]
-    """The damaged files, kept beside the rewritten one (none with keep_backup False)."""
+    """The replaced files, kept beside the rewritten one: ``.damaged`` or ``.orig`` (BACKUP_SUFFIXES; none
+    with keep_backup False)."""
     damage: tuple[ChunkDamage, ...] = ()
     origin_ns: int = 0
 
@@ -137,7 +142,7 @@ def _rewrite(root: Path, bag: Bag, staging: Path, keep_backup: bool) -> RepairRe
             if not old.exists():
                 continue
             if keep_backup:
-                backups.append(old.with_name(old.name + ".damaged"))
+                backups.append(old.with_name(old.name + BACKUP_SUFFIXES[old in bag.damaged_files]))
                 old.replace(backups[-1])
             else:
                 old.unlink()

@@ -64,9 +64,13 @@ class _Topic:
 
 
 def _is_bag_dir(path: Path) -> bool:
-    """True for an empty directory or one holding only rosbag2 files (metadata.yaml, *.mcap, *.db3)."""
+    """True for an empty directory or one holding only rosbag2 files (metadata.yaml, *.mcap, *.db3) and
+    what repair keeps of them (*.damaged, *.mcap.orig)."""
     return path.is_dir() and all(
-        p.name == "metadata.yaml" or p.suffix in {".mcap", ".db3", ".damaged", ".tmp"} for p in path.iterdir()
+        p.name == "metadata.yaml"
+        or p.suffix in {".mcap", ".db3", ".damaged", ".tmp"}
+        or p.name.endswith(".mcap.orig")
+        for p in path.iterdir()
     )
 
 

@@ -15,13 +15,14 @@ def register(subparsers: Any) -> None:
         help="rebuild a damaged bag (killed recorder) from what its MCAP file holds",
         description=(
             "Rewrite BAG from every intact chunk and every intact message record of its damaged or "
-            "cut-off chunks, with a new MCAP summary/index/CRCs and metadata.yaml. The damaged file is "
-            "kept as <name>.mcap.damaged unless --no-backup. " + DROPS + "."
+            "cut-off chunks, with a new MCAP summary/index/CRCs and metadata.yaml. Each file replaced is "
+            "kept unless --no-backup: a damaged one as <name>.mcap.damaged, an intact one (of a split "
+            "recording, or with a wrong metadata.yaml) as <name>.mcap.orig. " + DROPS + "."
         ),
     )
     parser.add_argument("bag", help="bag directory")
     parser.add_argument(
-        "--no-backup", action="store_true", help="delete the damaged file instead of keeping it"
+        "--no-backup", action="store_true", help="delete the replaced files instead of keeping them"
     )
     parser.set_defaults(func=run)
 
@@ -47,5 +48,6 @@ def run(args: argparse.Namespace) -> int:
         )
     print(f"dropped: {result.dropped} message records found not intact. {DROPS}.")
     for backup in result.backups:
-        print(f"damaged file kept as {backup}")
+        what = "damaged" if backup.suffix == ".damaged" else "intact"
+        print(f"{what} file kept as {backup}")
     return 0
