@@ -38,7 +38,12 @@ FloatArray = NDArray[np.float64]
 MIN_CLUSTERS = 9  # τ with fewer independent averages scatter too much to fit
 FLICKER_FLOOR = math.sqrt(2.0 * math.log(2.0) / math.pi)  # σ_floor = 0.664 B
 MIN_SAMPLES = 100
-BOUND_LEVEL = 0.975  # one-sided confidence of the walk bound: σ² below its expectation this often
+BOUND_LEVEL = 0.975  # one-sided confidence of the N and K bounds: σ² below its expectation this often
+MISFIT_LIMIT = 20.0
+"""χ²/dof of the fit above which the angle's record is not static noise. Static records stay far under it,
+moving ones far over: white noise with walks K 0 … 1e-3 (200 records of 200 s) at most 4.1, the bundled
+scenes' 3600 s static runs 1.0–1.9; the bundled braking, step_start and hwfet runs and the demo's swing
+510–2200 (test_allan)."""
 _WAIT_SLICE = 0.05  # s: the main thread's longest wait between two checks for Ctrl-C
 T = TypeVar("T")
 
@@ -61,6 +66,16 @@ class AllanResult:
     random_walk_bound: float = math.inf
     """K no larger than this at BOUND_LEVEL (walk_bound at τ = fit_to): what a record that resolves no
     walk still says of it."""
+    white_density_bound: float = math.inf
+    """N no larger than this at BOUND_LEVEL (white_bound at τ = fit_from), likewise."""
+    misfit: float = 0.0
+    """χ²/dof of the fit, Σ((m − σ²)/(m √(τ/T)))² / (k − 2) over the k fitted τ: about 1 when σ(τ) is
+    white noise and a walk, far above when the record holds motion (MISFIT_LIMIT)."""
+
+    @property
+    def static(self) -> bool:
+        """False when σ(τ) misses the N, K model by more than MISFIT_LIMIT: not a sensor at rest."""
+        return self.misfit <= MISFIT_LIMIT
 
     def model(self, taus: FloatArray) -> FloatArray:
         """σ(τ) = √(N²/τ + K²τ/3) of the fitted N and K."""
@@ -71,7 +86,14 @@ class AllanResult:
         return [
             f"{self.label}: overlapping Allan deviation at {self.taus.size} τ from {self.taus[0]:.3g} "
             f"to {self.taus[-1]:.3g} s (fit over {self.fit_from:.3g} … {self.fit_to:.3g} s)",
-            f"  white noise density N  {self.white_density:.4g} {self.unit}/√Hz (σ at τ = 1 s, −½ line)",
+            (
+                f"  white noise density N  {self.white_density:.4g} {self.unit}/√Hz (σ at τ = 1 s, −½ line)"
+                if self.white_density > 0.0
+                # As for K below: the fit's −½ term at its bound 0 is no figure of N.
+                else f"  white noise density N  ≤ {self.white_density_bound:.3g} {self.unit}/√Hz "
+                f"(none resolved: no −½ slope from τ = {self.fit_from:.3g} s; the bound is σ there, "
+                f"{BOUND_LEVEL:.1%} one-sided)"
+            ),
             (
                 f"  bias random walk    K  {self.random_walk:.4g} {self.unit}/√s  (σ at τ = 3 s, +½ line)"
                 if self.random_walk > 0.0
@@ -129,7 +151,9 @@ def allan_deviation(
             f"too short for an Allan fit: {duration:.1f} s leaves {int(fit.sum())} usable τ (need 3)"
         )
     n2, k2 = _fit(taus[fit], adev[fit], duration)
-    last = int(np.flatnonzero(fit)[-1])
+    first, last = (int(i) for i in np.flatnonzero(fit)[[0, -1]])
+    model = n2 / taus[fit] + k2 * taus[fit] / 3.0
+    residual = (model - adev[fit] ** 2) / (np.maximum(model, 1e-300) * np.sqrt(taus[fit] / duration))
     return AllanResult(
         label=label,
         unit=unit,
@@ -143,19 +167,31 @@ def allan_deviation(
         fit_from=float(taus[fit][0]),
         fit_to=float(taus[fit][-1]),
         random_walk_bound=walk_bound(float(adev[last]), float(taus[last]), values.size, rate_hz),
+        white_density_bound=white_bound(float(adev[first]), float(taus[first]), values.size, rate_hz),
+        misfit=float(np.sum(residual * residual)) / (int(fit.sum()) - 2),
     )
 
 
-def walk_bound(adev: float, tau: float, size: int, rate_hz: float) -> float:
-    """K ≤ √(3 σ²(τ) ν / (τ χ²_ν(1 − BOUND_LEVEL))), ν = size/(τ f) − 1: every term of σ² = N²/τ + K²τ/3
-    + … is ≥ 0, so K²τ/3 ≤ E σ²(τ), and E σ² ≤ σ² ν/χ²_ν(1 − level) at that confidence.
+def _variance_bound(adev: float, tau: float, size: int, rate_hz: float) -> float:
+    """E σ²(τ) ≤ σ² ν / χ²_ν(1 − BOUND_LEVEL), ν = size/(τ f) − 1: at that confidence, σ² being χ²_ν/ν
+    distributed about its expectation.
 
     ν is the count of independent τ-clusters less one, fewer than the overlapping estimator's equivalent
     degrees of freedom for white noise (NIST SP 1065 Table 5: about 1.5 times as many), so the bound
     holds whichever noise dominates at τ: over 200 s records of white noise with walks K from 0 (never
-    resolved) to 5 N (always), 300 seeds each, K exceeded it in at most 2.7 % of them (test_allan)."""
+    resolved) to 5 N (always), 300 seeds each, the walk bound failed in at most 2.7 % of them (test_allan)."""
     edf = size / (tau * rate_hz) - 1.0
-    return math.sqrt(3.0 * adev * adev * edf / (tau * float(chi2.ppf(1.0 - BOUND_LEVEL, edf))))
+    return adev * adev * edf / float(chi2.ppf(1.0 - BOUND_LEVEL, edf))
+
+
+def walk_bound(adev: float, tau: float, size: int, rate_hz: float) -> float:
+    """K ≤ √(3 E σ²(τ) / τ): every term of σ² = N²/τ + K²τ/3 + … is ≥ 0 (E σ² from _variance_bound)."""
+    return math.sqrt(3.0 * _variance_bound(adev, tau, size, rate_hz) / tau)
+
+
+def white_bound(adev: float, tau: float, size: int, rate_hz: float) -> float:
+    """N ≤ √(τ E σ²(τ)), for the same reason (E σ² from _variance_bound)."""
+    return math.sqrt(tau * _variance_bound(adev, tau, size, rate_hz))
 
 
 def _fit(taus: FloatArray, adev: FloatArray, duration: float) -> tuple[float, float]:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pendulum_accel.allan import allan_deviation, overlapping_adev, plot_allan
+from pendulum_accel.allan import MISFIT_LIMIT, allan_deviation, overlapping_adev, plot_allan
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.scene import scene_from_yaml
@@ -38,6 +38,7 @@ def test_static_run_recovers_density_and_random_walk_within_ten_percent(seed: in
     result = allan_deviation(theta, RATE, unit="rad")
     assert result.white_density == pytest.approx(DENSITY, rel=0.10)
     assert result.random_walk == pytest.approx(WALK, rel=0.10)
+    assert result.static  # a sensor at rest: the model fits (χ²/dof near 1, MISFIT_LIMIT 20)
     # The −½ and +½ lines cross at τ = √3 N/K; the curve's minimum sits near there, above both lines.
     assert result.instability * 0.664 >= result.model(np.array([np.sqrt(3.0)]))[0] * 0.9
 
@@ -117,6 +118,9 @@ def test_an_unresolved_walk_is_said_so_not_printed_as_zero() -> None:
     bound = float(re.search(r"K  ≤ (\S+) rad/√s", unresolved).group(1))  # type: ignore[union-attr]
     # Printed to 3 significant digits: within 5e-3 of the field.
     assert bound == pytest.approx(result.random_walk_bound, rel=5e-3)
+    no_white = "\n".join(dataclasses.replace(result, white_density=0.0).lines())
+    white = re.search(r"N  ≤ (\S+) rad/√Hz \(none resolved: no −½ slope from τ = ", no_white)
+    assert white is not None and float(white.group(1)) == pytest.approx(result.white_density_bound, rel=5e-3)
     resolved = "\n".join(dataclasses.replace(result, random_walk=1.5e-5).lines())
     assert "bias random walk    K  1.5e-05 rad/√s" in resolved
 
@@ -129,13 +133,37 @@ def test_the_walk_bound_holds_at_its_confidence(walk: float) -> None:
     0.025): mean 5, sd 2.2; 12 is its 99.9th percentile. A never-failing bound (K = 0) also says nothing,
     so its size is checked too: above (3σ²/τ)^½ at the last fitted τ by its χ² factor √(ν/χ²_ν(2.5 %)),
     which for ν ≥ 8 (at least 9 clusters) is at most √(8/2.18) = 1.92."""
-    failures = 0
+    failures = white_failures = 0
+    misfits = []
     for seed in range(200):
         rng = np.random.default_rng(seed)
         y = 2e-3 * rng.standard_normal(20_000) + walk * np.cumsum(rng.standard_normal(20_000)) / 10.0
         result = allan_deviation(y, 100.0)
         failures += walk > result.random_walk_bound
+        white_failures += result.white_density_bound < 2e-4
         last = int(np.flatnonzero(result.taus == result.fit_to)[0])
         plain = np.sqrt(3.0 * result.adev[last] ** 2 / result.fit_to)
         assert plain <= result.random_walk_bound <= 1.92 * plain
-    assert failures <= 12
+        misfits.append(result.misfit)
+    assert failures <= 12 and white_failures <= 12
+    # At rest, whatever the walk: the fit's χ²/dof stays well under MISFIT_LIMIT (at most 4.1 here).
+    assert max(misfits) < MISFIT_LIMIT / 2, max(misfits)
+
+
+@pytest.mark.parametrize(("scene", "at_rest"), [("at_rest", True), ("step_start", False), ("braking", False)])
+def test_allan_says_when_the_angle_is_not_at_rest(
+    scene: str, at_rest: bool, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A bag whose bob swings (a step, braking) gets N and K that describe the swing: allan says the angle
+    is not at rest, naming the fit's χ²/dof (over 500 for these; a record at rest stays near 1). The
+    at_rest scene's bag gets no such line."""
+    from pendulum_accel.recording.generate import generate_bag
+
+    generate_bag(scene, tmp_path / "bag")
+    assert main(["allan", str(tmp_path / "bag")]) == 0
+    text = capsys.readouterr().out
+    found = re.search(r"not at rest: σ\(τ\) of the angle misses the N, K model by χ²/dof (\S+) ", text)
+    if at_rest:
+        assert found is None, text
+    else:
+        assert found is not None and float(found.group(1)) > MISFIT_LIMIT, text

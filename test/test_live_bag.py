@@ -27,6 +27,7 @@ import pandas as pd
 import pytest
 from PIL import Image
 
+from pendulum_accel.allan import MISFIT_LIMIT
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.export import VISUAL_ROLES, column_name, export_bag, file_stem
 from pendulum_accel.bag.reader import read_bag
@@ -258,6 +259,11 @@ def test_allan(live_bag: Path, tmp_path: Path) -> None:
     result = cli("allan", str(live_bag), "--plot", str(tmp_path / "allan.png"))
     _no_traceback(result)
     assert "angle θ" in result.stdout
+    # The bob swings after the step: the angle's σ(τ) is not a sensor at rest, and allan says so.
+    misfit = re.search(
+        r"not at rest: σ\(τ\) of the angle misses the N, K model by χ²/dof (\S+) ", result.stdout
+    )
+    assert misfit is not None and float(misfit.group(1)) > MISFIT_LIMIT, result.stdout
     # 3 s is too short for the estimate's fit (from τ = 5 s): said, and the angle's figures still given.
     assert "not fitted" in result.stdout
     assert (tmp_path / "allan.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
