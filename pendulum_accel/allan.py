@@ -224,33 +224,29 @@ def plot_allan(results: list[AllanResult], out: Path | str) -> Path:
         ax.errorbar(res.taus, res.adev, yerr=res.adev_err, fmt="o", ms=3, color="black", label="σ(τ) (oadev)")
         dense = np.geomspace(res.taus[0], res.taus[-1], 200)
         ax.loglog(dense, res.model(dense), color="tab:gray", lw=1, label="fit")
-        if res.white_density > 0:
-            ax.loglog(
-                dense,
-                res.white_density / np.sqrt(dense),
-                "--",
-                color="tab:blue",
-                label=f"−½: N = {res.white_density:.3g} {res.unit}/√Hz",
-            )
-            ax.plot([1.0], [res.white_density], "s", color="tab:blue")
-        if res.random_walk > 0:
-            ax.loglog(
-                dense,
-                res.random_walk * np.sqrt(dense / 3.0),
-                "--",
-                color="tab:red",
-                label=f"+½: K = {res.random_walk:.3g} {res.unit}/√s",
-            )
-            ax.plot([3.0], [res.random_walk], "s", color="tab:red")
-        elif math.isfinite(res.random_walk_bound):
-            # No walk resolved: the +½ line of the bound, which the true K lies under.
-            ax.loglog(
-                dense,
-                res.random_walk_bound * np.sqrt(dense / 3.0),
-                ":",
-                color="tab:red",
-                label=f"+½ bound: K ≤ {res.random_walk_bound:.3g} {res.unit}/√s",
-            )
+        # The −½ (N) and +½ (K) lines: dashed with the value's marker when fitted, dotted for the bound
+        # the true figure lies under when the fit did not resolve it.
+        slopes = (
+            (
+                "−½",
+                "N",
+                "√Hz",
+                res.white_density,
+                res.white_density_bound,
+                1.0 / np.sqrt(dense),
+                1.0,
+                "tab:blue",
+            ),
+            ("+½", "K", "√s", res.random_walk, res.random_walk_bound, np.sqrt(dense / 3.0), 3.0, "tab:red"),
+        )
+        for slope, name, per, value, bound, shape, at, color in slopes:
+            if value > 0:
+                label = f"{slope}: {name} = {value:.3g} {res.unit}/{per}"
+                ax.loglog(dense, value * shape, "--", color=color, label=label)
+                ax.plot([at], [value], "s", color=color)
+            elif math.isfinite(bound):
+                label = f"{slope} bound: {name} ≤ {bound:.3g} {res.unit}/{per}"
+                ax.loglog(dense, bound * shape, ":", color=color, label=label)
         if res.instability > 0:
             ax.axhline(
                 FLICKER_FLOOR * res.instability,
