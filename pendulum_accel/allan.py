@@ -141,6 +141,12 @@ def allan_deviation(
         raise ParameterError("Allan deviation needs finite samples, got NaN or inf")
     if not (math.isfinite(rate_hz) and rate_hz > 0.0):
         raise ParameterError(f"Allan deviation needs a sample rate > 0 Hz, got {rate_hz!r}")
+    if np.ptp(values) == 0.0:
+        # σ(τ) is 0 at every τ: "too short" would send the user after a longer record of the same.
+        raise ParameterError(
+            f"all {values.size} samples are {values[0]:g}: a constant reading has no σ(τ) to fit (its noise, "
+            "if any, is below the reading's resolution)"
+        )
     taus, adev, err, ns = overlapping_adev(values, rate_hz)
     keep = adev > 0.0
     taus, adev, err, ns = taus[keep], adev[keep], err[keep], ns[keep]

@@ -56,9 +56,12 @@ def test_white_noise_alone_gives_no_walk_and_a_minus_half_slope() -> None:
 
 
 def test_too_few_samples_is_a_clear_error() -> None:
-    """Fewer than 100 samples: ParameterError naming the count."""
+    """Fewer than 100 samples: ParameterError naming the count. A constant reading (a quantised sensor
+    whose noise is below its step) is said to be one, not called too short."""
     with pytest.raises(ParameterError, match="at least 100 samples"):
         allan_deviation(np.zeros(10), 10.0)
+    with pytest.raises(ParameterError, match="all 10000 samples are 0.001: a constant reading"):
+        allan_deviation(np.full(10_000, 1e-3), 100.0)
 
 
 def test_cli_on_a_scene_prints_both_figures_and_plots(
