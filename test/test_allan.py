@@ -38,7 +38,7 @@ def test_static_run_recovers_density_and_random_walk_within_ten_percent(seed: in
     result = allan_deviation(theta, RATE, unit="rad")
     assert result.white_density == pytest.approx(DENSITY, rel=0.10)
     assert result.random_walk == pytest.approx(WALK, rel=0.10)
-    assert result.static  # a sensor at rest: the model fits (χ²/dof near 1, MISFIT_LIMIT 20)
+    assert result.fits  # white noise and a walk: the model fits (χ²/dof near 1, MISFIT_LIMIT 20)
     # The −½ and +½ lines cross at τ = √3 N/K; the curve's minimum sits near there, above both lines.
     assert result.instability * 0.664 >= result.model(np.array([np.sqrt(3.0)]))[0] * 0.9
 
@@ -156,19 +156,32 @@ def test_the_walk_bound_holds_at_its_confidence(walk: float) -> None:
 
 
 @pytest.mark.parametrize(("scene", "at_rest"), [("at_rest", True), ("step_start", False), ("braking", False)])
-def test_allan_says_when_the_angle_is_not_at_rest(
+def test_allan_says_when_the_model_misses_the_angle(
     scene: str, at_rest: bool, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """A bag whose bob swings (a step, braking) gets N and K that describe the swing: allan says the angle
-    is not at rest, naming the fit's χ²/dof (over 500 for these; a record at rest stays near 1). The
+    """A bag whose bob swings (a step, braking) gets N and K that describe the swing: allan says the model
+    misses the angle's σ(τ), naming the fit's χ²/dof (over 500 for these; white noise stays near 1). The
     at_rest scene's bag gets no such line."""
     from pendulum_accel.recording.generate import generate_bag
 
     generate_bag(scene, tmp_path / "bag")
     assert main(["allan", str(tmp_path / "bag")]) == 0
     text = capsys.readouterr().out
-    found = re.search(r"not at rest: σ\(τ\) of the angle misses the N, K model by χ²/dof (\S+) ", text)
+    found = re.search(r"model misfit: σ\(τ\) of the angle misses N²/τ \+ K²τ/3 by χ²/dof (\S+) ", text)
     if at_rest:
         assert found is None, text
     else:
         assert found is not None and float(found.group(1)) > MISFIT_LIMIT, text
+
+
+def test_a_gauss_markov_bias_is_noise_the_model_lacks() -> None:
+    """A sensor at rest whose bias is Gauss-Markov (the sensor model's dynamic bias, 3 mrad, 1 s correlation;
+    2000 s at 50 Hz) is not white noise and a walk: the fit misses it (χ²/dof far above MISFIT_LIMIT),
+    which is why the line names such noise beside motion rather than calling the record moving."""
+    yaml = SCENE.replace("SEED", "3").replace(
+        "bias_random_walk: " + str(WALK), "dynamic_bias_stddev: 3.0e-3, dynamic_bias_correlation_time: 1.0"
+    )
+    scene = scene_from_yaml(yaml)
+    t = scene.sensor.sample_times(scene.duration)
+    result = allan_deviation(scene.sensor.measure(t, np.zeros_like(t)), RATE, unit="rad")
+    assert not result.fits and result.misfit > 5 * MISFIT_LIMIT, result.misfit

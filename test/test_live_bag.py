@@ -261,7 +261,7 @@ def test_allan(live_bag: Path, tmp_path: Path) -> None:
     assert "angle θ" in result.stdout
     # The bob swings after the step: the angle's σ(τ) is not a sensor at rest, and allan says so.
     misfit = re.search(
-        r"not at rest: σ\(τ\) of the angle misses the N, K model by χ²/dof (\S+) ", result.stdout
+        r"model misfit: σ\(τ\) of the angle misses N²/τ \+ K²τ/3 by χ²/dof (\S+) ", result.stdout
     )
     assert misfit is not None and float(misfit.group(1)) > MISFIT_LIMIT, result.stdout
     # 3 s is too short for the estimate's fit (from τ = 5 s): said, and the angle's figures still given.

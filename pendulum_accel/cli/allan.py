@@ -97,13 +97,14 @@ def run(args: argparse.Namespace) -> int:
     print(f"source: {series.source}, {series.theta.size} samples at {series.rate_hz:g} Hz")
     for res in results:
         print("\n".join(res.lines()))
-        if res is results[0] and not res.static:
-            # Only the angle says whether the record is at rest: a filter's output never fits the
-            # model closely (the default estimator's static runs: χ²/dof 17–37).
+        if res is results[0] and not res.fits:
+            # The angle's only: a filter's output never fits the model closely (the default estimator's
+            # static runs: χ²/dof 17–37), so the line would stand under every estimate.
             print(
-                f"  not at rest: σ(τ) of the angle misses the N, K model by χ²/dof {res.misfit:.3g} (a "
-                f"sensor at rest stays under {MISFIT_LIMIT:g}): the bob moved (a swing, a change of a) or "
-                "the noise has terms the model lacks, so these figures describe that, not the sensor's noise"
+                f"  model misfit: σ(τ) of the angle misses N²/τ + K²τ/3 by χ²/dof {res.misfit:.3g} (white "
+                f"noise and a walk stay under {MISFIT_LIMIT:g}): the record holds motion (a swing, a change "
+                "of a) or noise the model lacks (a Gauss-Markov bias, bias instability); N and K describe "
+                "that, not a white noise and a walk"
             )
     if note is not None:
         print(note)
