@@ -12,6 +12,7 @@ SPEC keys (all optional):
                                   /diagnostics status whose state is ``state`` (needs "listen")
   "joints": [name, ...]           publish these joints (θ on the last, 0.5 on the others), no velocity
   "others": value                 with "joints": the other joints' value (null = NaN; default 0.5)
+  "frame_id": name                stamp the fed joint states in this frame (default: the chain's base_link)
   "burst": [n, t0, theta]         after "feed": n angles stamped t0 + i/1000 s, as fast as publish goes
   "sensor_data": true             publish with rclpy's SensorDataQoS (best-effort, keep last 5)
   "endpoints": [topic, ...]       at the end, each topic's subscriptions and publishers as the graph
@@ -127,6 +128,8 @@ def main() -> None:
             other = math.nan if spec.get("others", 0.5) is None else float(spec.get("others", 0.5))
             msg.position = [theta if name == msg.name[-1] else other for name in msg.name]
             msg.velocity = []
+        if "frame_id" in spec:
+            msg.header.frame_id = str(spec["frame_id"])
         publisher.publish(msg)
         spin_for(node, 0.01)
     if "burst" in spec:

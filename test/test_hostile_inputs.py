@@ -338,6 +338,18 @@ def test_a_foreign_joint_is_dropped_counted_and_reported() -> None:
     assert guard.accepted == 5
 
 
+def test_a_sensor_frame_is_accepted_only_where_it_is_named() -> None:
+    """joint_frame (the node's joint_frame_id): a real sensor's own frame is accepted in place of base_link,
+    and an empty frame still is; base_link then is another frame."""
+    guard = InputGuard(rate_hz=100.0, joint_frame="pan_link")
+    assert guard.check(0.0, 0.1, names=[bm.PENDULUM_JOINT], frame_id="pan_link") is Decision.ACCEPT
+    assert guard.check(0.01, 0.1, names=[bm.PENDULUM_JOINT], frame_id="") is Decision.ACCEPT
+    assert guard.check(0.02, 0.1, names=[bm.PENDULUM_JOINT], frame_id=bm.FRAME_ID) is Decision.DROP
+    report = guard.report()
+    assert report.state is GuardState.ERROR
+    assert "frame_id 'base_link', not 'pan_link'" in report.message
+
+
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.text(max_size=30).filter(lambda s: s != bm.PENDULUM_JOINT), min_size=1, max_size=5))
 def test_any_name_list_without_the_pendulum_joint_is_dropped(names: list[str]) -> None:

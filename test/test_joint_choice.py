@@ -21,9 +21,9 @@ from test.conftest import cli, strict_json
 JOINT = "encoder"
 
 
-def _renamed(source: Path, out: Path, names: list[str]) -> Path:
+def _renamed(source: Path, out: Path, names: list[str], frame: str | None = None) -> Path:
     """``source`` rewritten with its angles naming ``names`` (the pendulum's value on the one named JOINT,
-    0 on the others), every other message as it was."""
+    0 on the others) and stamped in ``frame`` (None: as they were), every other message as it was."""
     bag = read_bag(source)
     with BagWriter(out, custom_data=bag.custom_data) as writer:
         for name, info in bag.topics.items():
@@ -35,6 +35,8 @@ def _renamed(source: Path, out: Path, names: list[str]) -> Path:
                 msg.name = names
                 msg.position = np.array([theta if n == JOINT else 0.0 for n in names])
                 msg.velocity = np.array([rate if n == JOINT else 0.0 for n in names])
+                if frame is not None:
+                    msg.header.frame_id = frame
                 data = bm.serialize(msg, bm.JOINT_STATE)
             writer.write(topic, ns, data)
     return out
@@ -104,6 +106,29 @@ def _alternated(first: Path, second: Path, out: Path) -> Path:
                 k += 1
             writer.write(topic, ns, data)
     return out
+
+
+def test_a_sensor_stamping_its_own_frame_is_read_with_joint_frame(
+    bags: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """A real sensor's driver stamps its JointState in its own frame (here pan_link): refused in one line
+    that names --joint-frame, and read with it as the chain's own angles (the same figures); the chain's
+    base_link and an empty frame stay accepted without it."""
+    chain, _ = bags
+    own = _renamed(chain, tmp_path / "own", [JOINT], frame="pan_link")
+    refused = cli("analyze", str(own), "--joint", JOINT)
+    line = refused.stderr.strip()
+    assert refused.returncode == 2 and "\n" not in line and "Traceback" not in line
+    assert "(frame_id 'pan_link', not 'base_link')" in line and "--joint-frame FRAME" in line
+    assert "--joint NAME" not in line  # the joint was found: only the frame is at fault
+    got = cli("analyze", str(own), "--joint", JOINT, "--joint-frame", "pan_link", "--json")
+    assert got.returncode == 0, got.stderr
+    figures, expected = strict_json(got.stdout), strict_json(cli("analyze", str(chain), "--json").stdout)
+    figures.pop("bag"), expected.pop("bag")
+    assert figures == expected
+    bare = _renamed(chain, tmp_path / "bare", [JOINT], frame="")
+    assert cli("analyze", str(bare), "--joint", JOINT, "--joint-frame", "pan_link").returncode == 0
+    assert cli("analyze", str(chain), "--joint-frame", "pan_link").returncode == 2  # base_link is not it
 
 
 def test_an_empty_joint_name_is_refused(bags: tuple[Path, Path]) -> None:

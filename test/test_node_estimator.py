@@ -211,6 +211,42 @@ def test_the_joint_parameter_names_the_pendulum_among_a_robots_joints(spawn: Spa
     assert estimator.finish(timeout=20) == 0
 
 
+def test_joint_frame_id_accepts_a_sensors_own_frame(spawn: Spawn) -> None:
+    """joint_frame_id = pan_link: a real sensor's driver stamping its JointState in its own frame gives one
+    estimate per angle; angles in the chain's base_link are then another frame's: dropped, counted, and
+    the ERROR names both frames."""
+    estimator = start_node(
+        spawn,
+        "estimator_node",
+        {
+            "scene": "lecture_constant",
+            "method": "instant",
+            "joint_frame_id": "pan_link",
+            "diagnostics_period": 0.2,
+        },
+    )
+    estimator.wait_for(r"estimating with", timeout=60)
+    theta = math.atan2(2.0, G)
+    feed = [[0.01 * i, theta] for i in range(50)]
+    spec = {"listen": ["/car/accel/estimate"], "wait_subscribers": 1, "feed": feed, "linger": 1.0}
+    result = run_probe(spawn, {**spec, "frame_id": "pan_link"})
+    assert [t for t, _, _ in result["estimates"]] == pytest.approx([t for t, _ in feed], abs=1e-9)
+    later = [[1.0 + 0.01 * i, theta] for i in range(50)]
+    chain = {
+        **spec,
+        "listen": ["/car/accel/estimate", "/diagnostics"],
+        "feed": later,
+        "frame_id": "base_link",
+    }
+    result = run_probe(spawn, chain)
+    assert result["estimates"] == []
+    errors = [(message, values) for level, message, values in result["diagnostics"] if level == 2]
+    assert errors and int(errors[-1][1]["dropped_wrong_joint"]) == 50, result["diagnostics"]
+    assert "frame_id 'base_link', not 'pan_link'" in errors[-1][0]
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=20) == 0
+
+
 def test_lag_stamps_each_estimate_with_the_sample_it_describes(spawn: Spawn) -> None:
     """lag = 0.2 s at the scene's 100 Hz is N = 20 samples: the node states its latency (log, /diagnostics),
     gives nothing for the first 20 inputs, then one estimate per input stamped with the input 20 back."""

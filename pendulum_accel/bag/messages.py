@@ -153,6 +153,8 @@ CUSTOM_TOPICS = "pendulum_accel.topics"
 
 PENDULUM_JOINT = "pendulum_joint"
 """The pendulum's joint in the chain's JointState (the URDF's, the simulator's; the estimator's default)."""
+FRAME_ID = "base_link"
+"""The car's frame (REP-103), in which the chain stamps its messages."""
 
 
 @dataclass
@@ -165,6 +167,8 @@ class TopicChoice:
     namespace: str = ""
     joint: str = PENDULUM_JOINT
     """The pendulum's joint in the angles' JointState (``--joint``; the estimator node's ``joint``)."""
+    joint_frame: str = FRAME_ID
+    """The frame_id the angles may carry besides none (``--joint-frame``; the node's ``joint_frame_id``)."""
 
 
 def stored_roles(custom_data: Mapping[str, str]) -> dict[str, str]:
@@ -229,7 +233,6 @@ def chain_topic(names: Iterable[str], topic: str, choice: TopicChoice | None = N
     return topic if found is None else found
 
 
-FRAME_ID = "base_link"
 STRING_JOINT = "string_joint"
 
 _NUMERIC: dict[str, str] = {

@@ -35,6 +35,13 @@ def add_topic_flags(parser: argparse.ArgumentParser) -> None:
         help="the pendulum's joint in the angles' JointState, as the estimator node's joint parameter "
         f"(default {bm.PENDULUM_JOINT})",
     )
+    parser.add_argument(
+        "--joint-frame",
+        default=bm.FRAME_ID,
+        metavar="FRAME",
+        help="the frame_id the angles' JointState may carry besides none, as the estimator node's "
+        f"joint_frame_id parameter (default {bm.FRAME_ID}; a real sensor's driver may stamp its own)",
+    )
 
 
 def namespace_topics(bag: Bag) -> list[str]:
@@ -44,9 +51,12 @@ def namespace_topics(bag: Bag) -> list[str]:
 
 
 def topic_rules(args: argparse.Namespace) -> TopicRules:
-    """The TopicRules of a command's --topic, --namespace and --joint."""
+    """The TopicRules of a command's --topic, --namespace, --joint and --joint-frame."""
     return TopicRules(
-        tuple(args.topic_roles), str(args.namespace or ""), str(getattr(args, "joint", bm.PENDULUM_JOINT))
+        tuple(args.topic_roles),
+        str(args.namespace or ""),
+        str(getattr(args, "joint", bm.PENDULUM_JOINT)),
+        str(getattr(args, "joint_frame", bm.FRAME_ID)),
     )
 
 

@@ -53,33 +53,34 @@ NOISE_FACTOR = 2.0
 """Ratio of the measured angle noise to ``noise_std`` (either way) that warns: the published variance's
 noise part is then off by 4× or more, far beyond the measurement's own error."""
 
-PENDULUM_FRAMES = (FRAME_ID, "")
-"""frame_ids the chain's messages may carry: the car's (REP-103 base_link), or none given."""
 
-
-def frame_problem(frame_id: str) -> str | None:
-    """None when ``frame_id`` is one of PENDULUM_FRAMES, else why the message is not the chain's."""
-    if frame_id in PENDULUM_FRAMES:
+def frame_problem(frame_id: str, frame: str = FRAME_ID) -> str | None:
+    """None when ``frame_id`` is ``frame`` (the chain's, FRAME_ID; a real sensor's angles may carry their
+    own, the node's ``joint_frame_id``) or none, else why the message is not the chain's."""
+    if frame_id in (frame, ""):
         return None
-    return f"frame_id {str(frame_id)[:40]!r}, not {FRAME_ID!r}"
+    return f"frame_id {str(frame_id)[:40]!r}, not {frame!r}"
 
 
 def joint_state_problem(
-    names: Sequence[str] | None, frame_id: str | None = None, joint: str = PENDULUM_JOINT
+    names: Sequence[str] | None,
+    frame_id: str | None = None,
+    joint: str = PENDULUM_JOINT,
+    frame: str = FRAME_ID,
 ) -> str | None:
     """None when a JointState carries the pendulum's angle, else why not (a phrase): the one rule of the
     estimator node (per message) and of the offline commands (per bag).
 
     The pendulum's: ``names`` None or empty (a bare angle) or naming ``joint`` among any others (robots
     aggregate their joints in one message: θ is taken by name, the other joints are ignored);
-    ``frame_id`` None (not known) or one of PENDULUM_FRAMES. Joints without the pendulum's are another
+    ``frame_id`` None (not known), none ('') or ``frame``. Joints without the pendulum's are another
     robot's JointState on the topic: which position is θ would be a guess.
     """
     if names and joint not in names:
         shown = ", ".join(repr(str(n)[:40]) for n in list(names)[:3])
         more = f" (+{len(names) - 3} more)" if len(names) > 3 else ""
         return f"names joint(s) {shown}{more}, not {joint!r}"
-    return None if frame_id is None else frame_problem(frame_id)
+    return None if frame_id is None else frame_problem(frame_id, frame)
 
 
 class GuardState(enum.Enum):
@@ -143,9 +144,11 @@ class InputGuard:
         saturation_range: float = 0.0,
         joint: str = PENDULUM_JOINT,
         noise_std: float | None = None,
+        joint_frame: str = FRAME_ID,
     ) -> None:
         """Validate the thresholds (saturation_range 0: the sensor has no range); start with no input seen.
-        ``joint``: the name a sample must carry; ``noise_std``: the angle noise the estimator assumes (rad),
+        ``joint``: the name a sample must carry, ``joint_frame`` the frame it may carry besides none;
+        ``noise_std``: the angle noise the estimator assumes (rad),
         checked against the angles' own (None: not checked)."""
         self.rate_hz = rate_hz
         self._intervals: deque[float] = deque(maxlen=RATE_WINDOW)  # the last accepted samples' Δt
@@ -165,6 +168,7 @@ class InputGuard:
         self.dropped_wrong_joint = 0
         self.ignored_joints = 0  # values of other joints in the pendulum's messages, not used
         self.joint = joint
+        self.joint_frame = joint_frame
         self.resets = 0
         self.ill_conditioned = 0
         self.last_t: float | None = None
@@ -213,7 +217,7 @@ class InputGuard:
         if math.isfinite(arrival):
             self._last_arrival = arrival
             self._stale_for = None
-        problem = joint_state_problem(names, frame_id, self.joint)
+        problem = joint_state_problem(names, frame_id, self.joint, self.joint_frame)
         if problem is not None:
             self.dropped_wrong_joint += 1
             self.note(GuardState.ERROR, f"dropped input: {problem}")

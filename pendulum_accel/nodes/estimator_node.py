@@ -141,6 +141,7 @@ class EstimatorNode(ManagedNode):
         self.joint = str(values["joint"])
         if not self.joint.strip():
             raise ParameterError("joint must name the pendulum's joint in the input JointState, got ''")
+        self.joint_frame_id = str(values["joint_frame_id"])
         self.frame_id = str(values["frame_id"])
         self.imu_frame_id = str(values["imu_frame_id"]) or self.frame_id
         self.frame_prefix = str(values["frame_prefix"])  # the viewers' frames: Imu, markers, /tf_static
@@ -162,7 +163,10 @@ class EstimatorNode(ManagedNode):
         # Per message: our own JointState shape (the one joint, named ``joint``) read at fixed offsets,
         # the estimate written into a template (Layout.reader/writer); anything else goes through
         # rclpy's deserializer.
-        self._read_input = bm.Layout.of(bm.joint_state(0, [self.joint], [0.0], [0.0]), bm.JOINT_STATE).reader(
+        # The template carries joint_frame_id: a message of that frame is the chain's shape; any other
+        # frame (base_link too, when joint_frame_id names another) goes through the guard's check.
+        template = bm.joint_state(0, [self.joint], [0.0], [0.0], frame_id=self.joint_frame_id)
+        self._read_input = bm.Layout.of(template, bm.JOINT_STATE).reader(
             ("header.stamp.sec", "header.stamp.nanosec", "position[0]")
         )
         self._last_input = time.monotonic()
@@ -302,6 +306,7 @@ class EstimatorNode(ManagedNode):
             saturation_range=self._sensor_range(),
             joint=self.joint,
             noise_std=float(self.get_parameter("noise_std").value),
+            joint_frame=self.joint_frame_id,
         )
 
     def _build_writers(self) -> None:
@@ -465,7 +470,7 @@ class EstimatorNode(ManagedNode):
         """â for one angle sample (CDR) that arrived at ``now``, stamped like it; nothing when the guard
         drops it or it warms up."""
         fields = self._read_input(data)
-        # The fast path's shape names ``joint`` in base_link already; any other shape (no velocity,
+        # The fast path's shape names ``joint`` in joint_frame_id already; any other shape (no velocity,
         # more joints, another frame) goes through rclpy and the guard's joint_state_problem.
         names: list[str] | None = None
         frame_id: str | None = None

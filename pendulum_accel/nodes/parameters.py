@@ -207,6 +207,9 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
     _fixed("joint", "string", bm.PENDULUM_JOINT,
            "the pendulum's joint in the input JointState: its position is θ, other joints are ignored, and "
            "a message without it is dropped (ERROR); a message naming no joint is a bare angle"),
+    _fixed("joint_frame_id", "string", bm.FRAME_ID,
+           "the frame_id the input JointState may carry besides none: a real sensor's driver may stamp its "
+           "own (e.g. pan_link); a message in another frame is dropped (ERROR)"),
     _fixed("warn_angle_deg", "double", 80.0,
            "|θ| from which the input is flagged ill-conditioned (WARN), degrees", low=1.0, high=89.9),
     _fixed("stale_after", "double", 0.0,

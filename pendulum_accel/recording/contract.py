@@ -82,6 +82,7 @@ def check_chain_contract(bag: Bag) -> None:
     bag lacks are not checked here."""
     checks = _checks()
     hint = "; --joint NAME reads another joint's angles" if bag.choice.joint == bm.PENDULUM_JOINT else ""
+    frame_hint = "; --joint-frame FRAME accepts angles stamped in FRAME"
     bag.find_shapes([bag.chain_topic(root) for root, _ in checks])  # one pass for all
     places: set[int] = set()
     for root, msgtype in checks:
@@ -95,7 +96,7 @@ def check_chain_contract(bag: Bag) -> None:
             if root == bm.TOPIC_JOINT_STATES:
                 names = [str(n) for n in getattr(msg, "name", [])]
                 joint = bag.choice.joint
-                problem = joint_state_problem(names, frame, joint)
+                problem = joint_state_problem(names, frame, joint, bag.choice.joint_frame)
                 places.add(joint_index(names, joint))
                 if problem is None and len(places) > 1:
                     problem = (
@@ -108,5 +109,6 @@ def check_chain_contract(bag: Bag) -> None:
                 raise BagError(
                     f"bag {bag.path}: {count} of {total} {topic} messages are not the pendulum chain's "
                     f"({problem}); refused: another robot's data would pass for this pendulum's"
-                    + (hint if root == bm.TOPIC_JOINT_STATES else "")
+                    + (hint if root == bm.TOPIC_JOINT_STATES and problem.startswith("names") else "")
+                    + (frame_hint if root == bm.TOPIC_JOINT_STATES and problem.startswith("frame_id") else "")
                 )

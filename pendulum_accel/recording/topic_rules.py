@@ -1,9 +1,10 @@
 """Which of a bag's topics, and which joint of its angles, the offline commands read.
 
 A recording stores its chain's topic map (a remap or a namespace applied), and the commands follow it.
-The user's rules (``--topic ROLE=NAME``, ``--namespace NS``, ``--joint NAME``) go on top: they override
-the map, pick one chain of a bag that holds several, or name the pendulum's joint as the estimator node's
-``joint`` parameter does. One value, so that a fleet's every bag (on any worker) reads by the same rules.
+The user's rules (``--topic ROLE=NAME``, ``--namespace NS``, ``--joint NAME``, ``--joint-frame FRAME``) go
+on top: they override the map, pick one chain of a bag that holds several, or name the pendulum's joint
+and the frame its angles carry as the estimator node's ``joint`` and ``joint_frame_id`` parameters do.
+One value, so that a fleet's every bag (on any worker) reads by the same rules.
 """
 
 from __future__ import annotations
@@ -17,11 +18,13 @@ from pendulum_accel.errors import BagError
 
 @dataclass(frozen=True)
 class TopicRules:
-    """The user's ``--topic`` rules (``roles``, each 'ROLE=NAME'), ``--namespace`` and ``--joint``."""
+    """The user's ``--topic`` rules (``roles``, each 'ROLE=NAME'), ``--namespace``, ``--joint`` and
+    ``--joint-frame``."""
 
     roles: tuple[str, ...] = ()
     namespace: str = ""
     joint: str = bm.PENDULUM_JOINT
+    joint_frame: str = bm.FRAME_ID
 
     def apply(self, bag: Bag) -> Bag:
         """``bag`` reading by these rules on top of its stored map; BagError (one line) for a rule that
@@ -30,18 +33,23 @@ class TopicRules:
         if not self.joint.strip():
             raise BagError("--joint must name the pendulum's joint, got ''")
         bag.choice = topic_choice(
-            list(bag.topics), bag.choice.roles, list(self.roles), self.namespace, self.joint
+            list(bag.topics), bag.choice.roles, list(self.roles), self.namespace, self.joint, self.joint_frame
         )
         return bag
 
 
 def topic_choice(
-    topics: list[str], roles: dict[str, str], texts: list[str], namespace: str, joint: str = bm.PENDULUM_JOINT
+    topics: list[str],
+    roles: dict[str, str],
+    texts: list[str],
+    namespace: str,
+    joint: str = bm.PENDULUM_JOINT,
+    joint_frame: str = bm.FRAME_ID,
 ) -> bm.TopicChoice:
     """The TopicChoice of a bag with ``topics`` and a stored map ``roles``, with the user's ``--topic``
-    rules (``texts``) on top, ``namespace`` and the pendulum's ``joint``; BagError (one line) for a rule
-    that does not read ROLE=NAME, names no role, or names a topic the bag lacks, and for a namespace the
-    bag has no topic in."""
+    rules (``texts``) on top, ``namespace``, the pendulum's ``joint`` and its angles' ``joint_frame``;
+    BagError (one line) for a rule that does not read ROLE=NAME, names no role, or names a topic the bag
+    lacks, and for a namespace the bag has no topic in."""
     ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
     # The stored map names one chain's topics: another namespace asked for sets it aside.
     chosen = {role: name for role, name in roles.items() if not ns or bm.in_namespace(name, ns)}
@@ -60,4 +68,4 @@ def topic_choice(
         raise BagError(
             f"--namespace {namespace}: the bag has no topic under {ns}/ (it has {', '.join(topics)})"
         )
-    return bm.TopicChoice(chosen, ns, joint)
+    return bm.TopicChoice(chosen, ns, joint, joint_frame)
