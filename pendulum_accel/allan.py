@@ -157,10 +157,8 @@ def allan_deviation(
         raise ParameterError(
             f"too short for an Allan fit: {duration:.1f} s leaves {int(fit.sum())} usable τ (need 3)"
         )
-    n2, k2 = _fit(taus[fit], adev[fit], duration)
+    n2, k2, misfit = _fit(taus[fit], adev[fit], duration)
     first, last = (int(i) for i in np.flatnonzero(fit)[[0, -1]])
-    model = n2 / taus[fit] + k2 * taus[fit] / 3.0
-    residual = (model - adev[fit] ** 2) / (np.maximum(model, 1e-300) * np.sqrt(taus[fit] / duration))
     return AllanResult(
         label=label,
         unit=unit,
@@ -175,7 +173,7 @@ def allan_deviation(
         fit_to=float(taus[fit][-1]),
         random_walk_bound=walk_bound(float(adev[last]), float(taus[last]), values.size, rate_hz),
         white_density_bound=white_bound(float(adev[first]), float(taus[first]), values.size, rate_hz),
-        misfit=float(np.sum(residual * residual)) / (int(fit.sum()) - 2),
+        misfit=misfit,
     )
 
 
@@ -207,8 +205,9 @@ def white_bound(adev: float, tau: float, size: int, rate_hz: float) -> float:
     return math.sqrt(tau * _variance_bound(adev, tau, size, rate_hz))
 
 
-def _fit(taus: FloatArray, adev: FloatArray, duration: float) -> tuple[float, float]:
-    """(N², K²) ≥ 0 minimising Σ ((m(τ) − σ²)/(m(τ) √(τ/T)))², m = N²/τ + K²τ/3, T the record length.
+def _fit(taus: FloatArray, adev: FloatArray, duration: float) -> tuple[float, float, float]:
+    """(N², K², χ²/dof): N², K² ≥ 0 minimising Σ ((m(τ) − σ²)/(m(τ) √(τ/T)))², m = N²/τ + K²τ/3, T the
+    record length; χ²/dof that sum at the fitted m over the k − 2 degrees of freedom left.
 
     σ² at τ scatters by about √(τ/T) of its expected value (one over the root of the independent
     clusters). The weights use the model, not the measured σ², which would favour the low
@@ -222,7 +221,8 @@ def _fit(taus: FloatArray, adev: FloatArray, duration: float) -> tuple[float, fl
         scale = np.maximum(expected, 1e-300) * np.sqrt(taus / duration)
         coeffs, _ = nnls(basis / scale[:, None], var / scale)
         expected = basis @ coeffs
-    return float(coeffs[0]), float(coeffs[1])
+    residual = (expected - var) / (np.maximum(expected, 1e-300) * np.sqrt(taus / duration))
+    return float(coeffs[0]), float(coeffs[1]), float(np.sum(residual * residual)) / (taus.size - 2)
 
 
 def plot_allan(results: list[AllanResult], out: Path | str) -> Path:

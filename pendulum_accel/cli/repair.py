@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from pendulum_accel.bag.repair import DROPS, repair_bag
+from pendulum_accel.bag.repair import BACKUP_SUFFIXES, DROPS, repair_bag
 
 
 def register(subparsers: Any) -> None:
@@ -48,6 +48,6 @@ def run(args: argparse.Namespace) -> int:
         )
     print(f"dropped: {result.dropped} message records found not intact. {DROPS}.")
     for backup in result.backups:
-        what = "damaged" if backup.suffix == ".damaged" else "intact"
+        what = "damaged" if backup.name.endswith(BACKUP_SUFFIXES[True]) else "intact"
         print(f"{what} file kept as {backup}")
     return 0

@@ -316,9 +316,12 @@ class InputGuard:
             return True
         return False
 
-    def values(self, rate: float | None = None, noise: float | None = None) -> tuple[tuple[str, str], ...]:
-        """Counters and the last sample as (key, value) strings; ``rate``/``noise``: input_rate() and
-        angle_noise() when the caller took them already (report: one median each per report)."""
+    def values(self) -> tuple[tuple[str, str], ...]:
+        """Counters and the last sample as (key, value) strings."""
+        return self._values(self.input_rate(), self.angle_noise())
+
+    def _values(self, rate: float | None, noise: float | None) -> tuple[tuple[str, str], ...]:
+        """values() with input_rate() and angle_noise() taken already (report: one median each)."""
 
         def fmt(x: float | None) -> str:
             """'none' or x with 6 significant digits."""
@@ -336,8 +339,8 @@ class InputGuard:
             ("last_t", fmt(self.last_t)),
             ("last_theta", fmt(self.last_theta)),
             ("stale_for_s", fmt(self._stale_for)),
-            ("input_rate_hz", fmt(self.input_rate() if rate is None else rate)),
-            ("angle_noise_rad", fmt(self.angle_noise() if noise is None else noise)),
+            ("input_rate_hz", fmt(rate)),
+            ("angle_noise_rad", fmt(noise)),
         )
 
     def report(self) -> GuardReport:
@@ -348,7 +351,7 @@ class InputGuard:
         state, message = self._worst, self._worst_message
         if state is GuardState.OK:
             message = f"input normal: {self.accepted} samples accepted"
-        report = GuardReport(state, message, self.values(rate, noise))
+        report = GuardReport(state, message, self._values(rate, noise))
         self._worst, self._worst_message = GuardState.OK, ""
         return report
 
