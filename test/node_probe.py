@@ -20,6 +20,9 @@ SPEC keys (all optional):
                                   durability]]}} (discovery carries no history or depth)
   "set": {"node": name, "params": {name: value}}  call SetParameters, then GetParameters
   "get": {"node": name, "names": [name, ...]}     call GetParameters only
+  "endpoints_of": [node, seconds]  before listing "endpoints", wait (spinning, at most seconds) until node
+                                  has an endpoint on each of them: discovery under load can take longer
+                                  than a fixed linger
   "linger": seconds               keep listening after feeding
   "linger_until": [state, seconds] then keep listening until a /diagnostics status whose state is
                                   ``state`` arrives after the feed and burst and after every angle
@@ -176,6 +179,16 @@ def main() -> None:
             s == state and at >= acked for at, s, _ in out["diagnostics_after"]
         ):
             spin_for(node, 0.01)
+    if "endpoints_of" in spec:
+        owner, end = str(spec["endpoints_of"][0]), time.monotonic() + float(spec["endpoints_of"][1])
+
+        def listed(topic: str) -> bool:
+            """True when ``owner`` has a subscription or publisher on ``topic`` in this probe's graph."""
+            infos = [*node.get_subscriptions_info_by_topic(topic), *node.get_publishers_info_by_topic(topic)]
+            return any(info.node_name == owner for info in infos)
+
+        while time.monotonic() < end and not all(listed(t) for t in spec.get("endpoints", [])):
+            spin_for(node, 0.05)
     out["endpoints"] = {
         topic: {
             kind: [

@@ -89,7 +89,10 @@ def test_qos_overrides_from_a_params_file_take_effect(spawn: Spawn, tmp_path: Pa
     estimator = Output(spawn(cmd))
     estimator.wait_for(r"estimating with", timeout=90)
     # The linger lets discovery list the estimator's endpoints in the probe's graph.
-    result = run_probe(spawn, {"endpoints": [JOINT_TOPIC, "/car/accel/estimate"], "linger": 2.0})
+    result = run_probe(
+        spawn,
+        {"endpoints": [JOINT_TOPIC, "/car/accel/estimate"], "endpoints_of": ["accel_estimator", 20.0]},
+    )
     angles = _own(result["endpoints"][JOINT_TOPIC]["subscriptions"])
     estimate = _own(result["endpoints"]["/car/accel/estimate"]["publishers"])
     assert angles[1] == "best_effort"
