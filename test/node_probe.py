@@ -23,7 +23,11 @@ SPEC keys (all optional):
   "endpoints_of": [node, seconds]  before listing "endpoints", wait (spinning, at most seconds) until node
                                   has an endpoint on each of them: discovery under load can take longer
                                   than a fixed linger
-  "linger": seconds               keep listening after feeding
+  "until_estimates": [n, seconds]  after feeding, keep listening until n estimates arrived (at most seconds):
+                                  a loaded machine can hold the estimator back past any fixed linger
+  "until_values": [{key: value}, seconds]  then until a /diagnostics status holds every key at its value
+                                  (at most seconds), e.g. a drop counter at the count fed
+  "linger": seconds               after those, keep listening (late or extra messages, a last status)
   "linger_until": [state, seconds] then keep listening until a /diagnostics status whose state is
                                   ``state`` arrives after the feed and burst and after every angle
                                   published was acknowledged (at most seconds)
@@ -165,6 +169,16 @@ def main() -> None:
         reply = call(node, getter, GetParameters.Request(names=names))
         for name, value in zip(names, reply.values, strict=True):
             out["get"][name] = Parameter.from_parameter_msg(ParameterMsg(name=name, value=value)).value
+    if "until_estimates" in spec:
+        count, end = int(spec["until_estimates"][0]), time.monotonic() + float(spec["until_estimates"][1])
+        while time.monotonic() < end and len(out["estimates"]) < count:
+            spin_for(node, 0.01)
+    if "until_values" in spec:
+        wanted, end = dict(spec["until_values"][0]), time.monotonic() + float(spec["until_values"][1])
+        while time.monotonic() < end and not any(
+            all(values.get(k) == str(v) for k, v in wanted.items()) for _, _, values in out["diagnostics"]
+        ):
+            spin_for(node, 0.01)
     spin_for(node, float(spec.get("linger", 0.0)))
     if "linger_until" in spec:
         state, end = spec["linger_until"][0], time.monotonic() + float(spec["linger_until"][1])

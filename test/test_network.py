@@ -245,6 +245,7 @@ def test_the_estimator_node_drops_a_foreign_joint_and_says_so(spawn: Spawn) -> N
             "wait_subscribers": 1,
             "joints": ["elbow_joint"],
             "feed": [[0.01 * i, 0.2] for i in range(1, 51)],
+            "until_values": [{"dropped_wrong_joint": 50}, 30.0],
             "linger": 1.0,
         },
     )

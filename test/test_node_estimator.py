@@ -144,6 +144,7 @@ def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
             "wait_subscribers": 1,
             "joints": ["pendulum_joint"],
             "feed": feed,
+            "until_estimates": [len(feed), 30.0],
             "linger": 1.0,
         },
     )
@@ -160,6 +161,7 @@ def test_other_joint_state_shapes_take_the_general_path(spawn: Spawn) -> None:
             "wait_subscribers": 1,
             "joints": ["wheel", "elbow_joint"],
             "feed": later,
+            "until_values": [{"dropped_wrong_joint": len(later)}, 30.0],
             "linger": 1.0,
         },
     )
@@ -188,6 +190,7 @@ def test_the_joint_parameter_names_the_pendulum_among_a_robots_joints(spawn: Spa
             "joints": ["wheel", "encoder"],
             "others": 0.3,
             "feed": feed,
+            "until_estimates": [len(feed), 30.0],
             "linger": 1.0,
         },
     )
@@ -201,6 +204,7 @@ def test_the_joint_parameter_names_the_pendulum_among_a_robots_joints(spawn: Spa
             "wait_subscribers": 1,
             "joints": ["pendulum_joint"],
             "feed": [[1.0 + 0.01 * i, theta] for i in range(50)],
+            "until_values": [{"dropped_wrong_joint": 50}, 30.0],
             "linger": 1.0,
         },
     )
@@ -229,7 +233,7 @@ def test_joint_frame_id_accepts_a_sensors_own_frame(spawn: Spawn) -> None:
     theta = math.atan2(2.0, G)
     feed = [[0.01 * i, theta] for i in range(50)]
     spec = {"listen": ["/car/accel/estimate"], "wait_subscribers": 1, "feed": feed, "linger": 1.0}
-    result = run_probe(spawn, {**spec, "frame_id": "pan_link"})
+    result = run_probe(spawn, {**spec, "frame_id": "pan_link", "until_estimates": [len(feed), 30.0]})
     assert [t for t, _, _ in result["estimates"]] == pytest.approx([t for t, _ in feed], abs=1e-9)
     later = [[1.0 + 0.01 * i, theta] for i in range(50)]
     chain = {
@@ -237,6 +241,7 @@ def test_joint_frame_id_accepts_a_sensors_own_frame(spawn: Spawn) -> None:
         "listen": ["/car/accel/estimate", "/diagnostics"],
         "feed": later,
         "frame_id": "base_link",
+        "until_values": [{"dropped_wrong_joint": len(later)}, 30.0],
     }
     result = run_probe(spawn, chain)
     assert result["estimates"] == []
@@ -261,6 +266,7 @@ def test_lag_stamps_each_estimate_with_the_sample_it_describes(spawn: Spawn) -> 
             "listen": ["/car/accel/estimate", "/diagnostics"],
             "wait_subscribers": 1,
             "feed": fed,
+            "until_estimates": [len(fed) - 20, 30.0],
             "linger": 1.5,
         },
     )

@@ -54,6 +54,7 @@ def test_a_best_effort_publisher_is_estimated_not_refused(spawn: Spawn) -> None:
             "sensor_data": True,
             "wait_subscribers": 1,  # counts matched subscriptions: only the best-effort one matches
             "feed": feed,
+            "until_estimates": [len(feed), 30.0],  # a lost angle (best-effort) makes this wait out 30 s
             "linger": 1.0,
             "endpoints": [JOINT_TOPIC],
         },
@@ -133,6 +134,8 @@ def test_a_multi_joint_message_gives_the_pendulum_joint_and_ignores_the_others(s
             "joints": ["wheel", "arm", "pendulum_joint"],  # θ on the last; the others NaN
             "others": None,
             "feed": feed,
+            "until_estimates": [len(feed), 30.0],
+            "until_values": [{"ignored_joints": 2 * len(feed)}, 30.0],
             "linger": 1.0,
         },
     )
