@@ -44,7 +44,7 @@ def test_every_encoding_and_line_ending_reads_the_same_columns(kind: str, tmp_pa
     want = read_columns(tmp_path / "plain.csv", *HEADER, what="accel")
     got = read_columns(tmp_path / "log.csv", *HEADER, what="accel")
     assert np.array_equal(got.times, want.times) and np.array_equal(got.values, want.values)
-    assert got.lines == want.lines == list(range(2, 62))
+    assert list(got.lines) == list(want.lines) == list(range(2, 62))
     assert got.values[0] == -3.0 and got.times[-1] == 0.59  # each the float of its written decimal
 
 

@@ -19,7 +19,7 @@ import pytest
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError, SceneError
 from pendulum_accel.motion_input import profile_from_dict
-from pendulum_accel.motion_input.columns import SNIFF_ROWS, read_columns
+from pendulum_accel.motion_input.columns import SNIFF_ROWS, PackedTexts, read_columns
 from pendulum_accel.motion_input.speed_trace import SPEED_UNITS
 from pendulum_accel.motion_input.trace import (
     DEFAULT_MAX_CUTOFF_HZ,
@@ -210,6 +210,35 @@ def test_speed_csv_reads_named_columns_and_round_trips(tmp_path: Path) -> None:
     assert isinstance(profile, Table) and "cut-off 0.2 Hz" in profile.origin
     again = profile_from_dict(profile.to_dict())
     assert again == profile and profile.to_dict()["type"] == "speed_table"
+
+
+def test_a_long_logs_rows_keep_their_own_text_and_line_past_each_pack(tmp_path: Path) -> None:
+    """read_columns packs the rows' time texts (PackedTexts, PACK to a string) and line numbers as it reads:
+    rows on both sides of each pack's edge come back as the file writes them, and a time stepping back
+    there is named by its own line and text (the message the whole trace check gives)."""
+    pack = PackedTexts.PACK
+    n = 2 * pack + 10
+    times = [f"{k // 100}.{k % 100:02d}" for k in range(n)]  # as a logger writes them: '0.00', '40.96'
+    rows = ["t,a", *(f"{t},{0.001 * k!r}" for k, t in enumerate(times))]
+    path = tmp_path / "log.csv"
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    columns = read_columns(path, None, None, what="accel")
+    assert len(columns.stamps) == n
+    for i in (0, pack - 1, pack, pack + 1, 2 * pack, n - 1):
+        assert columns.stamp(i) == times[i]
+        assert columns.where(i, path) == f"{path}:{i + 2}"  # the header is line 1
+    assert columns.stamp(-1) == times[-1]
+    with pytest.raises(IndexError):
+        columns.stamp(n)
+    # Exact floats from their own texts: '40.96' → 40.96 (float parses each cell correctly rounded).
+    assert np.array_equal(columns.times, [float(t) for t in times])
+    back = pack + 3
+    rows[back + 1] = f"{times[back - 2]},0.0"  # row back (line back + 2) repeats an earlier time
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    with pytest.raises(ParameterError) as err:
+        profile_from_dict({"type": "accel_csv", "path": str(path)}, base_dir=tmp_path)
+    said = f":{back + 2}: time steps back, got '{times[back - 2]}' after '{times[back - 1]}'"
+    assert said in str(err.value)
 
 
 # ---------------------------------------------------------------- errors: one line each
@@ -628,7 +657,7 @@ def test_excels_sep_line_names_the_separator(separator: str, decimal: str, tmp_p
     want = read_columns(tmp_path / "plain.csv", "t", "a (m/s^2)", what="accel")
     got = read_columns(tmp_path / "excel.csv", "t", "a (m/s^2)", what="accel")
     assert np.array_equal(got.times, want.times) and np.array_equal(got.values, want.values)
-    assert got.lines == [line + 1 for line in want.lines]
+    assert list(got.lines) == [line + 1 for line in want.lines]
     table = profile_from_dict({"type": "csv", "path": "excel.csv"}, base_dir=tmp_path)
     assert isinstance(table, Table) and np.array_equal(table.accels, want.values)
 
@@ -660,7 +689,7 @@ def test_a_units_row_under_the_header_is_skipped_and_a_second_text_row_is_refuse
     plain = read_columns(tmp_path / "plain.csv", *names, what="accel")
     units = read_columns(tmp_path / "units.csv", *names, what="accel")
     assert np.array_equal(units.times, plain.times) and np.array_equal(units.values, plain.values)
-    assert units.lines == [line + 1 for line in plain.lines]  # rows keep their own line numbers
+    assert list(units.lines) == [line + 1 for line in plain.lines]  # rows keep their own line numbers
     (tmp_path / "two.csv").write_text("\n".join(["t,ax", "s,m/s^2", "sec,g", *data]) + "\n", encoding="utf-8")
     with pytest.raises(ParameterError, match=r"two\.csv:3: time 'sec' is not a number"):
         read_columns(tmp_path / "two.csv", *names, what="accel")

@@ -24,6 +24,7 @@ import csv
 import datetime as dt
 import itertools
 import re
+from array import array
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +35,38 @@ from pendulum_accel.errors import ParameterError
 from pendulum_accel.textfile import text_lines
 
 
+class PackedTexts:
+    """Strings kept packed, PACK of them joined by NUL into one str: about a byte a character, where a list
+    of str holds an object of ~50 B and an 8 B slot for each. A day-long log's time cells are kept so only
+    to name a row in a message. A cell never holds NUL: it is stored only once its time has parsed."""
+
+    PACK = 4096
+
+    def __init__(self) -> None:
+        """No strings yet."""
+        self._packs: list[str] = []
+        self._pending: list[str] = []
+
+    def append(self, text: str) -> None:
+        """Keep ``text`` as the next string."""
+        self._pending.append(text)
+        if len(self._pending) == self.PACK:
+            self._packs.append("\x00".join(self._pending))
+            self._pending = []
+
+    def __len__(self) -> int:
+        """How many strings are kept."""
+        return len(self._packs) * self.PACK + len(self._pending)
+
+    def __getitem__(self, i: int) -> str:
+        """String ``i`` (from 0; negative from the end)."""
+        n = len(self)
+        if not -n <= i < n:
+            raise IndexError(f"string {i} of {n}")
+        pack, k = divmod(i % n, self.PACK)
+        return self._packs[pack].split("\x00")[k] if pack < len(self._packs) else self._pending[k]
+
+
 @dataclass(frozen=True)
 class Columns:
     """A CSV's time and value columns: ``times`` in s (as written, or since ``epoch`` for date-times),
@@ -41,8 +74,8 @@ class Columns:
 
     times: np.ndarray
     values: np.ndarray
-    lines: list[int]
-    stamps: list[str]
+    lines: array[int]
+    stamps: PackedTexts
     epoch: dt.datetime | None
     """The first row's date-time when the time column holds date-times, else None."""
 
@@ -290,19 +323,24 @@ def read_columns(
     header: list[str] | None = None
     # A column number (from 1) picks its column with or without a header row; a name needs the header.
     columns = [c - 1 if isinstance(c, int) else d for d, c in enumerate(specs)]
-    raw_times: list[float | dt.datetime] = []
-    ticks: list[int] = []  # a stamp's integer ns, row by row
-    values: list[float] = []
-    lines: list[int] = []
-    stamps: list[str] = []
+    # Packed as the rows come (array, PackedTexts: ~46 B a row, where lists of floats, ints and str held
+    # ~204): each time is stored as what it becomes, its difference from the first row's where exact
+    # differences need the first row (stamps, date-times, other units), the value as a float.
+    times_read = array("d")  # s as written, or since the first row (a stamp's, a date-time's)
+    count_diffs: array[float] | None = array("d") if time_units != "s" else None  # exact integer ones
+    values = array("d")
+    lines = array("q")
+    stamps = PackedTexts()
+    epoch: dt.datetime | None = None
+    first_tick, first_count, first_float = 0, 0, 0.0
     units_row = False
     for line_no, cells in read_csv_rows(path, what):
-        if header is not None and not raw_times and not units_row and not any(is_number(c) for c in cells):
+        if header is not None and not lines and not units_row and not any(is_number(c) for c in cells):
             # One row of text only under the header is its units ("s", "m/s^2"), as many loggers write;
             # a row with any number in it is data and is read (or refused) as such.
             units_row = True
             continue
-        if header is None and not raw_times:
+        if header is None and not lines:
             if named and not all(is_number(c) for c in cells):
                 header = cells
                 for k, name in enumerate(specs):
@@ -326,8 +364,8 @@ def read_columns(
         t_text = _time_text(cells, columns)
         try:
             if stamped:
-                ticks.append(stamp_nanoseconds(cells[columns[0]], cells[columns[1]]))
-            t_value = float(ticks[-1]) if stamped else _time_value(t_text, time_format)
+                tick = stamp_nanoseconds(cells[columns[0]], cells[columns[1]])
+            t_value = float(tick) if stamped else _time_value(t_text, time_format)
         except ValueError as exc:
             if stamped:
                 raise ParameterError(
@@ -339,7 +377,8 @@ def read_columns(
             raise ParameterError(
                 f"{path}:{line_no}: time {t_text!r} is not {layout} (state time_format for other layouts)"
             ) from None
-        if raw_times and isinstance(t_value, dt.datetime) != isinstance(raw_times[0], dt.datetime):
+        first = not lines
+        if not first and isinstance(t_value, dt.datetime) != (epoch is not None):
             raise ParameterError(
                 f"{path}:{line_no}: time {t_text!r} mixes numbers and date-times in one column"
             )
@@ -350,37 +389,48 @@ def read_columns(
             raise ParameterError(
                 f"{path}:{line_no}: {what} {v_text!r} is not a number{comma_hint(v_text)}"
             ) from None
-        raw_times.append(t_value)
+        if isinstance(t_value, dt.datetime):
+            if first:
+                if time_units != "s":
+                    raise ParameterError(
+                        f"{path}:{line_no}: time_units {time_units!r} is for a numeric time column, and this "
+                        f"one holds date-times ({t_text!r})",
+                        path="time_units",
+                    )
+                epoch = t_value
+            assert epoch is not None
+            try:
+                times_read.append(since(t_value, epoch))
+            except ValueError as exc:
+                raise ParameterError(f"{path}:{line_no}: {exc} ({t_text!r} after {stamps[0]!r})") from None
+        elif stamped:  # integer ns: exact differences from the first row, scaled once at the end
+            if first:
+                first_tick = tick
+            times_read.append(float(tick - first_tick))
+        elif time_units != "s":  # (tᵢ − t₀) in the unit, exact where every cell is an integer
+            if first:
+                first_float = t_value
+            times_read.append(t_value - first_float)
+            count = _whole(t_text) if count_diffs is not None else None
+            if count_diffs is None or count is None:
+                count_diffs = None  # one cell that is no integer: every difference is the floats'
+            else:
+                if first:
+                    first_count = count
+                count_diffs.append(float(count - first_count))
+        else:
+            times_read.append(t_value)
         values.append(v_value)
         lines.append(line_no)
         stamps.append(t_text)
-    if not raw_times:
+    if not lines:
         raise ParameterError(f"{path}: no (t, v) rows found", path="path")
-    if time_units != "s" and isinstance(raw_times[0], dt.datetime):
-        raise ParameterError(
-            f"{path}:{lines[0]}: time_units {time_units!r} is for a numeric time column, and this one holds "
-            f"date-times ({stamps[0]!r})",
-            path="time_units",
-        )
-    epoch = raw_times[0] if isinstance(raw_times[0], dt.datetime) else None
-    if stamped:  # integer ns: exact differences from the first row, scaled once
-        times = np.array([tick - ticks[0] for tick in ticks], dtype=float) / NANOS
-    elif epoch is None and time_units != "s":
-        times = _since_first(stamps, TIME_UNITS[time_units])
-    elif epoch is None:
-        times = np.array(raw_times, dtype=float)
-    else:
-        seconds: list[float] = []
-        for i, moment in enumerate(raw_times):
-            assert isinstance(moment, dt.datetime)
-            try:
-                seconds.append(since(moment, epoch))
-            except ValueError as exc:
-                raise ParameterError(
-                    f"{path}:{lines[i]}: {exc} ({stamps[i]!r} after {stamps[0]!r})"
-                ) from None
-        times = np.array(seconds)
-    return Columns(times, np.array(values), lines, stamps, epoch)
+    times = np.array(times_read if count_diffs is None else count_diffs, dtype=float)
+    if stamped:
+        times /= NANOS
+    elif time_units != "s":
+        times *= TIME_UNITS[time_units]
+    return Columns(times, np.array(values, dtype=float), lines, stamps, epoch)
 
 
 def comma_hint(text: str) -> str:
@@ -394,14 +444,12 @@ def comma_hint(text: str) -> str:
     return ""
 
 
-def _since_first(stamps: list[str], unit: float) -> np.ndarray:
-    """(tᵢ − t₀) × unit in s: exact integer differences where every cell is an integer, else floats."""
+def _whole(text: str) -> int | None:
+    """The cell as an integer when it writes one (``int``), else None."""
     try:
-        ticks: list[int] | list[float] = [int(text) for text in stamps]
+        return int(text)
     except ValueError:
-        ticks = [float(text) for text in stamps]
-    first = ticks[0]
-    return np.array([tick - first for tick in ticks], dtype=float) * unit
+        return None
 
 
 def is_number(text: str) -> bool:
