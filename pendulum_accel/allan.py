@@ -12,6 +12,16 @@ N is the white-noise density (unit/√Hz: the −½ slope, N = σ(1 s) on it), K
 N and K are fitted together by non-negative least squares on σ² = N²/τ + K²τ/3, each τ weighted by
 its uncertainty, over the τ with at least ``MIN_CLUSTERS`` independent clusters; B is read off the
 curve as usual, B = min σ / 0.664 (an upper bound when white noise or the walk still dominate there).
+
+A sensor at rest whose bias wanders as a first-order Gauss-Markov process (the sensor model's dynamic
+bias: d' = −d/T_c + σ_b w) has a bump the two slopes miss. Where they miss (χ²/dof above MISFIT_LIMIT)
+and asked to (``gauss_markov``), the fit adds its term,
+
+    σ²_GM(τ) = σ_b² T_c²/τ · [1 − T_c/(2τ) · (3 − 4 e^{−τ/T_c} + e^{−2τ/T_c})]
+
+(El-Sheimy, Hou and Niu 2008, IEEE Trans. Instrum. Meas. 57(1), table of the AV of a first-order
+Gauss-Markov process, with its driving density q_c = σ_b²), T_c searched over the fitted τ; the term is
+taken when it brings χ²/dof under the limit with T_c inside the fitted τ, where its bump is seen.
 """
 
 from __future__ import annotations
@@ -25,7 +35,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import nnls
+from scipy.optimize import minimize_scalar, nnls
 from scipy.stats import chi2
 
 from pendulum_accel.errors import ParameterError
@@ -43,8 +53,10 @@ MISFIT_LIMIT = 20.0
 """χ²/dof of the fit above which σ(τ) is not white noise and a walk. Those stay far under it: at most 7.7
 over 1000 records of 200 s with walks K 0 … 1e-3, 1.0–1.9 for the bundled scenes' 3600 s static runs. A
 swinging bob is far over (the bundled braking, step_start and hwfet runs and the demo's swing: 510–2200),
-and so is noise the model lacks (a Gauss-Markov bias of correlation time 1–10 s: 15–2500), which a
-record at rest can hold: the limit tells the model from the record, not motion from rest (test_allan)."""
+and so is noise the two slopes lack (a Gauss-Markov bias of correlation time 0.3–10 s: 15–2700), which a
+record at rest can hold: the limit tells the model from the record, not motion from rest (test_allan).
+Above it the angle's fit tries a Gauss-Markov term (``gauss_markov``), which brings such a bias to
+χ²/dof 0.2–2.7 and leaves a swing far over (1700–7400 on the runs above)."""
 _WAIT_SLICE = 0.05  # s: the main thread's longest wait between two checks for Ctrl-C
 T = TypeVar("T")
 
@@ -70,21 +82,31 @@ class AllanResult:
     white_density_bound: float = math.inf
     """N no larger than this at BOUND_LEVEL (white_bound at τ = fit_from), likewise."""
     misfit: float = 0.0
-    """χ²/dof of the fit, Σ((m − σ²)/(m √(τ/T)))² / (k − 2) over the k fitted τ: about 1 when σ(τ) is
-    white noise and a walk, far above when the record holds motion or other noise (MISFIT_LIMIT)."""
+    """χ²/dof of the fit, Σ((m − σ²)/(m √(τ/T)))² / (k − p) over the k fitted τ and p fitted figures:
+    about 1 when σ(τ) is the model's, far above when the record holds motion or other noise
+    (MISFIT_LIMIT)."""
+    bias_drive: float = 0.0
+    """σ_b (unit/√s) of a Gauss-Markov bias the fit resolved (0: none): its driving density's root, as the
+    sensor model's dynamic_bias_stddev; the bias's own spread is σ_b √(T_c/2)."""
+    bias_time: float = 0.0
+    """T_c (s) of that bias, as the sensor model's dynamic_bias_correlation_time (0: none)."""
 
     @property
     def fits(self) -> bool:
-        """True when σ(τ) is white noise and a walk within MISFIT_LIMIT, so N and K are the record's."""
+        """True when σ(τ) is the model's within MISFIT_LIMIT (white noise, a walk and any Gauss-Markov
+        bias resolved), so its figures are the record's."""
         return self.misfit <= MISFIT_LIMIT
 
     def model(self, taus: FloatArray) -> FloatArray:
-        """σ(τ) = √(N²/τ + K²τ/3) of the fitted N and K."""
-        return np.sqrt(self.white_density**2 / taus + self.random_walk**2 * taus / 3.0)
+        """σ(τ) = √(N²/τ + K²τ/3 + σ_b² g(τ; T_c)) of the fitted figures (g: gauss_markov_shape)."""
+        var = self.white_density**2 / taus + self.random_walk**2 * taus / 3.0
+        if self.bias_time > 0.0:
+            var = var + self.bias_drive**2 * gauss_markov_shape(taus, self.bias_time)
+        return np.sqrt(var)
 
     def lines(self) -> list[str]:
         """The figures, one per line."""
-        return [
+        out = [
             f"{self.label}: overlapping Allan deviation at {self.taus.size} τ from {self.taus[0]:.3g} "
             f"to {self.taus[-1]:.3g} s (fit over {self.fit_from:.3g} … {self.fit_to:.3g} s)",
             (
@@ -105,6 +127,14 @@ class AllanResult:
             ),
             f"  bias instability    B  {self.instability:.4g} {self.unit}     (floor σ_min / 0.664)",
         ]
+        if self.bias_time > 0.0:
+            spread = self.bias_drive * math.sqrt(0.5 * self.bias_time)
+            out.append(
+                f"  Gauss-Markov bias   σ_b {self.bias_drive:.4g} {self.unit}/√s, T_c {self.bias_time:.3g} s "
+                f"(a scene's dynamic_bias_stddev and dynamic_bias_correlation_time; the bias's spread "
+                f"σ_b √(T_c/2) = {spread:.3g} {self.unit}, its σ(τ) bump at τ ≈ 1.9 T_c)"
+            )
+        return out
 
 
 def overlapping_adev(
@@ -132,9 +162,16 @@ def overlapping_adev(
 
 
 def allan_deviation(
-    samples: FloatArray, rate_hz: float, *, label: str = "signal", unit: str = "", fit_from: float = 0.0
+    samples: FloatArray,
+    rate_hz: float,
+    *,
+    label: str = "signal",
+    unit: str = "",
+    fit_from: float = 0.0,
+    gauss_markov: bool = False,
 ) -> AllanResult:
-    """σ(τ) at octave τ of ``samples`` taken at ``rate_hz`` and the NNLS fit of N, K, B over τ ≥ fit_from."""
+    """σ(τ) at octave τ of ``samples`` taken at ``rate_hz`` and the NNLS fit of N, K, B over τ ≥ fit_from;
+    with ``gauss_markov``, a Gauss-Markov bias's term where N and K alone miss (module doc)."""
     values = np.asarray(samples, dtype=np.float64)
     if values.ndim != 1 or values.size < MIN_SAMPLES:
         raise ParameterError(f"Allan deviation needs at least {MIN_SAMPLES} samples, got {values.size}")
@@ -158,6 +195,11 @@ def allan_deviation(
             f"too short for an Allan fit: {duration:.1f} s leaves {int(fit.sum())} usable τ (need 3)"
         )
     n2, k2, misfit = _fit(taus[fit], adev[fit], duration)
+    drive, time = 0.0, 0.0
+    if gauss_markov and misfit > MISFIT_LIMIT and fit.sum() > GM_FIGURES:
+        found = _fit_gauss_markov(taus[fit], adev[fit], duration)
+        if found is not None:
+            n2, k2, drive, time, misfit = found
     first, last = (int(i) for i in np.flatnonzero(fit)[[0, -1]])
     return AllanResult(
         label=label,
@@ -174,6 +216,8 @@ def allan_deviation(
         random_walk_bound=walk_bound(float(adev[last]), float(taus[last]), values.size, rate_hz),
         white_density_bound=white_bound(float(adev[first]), float(taus[first]), values.size, rate_hz),
         misfit=misfit,
+        bias_drive=drive,
+        bias_time=time,
     )
 
 
@@ -207,26 +251,91 @@ def white_bound(adev: float, tau: float, size: int, rate_hz: float) -> float:
 
 def _fit(taus: FloatArray, adev: FloatArray, duration: float) -> tuple[float, float, float]:
     """(N², K², χ²/dof): N², K² ≥ 0 minimising Σ ((m(τ) − σ²)/(m(τ) √(τ/T)))², m = N²/τ + K²τ/3, T the
-    record length; χ²/dof that sum at the fitted m over the k − 2 degrees of freedom left.
+    record length; χ²/dof that sum at the fitted m over the k − 2 degrees of freedom left (_weighted_nnls)."""
+    coeffs, misfit = _weighted_nnls(np.column_stack([1.0 / taus, taus / 3.0]), adev * adev, taus, duration)
+    return float(coeffs[0]), float(coeffs[1]), misfit
+
+
+def _weighted_nnls(
+    basis: FloatArray, var: FloatArray, taus: FloatArray, duration: float
+) -> tuple[FloatArray, float]:
+    """(c ≥ 0, χ²/dof) minimising Σ ((m − σ²)/(m √(τ/T)))², m = basis · c, over the k − p degrees of
+    freedom left by p columns.
 
     σ² at τ scatters by about √(τ/T) of its expected value (one over the root of the independent
     clusters). The weights use the model, not the measured σ², which would favour the low
     scatter and bias the fit low; three reweighted passes converge.
     """
-    var = adev * adev
-    basis = np.column_stack([1.0 / taus, taus / 3.0])
     expected = var
-    coeffs = np.zeros(2)
+    coeffs = np.zeros(basis.shape[1])
     for _ in range(3):
         scale = np.maximum(expected, 1e-300) * np.sqrt(taus / duration)
         coeffs, _ = nnls(basis / scale[:, None], var / scale)
         expected = basis @ coeffs
     residual = (expected - var) / (np.maximum(expected, 1e-300) * np.sqrt(taus / duration))
-    return float(coeffs[0]), float(coeffs[1]), float(np.sum(residual * residual)) / (taus.size - 2)
+    return coeffs, float(np.sum(residual * residual)) / (taus.size - basis.shape[1])
+
+
+GM_FIGURES = 4  # N², K², σ_b² and T_c: a Gauss-Markov fit needs more τ than these
+GM_GRID = 12  # T_c tried per decade of the fitted τ before the refinement between two neighbours
+
+
+def gauss_markov_shape(taus: FloatArray, time: float) -> FloatArray:
+    """g(τ; T_c) = T_c²/τ · [1 − T_c/(2τ) (3 − 4 e^{−τ/T_c} + e^{−2τ/T_c})]: σ²(τ) per unit σ_b² of a
+    first-order Gauss-Markov process of correlation time T_c (module doc); ≈ τ/3 for τ ≪ T_c (a walk),
+    T_c²/τ for τ ≫ T_c (white)."""
+    x = np.asarray(taus, dtype=np.float64) / time
+    # 3 − 4e^{−x} + e^{−2x} = 2x − 2x³/3 + x⁴/2 − …, so the bracket is x²/3 − x³/4 + O(x⁴). Formed as
+    # 1 − inner/(2x) it loses log10(3/x²) digits to cancellation (inner as −4 expm1(−x) + expm1(−2x) keeps
+    # its own): below x = 1e-4 the series' two terms instead, whose dropped x⁴ term is ~1e-8 of it there,
+    # as is the closed form's cancellation error (ε 2.2e-16 over x²/3 = 3.3e-9: 7e-8) just above.
+    inner = -4.0 * np.expm1(-x) + np.expm1(-2.0 * x)
+    small = x < 1e-4
+    safe = np.where(small, 1.0, x)
+    bracket = np.where(small, x * x / 3.0 - x**3 / 4.0, 1.0 - inner / (2.0 * safe))
+    return time * time / np.asarray(taus, dtype=np.float64) * bracket
+
+
+def _fit_gauss_markov(
+    taus: FloatArray, adev: FloatArray, duration: float
+) -> tuple[float, float, float, float, float] | None:
+    """(N², K², σ_b, T_c, χ²/dof) of σ² = N²/τ + K²τ/3 + σ_b² g(τ; T_c), or None where no such term fits.
+
+    T_c is searched over the fitted τ, GM_GRID a decade, then refined between its grid neighbours (a
+    bounded scalar search on ln T_c); the amplitudes are _weighted_nnls's at each T_c. None unless σ_b > 0,
+    χ²/dof ≤ MISFIT_LIMIT and T_c lies inside the grid, not at an end: a bump at an end of the τ range is a
+    walk's or white noise's shape there, not a resolved bias.
+    """
+    var = adev * adev
+
+    def misfit(log_time: float) -> float:
+        basis = np.column_stack([1.0 / taus, taus / 3.0, gauss_markov_shape(taus, math.exp(log_time))])
+        return _weighted_nnls(basis, var, taus, duration)[1]
+
+    lo, hi = math.log(float(taus[0])), math.log(float(taus[-1]))
+    grid = np.linspace(lo, hi, max(3, round(GM_GRID * (hi - lo) / math.log(10.0)) + 1))
+    scores = [misfit(float(g)) for g in grid]
+    best = int(np.argmin(scores))
+    if best in (0, grid.size - 1):
+        return None
+    refined = minimize_scalar(
+        misfit,
+        bounds=(float(grid[best - 1]), float(grid[best + 1])),
+        method="bounded",
+        options={"xatol": 1e-3},
+    )
+    log_time = float(refined.x) if refined.fun <= scores[best] else float(grid[best])
+    time = math.exp(log_time)
+    basis = np.column_stack([1.0 / taus, taus / 3.0, gauss_markov_shape(taus, time)])
+    coeffs, chi = _weighted_nnls(basis, var, taus, duration)
+    if coeffs[2] <= 0.0 or chi > MISFIT_LIMIT:
+        return None
+    return float(coeffs[0]), float(coeffs[1]), math.sqrt(float(coeffs[2])), time, chi
 
 
 def plot_allan(results: list[AllanResult], out: Path | str) -> Path:
-    """Log-log σ(τ) per result with its ±error, the fitted model, and the −½ and +½ slope lines."""
+    """Log-log σ(τ) per result with its ±error, the fitted model, the −½ and +½ slope lines and a resolved
+    Gauss-Markov bias's bump."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -252,6 +361,10 @@ def plot_allan(results: list[AllanResult], out: Path | str) -> Path:
             ),
             ("+½", "K", "√s", res.random_walk, res.random_walk_bound, np.sqrt(dense / 3.0), 3.0, "tab:red"),
         )
+        if res.bias_time > 0.0:
+            shape_gm = np.sqrt(gauss_markov_shape(dense, res.bias_time))
+            label = f"Gauss-Markov: σ_b = {res.bias_drive:.3g} {res.unit}/√s, T_c = {res.bias_time:.3g} s"
+            ax.loglog(dense, res.bias_drive * shape_gm, "-.", color="tab:purple", label=label)
         for slope, name, per, value, bound, shape, at, color in slopes:
             if value > 0:
                 label = f"{slope}: {name} = {value:.3g} {res.unit}/{per}"

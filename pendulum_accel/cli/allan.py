@@ -27,7 +27,8 @@ def register(subparsers: Any) -> None:
             "Overlapping Allan deviation (NIST SP 1065) of the angle readings and of the acceleration "
             "estimate, from a recorded bag or from a static run generated from a scene (car at rest, "
             "bob hanging still). Prints the fitted white-noise density N (−½ slope, read at τ = 1 s), "
-            "bias random walk K (+½ slope, read at τ = 3 s) and bias-instability floor B."
+            "bias random walk K (+½ slope, read at τ = 3 s) and bias-instability floor B, and for the "
+            "angle a Gauss-Markov bias (σ_b, T_c) where its σ(τ) shows one."
         ),
     )
     parser.add_argument("source", help="bag directory (or .mcap) or a scene name or YAML file")
@@ -73,7 +74,11 @@ def run(args: argparse.Namespace) -> int:
     series = bag_series(bag) if bag is not None else scene_series(args.source, args.duration, args.estimator)
     # interruptible: σ(τ) of a long series is seconds of numpy work that Ctrl-C must still stop at once.
     results: list[AllanResult] = [
-        interruptible(lambda: allan_deviation(series.theta, series.rate_hz, label="angle θ", unit="rad"))
+        interruptible(
+            lambda: allan_deviation(
+                series.theta, series.rate_hz, label="angle θ", unit="rad", gauss_markov=True
+            )
+        )
     ]
     note = None
     if series.accel is not None:
@@ -102,9 +107,10 @@ def run(args: argparse.Namespace) -> int:
             # static runs: χ²/dof 17–37), so the line would stand under every estimate.
             print(
                 f"  model misfit: σ(τ) of the angle misses N²/τ + K²τ/3 by χ²/dof {res.misfit:.3g} (white "
-                f"noise and a walk stay under {MISFIT_LIMIT:g}): the record holds motion (a swing, a change "
-                "of a) or noise the model lacks (a Gauss-Markov bias, bias instability); N and K describe "
-                "that, not a white noise and a walk"
+                f"noise and a walk stay under {MISFIT_LIMIT:g}, and no Gauss-Markov bias brings it there): "
+                "the record holds motion (a swing, a change of a) or noise the model lacks (bias "
+                "instability, a Gauss-Markov bias slower than the record resolves); N and K describe that, "
+                "not a white noise and a walk"
             )
     if note is not None:
         print(note)
