@@ -19,9 +19,10 @@ and asked to (``gauss_markov``), the fit adds its term,
 
     σ²_GM(τ) = σ_b² T_c²/τ · [1 − T_c/(2τ) · (3 − 4 e^{−τ/T_c} + e^{−2τ/T_c})]
 
-(El-Sheimy, Hou and Niu 2008, IEEE Trans. Instrum. Meas. 57(1), table of the AV of a first-order
-Gauss-Markov process, with its driving density q_c = σ_b²), T_c searched over the fitted τ; the term is
-taken when it brings χ²/dof under the limit with T_c inside the fitted τ, where its bump is seen.
+(El-Sheimy, Hou and Niu 2008, IEEE Trans. Instrum. Meas. 57(1), the Allan variance of exponentially
+correlated noise, their amplitude q_c being σ_b: the driving white noise's variance over a short step dt
+is σ_b² dt, as in the sensor model), T_c searched over the fitted τ; the term is taken when it brings
+χ²/dof under the limit with T_c inside the fitted τ, where its bump is seen.
 """
 
 from __future__ import annotations
