@@ -252,3 +252,18 @@ def test_allan_prints_the_gauss_markov_bias_of_a_scene_at_rest(
     assert float(found.group(1)) == pytest.approx(1e-3, rel=0.15)
     assert float(found.group(2)) == pytest.approx(3.0, rel=0.35)
     assert "model misfit" not in text
+
+
+@pytest.mark.parametrize(
+    ("frequency", "amplitude", "decay"),
+    [(0.05, 3e-4, math.inf), (0.5, 1e-3, math.inf), (2.0, 3e-4, math.inf), (0.5, 5e-3, 20.0)],
+)
+def test_a_swing_at_rest_is_no_gauss_markov_bias(frequency: float, amplitude: float, decay: float) -> None:
+    """A bob still swinging in a record at rest (a sinusoid, steady or dying away, over 1 mrad of white noise,
+    2000 s at 50 Hz) misses N and K (χ²/dof 148 and over), and no Gauss-Markov term brings it under the
+    limit: σ(τ) of a sinusoid has nulls at τ = k/f that a bump cannot follow. No bias is reported."""
+    t = np.arange(100_000) / RATE
+    rng = np.random.default_rng(1)
+    swing = amplitude * np.exp(-t / decay) * np.sin(2.0 * np.pi * frequency * t)
+    result = allan_deviation(1e-3 * rng.standard_normal(t.size) + swing, RATE, gauss_markov=True)
+    assert result.bias_time == 0.0 and not result.fits, result.misfit
