@@ -21,7 +21,7 @@ are written).
 ``export --no-smoothed`` shows the tables written batch by batch alone. The merged table (``--merged``)
 is a k-way merge on the stamps, a batch of angles at a time. Every command also carries its imports:
 numba's compiled passes about 110 MiB, pandas and pyarrow.
-Writes bag_memory.csv and bag_memory.md into the output directory (default out/bench).
+Writes bag_memory.csv, bag_memory.md and bag_memory.png into the output directory (default out/bench).
 """
 
 from __future__ import annotations
@@ -161,11 +161,18 @@ def main(argv: list[str] | None = None) -> int:
         )
     (args.out / "bag_memory.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
+    png = report.bar_plot(
+        args.out / "bag_memory.png",
+        f"Peak RSS of each command on a {size / 2**30:.2f} GiB bag",
+        [(str(row["command"]), float(row["rss_mib"])) for row in rows],  # type: ignore[arg-type]
+        "peak RSS (MiB)",
+        bound=(size / _MIB, "the bag's size (a command that held it would need this)"),
+    )
     report.write_page(
         "bag_memory",
         "Bag commands' memory on a bag over 1 GiB",
         ["\n".join(lines)],
-        [],
+        [(png, "Peak resident memory of each command beside the bag's own size")],
         intro=__doc__ or "",
         docs=args.docs,
         argv=argv,

@@ -13,7 +13,8 @@
    writes today: rosbags ``Reader.messages()`` + ``deserialize_cdr``, each message flattened into a
    dict, one pandas DataFrame per topic, written to Parquet.
 
-Writes bags.csv and bags.md into the output directory (default out/bench) and prints the table.
+Writes bags.csv, bags.md and bags.png (each task against its plain loop) into the output directory
+(default out/bench) and prints the table.
 """
 
 from __future__ import annotations
@@ -58,6 +59,9 @@ class Row:
     baseline_seconds: float | None = None
     megabytes: float | None = None
     """MB of file written, for the write rows."""
+    pass_us: float | None = None
+    """µs per angle of an analyze row beyond our reader's scan and decode: (its time − the reader's) / the
+    bag's angles, the re-run estimator and the metrics (the cost per sample the read is set beside)."""
 
     @property
     def mb_per_s(self) -> float | None:
@@ -196,10 +200,11 @@ def run_benchmark(scene_name: str, rate_hz: float, duration: float, repeat: int,
     rows.append(Row("plain rosbags read + deserialize loop", base_n, base_s, sim, base_s))
     read_s, read_n = best_of(repeat, lambda: our_read_decode(bag_path))
     rows.append(Row("our reader: scan + bulk decode", read_n, read_s, sim, base_s))
+    angles = read_bag(bag_path).topics[TOPIC_JOINT_STATES].count
     for name in ESTIMATORS:
         label = f"analyze --estimator {name}" + (" (default)" if name == DEFAULT_ESTIMATOR else "")
         an_s, _ = best_of(repeat, lambda name=name: analyze_bag(bag_path, estimator=name))  # type: ignore[misc]
-        rows.append(Row(label, n, an_s, sim, base_s))
+        rows.append(Row(label, n, an_s, sim, base_s, pass_us=(an_s - read_s) / angles * 1e6))
     pandas_s, pandas_n = best_of(repeat, lambda: plain_rosbags_to_pandas(bag_path, folder / "plain_tables"))
     rows.append(Row("plain rosbags loop -> pandas -> Parquet", pandas_n, pandas_s, sim, pandas_s))
     for merged in (False, True):
@@ -221,7 +226,18 @@ def _fmt(value: float | None, spec: str) -> str:
 
 def table(rows: Sequence[Row]) -> list[list[str]]:
     """Header + formatted rows."""
-    out = [["task", "messages", "wall s", "msg/s", "MB/s", "x real time", "x its plain rosbags loop"]]
+    out = [
+        [
+            "task",
+            "messages",
+            "wall s",
+            "msg/s",
+            "MB/s",
+            "x real time",
+            "x its plain rosbags loop",
+            "µs per angle beyond the read",
+        ]
+    ]
     for r in rows:
         out.append(
             [
@@ -232,9 +248,27 @@ def table(rows: Sequence[Row]) -> list[list[str]]:
                 _fmt(r.mb_per_s, ".0f"),
                 f"{r.realtime:.0f}",
                 _fmt(r.speedup, ".1f"),
+                _fmt(r.pass_us, ".2f"),
             ]
         )
     return out
+
+
+ANALYZE_TARGET = 10.0
+"""× a plain rosbags loop that analyze is to reach for every estimator (issue 33), drawn beside the rows."""
+
+
+def plot(rows: Sequence[Row], out: Path) -> Path:
+    """bags.png: each row compared with a plain rosbags loop, its speed-up (log), and ANALYZE_TARGET."""
+    bars = [(r.task, r.speedup) for r in rows if r.speedup is not None and r.baseline_seconds != r.seconds]
+    return report.bar_plot(
+        out,
+        "Speed-up over the plain rosbags loop doing the same work",
+        [(task, float(speedup)) for task, speedup in bars if speedup is not None],
+        "× its plain rosbags loop",
+        bound=(ANALYZE_TARGET, f"analyze target {ANALYZE_TARGET:g}×"),
+        log=True,
+    )
 
 
 def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
@@ -244,7 +278,16 @@ def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
     with csv_path.open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(
-            ["task", "messages", "seconds", "messages_per_s", "mb_per_s", "x_realtime", "x_plain_rosbags"]
+            [
+                "task",
+                "messages",
+                "seconds",
+                "messages_per_s",
+                "mb_per_s",
+                "x_realtime",
+                "x_plain_rosbags",
+                "pass_us_per_angle",
+            ]
         )
         for r in rows:
             writer.writerow(
@@ -256,6 +299,7 @@ def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
                     _fmt(r.mb_per_s, ".1f"),
                     f"{r.realtime:.2f}",
                     _fmt(r.speedup, ".3f"),
+                    _fmt(r.pass_us, ".3f"),
                 ]
             )
     cells = table(rows)
@@ -299,9 +343,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
         )
     paths = write_outputs(rows, header, args.out)
+    paths.append(plot(rows, args.out / "bags.png"))
     paths.append(
         report.write_page(
             "bags", "Bags: generate, analyze and export throughput", [paths[1].read_text()],
+            [(paths[2], "Each read, analyze and export against its plain rosbags loop (× faster)")],
             intro=__doc__ or "", docs=args.docs, argv=argv,
         )
     )  # fmt: skip

@@ -88,6 +88,46 @@ class Result:
         ]
 
 
+def plot(results: Sequence[Result], out: Path) -> Path:
+    """chain.png: per live run (those with a listener), the estimate's latency from median to p99 (ms, log),
+    beside its sample period 1/rate, the bound a chain that keeps up stays under."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    timed = [r for r in results if r.latency.size]
+    fig, ax = plt.subplots(figsize=(8.0, 0.5 * len(timed) + 1.8), constrained_layout=True)
+    for k, r in enumerate(timed):
+        lat = r.latency * 1e3
+        med, p99 = float(np.median(lat)), float(np.percentile(lat, 99))
+        ax.plot(
+            [med, p99], [k, k], "-", color="tab:blue", lw=3, label="latency median … p99" if k == 0 else None
+        )
+        ax.plot([med], [k], "o", color="tab:blue")
+        ax.plot(
+            [1e3 / r.rate_hz],
+            [k],
+            "|",
+            color="tab:red",
+            ms=16,
+            mew=2,
+            label="sample period" if k == 0 else None,
+        )
+    ax.set_yticks(range(len(timed)), [f"{r.mode}, {r.rate_hz:g} Hz" for r in timed], fontsize=8)
+    ax.invert_yaxis()
+    ax.set_xscale("log")
+    ax.set_xlabel("ms")
+    ax.set_title("Estimate arrival − angle arrival, as a fourth process sees them", fontsize=10)
+    ax.grid(True, axis="x", which="both", alpha=0.3)
+    if timed:
+        ax.legend(fontsize=8, loc="lower right")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
 HEADER = [
     "mode",
     "rate Hz",
@@ -354,6 +394,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"p99 lateness {p99:.2f} ms, max {worst:.2f} ms."
     )
     print(floor, flush=True)
+    results: list[Result] = []
     with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_chain_") as tmp:
         runs = [(rate, args.duration, True, 0) for rate in args.rates]
         if args.rt_priority:
@@ -361,6 +402,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         runs.append((1000.0, args.fast_duration, False, 0))
         for rate, duration, realtime, priority in runs:
             result = run_once(rate, duration, realtime, Path(tmp), priority)
+            results.append(result)
             rows.append(result.row())
             print(
                 " | ".join(rows[-1])
@@ -372,9 +414,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(table)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "chain.md").write_text(table + "\n\n" + floor + "\n")
+    png = plot(results, args.out / "chain.png")
     page = report.write_page(
-        "chain", "Live chain: losses, latency, jitter, CPU", [table, floor], intro=__doc__ or "",
-        docs=args.docs, argv=argv,
+        "chain", "Live chain: losses, latency, jitter, CPU", [table, floor],
+        [(png, "Estimate latency per live run (median to p99) beside the sample period")],
+        intro=__doc__ or "", docs=args.docs, argv=argv,
     )  # fmt: skip
     print(f"wrote {page}")
     return 0

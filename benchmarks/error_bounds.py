@@ -303,14 +303,52 @@ def _distribution(label: str, rows: Sequence[Row]) -> str:
     )
 
 
+def plot(rows: Sequence[Row], out: Path) -> Path:
+    """error_bounds.png: each run's measured against its predicted error (log-log), runs in the linear
+    regime and past it apart, beside the bound (measured = predicted) and RATIO_RANGE's floor."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 5.5), constrained_layout=True)
+    tiny = 1e-300  # a run that matched its reference exactly: drawn at the floor of the axes, not lost
+    for linear, marker, label in ((True, "o", "linear regime"), (False, "x", "past it")):
+        mine = [r for r in rows if _linear(r) == linear]
+        if mine:
+            ax.loglog(
+                [r.plan.predicted_error for r in mine],
+                [max(r.measured, tiny) for r in mine],
+                marker,
+                ms=4,
+                label=f"{label} ({len(mine)} runs)",
+            )
+    predicted = [r.plan.predicted_error for r in rows]
+    span = np.geomspace(min(predicted), max(predicted), 50)
+    ax.loglog(span, span, "--", color="tab:red", label="measured = predicted (the bound)")
+    ax.loglog(
+        span, RATIO_RANGE[0] * span, ":", color="tab:gray", label=f"measured = {RATIO_RANGE[0]:g} × predicted"
+    )
+    ax.set_xlabel("predicted max angle error (rad)")
+    ax.set_ylabel("measured max angle error (rad)")
+    ax.set_title("The planner's predicted error against the measured one", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the battery and print the report; exit 1 on a false alarm, a silent miss or a linear-regime run
     whose measured/predicted ratio leaves [0.1, 1]."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="the test's shorter subset")
     parser.add_argument("--case", action="append", help="only cases whose name contains this text")
-    # Accepted so that every benchmark runs the same way (make bench); this one writes no files there.
-    parser.add_argument("--out", type=Path, default=Path("out/bench"), help="unused: prints its report")
+    parser.add_argument(
+        "--out", type=Path, default=Path("out/bench"), help="where error_bounds.txt and .png go (out/bench)"
+    )
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)
     cases = battery(args.quick)
@@ -319,8 +357,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     rows = run_battery(cases)
     text = run_report(rows)
     print(text)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "error_bounds.txt").write_text(text + "\n", encoding="utf-8")
+    png = plot(rows, args.out / "error_bounds.png")
     page = report.write_page(
         "error_bounds", "Error bounds: predicted against measured", [f"```text\n{text}\n```"],
+        [(png, "Measured against predicted max angle error per run, beside the bound")],
         intro=__doc__ or "", docs=args.docs, argv=argv,
     )  # fmt: skip
     print(f"wrote {page}")

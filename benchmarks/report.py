@@ -135,3 +135,44 @@ def write_page(
     page = page_dir / f"{name}.md"
     page.write_text("\n".join(lines), encoding="utf-8")
     return page
+
+
+def bar_plot(
+    out: Path,
+    title: str,
+    bars: Sequence[tuple[str, float]],
+    xlabel: str,
+    *,
+    bound: tuple[float, str] | None = None,
+    log: bool = False,
+) -> Path:
+    """One horizontal bar per (label, value), top to bottom in the given order, each value written at its
+    end, and a dashed line at ``bound`` (value, label): the target or bound a benchmark sets its figures
+    beside. Written to ``out`` (PNG); non-finite values are left out (a bar of nothing)."""
+    import math
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    shown = [(label, value) for label, value in bars if math.isfinite(value)]
+    fig, ax = plt.subplots(figsize=(9.0, 0.45 * len(shown) + 1.6), constrained_layout=True)
+    positions = range(len(shown))
+    ax.barh(list(positions), [value for _, value in shown], color="tab:blue")
+    ax.set_yticks(list(positions), [label for label, _ in shown], fontsize=8)
+    ax.invert_yaxis()
+    for k, (_, value) in enumerate(shown):
+        ax.annotate(f" {value:.3g}", (value, k), va="center", fontsize=8)
+    if bound is not None:
+        ax.axvline(bound[0], ls="--", color="tab:red", label=bound[1])
+        ax.legend(fontsize=8, loc="lower right")
+    if log:
+        ax.set_xscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, axis="x", which="both", alpha=0.3)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out

@@ -88,6 +88,37 @@ def published_counts(bag: Bag) -> dict[str, int]:
     return {topic: n for topic, n in counts.items() if n is not None}
 
 
+def plot(series: dict[str, list[tuple[float, float]]], out: Path) -> Path:
+    """soak.png: each node's RSS (MiB) against time since the first published sample, and the least-squares
+    line over the second half (growth_per_minute's), the growth a leak would show."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8.0, 4.5), constrained_layout=True)
+    for role in ROLES:
+        points = series.get(role, [])
+        if not points:
+            continue
+        t = np.array([p[0] for p in points]) / 60.0
+        mib = np.array([p[1] for p in points])
+        (line,) = ax.plot(t, mib, "-", lw=1.2, label=f"{role} ({growth_per_minute(points):+.3f} MiB/min)")
+        half = t >= t[-1] / 2.0
+        if half.sum() >= 2:
+            slope, level = np.polyfit(t[half], mib[half], 1)
+            ax.plot(t[half], slope * t[half] + level, "--", color=line.get_color(), lw=1)
+    ax.set_xlabel("minutes since the first published sample")
+    ax.set_ylabel("RSS (MiB)")
+    ax.set_title("Resident memory per node (dashed: the second half's fitted slope)", fontsize=10)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the chain once for the soak duration and print the tables."""
     from pendulum_accel.nodes.launcher import Chain, ChainConfig
@@ -157,9 +188,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "soak.md").write_text(text + "\n")
+    png = plot(rss.series, args.out / "soak.png")
     page = report.write_page(
-        "soak", "Soak: the live chain for minutes at 1 kHz", [text], intro=__doc__ or "",
-        docs=args.docs, argv=argv,
+        "soak", "Soak: the live chain for minutes at 1 kHz", [text],
+        [(png, "Resident memory of each node over the run, with the second half's fitted slope")],
+        intro=__doc__ or "", docs=args.docs, argv=argv,
     )  # fmt: skip
     print(f"wrote {page}")
     series = ["t_s,role,rss_mib"] + [

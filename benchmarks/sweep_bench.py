@@ -5,7 +5,8 @@ a length sweep (l from 0.5 to 2 m, the lecture's a = 2 m/s²) of ``variants`` pe
 RK4 steps, best of ``--repeats`` runs, and prints the rate against the target of 10 M
 trajectory-steps/s. For context it also times: the same batch under a 0 → 3 m/s² step profile (a(t)
 looked up per stage), an accel sweep, the right-hand side alone (its share of the time), and the
-single-trajectory path (simulate() per variant) the sweep replaces. Writes sweep_bench.md.
+single-trajectory path (simulate() per variant) the sweep replaces. Writes sweep_bench.md and
+sweep_bench.png.
 """
 
 from __future__ import annotations
@@ -128,9 +129,18 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "sweep_bench.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
+    png = report.bar_plot(
+        args.out / "sweep_bench.png",
+        "Sweep throughput (best of the runs, CPU time)",
+        [(name, value / 1e6) for name, value in results],
+        "M trajectory-steps per CPU second",
+        bound=(TARGET_RATE / 1e6, f"target {TARGET_RATE / 1e6:g} M/s"),
+        log=True,
+    )
     page = report.write_page(
-        "sweep_bench", "Sweep throughput", ["\n".join(lines[2:])], intro=__doc__ or "",
-        docs=args.docs, argv=argv,
+        "sweep_bench", "Sweep throughput", ["\n".join(lines[2:])],
+        [(png, "Trajectory-steps per CPU second of each run, beside the 10 M/s target")],
+        intro=__doc__ or "", docs=args.docs, argv=argv,
     )  # fmt: skip
     print(f"wrote {page}")
     return 0 if math.isfinite(rate) else 1

@@ -115,6 +115,9 @@ def stop_peer(proc: subprocess.Popen[str]) -> None:
         proc.wait()
 
 
+SECOND_SIGINT_S = 1.0  # s after the first SIGINT: the launcher's second one (module doc)
+
+
 def one_run(
     folder: Path, k: int, hold: float, leaving: subprocess.Popen[str] | None = None
 ) -> tuple[int | None, bool, float, str]:
@@ -144,7 +147,7 @@ def one_run(
         if leaving is not None:
             leaving.send_signal(signal.SIGINT)
         try:
-            proc.wait(1.0)
+            proc.wait(SECOND_SIGINT_S)
         except subprocess.TimeoutExpired:
             proc.send_signal(signal.SIGINT)
         try:
@@ -167,6 +170,29 @@ def describe(code: int | None) -> str:
     if code < 0:
         return signal.Signals(-code).name
     return f"exit {code}"
+
+
+def plot(stop_times: list[float], out: Path) -> Path:
+    """teardown.png: each run's stop time (first SIGINT to exit, s) in run order, with the moment of the
+    second SIGINT: a run past it needed that second signal."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8.0, 4.0), constrained_layout=True)
+    ax.plot(range(1, len(stop_times) + 1), stop_times, "o", ms=4, label="stop time of a run")
+    ax.axhline(SECOND_SIGINT_S, ls="--", color="tab:red", label=f"second SIGINT ({SECOND_SIGINT_S:g} s)")
+    ax.set_xlabel("run")
+    ax.set_ylabel("first SIGINT to exit (s)")
+    ax.set_ylim(bottom=0.0)
+    ax.set_title("Recorder teardown per run", fontsize=10)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -232,10 +258,12 @@ def main(argv: list[str] | None = None) -> int:
     table = "\n".join(rows)
     print(table)
     (args.out / "teardown.md").write_text(table + "\n")
+    png = plot(stop_times, args.out / "teardown.png")
     report.write_page(
         "teardown",
         "Node teardown",
         [table],
+        [(png, "Stop time of each run, first SIGINT to exit, beside the second SIGINT at 1 s")],
         intro=(
             "The recorder started and stopped again and again, as the launcher stops it (SIGINT, a second "
             "one after 1 s): how often it ends otherwise than exit 0. Any signal death here is a crash "

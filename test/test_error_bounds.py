@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -143,3 +144,8 @@ def test_exponential_growth_gives_the_lyapunov_exponent_and_the_lost_time() -> N
     expected = 2.0 * math.log(1e-6 / math.ulp(1.0))
     assert sensitivity.lost_at == pytest.approx(expected, abs=0.2)
     assert "Lyapunov" in sensitivity.chaos() and sensitivity.verdict().startswith("ILL-CONDITIONED")
+
+
+def test_the_plot_draws_every_run_beside_the_bound(tmp_path: Path) -> None:
+    """error_bounds.png: the quick battery's runs, measured against predicted, with the bound's line."""
+    assert eb.plot(rows(), tmp_path / "error_bounds.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -1,0 +1,65 @@
+"""Every benchmark writes its own plot beside its table: the page each one writes names a figure, and each
+plot function draws a PNG from the rows its benchmark measures (made up here: no timing is asserted)."""
+
+from __future__ import annotations
+
+import ast
+import math
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks import bags, chain, report, soak, teardown
+
+BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def _figures_argument(call: ast.Call) -> ast.expr | None:
+    """The ``figures`` argument of a write_page call: its fourth positional, or the keyword."""
+    if len(call.args) >= 4:
+        return call.args[3]
+    return next((k.value for k in call.keywords if k.arg == "figures"), None)
+
+
+def test_every_benchmark_page_carries_a_figure() -> None:
+    """Each benchmark script that writes a docs page (report.write_page) passes it a figure: a non-empty
+    list, never none or []. The figure is the plot the guide asks of every benchmark."""
+    writers = []
+    for path in sorted(BENCHMARKS.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", None) == "write_page":
+                writers.append(path.name)
+                figures = _figures_argument(node)
+                assert figures is not None, f"{path.name}: write_page without a figure"
+                assert not (isinstance(figures, ast.List) and not figures.elts), f"{path.name}: no figure"
+    assert len(set(writers)) >= 15, writers  # every benchmark with a page, not a module that lost its call
+
+
+def test_bar_plot_draws_the_finite_bars_and_the_bound(tmp_path: Path) -> None:
+    png = report.bar_plot(
+        tmp_path / "bars.png", "t", [("a", 1.0), ("b", math.nan), ("c", 30.0)], "x", bound=(10.0, "target")
+    )
+    assert png.read_bytes()[:8] == PNG
+
+
+def test_bags_plot_compares_each_task_with_its_loop(tmp_path: Path) -> None:
+    rows = [
+        bags.Row("plain rosbags read + deserialize loop", 100, 2.0, 60.0, 2.0),
+        bags.Row("analyze --estimator kalman (default)", 100, 0.3, 60.0, 2.0, pass_us=3.8),
+        bags.Row("generate: total", 100, 0.3, 60.0),
+    ]
+    assert bags.plot(rows, tmp_path / "bags.png").read_bytes()[:8] == PNG
+    cells = bags.table(rows)
+    assert cells[0][-1] == "µs per angle beyond the read" and cells[2][-1] == "3.80" and cells[1][-1] == ""
+
+
+def test_chain_soak_and_teardown_plots(tmp_path: Path) -> None:
+    timed = chain.Result("real time", 1000.0, 5.0, 5001, 5001, 5001, 5001, np.full(100, 2e-4), 100.0, 1.0)
+    fast = chain.Result(
+        "as fast as possible", 1000.0, 30.0, 30001, 30001, 30001, 30001, np.array([]), None, 10.0
+    )
+    assert chain.plot([timed, fast], tmp_path / "chain.png").read_bytes()[:8] == PNG
+    series = {"simulator": [(5.0 * k, 80.0 + 0.01 * k) for k in range(40)], "recorder": [(0.0, 90.0)]}
+    assert soak.plot(series, tmp_path / "soak.png").read_bytes()[:8] == PNG
+    assert teardown.plot([1.1, 1.2, 0.9], tmp_path / "teardown.png").read_bytes()[:8] == PNG
