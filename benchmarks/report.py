@@ -148,7 +148,8 @@ def bar_plot(
 ) -> Path:
     """One horizontal bar per (label, value), top to bottom in the given order, each value written at its
     end, and a dashed line at ``bound`` (value, label): the target or bound a benchmark sets its figures
-    beside. Written to ``out`` (PNG); non-finite values are left out (a bar of nothing)."""
+    beside. With ``log`` a dot per value instead (a bar on a log axis starts nowhere, and its length would
+    mislead). Written to ``out`` (PNG); non-finite values are left out (a bar of nothing)."""
     import math
 
     import matplotlib
@@ -159,7 +160,11 @@ def bar_plot(
     shown = [(label, value) for label, value in bars if math.isfinite(value)]
     fig, ax = plt.subplots(figsize=(9.0, 0.45 * len(shown) + 1.6), constrained_layout=True)
     positions = range(len(shown))
-    ax.barh(list(positions), [value for _, value in shown], color="tab:blue")
+    values = [value for _, value in shown]
+    if log:
+        ax.plot(values, list(positions), "o", color="tab:blue")
+    else:
+        ax.barh(list(positions), values, color="tab:blue")
     ax.set_yticks(list(positions), [label for label, _ in shown], fontsize=8)
     ax.invert_yaxis()
     for k, (_, value) in enumerate(shown):
@@ -169,6 +174,7 @@ def bar_plot(
         ax.legend(fontsize=8, loc="lower right")
     if log:
         ax.set_xscale("log")
+    ax.margins(x=0.12)  # room for the values written at the ends
     ax.set_xlabel(xlabel)
     ax.set_title(title, fontsize=10)
     ax.grid(True, axis="x", which="both", alpha=0.3)

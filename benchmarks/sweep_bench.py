@@ -135,7 +135,6 @@ def main(argv: list[str] | None = None) -> int:
         [(name, value / 1e6) for name, value in results],
         "M trajectory-steps per CPU second",
         bound=(TARGET_RATE / 1e6, f"target {TARGET_RATE / 1e6:g} M/s"),
-        log=True,
     )
     page = report.write_page(
         "sweep_bench", "Sweep throughput", ["\n".join(lines[2:])],
