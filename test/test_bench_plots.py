@@ -51,9 +51,7 @@ def test_bags_plot_compares_each_task_with_its_loop(tmp_path: Path) -> None:
     ]
     assert bags.plot(rows, tmp_path / "bags.png").read_bytes()[:8] == PNG
     cells = bags.table(rows)
-    assert (
-        cells[0][-1] == "µs per angle over analyze instant" and cells[2][-1] == "3.80" and cells[1][-1] == ""
-    )
+    assert cells[0][-1] == "estimator pass, µs per angle" and cells[2][-1] == "3.80" and cells[1][-1] == ""
 
 
 def test_chain_soak_and_teardown_plots(tmp_path: Path) -> None:
