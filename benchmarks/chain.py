@@ -91,13 +91,8 @@ class Result:
 def plot(results: Sequence[Result], out: Path) -> Path:
     """chain.png: per live run (those with a listener), the estimate's latency from median to p99 (ms, log),
     beside its sample period 1/rate, the bound a chain that keeps up stays under."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     timed = [r for r in results if r.latency.size]
-    fig, ax = plt.subplots(figsize=(8.0, 0.5 * len(timed) + 1.8), constrained_layout=True)
+    fig, ax = report.new_axes(8.0, 0.5 * len(timed) + 1.8)
     for k, r in enumerate(timed):
         lat = r.latency * 1e3
         med, p99 = float(np.median(lat)), float(np.percentile(lat, 99))
@@ -122,10 +117,7 @@ def plot(results: Sequence[Result], out: Path) -> Path:
     ax.grid(True, axis="x", which="both", alpha=0.3)
     if timed:
         ax.legend(fontsize=8, loc="lower right")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return report.save_figure(fig, out)
 
 
 HEADER = [

@@ -306,12 +306,7 @@ def _distribution(label: str, rows: Sequence[Row]) -> str:
 def plot(rows: Sequence[Row], out: Path) -> Path:
     """error_bounds.png: each run's measured against its predicted error (log-log), runs in the linear
     regime and past it apart, beside the bound (measured = predicted) and RATIO_RANGE's floor."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.5, 5.5), constrained_layout=True)
+    fig, ax = report.new_axes(6.5, 5.5)
     tiny = 1e-300  # a run that matched its reference exactly: drawn at the floor of the axes, not lost
     for linear, marker, label in ((True, "o", "linear regime"), (False, "x", "past it")):
         mine = [r for r in rows if _linear(r) == linear]
@@ -334,10 +329,7 @@ def plot(rows: Sequence[Row], out: Path) -> Path:
     ax.set_title("The planner's predicted error against the measured one", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return report.save_figure(fig, out)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

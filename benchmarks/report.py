@@ -16,6 +16,7 @@ import shutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 DOCS_DIR = Path(__file__).resolve().parent.parent / "docs"
 """The repository's docs/ (benchmarks/ is not installed, so it always sits beside it)."""
@@ -137,6 +138,26 @@ def write_page(
     return page
 
 
+def new_axes(width: float, height: float) -> tuple[Any, Any]:
+    """(figure, axes) of a ``width`` × ``height`` in. plot on matplotlib's Agg backend (no display)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(figsize=(width, height), constrained_layout=True)
+
+
+def save_figure(fig: Any, out: Path) -> Path:
+    """Write ``fig`` to ``out`` (PNG, 110 dpi, its folder made), close it, return ``out``."""
+    import matplotlib.pyplot as plt
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
 def bar_plot(
     out: Path,
     title: str,
@@ -152,13 +173,8 @@ def bar_plot(
     mislead). Written to ``out`` (PNG); non-finite values are left out (a bar of nothing)."""
     import math
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     shown = [(label, value) for label, value in bars if math.isfinite(value)]
-    fig, ax = plt.subplots(figsize=(9.0, 0.45 * len(shown) + 1.6), constrained_layout=True)
+    fig, ax = new_axes(9.0, 0.45 * len(shown) + 1.6)
     positions = range(len(shown))
     values = [value for _, value in shown]
     if log:
@@ -178,7 +194,4 @@ def bar_plot(
     ax.set_xlabel(xlabel)
     ax.set_title(title, fontsize=10)
     ax.grid(True, axis="x", which="both", alpha=0.3)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, out)

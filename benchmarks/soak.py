@@ -91,12 +91,7 @@ def published_counts(bag: Bag) -> dict[str, int]:
 def plot(series: dict[str, list[tuple[float, float]]], out: Path) -> Path:
     """soak.png: each node's RSS (MiB) against time since the first published sample, and the least-squares
     line over the second half (growth_per_minute's), the growth a leak would show."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8.0, 4.5), constrained_layout=True)
+    fig, ax = report.new_axes(8.0, 4.5)
     for role in ROLES:
         points = series.get(role, [])
         if not points:
@@ -113,10 +108,7 @@ def plot(series: dict[str, list[tuple[float, float]]], out: Path) -> Path:
     ax.set_title("Resident memory per node (dashed: the second half's fitted slope)", fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return report.save_figure(fig, out)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -175,12 +175,7 @@ def describe(code: int | None) -> str:
 def plot(stop_times: list[float], out: Path) -> Path:
     """teardown.png: each run's stop time (first SIGINT to exit, s) in run order, with the moment of the
     second SIGINT: a run past it needed that second signal."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8.0, 4.0), constrained_layout=True)
+    fig, ax = report.new_axes(8.0, 4.0)
     ax.plot(range(1, len(stop_times) + 1), stop_times, "o", ms=4, label="stop time of a run")
     ax.axhline(SECOND_SIGINT_S, ls="--", color="tab:red", label=f"second SIGINT ({SECOND_SIGINT_S:g} s)")
     ax.set_xlabel("run")
@@ -189,10 +184,7 @@ def plot(stop_times: list[float], out: Path) -> Path:
     ax.set_title("Recorder teardown per run", fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return report.save_figure(fig, out)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -93,10 +93,16 @@ def check_chain_contract(bag: Bag) -> None:
         for msg, count in bag.shapes(topic, msgtype):
             header = getattr(msg, "header", None)
             frame = str(header.frame_id) if header is not None else None
+            advice = ""
             if root == bm.TOPIC_JOINT_STATES:
                 names = [str(n) for n in getattr(msg, "name", [])]
                 joint = bag.choice.joint
                 problem = joint_state_problem(names, frame, joint, bag.choice.joint_frame)
+                # The flag that answers it: the rule's own phrase for the names alone, or for the frame.
+                if problem is not None and problem == joint_state_problem(names, None, joint):
+                    advice = hint
+                elif problem is not None:
+                    advice = frame_hint
                 places.add(joint_index(names, joint))
                 if problem is None and len(places) > 1:
                     problem = (
@@ -108,7 +114,5 @@ def check_chain_contract(bag: Bag) -> None:
             if problem is not None:
                 raise BagError(
                     f"bag {bag.path}: {count} of {total} {topic} messages are not the pendulum chain's "
-                    f"({problem}); refused: another robot's data would pass for this pendulum's"
-                    + (hint if root == bm.TOPIC_JOINT_STATES and problem.startswith("names") else "")
-                    + (frame_hint if root == bm.TOPIC_JOINT_STATES and problem.startswith("frame_id") else "")
+                    f"({problem}); refused: another robot's data would pass for this pendulum's{advice}"
                 )
