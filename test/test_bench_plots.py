@@ -4,13 +4,14 @@ plot function draws a PNG from the rows its benchmark measures (made up here: no
 from __future__ import annotations
 
 import ast
+import csv
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from benchmarks import bags, chain, report, soak, teardown
+from benchmarks import allan_recovery, bags, chain, report, soak, teardown
 
 BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -66,3 +67,21 @@ def test_chain_soak_and_teardown_plots(tmp_path: Path) -> None:
     series = {"simulator": [(5.0 * k, 80.0 + 0.01 * k) for k in range(40)], "recorder": [(0.0, 90.0)]}
     assert soak.plot(series, tmp_path / "soak.png").read_bytes()[:8] == PNG
     assert teardown.plot([1.1, 1.2, 0.9], tmp_path / "teardown.png").read_bytes()[:8] == PNG
+
+
+def test_allan_recovery_writes_its_table_plot_and_page(tmp_path: Path) -> None:
+    """One short record per sensor: the CSV holds a parsable row per sensor and seed, the page names the
+    plot, and no Gauss-Markov term is given to white noise alone or to white noise and a walk (what
+    test_allan asserts over 1000 records; one record each here)."""
+    out, docs = tmp_path / "out", tmp_path / "docs"
+    assert (
+        allan_recovery.main(["--seeds", "1", "--duration", "500", "--out", str(out), "--docs", str(docs)])
+        == 0
+    )
+    with (out / "allan_recovery.csv").open(encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["sensor"] for r in rows] == [s.label for s in allan_recovery.SENSORS]
+    for r in rows[:2]:
+        assert float(r["bias_time"]) == 0.0 and float(r["misfit"]) < allan_recovery.MISFIT_LIMIT
+    assert (out / "allan_recovery.png").read_bytes()[:8] == PNG
+    assert "../img/bench_allan_recovery.png" in (docs / "benchmarks" / "allan_recovery.md").read_text()
