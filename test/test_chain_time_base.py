@@ -8,6 +8,7 @@ the bag's duration must be the scene's and every stamp on the run's one time bas
 
 from __future__ import annotations
 
+import re
 import time
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,14 @@ DURATION = 3.0  # s of step_start (its step 0 -> 3 m/s² is at t = 1 s)
 RATE = 100.0  # Hz, the scene's
 SAMPLES = int(DURATION * RATE) + 1
 STRANGER = str(REPO / "test" / "stranger.py")
+TEARDOWN_CRASH = re.compile(
+    r"WARNING: recorder ended with killed by SIG\w+ after closing its bag; the bag .+ was verified complete"
+)
+"""The one WARNING a run here may print: the recorder killed by a signal after it closed a bag that then read
+complete (launcher.Chain._bag_outlived). That is a crash inside rclpy's node teardown (rcl_node_fini under the
+EventsExecutor, ros2/rclpy#1644, open), seen about once in 30 chains under the full suite's load and not in 15
+runs of this test alone; it costs the recording nothing, the line says so, and test_recorder_teardown_crash
+holds the launcher to that. Every other WARNING fails the run."""
 
 
 def _stranger(spawn: Spawn, name: str) -> Output:
@@ -49,7 +58,10 @@ def _run(spawn: Spawn, bag: Path, *flags: str) -> Output:
     run.wait_for(r"subscribers matched: publishing", timeout=90)
     Output(spawn([PYTHON, STRANGER, "stranger_after"]))
     assert run.finish(timeout=120) == 0, run.text
-    assert "WARNING" not in run.text, run.text
+    warnings = [
+        line for line in run.text.splitlines() if "WARNING" in line and not TEARDOWN_CRASH.search(line)
+    ]
+    assert not warnings, run.text
     return run
 
 
