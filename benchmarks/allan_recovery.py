@@ -31,7 +31,7 @@ import numpy as np
 
 from benchmarks import report
 from pendulum_accel.allan import MISFIT_LIMIT, AllanResult, allan_deviation
-from pendulum_accel.scene import scene_from_yaml
+from pendulum_accel.sensor import SensorModel
 
 SEEDS = 20
 DURATION = 2000.0  # s: the record test_allan's Gauss-Markov cases use
@@ -42,24 +42,24 @@ BUMP_PEAK = 1.9  # τ/T_c where a Gauss-Markov bias's σ(τ) peaks (El-Sheimy et
 
 @dataclass(frozen=True)
 class Sensor:
-    """One sensor of the table: its label, random walk K (rad/√s), Gauss-Markov σ_b (rad/√s) and T_c (s)."""
+    """One sensor of the table: its label and its noise, the scenes' sensor fields (``sensor.SensorModel``):
+    random walk K (``bias_random_walk``, rad/√s), Gauss-Markov σ_b (``dynamic_bias_stddev``, rad/√s) and
+    T_c (``dynamic_bias_correlation_time``, s), white noise NOISE on all."""
 
     label: str
     walk: float = 0.0
     drive: float = 0.0
     time: float = 0.0
 
-    def yaml(self, duration: float, rate: float, seed: int) -> str:
-        """The static scene of this sensor: a car at rest, so the angle is the sensor's noise alone."""
-        fields = [f"rate_hz: {rate}", f"noise_std: {NOISE}", f"seed: {seed}"]
-        if self.walk:
-            fields.append(f"bias_random_walk: {self.walk}")
-        if self.drive:
-            fields += [f"dynamic_bias_stddev: {self.drive}", f"dynamic_bias_correlation_time: {self.time}"]
-        return (
-            f"name: allan_{seed}\ndescription: a sensor at rest\nduration: {duration}\n"
-            "pendulum: {length: 1.0}\nacceleration: {type: constant, a: 0.0}\n"
-            f"sensor: {{{', '.join(fields)}}}\naccuracy: {{max_angle_error: 1.0e-6}}\n"
+    def model(self, rate: float, seed: int) -> SensorModel:
+        """The sensor model of this sensor at ``rate`` Hz, drawn with ``seed``."""
+        return SensorModel(
+            rate_hz=rate,
+            noise_std=NOISE,
+            bias_random_walk=self.walk,
+            dynamic_bias_stddev=self.drive,
+            dynamic_bias_correlation_time=self.time,
+            seed=seed,
         )
 
 
@@ -83,10 +83,11 @@ def scatter(tau: float, duration: float) -> float:
 
 
 def fit_record(sensor: Sensor, duration: float, rate: float, seed: int) -> AllanResult:
-    """allan_deviation (Gauss-Markov term on) of one static record of ``sensor``."""
-    scene = scene_from_yaml(sensor.yaml(duration, rate, seed))
-    t = scene.sensor.sample_times(scene.duration)
-    theta = scene.sensor.measure(t, np.zeros_like(t))
+    """allan_deviation (Gauss-Markov term on) of one static record of ``sensor``: the angle of a bob at rest
+    (θ = 0) as the sensor model measures it, so the record is the sensor's noise alone."""
+    model = sensor.model(rate, seed)
+    t = model.sample_times(duration)
+    theta = model.measure(t, np.zeros_like(t))
     return allan_deviation(theta, rate, unit="rad", gauss_markov=True)
 
 
