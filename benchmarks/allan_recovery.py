@@ -77,6 +77,11 @@ test_allan recovers, and the two docs/scenes.md says read otherwise (a faint bum
 a bias slower than the record reads as a walk)."""
 
 
+def _relative(values: Sequence[float] | np.ndarray, true: float) -> np.ndarray:
+    """|x − true| / true of each value: its relative error."""
+    return np.abs(np.asarray(values, dtype=float) - true) / true
+
+
 def scatter(tau: float, duration: float) -> float:
     """½ √(τ/T): the relative 1-σ scatter of σ(τ) in a record of T s (σ² scatters by √(τ/T))."""
     return 0.5 * math.sqrt(tau / duration)
@@ -111,26 +116,18 @@ class Summary:
     @staticmethod
     def of(sensor: Sensor, fits: Sequence[AllanResult], duration: float, rate: float) -> Summary:
         """The summary of ``fits``, the records of ``sensor``."""
-        density = NOISE / math.sqrt(rate)
         took = [f for f in fits if f.bias_time > 0.0]
-        drive = (
-            np.array([abs(f.bias_drive - sensor.drive) / sensor.drive for f in took])
-            if sensor.drive
-            else None
-        )
-        time = (
-            np.array([abs(f.bias_time - sensor.time) / sensor.time for f in took]) if sensor.drive else None
-        )
         walk = np.array([f.random_walk for f in fits])
+        none = np.empty(0)
         return Summary(
             sensor=sensor,
             records=len(fits),
             taken=len(took),
-            drive_err=np.empty(0) if drive is None else drive,
-            time_err=np.empty(0) if time is None else time,
-            white_err=np.array([abs(f.white_density - density) / density for f in fits]),
+            drive_err=_relative([f.bias_drive for f in took], sensor.drive) if sensor.drive else none,
+            time_err=_relative([f.bias_time for f in took], sensor.time) if sensor.drive else none,
+            white_err=_relative([f.white_density for f in fits], NOISE / math.sqrt(rate)),
             walk=walk,
-            walk_err=np.abs(walk - sensor.walk) / sensor.walk if sensor.walk else np.empty(0),
+            walk_err=_relative(walk, sensor.walk) if sensor.walk else none,
             misfit=np.array([f.misfit for f in fits]),
             drive_scatter=scatter(BUMP_PEAK * sensor.time, duration) if sensor.drive else math.nan,
             white_scatter=scatter(float(np.median([f.fit_from for f in fits])), duration),

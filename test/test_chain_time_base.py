@@ -20,6 +20,7 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting
+from pendulum_accel.nodes.launcher import BAG_OUTLIVED
 from pendulum_accel.nodes.parameters import UNMEASURED_ACCEL_VARIANCE
 from pendulum_accel.scene import load_scene
 from test.chain_helpers import Output
@@ -33,7 +34,9 @@ RATE = 100.0  # Hz, the scene's
 SAMPLES = int(DURATION * RATE) + 1
 STRANGER = str(REPO / "test" / "stranger.py")
 TEARDOWN_CRASH = re.compile(
-    r"WARNING: recorder ended with killed by SIG\w+ after closing its bag; the bag .+ was verified complete"
+    re.escape(BAG_OUTLIVED)
+    .replace(re.escape("{how}"), r"killed by SIG\w+")
+    .replace(re.escape("{path}"), r".+")
 )
 """The one WARNING a run here may print: the recorder killed by a signal after it closed a bag that then read
 complete (launcher.Chain._bag_outlived). That is a crash inside rclpy's node teardown (rcl_node_fini under the

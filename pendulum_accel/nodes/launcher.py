@@ -44,6 +44,12 @@ _STOP_TIMEOUT = 15.0  # s a node gets to exit after SIGINT before SIGKILL
 _POLL = 0.05  # s
 ESTIMATOR_NODE = "accel_estimator"
 RECORDER_NODE = "bag_recorder"
+BAG_OUTLIVED = (
+    "WARNING: recorder ended with {how} after closing its bag; "
+    "the bag {path} was verified complete (every chunk CRC checked)"
+)
+"""The one line a run prints when a signal ended the recorder after a bag that reads complete
+(Chain._bag_outlived); {how} is describe_exit's, {path} the bag's."""
 
 ParamValue = bool | int | float | str | list[str]
 
@@ -384,12 +390,7 @@ class Chain:
             return False
         if bag.problem is not None or not bag.complete:
             return False
-        print(
-            f"WARNING: recorder ended with {describe_exit(code)} after closing its bag; "
-            f"the bag {bag.path} was verified complete (every chunk CRC checked)",
-            file=sys.stderr,
-            flush=True,
-        )
+        print(BAG_OUTLIVED.format(how=describe_exit(code), path=bag.path), file=sys.stderr, flush=True)
         return True
 
     def _supervise(self) -> int:
