@@ -31,6 +31,7 @@ import numpy as np
 
 from benchmarks import report
 from pendulum_accel.allan import MISFIT_LIMIT, AllanResult, allan_deviation
+from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.sensor import SensorModel
 
 SEEDS = 20
@@ -224,10 +225,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory")
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)
-    fits = {
-        s.label: [fit_record(s, args.duration, args.rate, seed) for seed in range(args.seeds)]
-        for s in SENSORS
-    }
+    try:
+        fits = {
+            s.label: [fit_record(s, args.duration, args.rate, seed) for seed in range(args.seeds)]
+            for s in SENSORS
+        }
+    except PendulumAccelError as err:  # a record too short or too coarse to fit: argparse's one line, exit 2
+        parser.error(f"--duration {args.duration:g} s at --rate {args.rate:g} Hz: {err}")
     rows = [Summary.of(s, fits[s.label], args.duration, args.rate) for s in SENSORS]
     text = table(rows)
     print(text)

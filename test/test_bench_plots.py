@@ -85,3 +85,12 @@ def test_allan_recovery_writes_its_table_plot_and_page(tmp_path: Path) -> None:
         assert float(r["bias_time"]) == 0.0 and float(r["misfit"]) < allan_recovery.MISFIT_LIMIT
     assert (out / "allan_recovery.png").read_bytes()[:8] == PNG
     assert "../img/bench_allan_recovery.png" in (docs / "benchmarks" / "allan_recovery.md").read_text()
+
+
+def test_allan_recovery_refuses_a_record_too_short_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    """1 s at 50 Hz is 51 samples, below allan's 100: argparse's usage error, exit 2, one 'error:' line."""
+    with pytest.raises(SystemExit) as stop:
+        allan_recovery.main(["--seeds", "1", "--duration", "1"])
+    assert stop.value.code == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
+    assert len(errors) == 1 and "at least 100 samples" in errors[0], errors
