@@ -120,7 +120,7 @@ def _rates(rest_time: float | None) -> np.ndarray:
 def _imm(params: np.ndarray, rates: np.ndarray, run: Run) -> tuple[np.ndarray, np.ndarray]:
     """(â, var) of the IMM over auto's modes with ``rates`` (the filter, no lag; var without bias)."""
     modes = np.array(PRESETS["auto"].modes)
-    a, var, _ = kern.run_imm(run.t, run.theta, params, modes, rates, np.zeros(1, np.int64), False)
+    a, var, _ = kern.imm_pass(run.t, run.theta, params, modes, rates, np.zeros(1, np.int64))
     return a[:, 0], var[:, 0]
 
 

@@ -200,9 +200,7 @@ def _cell(seeds: int, full: bool, case: tuple[Design, Profile]) -> Cell:
     live = make_estimator("kalman", **design.settings())
     assert isinstance(live, KalmanEstimator)
     qs, _, rates = PRESETS["auto"].imm(walks_only=True)
-    walks = [
-        kern.run_imm(run.t, run.theta, live._params, qs, rates, np.zeros(1, np.int64), False) for run in runs
-    ]
+    walks = [kern.imm_pass(run.t, run.theta, live._params, qs, rates, np.zeros(1, np.int64)) for run in runs]
     gtan = make_estimator("instant", **design.settings())
     rw = q_scan(runs, design)
     iw = iw_scan(runs, design)

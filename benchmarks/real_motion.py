@@ -317,7 +317,7 @@ def imm_scan(
         for r in runs:
             rates = kern.chain_rates(len(modes), switch)
             lags = np.zeros(1, np.int64)
-            a, var, _ = kern.run_imm(r.t, r.theta, params, np.array(modes), rates, lags, False)
+            a, var, _ = kern.imm_pass(r.t, r.theta, params, np.array(modes), rates, lags)
             keep = r.t >= WARMUP
             e = (a[:, 0] - r.accel)[keep]
             beyond = e * e > 4.0 * var[keep, 0]
@@ -514,7 +514,7 @@ def _imm_counts(
     """calibration_counts of the IMM's own variance over the runs (t ≥ WARMUP), pooled."""
     counts = np.zeros(5)
     for r in runs:
-        a, var, _ = kern.run_imm(r.t, r.theta, params, qs, rates, np.zeros(1, np.int64), False, jerks)
+        a, var, _ = kern.imm_pass(r.t, r.theta, params, qs, rates, np.zeros(1, np.int64), False, jerks)
         keep = r.t >= WARMUP
         e = (a[:, 0] - r.accel)[keep]
         counts += calibration_counts(e, e * e > 4.0 * var[keep, 0], after_change(r.t, r.t, r.accel)[keep])
@@ -609,7 +609,7 @@ def fit_lag_map(seeds: int, quick: bool) -> tuple[tuple[float, float], np.ndarra
 
     def per_lag(runs: list[Run], params: np.ndarray, lags: np.ndarray) -> Iterator[list[MapSums]]:
         for r in runs:
-            a, var, _ = kern.run_imm(r.t, r.theta, params, modes, rates, lags, False, jerks)
+            a, var, _ = kern.imm_pass(r.t, r.theta, params, modes, rates, lags, False, jerks)
             keep = r.t >= WARMUP
             after = after_change(r.t, r.t, r.accel)[keep]
             yield [

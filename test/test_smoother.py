@@ -111,8 +111,8 @@ def test_lag_variance_map_matches_smooth_motion_and_keeps_the_filters_where_the_
     assert isinstance(est, KalmanEstimator)
     n = round(0.25 * RATE)
     a, var = est.lagged(t, theta, (0, n))
-    a_raw, raw, _ = kern.run_imm(
-        t, theta, est._params, est._qs, est._rates, np.array([0, n]), False, est._trend()
+    a_raw, raw, _ = kern.imm_pass(
+        t, theta, est._params, est._qs, est._rates, np.array([0, n]), False, est._jerks
     )
     np.testing.assert_array_equal(a[:, 1], a_raw[:, 1])  # CFG has no clamp in reach: â as the pass gives it
     # CFG states no sensor bias: the published var adds nothing. Each side forms r = P_lag/P_f (½ ulp), r^γ
@@ -208,13 +208,13 @@ def test_smooth_modes_is_the_chains_forward_backward() -> None:
     expected /= expected.sum(axis=1, keepdims=True)
     t = np.arange(n) * dt
     mu = alpha.copy()
-    kern.smooth_modes(t, mu, rates, 1.0)
+    kern.smooth_modes(t, mu, rates, 1.0, kern.chain_band(rates))
     np.testing.assert_allclose(mu, expected, rtol=0.0, atol=1e-10)
     # A gap past reset_gap cuts the chain: the sample before it keeps its filtered μ.
     t_gap = t.copy()
     t_gap[150:] += 5.0
     mu = alpha.copy()
-    kern.smooth_modes(t_gap, mu, rates, 1.0)
+    kern.smooth_modes(t_gap, mu, rates, 1.0, kern.chain_band(rates))
     assert np.array_equal(mu[149], alpha[149])
 
 
@@ -249,9 +249,9 @@ def test_the_smoother_leaves_no_hole_where_its_single_model_pass_breaks_down() -
     est = make_estimator("kalman", length=0.5, noise_std=1e-3, rate_hz=100.0)
     assert isinstance(est, KalmanEstimator)
     qs, rates = est._walks  # the smoother's IMM: the random-walk modes alone
-    mu = kern.run_imm(t, theta, est._params, qs, rates, np.zeros(1, np.int64), True)[2]
-    kern.smooth_modes(t, mu, rates, 1.0)
-    keep = kern.run_pass(t, theta, est._params, np.zeros(1, np.int64), True, mu @ qs)[2:]
+    mu = kern.imm_pass(t, theta, est._params, qs, rates, np.zeros(1, np.int64), True)[2]
+    kern.smooth_modes(t, mu, rates, 1.0, kern.chain_band(rates))
+    keep = kern.run_pass(t, theta, est._params, mu @ qs)[2:]
     assert np.isnan(kern.rts(*keep)[0]).any()  # the holes this test is about
     published = estimate_batch("smoother", t, theta, length=0.5, noise_std=1e-3, rate_hz=100.0)
     for a, var in (imm_smoother(t, theta, est._params, qs, rates)[:2], published):
@@ -266,17 +266,15 @@ def test_the_summary_line_explains_the_estimator() -> None:
 
 
 def test_the_imm_pass_without_mode_probabilities_gives_the_same_estimates() -> None:
-    """run_imm without keep_mu (as the smoother calls it: μ not held, 8 B a mode a sample) runs the same
-    compiled steps in the same order: â and var equal to the last bit those with μ kept."""
-    from pendulum_accel.estimators import ekf_kernels as kern
-
+    """run_imm without keep_mu (μ not held, 8 B a mode a sample) runs the same compiled steps in the same
+    order: â and var equal to the last bit those with μ kept."""
     t, theta, _ = drive()
     est = make_estimator("smoother", **CFG)
     assert isinstance(est, KalmanEstimator)
     lags = np.array([0, round(RATE)], dtype=np.int64)
     args = (t, theta, est._params, est._qs, est._rates, lags)
-    a_kept, v_kept, mus = kern.run_imm(*args, True, est._trend())
-    a, v, none = kern.run_imm(*args, False, est._trend())
+    a_kept, v_kept, mus = kern.imm_pass(*args, True, est._jerks)
+    a, v, none = kern.imm_pass(*args, False, est._jerks)
     assert mus.shape == (t.size, est._qs.size) and none.shape == (0, est._qs.size)
     np.testing.assert_array_equal(a, a_kept)
     np.testing.assert_array_equal(v, v_kept)
@@ -373,10 +371,49 @@ def test_the_imm_fixed_lag_pass_is_the_textbook_augmented_state_imm() -> None:
     qs = np.array([1e-4, 1e-2, 1.0])
     rates = kern.chain_rates(qs.size, 2.0, 1.0)
     lags = np.array([0, 7, 40], dtype=np.int64)
-    a, var, _ = kern.run_imm(t, theta, est._params, qs, rates, lags)
+    a, var, _ = kern.imm_pass(t, theta, est._params, qs, rates, lags)
     for col, lag in enumerate(lags):
         ref_a, ref_v = _imm_fixed_lag_reference(t, theta, est._params, qs, rates, int(lag))
         done = ~np.isnan(ref_a)  # the reference leaves the last N samples out (no flush), and sample 0
         assert done.sum() == t.size - max(int(lag), 1)
         np.testing.assert_allclose(a[done, col], ref_a[done], rtol=1e-9, atol=1e-15)
         np.testing.assert_allclose(var[done, col], ref_v[done], rtol=1e-9, atol=1e-15)
+
+
+def test_the_imm_on_irregular_stamps_is_the_textbook_imm() -> None:
+    """Stamps jittered by up to 0.5 ms give 300 distinct Δt, more than the step keeps Π for
+    (ekf_kernels.PI_SLOTS): each Π formed anew or taken from the slot of its own Δt must be the Π of that
+    Δt. The IMM filter (lag 0) and a lag against the textbook augmented-state IMM (above), which forms Π
+    at every sample; tolerance as argued there (the same algebra in another rounding order)."""
+    t, theta, _ = drive()
+    t, theta = t[:300], theta[:300]
+    t = t + 5e-4 * np.random.default_rng(11).uniform(-1.0, 1.0, t.size)
+    assert np.unique(np.diff(t)).size > 4 * kern.PI_SLOTS
+    est = make_estimator("kalman", **CFG)
+    assert isinstance(est, KalmanEstimator)
+    qs = np.array([1e-4, 1e-2, 1.0])
+    rates = kern.chain_rates(qs.size, 2.0, 1.0)
+    lags = np.array([0, 7], dtype=np.int64)
+    a, var, _ = kern.imm_pass(t, theta, est._params, qs, rates, lags)
+    for col, lag in enumerate(lags):
+        ref_a, ref_v = _imm_fixed_lag_reference(t, theta, est._params, qs, rates, int(lag))
+        done = ~np.isnan(ref_a)
+        np.testing.assert_allclose(a[done, col], ref_a[done], rtol=1e-9, atol=1e-15)
+        np.testing.assert_allclose(var[done, col], ref_v[done], rtol=1e-9, atol=1e-15)
+
+
+def test_a_given_q_a_runs_the_one_model_filter() -> None:
+    """With q_accel the estimator runs the IMM kernel with that one mode (μ = 1, nothing to mix): its
+    â and var are the one-model filter's (ekf_kernels.run_pass, whose passes the RTS smoother keeps). Both
+    do the same IEEE operations in the same order, with no fused multiply-add (numba compiles without
+    fast-math), so they agree to the last bit here; 1e-12 relative allows a compiler that fused one of
+    them a few ulps (3e-16 each, over a stable filter that does not amplify them), and is far below
+    any change of algebra (a mixing term or a gain off by one sample moves â by more than 1e-6)."""
+    t, theta, _ = drive()
+    q = 0.05
+    a, var = estimate_batch("kalman", t, theta, **CFG, q_accel=q)  # CFG states no bias: var adds none
+    est = make_estimator("kalman", **CFG, q_accel=q)
+    assert isinstance(est, KalmanEstimator)
+    a_one, v_one, *_ = kern.run_pass(t, theta, est._params, np.empty(0))
+    np.testing.assert_allclose(a, a_one, rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(var, v_one, rtol=1e-12, atol=0.0)

@@ -66,7 +66,7 @@ def test_the_four_state_fixed_lag_pass_is_the_textbook_augmented_state_imm() -> 
         np.array([1e-4, 1e-1]), kern.chain_rates(2, 2.0, 1.0), np.array([10.0, 10.0]), 5.0
     )
     lags = np.array([0, 7, 40], dtype=np.int64)
-    a, var, _ = kern.run_imm(t, theta, est._params, qs, rates, lags, False, jerks)
+    a, var, _ = kern.imm_pass(t, theta, est._params, qs, rates, lags, False, jerks)
     for col, lag in enumerate(lags):
         ref_a, ref_v = _imm_fixed_lag_reference(t, theta, est._params, qs, rates, int(lag), jerks)
         done = ~np.isnan(ref_a)
@@ -98,10 +98,14 @@ def test_a_random_walk_mode_never_carries_a_trend() -> None:
     assert isinstance(est, KalmanEstimator)
     walks = est._jerks == 0.0
     assert 0 < np.count_nonzero(~walks) < walks.size
+    m, band, d = (int(v) for v in est._ibuf[:3])
+    state = kern.imm_arrays(est._buf, m, band, d)  # the live estimator's IMM state (ekf_kernels.ImmArrays)
+    modes = band + np.arange(m)  # mode j's column
+    j_rows = [kern.P03, kern.P13, kern.P23, kern.P33]  # its covariance's j row
     for ti, yi in zip(t[:400].tolist(), theta[:400].tolist(), strict=True):
         est.update(ti, yi)
-        assert not est._xs[walks, 3].any() and not est._ps[walks, 3, :].any()
-    assert np.abs(est._xs[~walks, 3]).max() > 0.0  # the trend modes do carry one
+        assert not state.X[3, modes[walks]].any() and not state.P[np.ix_(j_rows, modes[walks])].any()
+    assert np.abs(state.X[3, modes[~walks]]).max() > 0.0  # the trend modes do carry one
 
 
 def test_the_trend_modes_follow_a_ramp_the_random_walks_lag() -> None:
@@ -121,7 +125,7 @@ def test_the_trend_modes_follow_a_ramp_the_random_walks_lag() -> None:
     est = make_estimator("kalman", **cfg)
     assert isinstance(est, KalmanEstimator)
     qs, _, rates = PRESETS["auto"].imm(walks_only=True)
-    walks = kern.run_imm(t, theta, est._params, qs, rates, np.zeros(1, np.int64), False)[0][late, 0]
+    walks = kern.imm_pass(t, theta, est._params, qs, rates, np.zeros(1, np.int64))[0][late, 0]
     rms_both = float(np.sqrt(np.mean((both - truth) ** 2)))
     assert rms_both < 0.2 * float(np.sqrt(np.mean((walks - truth) ** 2)))
 

@@ -1,4 +1,4 @@
-"""Compiled (numba) passes of the pendulum EKF on x = [θ, θ', a]: filter, fixed-lag smoother, RTS smoother.
+"""Compiled (numba) model of the pendulum EKF on x = [θ, θ', a]: prediction, update, one-model pass, RTS.
 
 Model (physics.rigid.theta_ddot written out in scalar form, as in physics.kernels):
 
@@ -10,24 +10,24 @@ F_h = I + J h + J² h²/2 (J the Jacobian at the prior state), P ← F_h P F_h�
 integrated random walk of a through θ'' ≈ j₁₂ a (j₁₂ = cos θ / l): q_a [h⁵j²/20, h⁴j²/8, h³j/6; ·, h³j²/3,
 h²j/2; ·, ·, h] plus q_ω h on θ'θ'. The transition kept for the smoothers is the product of the F_h.
 
-Fixed-lag smoothing (Anderson & Moore's augmented state, for a only): for every buffered sample i ≤ k
-the pass keeps â_{i|k}, its variance and the cross-covariance row c_i = Cov(a_i, x_k | y_{..k}).
-A measurement with innovation ν, S = P⁻₀₀ + r, gain K moves â_i by c_i[0] ν/S and its variance by
-−c_i[0]²/S, then c_i ← c_i − c_i[0] K; a prediction maps c_i ← F c_i. One pass gives every lag at once
-(O(N) per sample for a lag of N samples). The RTS pass is the fixed-interval limit.
-
 Trend modes (the IMM only): x = [θ, θ', a, j] with a' = j, j' = w_j, E[w_j w_j] = q_j δ, an integrated
-walk of a that predicts a trend (``predict_trend``, ``trend_noise``); the IMM then holds every mode on four
-states, a random-walk mode's j ≡ 0 with no covariance (``with_trends``, ``_mix``), and the fixed-lag rows
-c_i carry a fourth entry.
+walk of a that predicts a trend (``predict_trend``, ``trend_noise``).
+
+These are the scalar, one-model forms: ``run_pass`` (the filter of one model, keeping what the RTS pass
+``rts`` needs) runs them. The IMM (below) runs the same operations for all its modes at once, structure of
+arrays (test_smoother and test_trend_modes hold the two equal), and its fixed-lag pass. They live in one
+module on purpose: numba caches a function with the code of the kernels it calls, keyed on its own file
+only, so a kernel calling another file's would keep a stale copy of it after an edit of that file alone
+(as a `git pull` in an editable install makes).
 
 The first call compiles (≈ 20 s) into numba's on-disk cache beside this file (``make setup`` warms it:
-``python -m pendulum_accel.estimators.ekf_kernels``).
+``python -m pendulum_accel.kernel_cache``).
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -271,55 +271,36 @@ def step(
     k: np.ndarray,
     prior_x: np.ndarray,
     prior_p: np.ndarray,
-    ring_a: np.ndarray,
-    ring_v: np.ndarray,
-    ring_c: np.ndarray,
+    out: np.ndarray,
     state: np.ndarray,
     t: float,
     y: float,
     params: np.ndarray,
 ) -> bool:
-    """One sample into the filter and the fixed-lag buffer; True when the filter (re)started here.
+    """One sample into the filter; True when it (re)started here.
 
     ``state`` = [last t (NaN before the first sample), samples in the current segment]; ``params`` =
-    [g, l, c, r, q_ω, q_a, reset_gap, clamp, init amplitude]. The buffer (size N + 1) holds â, var and
-    c for the last N + 1 samples, sample i at slot i mod (N + 1); a restart empties it (state[1] = 1).
-    The prior x⁻, P⁻ of the sample is left in prior_x, prior_p and the transition from the last in f.
+    [g, l, c, r, q_ω, q_a, reset_gap, clamp, init amplitude]. out ← (â, var) of the sample: a⁻ + P⁻_aθ ν/S
+    and P⁻_aa − (P⁻_aθ)²/S (as the IMM's per-mode row, ``_step``). The prior x⁻, P⁻ of the sample is left
+    in prior_x, prior_p and the transition from the last in f.
     """
     g, length, c, r = params[0], params[1], params[2], params[3]
     q_rate, q_accel, reset_gap = params[4], params[5], params[6]
-    size = ring_a.size
     last_t = state[0]
     if needs_restart(state, t, reset_gap):
-        _start(x, p, f, prior_x, prior_p, ring_a, ring_v, ring_c, state, t, y, params)
+        _start(x, p, f, prior_x, prior_p, out, state, t, y, params)
         return True
     predict(x, p, f, t - last_t, g, 1.0 / length, c, q_rate, q_accel)
     _copy3(x, p, prior_x, prior_p)
-    count = int(state[1])
-    held = min(count, size - 1)
-    # Cross-covariances of the buffered a's with the new state: c ← F c.
-    for j in range(1, held + 1):
-        slot = (count - j) % size
-        c0, c1, c2 = ring_c[slot, 0], ring_c[slot, 1], ring_c[slot, 2]
-        for i in range(3):
-            ring_c[slot, i] = f[i, 0] * c0 + f[i, 1] * c1 + f[i, 2] * c2
-    slot = count % size
-    ring_a[slot], ring_v[slot] = x[2], p[2, 2]
-    for i in range(3):
-        ring_c[slot, i] = p[2, i]
     nu, s = correct(x, p, k, y, r)
-    for j in range(0, held + 1):
-        slot = (count - j) % size
-        c0 = ring_c[slot, 0]
-        ring_a[slot] += c0 * nu / s
-        ring_v[slot] -= c0 * c0 / s
-        for i in range(3):
-            ring_c[slot, i] -= c0 * k[i]
+    c0 = prior_p[2, 0]
+    out[0] = prior_x[2] + c0 * nu / s
+    out[1] = prior_p[2, 2] - c0 * c0 / s
     if _finite(x, p):
-        state[0], state[1] = t, count + 1
+        state[0], state[1] = t, state[1] + 1.0
         return False
     # A diverged filter restarts rather than publish inf/NaN.
-    _start(x, p, f, prior_x, prior_p, ring_a, ring_v, ring_c, state, t, y, params)
+    _start(x, p, f, prior_x, prior_p, out, state, t, y, params)
     return True
 
 
@@ -337,109 +318,59 @@ def _start(
     f: np.ndarray,
     prior_x: np.ndarray,
     prior_p: np.ndarray,
-    ring_a: np.ndarray,
-    ring_v: np.ndarray,
-    ring_c: np.ndarray,
+    out: np.ndarray,
     state: np.ndarray,
     t: float,
     y: float,
     params: np.ndarray,
 ) -> None:
-    """Initialise the filter from y (``initialise``) and the buffer with it as sample 0 of a segment."""
+    """Initialise the filter from y (``initialise``) as sample 0 of a segment; out ← its a and P_aa."""
     initialise(x, p, y, params[0], params[1], params[3], params[7], params[8])
     prior_x[:] = x
     prior_p[:, :] = p
     for i in range(3):
         for j in range(3):
             f[i, j] = 1.0 if i == j else 0.0
-    ring_a[0], ring_v[0] = x[2], p[2, 2]
-    for i in range(3):
-        ring_c[0, i] = p[2, i]
+    out[0], out[1] = x[2], p[2, 2]
     state[0], state[1] = t, 1.0
-
-
-@njit(cache=True)
-def _flush(
-    out_a: np.ndarray,
-    out_v: np.ndarray,
-    ring_a: np.ndarray,
-    ring_v: np.ndarray,
-    last: int,
-    count: int,
-    lags: np.ndarray,
-) -> None:
-    """At a segment's end (sample ``last``): samples whose lag reaches past it get their latest â, var."""
-    size = ring_a.size
-    for j in range(min(count, size)):
-        slot = (count - 1 - j) % size
-        for m in range(lags.size):
-            if lags[m] > j:
-                out_a[last - j, m] = ring_a[slot]
-                out_v[last - j, m] = ring_v[slot]
 
 
 @njit(cache=True, nogil=True)  # a long batch leaves the GIL: Ctrl-C reaches the main thread
 def run_pass(
-    t: np.ndarray,
-    y: np.ndarray,
-    params: np.ndarray,
-    lags: np.ndarray,
-    keep: bool,
-    q_accel: np.ndarray,
+    t: np.ndarray, y: np.ndarray, params: np.ndarray, q_accel: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Filter and fixed-lag pass over a recording (``step`` per sample).
+    """The one-model filter over a recording (``step`` per sample), keeping what the RTS pass needs.
 
-    Returns (â_lag, var_lag) of shape (n, len(lags)): column m holds â_{i | i + lags[m]}, aligned to the
-    sample i it describes (NaN where a divergence restart lost it; the last lags[m] samples of a segment
-    use all the data there is), and, when ``keep``, what the RTS pass needs: priors x⁻, P⁻, posteriors
-    x⁺, P⁺, transitions F (from the previous sample) and the restart flags. ``q_accel``: q_a of the
-    interval into each sample (n values), or empty for params[5] throughout.
+    Returns (â, var) of each sample (``step``'s out), the priors x⁻, P⁻, posteriors x⁺, P⁺, transitions F
+    (from the previous sample) and the restart flags. ``q_accel``: q_a of the interval into each sample
+    (n values), or empty for params[5] throughout.
     """
     n = t.size
     varying = q_accel.size == n
     params = params.copy()  # params[5] takes each sample's q_a when it varies
-    size = int(lags.max()) + 1 if lags.size else 1
-    out_a = np.full((n, lags.size), np.nan)
-    out_v = np.full((n, lags.size), np.nan)
-    m_keep = n if keep else 0
-    xpr = np.empty((m_keep, 3))
-    ppr = np.empty((m_keep, 3, 3))
-    xpo = np.empty((m_keep, 3))
-    ppo = np.empty((m_keep, 3, 3))
-    fk = np.empty((m_keep, 3, 3))
-    starts = np.zeros(m_keep, dtype=np.bool_)
+    out_a = np.empty(n)
+    out_v = np.empty(n)
+    xpr = np.empty((n, 3))
+    ppr = np.empty((n, 3, 3))
+    xpo = np.empty((n, 3))
+    ppo = np.empty((n, 3, 3))
+    fk = np.empty((n, 3, 3))
+    starts = np.zeros(n, dtype=np.bool_)
     x = np.zeros(3)
     p = np.zeros((3, 3))
     f = np.eye(3)
     k = np.zeros(3)
-    prior_x = np.zeros(3)
-    prior_p = np.zeros((3, 3))
-    ring_a = np.zeros(size)
-    ring_v = np.zeros(size)
-    ring_c = np.zeros((size, 3))
+    out = np.zeros(2)
     state = np.array([np.nan, 0.0])
-    reset_gap = params[6]
     for i in range(n):
-        if i > 0 and needs_restart(state, t[i], reset_gap):
-            _flush(out_a, out_v, ring_a, ring_v, i - 1, int(state[1]), lags)
         if varying:
             params[5] = q_accel[i]
-        restarted = step(x, p, f, k, prior_x, prior_p, ring_a, ring_v, ring_c, state, t[i], y[i], params)
-        if keep:
-            starts[i] = restarted
-            _copy3(x, p, xpo[i], ppo[i])
-            _copy3(prior_x, prior_p, xpr[i], ppr[i])
-            for r in range(3):
-                for col in range(3):
-                    fk[i, r, col] = f[r, col]
-        count = int(state[1])
-        for m in range(lags.size):
-            lag = lags[m]
-            if lag < count:
-                slot = (count - 1 - lag) % size
-                out_a[i - lag, m] = ring_a[slot]
-                out_v[i - lag, m] = ring_v[slot]
-    _flush(out_a, out_v, ring_a, ring_v, n - 1, int(state[1]), lags)
+        starts[i] = step(x, p, f, k, xpr[i], ppr[i], out, state, t[i], y[i], params)
+        _copy3(x, p, xpo[i], ppo[i])
+        for r in range(3):
+            for col in range(3):
+                fk[i, r, col] = f[r, col]
+        out_a[i], out_v[i] = out[0], out[1]
     return out_a, out_v, xpr, ppr, xpo, ppo, fk, starts
 
 
@@ -541,67 +472,6 @@ def rts(
     return a, v
 
 
-ImmScratch = tuple[
-    np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-    np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-]  # fmt: skip
-
-
-@njit(cache=True)
-def imm_scratch(m: int, size: int = 1, d: int = 3) -> ImmScratch:
-    """Work arrays of one imm_step for m modes of d states (3, or 4 with trend modes) and a buffer of
-    ``size`` samples: (c, x⁰, P⁰, F, K, log-likelihoods, Π, mixing weights w, the buffer's mixed â, var
-    (m × size) and c (m × d × size), [the Δt Π was computed for, the chain's band]: at a steady rate Π
-    and the band are computed once, and ``predict_trend``'s work arrays)."""
-    return (
-        np.zeros(m), np.zeros((m, d)), np.zeros((m, d, d)), np.empty((d, d)), np.empty(d), np.empty(m),
-        np.empty((m, m)), np.empty((m, m)), np.zeros((m, size)), np.zeros((m, size)),
-        np.zeros((m, d, size)), np.array([np.nan, -1.0]), np.empty((3, 4, 4)),
-    )  # fmt: skip
-
-
-@njit(cache=True)
-def imm_step(
-    xs: np.ndarray,
-    ps: np.ndarray,
-    mu: np.ndarray,
-    x: np.ndarray,
-    p: np.ndarray,
-    ra: np.ndarray,
-    rv: np.ndarray,
-    rc: np.ndarray,
-    state: np.ndarray,
-    t: float,
-    y: float,
-    params: np.ndarray,
-    qs: np.ndarray,
-    rates: np.ndarray,
-    jerks: np.ndarray,
-    scratch: ImmScratch,
-) -> bool:
-    """One sample into the interacting-multiple-model filter (Blom & Bar-Shalom); True when it (re)started.
-
-    Model j is the EKF above with q_a = qs[j]. With ``jerks`` (one q_j per mode; empty: none) the modes
-    carry a fourth state, the trend j of a: a mode with q_j > 0 is the integrated walk (``predict_trend``),
-    one with q_j = 0 a random walk whose j and its covariance are zeroed after the mixing (it never
-    carries a trend another mode handed it). The mode follows a continuous-time Markov chain with jump
-    rates R_ij (1/s, ``chain_rates``): over Δt it stays with Π_ii = e^{−r_i Δt}, r_i = Σ_j R_ij, and moves
-    to j with Π_ij = (1 − e^{−r_i Δt}) R_ij / r_i. Per sample:
-    mix (c_j = Σ_i Π_ij μ_i, x⁰_j = Σ_i Π_ij μ_i x_i / c_j, P⁰_j likewise plus the spread of the x_i), predict
-    and correct each model, μ_j ∝ c_j N(ν_j; 0, S_j), and combine: x = Σ μ_j x_j,
-    P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ). ``state``, ``params``: as ``step``; x, p receive the combination.
-
-    Fixed lag (each mode keeps ``step``'s buffer, ra, rv: modes × (N + 1), rc: modes × 3 × (N + 1), for a
-    lag of N samples; the buffer is the innermost axis, so its loops run as vector arithmetic): the mixing
-    mixes each buffered sample's â, var and cross-covariance row like the state (``_mix_ring``: the
-    augmented state's IMM mixing, restricted to the blocks the update reads), each mode's prediction and
-    update move them as ``step`` does, and ``imm_lagged`` combines a sample over the modes. N = 0 (a
-    buffer of one) is the filter alone. ``scratch``: work arrays (``imm_scratch``), kept by the caller so
-    a sample allocates nothing; xs, ps, rc and the scratch have the modes' state size (4 with jerks).
-    """
-    return _imm_step_into(xs, ps, mu, x, p, ra, rv, rc, state, t, y, params, qs, rates, jerks, scratch)
-
-
 @njit(cache=True)
 def _chain_step(rates: np.ndarray, dt: float, pi: np.ndarray) -> None:
     """pi ← the chain's transition matrix over dt: Π_ii = e^{−r_i Δt}, Π_ij = (1 − e^{−r_i Δt}) R_ij / r_i."""
@@ -613,548 +483,6 @@ def _chain_step(rates: np.ndarray, dt: float, pi: np.ndarray) -> None:
         stay = math.exp(-out * dt)
         for j in range(m):
             pi[i, j] = stay if j == i else ((1.0 - stay) * rates[i, j] / out if out > 0.0 else 0.0)
-
-
-@njit(cache=True)
-def _mix(
-    xs: np.ndarray,
-    ps: np.ndarray,
-    mu: np.ndarray,
-    pi: np.ndarray,
-    cj: np.ndarray,
-    w: np.ndarray,
-    x0: np.ndarray,
-    p0: np.ndarray,
-    band: int,
-    jerks: np.ndarray,
-) -> None:
-    """IMM mixing: c_j = Σ_i Π_ij μ_i, w_ij = Π_ij μ_i / c_j, x⁰_j = Σ_i w_ij x_i,
-    P⁰_j = Σ_i w_ij (P_i + (x_i − x⁰_j)(x_i − x⁰_j)ᵀ); the sums over |i − j| ≤ band only (Π_ij = 0
-    beyond the chain's reach, so the terms left out are exact zeros). Over d = xs.shape[1] states; with
-    trend modes, a random-walk mode (jerks[j] = 0) then has its j and j's covariance set to 0."""
-    m = mu.size
-    d = xs.shape[1]
-    for j in range(m):
-        lo, hi = max(0, j - band), min(m, j + band + 1)
-        cj[j] = 0.0
-        for i in range(lo, hi):  # the terms beyond the band are exact zeros: the sum is the same
-            cj[j] += pi[i, j] * mu[i]
-        for i in range(lo, hi):  # w beyond the band is never read
-            w[i, j] = pi[i, j] * mu[i] / cj[j]
-        if d == 4 and jerks[j] > 0.0:
-            _mix_trend(j, xs, ps, w, x0, p0, lo, hi)
-        else:  # a random walk's x⁰, P⁰ on [θ, θ', a]; with trend modes its j is zeroed below
-            for a in range(3):
-                acc = 0.0
-                for i in range(lo, hi):
-                    acc += w[i, j] * xs[i, a]
-                x0[j, a] = acc
-            for a in range(3):
-                for b in range(3):
-                    acc = 0.0
-                    for i in range(lo, hi):
-                        acc += w[i, j] * (ps[i, a, b] + (xs[i, a] - x0[j, a]) * (xs[i, b] - x0[j, b]))
-                    p0[j, a, b] = acc
-        if d == 4 and jerks[j] == 0.0:
-            x0[j, 3] = 0.0
-            for a in range(4):
-                p0[j, 3, a] = 0.0
-                p0[j, a, 3] = 0.0
-
-
-@njit(cache=True, inline="always")
-def _mix_trend(
-    j: int, xs: np.ndarray, ps: np.ndarray, w: np.ndarray, x0: np.ndarray, p0: np.ndarray, lo: int, hi: int
-) -> None:
-    """``_mix``'s x⁰_j, P⁰_j over four states: the terms with w_ij = 0 skipped (modes of the band the chain
-    does not link to j: interleaved by ``with_trends``, a walk's neighbour's partner) and P⁰_j's upper
-    triangle mirrored."""
-    for a in range(4):
-        x0[j, a] = 0.0
-    for i in range(lo, hi):
-        wij = w[i, j]
-        if wij == 0.0:
-            continue
-        for a in range(4):
-            x0[j, a] += wij * xs[i, a]
-    for a in range(4):
-        for b in range(a, 4):
-            p0[j, a, b] = 0.0
-    for i in range(lo, hi):
-        wij = w[i, j]
-        if wij == 0.0:
-            continue
-        for a in range(4):
-            da = xs[i, a] - x0[j, a]
-            for b in range(a, 4):
-                p0[j, a, b] += wij * (ps[i, a, b] + da * (xs[i, b] - x0[j, b]))
-    for a in range(4):
-        for b in range(a):
-            p0[j, a, b] = p0[j, b, a]
-
-
-@njit(cache=True)
-def _update_modes(logl: np.ndarray, mu: np.ndarray) -> None:
-    """μ_j ∝ exp(logl_j) (logl_j = ln c_j + ln N(ν_j; 0, S_j)), floored at 1e-12."""
-    m = mu.size
-    top = logl.max()
-    total = 0.0
-    for j in range(m):
-        mu[j] = math.exp(logl[j] - top)
-        total += mu[j]
-    for j in range(m):
-        mu[j] = max(mu[j] / total, 1e-12)  # a floor keeps every mode revivable (and no 0/0 in the mixing)
-
-
-@njit(cache=True)
-def _combine(xs: np.ndarray, ps: np.ndarray, mu: np.ndarray, x: np.ndarray, p: np.ndarray) -> None:
-    """x = Σ μ_j x_j, P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ), over [θ, θ', a] (a trend mode's j is its own)."""
-    m = mu.size
-    for a in range(3):
-        x[a] = 0.0
-        for j in range(m):
-            x[a] += mu[j] * xs[j, a]
-    for a in range(3):
-        for b in range(3):
-            acc = 0.0
-            for j in range(m):
-                acc += mu[j] * (ps[j, a, b] + (xs[j, a] - x[a]) * (xs[j, b] - x[b]))
-            p[a, b] = acc
-
-
-@njit(cache=True)
-def _mix_ring(
-    j: int,
-    xs: np.ndarray,
-    x0: np.ndarray,
-    w: np.ndarray,
-    ra: np.ndarray,
-    rv: np.ndarray,
-    rc: np.ndarray,
-    out_a: np.ndarray,
-    out_v: np.ndarray,
-    out_c: np.ndarray,
-    band: int,
-    jerks: np.ndarray,
-) -> None:
-    """IMM mixing of mode j's buffer, every slot into out_*: â⁰_j = Σ_i w_ij â_i, var⁰_j = Σ_i w_ij (var_i +
-    (â_i − â⁰_j)²), c⁰_j = Σ_i w_ij (c_i + (â_i − â⁰_j)(x_i − x⁰_j)) (the a_slot rows of the mixed augmented
-    covariance: all the fixed-lag update needs). The buffer is the innermost, contiguous axis, so each
-    sum runs as vector arithmetic over all slots; a slot's own sums keep their order over i. With trend
-    modes (four states) c's fourth entry mixes alike, and is 0 for a random-walk mode (``_mix``)."""
-    m, size = ra.shape
-    lo, hi = max(0, j - band), min(m, j + band + 1)  # w_ij = 0 beyond the chain's band
-    for s in range(size):
-        out_a[s] = 0.0
-        out_v[s] = 0.0
-        out_c[0, s] = 0.0
-        out_c[1, s] = 0.0
-        out_c[2, s] = 0.0
-    for i in range(lo, hi):
-        wij = w[i, j]
-        row = ra[i]
-        for s in range(size):
-            out_a[s] += wij * row[s]
-    for i in range(lo, hi):
-        wij = w[i, j]
-        d0, d1, d2 = xs[i, 0] - x0[j, 0], xs[i, 1] - x0[j, 1], xs[i, 2] - x0[j, 2]
-        row_a, row_v, row_c = ra[i], rv[i], rc[i]
-        for s in range(size):
-            da = row_a[s] - out_a[s]
-            out_v[s] += wij * (row_v[s] + da * da)
-            out_c[0, s] += wij * (row_c[0, s] + da * d0)
-            out_c[1, s] += wij * (row_c[1, s] + da * d1)
-            out_c[2, s] += wij * (row_c[2, s] + da * d2)
-    if xs.shape[1] == 4:
-        for s in range(size):
-            out_c[3, s] = 0.0
-        if jerks[j] > 0.0:
-            for i in range(lo, hi):
-                wij = w[i, j]
-                d3 = xs[i, 3] - x0[j, 3]
-                row_a, row_c = ra[i], rc[i]
-                for s in range(size):
-                    out_c[3, s] += wij * (row_c[3, s] + (row_a[s] - out_a[s]) * d3)
-
-
-@njit(cache=True)
-def _imm_step_into(
-    xs: np.ndarray,
-    ps: np.ndarray,
-    mu: np.ndarray,
-    x: np.ndarray,
-    p: np.ndarray,
-    ra: np.ndarray,
-    rv: np.ndarray,
-    rc: np.ndarray,
-    state: np.ndarray,
-    t: float,
-    y: float,
-    params: np.ndarray,
-    qs: np.ndarray,
-    rates: np.ndarray,
-    jerks: np.ndarray,
-    scratch: ImmScratch,
-) -> bool:
-    """imm_step with its work arrays given (``imm_scratch``): a recording's pass allocates them once."""
-    cj, x0, p0, f, k, logl, pi, w, new_a, new_v, new_c, memo, work = scratch
-    g, length, c, r = params[0], params[1], params[2], params[3]
-    q_rate, reset_gap = params[4], params[6]
-    m = qs.size
-    size = ra.shape[1]
-    trend = xs.shape[1] == 4
-    if needs_restart(state, t, reset_gap):
-        _imm_start(xs, ps, mu, x, p, ra, rv, rc, state, t, y, params, jerks)
-        return True
-    dt = t - state[0]
-    count = int(state[1])
-    held = min(count, size - 1)
-    if dt != memo[0]:  # Π depends on Δt only: at a steady rate it is computed once
-        _chain_step(rates, dt, pi)
-        memo[0] = dt
-    if memo[1] < 0.0:  # the chain's reach: w_ij = 0 for |i − j| > band (1 for a birth-death chain)
-        band = 0
-        for i in range(m):
-            for j in range(m):
-                if rates[i, j] != 0.0:
-                    band = max(band, abs(i - j))
-        memo[1] = band
-    band = int(memo[1])
-    _mix(xs, ps, mu, pi, cj, w, x0, p0, band, jerks)
-    # Mode by mode: its buffer mixed into the work rows (from every mode's buffer as it was before this
-    # sample), then predicted and updated there in one pass while the rows are in cache; the buffers and
-    # the modes' states take the new values once every mode is done (the mixing reads the old ones).
-    # The loops run over every slot, held or not: a slot not yet held holds nothing anyone reads (it is
-    # written whole before it is read), and whole contiguous rows run as vector arithmetic.
-    new = count % size
-    linv = 1.0 / length
-    for j in range(m):
-        if held:
-            _mix_ring(j, xs, x0, w, ra, rv, rc, new_a[j], new_v[j], new_c[j], band, jerks)
-            row_a, row_v, row_c = new_a[j], new_v[j], new_c[j]
-        else:
-            row_a, row_v, row_c = ra[j], rv[j], rc[j]
-        if trend and jerks[j] > 0.0:
-            predict_trend(x0[j], p0[j], f, dt, g, linv, c, q_rate, qs[j], jerks[j], work)
-            nu, s_nu = _trend_lag_update(x0[j], p0[j], f, k, y, r, row_a, row_v, row_c, new, held)
-            logl[j] = -0.5 * (nu * nu / s_nu + math.log(s_nu)) + math.log(cj[j])
-            continue
-        if trend:  # a random walk beside trend modes: j ≡ 0 with no covariance (``_mix``) and its buffer's
-            # fourth entry stays 0, so the three-state lines run on the leading block
-            fw = f[:3, :3]
-            nu, s_nu = _walk_lag_update(
-                x0[j, :3],
-                p0[j, :3, :3],
-                fw,
-                k,
-                y,
-                r,
-                row_a,
-                row_v,
-                row_c,
-                new,
-                held,
-                dt,
-                g,
-                linv,
-                c,
-                q_rate,
-                qs[j],
-            )
-        else:
-            nu, s_nu = _walk_lag_update(
-                x0[j], p0[j], f, k, y, r, row_a, row_v, row_c, new, held, dt, g, linv, c, q_rate, qs[j]
-            )
-        logl[j] = -0.5 * (nu * nu / s_nu + math.log(s_nu)) + math.log(cj[j])
-    if held:
-        ra[:] = new_a
-        rv[:] = new_v
-        rc[:] = new_c
-    if trend:
-        xs[:, :] = x0
-        ps[:, :, :] = p0
-    else:
-        for j in range(m):
-            _copy3(x0[j], p0[j], xs[j], ps[j])
-    _update_modes(logl, mu)
-    _combine(xs, ps, mu, x, p)
-    if _finite(x, p):
-        state[0], state[1] = t, count + 1.0
-        return False
-    _imm_start(xs, ps, mu, x, p, ra, rv, rc, state, t, y, params, jerks)  # diverged: restart, never inf/NaN
-    return True
-
-
-@njit(cache=True, inline="always")  # inlined: a call per mode per sample costs a third of auto's step
-def _walk_lag_update(
-    xj: np.ndarray,
-    pj: np.ndarray,
-    f: np.ndarray,
-    k: np.ndarray,
-    y: float,
-    r: float,
-    row_a: np.ndarray,
-    row_v: np.ndarray,
-    row_c: np.ndarray,
-    new: int,
-    held: int,
-    dt: float,
-    g: float,
-    linv: float,
-    c: float,
-    q_rate: float,
-    q_accel: float,
-) -> tuple[float, float]:
-    """One random-walk mode's prediction, update and buffer (``_imm_step_into``): x, P ← ``predict``, the
-    buffered a's c ← F c, the new slot takes the prior's a row, then the innovation moves â, var and c of
-    every slot and the state (``correct``); returns (ν, S). x, P, F: three states (a view of the leading
-    block beside trend modes)."""
-    size = row_a.size
-    predict(xj, pj, f, dt, g, linv, c, q_rate, q_accel)
-    prior_a, prior_v = xj[2], pj[2, 2]
-    prior_c0, prior_c1, prior_c2 = pj[2, 0], pj[2, 1], pj[2, 2]
-    nu, s_nu = correct(xj, pj, k, y, r)
-    k0, k1, k2 = k[0], k[1], k[2]
-    if held:  # the buffered a's: c ← F c, then the update moves â, var and c by the innovation
-        f00, f01, f02 = f[0, 0], f[0, 1], f[0, 2]
-        f10, f11, f12 = f[1, 0], f[1, 1], f[1, 2]
-        f20, f21, f22 = f[2, 0], f[2, 1], f[2, 2]
-        for s in range(size):
-            c0, c1, c2 = row_c[0, s], row_c[1, s], row_c[2, s]
-            n0 = f00 * c0 + f01 * c1 + f02 * c2
-            n1 = f10 * c0 + f11 * c1 + f12 * c2
-            n2 = f20 * c0 + f21 * c1 + f22 * c2
-            row_a[s] += n0 * nu / s_nu
-            row_v[s] -= n0 * n0 / s_nu
-            row_c[0, s] = n0 - n0 * k0
-            row_c[1, s] = n1 - n0 * k1
-            row_c[2, s] = n2 - n0 * k2
-    # The new sample: its prior (the predicted a and its covariance row), then the same update.
-    row_c[0, new], row_c[1, new], row_c[2, new] = prior_c0, prior_c1, prior_c2
-    c0 = row_c[0, new]
-    row_a[new] = prior_a + c0 * nu / s_nu
-    row_v[new] = prior_v - c0 * c0 / s_nu
-    row_c[0, new] -= c0 * k0
-    row_c[1, new] -= c0 * k1
-    row_c[2, new] -= c0 * k2
-    return nu, s_nu
-
-
-@njit(cache=True, inline="always")
-def _trend_lag_update(
-    x: np.ndarray,
-    p: np.ndarray,
-    f: np.ndarray,
-    k: np.ndarray,
-    y: float,
-    r: float,
-    row_a: np.ndarray,
-    row_v: np.ndarray,
-    row_c: np.ndarray,
-    new: int,
-    held: int,
-) -> tuple[float, float]:
-    """One four-state mode's update and its buffer (``_walk_lag_update`` over d = 4, after the prediction):
-    the buffered a's c ← F c, the new slot takes the prior's a row, then the innovation moves â, var and c
-    of every slot and the state (``correct``); returns (ν, S)."""
-    size = row_a.size
-    if held:
-        for s in range(size):
-            c0, c1, c2, c3 = row_c[0, s], row_c[1, s], row_c[2, s], row_c[3, s]
-            for i in range(4):
-                row_c[i, s] = f[i, 0] * c0 + f[i, 1] * c1 + f[i, 2] * c2 + f[i, 3] * c3
-    row_a[new], row_v[new] = x[2], p[2, 2]
-    for i in range(4):
-        row_c[i, new] = p[2, i]
-    nu, s_nu = correct(x, p, k, y, r)
-    gains = (k[0], k[1], k[2], k[3])
-    last = size if held else new + 1
-    for s in range(new if not held else 0, last):
-        c0 = row_c[0, s]
-        row_a[s] += c0 * nu / s_nu
-        row_v[s] -= c0 * c0 / s_nu
-        for i in range(4):
-            row_c[i, s] -= c0 * gains[i]
-    return nu, s_nu
-
-
-@njit(cache=True)
-def lag_variance_one(
-    var_lag: float, var_filter: float, power: float, revision: float, weight: float
-) -> float:
-    """min(P_f (P_lag/P_f)^γ + κ d², P_lag) with the ratio clipped to [0, 1], d = â_lag − â_f (``revision``),
-    κ = ``weight``; P_lag where P_f ≤ 0 (kalman.lag_variance)."""
-    if not var_filter > 0.0 or var_lag != var_lag:  # no filter variance, or no lagged one (NaN) to map
-        return var_lag
-    ratio = min(max(var_lag / var_filter, 0.0), 1.0)
-    return min(var_filter * ratio**power + weight * revision * revision, var_lag)
-
-
-@njit(cache=True)
-def lag_variance_into(
-    var_lag: np.ndarray,
-    var_filter: np.ndarray,
-    a_lag: np.ndarray,
-    a_filter: np.ndarray,
-    power: float,
-    weight: float,
-    out: np.ndarray,
-) -> None:
-    """out ← lag_variance_one of each sample, d = a_lag − a_filter (one pass, no temporaries; column views
-    are read in place)."""
-    for i in range(out.size):
-        out[i] = lag_variance_one(var_lag[i], var_filter[i], power, a_lag[i] - a_filter[i], weight)
-
-
-@njit(cache=True)
-def imm_lagged(mu: np.ndarray, ra: np.ndarray, rv: np.ndarray, slot: int) -> tuple[float, float]:
-    """(â, var) of a buffered sample over the modes: â = Σ μ_j â_j, var = Σ μ_j (var_j + (â_j − â)²)."""
-    a = 0.0
-    for j in range(mu.size):
-        a += mu[j] * ra[j, slot]
-    v = 0.0
-    for j in range(mu.size):
-        d = ra[j, slot] - a
-        v += mu[j] * (rv[j, slot] + d * d)
-    return a, v
-
-
-@njit(cache=True)
-def _imm_start(
-    xs: np.ndarray,
-    ps: np.ndarray,
-    mu: np.ndarray,
-    x: np.ndarray,
-    p: np.ndarray,
-    ra: np.ndarray,
-    rv: np.ndarray,
-    rc: np.ndarray,
-    state: np.ndarray,
-    t: float,
-    y: float,
-    params: np.ndarray,
-    jerks: np.ndarray,
-) -> None:
-    """Every mode initialised from y (``initialise``), equally likely; the buffer holds y's sample only. A
-    trend mode (jerks[j] > 0) starts at j = 0 with variance INIT_JERK_STD²; a random-walk one at j ≡ 0."""
-    m = mu.size
-    initialise(x, p, y, params[0], params[1], params[3], params[7], params[8])
-    for j in range(m):
-        xs[j, :3] = x
-        ps[j, :3, :3] = p
-        mu[j] = 1.0 / m
-        ra[j, 0], rv[j, 0] = x[2], p[2, 2]
-        for b in range(3):
-            rc[j, b, 0] = p[2, b]
-        if xs.shape[1] == 4:
-            xs[j, 3] = 0.0
-            ps[j, 3, :] = 0.0
-            ps[j, :, 3] = 0.0
-            ps[j, 3, 3] = INIT_JERK_STD**2 if jerks[j] > 0.0 else 0.0
-            rc[j, 3, 0] = 0.0
-    state[0], state[1] = t, 1.0
-
-
-@njit(cache=True, nogil=True)  # as run_pass
-def run_imm(
-    t: np.ndarray,
-    y: np.ndarray,
-    params: np.ndarray,
-    qs: np.ndarray,
-    rates: np.ndarray,
-    lags: np.ndarray,
-    keep_mu: bool = True,
-    jerks: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(â, var, μ) of the IMM over a recording (``imm_step`` per sample): column m of â, var holds the
-    fixed-lag estimate â_{i | i + lags[m]} aligned to the sample i it describes (lag 0: the filter's x₃,
-    P_aa; the last lags[m] samples of a segment use all the data there is); μ: a column per mode, or no
-    rows without ``keep_mu`` (8 B a mode a sample that a caller wanting â only does not hold). ``jerks``:
-    each mode's q_j, for an IMM with trend modes (imm_step); None: random-walk modes only."""
-    n = t.size
-    m = qs.size
-    qj = np.empty(0) if jerks is None else jerks
-    d = 4 if qj.size else 3
-    size = int(lags.max()) + 1 if lags.size else 1
-    a = np.full((n, lags.size), np.nan)
-    v = np.full((n, lags.size), np.nan)
-    mus = np.empty((n if keep_mu else 0, m))
-    xs = np.zeros((m, d))
-    ps = np.zeros((m, d, d))
-    mu = np.full(m, 1.0 / m)
-    x = np.zeros(3)
-    p = np.zeros((3, 3))
-    ra = np.zeros((m, size))
-    rv = np.zeros((m, size))
-    rc = np.zeros((m, d, size))
-    state = np.array([np.nan, 0.0])
-    scratch = imm_scratch(m, size, d)
-    for i in range(n):
-        if i > 0 and needs_restart(state, t[i], params[6]):
-            _imm_flush(a, v, mu, ra, rv, i - 1, int(state[1]), lags)
-        _imm_step_into(xs, ps, mu, x, p, ra, rv, rc, state, t[i], y[i], params, qs, rates, qj, scratch)
-        count = int(state[1])
-        for col in range(lags.size):
-            lag = lags[col]
-            if lag < count:
-                a[i - lag, col], v[i - lag, col] = imm_lagged(mu, ra, rv, (count - 1 - lag) % size)
-        if keep_mu:
-            mus[i] = mu
-    _imm_flush(a, v, mu, ra, rv, n - 1, int(state[1]), lags)
-    return a, v, mus
-
-
-@njit(cache=True)
-def _imm_flush(
-    out_a: np.ndarray,
-    out_v: np.ndarray,
-    mu: np.ndarray,
-    ra: np.ndarray,
-    rv: np.ndarray,
-    last: int,
-    count: int,
-    lags: np.ndarray,
-) -> None:
-    """At a segment's end (sample ``last``): samples whose lag reaches past it get their latest â, var."""
-    size = ra.shape[1]
-    for j in range(min(count, size)):
-        slot = (count - 1 - j) % size
-        for col in range(lags.size):
-            if lags[col] > j:
-                out_a[last - j, col], out_v[last - j, col] = imm_lagged(mu, ra, rv, slot)
-
-
-@njit(cache=True)
-def smooth_modes(t: np.ndarray, mu: np.ndarray, rates: np.ndarray, reset_gap: float) -> None:
-    """In place: the IMM's filtered mode probabilities μ_k (run_imm, n × modes) become the smoothed ones,
-    μˢ_k(i) = μ_k(i) Σ_j Π_ij μˢ_{k+1}(j) / μ⁻_{k+1}(j), μ⁻_{k+1}(j) = Σ_l Π_lj μ_k(l), Π over t_{k+1} − t_k
-    (the chain's backward recursion, exact for a hidden Markov chain; the IMM's mode likelihoods make it an
-    approximation here). A segment's last sample (the next one restarts after a gap) keeps its μ."""
-    n, m = mu.shape
-    pi = np.empty((m, m))
-    pred = np.empty(m)
-    memo = math.nan
-    for k in range(n - 2, -1, -1):
-        dt = t[k + 1] - t[k]
-        if dt > reset_gap:
-            continue
-        if dt != memo:
-            _chain_step(rates, dt, pi)
-            memo = dt
-        for j in range(m):
-            acc = 0.0
-            for i in range(m):
-                acc += mu[k, i] * pi[i, j]
-            pred[j] = acc
-        total = 0.0
-        for i in range(m):
-            acc = 0.0
-            for j in range(m):
-                acc += pi[i, j] * mu[k + 1, j] / pred[j]
-            mu[k, i] *= acc
-            total += mu[k, i]
-        for i in range(m):
-            mu[k, i] /= total
 
 
 @njit(cache=True)
@@ -1231,37 +559,1022 @@ def with_trends(
     return q_a, q_j, out
 
 
+# ---- The IMM: every mode stepped at once, as vector arithmetic ---------------------------------------------
+# The model and its discretisation above (``predict``, ``predict_trend``, ``correct``), run for all the
+# IMM's modes together, with Blom & Bar-Shalom's mixing, mode probabilities and combination (``_step``).
+# The state is kept structure-of-arrays: row r of ``X`` holds component r of every mode's state and row e
+# of ``P`` entry e of every mode's covariance (upper triangle, ``P_ENTRY``), so each line of the algebra is
+# one loop over the modes, which the compiler runs as vector arithmetic. Each mode's numbers are the ones
+# ``predict`` / ``predict_trend`` and ``correct`` give it, operation for operation: the loops change the
+# order in which the modes are computed, never the order of any sum.
+#
+# Layout of one IMM (``imm_layout``): m modes, mixing band b (Π_ij = 0 for |i − j| > b: 1 for a
+# birth-death chain, 2 with trend partners), d states (3, or 4 with trend modes). Mode j sits in column
+# j + b of ``X`` (d rows), ``P`` (``P_ROWS[d]`` rows) and ``MU``; the b columns either side are zero, so
+# the mixing's sum over the band runs over whole rows (a term from a column outside is an exact 0).
+# Everything a step needs lives in one float64 buffer (``imm_buffer``) and one int64 buffer, so the live
+# estimator hands the compiled step few arrays per sample.
+
+# Packed upper triangle of a mode's covariance: the three-state entries first, so a three-state IMM uses
+# the leading P_ROWS[3] rows; P_ENTRY[e] = (row, column) of entry e.
+P00, P01, P02, P11, P12, P22, P03, P13, P23, P33 = range(10)
+P_ENTRY = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2), (0, 3), (1, 3), (2, 3), (3, 3))
+P_ROWS = (0, 0, 0, 6, 10)  # rows of P for d states (index d)
+ENTRY_OF = ((0, 1, 2, 6), (1, 3, 4, 7), (2, 4, 5, 8), (6, 7, 8, 9))  # (row, column) → packed entry
+STAGE_ROWS = 18  # per-mode rows of a step: 16 temporaries (``_rk4_stages``), q_a and q_j of each lane
+PI_SLOTS = 16  # Π kept for this many Δt (a recording's stamps step by a few distinct Δt, rounding apart)
+
+
+class ImmArrays(NamedTuple):
+    """The float buffer's slots (``imm_layout``), as arrays of their shapes (``imm_arrays``)."""
+
+    X: np.ndarray  # d × W: each mode's state, component by row (mode j in column b + j; W = m + 2b)
+    P: np.ndarray  # P_ROWS[d] × W: each mode's covariance, entry by row (P_ENTRY)
+    MU: np.ndarray  # W: the mode probabilities
+    X0: np.ndarray  # d × m: the mixed states x⁰ (by mode)
+    P0: np.ndarray  # P_ROWS[d] × m: the mixed covariances P⁰
+    Y: np.ndarray  # d × m: the state being predicted and corrected, lanes grouped (random walks first)
+    Q: np.ndarray  # P_ROWS[d] × m: its covariance
+    PB: np.ndarray  # (PI_SLOTS (2b + 1)) × m: Π by offset, PB[s(2b + 1) + o, j] = Π_{j−b+o, j} for DT[s]
+    WT: np.ndarray  # (2b + 1) × m: the mixing weights w by offset
+    CJ: np.ndarray  # m: c_j, the predicted mode probabilities
+    LOGL: np.ndarray  # m: ln c_j + ln N(ν_j; 0, S_j)
+    RA: np.ndarray  # m: each mode's â of the new sample (its fixed-lag row's: a⁻ + P⁻_aθ ν / S)
+    RV: np.ndarray  # m: its variance, P⁻_aa − (P⁻_aθ)² / S
+    T: np.ndarray  # STAGE_ROWS × m: the step's per-lane temporaries, q_a and q_j (rows 16, 17)
+    PI: np.ndarray  # m × m: Π, formed
+    DT: np.ndarray  # PI_SLOTS: the Δt of each PB slot (NaN: none)
+    FF: np.ndarray  # 16 × m: with a lag, each lane's transition F over the interval (row-major 4 × 4)
+    PR: np.ndarray  # 14 × m: with a lag, each lane's prior x⁻ (4) and P⁻ (10, P_ENTRY)
+    MEMO: np.ndarray  # 3: the PB slot to fill next, the last accepted time (NaN: none), samples in segment
+
+
+@njit(cache=True)
+def imm_layout(m: int, band: int, d: int) -> np.ndarray:
+    """Offsets into the float buffer of one IMM (m modes, band b, d states), in ImmArrays' order (its
+    fields say each slot's shape and content), and the buffer's size last."""
+    w = m + 2 * band
+    ne = 10 if d == 4 else 6
+    sizes = (
+        d * w, ne * w, w, d * m, ne * m, d * m, ne * m, PI_SLOTS * (2 * band + 1) * m, (2 * band + 1) * m,
+        m, m, m, m, STAGE_ROWS * m, m * m, PI_SLOTS, 16 * m, 14 * m, 3,
+    )  # fmt: skip
+    out = np.empty(len(sizes) + 1, dtype=np.int64)
+    total = 0
+    for k in range(len(sizes)):
+        out[k] = total
+        total += sizes[k]
+    out[len(sizes)] = total
+    return out
+
+
+def chain_band(rates: np.ndarray) -> int:
+    """b = max |i − j| over R_ij ≠ 0: the mixing's reach (1 for a birth-death chain)."""
+    rows, cols = np.nonzero(rates)
+    return int(np.max(np.abs(rows - cols))) if rows.size else 0
+
+
+@njit(cache=True)
+def imm_buffer(qs: np.ndarray, band: int, jerks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(float buffer, int buffer) of a fresh IMM: nothing seen yet (``imm_state``'s state row NaN).
+
+    The int buffer: [m, band, d, walks, trends, then the grouped order: perm[k] = the mode of lane k,
+    random walks first]."""
+    m = qs.size
+    d = 4 if jerks.size else 3
+    lay = imm_layout(m, band, d)
+    buf = np.zeros(lay[-1])
+    buf[lay[15] : lay[16]] = math.nan  # DT: no Π formed yet
+    buf[lay[18] + 1] = math.nan  # MEMO: no sample yet
+    ibuf = np.zeros(5 + m, dtype=np.int64)
+    walks = 0
+    for j in range(m):
+        if not (d == 4 and jerks[j] > 0.0):
+            ibuf[5 + walks] = j
+            walks += 1
+    k = walks
+    for j in range(m):
+        if d == 4 and jerks[j] > 0.0:
+            ibuf[5 + k] = j
+            k += 1
+    ibuf[0], ibuf[1], ibuf[2], ibuf[3], ibuf[4] = m, band, d, walks, m - walks
+    T = buf[lay[13] : lay[14]].reshape(STAGE_ROWS, m)  # q_a and q_j of each lane, rows 16 and 17
+    for k in range(m):
+        T[16, k] = qs[ibuf[5 + k]]
+        T[17, k] = jerks[ibuf[5 + k]] if d == 4 else 0.0
+    return buf, ibuf
+
+
+@njit(cache=True, inline="always")
+def imm_arrays(buf: np.ndarray, m: int, band: int, d: int) -> ImmArrays:
+    """The buffer's slots (ImmArrays, offsets as imm_layout's) as arrays of their shapes."""
+    w = m + 2 * band
+    ne = 10 if d == 4 else 6
+    nb = 2 * band + 1
+    o1 = d * w
+    o2 = o1 + ne * w
+    o3 = o2 + w
+    o4 = o3 + d * m
+    o5 = o4 + ne * m
+    o6 = o5 + d * m
+    o7 = o6 + ne * m
+    o8 = o7 + PI_SLOTS * nb * m
+    o9 = o8 + nb * m
+    o13 = o9 + 4 * m
+    o14 = o13 + STAGE_ROWS * m
+    o15 = o14 + m * m
+    o16 = o15 + PI_SLOTS
+    o17 = o16 + 16 * m
+    o18 = o17 + 14 * m
+    return ImmArrays(
+        buf[0:o1].reshape(d, w),
+        buf[o1:o2].reshape(ne, w),
+        buf[o2:o3],
+        buf[o3:o4].reshape(d, m),
+        buf[o4:o5].reshape(ne, m),
+        buf[o5:o6].reshape(d, m),
+        buf[o6:o7].reshape(ne, m),
+        buf[o7:o8].reshape(PI_SLOTS * nb, m),
+        buf[o8:o9].reshape(nb, m),
+        buf[o9 : o9 + m],
+        buf[o9 + m : o9 + 2 * m],
+        buf[o9 + 2 * m : o9 + 3 * m],
+        buf[o9 + 3 * m : o13],
+        buf[o13:o14].reshape(STAGE_ROWS, m),
+        buf[o14:o15].reshape(m, m),
+        buf[o15:o16],
+        buf[o16:o17].reshape(16, m),
+        buf[o17:o18].reshape(14, m),
+        buf[o18 : o18 + 3],
+    )
+
+
+@njit(cache=True, inline="always")
+def _mix(
+    X: np.ndarray, P: np.ndarray, MU: np.ndarray, X0: np.ndarray, P0: np.ndarray, PB: np.ndarray,
+    WT: np.ndarray, CJ: np.ndarray, m: int, band: int, d: int, row: int,
+) -> None:  # fmt: skip
+    """IMM mixing of every mode at once: c_j = Σ_i Π_ij μ_i, w_ij = Π_ij μ_i / c_j, x⁰_j = Σ_i w_ij x_i,
+    P⁰_j = Σ_i w_ij (P_i + (x_i − x⁰_j)(x_i − x⁰_j)ᵀ), each sum over i = j − b … j + b in increasing i
+    (PB[row + o, j] = Π_{j−b+o, j}, 0 beyond the modes; the terms it zeroes are exact zeros). Arrays are
+    indexed, never sliced, in the loops: a view costs a reference count each."""
+    nb = 2 * band + 1
+    for j in range(m):
+        cj = 0.0
+        for o in range(nb):
+            cj += PB[row + o, j] * MU[o + j]
+        CJ[j] = cj
+        for o in range(nb):
+            WT[o, j] = PB[row + o, j] * MU[o + j] / cj
+    trend = d == 4
+    for j in range(m):
+        x0 = 0.0
+        x1 = 0.0
+        x2 = 0.0
+        x3 = 0.0
+        for o in range(nb):
+            w = WT[o, j]
+            if w != 0.0:  # an exact zero term (a mode the chain does not link to j) adds nothing
+                x0 += w * X[0, o + j]
+                x1 += w * X[1, o + j]
+                x2 += w * X[2, o + j]
+                if trend:
+                    x3 += w * X[3, o + j]
+        X0[0, j], X0[1, j], X0[2, j] = x0, x1, x2
+        c00 = c01 = c02 = c11 = c12 = c22 = c03 = c13 = c23 = c33 = 0.0
+        for o in range(nb):
+            w = WT[o, j]
+            if w != 0.0:
+                i = o + j
+                d0, d1, d2 = X[0, i] - x0, X[1, i] - x1, X[2, i] - x2
+                c00 += w * (P[P00, i] + d0 * d0)
+                c01 += w * (P[P01, i] + d0 * d1)
+                c02 += w * (P[P02, i] + d0 * d2)
+                c11 += w * (P[P11, i] + d1 * d1)
+                c12 += w * (P[P12, i] + d1 * d2)
+                c22 += w * (P[P22, i] + d2 * d2)
+                if trend:
+                    d3 = X[3, i] - x3
+                    c03 += w * (P[P03, i] + d0 * d3)
+                    c13 += w * (P[P13, i] + d1 * d3)
+                    c23 += w * (P[P23, i] + d2 * d3)
+                    c33 += w * (P[P33, i] + d3 * d3)
+        P0[P00, j], P0[P01, j], P0[P02, j], P0[P11, j], P0[P12, j], P0[P22, j] = c00, c01, c02, c11, c12, c22
+        if trend:
+            X0[3, j] = x3
+            P0[P03, j], P0[P13, j], P0[P23, j], P0[P33, j] = c03, c13, c23, c33
+
+
+@njit(cache=True, inline="always")
+def _rk4_stages(
+    Y: np.ndarray, T: np.ndarray, m: int, d: int, h: float, g: float, linv: float, c: float
+) -> None:
+    """One RK4 sub-step h of every mode (ekf_kernels._rk4, a(s) = a + j s: a trend mode's; a random walk's
+    j ≡ 0 makes it a held a, to the bit), Y's θ, θ' (and a) advanced in place; T[13], T[14] ← j₁₀, j₁₂ of
+    the Jacobian at the prior (ekf_kernels.predict). libm's sin and cos run in their own loops, the
+    arithmetic between them over all modes at once. T's rows: 0, 1 cos and sin at θ, 2 w₁, 3, 4 θ₂, θ'₂,
+    5, 6 cos and sin at the stage's θ, 7 w₂, 8, 9 θ₃, θ'₃, 10 w₃, 11, 12 θ₄, θ'₄, 15 a mid-step, then at
+    the end."""
+    half = 0.5 * h
+    sixth = h / 6.0
+    for k in range(m):
+        T[0, k] = math.cos(Y[0, k])
+        T[1, k] = math.sin(Y[0, k])
+    for k in range(m):
+        T[13, k] = -(g * T[0, k] + Y[2, k] * T[1, k]) * linv
+        T[14, k] = T[0, k] * linv
+        T[2, k] = (Y[2, k] * T[0, k] - g * T[1, k]) * linv - c * Y[1, k]
+        T[3, k] = Y[0, k] + half * Y[1, k]
+        T[4, k] = Y[1, k] + half * T[2, k]
+    if d == 4:
+        for k in range(m):
+            T[15, k] = Y[2, k] + 0.5 * h * Y[3, k]
+    else:
+        for k in range(m):
+            T[15, k] = Y[2, k]
+    for k in range(m):
+        T[5, k] = math.cos(T[3, k])
+        T[6, k] = math.sin(T[3, k])
+    for k in range(m):
+        T[7, k] = (T[15, k] * T[5, k] - g * T[6, k]) * linv - c * T[4, k]
+        T[8, k] = Y[0, k] + half * T[4, k]
+        T[9, k] = Y[1, k] + half * T[7, k]
+    for k in range(m):
+        T[5, k] = math.cos(T[8, k])
+        T[6, k] = math.sin(T[8, k])
+    for k in range(m):
+        T[10, k] = (T[15, k] * T[5, k] - g * T[6, k]) * linv - c * T[9, k]
+        T[11, k] = Y[0, k] + h * T[9, k]
+        T[12, k] = Y[1, k] + h * T[10, k]
+    for k in range(m):
+        T[5, k] = math.cos(T[11, k])
+        T[6, k] = math.sin(T[11, k])
+    if d == 4:
+        for k in range(m):
+            T[15, k] = Y[2, k] + h * Y[3, k]  # a at the step's end (a trend's; a random walk's: a itself)
+    for k in range(m):
+        w4 = (T[15, k] * T[5, k] - g * T[6, k]) * linv - c * T[12, k]
+        Y[0, k] = Y[0, k] + sixth * (Y[1, k] + 2.0 * T[4, k] + 2.0 * T[9, k] + T[12, k])
+        Y[1, k] = Y[1, k] + sixth * (T[2, k] + 2.0 * T[7, k] + 2.0 * T[10, k] + w4)
+    if d == 4:
+        for k in range(m):
+            Y[2, k] = T[15, k]
+
+
+@njit(cache=True, inline="always")
+def _walk_covariance(
+    Q: np.ndarray, T: np.ndarray, lo: int, hi: int, h: float, c: float, q_rate: float
+) -> None:
+    """P ← F_h P F_hᵀ + Q_h of the random-walk lanes lo … hi − 1 (ekf_kernels.predict, operation for
+    operation), F_h's rows from the Jacobian in T[13], T[14], q_a in T[16]."""
+    h3 = h * h * h
+    for k in range(lo, hi):
+        f00, f01, f02, f10, f11, f12 = _flow_rows(T[13, k], T[14, k], c, h)
+        p00, p01, p02, p11, p12, p22 = Q[P00, k], Q[P01, k], Q[P02, k], Q[P11, k], Q[P12, k], Q[P22, k]
+        a00 = f00 * p00 + f01 * p01 + f02 * p02
+        a01 = f00 * p01 + f01 * p11 + f02 * p12
+        a02 = f00 * p02 + f01 * p12 + f02 * p22
+        a10 = f10 * p00 + f11 * p01 + f12 * p02
+        a11 = f10 * p01 + f11 * p11 + f12 * p12
+        a12 = f10 * p02 + f11 * p12 + f12 * p22
+        n00 = a00 * f00 + a01 * f01 + a02 * f02
+        n01 = a00 * f10 + a01 * f11 + a02 * f12
+        n11 = a10 * f10 + a11 * f11 + a12 * f12
+        n20 = p02 * f00 + p12 * f01 + p22 * f02
+        n21 = p02 * f10 + p12 * f11 + p22 * f12
+        q, jj = T[16, k], T[14, k]
+        Q[P00, k] = n00 + q * jj * jj * h3 * h * h / 20.0
+        Q[P01, k] = n01 + q * jj * jj * h3 * h / 8.0
+        Q[P02, k] = n20 + q * jj * h3 / 6.0
+        Q[P11, k] = n11 + q * jj * jj * h3 / 3.0 + q_rate * h
+        Q[P12, k] = n21 + q * jj * h * h / 2.0
+        Q[P22, k] = p22 + q * h
+
+
+@njit(cache=True, inline="always")
+def _trend_covariance(
+    Q: np.ndarray, T: np.ndarray, lo: int, hi: int, h: float, c: float, q_rate: float
+) -> None:
+    """P ← F_h P F_hᵀ + Q_h of the trend lanes lo … hi − 1 (ekf_kernels.predict_trend and trend_noise,
+    operation for operation; F_h's rows 2 and 3 are (0, 0, 1, h) and e₄, whose zero terms that loop adds
+    are left out: each is an exact 0), q_a and q_j in T[16], T[17]."""
+    h3 = h * h * h
+    h4, h5 = h3 * h, h3 * h * h
+    for k in range(lo, hi):
+        f00, f01, f02, f10, f11, f12 = _flow_rows(T[13, k], T[14, k], c, h)
+        jj = T[14, k]
+        f13 = jj * (0.5 * h * h)
+        qa, qj = T[16, k], T[17, k]
+        q00 = qa * jj * jj * h5 / 20.0 + qj * jj * jj * h5 * h * h / 252.0
+        q01 = qa * jj * jj * h4 / 8.0 + qj * jj * jj * h3 * h3 / 72.0
+        q02 = qa * jj * h3 / 6.0 + qj * jj * h5 / 30.0
+        q03 = qj * jj * h4 / 24.0
+        q11 = qa * jj * jj * h3 / 3.0 + qj * jj * jj * h5 / 20.0 + q_rate * h
+        q12 = qa * jj * h * h / 2.0 + qj * jj * h4 / 8.0
+        q13 = qj * jj * h3 / 6.0
+        q22 = qa * h + qj * h3 / 3.0
+        q23 = qj * h * h / 2.0
+        q33 = qj * h
+        b00, b01, b02, b03 = Q[P00, k], Q[P01, k], Q[P02, k], Q[P03, k]
+        b11, b12, b13, b22, b23, b33 = Q[P11, k], Q[P12, k], Q[P13, k], Q[P22, k], Q[P23, k], Q[P33, k]
+        t00 = f00 * b00 + f01 * b01 + f02 * b02
+        t01 = f00 * b01 + f01 * b11 + f02 * b12
+        t02 = f00 * b02 + f01 * b12 + f02 * b22
+        t03 = f00 * b03 + f01 * b13 + f02 * b23
+        t10 = f10 * b00 + f11 * b01 + f12 * b02 + f13 * b03
+        t11 = f10 * b01 + f11 * b11 + f12 * b12 + f13 * b13
+        t12 = f10 * b02 + f11 * b12 + f12 * b22 + f13 * b23
+        t13 = f10 * b03 + f11 * b13 + f12 * b23 + f13 * b33
+        t22 = b22 + h * b23
+        t23 = b23 + h * b33
+        Q[P00, k] = q00 + t00 * f00 + t01 * f01 + t02 * f02
+        Q[P01, k] = q01 + t00 * f10 + t01 * f11 + t02 * f12 + t03 * f13
+        Q[P02, k] = q02 + t02 + t03 * h
+        Q[P03, k] = q03 + t03
+        Q[P11, k] = q11 + t10 * f10 + t11 * f11 + t12 * f12 + t13 * f13
+        Q[P12, k] = q12 + t12 + t13 * h
+        Q[P13, k] = q13 + t13
+        Q[P22, k] = q22 + t22 + t23 * h
+        Q[P23, k] = q23 + t23
+        Q[P33, k] = q33 + b33
+
+
+@njit(cache=True, inline="always")
+def _transition(
+    FF: np.ndarray, T: np.ndarray, m: int, d: int, walks: int, h: float, c: float, first: bool
+) -> None:
+    """F ← F_h F of every lane over a sub-step (the first: F ← F_h), F_h = I + J h + J² h²/2 at the prior
+    (ekf_kernels.predict's f): rows 0 and 1 from ``_flow_rows`` and the Jacobian in T[13], T[14]; row 2 e₃
+    (a held), or on a trend lane (0, 0, 1, h) with f₁₃ = j₁₂ h²/2 and row 3 e₄. Row-major 4 × 4 per lane
+    (a random-walk lane's fourth row and column 0)."""
+    for k in range(m):
+        f00, f01, f02, f10, f11, f12 = _flow_rows(T[13, k], T[14, k], c, h)
+        trend = d == 4 and k >= walks
+        f13 = T[14, k] * (0.5 * h * h) if trend else 0.0
+        f23 = h if trend else 0.0
+        f33 = 1.0 if trend else 0.0
+        if first:
+            FF[0, k], FF[1, k], FF[2, k], FF[3, k] = f00, f01, f02, 0.0
+            FF[4, k], FF[5, k], FF[6, k], FF[7, k] = f10, f11, f12, f13
+            FF[8, k], FF[9, k], FF[10, k], FF[11, k] = 0.0, 0.0, 1.0, f23
+            FF[12, k], FF[13, k], FF[14, k], FF[15, k] = 0.0, 0.0, 0.0, f33
+            continue
+        for col in range(4):
+            r0, r1, r2, r3 = FF[col, k], FF[4 + col, k], FF[8 + col, k], FF[12 + col, k]
+            FF[col, k] = f00 * r0 + f01 * r1 + f02 * r2
+            FF[4 + col, k] = f10 * r0 + f11 * r1 + f12 * r2 + f13 * r3
+            FF[8 + col, k] = r2 + f23 * r3
+            FF[12 + col, k] = f33 * r3
+
+
+@njit(cache=True, inline="always")
+def _correct(Y: np.ndarray, Q: np.ndarray, T: np.ndarray, m: int, d: int, y: float, r: float) -> None:
+    """The scalar Kalman update of every lane over d states (ekf_kernels.correct: S = P₀₀ + r, K = P e₁/S,
+    x ← x + K ν, P ← P − K Kᵀ S; a random-walk lane's j and P₃ₓ are 0 and stay exactly 0); T[0], T[1] ←
+    ν, S and T[2], T[3], T[4] ← the prior's a, P_aa, P_aθ, for the mode's fixed-lag row and likelihood."""
+    for k in range(m):
+        T[2, k], T[3, k], T[4, k] = Y[2, k], Q[P22, k], Q[P02, k]
+        s = Q[P00, k] + r
+        nu = y - Y[0, k]
+        k0, k1, k2 = Q[P00, k] / s, Q[P01, k] / s, Q[P02, k] / s
+        Y[0, k] += k0 * nu
+        Y[1, k] += k1 * nu
+        Y[2, k] += k2 * nu
+        Q[P00, k] -= k0 * k0 * s
+        Q[P01, k] -= k0 * k1 * s
+        Q[P02, k] -= k0 * k2 * s
+        Q[P11, k] -= k1 * k1 * s
+        Q[P12, k] -= k1 * k2 * s
+        Q[P22, k] -= k2 * k2 * s
+        if d == 4:
+            k3 = Q[P03, k] / s
+            Y[3, k] += k3 * nu
+            Q[P03, k] -= k0 * k3 * s
+            Q[P13, k] -= k1 * k3 * s
+            Q[P23, k] -= k2 * k3 * s
+            Q[P33, k] -= k3 * k3 * s
+        T[0, k], T[1, k] = nu, s
+
+
+@njit(cache=True)
+def _restart(
+    st: ImmArrays, m: int, band: int, d: int, t: float, y: float, params: np.ndarray, jerks: np.ndarray
+) -> None:
+    """Every mode initialised from y (ekf_kernels.initialise), equally likely; a trend mode at j = 0 with
+    variance INIT_JERK_STD², a random walk's j ≡ 0; its (â, var) row the initial a, P_aa."""
+    X, P, MU, RA, RV, MEMO = st.X, st.P, st.MU, st.RA, st.RV, st.MEMO
+    x, p = np.empty(3), np.empty((3, 3))
+    initialise(x, p, y, params[0], params[1], params[3], params[7], params[8])
+    for j in range(m):
+        col = band + j
+        for a in range(3):
+            X[a, col] = x[a]
+        for e in range(P_ROWS[3]):
+            P[e, col] = p[P_ENTRY[e][0], P_ENTRY[e][1]]
+        if d == 4:
+            X[3, col] = 0.0
+            P[P03, col] = P[P13, col] = P[P23, col] = 0.0
+            P[P33, col] = INIT_JERK_STD**2 if jerks[j] > 0.0 else 0.0
+        MU[col] = 1.0 / m
+        RA[j], RV[j] = x[2], p[2, 2]
+    MEMO[1], MEMO[2] = t, 1.0
+
+
+@njit(cache=True)
+def _step(
+    st: ImmArrays, perm: np.ndarray, m: int, band: int, d: int, walks: int, t: float, y: float,
+    params: np.ndarray, rates: np.ndarray, jerks: np.ndarray,
+) -> bool:  # fmt: skip
+    """One sample into the IMM (Blom & Bar-Shalom); True when it (re)started here.
+
+    Mode j is the EKF of ekf_kernels with q_a = qs[j] (and with ``jerks``, q_j = jerks[j]: a trend mode on
+    [θ, θ', a, j]; q_j = 0, a random walk whose j and its covariance are zeroed after the mixing). The mode
+    follows a continuous-time Markov chain with jump rates R_ij (ekf_kernels.chain_rates): over Δt it stays
+    with Π_ii = e^{−r_i Δt}, r_i = Σ_j R_ij, and moves to j with Π_ij = (1 − e^{−r_i Δt}) R_ij / r_i
+    (ekf_kernels._chain_step). Per sample: mix (``_mix``), predict and correct every mode
+    (``_rk4_stages``, ``_walk_covariance``, ``_trend_covariance``, ``_correct``), μ_j ∝ c_j N(ν_j; 0, S_j),
+    floored at 1e-12 (``_update_modes``). Each mode's estimate of a and its variance, RA and RV, are the
+    fixed-lag row of the new sample: â_j = a⁻_j + P⁻_aθ,j ν_j / S_j, var_j = P⁻_aa,j − (P⁻_aθ,j)² / S_j.
+    A sample after a gap longer than params[6], or where the combination is not finite (a filter driven
+    out of its model), restarts every mode from it (``_restart``). The fixed-lag pass (``_lagged_step``) runs
+    its buffer's update between ``_predict_correct`` and ``_finish``."""
+    if _predict_correct(st, perm, m, band, d, walks, t, y, params, rates, jerks, False):
+        return True
+    return _finish(st, perm, m, band, d, t, y, params, jerks)
+
+
+@njit(cache=True, inline="always")
+def _predict_correct(
+    st: ImmArrays, perm: np.ndarray, m: int, band: int, d: int, walks: int, t: float, y: float,
+    params: np.ndarray, rates: np.ndarray, jerks: np.ndarray, lagging: bool,
+) -> bool:  # fmt: skip
+    """``_step`` up to the update: True when it restarted instead (then nothing is left to do); else the
+    modes' corrected states are in Y, Q (lanes grouped), their ν, S, a⁻, P⁻_aa and P⁻_aθ in T[0 … 4], and
+    X, P still hold the last posteriors. ``lagging``: also keep each lane's transition F and prior x⁻, P⁻
+    (FF, PR) for the fixed-lag pass."""
+    X, P, MU, X0, P0, Y, Q, PB, WT = st.X, st.P, st.MU, st.X0, st.P0, st.Y, st.Q, st.PB, st.WT
+    CJ, T, PI, DT, MEMO = st.CJ, st.T, st.PI, st.DT, st.MEMO
+    last = MEMO[1]
+    if last != last or t - last > params[6]:  # NaN: no sample yet
+        _restart(st, m, band, d, t, y, params, jerks)
+        return True
+    dt = t - last
+    nb = 2 * band + 1
+    slot = -1
+    for k in range(PI_SLOTS):  # Π depends on Δt only: formed once for each Δt a recording steps by
+        if DT[k] == dt:
+            slot = k
+            break
+    if slot < 0:
+        slot = int(MEMO[0])
+        MEMO[0] = (slot + 1) % PI_SLOTS
+        DT[slot] = dt
+        _chain_step(rates, dt, PI)
+        for o in range(nb):
+            for j in range(m):
+                i = j - band + o
+                PB[slot * nb + o, j] = PI[i, j] if 0 <= i < m else 0.0
+    _mix(X, P, MU, X0, P0, PB, WT, CJ, m, band, d, slot * nb)
+    ne = P_ROWS[d]
+    for k in range(m):  # grouped: the random walks, then the trend modes (their covariance differs)
+        j = perm[k]
+        for a in range(d):
+            Y[a, k] = X0[a, j]
+        for e in range(ne):
+            Q[e, k] = P0[e, j]
+    if d == 4:
+        for k in range(walks):  # a random walk carries no trend
+            Y[3, k] = 0.0
+            Q[P03, k] = Q[P13, k] = Q[P23, k] = Q[P33, k] = 0.0
+    g, length, c, r, q_rate = params[0], params[1], params[2], params[3], params[4]
+    linv = 1.0 / length
+    steps = max(1, math.ceil(dt / MAX_STEP))
+    h = dt / steps
+    for sub in range(steps):
+        _rk4_stages(Y, T, m, d, h, g, linv, c)
+        if lagging:
+            _transition(st.FF, T, m, d, walks, h, c, sub == 0)
+        _walk_covariance(Q, T, 0, walks, h, c, q_rate)
+        if d == 4:
+            _trend_covariance(Q, T, walks, m, h, c, q_rate)
+    if lagging:
+        for k in range(m):
+            for a in range(d):
+                st.PR[a, k] = Y[a, k]
+            for e in range(ne):
+                st.PR[4 + e, k] = Q[e, k]
+    _correct(Y, Q, T, m, d, y, r)
+    return False
+
+
+@njit(cache=True, inline="always")
+def _finish(
+    st: ImmArrays, perm: np.ndarray, m: int, band: int, d: int, t: float, y: float, params: np.ndarray,
+    jerks: np.ndarray,
+) -> bool:  # fmt: skip
+    """``_step`` after the update: each mode's row RA, RV and likelihood, the posteriors into X, P, the mode
+    probabilities; True when the combination was not finite and every mode restarted."""
+    X, P, MU, RA, RV, T, LOGL, CJ, MEMO = st.X, st.P, st.MU, st.RA, st.RV, st.T, st.LOGL, st.CJ, st.MEMO
+    ne = P_ROWS[d]
+    for k in range(m):
+        j = perm[k]
+        nu, s, c0 = T[0, k], T[1, k], T[4, k]
+        RA[j] = T[2, k] + c0 * nu / s
+        RV[j] = T[3, k] - c0 * c0 / s
+        LOGL[j] = -0.5 * (nu * nu / s + math.log(s)) + math.log(CJ[j])
+        for a in range(d):
+            X[a, band + j] = st.Y[a, k]
+        for e in range(ne):
+            P[e, band + j] = st.Q[e, k]
+    _update_modes(LOGL, MU, m, band)
+    if _bounded(X, P, MU, m, band):
+        MEMO[1], MEMO[2] = t, MEMO[2] + 1.0
+        return False
+    _restart(st, m, band, d, t, y, params, jerks)  # never an inf or NaN published
+    return True
+
+
+@njit(cache=True, inline="always")
+def _update_modes(logl: np.ndarray, MU: np.ndarray, m: int, band: int) -> None:
+    """μ_j ∝ exp(logl_j) (logl_j = ln c_j + ln N(ν_j; 0, S_j)), floored at 1e-12 (ekf_kernels._update_modes;
+    μ_j in MU's column b + j)."""
+    top = logl[0]
+    for j in range(1, m):
+        top = max(top, logl[j]) if logl[j] == logl[j] else math.nan  # numpy's max: a NaN wins
+    total = 0.0
+    for j in range(m):
+        MU[band + j] = math.exp(logl[j] - top)
+        total += MU[band + j]
+    for j in range(m):
+        MU[band + j] = max(MU[band + j] / total, 1e-12)  # a floor keeps every mode revivable
+
+
+@njit(cache=True, inline="always")
+def _bounded(X: np.ndarray, P: np.ndarray, MU: np.ndarray, m: int, band: int) -> bool:
+    """True when the combination x = Σ μ_j x_j, P = Σ μ_j (P_j + (x_j − x)(x_j − x)ᵀ) on [θ, θ', a] is
+    finite (ekf_kernels._finite of it). With every μ_j in [0, 1], Σ_j (|x_j| + |P_j|) < 1e150 bounds every
+    entry of it by 1e150 + 4·1e300, so the combination is formed only past that bound or with a μ out of
+    [0, 1] or NaN (a filter far out of its model), and the answer is the same."""
+    bound = 0.0
+    for j in range(band, band + m):
+        if not 0.0 <= MU[j] <= 1.0:  # NaN too
+            bound = math.inf
+    for e in range(P_ROWS[3]):
+        for j in range(band, band + m):
+            bound += abs(P[e, j])
+    for a in range(3):
+        for j in range(band, band + m):
+            bound += abs(X[a, j])
+    if bound < 1e150:
+        return True
+    x = np.zeros(3)
+    for a in range(3):
+        for j in range(m):
+            x[a] += MU[band + j] * X[a, band + j]
+    total = 0.0
+    for a in range(3):
+        total += x[a]
+        for b in range(3):
+            e = ENTRY_OF[a][b]
+            acc = 0.0
+            for j in range(m):
+                col = band + j
+                acc += MU[col] * (P[e, col] + (X[a, col] - x[a]) * (X[b, col] - x[b]))
+            total += acc
+    return math.isfinite(total)
+
+
+@njit(cache=True, inline="always")
+def _combined(MU: np.ndarray, RA: np.ndarray, RV: np.ndarray, m: int, band: int) -> tuple[float, float]:
+    """(â, var) over the modes in their order: â = Σ μ_j â_j, var = Σ μ_j (var_j + (â_j − â)²) (the
+    filter's output: ``_step``'s rows RA, RV)."""
+    a = 0.0
+    for j in range(m):
+        a += MU[band + j] * RA[j]
+    v = 0.0
+    for j in range(m):
+        dev = RA[j] - a
+        v += MU[band + j] * (RV[j] + dev * dev)
+    return a, v
+
+
+@njit(cache=True)
+def smooth_modes(t: np.ndarray, mu: np.ndarray, rates: np.ndarray, reset_gap: float, band: int) -> None:
+    """In place: the IMM's filtered mode probabilities μ_k (n × modes) become the smoothed ones,
+    μˢ_k(i) = μ_k(i) Σ_j Π_ij μˢ_{k+1}(j) / μ⁻_{k+1}(j), μ⁻_{k+1}(j) = Σ_l Π_lj μ_k(l), Π over t_{k+1} − t_k
+    (the chain's backward recursion, exact for a hidden Markov chain; the IMM's mode likelihoods make it an
+    approximation here). The sums run over the chain's band (Π_ij = 0 beyond it: the terms left out are
+    exact zeros). A segment's last sample (the next one restarts after a gap) keeps its μ."""
+    n, m = mu.shape
+    pi = np.empty((m, m))
+    pred = np.empty(m)
+    memo = math.nan
+    for k in range(n - 2, -1, -1):
+        dt = t[k + 1] - t[k]
+        if dt > reset_gap:
+            continue
+        if dt != memo:
+            _chain_step(rates, dt, pi)
+            memo = dt
+        for j in range(m):
+            acc = 0.0
+            for i in range(max(0, j - band), min(m, j + band + 1)):
+                acc += mu[k, i] * pi[i, j]
+            pred[j] = acc
+        total = 0.0
+        for i in range(m):
+            acc = 0.0
+            for j in range(max(0, i - band), min(m, i + band + 1)):
+                acc += pi[i, j] * mu[k + 1, j] / pred[j]
+            mu[k, i] *= acc
+            total += mu[k, i]
+        for i in range(m):
+            mu[k, i] /= total
+
+
+# ---- The IMM's fixed-lag pass, its drivers (batch and live) and the lag's variance map -------------------
+# Fixed-lag smoothing (Anderson & Moore's augmented state, for a only): for every buffered sample i ≤ k
+# each mode keeps â_{i|k}, its variance and the cross-covariance row c_i = Cov(a_i, x_k | y_{..k}). A
+# measurement with innovation ν, S = P⁻₀₀ + r, gain K moves â_i by c_i[0] ν/S and its variance by
+# −c_i[0]²/S, then c_i ← c_i − c_i[0] K; a prediction maps c_i ← F c_i. The IMM's mixing mixes each
+# buffered sample's â, var and c like the state (``_mix_ring``: the augmented state's IMM mixing,
+# restricted to the blocks the update reads), and ``_combined_slot`` combines a sample over the modes,
+# â = Σ μ_j â_j, var = Σ μ_j (var_j + (â_j − â)²). A trend mode's rows carry a fourth entry, the
+# cross-covariance with its j. One pass gives every lag at once; it costs O(m N) per sample for m modes
+# and a lag of N samples (docs/estimators.md, "The lag knob", says why it is not an RTS pass).
+#
+# The buffer holds N + 1 samples, sample i of a segment at slot i mod (N + 1), the buffer the innermost
+# axis, so each of its loops runs as vector arithmetic over the slots.
+
+
+@njit(cache=True)
+def lag_variance_one(
+    var_lag: float, var_filter: float, power: float, revision: float, weight: float
+) -> float:
+    """min(P_f (P_lag/P_f)^γ + κ d², P_lag) with the ratio clipped to [0, 1], d = â_lag − â_f (``revision``),
+    κ = ``weight``; P_lag where P_f ≤ 0 (kalman.lag_variance)."""
+    if not var_filter > 0.0 or var_lag != var_lag:  # no filter variance, or no lagged one (NaN) to map
+        return var_lag
+    ratio = min(max(var_lag / var_filter, 0.0), 1.0)
+    return min(var_filter * ratio**power + weight * revision * revision, var_lag)
+
+
+@njit(cache=True)
+def lag_variance_into(
+    var_lag: np.ndarray,
+    var_filter: np.ndarray,
+    a_lag: np.ndarray,
+    a_filter: np.ndarray,
+    power: float,
+    weight: float,
+    out: np.ndarray,
+) -> None:
+    """out ← lag_variance_one of each sample, d = a_lag − a_filter (one pass, no temporaries; column views
+    are read in place)."""
+    for i in range(out.size):
+        out[i] = lag_variance_one(var_lag[i], var_filter[i], power, a_lag[i] - a_filter[i], weight)
+
+
+class Ring(NamedTuple):
+    """The fixed-lag buffer of every mode (ring_buffer, ``ring``), mode j's rows in row j."""
+
+    A: np.ndarray  # m × (N + 1): â of each buffered sample
+    V: np.ndarray  # m × (N + 1): its variance
+    C: (
+        np.ndarray
+    )  # m × 4 × (N + 1): its cross-covariance with the mode's state (three entries without trends)
+    NA: np.ndarray  # as A: a step's mixed rows, before they replace A
+    NV: np.ndarray
+    NC: np.ndarray
+
+
+def ring_buffer(size: int, m: int) -> np.ndarray:
+    """The float buffer of a ring of ``size`` = N + 1 slots over m modes (Ring)."""
+    return np.zeros(2 * (6 * m * size))
+
+
+@njit(cache=True, inline="always")
+def ring(rbuf: np.ndarray, size: int, m: int) -> Ring:
+    """The ring buffer's parts (Ring)."""
+    o = m * size
+    return Ring(
+        rbuf[:o].reshape(m, size),
+        rbuf[o : 2 * o].reshape(m, size),
+        rbuf[2 * o : 6 * o].reshape(m, 4, size),
+        rbuf[6 * o : 7 * o].reshape(m, size),
+        rbuf[7 * o : 8 * o].reshape(m, size),
+        rbuf[8 * o : 12 * o].reshape(m, 4, size),
+    )
+
+
+@njit(cache=True, inline="always")
+def _ring_start(st: ImmArrays, rg: Ring, m: int, band: int, d: int) -> None:
+    """After a restart: each mode's buffer holds the new sample only, its â, var and row of P_a·."""
+    for j in range(m):
+        col = band + j
+        rg.A[j, 0], rg.V[j, 0] = st.RA[j], st.RV[j]
+        rg.C[j, 0, 0], rg.C[j, 1, 0], rg.C[j, 2, 0] = st.P[P02, col], st.P[P12, col], st.P[P22, col]
+        rg.C[j, 3, 0] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _mix_ring(
+    st: ImmArrays, rg: Ring, j: int, m: int, band: int, d: int, size: int, trend: bool
+) -> None:  # fmt: skip
+    """IMM mixing of mode j's buffer into its new rows: â⁰_j = Σ_i w_ij â_i, var⁰_j = Σ_i w_ij (var_i +
+    (â_i − â⁰_j)²), c⁰_j = Σ_i w_ij (c_i + (â_i − â⁰_j)(x_i − x⁰_j)), over the band in increasing i (w_ij
+    the step's mixing weights, x_i the last posteriors, x⁰_j the mixed state). A trend mode's fourth entry
+    mixes alike; a random walk's is 0."""
+    lo, hi = max(0, j - band), min(m, j + band + 1)
+    for s in range(size):
+        rg.NA[j, s] = 0.0
+        rg.NV[j, s] = 0.0
+        rg.NC[j, 0, s] = 0.0
+        rg.NC[j, 1, s] = 0.0
+        rg.NC[j, 2, s] = 0.0
+    for i in range(lo, hi):
+        wij = st.WT[i - j + band, j]
+        for s in range(size):
+            rg.NA[j, s] += wij * rg.A[i, s]
+    for i in range(lo, hi):
+        wij = st.WT[i - j + band, j]
+        col = band + i
+        d0, d1, d2 = st.X[0, col] - st.X0[0, j], st.X[1, col] - st.X0[1, j], st.X[2, col] - st.X0[2, j]
+        for s in range(size):
+            da = rg.A[i, s] - rg.NA[j, s]
+            rg.NV[j, s] += wij * (rg.V[i, s] + da * da)
+            rg.NC[j, 0, s] += wij * (rg.C[i, 0, s] + da * d0)
+            rg.NC[j, 1, s] += wij * (rg.C[i, 1, s] + da * d1)
+            rg.NC[j, 2, s] += wij * (rg.C[i, 2, s] + da * d2)
+    if d == 4:
+        for s in range(size):
+            rg.NC[j, 3, s] = 0.0
+        if trend:
+            for i in range(lo, hi):
+                wij = st.WT[i - j + band, j]
+                d3 = st.X[3, band + i] - st.X0[3, j]
+                for s in range(size):
+                    rg.NC[j, 3, s] += wij * (rg.C[i, 3, s] + (rg.A[i, s] - rg.NA[j, s]) * d3)
+
+
+@njit(cache=True, inline="always")
+def _ring_update(
+    st: ImmArrays, rg: Ring, perm: np.ndarray, m: int, band: int, d: int, walks: int, held: int, new: int
+) -> None:
+    """Every mode's buffer through the step (module doc), after ``_predict_correct``: mixed (``_mix_ring``,
+    when it holds earlier samples), c ← F c, the new slot takes the prior's a row, then the innovation
+    moves â, var and c of every slot. Each mode's own rows, in the operations of the pass it replaced
+    (ekf_kernels' step and the IMM's, to the bit)."""
+    size = rg.A.shape[1]
+    T, FF, PR = st.T, st.FF, st.PR
+    for k in range(m):
+        j = perm[k]
+        trend = d == 4 and k >= walks
+        if held:
+            _mix_ring(st, rg, j, m, band, d, size, trend)
+            A, V, C = rg.NA, rg.NV, rg.NC
+        else:
+            A, V, C = rg.A, rg.V, rg.C
+        nu, s_nu = T[0, k], T[1, k]
+        p00, p01, p02 = PR[4 + P00, k], PR[4 + P01, k], PR[4 + P02, k]
+        k0, k1, k2 = p00 / s_nu, p01 / s_nu, p02 / s_nu
+        prior_a, prior_v = PR[2, k], PR[4 + P22, k]
+        if not trend:
+            f00, f01, f02, f10, f11, f12 = FF[0, k], FF[1, k], FF[2, k], FF[4, k], FF[5, k], FF[6, k]
+            f20, f21, f22 = FF[8, k], FF[9, k], FF[10, k]
+            if held:  # c ← F c, then the update moves â, var and c by the innovation
+                for s in range(size):
+                    c0, c1, c2 = C[j, 0, s], C[j, 1, s], C[j, 2, s]
+                    n0 = f00 * c0 + f01 * c1 + f02 * c2
+                    n1 = f10 * c0 + f11 * c1 + f12 * c2
+                    n2 = f20 * c0 + f21 * c1 + f22 * c2
+                    A[j, s] += n0 * nu / s_nu
+                    V[j, s] -= n0 * n0 / s_nu
+                    C[j, 0, s] = n0 - n0 * k0
+                    C[j, 1, s] = n1 - n0 * k1
+                    C[j, 2, s] = n2 - n0 * k2
+            C[j, 0, new], C[j, 1, new], C[j, 2, new] = p02, PR[4 + P12, k], prior_v
+            c0 = C[j, 0, new]
+            A[j, new] = prior_a + c0 * nu / s_nu
+            V[j, new] = prior_v - c0 * c0 / s_nu
+            C[j, 0, new] -= c0 * k0
+            C[j, 1, new] -= c0 * k1
+            C[j, 2, new] -= c0 * k2
+            continue
+        k3 = PR[4 + P03, k] / s_nu
+        if held:
+            for s in range(size):
+                c0, c1, c2, c3 = C[j, 0, s], C[j, 1, s], C[j, 2, s], C[j, 3, s]
+                for row in range(4):
+                    C[j, row, s] = (
+                        FF[4 * row, k] * c0
+                        + FF[4 * row + 1, k] * c1
+                        + FF[4 * row + 2, k] * c2
+                        + (FF[4 * row + 3, k] * c3)
+                    )
+        A[j, new], V[j, new] = prior_a, prior_v
+        C[j, 0, new], C[j, 1, new], C[j, 2, new], C[j, 3, new] = p02, PR[4 + P12, k], prior_v, PR[4 + P23, k]
+        for s in range(0 if held else new, size if held else new + 1):
+            c0 = C[j, 0, s]
+            A[j, s] += c0 * nu / s_nu
+            V[j, s] -= c0 * c0 / s_nu
+            C[j, 0, s] -= c0 * k0
+            C[j, 1, s] -= c0 * k1
+            C[j, 2, s] -= c0 * k2
+            C[j, 3, s] -= c0 * k3
+    if held:
+        rg.A[:] = rg.NA
+        rg.V[:] = rg.NV
+        rg.C[:] = rg.NC
+
+
+@njit(cache=True, inline="always")
+def _lagged_step(
+    st: ImmArrays, rg: Ring, perm: np.ndarray, m: int, band: int, d: int, walks: int, t: float, y: float,
+    params: np.ndarray, rates: np.ndarray, jerks: np.ndarray,
+) -> bool:  # fmt: skip
+    """One sample into the IMM and its fixed-lag buffer (``_step`` with ``_ring_update`` between the
+    update and the rest); True when the IMM (re)started here, its buffer then holding the new sample only."""
+    size = rg.A.shape[1]
+    count = int(st.MEMO[2])
+    if _predict_correct(st, perm, m, band, d, walks, t, y, params, rates, jerks, True):
+        _ring_start(st, rg, m, band, d)
+        return True
+    _ring_update(st, rg, perm, m, band, d, walks, min(count, size - 1), count % size)
+    if _finish(st, perm, m, band, d, t, y, params, jerks):
+        _ring_start(st, rg, m, band, d)
+        return True
+    return False
+
+
+@njit(cache=True, inline="always")
+def _combined_slot(MU: np.ndarray, rg: Ring, m: int, band: int, slot: int) -> tuple[float, float]:
+    """(â, var) of a buffered sample over the modes: â = Σ μ_j â_j, var = Σ μ_j (var_j + (â_j − â)²)."""
+    a = 0.0
+    for j in range(m):
+        a += MU[band + j] * rg.A[j, slot]
+    v = 0.0
+    for j in range(m):
+        dev = rg.A[j, slot] - a
+        v += MU[band + j] * (rg.V[j, slot] + dev * dev)
+    return a, v
+
+
+@njit(cache=True)
+def _flush(
+    out_a: np.ndarray, out_v: np.ndarray, MU: np.ndarray, rg: Ring, m: int, band: int, last: int, count: int,
+    lags: np.ndarray,
+) -> None:  # fmt: skip
+    """At a segment's end (sample ``last``): samples whose lag reaches past it get their latest â, var."""
+    size = rg.A.shape[1]
+    for j in range(min(count, size)):
+        slot = (count - 1 - j) % size
+        for col in range(lags.size):
+            if lags[col] > j:
+                out_a[last - j, col], out_v[last - j, col] = _combined_slot(MU, rg, m, band, slot)
+
+
+@njit(cache=True, nogil=True)  # a long batch leaves the GIL: Ctrl-C reaches the main thread
+def run_imm(
+    t: np.ndarray, y: np.ndarray, params: np.ndarray, qs: np.ndarray, rates: np.ndarray, jerks: np.ndarray,
+    band: int, lags: np.ndarray, keep_mu: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """(â, var, μ) of the IMM over a recording (``_step`` per sample, with a lag ``_lagged_step``):
+    column c of â, var holds the fixed-lag estimate â_{i | i + lags[c]} aligned to the sample i it
+    describes (lag 0: the filter's, ``_combined``; its variance unmapped; the last lags[c] samples of a
+    segment use all the data there is, and where a divergence restart lost them they are NaN); μ: a
+    column per mode, or no rows without ``keep_mu``. ``jerks``: each mode's q_j (empty: random walks
+    only); ``band``: chain_band(rates)."""
+    n, m, nl = t.size, qs.size, lags.size
+    buf, ibuf = imm_buffer(qs, band, jerks)
+    d, walks = ibuf[2], ibuf[3]
+    perm = ibuf[5 : 5 + m]
+    st = imm_arrays(buf, m, band, d)
+    size = int(lags.max()) + 1 if nl else 1
+    rg = ring(np.zeros(12 * m * size), size, m)
+    a = np.full((n, nl), np.nan)
+    v = np.full((n, nl), np.nan)
+    mus = np.empty((n if keep_mu else 0, m))
+    for i in range(n):
+        if size == 1:
+            _step(st, perm, m, band, d, walks, t[i], y[i], params, rates, jerks)
+            fa, fv = _combined(st.MU, st.RA, st.RV, m, band)
+            for c in range(nl):
+                a[i, c], v[i, c] = fa, fv
+        else:
+            if i > 0 and t[i] - st.MEMO[1] > params[6]:  # a gap ends the segment
+                _flush(a, v, st.MU, rg, m, band, i - 1, int(st.MEMO[2]), lags)
+            _lagged_step(st, rg, perm, m, band, d, walks, t[i], y[i], params, rates, jerks)
+            count = int(st.MEMO[2])
+            for c in range(nl):
+                lag = lags[c]
+                if lag < count:
+                    a[i - lag, c], v[i - lag, c] = _combined_slot(
+                        st.MU, rg, m, band, (count - 1 - lag) % size
+                    )
+        if keep_mu:
+            for j in range(m):
+                mus[i, j] = st.MU[band + j]
+    if size > 1 and n:
+        _flush(a, v, st.MU, rg, m, band, n - 1, int(st.MEMO[2]), lags)
+    return a, v, mus
+
+
+@njit(cache=True)
+def live_step(
+    buf: np.ndarray, ibuf: np.ndarray, rbuf: np.ndarray, hist: np.ndarray, lag: int, t: float, y: float,
+    params: np.ndarray, rates: np.ndarray, jerks: np.ndarray, mapped: bool, power: float, weight: float,
+    out: np.ndarray,
+) -> bool:  # fmt: skip
+    """One sample of the live estimator (kalman.KalmanEstimator.update): the IMM's step and, with a lag of
+    N samples, its fixed-lag buffer; out ← (â, var, t) of the sample it now describes, var (when ``mapped``)
+    mapped by ``lag_variance_one`` (γ = ``power``, κ = ``weight``) against the filter's own â, var of that
+    sample (``hist``: (N + 1) × 3, each buffered sample's stamp and filter â, var); False while the lag
+    fills (a segment's first N samples). The same compiled steps as ``run_imm``: equal to its columns (and
+    kalman.lag_variance of them) to the last bit."""
+    m, band, d, walks = ibuf[0], ibuf[1], ibuf[2], ibuf[3]
+    perm = ibuf[5 : 5 + m]
+    st = imm_arrays(buf, m, band, d)
+    if lag == 0:
+        _step(st, perm, m, band, d, walks, t, y, params, rates, jerks)
+        out[0], out[1] = _combined(st.MU, st.RA, st.RV, m, band)
+        out[2] = t
+        return True
+    size = lag + 1
+    rg = ring(rbuf, size, m)
+    _lagged_step(st, rg, perm, m, band, d, walks, t, y, params, rates, jerks)
+    count = int(st.MEMO[2])
+    newest = (count - 1) % size
+    hist[newest, 0] = t
+    hist[newest, 1], hist[newest, 2] = _combined_slot(st.MU, rg, m, band, newest)
+    if count <= lag:
+        return False
+    slot = (count - 1 - lag) % size
+    a, var = _combined_slot(st.MU, rg, m, band, slot)
+    if mapped:
+        var = lag_variance_one(var, hist[slot, 2], power, a - hist[slot, 1], weight)
+    out[0], out[1], out[2] = a, var, hist[slot, 0]
+    return True
+
+
+def _warm_imm() -> None:
+    """Compile (or load from the cache) the IMM's passes, a few samples through each: with random walks
+    only, with trend modes, filter and fixed lag, batch and live."""
+    t = np.arange(30) / 100.0
+    y = np.zeros(30)
+    params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
+    qs = np.array([1e-3, 0.1])
+    rates = np.array([[0.0, 0.2], [0.2, 0.0]])
+    for jerks in (np.empty(0), np.array([0.0, 1.0])):
+        for lags in (np.zeros(1, dtype=np.int64), np.array([0, 5], dtype=np.int64)):
+            for keep_mu in (True, False):
+                mu = run_imm(t, y, params, qs, rates, jerks, 1, lags, keep_mu)[2]
+        for lag in (0, 5):  # the live step (kalman.KalmanEstimator.update)
+            buf, ibuf = imm_buffer(qs, 1, jerks)
+            rbuf, hist, out = ring_buffer(lag + 1, qs.size), np.zeros((lag + 1, 3)), np.empty(3)
+            for k in range(3):
+                live_step(
+                    buf, ibuf, rbuf, hist, lag, float(t[k]), 0.0, params, rates, jerks, True, 2.0, 1.0, out
+                )
+    smooth_modes(t, mu, rates, 1.0, 1)
+    lag_variance_into(np.ones(2), np.full(2, 2.0), np.ones(2), np.zeros(2), 2.0, 1.0, np.empty(2))
+    table = np.ones((2, 2))
+    lag_variance_into(table[:, 1], table[:, 0], table[:, 1], table[:, 0], 2.0, 1.0, np.empty(2))
+
+
+def imm_pass(
+    t: np.ndarray,
+    y: np.ndarray,
+    params: np.ndarray,
+    qs: np.ndarray,
+    rates: np.ndarray,
+    lags: np.ndarray,
+    keep_mu: bool = False,
+    jerks: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``run_imm`` with the chain's band worked out (``chain_band``); ``jerks`` None: random-walk
+    modes only."""
+    trend = np.empty(0) if jerks is None else np.asarray(jerks, dtype=float)
+    lag_arr = np.asarray(lags, dtype=np.int64)
+    return run_imm(
+        t, y, params, np.asarray(qs, dtype=float), rates, trend, chain_band(rates), lag_arr, keep_mu
+    )
+
+
 def warm() -> None:
-    """Compile (or load from the cache) every pass: a few samples through each."""
+    """Compile (or load from the cache) every pass: a few samples through each, and the IMM's
+    (``_warm_imm``)."""
     t = np.arange(30) / 100.0
     y = np.zeros(30)
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
     for q_accel in (np.empty(0), np.full(30, 0.01)):
-        lags = np.array([0, 5], dtype=np.int64)
-        _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, lags, True, q_accel)
+        _, _, xpr, ppr, xpo, ppo, fk, starts = run_pass(t, y, params, q_accel)
     rts(xpr, ppr, xpo, ppo, fk, starts)
-    qs, rates = np.array([1e-3, 0.1]), chain_rates(2, 5.0)
-    for keep_mu in (True, False):
-        run_imm(t, y, params, qs, rates, np.array([0, 5], dtype=np.int64), keep_mu)
-        run_imm(t, y, params, qs, rates, np.array([0, 5], dtype=np.int64), keep_mu, np.array([0.0, 1.0]))
-    smooth_modes(t, run_imm(t, y, params, qs, rates, np.zeros(1, dtype=np.int64), True)[2], rates, 1.0)
     log_likelihood(t, y, params)
-    # The live IMM's per-sample step (kalman.KalmanEstimator.update), with the arrays it keeps: left
-    # out, the estimator compiled it at its first angle, while the simulator waited for it.
-    m, size = 2, 1
-    for d, jerks in ((3, np.empty(0)), (4, np.array([0.0, 1.0]))):  # random-walk modes; with trend modes
-        xs, ps, mu = np.zeros((m, d)), np.zeros((m, d, d)), np.full(m, 1.0 / m)
-        ra, rv, rc = np.zeros((m, size)), np.zeros((m, size)), np.zeros((m, d, size))
-        x, p, state, scratch = np.zeros(3), np.zeros((3, 3)), np.array([np.nan, 0.0]), imm_scratch(m, size, d)
-        for k in range(3):
-            tk, yk = float(t[k]), float(y[k])
-            imm_step(xs, ps, mu, x, p, ra, rv, rc, state, tk, yk, params, qs, rates, jerks, scratch)
-    imm_lagged(mu, ra, rv, 0)  # the live fixed-lag output (lag > 0) and its variance map's filter column
-    lag_variance_one(1.0, 2.0, 2.0, 0.5, 1.0)  # that output's variance map, a sample at a time
-    # The batch map (kalman.lag_variance) on whole columns and on column views of the lag table.
-    table = np.ones((2, 2))
-    lag_variance_into(np.ones(2), np.full(2, 2.0), np.ones(2), np.zeros(2), 2.0, 1.0, np.empty(2))
-    lag_variance_into(table[:, 1], table[:, 0], table[:, 1], table[:, 0], 2.0, 1.0, np.empty(2))
+    work = np.empty((3, 4, 4))  # the four-state prediction (kalman.steady_state, the tests' references)
+    predict_trend(np.zeros(4), np.eye(4), np.empty((4, 4)), 0.01, 9.8, 1.0, 0.0, 0.0, 0.0, 1.0, work)
+    trend_noise(work[0], 1.0, 0.01, 0.0, 1.0, 0.0)
+    _warm_imm()
 
 
 if __name__ == "__main__":

@@ -16,8 +16,9 @@ P_aa is consistent (docs/estimators.md, "Calibration", and the benchmark's NEES 
 
 ``lag`` (s, ≥ 0) turns the filter into a fixed-lag smoother (``ekf_kernels``, module doc): each estimate
 describes the sample ``lag`` earlier (Estimate.time), using the data up to now; lag = 0 is the filter.
-The numerics live in :mod:`pendulum_accel.estimators.ekf_kernels`; the streaming update and the batch
-pass call the same compiled step, so they agree to the last bit.
+The numerics live in :mod:`pendulum_accel.estimators.ekf_kernels` (the model, the IMM and its fixed-lag
+pass); the streaming update and the batch pass call the same compiled steps, so they agree to the last
+bit.
 """
 
 from __future__ import annotations
@@ -204,11 +205,14 @@ def imm_smoother(
     agile modes' q_a on both sides of it (a pass that weighed the modes by the past alone would carry the
     level after a step back across it), and a calm stretch the calm modes' q_a. One IMM pass, one single-model
     pass and one backward pass: the cost of the live filter plus two single-model passes."""
-    a_f, var_imm, mu = kern.run_imm(t, theta, params, qs, rates, np.zeros(1, np.int64), True)
-    kern.smooth_modes(t, mu, rates, float(params[6]))
+    band = kern.chain_band(rates)
+    a_f, var_imm, mu = kern.run_imm(
+        t, theta, params, qs, rates, np.empty(0), band, np.zeros(1, np.int64), True
+    )
+    kern.smooth_modes(t, mu, rates, float(params[6]), band)
     q = mu @ qs
     del mu
-    _, _, xpr, ppr, xpo, ppo, fk, starts = kern.run_pass(t, theta, params, np.zeros(1, np.int64), True, q)
+    _, _, xpr, ppr, xpo, ppo, fk, starts = kern.run_pass(t, theta, params, q)
     del q, _
     a, var = kern.rts(xpr, ppr, xpo, ppo, fk, starts)
     var_f = ppo[:, 2, 2].copy()
@@ -260,7 +264,8 @@ class KalmanEstimator(Estimator):
             raise ParameterError(f"lag must be >= 0 s, got {self.lag!r}")
         self.lag_n = lag_samples(self.lag, config.rate_hz)
         # Without a given q_a the filter is the IMM over the preset's modes, and a lag its fixed-lag smoother
-        # (ekf_kernels.imm_step); a given q_a runs the single model (how the benchmark builds its bound).
+        # (ekf_kernels._step, _lagged_step); a given q_a runs the single model (how the benchmark builds its
+        # bound), as the IMM of that one mode (to the bit the one-model filter, ekf_kernels.step).
         self.modes: tuple[float, ...] = chosen.modes if q_accel is None else ()
         self.switch_time = chosen.switch_time
         self.chain = chosen.chain()
@@ -277,6 +282,10 @@ class KalmanEstimator(Estimator):
                 f"; trend modes q_j={'/'.join(f'{q:.3g}' for q in self.trends)} (m/s³)²/s beside the q_a "
                 f"modes {'/'.join(f'{q:.3g}' for q in partners)}, swapped every {chosen.cross_time:g} s"
             )
+        qs_run = self._qs if self.modes else np.array([self.q_accel])
+        rates_run = self._rates if self.modes else np.zeros((1, 1))
+        # What the passes run: q_a per mode, the chain's R, q_j per mode (empty: random walks only), its band.
+        self._pass = (qs_run, rates_run, self._jerks, kern.chain_band(rates_run))
         self._a_max = config.gravity * math.tan(config.clamp_angle)
         # The compiled passes load (from numba's cache) here, not at the first sample: a live chain's first
         # angles must not wait behind the loader (the node builds its estimator before it subscribes).
@@ -308,101 +317,37 @@ class KalmanEstimator(Estimator):
         }
 
     def reset(self) -> None:
-        """Forget the state and the lag buffer; the next sample initialises the filter at rest."""
-        size = self.lag_n + 1
-        self._x = np.zeros(3)
-        self._p = np.zeros((3, 3))
-        self._f = np.eye(3)
-        self._k = np.zeros(3)
-        self._prior_x = np.zeros(3)
-        self._prior_p = np.zeros((3, 3))
-        self._ring_a = np.zeros(size)
-        self._ring_v = np.zeros(size)
-        self._ring_c = np.zeros((size, 3))
-        self._ring_t = [0.0] * size
-        self._ring_f = np.zeros(size)  # the IMM filter's own variance of each buffered sample
-        self._ring_af = np.zeros(size)  # and its own â, for the lag's revision (lag_variance)
-        self._state = np.array([math.nan, 0.0])
-        m = max(self._qs.size, 1)
-        d = 4 if self._jerks.size else 3  # a trend mode's fourth state, j
-        self._ra = np.zeros((m, size))
-        self._rv = np.zeros((m, size))
-        self._rc = np.zeros((m, d, size))
-        self._xs = np.zeros((m, d))
-        self._ps = np.zeros((m, d, d))
-        self._mu = np.full(m, 1.0 / m)
-        self._scratch = kern.imm_scratch(m, size, d)
+        """Forget the state and the lag's queue; the next sample initialises the filter at rest."""
+        qs, _, jerks, band = self._pass
+        self._buf, self._ibuf = kern.imm_buffer(qs, band, jerks)
+        # MEMO[1] of the buffer: the last accepted time (ekf_kernels.ImmArrays), for _accepts.
+        self._last_slot = int(kern.imm_layout(qs.size, band, int(self._ibuf[2]))[-2]) + 1
+        self._ring = kern.ring_buffer(self.lag_n + 1, qs.size) if self.lag_n else np.empty(0)
+        self._hist = np.zeros((self.lag_n + 1, 3))  # each buffered sample's stamp and filter â, var
+        self._out = np.empty(3)  # the live step's (â, var, time of the sample it describes)
         self._first_t: float | None = None  # sensor turn-on, for the bias variance
 
     def update(self, t: float, theta: float) -> Estimate | None:
-        """One sample in; out â and var for the sample lag earlier (None while the lag fills)."""
+        """One sample in; out â and var for the sample lag earlier (None while the lag fills). One compiled
+        call (ekf_kernels.live_step): the IMM's step, the fixed-lag pass and its variance map."""
         if not self._accepts(t, theta, self._last_t):
             return None
         if self._first_t is None:
             self._first_t = t
-        if self.modes:
-            kern.imm_step(
-                self._xs,
-                self._ps,
-                self._mu,
-                self._x,
-                self._p,
-                self._ra,
-                self._rv,
-                self._rc,
-                self._state,
-                t,
-                theta,
-                self._params,
-                self._qs,
-                self._rates,
-                self._jerks,
-                self._scratch,
-            )
-        else:
-            kern.step(
-                self._x,
-                self._p,
-                self._f,
-                self._k,
-                self._prior_x,
-                self._prior_p,
-                self._ring_a,
-                self._ring_v,
-                self._ring_c,
-                self._state,
-                t,
-                theta,
-                self._params,
-            )
-        count = int(self._state[1])
-        size = self.lag_n + 1
-        self._ring_t[(count - 1) % size] = t
-        if self.modes and self.lag_n:
-            newest = (count - 1) % size
-            self._ring_af[newest], self._ring_f[newest] = kern.imm_lagged(
-                self._mu, self._ra, self._rv, newest
-            )
-        if count <= self.lag_n:
+        _, rates, jerks, _ = self._pass
+        out = self._out
+        mapped = bool(self.modes) and self.lag_n > 0  # the IMM's lag publishes the mapped variance
+        if not kern.live_step(
+            self._buf, self._ibuf, self._ring, self._hist, self.lag_n, t, theta, self._params, rates, jerks,
+            mapped, LAG_VARIANCE_POWER, LAG_REVISION_WEIGHT, out,
+        ):  # fmt: skip
             return None
-        slot = (count - 1 - self.lag_n) % size
-        if self.modes:
-            a, var = kern.imm_lagged(self._mu, self._ra, self._rv, slot)
-            if self.lag_n:
-                var = kern.lag_variance_one(
-                    var,
-                    float(self._ring_f[slot]),
-                    LAG_VARIANCE_POWER,
-                    a - float(self._ring_af[slot]),
-                    LAG_REVISION_WEIGHT,
-                )
-            return self._estimate(a, var, self._ring_t[slot])
-        return self._estimate(float(self._ring_a[slot]), float(self._ring_v[slot]), self._ring_t[slot])
+        return self._estimate(float(out[0]), float(out[1]), float(out[2]))
 
     @property
     def _last_t(self) -> float | None:
         """The last accepted time stamp (None before the first)."""
-        last = float(self._state[0])
+        last = float(self._buf[self._last_slot])
         return None if math.isnan(last) else last
 
     def _estimate(self, a: float, var: float, t: float) -> Estimate:
@@ -436,14 +381,8 @@ class KalmanEstimator(Estimator):
         """μ (n × modes): the IMM's probability of each mode after each sample (one column without modes;
         with trend modes, in ekf_kernels.with_trends' order: each random-walk mode, then its partner)."""
         t, theta = check_batch_input(t, theta)
-        qs = self._qs if self.modes else np.array([self.q_accel])
-        return kern.run_imm(
-            t, theta, self._params, qs, self._rates, np.zeros(1, np.int64), True, self._trend()
-        )[2]
-
-    def _trend(self) -> np.ndarray | None:
-        """The IMM modes' q_j for the passes (ekf_kernels.run_imm), or None without trend modes."""
-        return self._jerks if self._jerks.size else None
+        qs, rates, jerks, band = self._pass
+        return kern.run_imm(t, theta, self._params, qs, rates, jerks, band, np.zeros(1, np.int64), True)[2]
 
     def lagged(
         self, t: np.ndarray, theta: np.ndarray, lags: tuple[int, ...]
@@ -452,12 +391,8 @@ class KalmanEstimator(Estimator):
         else the single model's at q_accel) with one column per lag (in samples), each aligned to the sample
         it describes."""
         lag_arr = np.array((0, *lags), dtype=np.int64)
-        if self.modes:
-            a, var, _ = kern.run_imm(
-                t, theta, self._params, self._qs, self._rates, lag_arr, False, self._trend()
-            )
-        else:
-            a, var, *_ = kern.run_pass(t, theta, self._params, lag_arr, False, np.empty(0))
+        qs, rates, jerks, band = self._pass
+        a, var, _ = kern.run_imm(t, theta, self._params, qs, rates, jerks, band, lag_arr, False)
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
             lost = np.isnan(a[:, m])
             a[lost, m], var[lost, m] = a[lost, 0], var[lost, 0]
@@ -476,9 +411,7 @@ class KalmanEstimator(Estimator):
         t, theta = check_batch_input(t, theta)
         if t.size == 0:
             return np.empty(0), np.empty(0)
-        _, _, xpr, ppr, xpo, ppo, fk, starts = kern.run_pass(
-            t, theta, self._params, np.zeros(1, np.int64), True, np.empty(0)
-        )
+        _, _, xpr, ppr, xpo, ppo, fk, starts = kern.run_pass(t, theta, self._params, np.empty(0))
         a, var = kern.rts(xpr, ppr, xpo, ppo, fk, starts)
         return self._publish(t, a, var)
 
