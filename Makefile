@@ -60,8 +60,14 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
+# The suite runs on pytest-xdist: one process per worker, each with its own ROS_DOMAIN_ID pair and temporary
+# directories (test/conftest.py), so ROS tests cannot meet. More workers than cores: many tests wait on the
+# processes they start (nodes, CLIs, a cluster), and a waiting test leaves its core to another.
+PYTEST_WORKERS ?= 3
+PYTEST_XDIST := -n $(PYTEST_WORKERS) --dist worksteal
+
 pytest: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest $(PYTEST_XDIST)
 
 # The numerics tests: every test whose figures come from floating-point arithmetic that numpy, libm or
 # numba may do differently on another x86-64 CPU (physics, integrators, kernels, closed forms, planner
@@ -78,7 +84,9 @@ NUMERICS_TESTS := $(addprefix test/test_,$(addsuffix .py, \
   trend_modes))
 
 pytest-emulated: $(STAMP)
-	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pytest $(NUMERICS_TESTS)
+	@# Compiled once for the generic CPU before the workers start, else each would compile the same kernels.
+	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pendulum_accel.kernel_cache
+	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pytest $(PYTEST_XDIST) $(NUMERICS_TESTS)
 
 # Every step runs even after one fails (the CPU-emulation pass most of all: it is what shows a machine-
 # dependent assertion), then make test fails naming the steps that failed.

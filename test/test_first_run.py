@@ -1,10 +1,12 @@
 """The first run after an install: numba's cache is cold (the README's pip lines leave it so), and
 ``pendulum-accel run`` compiles it before starting the nodes, says so, and records the whole scene.
 
-NUMBA_CACHE_DIR points numba at an empty directory, as a fresh install's cache is; every process of the
-chain inherits it. Two install paths are taken as users take them: a fresh venv made with the README's
-pip lines in a clean checkout, and ``colcon build`` run from a workspace (its console scripts in the
-``ros2 run`` layout, lib/pendulum_accel/).
+Two install paths are taken as users take them: a fresh venv made with the README's pip lines in a clean
+checkout (its cache beside the installed modules, cold after pip), and ``colcon build`` run from a
+workspace (its console scripts in the ``ros2 run`` layout, lib/pendulum_accel/), whose install step warms
+the cache; that install run once more with NUMBA_CACHE_DIR pointing numba at an empty directory, as after
+``colcon build --symlink-install`` (every process of the chain inherits it). Each compiles numba's cache
+once: a cold compile is a minute or more of CPU, so the suite does it only where an install path needs it.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import pytest
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from test.conftest import PYTHON, REPO
+from test.install_paths import clean_checkout, outside_env
 
 COMPILING = "compiling the stepping kernels and the estimators' loops into numba's cache"
 
@@ -39,13 +42,6 @@ def _imported_from(env: dict[str, str], python: str) -> Path:
     out = subprocess.run([python, "-c", code], env=env, capture_output=True, text=True, timeout=120, cwd="/")
     assert out.returncode == 0, out.stderr[-2000:]
     return Path(out.stdout.strip()).parent
-
-
-def _outside_env() -> dict[str, str]:
-    """The test's environment (its ROS domain, localhost discovery) without what points Python at this
-    checkout or this venv, or numba at another cache: as a user's shell after an install."""
-    drop = ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "NUMBA_CACHE_DIR")
-    return {k: v for k, v in os.environ.items() if k not in drop}
 
 
 def _story(stderr: str) -> str:
@@ -78,42 +74,6 @@ def readme_first_run() -> list[str]:
     return line.group(0).split()[1:]
 
 
-def clean_checkout(destination: Path) -> Path:
-    """The repository's tracked files, as the working tree has them, copied to ``destination`` (what a
-    fresh clone holds, with this tree's changes): no .venv, no caches, no build output."""
-    files = subprocess.run(
-        ["git", "ls-files", "-z"], cwd=REPO, capture_output=True, text=True, check=True
-    ).stdout.split("\0")
-    for name in filter(None, files):
-        source = REPO / name
-        if source.is_file():  # a deleted, not yet committed file is listed but absent
-            (destination / name).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(source, destination / name)
-    return destination
-
-
-# Compiling every kernel takes 1-2 min on 2 idle cores, and several times that on a loaded CI machine:
-# a longer limit than the suite's 600 s (pyproject.toml), not a speed threshold.
-@pytest.mark.timeout(2400)
-def test_first_run_on_a_cold_cache_compiles_first_and_records_the_scene(tmp_path: Path) -> None:
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
-    assert _cold(env)
-    bag = tmp_path / "bag"
-    command = ["run", "step_start", "--fast", "--set", "duration=2", "--record", str(bag)]
-    result = subprocess.run(
-        [PYTHON, "-m", "pendulum_accel.cli.main", *command],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=2300,
-        cwd=REPO,
-    )
-    assert result.returncode == 0, result.stderr[-2000:]
-    assert COMPILING in result.stderr
-    _assert_recorded(bag)
-    assert not _cold(env)  # what it compiled stays: the next run loads it
-
-
 # pip installs from its cache (~/.cache/pip, warm after `make setup`) in a few minutes, then the first run
 # compiles every kernel (1-2 min on 2 idle cores, several times that on a loaded machine): limits longer
 # than the suite's 600 s, not speed thresholds.
@@ -128,7 +88,7 @@ def test_the_readme_pip_lines_in_a_fresh_venv_give_a_first_run_that_works(tmp_pa
     # Not named pendulum_accel: the run starts in tmp_path, and `python -m` (every node) would import a
     # directory of that name there as a namespace package (as it would from a cwd holding such a clone).
     checkout = clean_checkout(tmp_path / "checkout")
-    env = _outside_env()
+    env = outside_env()
     try:
         for line in lines:
             done = subprocess.run(
@@ -157,27 +117,19 @@ def test_the_readme_pip_lines_in_a_fresh_venv_give_a_first_run_that_works(tmp_pa
         shutil.rmtree(tmp_path, ignore_errors=True)  # the venv is over a gigabyte
 
 
+# The shared build (conftest's colcon_workspace) and a cold compile: limits longer than the suite's 600 s
+# (a loaded machine takes several times the 1-2 min of 2 idle cores), not speed thresholds.
 @pytest.mark.slow
 @pytest.mark.timeout(2400)
-def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(tmp_path: Path) -> None:
+def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(
+    colcon_workspace: Path, tmp_path: Path
+) -> None:
     """colcon build (from this venv, as the README's colcon lines do) warms numba's cache in its install
     step, and the console script it installs in lib/pendulum_accel (what `ros2 run` starts) runs the
     chain: on that warm cache without compiling, and on a cold one (NUMBA_CACHE_DIR empty, as after
-    `colcon build --symlink-install`) compiling first."""
-    colcon = str(Path(PYTHON).with_name("colcon"))
-    workspace = tmp_path / "ws"
-    (workspace / "src").mkdir(parents=True)
-    clean_checkout(workspace / "src" / "pendulum_accel")
-    env = _outside_env()
-    built = subprocess.run(
-        [colcon, "build", "--base-paths", "src"],
-        cwd=workspace,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=1800,
-    )
-    assert built.returncode == 0, built.stdout[-2000:] + built.stderr[-2000:]
+    `colcon build --symlink-install`) compiling first, saying so, and leaving the cache it compiled warm."""
+    workspace = colcon_workspace
+    env = outside_env()
     prefix = workspace / "install" / "pendulum_accel"
     (site,) = prefix.glob("lib/python3*/site-packages")
     # What colcon's local_setup puts on the paths for this package (no ROS install here: the ROS wheels
@@ -213,6 +165,7 @@ def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(tm
     assert cold.returncode == 0, _story(cold.stderr)
     assert COMPILING in cold.stderr
     _assert_recorded(tmp_path / "cold")
+    assert not _cold(cold_env, PYTHON, Path("/"))  # what it compiled stays: the next run loads it
 
 
 @pytest.mark.slow
