@@ -27,6 +27,7 @@ from lab_teacher.classdata import (
     simulate_group,
     write_group,
 )
+from pendulum_accel.cli.output import check_output_dir
 from pendulum_accel.errors import ParameterError
 
 STUDENT_DOCS = Path(__file__).resolve().parent.parent / "docs" / "lab"
@@ -214,19 +215,22 @@ def parse_key(text: str) -> dict[str, dict[str, tuple[float, float]]]:
 def make_class(secret_path: Path, count: int, out: Path, class_name: str) -> Path:
     """Write one folder and zip per group under ``out`` and the key ``out/teacher_key.md``; the key's path.
 
-    ``out`` must not exist yet (nothing is overwritten); on an error nothing is left behind.
+    ``out`` must not exist yet (nothing is overwritten) and its parent must, as every command's directory
+    output (cli.output.check_output_dir: nothing is created above the path asked for); on an error nothing
+    is left behind.
     """
     secret = read_secret(secret_path)
     names = group_names(count)
-    if out.exists():
-        raise ParameterError(f"{out} exists already: give a new --out directory (nothing is overwritten)")
     if not re.fullmatch(r"[\w.-]+", class_name):
         raise ParameterError(f"--class must be letters, digits, '.', '_' or '-', got {class_name!r}")
+    if out.exists():
+        raise ParameterError(f"{out} exists already: give a new --out directory (nothing is overwritten)")
+    check_output_dir(out)
     staging = out.with_name(out.name + ".partial")
     if staging.exists():
         raise ParameterError(f"{staging} exists (an interrupted make-class?): remove it first")
     try:
-        staging.mkdir(parents=True)
+        staging.mkdir()
         groups = []
         for name in names:
             runs = simulate_group(draw(secret, class_name, name))

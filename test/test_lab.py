@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import zipfile
 from pathlib import Path
@@ -12,9 +13,18 @@ import numpy as np
 import pytest
 
 from lab_teacher import answers as la
-from lab_teacher.classdata import DRIVE_RUNS, draw, group_names
+from lab_teacher.classdata import (
+    DRIVE_RUNS,
+    MAX_GROUPS,
+    MAX_SECRET_BYTES,
+    draw,
+    draw_from_digest,
+    group_digest,
+    group_names,
+)
 from lab_teacher.key import GROUP_TEMPLATE, PERIOD_ERROR, TEMPLATE, parse_key
 from pendulum_accel.cli.main import main
+from pendulum_accel.sensor import SensorModel
 from test.lab_class import CLASS_NAME, GROUPS, SECRET, made_class
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -62,42 +72,92 @@ def test_a_group_folder_holds_no_hidden_parameter() -> None:
 
 
 def test_the_draw_needs_the_secret() -> None:
-    """The same secret and group give the same draw; another secret or group, another one."""
+    """The same secret and group give the same draw; another secret, group or class, another one."""
     one = draw(SECRET, CLASS_NAME, "group_01")
     assert draw(SECRET, CLASS_NAME, "group_01") == one
     assert draw(SECRET + b"x", CLASS_NAME, "group_01").accel != one.accel
     assert draw(SECRET, CLASS_NAME, "group_02").accel != one.accel
+    assert draw(SECRET, CLASS_NAME + "b", "group_01").accel != one.accel
     assert len(one.drive_starts) == DRIVE_RUNS
 
 
+def _noise(seed: int) -> np.ndarray:
+    """The first 8 readings of a still bob by a 1 mrad sensor with this seed: the noise a seed draws."""
+    return SensorModel(rate_hz=100.0, noise_std=1e-3, seed=seed).measure(np.arange(8) / 100.0, np.zeros(8))
+
+
+def test_every_byte_of_the_groups_hmac_reaches_its_parameters_and_its_noise() -> None:
+    """Flipping any one of the digest's 32 bytes changes every hidden parameter and every sensor's noise,
+    so the draw uses the whole 256-bit HMAC: neither can be found by searching a smaller seed.
+
+    The changed values are compared exactly: a float drawn from another state equals the old one with
+    probability ~2⁻⁵², and 8 Gaussian noise samples all equal theirs never.
+    """
+    digest = group_digest(SECRET, CLASS_NAME, "group_01")
+    one = draw_from_digest(CLASS_NAME, "group_01", digest)
+    assert one == draw(SECRET, CLASS_NAME, "group_01")
+    assert all(s.bit_length() > 128 for s in one.seeds)  # 31-bit seeds could be searched in hours
+    noise = [_noise(s) for s in one.seeds]
+    for k in range(len(digest)):
+        flipped = digest[:k] + bytes([digest[k] ^ 0x01]) + digest[k + 1 :]
+        other = draw_from_digest(CLASS_NAME, "group_01", flipped)
+        hidden = ("accel", "offset", "bias_accel", "release", "drive_starts")
+        assert all(getattr(other, f) != getattr(one, f) for f in hidden), k
+        for seed, before in zip(other.seeds, noise, strict=True):
+            assert not np.any(_noise(seed) == before), k
+
+
+@pytest.mark.timeout(120)  # a FIFO or /dev/zero read as the secret hung: fail, do not wait 600 s
 def test_make_class_refuses_bad_input_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """A missing or short secret, no groups, an existing --out, no teacher material: exit 2, one line,
-    nothing written."""
+    """A missing, short or oversized secret, a FIFO or /dev/zero as the secret, no groups or more than
+    MAX_GROUPS, an existing --out or one whose parent is missing, no --class, no teacher material: exit 2,
+    one line, nothing written, and at once (no group is simulated: each would take seconds)."""
     short = tmp_path / "short.txt"
     short.write_bytes(b"too short")
+    huge = tmp_path / "huge.txt"
+    huge.write_bytes(b"x" * (MAX_SECRET_BYTES + 1))
     good = tmp_path / "secret.txt"
     good.write_bytes(SECRET)
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
     (tmp_path / "exists").mkdir()
     cases = [
-        (tmp_path / "missing.txt", "1", tmp_path / "a"),
-        (short, "1", tmp_path / "b"),
-        (good, "0", tmp_path / "c"),
-        (good, "1", tmp_path / "exists"),
+        (tmp_path / "missing.txt", "1", tmp_path / "a", "cannot read the secret"),
+        (short, "1", tmp_path / "b", "use at least"),
+        (huge, "1", tmp_path / "b", f"more than {MAX_SECRET_BYTES} bytes"),
+        (fifo, "1", tmp_path / "b", "FIFO"),
+        (Path("/dev/zero"), "1", tmp_path / "b", "character device"),
+        (good, "0", tmp_path / "c", f"1 to {MAX_GROUPS}"),
+        (good, "1000000", tmp_path / "c", f"1 to {MAX_GROUPS}"),
+        (good, str(MAX_GROUPS + 1), tmp_path / "c", f"1 to {MAX_GROUPS}"),
+        (good, "1", tmp_path / "exists", "exists already"),
+        (good, "1", tmp_path / "no" / "such" / "parent", "does not exist (it is not created"),
     ]
-    for secret, groups, out in cases:
-        code = main(["lab", "make-class", "--secret", str(secret), "--groups", groups, "--out", str(out)])
+    for secret, groups, out, says in cases:
+        argv = ["lab", "make-class", "--secret", str(secret), "--groups", groups, "--out", str(out)]
+        code = main([*argv, "--class", CLASS_NAME])
         err = capsys.readouterr().err
-        assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+        assert code == 2 and err.count("\n") == 1 and "Traceback" not in err and says in err, (says, err)
+    # No --class: argparse's one line (exit 2), so that one secret never gives two classes the same data.
+    with pytest.raises(SystemExit) as stop:
+        main(["lab", "make-class", "--secret", str(good), "--groups", "1", "--out", str(tmp_path / "e")])
+    assert stop.value.code == 2 and "--class" in capsys.readouterr().err
     # A student's install has no lab_teacher/: the command says so instead of making anything.
     argv = ["lab", "make-class", "--secret", str(good), "--groups", "1", "--out", str(tmp_path / "d")]
-    assert main([*argv, "--teacher", str(tmp_path)]) == 2
+    assert main([*argv, "--class", CLASS_NAME, "--teacher", str(tmp_path)]) == 2
     assert "lab_teacher" in capsys.readouterr().err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["exists", "secret.txt", "short.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "exists",
+        "fifo",
+        "huge.txt",
+        "secret.txt",
+        "short.txt",
+    ]
 
 
 def test_every_key_answer_carries_an_uncertainty_and_meets_the_hidden_truth() -> None:
     """Each answer is value ± σ with σ > 0; where the key has a hidden truth it lies within 4σ of it
-    (4σ: a Gaussian measurement misses with probability 6e-5; 18 such comparisons here)."""
+    (4σ: a Gaussian measurement misses with probability 6e-5; 36 such comparisons here)."""
     text = (made_class() / "teacher_key.md").read_text(encoding="utf-8")
     key = parse_key(text)
     rows = re.findall(

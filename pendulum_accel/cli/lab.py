@@ -50,9 +50,17 @@ def register(subparsers: Any) -> None:
         ),
     )
     make.add_argument("--secret", type=Path, required=True, metavar="FILE", help="at least 16 random bytes")
-    make.add_argument("--groups", type=int, required=True, metavar="N", help="number of groups")
-    make.add_argument("--out", type=Path, required=True, metavar="DIR", help="a new directory")
-    make.add_argument("--class", dest="class_name", default="class", metavar="NAME", help="the class's name")
+    make.add_argument(
+        "--class",
+        dest="class_name",
+        required=True,
+        metavar="NAME",
+        help="the class's name: with the secret, it draws the data (another class, other data)",
+    )
+    make.add_argument("--groups", type=int, required=True, metavar="N", help="number of groups, 1 to 99")
+    make.add_argument(
+        "--out", type=Path, required=True, metavar="DIR", help="a new directory (its parent must exist)"
+    )
     make.add_argument(
         "--teacher",
         type=Path,
