@@ -6,6 +6,8 @@ import json
 import math
 import os
 import re
+import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
@@ -252,3 +254,54 @@ def test_lab_check_proves_the_install_or_names_what_is_missing(
     assert main(["lab", "check"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no_such_module_for_the_lab" in err
+
+
+# Run in a fresh process from a group's folder: `lab check`, then the student notebook's own cells up to
+# its drive cell; print the numba specializations the notebook's cells added to those the check made.
+_COMPILE_PROBE = """
+import sys
+import numba
+from pendulum_accel.cli import lab
+lab.LAB_MODULES = ()  # Jupyter is not what this probes
+lab.run_check(None)
+
+def specializations():
+    found = set()
+    for name, module in list(sys.modules.items()):
+        if name.startswith("pendulum_accel"):
+            for attr, value in vars(module).items():
+                if isinstance(value, numba.core.registry.CPUDispatcher):
+                    found |= {f"{name}.{attr}{sig}" for sig in value.signatures}
+    return found
+
+before = specializations()
+for source in CELLS:
+    exec(source)
+print("NEW", sorted(specializations() - before))
+"""
+
+
+def test_lab_check_compiles_every_kernel_the_notebooks_drive_cell_runs(tmp_path: Path) -> None:
+    """After `lab check`, the student notebook's cells through its drive cell, run on a group's data, add
+    no numba specialization: a new one would be compiled in class. (The kalman's run_imm was, once more,
+    for the strided columns np.genfromtxt gives: the check now reads a CSV as the notebook does, and the
+    estimators take their input contiguous.)"""
+    with zipfile.ZipFile(made_class() / "group_01.zip") as zf:
+        zf.extractall(tmp_path)
+    nb = json.loads((ROOT / "docs" / "lab" / "student.ipynb").read_text(encoding="utf-8"))
+    code = ["".join(c["source"]) for c in nb["cells"] if c["cell_type"] == "code"]
+    drive = next(i for i, source in enumerate(code) if "estimate_batch(name" in source)
+    cells = [
+        "\n".join(line for line in s.splitlines() if not line.startswith("%")) for s in code[: drive + 1]
+    ]
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    done = subprocess.run(
+        [sys.executable, "-c", f"CELLS = {cells!r}\n{_COMPILE_PROBE}"],
+        cwd=tmp_path / "group_01",
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    new = [line for line in done.stdout.splitlines() if line.startswith("NEW")]
+    assert new == ["NEW []"], done.stdout[-2000:]
