@@ -204,22 +204,48 @@ def test_the_keys_template_holds_no_typed_figure() -> None:
         assert not words, words
 
 
-def test_teacher_material_is_not_installed_nor_on_the_students_pages() -> None:
-    """setup.py packages only pendulum_accel (no lab_teacher, no answer module); the docs site has no
-    solution or key; no student page names a command that prints answers."""
-    from setuptools import find_packages
+def test_the_package_students_install_holds_no_answer(tmp_path: Path) -> None:
+    """What setup.py builds into the wheel (build_py: every module and package data file) is
+    pendulum_accel alone: no lab_teacher, no test, no solution or key, and no module that names the code
+    measuring the answers (lab_teacher.answers, measure_group) beyond cli/lab.py, which looks for the
+    teacher's clone to run make-class. The wheel's other files are setup.py's data_files: launch files,
+    config, URDF, viewer layouts and scenes."""
+    build = tmp_path / "build"
+    subprocess.run(
+        [sys.executable, "setup.py", "-q", "build_py", "--build-lib", str(build)],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+    )
+    files = [p.relative_to(build) for p in build.rglob("*") if p.is_file()]
+    assert files and {f.parts[0] for f in files} == {"pendulum_accel"}
+    for f in files:
+        assert not re.search(r"answer|solution|teacher|key\.md|test_", str(f)), f
+        if f.suffix == ".py":
+            text = (build / f).read_text(encoding="utf-8")
+            assert "measure_group" not in text and "lab_teacher.answers" not in text, f
+            if f.as_posix() != "pendulum_accel/cli/lab.py":
+                assert "lab_teacher" not in text, f
 
-    packages = find_packages(where=str(ROOT), include=["pendulum_accel", "pendulum_accel.*"])
-    assert "lab_teacher" not in packages and not any("lab_answers" in p for p in packages)
-    assert not list((ROOT / "pendulum_accel").rglob("lab_answers.py"))
+
+def test_teacher_material_is_not_on_the_docs_site_and_no_student_page_sends_to_the_repository() -> None:
+    """The docs site has no solution or key. The students' pages (the lab's README and the worksheet, which
+    each zip holds) install the wheel, never a clone: no clone, make, source install or path into
+    lab_teacher/ or test/; they say the repository is the teacher's edition; and name no command that
+    prints a result (lecture equivalence, lecture accelerometer)."""
     assert not list((ROOT / "docs").rglob("*key*.md")) and not list((ROOT / "docs").rglob("solution*"))
     for page in (ROOT / "docs").rglob("*.md"):
         assert "lab_answers" not in page.read_text(encoding="utf-8"), page
     for page in [*STUDENT_PAGES, ROOT / "docs" / "teaching.md"]:
         text = page.read_text(encoding="utf-8")
         assert "simulator_node" not in text and "estimator_node" not in text, page.name
-        if page in STUDENT_PAGES:  # the worksheet sends students to no command that prints a result
-            assert "lecture equivalence" not in text and "lecture accelerometer" not in text, page.name
+    for page in STUDENT_PAGES:
+        text = page.read_text(encoding="utf-8")
+        assert ".whl[lab]" in text, page.name
+        for route in ("git clone", "make lab", 'install ".[lab]"', "install .", "lab_teacher/", "test/"):
+            assert route not in text, (page.name, route)
+        assert "lecture equivalence" not in text and "lecture accelerometer" not in text, page.name
+    assert "teacher's edition" in STUDENT_PAGES[0].read_text(encoding="utf-8")
 
 
 def test_fit_recovers_a_known_swing_within_its_stated_sigma() -> None:
