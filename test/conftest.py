@@ -190,3 +190,12 @@ def colcon_workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from test.install_paths import build_colcon_workspace
 
     return shared_once(tmp_path_factory, "colcon_ws", build_colcon_workspace)
+
+
+@pytest.fixture(scope="session")
+def lab_class(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The lab's test class (test/lab_class.py), made once for the whole run: its group folders, zips and
+    teacher_key.md."""
+    from test.lab_class import make_class
+
+    return shared_once(tmp_path_factory, "lab_class", make_class) / "class"

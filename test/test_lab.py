@@ -27,7 +27,7 @@ from lab_teacher.classdata import (
 from lab_teacher.key import GROUP_TEMPLATE, PERIOD_ERROR, TEMPLATE, parse_key
 from pendulum_accel.cli.main import main
 from pendulum_accel.sensor import SensorModel
-from test.lab_class import CLASS_NAME, GROUPS, SECRET, made_class
+from test.lab_class import CLASS_NAME, GROUPS, SECRET
 
 ROOT = Path(__file__).resolve().parent.parent
 STUDENT_PAGES = [ROOT / "docs" / "lab" / "README.md", ROOT / "docs" / "lab" / "worksheet.md"]
@@ -42,10 +42,10 @@ FIGURE_WORD = re.compile(
 )
 
 
-def test_make_class_writes_a_folder_and_zip_per_group_and_the_key() -> None:
+def test_make_class_writes_a_folder_and_zip_per_group_and_the_key(lab_class: Path) -> None:
     """3 groups: each folder holds data/ (CSV and params.json), the worksheet and the notebook, and its zip
     the same files; the key has one table per group."""
-    out = made_class()
+    out = lab_class
     names = group_names(GROUPS)
     assert sorted(p.name for p in out.iterdir()) == sorted(
         [*names, *(f"{n}.zip" for n in names), "teacher_key.md"]
@@ -60,10 +60,10 @@ def test_make_class_writes_a_folder_and_zip_per_group_and_the_key() -> None:
             assert {str(Path(n).relative_to(name)) for n in zf.namelist()} == files
 
 
-def test_a_group_folder_holds_no_hidden_parameter() -> None:
+def test_a_group_folder_holds_no_hidden_parameter(lab_class: Path) -> None:
     """params.json has only what the worksheet gives (no a of exercise 1, no release angle, no seeds or
     stretch starts), no file names the secret, and the key is not in any group's folder or zip."""
-    out = made_class()
+    out = lab_class
     for name in group_names(GROUPS):
         d = draw(SECRET, CLASS_NAME, name)
         params = json.loads((out / name / "data" / "params.json").read_text(encoding="utf-8"))
@@ -163,10 +163,10 @@ def test_make_class_refuses_bad_input_in_one_line(tmp_path: Path, capsys: pytest
     ]
 
 
-def test_every_key_answer_carries_an_uncertainty_and_meets_the_hidden_truth() -> None:
+def test_every_key_answer_carries_an_uncertainty_and_meets_the_hidden_truth(lab_class: Path) -> None:
     """Each answer is value ± σ with σ > 0; where the key has a hidden truth it lies within 4σ of it
     (4σ: a Gaussian measurement misses with probability 6e-5; 36 such comparisons here)."""
-    text = (made_class() / "teacher_key.md").read_text(encoding="utf-8")
+    text = (lab_class / "teacher_key.md").read_text(encoding="utf-8")
     key = parse_key(text)
     rows = re.findall(
         r"^\| `(\w+)` \| [^|]* \| (\S+) ± (\S+) \| [^|]* \| (\S+) \| (\S+) \|$", text, re.MULTILINE
@@ -181,11 +181,11 @@ def test_every_key_answer_carries_an_uncertainty_and_meets_the_hidden_truth() ->
     assert truths == 6 * GROUPS  # ex1: ω, θ_eq, a, g, ratio; ex2: the bias
 
 
-def test_exercise2_moves_less_than_its_sigma_when_the_period_is_off() -> None:
+def test_exercise2_moves_less_than_its_sigma_when_the_period_is_off(lab_class: Path) -> None:
     """Each group's bias, measured with the period read 0.01 s short and long: the window's ends are
     turning points found in the data, so it moves by less than its own stated σ."""
     for name in group_names(GROUPS):
-        folder = made_class() / name / "data"
+        folder = lab_class / name / "data"
         rel = la.load_csv(folder / "released.csv")
         guess = la.period_guess_of(rel["t_s"], rel["theta_rad"])
         base = {a.name: a for a in la.exercise2(folder, guess)}["ex2_bias"]
@@ -307,12 +307,14 @@ print("NEW", sorted(specializations() - before))
 """
 
 
-def test_lab_check_compiles_every_kernel_the_notebooks_drive_cell_runs(tmp_path: Path) -> None:
+def test_lab_check_compiles_every_kernel_the_notebooks_drive_cell_runs(
+    tmp_path: Path, lab_class: Path
+) -> None:
     """After `lab check`, the student notebook's cells through its drive cell, run on a group's data, add
     no numba specialization: a new one would be compiled in class. (The kalman's run_imm was, once more,
     for the strided columns np.genfromtxt gives: the check now reads a CSV as the notebook does, and the
     estimators take their input contiguous.)"""
-    with zipfile.ZipFile(made_class() / "group_01.zip") as zf:
+    with zipfile.ZipFile(lab_class / "group_01.zip") as zf:
         zf.extractall(tmp_path)
     nb = json.loads((ROOT / "docs" / "lab" / "student.ipynb").read_text(encoding="utf-8"))
     code = ["".join(c["source"]) for c in nb["cells"] if c["cell_type"] == "code"]

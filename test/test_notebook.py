@@ -18,7 +18,7 @@ from nbformat import NotebookNode
 from lab_teacher.classdata import group_names
 from lab_teacher.key import GRADE_SIGMAS, SIGMA_FACTOR, parse_key, parse_readings
 from test.figures import half_unit
-from test.lab_class import GROUPS, made_class
+from test.lab_class import GROUPS
 
 ROOT = Path(__file__).resolve().parent.parent
 SOLUTION = ROOT / "lab_teacher" / "solution.ipynb"
@@ -55,14 +55,14 @@ def test_notebook_is_stored_without_outputs(path: Path) -> None:
 
 @pytest.mark.parametrize("group", group_names(SOLUTION_GROUPS))
 def test_solution_on_each_groups_folder_matches_the_key_within_its_sigma(
-    group: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    group: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, lab_class: Path
 ) -> None:
     """The solution reads the group's folder alone (LAB_GROUP) and prints every graded answer of the key's
     table, each within the key's σ of it (both are measured by lab_teacher.answers from the same files:
     they differ only by the key's rounding, ≤ σ/20, and floating-point rounding, ≪ σ), and every value the
     key lists ungraded, the same number as printed to READING_DIGITS (both printed values within half a
     unit of their last digit: test.figures.half_unit)."""
-    out = made_class()
+    out = lab_class
     monkeypatch.setenv("LAB_GROUP", str(out / group / "data"))
     monkeypatch.setenv("LAB_TEACHER_ROOT", str(ROOT))
     text = _text(_execute(nbformat.read(SOLUTION, as_version=4), tmp_path).cells)
@@ -80,16 +80,16 @@ def test_solution_on_each_groups_folder_matches_the_key_within_its_sigma(
         assert abs(float(shown) - value) <= half_unit(shown) + half_unit(f"{value:g}"), (name, shown, value)
 
 
-def _handout(group: str, tmp_path: Path) -> Path:
+def _handout(lab_class: Path, group: str, tmp_path: Path) -> Path:
     """The group's folder as a student unzips it from the group's zip."""
-    with zipfile.ZipFile(made_class() / f"{group}.zip") as zf:
+    with zipfile.ZipFile(lab_class / f"{group}.zip") as zf:
         zf.extractall(tmp_path)
     return tmp_path / group
 
 
-def test_student_notebook_runs_with_its_blanks_and_shows_no_answers(tmp_path: Path) -> None:
+def test_student_notebook_runs_with_its_blanks_and_shows_no_answers(tmp_path: Path, lab_class: Path) -> None:
     """From the group's handout alone: the blanks print reminders, not numbers, and nothing is an answer."""
-    folder = _handout("group_01", tmp_path)
+    folder = _handout(lab_class, "group_01", tmp_path)
     text = _text(_execute(nbformat.read(folder / "student.ipynb", as_version=4), folder).cells)
     assert not ANSWER_LINE.search(text) and not PRINTED.search(text)
     for label in GRADED:
@@ -205,10 +205,10 @@ def _filled() -> NotebookNode:
     return nb
 
 
-def test_the_key_grades_exactly_the_worksheets_and_notebooks_blanks() -> None:
+def test_the_key_grades_exactly_the_worksheets_and_notebooks_blanks(lab_class: Path) -> None:
     """Every group's key grades the answers the notebook prints as value ± σ, no other; as many as the
     worksheet has value ± σ blanks ('____ ± ____'); and lists the same ungraded values for every group."""
-    text = (made_class() / "teacher_key.md").read_text(encoding="utf-8")
+    text = (lab_class / "teacher_key.md").read_text(encoding="utf-8")
     key, readings = parse_key(text), parse_readings(text)
     blanks = re.findall(r"_{4,} ± _{4,}", WORKSHEET.read_text(encoding="utf-8"))
     assert len(key) == GROUPS
@@ -218,7 +218,7 @@ def test_the_key_grades_exactly_the_worksheets_and_notebooks_blanks() -> None:
     assert len(blanks) == len(GRADED)
 
 
-def test_filled_student_notebook_is_graded_right_for_every_group(tmp_path: Path) -> None:
+def test_filled_student_notebook_is_graded_right_for_every_group(tmp_path: Path, lab_class: Path) -> None:
     """The notebook filled in as its instructions say, run from each group's unzipped handout (one kernel,
     the filled cells once per group after a chdir into its folder): every graded answer passes the key's
     rule, within GRADE_SIGMAS of its own printed σ of the key, its σ within SIGMA_FACTOR of the key's.
@@ -229,12 +229,12 @@ def test_filled_student_notebook_is_graded_right_for_every_group(tmp_path: Path)
     nb = nbformat.v4.new_notebook(metadata=copy.deepcopy(nbformat.read(STUDENT, as_version=4).metadata))
     spans = {}
     for group in group_names(GROUPS):
-        folder = _handout(group, tmp_path)
+        folder = _handout(lab_class, group, tmp_path)
         nb.cells.append(nbformat.v4.new_code_cell(f"import os\n\nos.chdir({str(folder)!r})"))
         spans[group] = (len(nb.cells), len(nb.cells) + len(filled))
         nb.cells.extend(copy.deepcopy(filled))
     _execute(nb, tmp_path)
-    key = parse_key((made_class() / "teacher_key.md").read_text(encoding="utf-8"))
+    key = parse_key((lab_class / "teacher_key.md").read_text(encoding="utf-8"))
     for group, (first, last) in spans.items():
         text = _text(nb.cells[first:last])
         assert "(blank: fill in)" not in text and f"{group}:" in text, group
