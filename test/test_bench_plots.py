@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks import allan_recovery, bags, chain, report, soak, teardown
+from benchmarks import allan_recovery, bags, chain, fleet, report, soak, teardown
 
 BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -94,3 +94,19 @@ def test_allan_recovery_refuses_a_record_too_short_in_one_line(capsys: pytest.Ca
     assert stop.value.code == 2
     errors = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
     assert len(errors) == 1 and "at least 100 samples" in errors[0], errors
+
+
+def test_fleet_prediction_names_the_first_limit_from_the_measured_figures() -> None:
+    """benchmarks.fleet's 10-node paragraph from made-up figures: 100 bags, 0.5 s each serially, the 1-worker
+    cluster 0.01 s a bag dearer, 2 workers at 90 % efficiency: 20 workers give 20 · 0.9 / 0.5 = 36 bags/s,
+    under the scheduler's cap of 1/0.01 = 100 bags/s and the links' 10 · 125 / 2 = 625 bags/s."""
+    one = fleet.ClusterRun(1, 1.0, 51.0, (300.0,))
+    many = fleet.ClusterRun(2, 1.5, 100 * 0.5 / (2 * 0.9), (300.0, 310.0))
+    text = fleet.prediction(100, 50.0, one, many, bag_mb=2.0)
+    rate = float(text.split("about **")[1].split(" bags/s")[0])
+    assert rate == pytest.approx(36.0, abs=0.5)  # printed to the unit
+    assert "20 workers at the 90% efficiency" in text
+    slow_scheduler = fleet.ClusterRun(1, 1.0, 50.0 + 100 * 0.1, (300.0,))  # 0.1 s a bag: cap 10 bags/s
+    text = fleet.prediction(100, 50.0, slow_scheduler, many, bag_mb=2.0)
+    assert float(text.split("about **")[1].split(" bags/s")[0]) == pytest.approx(10.0, abs=0.5)
+    assert "the scheduler" in text.split("The first limit is")[1]
