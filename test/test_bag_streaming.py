@@ -18,7 +18,8 @@ import pytest
 
 from pendulum_accel.bag import export as bag_export
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.reader import Bag, _Lazy, read_bag
+from pendulum_accel.bag.blocks import Lazy
+from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.cli import info
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.errors import BagError
@@ -59,7 +60,7 @@ def _same_bag(streamed: Bag, held: Bag) -> None:
 def test_streamed_bag_equals_the_bag_held_whole(chain_bag: Path) -> None:
     """Topics, counts, spans, shapes, payloads and columns: equal; and the bag really spans many chunks."""
     streamed = read_bag(chain_bag)
-    chunks = {b.ref.at for ch in streamed._channels.values() for b in ch.blocks if isinstance(b, _Lazy)}
+    chunks = {b.ref.at for ch in streamed._channels.values() for b in ch.blocks if isinstance(b, Lazy)}
     assert len(chunks) > 10
     _same_bag(streamed, read_bag(chain_bag, stream=False))
 
