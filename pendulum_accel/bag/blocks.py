@@ -1,11 +1,10 @@
 """Where a bag's messages are held between the scan and a read: blocks, per channel, in file order.
 
-A block holds messages in memory: (log times, payloads), the payloads as (n, size) rows, as equal-size
-slices left in their verified chunk (``Slices``: copied out only when their topic is read), or as a
-list of bytes. A chunk's messages left in the file are a ``Lazy`` entry instead: the chunk's place and
-CRC (``ChunkRef``), the channel's message count and log time span there; a read takes them again from
-the file. ``ChannelData`` keeps one MCAP channel's blocks in file order and whether its log times ever
-go back.
+A block holds messages in memory: (log times, payloads), the payloads as slices left in their verified
+chunk (``Slices``: copied out only when their topic is read) or as a list of bytes. A chunk's messages
+left in the file are a ``Lazy`` entry instead: the chunk's place and CRC (``ChunkRef``), the channel's
+message count and log time span there; a read takes them again from the file. ``ChannelData`` keeps
+one MCAP channel's blocks in file order and whether its log times ever go back.
 """
 
 from __future__ import annotations
@@ -13,65 +12,82 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
-from pendulum_accel.bag.records import gather
+
+def gather(arr: NDArray[np.uint8], starts: NDArray[np.int64], width: int) -> NDArray[np.uint8]:
+    """(n, width) bytes arr[s : s + width] for each start s."""
+    # Copying whole rows of a window view beats an element-wise index (2x at 12 bytes, 25x at 364).
+    rows: NDArray[np.uint8] = sliding_window_view(arr, width)[starts]
+    return rows
 
 
 @dataclass(frozen=True)
 class Slices:
-    """Equal-size payloads left in their verified chunk: ``data[s : s + size]`` for each start s.
+    """Payloads left in their verified chunk: ``data[s : s + z]`` for each start s and size z, in order.
 
-    Copied out into (n, size) rows only when their topic is asked for: a topic nobody reads costs no copy.
+    Copied out only when their topic is asked for: a topic nobody reads costs no copy.
     """
 
     data: NDArray[np.uint8]
     starts: NDArray[np.int64]
-    size: int
+    sizes: NDArray[np.int64]
 
-    @property
-    def shape(self) -> tuple[int, int]:
-        """(n, size), the shape of ``rows()``."""
-        return (int(self.starts.size), self.size)
+    def groups(self) -> list[tuple[NDArray[np.int64], NDArray[np.uint8]]]:
+        """(indices, (n, size) rows) of the payloads of each size, sizes ascending."""
+        if not self.starts.size:
+            return []
+        first = int(self.sizes[0])
+        if bool(np.all(self.sizes == first)):
+            return [(np.arange(self.starts.size), gather(self.data, self.starts, first))]
+        out = []
+        for size in np.unique(self.sizes).tolist():
+            sel = np.flatnonzero(self.sizes == size)
+            out.append((sel, gather(self.data, self.starts[sel], size)))
+        return out
 
-    def rows(self) -> NDArray[np.uint8]:
-        """(n, size) rows, one per payload."""
-        return gather(self.data, self.starts, self.size)
+    def payloads(self) -> list[bytes]:
+        """Each payload as bytes, in order."""
+        data = self.data
+        return [
+            data[s : s + z].tobytes() for s, z in zip(self.starts.tolist(), self.sizes.tolist(), strict=True)
+        ]
 
 
-Payloads = NDArray[np.uint8] | Slices | list[bytes]
+Payloads = Slices | list[bytes]
 Block = tuple[NDArray[np.int64], Payloads]
-"""Messages in file order: (log times, payloads as (n, size) rows, slices of a chunk, or a list of bytes)."""
+"""Messages in file order: (log times, payloads as slices of a chunk or a list of bytes)."""
 
 
 def first_payload(data: Payloads) -> bytes | None:
     """A block's first payload (None when it holds none), without copying the others out."""
     if isinstance(data, Slices):
-        start = int(data.starts[0]) if data.starts.size else None
-        return None if start is None else data.data[start : start + data.size].tobytes()
-    if isinstance(data, np.ndarray):
-        return data[0].tobytes() if data.shape[0] else None
+        if not data.starts.size:
+            return None
+        start = int(data.starts[0])
+        return data.data[start : start + int(data.sizes[0])].tobytes()
     return data[0] if data else None
 
 
 def block_payloads(data: Payloads) -> list[bytes]:
     """A block's payloads as bytes, one per message, in order."""
-    if isinstance(data, Slices):
-        data = data.rows()
-    return [row.tobytes() for row in data] if isinstance(data, np.ndarray) else data
+    return data.payloads() if isinstance(data, Slices) else data
 
 
 @dataclass(frozen=True)
 class ChunkRef:
     """Where an intact chunk lies: in the bag's file number ``part``, its Chunk record at file offset ``at``
     (body ``length`` bytes), the (offset, body length) of the MessageIndex records read with it, and the
-    CRC-32 of those bodies, in that order, as the scan read and verified them."""
+    CRC-32 of those bodies, in that order, as the scan read and verified them; ``indexed``: the scan found
+    every message record of the chunk through those indexes (Scanner.chunk)."""
 
     part: int
     at: int
     length: int
     indexes: tuple[tuple[int, int], ...]
     crc: int
+    indexed: bool = False
 
 
 @dataclass(frozen=True)

@@ -36,12 +36,13 @@ from mcap.records import Header
 from numpy.typing import NDArray
 
 from pendulum_accel.bag.blocks import Block, ChannelData, ChunkRef, Lazy, block_payloads, first_payload
+from pendulum_accel.bag.chunks import ChunkReader, Part
 from pendulum_accel.bag.integrity import ChunkDamage, chunk_head
 from pendulum_accel.bag.locate import locate
 from pendulum_accel.bag.messages import TopicChoice, chain_topic, find_topic, stored_roles
 from pendulum_accel.bag.metadata import listed_custom_data
 from pendulum_accel.bag.records import RECORD_ERRORS, decompress, message_index
-from pendulum_accel.bag.scan import Part, Scanner
+from pendulum_accel.bag.scan import Scanner
 from pendulum_accel.bag.shapes import Classified, ShapeBook, TopicArrays, classify, decode_block, joined
 from pendulum_accel.errors import BagError
 
@@ -199,24 +200,29 @@ class Bag:
         """The messages of channels ``want`` in one intact chunk, read again from the file; BagError when
         the bytes read are not those the scan verified (the file changed since it was read)."""
         part = self._parts[ref.part]
-        body = part.file.read(ref.at + 9, ref.at + 9 + ref.length)
+        spans = [(ref.at + 9, ref.at + 9 + ref.length), *((at + 9, at + 9 + n) for at, n in ref.indexes)]
+        low, high = min(a for a, _ in spans), max(b for _, b in spans)
+        if high - low <= sum(b - a + 9 for a, b in spans):
+            # The chunk and its message indexes follow each other (as MCAP writers lay them): one read.
+            whole = memoryview(part.file.read(low, high))
+            body, *bodies = [whole[a - low : b - low] for a, b in spans]
+        else:
+            body, *bodies = [memoryview(part.file.read(a, b)) for a, b in spans]
         crc = zlib.crc32(body)
-        bodies = []
-        for offset, length in ref.indexes:
-            bodies.append(part.file.read(offset + 9, offset + 9 + length))
-            crc = zlib.crc32(bodies[-1], crc)
+        for index_body in bodies:
+            crc = zlib.crc32(index_body, crc)
         head = chunk_head(body) if len(body) == ref.length and crc == ref.crc else None
         if head is None:
             raise BagError(
                 f"{part.path} changed since it was read (chunk at byte {ref.at} differs): read it again"
             )
-        indexes = [i for i in (message_index(memoryview(b)) for b in bodies) if i is not None]
-        scanner = Scanner(self, part)
-        scanner.sink, scanner.only = {}, want
+        indexes = [i for i in (message_index(b) for b in bodies) if i is not None]
+        reader = ChunkReader(self, part)
+        reader.sink, reader.only = {}, want
         # The same bytes as the scan's: the records that preceded an error there precede it here.
         with contextlib.suppress(*RECORD_ERRORS):
-            scanner.chunk(decompress(head, memoryview(body)[head.records_at :]), indexes)
-        return scanner.sink
+            reader.chunk(decompress(head, body[head.records_at :]), indexes, indexed=ref.indexed)
+        return reader.sink
 
     def _cids(self, topics: Sequence[str]) -> frozenset[int]:
         """Ids of the channels of ``topics``."""

@@ -3,9 +3,9 @@
 The schemas and channels the file's summary repeats are registered first (when the footer and the
 summary's CRC hold: a writer may put a channel's only other record inside a chunk, which damage can
 take). Then every top-level record is framed (opcode, length) and checked against the file size;
-Header, Schema, Channel, Chunk and Metadata records are parsed by the ``mcap`` library; inside a
-chunk, each message record's channel, log time and payload slice are taken with one
-``struct.unpack_from``, or in bulk where the chunk's message indexes tile its records. Every chunk's
+Header, Schema, Channel, Chunk and Metadata records are parsed by the ``mcap`` library; a chunk's
+records go to the bag's channels through ``bag.chunks`` (in bulk where its message indexes agree with
+them), the small records between chunks come from one read (``records.ReadAhead``). Every chunk's
 CRC and the data section CRC are verified (``bag.integrity``). A chunk whose data is damaged (CRC
 mismatch, does not inflate, cut off by the end of the file) is listed in ``bag.damage`` and only its
 intact message records are kept (``integrity.recover_messages``); the scan goes on with the next
@@ -16,8 +16,9 @@ chunk index of the MCAP summary when the file still has its footer. A file whose
 
 Streaming (``Scanner(stream=True)``, what ``read_bag`` does by default), an intact chunk's messages stay
 in the file: each channel gets a ``blocks.Lazy`` entry (the chunk's place and CRC, the channel's count
-and log time span there), and ``Bag`` reads the chunk again when a topic in it is asked for, through a
-Scanner that takes only the channels wanted (``only``) into ``sink``.
+and log time span there, and whether its message indexes found every message), and ``Bag`` reads the
+chunk again when a topic in it is asked for, through a ``chunks.ChunkReader`` that takes only the
+channels wanted.
 """
 
 from __future__ import annotations
@@ -27,17 +28,17 @@ import dataclasses
 import struct
 import zlib
 from io import BytesIO
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import Channel, ChunkIndex, Footer, Metadata, Schema
+from mcap.records import ChunkIndex, Metadata
 from numpy.typing import NDArray
 
-from pendulum_accel.bag.blocks import ChannelData, ChunkRef, Lazy, Slices, first_payload
+from pendulum_accel.bag.blocks import ChunkRef, Lazy, first_payload
+from pendulum_accel.bag.chunks import CUT_OFF, ChunkReader, Part
 from pendulum_accel.bag.integrity import (
     ChunkDamage,
     ChunkHead,
@@ -50,42 +51,18 @@ from pendulum_accel.bag.integrity import (
 from pendulum_accel.bag.mcap_file import MAGIC
 from pendulum_accel.bag.metadata import load_yaml
 from pendulum_accel.bag.records import (
-    MESSAGE_DATA_OFFSET,
-    MESSAGE_HEAD,
     OPCODES,
     RECORD_ERRORS,
     RECORD_HEAD,
-    OpenFile,
+    ReadAhead,
     decompress,
     message_index,
-    unaligned,
+    summary_span,
 )
 from pendulum_accel.errors import BagError
 
 if TYPE_CHECKING:
     from pendulum_accel.bag.reader import Bag
-
-
-CUT_OFF = "cut off before its footer"
-FRAMING_BROKEN = "record framing broken"
-
-
-class Part:
-    """One MCAP file of a bag (a split recording has several, in recording order): its path, the open
-    file, its schemas by id, and its channel ids mapped to the bag's (``cids``). A later file's channel
-    of the same topic, type and encoding joins the earlier file's, so a topic stays one channel, in
-    log-time order, across the files; an id of its own is ``part << 16 | id`` (MCAP ids are 16-bit)."""
-
-    def __init__(self, index: int, path: Path) -> None:
-        """File number ``index`` of the bag, at ``path``; OSError when it cannot be opened."""
-        self.index, self.path = index, path
-        self.file = OpenFile(path)
-        self.schemas: dict[int, Schema] = {}
-        self.cids: dict[int, int] = {}
-        self.complete = False
-        """The scan read this file to its footer."""
-        self.ending = FRAMING_BROKEN
-        """Why the scan stopped before the footer (when not ``complete``)."""
 
 
 class _RefBuilder:
@@ -101,26 +78,19 @@ class _RefBuilder:
         self.indexes.append((at, len(body)))
         self.crc = zlib.crc32(body, self.crc)
 
-    def ref(self) -> ChunkRef:
-        """The finished reference."""
-        return ChunkRef(self.part, self.at, self.length, tuple(self.indexes), self.crc)
+    def ref(self, indexed: bool) -> ChunkRef:
+        """The finished reference; ``indexed``: the scan read the chunk by its message indexes alone."""
+        return ChunkRef(self.part, self.at, self.length, tuple(self.indexes), self.crc, indexed)
 
 
-class Scanner:
+class Scanner(ChunkReader):
     """Front-to-back MCAP scan that records schemas, channels and messages into a Bag."""
 
     def __init__(self, bag: Bag, part: Part, *, stream: bool = False) -> None:
         """Scan state for ``bag``'s file ``part``; ``stream``: leave intact chunks' messages in it."""
-        self.bag = bag
-        self.part = part
-        self.schemas = part.schemas
-        self.cids = part.cids
+        super().__init__(bag, part)
         self.file = part.file
-        self.path = part.path
         self.stream = stream
-        # Where a chunk's messages go while it is read to be left in the file (None: into the bag).
-        self.sink: dict[int, ChannelData] | None = None
-        self.only: frozenset[int] | None = None  # reading a chunk again: the channels wanted from it
         self.pending: tuple[bytes | memoryview, list[tuple[int, NDArray[np.uint64]]]] | None = None
         self.pending_at = 0  # file offset of the pending chunk
         self.pending_ref: _RefBuilder | None = None  # where the pending chunk lies, when it is intact
@@ -138,131 +108,6 @@ class Scanner:
         if len(self.bag.mcap_paths) > 1:
             damage = dataclasses.replace(damage, file=self.path.name)
         self.bag.damage.append(damage)
-
-    def schema(self, body: memoryview) -> None:
-        """Register a Schema record."""
-        rec = Schema.read(ReadDataStream(BytesIO(body)))
-        self.schemas[rec.id] = rec
-
-    def channel(self, body: memoryview) -> None:
-        """Register a Channel record (its schema names the message type)."""
-        rec = Channel.read(ReadDataStream(BytesIO(body)))
-        schema = self.schemas.get(rec.schema_id)
-        if rec.schema_id != 0 and schema is None:
-            raise ValueError(f"channel {rec.id} ({rec.topic}) refers to unknown schema {rec.schema_id}")
-        msgtype = schema.name if schema is not None else ""
-        qos = rec.metadata.get("offered_qos_profiles", "")
-        if rec.id in self.cids:
-            return
-        channels = self.bag._channels
-        taken = set(self.cids.values())
-        joined = [
-            cid
-            for cid, ch in channels.items()
-            if self.part.index
-            and cid not in taken
-            and (ch.topic, ch.msgtype, ch.encoding) == (rec.topic, msgtype, rec.message_encoding)
-        ]
-        cid = joined[0] if joined else (self.part.index << 16) | rec.id
-        self.cids[rec.id] = cid
-        if cid not in channels:
-            channels[cid] = ChannelData(rec.topic, msgtype, rec.message_encoding, qos)
-
-    def _target(self, local: int) -> ChannelData | None:
-        """Where this file's channel ``local``'s messages go: the bag's channel, or the sink's; None for
-        an unknown one."""
-        cid = self.cids.get(local)
-        ch = None if cid is None else self.bag._channels.get(cid)
-        if ch is None or cid is None or self.sink is None:
-            return ch
-        got = self.sink.get(cid)
-        if got is None:
-            got = self.sink[cid] = ChannelData(ch.topic, ch.msgtype, ch.encoding, ch.qos, track=False)
-        return got
-
-    def walk(self, data: bytes | memoryview, start: int, stop: int) -> None:
-        """Walk the records of data[start:stop] (inside one chunk); ValueError at the first malformed one."""
-        view = memoryview(data)
-        pos = start
-        unpack_message = MESSAGE_HEAD.unpack_from
-        while pos < stop:
-            if pos + 9 > stop:
-                raise ValueError(f"record header cut off at chunk byte {pos}")
-            op, length = RECORD_HEAD.unpack_from(data, pos)
-            end = pos + 9 + length
-            if end > stop:
-                raise ValueError(f"record at chunk byte {pos} overruns its chunk")
-            if op == Opcode.MESSAGE:
-                if length < 22:
-                    raise ValueError(f"message record at chunk byte {pos} is too short")
-                _, _, cid, _, log_time = unpack_message(data, pos)
-                ch = self._target(cid)
-                if ch is None:
-                    raise ValueError(f"message at chunk byte {pos} on unknown channel {cid}")
-                ch.times.append(log_time)
-                ch.payloads.append(bytes(data[pos + MESSAGE_DATA_OFFSET : end]))
-            elif op == Opcode.SCHEMA:
-                self.schema(view[pos + 9 : end])
-            elif op == Opcode.CHANNEL:
-                self.channel(view[pos + 9 : end])
-            else:
-                raise ValueError(f"opcode 0x{op:02x} at chunk byte {pos} does not belong in a chunk")
-            pos = end
-
-    def chunk(self, data: bytes | memoryview, indexes: list[tuple[int, NDArray[np.uint64]]]) -> None:
-        """Read one uncompressed chunk, in bulk where its message index tiles it, by walking elsewhere.
-
-        The index offsets are checked against the records themselves (opcode, channel, lengths,
-        no overlap); the gaps between indexed messages (schemas, channels, unindexed messages)
-        are walked. Anything inconsistent falls back to walking the whole chunk.
-        """
-        end = len(data)
-        if not indexes:
-            self.walk(data, 0, end)
-            return
-        offs = np.concatenate([e[:, 1] for _, e in indexes]).astype(np.int64)
-        cids = np.concatenate([np.full(e.shape[0], cid, dtype=np.int64) for cid, e in indexes])
-        order = np.argsort(offs, kind="stable")
-        offs, cids = offs[order], cids[order]
-        arr = np.frombuffer(data, dtype=np.uint8)
-        if offs.size == 0 or offs[0] < 0 or offs[-1] + MESSAGE_DATA_OFFSET > end:
-            self.walk(data, 0, end)
-            return
-        lengths = unaligned(data, "<u8")[offs + 1].astype(np.int64)
-        rec_cids = unaligned(data, "<u2")[offs + 9].astype(np.int64)
-        ends = offs + 9 + lengths
-        if (
-            np.any(arr[offs] != Opcode.MESSAGE)
-            or np.any(rec_cids != cids)
-            or np.any(lengths < 22)
-            or np.any(ends[:-1] > offs[1:])
-            or ends[-1] > end
-        ):
-            self.walk(data, 0, end)
-            return
-        gap_starts = np.concatenate(([0], ends))
-        gap_stops = np.concatenate((offs, [end]))
-        for g in np.flatnonzero(gap_stops > gap_starts).tolist():
-            self.walk(data, int(gap_starts[g]), int(gap_stops[g]))
-        log_times = unaligned(data, "<u8")[offs + 15].astype(np.int64)
-        for cid in sorted({cid for cid, _ in indexes}):
-            ch = self._target(cid)
-            if ch is None:
-                raise ValueError(f"message index refers to unknown channel {cid}")
-            if self.only is not None and self.cids.get(cid) not in self.only:
-                continue
-            sel = np.flatnonzero(cids == cid)
-            if sel.size == 0:
-                continue
-            sizes = lengths[sel] - 22
-            starts = offs[sel] + MESSAGE_DATA_OFFSET
-            if np.all(sizes == sizes[0]):
-                ch.add_block(log_times[sel], Slices(arr, starts, int(sizes[0])))
-            else:
-                ch.add_block(
-                    log_times[sel],
-                    [bytes(data[a : a + z]) for a, z in zip(starts.tolist(), sizes.tolist(), strict=True)],
-                )
 
     def scan(self) -> None:
         """Read every top-level record, skipping damaged chunks; then indexed chunks past broken framing."""
@@ -306,16 +151,18 @@ class Scanner:
         if damage is not None and head is not None:
             self._recover(bytes(data), indexes, number, head, damage)
             return
-        ref = builder.ref() if builder is not None and self.stream else None
-        if ref is not None:
+        tally = builder is not None and self.stream
+        if tally:
             self.sink = {}
+        indexed = False
         try:
-            self.chunk(data, indexes)
+            indexed = self.chunk(data, indexes)
         except RECORD_ERRORS as err:
             start, end = (head.start_ns, head.end_ns) if head is not None else (0, 0)
             self._damaged(ChunkDamage(number, start, end, f"malformed records ({err})"))
         finally:
-            if ref is not None and self.sink is not None:
+            if builder is not None and tally and self.sink is not None:
+                ref = builder.ref(indexed)
                 sink, self.sink = self.sink, None
                 for cid, got in sink.items():
                     got.seal()
@@ -417,7 +264,7 @@ class Scanner:
         """The record loop of scan(); the offset where the framing broke, None when it held to the end."""
         bag = self.bag
         assert self.file is not None, "a scan reads a file"
-        read, size = self.file.read, self.file.size
+        read, size = ReadAhead(self.file).read, self.file.size
         magic = read(0, len(MAGIC))
         if magic != MAGIC:
             what = "empty" if size == 0 else "not an MCAP file (bad magic bytes)"
@@ -510,7 +357,7 @@ class Scanner:
         damaged, every later message of the channel would name an unknown channel and its chunks would
         be lost with it; the summary repeats every schema and channel, so they are known before any
         chunk is read. A file without a usable summary (a killed recorder) is scanned as before."""
-        span = self._summary_span(len(MAGIC))
+        span = summary_span(self.file, len(MAGIC))
         if span is None:
             return
         start, tail, crc = span
@@ -522,23 +369,6 @@ class Scanner:
         except RECORD_ERRORS:
             return
 
-    def _summary_span(self, after: int) -> tuple[int, int, int] | None:
-        """(summary start, footer offset, summary CRC) from the file's footer, when the file ends in its
-        footer and magic and the summary starts past byte ``after``; None otherwise."""
-        size = self.file.size
-        tail = size - len(MAGIC) - 9 - 20
-        if tail <= after:
-            return None
-        end = self.file.read(tail, size)
-        if end[-len(MAGIC) :] != MAGIC or end[0] != Opcode.FOOTER:
-            return None
-        try:
-            footer = Footer.read(ReadDataStream(BytesIO(end[9:29])))
-        except RECORD_ERRORS:
-            return None
-        start = int(footer.summary_start)
-        return (start, tail, int(footer.summary_crc)) if after < start <= tail else None
-
     def _indexed_chunks(self, broken_at: int) -> int:
         """Read the chunks the summary's chunk index places past ``broken_at``; how many were read.
 
@@ -547,7 +377,7 @@ class Scanner:
         skipped and noted. Nothing happens without a usable summary (a killed recorder writes none).
         """
         read = self.file.read
-        span = self._summary_span(broken_at)
+        span = summary_span(self.file, broken_at)
         if span is None:
             return 0
         start, tail, _ = span

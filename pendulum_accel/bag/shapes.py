@@ -82,11 +82,9 @@ Classified = list[tuple[Shape, NDArray[np.int64], NDArray[np.uint8]]]
 
 
 def _size_groups(payloads: Payloads) -> list[tuple[NDArray[np.int64], NDArray[np.uint8]]]:
-    """(indices within the block, (n, size) rows), one group per payload size."""
+    """(indices within the block, (n, size) rows), one group per payload size, sizes ascending."""
     if isinstance(payloads, Slices):
-        payloads = payloads.rows()
-    if isinstance(payloads, np.ndarray):
-        return [(np.arange(payloads.shape[0]), payloads)]
+        return payloads.groups()
     lengths = np.fromiter(map(len, payloads), dtype=np.int64, count=len(payloads))
     groups = []
     for size in np.unique(lengths).tolist():
