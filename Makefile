@@ -25,7 +25,7 @@ endif
 
 setup: $(STAMP)
 
-$(STAMP): requirements-dev.txt requirements-docs.txt requirements-ros.txt setup.py setup.cfg package.xml Makefile
+$(STAMP): requirements.txt requirements-dev.txt requirements-docs.txt requirements-ros.txt setup.py setup.cfg package.xml Makefile
 	@if [ ! -x $(BIN)/python ]; then \
 	  $(PYTHON) -m venv $(VENV_FLAGS) $(VENV) 2>/dev/null || { \
 	    echo "python3 -m venv failed; installing Debian's python3-venv"; \
