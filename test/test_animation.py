@@ -128,6 +128,7 @@ def test_a_bag_animates_from_its_recorded_angles(tmp_path: Path) -> None:
         assert img.size == (WIDTH, HEIGHT) and getattr(img, "n_frames", 1) == 3
 
 
+@pytest.mark.slow
 def test_a_bag_without_truth_or_scene_animates_with_its_length_given(tmp_path: Path) -> None:
     """A real sensor's bag (no truth, no scene): refused in one line naming --length without it; with it,
     the GIF comes out, the readout has no true a, and the frames carry the estimate only. --length with a

@@ -13,6 +13,7 @@ import pytest
 from benchmarks import heldout
 
 
+@pytest.mark.slow
 def test_heldout_page_has_a_row_per_design_and_a_verdict_from_its_figures(tmp_path: Path) -> None:
     t = np.arange(0.0, 41.0)
     v = np.clip(np.minimum(t, 40.0 - t) * 1.2, 0.0, None)  # a 1.2 m/s² pull-away and a stop, peak 24 m/s

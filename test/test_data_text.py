@@ -127,6 +127,7 @@ def test_a_data_file_past_its_bound_is_refused_before_it_is_read(tmp_path: Path)
     assert float(words[1]) == pytest.approx(1.0, abs=0.5) and float(words[2]) == 0.5
 
 
+@pytest.mark.slow
 def test_a_log_larger_than_a_scene_file_may_be_is_read(tmp_path: Path) -> None:
     """An hour of a phone's 400 Hz accelerometer in phyphox's layout is about 85 MiB, past the 64 MiB that
     bounds a scene file (read whole); a data file is streamed and reads. The values are copied from the

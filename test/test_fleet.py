@@ -166,6 +166,7 @@ def test_a_bag_without_truth_is_a_row_of_its_own_figures(corpus: Path, tmp_path:
     assert isinstance(row["estimate_mean"], float) and row["sigma_median"] > 0.0
 
 
+@pytest.mark.slow
 def test_one_sensors_recordings_without_a_scene_take_its_length(tmp_path: Path) -> None:
     """Two recordings of one real sensor (no truth, no scene): without --length each row says what to
     give; with it, every bag is re-run with that length, and its row is the single-bag report's."""
@@ -202,6 +203,7 @@ def test_local_cluster_gives_the_serial_table(corpus: Path) -> None:
     assert local == serial
 
 
+@pytest.mark.slow
 def test_cli_writes_parquet_and_csv_and_refuses_single_bag_options(corpus: Path, tmp_path: Path) -> None:
     """--out TABLE.parquet / .csv hold the same rows; exit 1 says some bags gave error rows; --plot is
     refused for a fleet in one line, before any work."""

@@ -205,6 +205,7 @@ def test_ctrl_c_stops_a_compiled_run_within_a_second() -> None:
 
 
 @pytest.mark.parametrize("after", [12.0, 45.0])  # simulating the static run; estimating on it
+@pytest.mark.slow
 def test_ctrl_c_stops_a_long_allan_within_a_second(tmp_path: Path, after: float) -> None:
     """allan on 4e7 samples (400000 s at 100 Hz): minutes of numpy and compiled work. The main thread
     waits for the work in 50 ms slices (allan.interruptible) and the compiled batch kernels leave the

@@ -50,6 +50,7 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     return root / "chain", _renamed(root / "chain", root / "fleet" / "sensor", [JOINT])
 
 
+@pytest.mark.slow
 def test_analyze_reads_a_named_joint_as_the_pendulum(bags: tuple[Path, Path]) -> None:
     chain, sensor = bags
     refused = cli("analyze", str(sensor))
@@ -69,6 +70,7 @@ def test_analyze_reads_a_named_joint_as_the_pendulum(bags: tuple[Path, Path]) ->
         assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
 
 
+@pytest.mark.slow
 def test_the_named_joint_is_read_at_its_place_among_a_robots_joints(
     bags: tuple[Path, Path], tmp_path: Path
 ) -> None:
@@ -108,6 +110,7 @@ def _alternated(first: Path, second: Path, out: Path) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_a_sensor_stamping_its_own_frame_is_read_with_joint_frame(
     bags: tuple[Path, Path], tmp_path: Path
 ) -> None:
@@ -137,6 +140,7 @@ def test_an_empty_joint_name_is_refused(bags: tuple[Path, Path]) -> None:
     assert refused.returncode == 2 and "--joint must name the pendulum's joint" in refused.stderr
 
 
+@pytest.mark.slow
 def test_a_fleet_table_applies_joint_topic_and_namespace_to_every_bag(bags: tuple[Path, Path]) -> None:
     chain, sensor = bags
     fleet = sensor.parent
