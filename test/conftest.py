@@ -227,7 +227,8 @@ def _shares_per_module(item: pytest.Item) -> bool:
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Group the tests of modules that share per-process work (xdist_group), then order the units longest
     first (stable: a unit's tests keep their order)."""
-    known: dict[str, float] = config.cache.get(DURATIONS_KEY, {}) if config.cache else {}
+    cache = getattr(config, "cache", None)  # None with -p no:cacheprovider
+    known: dict[str, float] = cache.get(DURATIONS_KEY, {}) if cache is not None else {}
     unit_of: dict[str, str] = {}
     for item in items:
         path = item.nodeid.split("::", 1)[0]
@@ -256,7 +257,7 @@ def pytest_runtest_logreport(report: pytest.TestReport) -> None:
 
 def pytest_sessionfinish(session: pytest.Session) -> None:
     """Keep this run's durations for the next run's order (the controller's, or a run without xdist)."""
-    if "PYTEST_XDIST_WORKER" in os.environ or session.config.cache is None or not _durations:
+    cache = getattr(session.config, "cache", None)  # None with -p no:cacheprovider
+    if "PYTEST_XDIST_WORKER" in os.environ or cache is None or not _durations:
         return
-    known = session.config.cache.get(DURATIONS_KEY, {})
-    session.config.cache.set(DURATIONS_KEY, {**known, **_durations})
+    cache.set(DURATIONS_KEY, {**cache.get(DURATIONS_KEY, {}), **_durations})
