@@ -10,7 +10,7 @@ heartbeat) and its executor (EventsExecutor). Three cases:
 * pair: talker → listener, which only counts;
 * pair + recorder: the same, with the chain's ``bag_recorder`` node recording the topic as well;
 * listener writes the bag: the listener appends every message, as it arrives, to a ``BagWriter`` in
-  the recorder's way (buffered, ``write_sorted`` every 0.1 s) instead of only counting.
+  the recorder's way (buffered, ``write_sorted`` once its flush interval is due) instead of only counting.
 
 Messages per second = N / (the talker's first publish after the handshake → every reader acknowledged
 the last); CPU of each process (from /proc, every thread) over that span, µs per message. A chain
@@ -181,7 +181,13 @@ def listener(messages: int, topic: str, bag: str) -> None:
             payloads.clear()
 
     node.create_subscription(JointState, topic, on_message, DATA_QOS, raw=True)
-    node.create_timer(0.1, write, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def tick() -> None:
+        """Write when the writer's flush interval is due, as the recorder's 0.1 s tick does."""
+        if writer is not None and writer.flush_due():
+            write()
+
+    node.create_timer(0.1, tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
     executor = EventsExecutor()
     executor.add_node(node)
     closed = _stdin_closed()
