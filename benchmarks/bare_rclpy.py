@@ -13,7 +13,8 @@ heartbeat) and its executor (EventsExecutor). Three cases:
   the recorder's way (buffered, ``write_sorted`` once its flush interval is due) instead of only counting.
 
 Messages per second = N / (the talker's first publish after the handshake → every reader acknowledged
-the last); CPU of each process (from /proc, every thread) over that span, µs per message. A chain
+the last and the listener took it); CPU of each process (from /proc, every thread) from that first
+publish until every process has settled, µs per message. A chain
 sample is several such messages (angle, truth, string, estimate, Imu, a tenth of a /clock), so the
 chain's samples per second sit below these figures by design; the chain page says by how much.
 """
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -121,8 +123,9 @@ def talker(messages: int, readers: int, topic: str) -> None:
 
     rclpy, node = _init("bare_talker")
     publisher = node.create_publisher(JointState, topic, DATA_QOS)
-    t = np.arange(messages, dtype=np.float64) * 1e-3
-    zeros = np.zeros(messages, dtype=np.float64)
+    total = messages + 1  # the handshake's, then the timed ones
+    t = np.arange(total, dtype=np.float64) * 1e-3
+    zeros = np.zeros(total, dtype=np.float64)
     rows = simulator_rows(t, zeros, zeros, zeros, clock_rate_hz=100.0).rows[bm.TOPIC_JOINT_STATES]
     deadline = time.monotonic() + _WAIT
     while publisher.get_subscription_count() < readers and time.monotonic() < deadline:
@@ -132,19 +135,19 @@ def talker(messages: int, readers: int, topic: str) -> None:
     publisher.publish(rows[0].tobytes())
     acked_within(publisher, _WAIT, never)
     print("start", flush=True)
-    start = time.perf_counter()
-    for i in range(1, messages):
+    start = time.monotonic()  # CLOCK_MONOTONIC: one clock for every process of the machine
+    for i in range(1, total):
         publish_blocking(publisher, rows[i].tobytes(), never)
     acked_within(publisher, _WAIT, never)
-    seconds = time.perf_counter() - start
-    print(json.dumps({"messages": messages - 1, "seconds": seconds}), flush=True)
+    print(json.dumps({"messages": messages, "start": start, "acked": time.monotonic()}), flush=True)
     _stdin_closed().wait(_WAIT)
     node.destroy_node()
     rclpy.try_shutdown()
 
 
 def listener(messages: int, topic: str, bag: str) -> None:
-    """Count raw JointStates (each written to the bag ``bag`` unless empty) until EOF; then print JSON."""
+    """Count raw JointStates (each written to the bag ``bag`` unless empty): JSON with the last arrival once
+    ``messages`` + 1 came (the handshake's too), JSON with the counts at EOF."""
     from rclpy.clock import Clock, ClockType
     from rclpy.experimental import EventsExecutor
     from sensor_msgs.msg import JointState
@@ -160,13 +163,15 @@ def listener(messages: int, topic: str, bag: str) -> None:
     if writer is not None:
         writer.add_topic(resolved, bm.JOINT_STATE)
     received = 0
+    last = 0.0  # monotonic time of the latest arrival
     times: list[int] = []
     payloads: list[bytes] = []
 
     def on_message(data: bytes) -> None:
         """Count; buffer (log time = stamp, CDR) for the next write, as the recorder does."""
-        nonlocal received
+        nonlocal received, last
         received += 1
+        last = time.monotonic()
         if writer is not None:
             times.append(stamp_ns(data, 4))
             payloads.append(data)
@@ -191,8 +196,14 @@ def listener(messages: int, topic: str, bag: str) -> None:
     executor = EventsExecutor()
     executor.add_node(node)
     closed = _stdin_closed()
+    said = False
     while not closed.is_set():
         executor.spin_once(timeout_sec=0.05)
+        if not said and received >= messages + 1:  # every message taken: the parent may read our CPU
+            said = True
+            print(json.dumps({"last": last}), flush=True)
+    if not said:  # EOF before every message came: the parent still reads this line first
+        print(json.dumps({"last": last}), flush=True)
     write()
     counts = writer.close() if writer is not None else {}
     print(json.dumps({"received": received, "written": counts.get(resolved)}), flush=True)
@@ -206,6 +217,24 @@ def _spawn(args: Sequence[str]) -> subprocess.Popen[str]:
     return subprocess.Popen(
         list(args), stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, start_new_session=True
     )
+
+
+def _close_stdin(child: subprocess.Popen[str]) -> None:
+    """Close a child's standard input: its word to finish (once closed, a second call does nothing)."""
+    if child.stdin is not None and not child.stdin.closed:
+        child.stdin.close()
+
+
+def _settle(children: dict[str, subprocess.Popen[str]], quiet: float = 0.002) -> None:
+    """Wait (10 s at most) until no child used more than ``quiet`` s of CPU in 0.3 s: their work is done."""
+    deadline = time.monotonic() + 10.0
+    before = [cpu_seconds(c.pid) or 0.0 for c in children.values()]
+    while time.monotonic() < deadline:
+        time.sleep(0.3)
+        after = [cpu_seconds(c.pid) or 0.0 for c in children.values()]
+        if max(a - b for a, b in zip(after, before, strict=True)) <= quiet:
+            return
+        before = after
 
 
 def measure(case: str, messages: int, folder: Path) -> Ceiling:
@@ -237,13 +266,17 @@ def measure(case: str, messages: int, folder: Path) -> Ceiling:
             raise RuntimeError(f"{case}: the talker did not start (see its error above)")
         cpu0 = {role: cpu_seconds(child.pid) for role, child in children.items()}
         done = json.loads(talker_out.readline())
-        cpu1 = {role: cpu_seconds(child.pid) for role, child in children.items()}
-        for role in ("talker", "listener"):
-            stdin = children[role].stdin
-            assert stdin is not None
-            stdin.close()
         listener_out = children["listener"].stdout
         assert listener_out is not None
+        # Acknowledged is not yet taken: wait for the listener to have every message (at most _WAIT s)
+        # and for the recorder's CPU to settle, so each CPU figure covers all the messages' work.
+        if not select.select([listener_out], [], [], _WAIT)[0]:
+            _close_stdin(children["listener"])
+        arrived = json.loads(listener_out.readline())
+        _settle(children)
+        cpu1 = {role: cpu_seconds(child.pid) for role, child in children.items()}
+        for role in ("talker", "listener"):
+            _close_stdin(children[role])
         heard = json.loads(listener_out.readline())
         written = heard["written"]
         if "recorder" in children:
@@ -263,9 +296,11 @@ def measure(case: str, messages: int, folder: Path) -> Ceiling:
         for role, before, after in ((r, cpu0[r], cpu1[r]) for r in children)
         if before is not None and after is not None
     }
+    # From the first timed publish to the later of: every reader acknowledged, the listener took the last.
+    seconds = max(float(done["acked"]), float(arrived["last"])) - float(done["start"])
     # received and written count the handshake's message too; the span covers the other n.
     written_n = None if written is None else int(written) - 1
-    return Ceiling(case, n, float(done["seconds"]), int(heard["received"]) - 1, written_n, cpu)
+    return Ceiling(case, n, seconds, int(heard["received"]) - 1, written_n, cpu)
 
 
 def markdown(rows: Sequence[Sequence[str]]) -> str:

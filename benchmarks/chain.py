@@ -89,7 +89,7 @@ class Result:
         cpu = " / ".join(f"{self.cpu.get(role, float('nan')):.0f}" for role in ROLES)
         per_sample = " / ".join(f"{self.cpu_us_per_sample(role):.0f}" for role in ROLES)
         jitter = f"{self.jitter_p99_us:.0f}" if self.jitter_p99_us is not None else "-"
-        factor = f"{self.real_time_factor:.1f}" if self.real_time_factor is not None else "-"
+        factor = f"{self.real_time_factor:.2f}" if self.real_time_factor is not None else "-"
         return [
             self.mode,
             f"{self.rate_hz:g}",
@@ -246,13 +246,12 @@ class CpuSampler:
 
 
 def _log_figures(text: str) -> tuple[float | None, float | None]:
-    """(jitter p99 µs, real-time factor) from the simulator's log lines."""
+    """(jitter p99 µs, real-time factor) from the simulator's log lines; the factor is simulated seconds
+    over wall seconds of its 'published …' line, which it prints to one decimal only (0.98 must show)."""
     jitter = re.search(r"jitter \(publish − due\): median \d+ µs, p99 (\d+) µs", text)
-    factor = re.search(r"real-time factor ([0-9.]+|inf)", text)
-    return (
-        float(jitter.group(1)) if jitter else None,
-        float(factor.group(1)) if factor and factor.group(1) != "inf" else None,
-    )
+    span = re.search(r"\(([0-9.]+) s simulated\) in ([0-9.]+) s wall", text)
+    factor = float(span.group(1)) / float(span.group(2)) if span and float(span.group(2)) > 0 else None
+    return (float(jitter.group(1)) if jitter else None, factor)
 
 
 class Listener:
