@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks import allan_recovery, bags, chain, fleet, report, soak, teardown
+from benchmarks import allan_recovery, bags, bare_rclpy, chain, fleet, report, soak, teardown
 
 BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -64,6 +64,18 @@ def test_chain_soak_and_teardown_plots(tmp_path: Path) -> None:
         "as fast as possible", 1000.0, 30.0, 30001, 30001, 30001, 30001, np.array([]), None, 10.0
     )
     assert chain.plot([timed, fast], tmp_path / "chain.png").read_bytes()[:8] == PNG
+    fast.cpu, fast.messages_written = {"simulator": 50.0, "estimator": 60.0, "recorder": 40.0}, 5 * 30001
+    ceilings = [
+        bare_rclpy.Ceiling("pair", 30000, 1.5, 30000, None, {"talker": 20.0, "listener": 25.0}),
+        bare_rclpy.Ceiling("pair + recorder", 30000, 3.0, 30000, 30000, {"recorder": 40.0}),
+    ]
+    assert chain.ceiling_plot([timed, fast], ceilings, tmp_path / "c.png").read_bytes()[:8] == PNG
+    # 10x real time at 1 kHz is 10,000 samples/s; 60 % of a core over them is 60 µs a sample (three float
+    # steps, each within half an ulp, 1.1e-16, of exact: 1e-12 relative leaves a wide margin).
+    assert fast.cpu_us_per_sample("estimator") == pytest.approx(60.0, rel=1e-12)
+    line = chain.comparison([timed, fast], ceilings)
+    assert "10,000 samples/s" in line and "50,000 recorded messages/s" in line and "20,000 JointState" in line
+    assert timed.cpu_us_per_sample("estimator") != timed.cpu_us_per_sample("estimator")  # NaN: no CPU figures
     series = {"simulator": [(5.0 * k, 80.0 + 0.01 * k) for k in range(40)], "recorder": [(0.0, 90.0)]}
     assert soak.plot(series, tmp_path / "soak.png").read_bytes()[:8] == PNG
     assert teardown.plot([1.1, 1.2, 0.9], tmp_path / "teardown.png").read_bytes()[:8] == PNG
