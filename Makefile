@@ -63,11 +63,11 @@ typecheck: $(STAMP)
 
 # The suite runs on pytest-xdist: one process per worker, each with its own ROS_DOMAIN_ID pair and temporary
 # directories (test/conftest.py), so ROS tests cannot meet. More workers than cores: many tests wait on the
-# processes they start (nodes, CLIs, a cluster), and a waiting test leaves its core to another. A module
-# that computes something once per process runs whole on one worker (loadgroup), and the longest units
-# are sent first, in conftest's order (no reorder by xdist): see test/conftest.py.
+# processes they start (nodes, CLIs, a cluster), and a waiting test leaves its core to another. Each file
+# runs whole on one worker (what a module computes once is computed once), the longest files first, in
+# conftest's order (no reorder by xdist): see test/conftest.py.
 PYTEST_WORKERS ?= 3
-PYTEST_XDIST := -n $(PYTEST_WORKERS) --dist loadgroup --no-loadscope-reorder
+PYTEST_XDIST := -n $(PYTEST_WORKERS) --dist loadfile --no-loadscope-reorder
 
 pytest: $(STAMP)
 	$(BIN)/python -m pytest $(PYTEST_XDIST)

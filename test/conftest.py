@@ -201,58 +201,36 @@ def lab_class(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return shared_once(tmp_path_factory, "lab_class", make_class) / "class"
 
 
-# --- scheduling on pytest-xdist (make test: --dist loadgroup --no-loadscope-reorder) -----------------------
-# A module whose tests share something computed once per process (a module- or class-scoped fixture, a
-# functools cache at module level) runs whole on one worker, so no worker computes it again; every other
-# test goes to whichever worker is free. The units are sent longest first (the longest at the end would be
-# the run's tail): each test's duration in the last run on this checkout (pytest's cache), else a guess
-# from its `slow` mark.
+# --- scheduling on pytest-xdist (make test: --dist loadfile --no-loadscope-reorder) ------------------------
+# Each test file runs whole on one worker, so what a module computes once per process (a module-scoped
+# fixture, a functools cache) is computed once. (--dist loadgroup would let the other files' tests spread
+# one by one, but it groups nothing with pytest 9.2: pytest-xdist#1386.) The files are sent longest first,
+# since the longest at the end would be the run's tail: a file's cost is the sum of its tests' durations in
+# the last run on this checkout (pytest's cache), else of guesses from their `slow` marks.
 DURATIONS_KEY = "pendulum_accel/durations"
 SLOW_GUESS_S = 120.0  # s a `slow` test is taken to last when no run has timed it (none is over 5 min)
 QUICK_GUESS_S = 0.5  # s any other untimed test is taken to last (the suite's median is below it)
 
 
-def _shares_per_module(item: pytest.Item) -> bool:
-    """True when ``item``'s module computes something once per process: a module- or class-scoped fixture
-    among the item's, or a functools cache among the module's globals."""
-    info = getattr(item, "_fixtureinfo", None)
-    scopes = {d.scope for defs in (info.name2fixturedefs.values() if info else ()) for d in defs}
-    if scopes & {"module", "class", "package"}:
-        return True
-    module = getattr(item, "module", None)
-    return any(hasattr(v, "cache_info") for v in vars(module).values()) if module else False
-
-
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Group the tests of modules that share per-process work (xdist_group), then order the units longest
-    first (stable: a unit's tests keep their order)."""
+    """Order the files longest first (stable: a file's tests keep their order)."""
     cache = getattr(config, "cache", None)  # None with -p no:cacheprovider
     known: dict[str, float] = cache.get(DURATIONS_KEY, {}) if cache is not None else {}
-    unit_of: dict[str, str] = {}
-    for item in items:
-        path = item.nodeid.split("::", 1)[0]
-        if _shares_per_module(item):
-            unit_of[item.nodeid] = path
-            item.add_marker(pytest.mark.xdist_group(path.replace("/", "_")))
-        else:
-            unit_of[item.nodeid] = item.nodeid
     cost: dict[str, float] = {}
     for item in items:
         guess = SLOW_GUESS_S if item.get_closest_marker("slow") else QUICK_GUESS_S
-        unit = unit_of[item.nodeid]
-        cost[unit] = cost.get(unit, 0.0) + known.get(item.nodeid, guess)
-    items.sort(key=lambda item: -cost[unit_of[item.nodeid]])
+        path = item.nodeid.split("::", 1)[0]
+        cost[path] = cost.get(path, 0.0) + known.get(item.nodeid, guess)
+    items.sort(key=lambda item: -cost[item.nodeid.split("::", 1)[0]])
 
 
 _durations: dict[str, float] = {}
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:
-    """Each test's setup + call + teardown seconds (on the controller under xdist: every worker's reports;
-    a node id there carries its xdist group after an @)."""
-    nodeid = report.nodeid.split("@", 1)[0]
-    _durations[nodeid] = _durations.get(nodeid, 0.0) + report.duration
+    """Each test's setup + call + teardown seconds (on the controller under xdist: every worker's reports)."""
+    _durations[report.nodeid] = _durations.get(report.nodeid, 0.0) + report.duration
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:

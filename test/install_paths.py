@@ -10,6 +10,8 @@ import shutil
 import subprocess
 from pathlib import Path
 
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import read_bag
 from test.conftest import PYTHON, REPO
 
 
@@ -51,3 +53,37 @@ def build_colcon_workspace(workspace: Path) -> None:
         timeout=1800,
     )
     assert built.returncode == 0, built.stdout[-2000:] + built.stderr[-2000:]
+
+
+COMPILING = "compiling the stepping kernels and the estimators' loops into numba's cache"
+
+
+def cold(env: dict[str, str], python: str = PYTHON, cwd: Path = REPO) -> bool:
+    """kernel_cache.is_cold() under ``env``, in ``python`` started in ``cwd`` (``python -c`` imports from
+    its working directory first: "/" for an installed copy, so this checkout's modules do not shadow it)."""
+    code = "from pendulum_accel.kernel_cache import is_cold; print(is_cold())"
+    out = subprocess.run([python, "-c", code], env=env, capture_output=True, text=True, timeout=120, cwd=cwd)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return out.stdout.strip() == "True"
+
+
+def imported_from(env: dict[str, str], python: str) -> Path:
+    """The directory ``python`` imports pendulum_accel from under ``env`` (started in "/", as _cold)."""
+    code = "import pendulum_accel; print(pendulum_accel.__file__)"
+    out = subprocess.run([python, "-c", code], env=env, capture_output=True, text=True, timeout=120, cwd="/")
+    assert out.returncode == 0, out.stderr[-2000:]
+    return Path(out.stdout.strip()).parent
+
+
+def story(stderr: str) -> str:
+    """The launcher's lines (what started, waited, ended), every node's error line and the end of
+    ``stderr``: a failure's cause."""
+    marks = ("chain:", "pendulum-accel run:")
+    chain = [line for line in stderr.splitlines() if line.startswith(marks) or "error" in line.lower()]
+    return "\n".join(chain) + "\n...\n" + stderr[-2000:]
+
+
+def assert_recorded(bag: Path) -> None:
+    """The bag holds angles and their estimates (the run summary's own check is its exit code)."""
+    topics = read_bag(bag).topics
+    assert topics[bm.TOPIC_JOINT_STATES].count > 0 and topics[bm.TOPIC_ACCEL_ESTIMATE].count > 0
