@@ -1,7 +1,8 @@
 # Two commands for users:  make demo  (set up, run the default scene end to end)
 #                          make test  (set up, lint, type-check, run every test)
 # Both create .venv on first use and reuse it afterwards.
-# For students:                make lab   (a light venv, .venv-lab: the ROS-free core + Jupyter; docs/lab/)
+# For teachers:                make lab   (.venv-lab: the students' install, built from this clone: try the lab)
+#                              make lab-handout  (a class's zips, key and wheel; docs/teaching.md)
 # For the docs site:           make docs  (a light venv, .venv-docs: MkDocs and its theme only)
 
 PYTHON ?= python3
@@ -24,7 +25,7 @@ endif
 
 setup: $(STAMP)
 
-$(STAMP): requirements-dev.txt requirements-docs.txt requirements-ros.txt setup.py setup.cfg package.xml Makefile
+$(STAMP): requirements.txt requirements-dev.txt requirements-docs.txt requirements-ros.txt setup.py setup.cfg package.xml Makefile
 	@if [ ! -x $(BIN)/python ]; then \
 	  $(PYTHON) -m venv $(VENV_FLAGS) $(VENV) 2>/dev/null || { \
 	    echo "python3 -m venv failed; installing Debian's python3-venv"; \
@@ -60,8 +61,16 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
+# The suite runs on pytest-xdist: one process per worker, each with its own ROS_DOMAIN_ID pair and temporary
+# directories (test/conftest.py), so ROS tests cannot meet. More workers than cores: many tests wait on the
+# processes they start (nodes, CLIs, a cluster), and a waiting test leaves its core to another. Each file
+# runs whole on one worker (what a module computes once is computed once), the longest files first, in
+# conftest's order (no reorder by xdist): see test/conftest.py.
+PYTEST_WORKERS ?= 3
+PYTEST_XDIST := -n $(PYTEST_WORKERS) --dist loadfile --no-loadscope-reorder
+
 pytest: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest $(PYTEST_XDIST)
 
 # The numerics tests: every test whose figures come from floating-point arithmetic that numpy, libm or
 # numba may do differently on another x86-64 CPU (physics, integrators, kernels, closed forms, planner
@@ -78,7 +87,9 @@ NUMERICS_TESTS := $(addprefix test/test_,$(addsuffix .py, \
   trend_modes))
 
 pytest-emulated: $(STAMP)
-	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pytest $(NUMERICS_TESTS)
+	@# Compiled once for the generic CPU before the workers start, else each would compile the same kernels.
+	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pendulum_accel.kernel_cache
+	$(BIN)/python -m test.cpu_emulation $(BIN)/python -m pytest $(PYTEST_XDIST) $(NUMERICS_TESTS)
 
 # Every step runs even after one fails (the CPU-emulation pass most of all: it is what shows a machine-
 # dependent assertion), then make test fails naming the steps that failed.
@@ -118,21 +129,27 @@ bench: $(STAMP)
 clean:
 	rm -rf build install log out site .pytest_cache .mypy_cache .ruff_cache
 
-# The student lab: the ROS-free core, Jupyter and matplotlib in .venv-lab (no ROS 2, no test tools).
-# Without make (e.g. Windows): python -m venv .venv-lab, then pip install ".[lab]" inside it.
+# The lab's students' install, from this clone: the ROS-free core, Jupyter and matplotlib in .venv-lab (no
+# ROS 2, no test tools), the same package as the wheel lab-handout hands out. Students install that wheel
+# (docs/lab/README.md); this clone is the teacher's edition (lab_teacher/: the solution and the key).
 LAB_VENV ?= .venv-lab
 lab: $(LAB_VENV)/.installed
-	@echo "check it before class:  $(LAB_VENV)/bin/pendulum-accel lab check"
+	@echo "check it:  $(LAB_VENV)/bin/pendulum-accel lab check"
 
-# Teachers: a class's handout from a secret, e.g. make lab-handout SECRET=secret.txt GROUPS=8 OUT=class_a:
-# a zip per group, the teacher key and the package's wheel for students without a clone (docs/lab/).
+# Teachers: a class's handout from a secret, e.g.
+#   make lab-handout SECRET=secret.txt CLASS=2026a GROUPS=8 OUT=class_2026a
+# a zip per group, the teacher key and the package's wheel that students install (docs/teaching.md).
+# CLASS is required: with the secret it draws the data, so two classes get different data from one secret.
 lab-handout: $(LAB_VENV)/.installed
-	@test -n "$(SECRET)" -a -n "$(GROUPS)" -a -n "$(OUT)" || \
-		{ echo "usage: make lab-handout SECRET=FILE GROUPS=N OUT=DIR" >&2; exit 2; }
-	$(LAB_VENV)/bin/pendulum-accel lab make-class --secret "$(SECRET)" --groups "$(GROUPS)" --out "$(OUT)"
+	@test -n "$(SECRET)" -a -n "$(CLASS)" -a -n "$(GROUPS)" -a -n "$(OUT)" || \
+		{ echo "usage: make lab-handout SECRET=FILE CLASS=NAME GROUPS=N OUT=DIR" >&2; exit 2; }
+	$(LAB_VENV)/bin/pendulum-accel lab make-class --secret "$(SECRET)" --class "$(CLASS)" \
+		--groups "$(GROUPS)" --out "$(OUT)"
 	$(LAB_VENV)/bin/python -m pip wheel -q --no-deps -w "$(OUT)" .
 
-$(LAB_VENV)/.installed: setup.py package.xml
+# Reinstalled when the package changes, so that make-class measures the key with the code the wheel holds.
+LAB_SOURCES := $(shell find pendulum_accel -type f \( -name '*.py' -o -name '*.yaml' -o -name '*.csv' \) 2>/dev/null)
+$(LAB_VENV)/.installed: setup.py package.xml $(LAB_SOURCES)
 	$(PYTHON) -m venv $(LAB_VENV)
 	$(LAB_VENV)/bin/python -m pip install -q --disable-pip-version-check --upgrade pip
 	$(LAB_VENV)/bin/python -m pip install -q --disable-pip-version-check ".[lab]"

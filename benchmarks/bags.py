@@ -1,14 +1,19 @@
 """Bag benchmark: ``generate``, ``analyze`` and ``export`` throughput against plain rosbags loops, in one run.
 
-    python -m benchmarks.bags [--out DIR] [--scene NAME] [--rate HZ] [--duration S] [--repeat N]
+    python -m benchmarks.bags [--out DIR] [--scene NAME] [--rates HZ ...] [--duration S] [--repeat N]
 
-1. generate: a scene at ``--rate`` (default 1 kHz) with every topic of the chain, simulated,
-   estimated and written; messages/s and × real time, per phase. Then the write alone: the bag's
-   messages, already serialised, written again by ``write_chain_bag`` (chunk, data section and
-   summary CRCs included), uncompressed and zstd; MB/s of file written.
+Every task runs at each rate of ``--rates`` (default 100 Hz and 1 kHz), on its own bag.
+
+1. generate: a scene at that rate with every topic of the chain, simulated, estimated and written;
+   messages/s and × real time, per phase. Then the write alone: the bag's messages, already
+   serialised, written again by ``write_chain_bag`` (chunk, data section and summary CRCs included),
+   uncompressed and zstd; MB/s of file written.
 2. analyze: ``analyze_bag`` on that bag (read, bulk decode, re-run the estimator, metrics) with each
    estimator, and our reader alone, against a plain rosbags ``Reader.messages()`` +
-   ``deserialize_cdr`` loop over the same bag. Best of ``--repeat`` runs each.
+   ``deserialize_cdr`` loop over the same bag. Best of ``--repeat`` runs each. Beside each analyze
+   row: the estimator pass alone in µs per angle (``estimate_batch`` on the bag's angles, with the
+   options analyze uses), and the read and metrics in µs per angle (``analyze --estimator instant``,
+   whose pass is a few ns an angle, over the angles).
 3. export: ``export_bag`` to Parquet (one table per topic, and merged) against the loop an analyst
    writes today: rosbags ``Reader.messages()`` + ``deserialize_cdr``, each message flattened into a
    dict, one pandas DataFrame per topic, written to Parquet.
@@ -28,6 +33,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
 from rosbags.rosbag2 import Reader
 
 from benchmarks import report
@@ -44,10 +51,10 @@ from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import Stream
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
 from pendulum_accel.recording.analyze import analyze_bag
+from pendulum_accel.recording.contract import angle_field, require_angles
 from pendulum_accel.recording.generate import generate_bag, write_chain_bag
 from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import Scene, load_scene
-from pendulum_accel.scene_run import run_scene
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,6 +72,11 @@ class Row:
     """µs per angle of an analyze row's estimator pass alone: estimate_batch on the bag's angles with the
     options analyze uses, best of the runs, over the angles. The cost per sample the read is set beside
     (the difference of two analyze times drowned in a noisy machine's scatter)."""
+    read_us: float | None = None
+    """µs per angle of the read and the metrics, beside an analyze row's pass: analyze --estimator instant
+    (its pass costs a few ns an angle) over the angles, at the row's rate."""
+    rate_hz: float | None = None
+    """The sensor rate of the bag the row ran on."""
 
     @property
     def mb_per_s(self) -> float | None:
@@ -137,6 +149,16 @@ def plain_rosbags_to_pandas(path: Path, out: Path) -> int:
     return sum(len(r) for r in rows.values())
 
 
+def bag_angles(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(t, θ) of the bag as analyze reads them: its angle topic's stamps and angle column (angle_field), in
+    stamp order."""
+    bag = read_bag(path)
+    field = angle_field(bag)
+    js = bag.decode(require_angles(bag), JOINT_STATE, ["header.stamp.sec", "header.stamp.nanosec", field])
+    order = np.argsort(js.stamp, kind="stable")
+    return js.stamp[order], js[field][order]
+
+
 def our_read_decode(path: Path) -> int:
     """Our reader: scan the file and bulk-decode the two topics analyze needs; returns messages read."""
     bag = read_bag(path)
@@ -183,7 +205,7 @@ def scene_at_rate(name: str, rate_hz: float, duration: float) -> Scene:
 
 
 def run_benchmark(scene_name: str, rate_hz: float, duration: float, repeat: int, folder: Path) -> list[Row]:
-    """All rows of the benchmark for one scene, writing its bag under ``folder``."""
+    """All rows of the benchmark for one scene at one rate, writing its bag under ``folder``."""
     scene = scene_at_rate(scene_name, rate_hz, duration)
     bag_path = folder / "bench_bag"
     results = []
@@ -203,18 +225,22 @@ def run_benchmark(scene_name: str, rate_hz: float, duration: float, repeat: int,
     rows.append(Row("plain rosbags read + deserialize loop", base_n, base_s, sim, base_s))
     read_s, read_n = best_of(repeat, lambda: our_read_decode(bag_path))
     rows.append(Row("our reader: scan + bulk decode", read_n, read_s, sim, base_s))
-    run = run_scene(scene)  # the angles the bag holds
+    t, theta = bag_angles(bag_path)
+    analyze_s = {
+        name: best_of(repeat, lambda name=name: analyze_bag(bag_path, estimator=name))[0]  # type: ignore[misc]
+        for name in ESTIMATORS
+    }
+    read_us = analyze_s["instant"] / t.size * 1e6
     for name in ESTIMATORS:
         label = f"analyze --estimator {name}" + (" (default)" if name == DEFAULT_ESTIMATOR else "")
-        an_s, _ = best_of(repeat, lambda name=name: analyze_bag(bag_path, estimator=name))  # type: ignore[misc]
         options = estimator_options(scene, name)
         pass_s, _ = best_of(
             repeat,
-            lambda name=name, options=options: estimate_batch(  # type: ignore[misc]
-                name, run.t, run.theta_measured, **options
-            ),
+            lambda name=name, options=options: estimate_batch(name, t, theta, **options),  # type: ignore[misc]
         )
-        rows.append(Row(label, n, an_s, sim, base_s, pass_us=pass_s / run.t.size * 1e6))
+        rows.append(
+            Row(label, n, analyze_s[name], sim, base_s, pass_us=pass_s / t.size * 1e6, read_us=read_us)
+        )
     pandas_s, pandas_n = best_of(repeat, lambda: plain_rosbags_to_pandas(bag_path, folder / "plain_tables"))
     rows.append(Row("plain rosbags loop -> pandas -> Parquet", pandas_n, pandas_s, sim, pandas_s))
     for merged in (False, True):
@@ -226,7 +252,7 @@ def run_benchmark(scene_name: str, rate_hz: float, duration: float, repeat: int,
             ),
         )
         rows.append(Row(label, n, ex_s, sim, pandas_s))
-    return rows
+    return [dataclasses.replace(row, rate_hz=float(rate_hz)) for row in rows]
 
 
 def _fmt(value: float | None, spec: str) -> str:
@@ -245,6 +271,7 @@ def table(rows: Sequence[Row]) -> list[list[str]]:
             "MB/s",
             "x real time",
             "x its plain rosbags loop",
+            "read + metrics, µs per angle",
             "estimator pass, µs per angle",
         ]
     ]
@@ -258,10 +285,31 @@ def table(rows: Sequence[Row]) -> list[list[str]]:
                 _fmt(r.mb_per_s, ".0f"),
                 f"{r.realtime:.0f}",
                 _fmt(r.speedup, ".1f"),
+                _fmt(r.read_us, ".2f"),
                 _fmt(r.pass_us, ".2f"),
             ]
         )
     return out
+
+
+def by_rate(rows: Sequence[Row]) -> dict[float | None, list[Row]]:
+    """The rows of each rate, in the order the rates ran."""
+    out: dict[float | None, list[Row]] = {}
+    for r in rows:
+        out.setdefault(r.rate_hz, []).append(r)
+    return out
+
+
+def text_table(cells: Sequence[Sequence[str]]) -> list[str]:
+    """Lines of ``cells`` in aligned columns (the first left-aligned, the others right)."""
+    widths = [max(len(row[i]) for row in cells) for i in range(len(cells[0]))]
+    return [
+        "  ".join(
+            cell.ljust(w) if i == 0 else cell.rjust(w)
+            for i, (cell, w) in enumerate(zip(row, widths, strict=True))
+        )
+        for row in cells
+    ]
 
 
 ANALYZE_TARGET = 10.0
@@ -270,7 +318,11 @@ ANALYZE_TARGET = 10.0
 
 def plot(rows: Sequence[Row], out: Path) -> Path:
     """bags.png: each row compared with a plain rosbags loop, its speed-up (log), and ANALYZE_TARGET."""
-    bars = [(r.task, r.speedup) for r in rows if r.speedup is not None and r.baseline_seconds != r.seconds]
+    bars = [
+        (r.task if r.rate_hz is None else f"{r.task}, {r.rate_hz:g} Hz", r.speedup)
+        for r in rows
+        if r.speedup is not None and r.baseline_seconds != r.seconds
+    ]
     return report.bar_plot(
         out,
         "Speed-up over the plain rosbags loop doing the same work",
@@ -296,7 +348,9 @@ def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
                 "mb_per_s",
                 "x_realtime",
                 "x_plain_rosbags",
+                "read_us_per_angle",
                 "pass_us_per_angle",
+                "rate_hz",
             ]
         )
         for r in rows:
@@ -309,12 +363,17 @@ def write_outputs(rows: Sequence[Row], header: str, out: Path) -> list[Path]:
                     _fmt(r.mb_per_s, ".1f"),
                     f"{r.realtime:.2f}",
                     _fmt(r.speedup, ".3f"),
+                    _fmt(r.read_us, ".3f"),
                     _fmt(r.pass_us, ".3f"),
+                    _fmt(r.rate_hz, "g"),
                 ]
             )
-    cells = table(rows)
-    lines = [header, "", "| " + " | ".join(cells[0]) + " |", "|" + "---|" * len(cells[0])]
-    lines += ["| " + " | ".join(c) + " |" for c in cells[1:]]
+    lines = [header]
+    for rate, group in by_rate(rows).items():
+        cells = table(group)
+        lines += ["", f"At {rate:g} Hz:" if rate is not None else "", ""]
+        lines += ["| " + " | ".join(cells[0]) + " |", "|" + "---|" * len(cells[0])]
+        lines += ["| " + " | ".join(c) + " |" for c in cells[1:]]
     md_path.write_text("\n".join(lines) + "\n")
     return [csv_path, md_path]
 
@@ -329,7 +388,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--scene", default="lecture_constant", help="bundled scene (default lecture_constant)"
     )
     parser.add_argument(
-        "--rate", type=report.positive, default=1000.0, help="sensor rate in Hz (default 1000)"
+        "--rates",
+        type=report.positive,
+        nargs="+",
+        default=[100.0, 1000.0],
+        metavar="HZ",
+        help="sensor rates in Hz, a bag each (default 100 1000)",
     )
     parser.add_argument(
         "--duration", type=report.positive, default=60.0, help="scene length in s (default 60)"
@@ -337,21 +401,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--repeat", type=report.count, default=3, help="runs per task, best kept (default 3)")
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)
-    with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_") as folder:
-        rows = run_benchmark(args.scene, args.rate, args.duration, max(1, args.repeat), Path(folder))
+    rows: list[Row] = []
+    for rate in args.rates:
+        with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_") as folder:
+            rows += run_benchmark(args.scene, rate, args.duration, args.repeat, Path(folder))
+    rates = " and ".join(f"{rate:g} Hz" for rate in args.rates)
     header = (
-        f"Bag benchmark: scene {args.scene} at {args.rate:g} Hz, {args.duration:g} s of sim time, "
+        f"Bag benchmark: scene {args.scene} at {rates}, {args.duration:g} s of sim time each, "
         f"all topics; best of {args.repeat} runs."
     )
-    cells = table(rows)
-    widths = [max(len(row[i]) for row in cells) for i in range(len(cells[0]))]
     print(header)
-    for row in cells:
-        print(
-            "  ".join(
-                c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths, strict=True))
-            )
-        )
+    for rate, group in by_rate(rows).items():
+        print(f"\nAt {rate:g} Hz:")
+        print("\n".join(text_table(table(group))))
     paths = write_outputs(rows, header, args.out)
     paths.append(plot(rows, args.out / "bags.png"))
     paths.append(

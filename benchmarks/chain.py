@@ -1,7 +1,7 @@
 """Chain benchmark: the live ROS 2 chain at several sensor rates, and as fast as possible.
 
     python -m benchmarks.chain [--rates HZ ...] [--duration S] [--fast-duration S]
-                                         [--rt-priority N] [--out DIR]
+                                         [--rt-priority N] [--ceiling-messages N] [--out DIR]
 
 For each rate, the launcher runs simulator, estimator and recorder (separate processes, real-time
 pacing, recording on) on ``lecture_constant`` while a listener in this process time-stamps every
@@ -16,7 +16,11 @@ angle and every estimate on arrival with one monotonic clock. Reported per rate:
 Then 1 kHz once more with every node at SCHED_FIFO priority N (``pendulum-accel run --rt-priority N``,
 default 20), and the same chain as fast as possible at 1 kHz with recording, as ``pendulum-accel run
 --fast`` runs it (no listener: latency means nothing there): its real-time factor, losses and CPU.
-First, the machine's own floor: the lateness of a bare 1 kHz sleep loop.
+First, the machine's own floor: the lateness of a bare 1 kHz sleep loop. Last, the bare-rclpy
+ceiling (``benchmarks.bare_rclpy``): a plain JointState publisher and subscriber on this machine, with
+and without a recorder, in messages per second, beside the chain's samples and recorded messages per
+second; CPU is also given in µs per sample (per message for the ceiling), the figure the arithmetic of
+the chain's ceiling is made of.
 Benchmarks measure; tests never assert on time.
 """
 
@@ -24,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import os
 import re
 import tempfile
 import threading
@@ -35,12 +38,13 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks import report
+from benchmarks import bare_rclpy, report
+from benchmarks.bare_rclpy import Ceiling, cpu_seconds
 
 SCENE = "lecture_constant"
 RATES = (100, 1000, 5000, 10000)
 LISTENER_NODE = "chain_bench_listener"
-_CLK_TCK = os.sysconf("SC_CLK_TCK")
+ROLES = ("simulator", "estimator", "recorder")
 
 
 @dataclass
@@ -59,6 +63,19 @@ class Result:
     real_time_factor: float | None
     cpu: dict[str, float] = field(default_factory=dict)
     exit_code: int = 0
+    messages_written: int = 0  # every message of the bag, all topics
+
+    @property
+    def samples_per_second(self) -> float | None:
+        """rate × real-time factor: the samples the chain moved per second of wall time."""
+        return None if self.real_time_factor is None else self.rate_hz * self.real_time_factor
+
+    def cpu_us_per_sample(self, role: str) -> float:
+        """CPU µs per sample of one node: (CPU % / 100) / (samples per second) · 1e6 (NaN when unknown)."""
+        rate = self.samples_per_second
+        if not rate or role not in self.cpu:
+            return float("nan")
+        return self.cpu[role] / 100.0 / rate * 1e6
 
     @property
     def lost(self) -> int:
@@ -69,11 +86,10 @@ class Result:
         """Table cells."""
         lat = self.latency * 1e3
         med, p99 = (f"{np.median(lat):.2f}", f"{np.percentile(lat, 99):.2f}") if lat.size else ("-", "-")
-        cpu = " / ".join(
-            f"{self.cpu.get(role, float('nan')):.0f}" for role in ("simulator", "estimator", "recorder")
-        )
+        cpu = " / ".join(f"{self.cpu.get(role, float('nan')):.0f}" for role in ROLES)
+        per_sample = " / ".join(f"{self.cpu_us_per_sample(role):.0f}" for role in ROLES)
         jitter = f"{self.jitter_p99_us:.0f}" if self.jitter_p99_us is not None else "-"
-        factor = f"{self.real_time_factor:.1f}" if self.real_time_factor is not None else "-"
+        factor = f"{self.real_time_factor:.2f}" if self.real_time_factor is not None else "-"
         return [
             self.mode,
             f"{self.rate_hz:g}",
@@ -85,6 +101,7 @@ class Result:
             jitter,
             factor,
             cpu,
+            per_sample,
         ]
 
 
@@ -131,7 +148,59 @@ HEADER = [
     "jitter p99 µs",
     "real-time factor",
     "CPU % sim / est / rec",
+    "CPU µs/sample sim / est / rec",
 ]
+
+
+def fast_run(results: Sequence[Result]) -> Result | None:
+    """The as-fast-as-possible run (the last of them), if it gave a real-time factor."""
+    runs = [r for r in results if r.mode == "as fast as possible" and r.samples_per_second]
+    return runs[-1] if runs else None
+
+
+def ceiling_plot(results: Sequence[Result], ceilings: Sequence[Ceiling], out: Path) -> Path:
+    """chain_2.png: each bare-rclpy case's messages per second beside the chain as fast as possible (its
+    samples and its recorded messages per second), and the 10x-real-time line of the 1 kHz chain."""
+    bars = [(f"bare rclpy: {c.case}, messages", c.rate) for c in ceilings]
+    fast = fast_run(results)
+    if fast is not None and fast.samples_per_second:
+        per_sample = fast.messages_written / fast.expected
+        bars += [
+            (f"chain, fast {fast.rate_hz:g} Hz: samples", fast.samples_per_second),
+            (f"chain, fast {fast.rate_hz:g} Hz: recorded messages", fast.samples_per_second * per_sample),
+        ]
+    return report.bar_plot(
+        out,
+        "Bare-rclpy ceiling (JointState, this machine) beside the chain as fast as possible",
+        bars,
+        "per second",
+        bound=(10 * 1000.0, "10x real time at 1 kHz (samples/s)"),
+    )
+
+
+def comparison(results: Sequence[Result], ceilings: Sequence[Ceiling]) -> str:
+    """One paragraph: the chain's samples and recorded messages per second beside the bare pair's."""
+    fast = fast_run(results)
+    if fast is None or not ceilings or fast.samples_per_second is None:
+        return "No as-fast-as-possible run gave a real-time factor: nothing to set beside the ceiling."
+    rate = fast.samples_per_second
+    per_sample = fast.messages_written / fast.expected
+    pair = ceilings[0]
+    recorded = [c for c in ceilings if c.case == "pair + recorder"]
+    line = (
+        f"As fast as possible at {fast.rate_hz:g} Hz the chain moved {rate:,.0f} samples/s, "
+        f"{rate * per_sample:,.0f} recorded messages/s ({per_sample:.2f} messages per sample reach the "
+        f"recorder; the estimator takes 1 and publishes 2). The bare pair moves {pair.rate:,.0f} "
+        f"JointState messages/s ({pair.rate / rate:.1f}x the chain's samples)"
+    )
+    if recorded:
+        rec = recorded[0]
+        line += (
+            f", {rec.rate:,.0f} with the recorder on it too ({rec.rate / rate:.1f}x the chain's samples, "
+            f"{rec.rate / (rate * per_sample):.2f}x its recorded messages)"
+        )
+    total = sum(fast.cpu_us_per_sample(role) for role in ROLES)
+    return line + f". Per sample the chain's three nodes spent {total:.0f} µs of CPU in all."
 
 
 def markdown(rows: Sequence[Sequence[str]]) -> str:
@@ -139,15 +208,6 @@ def markdown(rows: Sequence[Sequence[str]]) -> str:
     lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
     return "\n".join(lines)
-
-
-def cpu_seconds(pid: int) -> float | None:
-    """utime + stime of a process in seconds (fields 14 and 15 of /proc/<pid>/stat); None once it is gone."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    except (OSError, IndexError):
-        return None
-    return (int(fields[11]) + int(fields[12])) / _CLK_TCK
 
 
 class CpuSampler:
@@ -186,13 +246,12 @@ class CpuSampler:
 
 
 def _log_figures(text: str) -> tuple[float | None, float | None]:
-    """(jitter p99 µs, real-time factor) from the simulator's log lines."""
+    """(jitter p99 µs, real-time factor) from the simulator's log lines; the factor is simulated seconds
+    over wall seconds of its 'published …' line, which it prints to one decimal only (0.98 must show)."""
     jitter = re.search(r"jitter \(publish − due\): median \d+ µs, p99 (\d+) µs", text)
-    factor = re.search(r"real-time factor ([0-9.]+|inf)", text)
-    return (
-        float(jitter.group(1)) if jitter else None,
-        float(factor.group(1)) if factor and factor.group(1) != "inf" else None,
-    )
+    span = re.search(r"\(([0-9.]+) s simulated\) in ([0-9.]+) s wall", text)
+    factor = float(span.group(1)) / float(span.group(2)) if span and float(span.group(2)) > 0 else None
+    return (float(jitter.group(1)) if jitter else None, factor)
 
 
 class Listener:
@@ -336,6 +395,7 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path, rt_prio
         real_time_factor=factor,
         cpu=sampler.percent(),
         exit_code=code,
+        messages_written=sum(counts.values()),
     )
 
 
@@ -376,6 +436,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=20,
         help="SCHED_FIFO priority of the extra real-time 1 kHz run (0: no extra run)",
     )
+    parser.add_argument(
+        "--ceiling-messages",
+        type=report.count,
+        default=bare_rclpy.MESSAGES,
+        help="messages per case of the bare-rclpy ceiling",
+    )
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
     report.add_docs_argument(parser)
     args = parser.parse_args(argv)
@@ -404,12 +470,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     table = markdown(rows)
     print()
     print(table)
+    ceilings = []
+    for case in bare_rclpy.CASES:
+        with tempfile.TemporaryDirectory(prefix="pendulum_accel_bench_bare_") as tmp:
+            ceilings.append(bare_rclpy.measure(case, args.ceiling_messages, Path(tmp)))
+        print(" | ".join(ceilings[-1].row()), flush=True)
+    ceiling = bare_rclpy.markdown([c.row() for c in ceilings])
+    versus = comparison(results, ceilings)
+    print(ceiling, versus, sep="\n\n")
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "chain.md").write_text(table + "\n\n" + floor + "\n")
+    (args.out / "chain.md").write_text("\n\n".join([table, floor, ceiling, versus]) + "\n")
     png = plot(results, args.out / "chain.png")
+    png2 = ceiling_plot(results, ceilings, args.out / "chain_ceiling.png")
     page = report.write_page(
-        "chain", "Live chain: losses, latency, jitter, CPU", [table, floor],
-        [(png, "Estimate latency per live run (median to p99) beside the sample period")],
+        "chain", "Live chain: losses, latency, jitter, CPU, and the bare-rclpy ceiling",
+        [table, floor, "Bare-rclpy ceiling (`benchmarks.bare_rclpy`):", ceiling, versus],
+        [(png, "Estimate latency per live run (median to p99) beside the sample period"),
+         (png2, "Bare-rclpy messages per second beside the chain's samples and recorded messages")],
         intro=__doc__ or "", docs=args.docs, argv=argv,
     )  # fmt: skip
     print(f"wrote {page}")

@@ -1,9 +1,12 @@
 """Every answer of the lab, measured from a group's folder as a student would: the solution and the key.
 
 ``measure_group(folder)`` reads only what the group was handed (the CSVs and ``params.json``) and returns
-named :class:`Answer` values, each a measurement ± its 1σ uncertainty. ``truths(runs)`` gives the hidden
-values the key sets beside them (the simulator's truth, which only the teacher has). Teacher material:
-not part of the installed package.
+named :class:`Answer` values. The graded ones are exactly the worksheet's value ± σ blanks, each a
+measurement ± its 1σ uncertainty, measured the way the student notebook says (exercise 3's lags from 0 to
+MAX_LAG over the samples after start-up). The others are the worksheet's readings off a plot, its
+predictions and the parts of a σ: the key lists them for the discussion, not for grading.
+``key.truths(runs)`` gives the hidden values the key sets beside them (the simulator's truth, which only
+the teacher has). Teacher material: not part of the installed package.
 """
 
 from __future__ import annotations
@@ -21,21 +24,23 @@ from scipy.optimize import curve_fit
 from pendulum_accel.estimators import estimate_batch
 
 FloatArray = NDArray[np.float64]
+READING_DIGITS = 4  # significant digits of a value the key lists but does not grade
 DRIVE_ESTIMATORS = ("instant", "period_mean", "kalman", "dynamic")
-MAX_LAG = 3.0  # s: the longest delay searched (period_mean's is about half the 2 s period)
-MIN_LAG = -0.5  # s: a little lead, so a zero delay is an interior minimum
+MAX_LAG = 3.0  # s: the notebook's lags, 0 to 3 s (period_mean's delay is about half the 2 s period)
 TURN_HALF_WIDTH = 0.1  # of a period: the samples each side of a turning point its parabola is fitted to
 
 
 @dataclass(frozen=True)
 class Answer:
-    """One measured value of the key: ``value`` ± ``sigma`` (1σ) [unit]."""
+    """One measured value of the key: ``value`` ± ``sigma`` (1σ) [unit]; ``graded`` when the worksheet asks
+    for it with a value ± σ blank (else a reading, a prediction or a σ's part: listed, not graded)."""
 
     name: str
     label: str
     value: float
     sigma: float
     unit: str
+    graded: bool = True
 
     @property
     def digits(self) -> int:
@@ -46,9 +51,21 @@ class Answer:
         """'value ± sigma' with ``digits`` decimals."""
         return f"{self.value:.{self.digits}f} ± {self.sigma:.{self.digits}f}"
 
+    def reading(self) -> str:
+        """The value to READING_DIGITS significant digits: how the key lists what it does not grade."""
+        return f"{self.value:.{READING_DIGITS}g}"
+
     def line(self) -> str:
-        """'answer NAME = VALUE ± SIGMA UNIT  (label)': the solution notebook's line, parsed by the tests."""
-        return f"answer {self.name} = {self.text()} {self.unit}  ({self.label})".rstrip()
+        """'answer NAME = VALUE ± SIGMA UNIT  (label)', or 'reading NAME = VALUE UNIT  (label)' when not
+        graded: the solution notebook's lines, parsed by the tests."""
+        if self.graded:
+            return f"answer {self.name} = {self.text()} {self.unit}  ({self.label})"
+        return f"reading {self.name} = {self.reading()} {self.unit}  ({self.label})"
+
+
+def reading(name: str, label: str, value: float, unit: str) -> Answer:
+    """An Answer the key lists but does not grade (σ 0: the worksheet asks for no uncertainty)."""
+    return Answer(name, label, value, 0.0, unit, graded=False)
 
 
 def load_params(folder: Path) -> dict[str, Any]:
@@ -71,11 +88,13 @@ class SwingFit:
     omega_sigma: float
     theta_eq: float
     theta_eq_sigma: float
+    amplitude: float
     residual_std: float
 
 
 def fit_swing(t: FloatArray, theta: FloatArray) -> SwingFit:
-    """Least-squares fit of θ_eq + A cos ωt + B sin ωt; σ from the covariance scaled by the residual.
+    """Least-squares fit of θ_eq + A cos ωt + B sin ωt; σ from the covariance scaled by the residual;
+    the amplitude √(A² + B²).
 
     ω starts at the periodogram's peak (zero-padded 16×), A and B at their linear fit for that ω.
     """
@@ -98,6 +117,7 @@ def fit_swing(t: FloatArray, theta: FloatArray) -> SwingFit:
         omega_sigma=float(math.sqrt(pcov[0, 0])),
         theta_eq=float(popt[1]),
         theta_eq_sigma=float(math.sqrt(pcov[1, 1])),
+        amplitude=float(math.hypot(popt[2], popt[3])),
         residual_std=float(np.std(yy - model(tt, *popt))),
     )
 
@@ -117,7 +137,11 @@ def recover_a_g(fit: SwingFit, length: float) -> tuple[float, float, float, floa
 
 
 def exercise1(folder: Path) -> list[Answer]:
-    """Fit the swing for ω and θ_eq, recover a and g; the frequency shift against the swing at a = 0."""
+    """Fit the swing for ω and θ_eq, recover a and g; the frequency shift against the swing at a = 0.
+
+    Graded: ω, θ_eq, a, g, ω(a)/ω(0). Listed: ω(0) and the lecture's (√(g² + a²)/g)^½ for the measured a,
+    which the worksheet asks without a σ.
+    """
     length = load_params(folder)["length_m"]
     swing, rest = load_csv(folder / "swing.csv"), load_csv(folder / "swing_rest.csv")
     fit = fit_swing(swing["t_s"], swing["theta_rad"])
@@ -131,6 +155,10 @@ def exercise1(folder: Path) -> list[Answer]:
         Answer("ex1_a", "a = ω² l sin θ_eq", a, s_a, "m/s²"),
         Answer("ex1_g", "g = ω² l cos θ_eq", g, s_g, "m/s²"),
         Answer("ex1_ratio", "ω(a)/ω(0)", ratio, s_ratio, ""),
+        reading("ex1_omega0", "fitted ω(0), swing_rest.csv", fit0.omega, "rad/s"),
+        reading(
+            "ex1_ratio_lecture", "(√(g² + a²)/g)^½ for the measured a", math.sqrt(math.hypot(g, a) / g), ""
+        ),
     ]
 
 
@@ -243,7 +271,12 @@ def period_guess_of(t: FloatArray, theta: FloatArray) -> float:
 
 
 def exercise2(folder: Path, period_guess: float | None = None) -> list[Answer]:
-    """The bias of g tan θ over whole swings found in the data, ± its uncertainty; the second-order one."""
+    """The bias of g tan θ over whole swings found in the data, ± its uncertainty (graded).
+
+    Listed, not graded (the worksheet asks them off the plot, as predictions or as σ's parts): the period,
+    the amplitude A, the second-order prediction ½ (a + a³/g²) A², σ_noise, σ_window, and the bias of the
+    plain mean over the whole record (np.mean of every sample's g tan θ, minus a).
+    """
     params = load_params(folder)
     ex2 = params["exercise2"]
     data = load_csv(folder / ex2["file"])
@@ -251,29 +284,32 @@ def exercise2(folder: Path, period_guess: float | None = None) -> list[Answer]:
     guess = period_guess_of(t, theta) if period_guess is None else period_guess
     g, a = params["gravity_m_s2"], ex2["accel_m_s2"]
     m = measure_bias(t, theta, a, g, ex2["noise_std_rad"], guess)
-    predicted, s_pred = bias_prediction(a, g, m.amplitude, m.amplitude_sigma)
+    predicted, _ = bias_prediction(a, g, m.amplitude, m.amplitude_sigma)
+    whole = float(np.mean(g * np.tan(theta))) - a
     return [
-        Answer("ex2_period", "period, from the first to the last maximum", m.period, m.period_sigma, "s"),
-        Answer("ex2_amplitude", "amplitude A (half the swing)", m.amplitude, m.amplitude_sigma, "rad"),
         Answer("ex2_bias", "bias of g tan θ over whole swings", m.bias, m.sigma, "m/s²"),
-        Answer("ex2_bias_predicted", "½ (a + a³/g²) A²", predicted, s_pred, "m/s²"),
+        reading("ex2_period", "period T, from the first to the last maximum", m.period, "s"),
+        reading("ex2_amplitude", "amplitude A (half the swing)", m.amplitude, "rad"),
+        reading("ex2_bias_predicted", "½ (a + a³/g²) A²", predicted, "m/s²"),
+        reading("ex2_sigma_noise", "σ_noise of the bias", m.sigma_noise, "m/s²"),
+        reading("ex2_sigma_window", "σ_window of the bias", m.sigma_window, "m/s²"),
+        reading("ex2_bias_whole", "mean of g tan θ over the whole record, minus a", whole, "m/s²"),
     ]
 
 
 def delay_and_rms(t: FloatArray, est: FloatArray, accel: FloatArray, settle: float) -> tuple[float, float]:
-    """(delay τ, RMS error) of an estimate against the recorded a, both over t ≥ settle.
+    """(delay τ, RMS error) of an estimate against the recorded a, both over the samples t ≥ t₀ + settle.
 
-    τ = the whole-sample lag, from MIN_LAG to MAX_LAG, that minimises RMS(est(t) − a(t − τ)).
+    τ = the whole-sample lag from 0 to MAX_LAG that minimises RMS(est(t) − a(t − τ)) over those same t,
+    as the notebook says (a(t − τ) is recorded there: settle ≥ MAX_LAG, else ValueError).
     """
     dt = float(t[1] - t[0])
-    lags = np.arange(round(MIN_LAG / dt), round(MAX_LAG / dt) + 1)
-    i0 = max(int(np.searchsorted(t, t[0] + settle)), int(lags[-1]))
-    idx = np.arange(i0, t.size - max(0, -int(lags[0])))
+    lags = np.arange(round(MAX_LAG / dt) + 1)
+    idx = np.flatnonzero(t >= t[0] + settle)
+    if idx[0] < lags[-1]:
+        raise ValueError(f"the start-up cut ({settle:g} s) must be at least the longest lag ({MAX_LAG:g} s)")
     err = np.array([np.sqrt(np.mean((est[idx] - accel[idx - m]) ** 2)) for m in lags])
-    settled = t >= t[0] + settle
-    return float(lags[int(np.argmin(err))]) * dt, float(
-        np.sqrt(np.mean((est[settled] - accel[settled]) ** 2))
-    )
+    return float(lags[int(np.argmin(err))]) * dt, float(err[0])
 
 
 def mean_and_sem(values: list[float]) -> tuple[float, float]:
@@ -283,7 +319,8 @@ def mean_and_sem(values: list[float]) -> tuple[float, float]:
 
 
 def exercise3(folder: Path) -> list[Answer]:
-    """Each estimator's RMS error and delay against the recorded a, mean ± standard error over stretches."""
+    """Each estimator's RMS error and delay against the recorded a, and the RMS of a itself, each the mean
+    ± standard error over the group's stretches, after start-up."""
     params = load_params(folder)
     ex3 = params["exercise3"]
     cfg = {
@@ -323,5 +360,5 @@ def exercise3(folder: Path) -> list[Answer]:
 
 
 def measure_group(folder: Path) -> dict[str, Answer]:
-    """Every answer of one group, measured from its folder alone, by name."""
+    """Every answer of one group (graded or listed), measured from its folder alone, by name."""
     return {a.name: a for a in exercise1(folder) + exercise2(folder) + exercise3(folder)}

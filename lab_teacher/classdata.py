@@ -26,6 +26,7 @@ from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.physics.profiles import Constant
 from pendulum_accel.scene import Scene, load_scene
 from pendulum_accel.scene_run import SceneRun, run_scene
+from pendulum_accel.textfile import read_head
 
 SWING_SCENE = "lecture_constant"  # l = 1 m, g = 9.80665 m/s², undamped
 SWING_NOISE = 0.02  # rad: a cheap hobby sensor (about 1°), so that a fit's uncertainty is worth stating
@@ -42,6 +43,9 @@ OFFSET_RANGE = (0.03, 0.07)  # rad, exercise 1's release beyond θ_eq (hidden)
 BIAS_ACCEL_RANGE = (2.0, 4.0)  # m/s², exercise 2's a (given: the car's reference accelerometer)
 RELEASE_RANGE = (-0.03, 0.03)  # rad, exercise 2's release angle near hanging (hidden: sets the amplitude)
 MIN_SECRET_BYTES = 16
+MAX_SECRET_BYTES = 4096  # a secret is a few dozen random bytes; more is a wrong file, refused unread
+MAX_GROUPS = 99  # a class's groups, named group_01 … group_99; a larger course is several --class runs
+DIGEST_WORDS = 8  # HMAC-SHA256's 256 bits as 32-bit words: SeedSequence's entropy and pool size
 STUDENT_FILES = ("worksheet.md", "student.ipynb")  # from docs/lab/, copied into each group's handout
 
 
@@ -60,11 +64,20 @@ class GroupDraw:
 
 
 def read_secret(path: Path) -> bytes:
-    """The secret's bytes (surrounding whitespace stripped); ParameterError when missing or too short."""
+    """The secret's bytes (surrounding whitespace stripped); ParameterError when missing, not a regular file
+    (a FIFO would block, /dev/zero never ends: refused before any read), too long or too short."""
     try:
-        secret = path.read_bytes().strip()
+        raw = read_head(path, MAX_SECRET_BYTES + 1)
     except OSError as err:
         raise ParameterError(f"cannot read the secret {path}: {err.strerror}") from None
+    except ValueError as err:
+        raise ParameterError(f"cannot read the secret {path}: {err}") from None
+    if len(raw) > MAX_SECRET_BYTES:
+        raise ParameterError(
+            f"the secret {path} holds more than {MAX_SECRET_BYTES} bytes: is it the right file? "
+            "(a secret is a few dozen random bytes)"
+        )
+    secret = raw.strip()
     if len(secret) < MIN_SECRET_BYTES:
         raise ParameterError(
             f"the secret {path} holds {len(secret)} bytes; use at least {MIN_SECRET_BYTES} random ones "
@@ -74,17 +87,37 @@ def read_secret(path: Path) -> bytes:
 
 
 def group_names(count: int) -> list[str]:
-    """'group_01' … 'group_NN' (two digits at least, so they sort)."""
-    if count < 1:
-        raise ParameterError(f"--groups must be at least 1, got {count}")
-    width = max(2, len(str(count)))
-    return [f"group_{k:0{width}d}" for k in range(1, count + 1)]
+    """'group_01' … 'group_NN', two digits (at most MAX_GROUPS groups), so they sort."""
+    if not 1 <= count <= MAX_GROUPS:
+        raise ParameterError(
+            f"--groups must be 1 to {MAX_GROUPS}, got {count} (a larger course: one --class per section)"
+        )
+    return [f"group_{k:02d}" for k in range(1, count + 1)]
+
+
+def group_digest(secret: bytes, class_name: str, group: str) -> bytes:
+    """HMAC-SHA256(secret, "class/group"): the group's 32 bytes, from which ``draw_from_digest`` draws."""
+    return hmac.new(secret, f"{class_name}/{group}".encode(), hashlib.sha256).digest()
 
 
 def draw(secret: bytes, class_name: str, group: str) -> GroupDraw:
-    """The group's parameters: numpy's PCG64 seeded by HMAC-SHA256(secret, "class/group") (256 bits)."""
-    digest = hmac.new(secret, f"{class_name}/{group}".encode(), hashlib.sha256).digest()
-    rng = np.random.default_rng(int.from_bytes(digest, "big"))
+    """The group's parameters, drawn from its HMAC (``group_digest``, ``draw_from_digest``)."""
+    return draw_from_digest(class_name, group, group_digest(secret, class_name, group))
+
+
+def draw_from_digest(class_name: str, group: str, digest: bytes) -> GroupDraw:
+    """The group's parameters and noise seeds, every one drawn from all 256 bits of ``digest``.
+
+    The digest's eight 32-bit words are the entropy of a SeedSequence with an eight-word pool (numpy's
+    default pool holds 128 bits), so every bit reaches every child. Child 0 seeds the generator of the
+    hidden parameters; each sensor's seed is a further child's 256-bit state as one integer, which the
+    sensor's PCG64 hashes through its own SeedSequence (a 128-bit pool): finding a group's noise means
+    searching 2¹²⁸ states, its parameters 2²⁵⁵ (PCG64 keeps an odd increment).
+    """
+    words = np.frombuffer(digest, dtype=">u4").astype(np.uint32)
+    root = np.random.SeedSequence(words.tolist(), pool_size=DIGEST_WORDS)
+    params, *sensors = root.spawn(1 + 3 + DRIVE_RUNS)
+    rng = np.random.default_rng(params)
     last_start = UDDS_LENGTH - DRIVE_WINDOW
     return GroupDraw(
         class_name=class_name,
@@ -94,8 +127,14 @@ def draw(secret: bytes, class_name: str, group: str) -> GroupDraw:
         bias_accel=float(rng.uniform(*BIAS_ACCEL_RANGE)),
         release=float(rng.uniform(*RELEASE_RANGE)),
         drive_starts=tuple(float(s) for s in np.round(rng.uniform(0.0, last_start, DRIVE_RUNS), 1)),
-        seeds=tuple(int(s) for s in rng.integers(0, 2**31 - 1, 3 + DRIVE_RUNS)),
+        seeds=tuple(_seed_integer(child) for child in sensors),
     )
+
+
+def _seed_integer(child: np.random.SeedSequence) -> int:
+    """The child's 256-bit state as one integer ≥ 0 (a sensor seed): Σ w_k 2^(32k) over its 8 words."""
+    state = child.generate_state(DIGEST_WORDS, np.uint32)
+    return sum(int(w) << (32 * k) for k, w in enumerate(state))
 
 
 def swing_scene(d: GroupDraw, accel: float | None = None) -> Scene:

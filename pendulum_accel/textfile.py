@@ -55,6 +55,13 @@ def _regular_file(path: Path) -> Iterator[tuple[io.BufferedReader, int]]:
         os.close(fd)
 
 
+def read_head(path: Path, count: int) -> bytes:
+    """The first ``count`` bytes of regular file ``path`` (all of it when shorter), opened as _regular_file
+    opens it: OSError when it cannot be opened, ValueError for a FIFO or a device, before any read."""
+    with _regular_file(path) as (handle, _):
+        return handle.read(count)
+
+
 def read_text_file(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
     """UTF-8 text of regular file ``path`` (≤ ``limit`` bytes); OSError when unreadable, else ValueError.
 
@@ -63,8 +70,7 @@ def read_text_file(path: Path, limit: int = MAX_TEXT_BYTES) -> str:
 
     The file is opened as _regular_file opens it: a FIFO or a device is refused before any read.
     """
-    with _regular_file(path) as (handle, _):
-        data = handle.read(limit + 1)
+    data = read_head(path, limit + 1)
     if len(data) > limit:
         raise ValueError(f"more than {limit / 1024**2:g} MiB, not a text file of this kind")
     try:

@@ -12,6 +12,7 @@ import functools
 import json
 import os
 import random
+import shutil
 import signal
 import subprocess
 import sys
@@ -22,6 +23,8 @@ from typing import IO, Any
 
 import pytest
 
+from pendulum_accel.nodes.shm_ports import clear_stale_ports
+
 REPO = Path(__file__).resolve().parent.parent
 
 # A suite started as a background job (`make test &`, some CI runners) inherits SIGINT as ignored, and
@@ -31,28 +34,31 @@ REPO = Path(__file__).resolve().parent.parent
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 _LOCK_DIR = Path(tempfile.gettempdir())
-# Linux hosts fit domain ids 0-101 (port range); 0 is what users run on, so skip it.
-_DOMAIN_IDS = range(1, 102)
+# Linux hosts fit domain ids 0-101 (port range); 0 is what users run on, so skip it. Each test process
+# (a plain pytest, or each pytest-xdist worker) holds a pair of ids: its own domain, and a spare one that
+# no other process uses, for the tests that need "another domain" (test_dds_isolation).
+_DOMAIN_PAIRS = [(first, first + 1) for first in range(1, 101, 2)]
 
 
-def _reserve_domain_id() -> tuple[int, IO[str]]:
-    """Hold an exclusive lock on one domain id for the life of this test session."""
-    ids = list(_DOMAIN_IDS)
-    random.Random(os.getpid()).shuffle(ids)
-    for domain in ids:
-        handle = open(_LOCK_DIR / f"pendulum_accel_ros_domain_{domain}.lock", "w")  # noqa: SIM115
+def _reserve_domain_pair() -> tuple[tuple[int, int], IO[str]]:
+    """Hold an exclusive lock on one pair of domain ids for the life of this test process."""
+    pairs = list(_DOMAIN_PAIRS)
+    random.Random(os.getpid()).shuffle(pairs)
+    for pair in pairs:
+        handle = open(_LOCK_DIR / f"pendulum_accel_ros_domains_{pair[0]}_{pair[1]}.lock", "w")  # noqa: SIM115
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             handle.close()
             continue
-        return domain, handle
-    raise RuntimeError("no free ROS_DOMAIN_ID in 1..101: too many concurrent test runs")
+        return pair, handle
+    raise RuntimeError("no free pair of ROS_DOMAIN_IDs in 1..100: too many concurrent test processes")
 
 
-if "PYTEST_XDIST_WORKER" not in os.environ or "ROS_DOMAIN_ID" not in os.environ:
-    ROS_DOMAIN_ID, _DOMAIN_LOCK = _reserve_domain_id()
-    os.environ["ROS_DOMAIN_ID"] = str(ROS_DOMAIN_ID)
+# Every process reserves its own pair, an xdist worker too (it inherits the controller's ROS_DOMAIN_ID,
+# which must not be shared: two workers' chains on one domain would see each other's topics).
+(ROS_DOMAIN_ID, SPARE_DOMAIN_ID), _DOMAIN_LOCK = _reserve_domain_pair()
+os.environ["ROS_DOMAIN_ID"] = str(ROS_DOMAIN_ID)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.pop("ROS_LOCALHOST_ONLY", None)  # deprecated; conflicts with the range above
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
@@ -69,6 +75,13 @@ def rclpy_available() -> bool:
     except ImportError:
         return False
     return True
+
+
+@pytest.fixture(autouse=True)
+def _no_stale_shm_port() -> None:
+    """Before every test (any may start DDS participants, not all through the nodes, which clear them
+    too): no empty Fast DDS port left by a killed process, which would hang them at start-up."""
+    clear_stale_ports()
 
 
 @pytest.fixture(autouse=True)
@@ -145,3 +158,84 @@ def cli(*args: str, timeout: float = 180.0) -> subprocess.CompletedProcess[str]:
         timeout=timeout,
         cwd=REPO,
     )
+
+
+def run_root(factory: pytest.TempPathFactory) -> Path:
+    """The temporary directory of this whole pytest run: shared by its xdist workers (each worker's own
+    basetemp is a ``popen-gwN`` folder inside it), the basetemp itself without xdist."""
+    base = factory.getbasetemp()
+    return base.parent if "PYTEST_XDIST_WORKER" in os.environ else base
+
+
+def shared_once(factory: pytest.TempPathFactory, name: str, make: Callable[[Path], None]) -> Path:
+    """A folder ``name`` made once per pytest run by ``make(folder)``, whichever worker asks first; the others
+    wait on its lock and reuse it. Made whole or not at all: a folder whose ``make`` raised is made anew by
+    the next caller (the ``.done`` mark is written last)."""
+    folder = run_root(factory) / "shared" / name
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    with open(folder.parent / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (folder / ".done").exists():
+            shutil.rmtree(folder, ignore_errors=True)
+            folder.mkdir()
+            make(folder)
+            (folder / ".done").touch()
+    return folder
+
+
+@pytest.fixture(scope="session")
+def colcon_workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One ``colcon build`` of a clean checkout for the whole run (every xdist worker shares it): the
+    workspace, its install/ beside src/. Tests read it and run its scripts; none writes into it."""
+    from test.install_paths import build_colcon_workspace
+
+    return shared_once(tmp_path_factory, "colcon_ws", build_colcon_workspace)
+
+
+@pytest.fixture(scope="session")
+def lab_class(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The lab's test class (test/lab_class.py), made once for the whole run: its group folders, zips and
+    teacher_key.md."""
+    from test.lab_class import make_class
+
+    return shared_once(tmp_path_factory, "lab_class", make_class) / "class"
+
+
+# --- scheduling on pytest-xdist (make test: --dist loadfile --no-loadscope-reorder) ------------------------
+# Each test file runs whole on one worker, so what a module computes once per process (a module-scoped
+# fixture, a functools cache) is computed once. (--dist loadgroup would let the other files' tests spread
+# one by one, but it groups nothing with pytest 9.2: pytest-xdist#1386.) The files are sent longest first,
+# since the longest at the end would be the run's tail: a file's cost is the sum of its tests' durations in
+# the last run on this checkout (pytest's cache), else of guesses from their `slow` marks.
+DURATIONS_KEY = "pendulum_accel/durations"
+SLOW_GUESS_S = 120.0  # s a `slow` test is taken to last when no run has timed it (none is over 5 min)
+QUICK_GUESS_S = 0.5  # s any other untimed test is taken to last (the suite's median is below it)
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Order the files longest first (stable: a file's tests keep their order)."""
+    cache = getattr(config, "cache", None)  # None with -p no:cacheprovider
+    known: dict[str, float] = cache.get(DURATIONS_KEY, {}) if cache is not None else {}
+    cost: dict[str, float] = {}
+    for item in items:
+        guess = SLOW_GUESS_S if item.get_closest_marker("slow") else QUICK_GUESS_S
+        path = item.nodeid.split("::", 1)[0]
+        cost[path] = cost.get(path, 0.0) + known.get(item.nodeid, guess)
+    items.sort(key=lambda item: -cost[item.nodeid.split("::", 1)[0]])
+
+
+_durations: dict[str, float] = {}
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """Each test's setup + call + teardown seconds (on the controller under xdist: every worker's reports)."""
+    _durations[report.nodeid] = _durations.get(report.nodeid, 0.0) + report.duration
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """Keep this run's durations for the next run's order (the controller's, or a run without xdist)."""
+    cache = getattr(session.config, "cache", None)  # None with -p no:cacheprovider
+    if "PYTEST_XDIST_WORKER" in os.environ or cache is None or not _durations:
+        return
+    cache.set(DURATIONS_KEY, {**cache.get(DURATIONS_KEY, {}), **_durations})

@@ -128,6 +128,7 @@ def test_a_bag_animates_from_its_recorded_angles(tmp_path: Path) -> None:
         assert img.size == (WIDTH, HEIGHT) and getattr(img, "n_frames", 1) == 3
 
 
+@pytest.mark.slow
 def test_a_bag_without_truth_or_scene_animates_with_its_length_given(tmp_path: Path) -> None:
     """A real sensor's bag (no truth, no scene): refused in one line naming --length without it; with it,
     the GIF comes out, the readout has no true a, and the frames carry the estimate only. --length with a
@@ -311,11 +312,11 @@ def test_a_direct_save_on_a_full_disk_keeps_the_old_file(tmp_path: Path, name: s
     """SwingAnimation.save over an existing file on a disk with no room for the new one (a 62 KiB GIF, a
     16 KiB file system): OSError 'No space left on device', the old bytes as they were and nothing left
     beside them, whatever the file is called (written in place, it would have been truncated first)."""
-    from test.test_hostile_inputs import _tiny_filesystem
+    from test.tiny_filesystem import tiny_filesystem
 
     old = b"the animation of last week's lab\n"
     anim = SwingAnimation(swing(), fps=10, duration=1.0)
-    with _tiny_filesystem(tmp_path / "fs", "16k") as fs:
+    with tiny_filesystem(tmp_path / "fs", "16k") as fs:
         out = fs / name
         out.write_bytes(old)
         with pytest.raises(OSError) as failed:

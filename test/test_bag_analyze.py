@@ -13,7 +13,8 @@ import pytest
 from pendulum_accel.bag import mcap_file
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag import writer as bag_writer
-from pendulum_accel.bag.reader import Bag, _Lazy, read_bag
+from pendulum_accel.bag.blocks import Lazy
+from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.cli.main import main
 from pendulum_accel.cli.output import json_text
@@ -389,7 +390,7 @@ def test_analyze_reads_each_chunk_once(tmp_path: Path, monkeypatch: pytest.Monke
     bag = read_bag(tmp_path / "bag")
     reads = _chunk_reads(monkeypatch)
     result = analyze_bag(bag)
-    chunks = {b.ref.at for ch in bag._channels.values() for b in ch.blocks if isinstance(b, _Lazy)}
+    chunks = {b.ref.at for ch in bag._channels.values() for b in ch.blocks if isinstance(b, Lazy)}
     assert len(chunks) > 5 and sorted(reads) == sorted(chunks)
     est = read_bag(tmp_path / "bag").decode(
         bm.TOPIC_ACCEL_ESTIMATE,
@@ -446,9 +447,9 @@ def test_the_recorded_estimator_is_read_from_the_first_report_only(
     result = analyze_bag(bag, config=CONFIG)
     assert result.estimator == "lowpass" and result.recorded_figures is not None
     assert result.recorded_figures.estimator == "lowpass"
-    chunks = sorted({b.ref.at for ch in bag._channels.values() for b in ch.blocks if isinstance(b, _Lazy)})
+    chunks = sorted({b.ref.at for ch in bag._channels.values() for b in ch.blocks if isinstance(b, Lazy)})
     reports = next(ch for ch in bag._channels.values() if ch.topic == bm.TOPIC_DIAGNOSTICS).blocks
-    first_report = next(b.ref.at for b in reports if isinstance(b, _Lazy))
+    first_report = next(b.ref.at for b in reports if isinstance(b, Lazy))
     assert len(chunks) > 5 and sorted(reads) == sorted([*chunks, first_report])
     assert list(bag.raw_payloads(bm.TOPIC_DIAGNOSTICS)) == bag.raw(bm.TOPIC_DIAGNOSTICS)[1]  # raw's, in order
 

@@ -18,6 +18,7 @@ import time
 import zlib
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from mcap.reader import NonSeekingReader, SeekingReader, make_reader
@@ -36,6 +37,7 @@ from test.chain_helpers import child_pids, start_chain
 from test.conftest import Spawn
 from test.figures import assert_figure
 from test.split_recording import split_recording
+from test.test_bag_io import _write_chain_bag
 
 CHUNK_HEAD = struct.Struct("<QQQII")  # message start, end, uncompressed size, CRC, compression length
 
@@ -318,6 +320,36 @@ def test_damaged_chunk_keeps_its_intact_records_and_says_so(
     lines, note = info_lines(str(bag))
     assert "[repaired: " in lines[0] and "chunk 3" in lines[0] and note is None
     assert CUSTOM_REPAIRED in read_bag(bag).custom_data
+
+
+@pytest.mark.parametrize("where", ["payload", "framing"])
+def test_damage_at_40_percent_keeps_the_chunks_after_it(tmp_path: Path, where: str) -> None:
+    counts = _write_chain_bag(tmp_path / "bag", n=20_000)
+    mcap = tmp_path / "bag" / "bag.mcap"
+    chunks = chunks_of(mcap)
+    assert len(chunks) >= 5
+    data = bytearray(mcap.read_bytes())
+    victim = next(c for c in chunks if c.at + c.length > 0.4 * len(data))
+    start, in_chunk = victim.at, len(victim.messages)
+    if where == "payload":
+        # 10 flipped bytes over the chunk's header (sizes, CRC, compression): its records no longer read.
+        at = start + 9 + 20
+        data[at : at + 10] = bytes(b ^ 0xFF for b in data[at : at + 10])
+    else:
+        data[start] = 0x00  # the chunk's opcode: the record framing itself is broken there
+    mcap.write_bytes(bytes(data))
+    total = sum(counts.values())
+    bag = read_bag(tmp_path / "bag")
+    assert bag.problem is not None
+    assert bag.message_count == total - in_chunk  # every other chunk, before and after the damage
+    assert ("chunk index" if where == "framing" else "damaged chunk") in bag.problem
+    js = bag.decode(bm.TOPIC_JOINT_STATES, bm.JOINT_STATE)
+    ms = np.round(js.stamp * 1e3)
+    assert ms[-1] == counts[bm.TOPIC_JOINT_STATES] - 1  # the last sample, long after the damage
+    assert np.all(np.diff(ms) > 0)
+    result = repair_bag(tmp_path / "bag")
+    assert result.rewritten and sum(result.counts.values()) == bag.message_count
+    assert read_bag(tmp_path / "bag", salvage=False).message_count == bag.message_count
 
 
 def test_repair_of_a_directory_that_is_no_bag_is_one_line(

@@ -1,6 +1,7 @@
 """Metadata fidelity: RIHS01 type hashes in every MCAP channel (as rosbag2's MCAP storage writes them) equal
 to rclpy's own, the offered QoS as the chain publishes it (history and depth included), the estimator and the
-recorder's counts in custom_data."""
+recorder's counts in custom_data. Metadata read with suspicion: a metadata.yaml naming a file outside its bag
+is refused and nothing outside is touched; one of the wrong shape is set aside and the intact MCAP is read."""
 
 from __future__ import annotations
 
@@ -18,12 +19,16 @@ from rosbags.interfaces import QosDurability, QosHistory, QosReliability
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.metadata import complete_qos, parse_qos
 from pendulum_accel.bag.reader import read_bag
+from pendulum_accel.bag.repair import repair_bag
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR
+from pendulum_accel.errors import BagError
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting
 from pendulum_accel.nodes.launcher import node_command
 from pendulum_accel.recording.generate import generate_bag
 from test.chain_helpers import Output, start_node
-from test.conftest import PYTHON, REPO, Spawn
+from test.conftest import PYTHON, REPO, Spawn, cli
+from test.refusal import one_line_error
+from test.test_bag_io import _write_chain_bag
 
 GOLDEN = REPO / "bags" / "step_start"
 
@@ -142,3 +147,38 @@ def test_node_bag_paths_expand_the_home_directory(spawn: Spawn, tmp_path: Path) 
     assert not (tmp_path / "~").exists()
     n = read_bag(GOLDEN).topics[bm.TOPIC_JOINT_STATES].count
     assert read_bag(home / "bags" / "run").topics[bm.TOPIC_JOINT_STATES].count == n
+
+
+@pytest.mark.parametrize("name", ["../external.mcap", "ABSOLUTE", "link.mcap"])
+@pytest.mark.parametrize("backup", [True, False])
+def test_metadata_naming_a_file_outside_the_bag_is_refused(tmp_path: Path, name: str, backup: bool) -> None:
+    _write_chain_bag(tmp_path / "bag", n=200)
+    outside = tmp_path / "external.mcap"
+    outside.write_bytes((tmp_path / "bag" / "bag.mcap").read_bytes()[:-100])  # damaged: repair would act
+    if name == "ABSOLUTE":
+        name = str(outside)
+    elif name == "link.mcap":
+        (tmp_path / "bag" / "link.mcap").symlink_to(outside)
+    (tmp_path / "bag" / "bag.mcap").unlink()
+    meta = tmp_path / "bag" / "metadata.yaml"
+    meta.write_text(meta.read_text().replace("- bag.mcap", f"- {name}", 1))
+    before = outside.read_bytes()
+    with pytest.raises(BagError, match="outside"):
+        repair_bag(tmp_path / "bag", keep_backup=backup)
+    with pytest.raises(BagError, match="outside"):
+        read_bag(tmp_path / "bag")
+    assert outside.read_bytes() == before  # not renamed, not deleted, not rewritten
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag", "external.mcap"]
+    one_line_error(cli("repair", str(tmp_path / "bag")), "outside")
+    one_line_error(cli("info", str(tmp_path / "bag")), "outside")
+
+
+@pytest.mark.parametrize("shape", ["rosbag2_bagfile_information: [1, 2, 3]\n", "[]\n", "7\n"])
+def test_metadata_of_the_wrong_shape_still_reads_the_intact_mcap(tmp_path: Path, shape: str) -> None:
+    counts = _write_chain_bag(tmp_path / "bag", n=300)
+    (tmp_path / "bag" / "metadata.yaml").write_text(shape)
+    assert read_bag(tmp_path / "bag").message_count == sum(counts.values())
+    assert cli("info", str(tmp_path / "bag")).returncode == 0
+    result = cli("repair", str(tmp_path / "bag"))
+    assert result.returncode == 0 and "Traceback" not in result.stderr
+    assert read_bag(tmp_path / "bag", salvage=False).message_count == sum(counts.values())

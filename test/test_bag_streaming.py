@@ -18,7 +18,8 @@ import pytest
 
 from pendulum_accel.bag import export as bag_export
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.reader import Bag, _Lazy, read_bag
+from pendulum_accel.bag.blocks import Lazy
+from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.cli import info
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.errors import BagError
@@ -59,7 +60,7 @@ def _same_bag(streamed: Bag, held: Bag) -> None:
 def test_streamed_bag_equals_the_bag_held_whole(chain_bag: Path) -> None:
     """Topics, counts, spans, shapes, payloads and columns: equal; and the bag really spans many chunks."""
     streamed = read_bag(chain_bag)
-    chunks = {b.ref.at for ch in streamed._channels.values() for b in ch.blocks if isinstance(b, _Lazy)}
+    chunks = {b.ref.at for ch in streamed._channels.values() for b in ch.blocks if isinstance(b, Lazy)}
     assert len(chunks) > 10
     _same_bag(streamed, read_bag(chain_bag, stream=False))
 
@@ -123,6 +124,30 @@ def test_damaged_bag_reads_the_same_streamed(chain_bag: Path, tmp_path: Path) ->
     streamed, held = read_bag(damaged), read_bag(damaged, stream=False)
     assert held.damage and held.problem is not None
     _same_bag(streamed, held)
+
+
+def test_a_chunk_its_index_misplaces_is_read_again_by_walking(chain_bag: Path, tmp_path: Path) -> None:
+    """Chunks the scan found through their message indexes alone are read again through those indexes (the
+    wanted channels' entries only); a chunk whose index points one channel's entry at another channel's
+    message is walked in the scan and walked again when read. Both: what the bag held whole gives."""
+    copy = tmp_path / "bag"
+    copy.mkdir()
+    for part in chain_bag.iterdir():
+        (copy / part.name).write_bytes(part.read_bytes())
+    refs = {b.ref for ch in read_bag(copy)._channels.values() for b in ch.blocks if isinstance(b, Lazy)}
+    assert refs and all(ref.indexed for ref in refs)  # our writer's chunks: every message indexed
+    ref = sorted(refs, key=lambda r: r.at)[len(refs) // 2]
+    mcap = next(copy.glob("*.mcap"))
+    data = bytearray(mcap.read_bytes())
+    (first, _), (second, _) = ref.indexes[:2]
+    # MessageIndex body: channel id (2 bytes), entries' byte length (4), then (log time, offset) entries.
+    offset_at = first + 9 + 6 + 8
+    data[offset_at : offset_at + 8] = data[second + 9 + 6 + 8 : second + 9 + 6 + 16]
+    mcap.write_bytes(bytes(data))
+    streamed = read_bag(copy)
+    again = {b.ref.at: b.ref for ch in streamed._channels.values() for b in ch.blocks if isinstance(b, Lazy)}
+    assert not again[ref.at].indexed and sum(r.indexed for r in again.values()) == len(again) - 1
+    _same_bag(streamed, read_bag(copy, stream=False))
 
 
 def test_a_bag_changed_after_its_scan_is_refused(chain_bag: Path, tmp_path: Path) -> None:

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks import allan_recovery, bags, chain, report, soak, teardown
+from benchmarks import allan_recovery, bags, bare_rclpy, chain, fleet, report, soak, teardown
 
 BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -64,6 +64,18 @@ def test_chain_soak_and_teardown_plots(tmp_path: Path) -> None:
         "as fast as possible", 1000.0, 30.0, 30001, 30001, 30001, 30001, np.array([]), None, 10.0
     )
     assert chain.plot([timed, fast], tmp_path / "chain.png").read_bytes()[:8] == PNG
+    fast.cpu, fast.messages_written = {"simulator": 50.0, "estimator": 60.0, "recorder": 40.0}, 5 * 30001
+    ceilings = [
+        bare_rclpy.Ceiling("pair", 30000, 1.5, 30000, None, {"talker": 20.0, "listener": 25.0}),
+        bare_rclpy.Ceiling("pair + recorder", 30000, 3.0, 30000, 30000, {"recorder": 40.0}),
+    ]
+    assert chain.ceiling_plot([timed, fast], ceilings, tmp_path / "c.png").read_bytes()[:8] == PNG
+    # 10x real time at 1 kHz is 10,000 samples/s; 60 % of a core over them is 60 µs a sample (three float
+    # steps, each within half an ulp, 1.1e-16, of exact: 1e-12 relative leaves a wide margin).
+    assert fast.cpu_us_per_sample("estimator") == pytest.approx(60.0, rel=1e-12)
+    line = chain.comparison([timed, fast], ceilings)
+    assert "10,000 samples/s" in line and "50,000 recorded messages/s" in line and "20,000 JointState" in line
+    assert timed.cpu_us_per_sample("estimator") != timed.cpu_us_per_sample("estimator")  # NaN: no CPU figures
     series = {"simulator": [(5.0 * k, 80.0 + 0.01 * k) for k in range(40)], "recorder": [(0.0, 90.0)]}
     assert soak.plot(series, tmp_path / "soak.png").read_bytes()[:8] == PNG
     assert teardown.plot([1.1, 1.2, 0.9], tmp_path / "teardown.png").read_bytes()[:8] == PNG
@@ -94,3 +106,19 @@ def test_allan_recovery_refuses_a_record_too_short_in_one_line(capsys: pytest.Ca
     assert stop.value.code == 2
     errors = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
     assert len(errors) == 1 and "at least 100 samples" in errors[0], errors
+
+
+def test_fleet_prediction_names_the_first_limit_from_the_measured_figures() -> None:
+    """benchmarks.fleet's 10-node paragraph from made-up figures: 100 bags, 0.5 s each serially, the 1-worker
+    cluster 0.01 s a bag dearer, 2 workers at 90 % efficiency: 20 workers give 20 · 0.9 / 0.5 = 36 bags/s,
+    under the scheduler's cap of 1/0.01 = 100 bags/s and the links' 10 · 125 / 2 = 625 bags/s."""
+    one = fleet.ClusterRun(1, 1.0, 51.0, (300.0,))
+    many = fleet.ClusterRun(2, 1.5, 100 * 0.5 / (2 * 0.9), (300.0, 310.0))
+    text = fleet.prediction(100, 50.0, one, many, bag_mb=2.0)
+    rate = float(text.split("about **")[1].split(" bags/s")[0])
+    assert rate == pytest.approx(36.0, abs=0.5)  # printed to the unit
+    assert "20 workers at the 90% efficiency" in text
+    slow_scheduler = fleet.ClusterRun(1, 1.0, 50.0 + 100 * 0.1, (300.0,))  # 0.1 s a bag: cap 10 bags/s
+    text = fleet.prediction(100, 50.0, slow_scheduler, many, bag_mb=2.0)
+    assert float(text.split("about **")[1].split(" bags/s")[0]) == pytest.approx(10.0, abs=0.5)
+    assert "the scheduler" in text.split("The first limit is")[1]

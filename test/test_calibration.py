@@ -222,13 +222,18 @@ def test_kalman_covers_a_constant_a(name: str) -> None:
 
 def _random_walk_run(seed: int, q: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, a, noisy θ): 30 s of a random walk a (density q, steps every 10 ms, joined linearly) through the
-    short damped design (l = 5 cm, c = 19.8 /s, 200 Hz, σ = 2 mrad)."""
+    short damped design (l = 5 cm, c = 19.8 /s, 200 Hz, σ = 2 mrad).
+
+    Integrated by the compiled rk8 at 1 ms steps: every knot of a(t) is a step boundary, so a(t) is linear
+    inside each step and the method keeps its 8th order (it and rk4 at 1 ms agree to 5e-12 rad). It agrees
+    with DOP853 at rtol 1e-9, the adaptive reference, to 1.6e-8 rad: 1e-5 of the 2 mrad noise, nothing
+    to the NEES. DOP853 through 3000 knots took 30 s a run here, rk8 0.05 s."""
     rng = np.random.default_rng(seed)
     knots = np.arange(0.0, 30.01, 0.01)
     walk = np.concatenate(([0.0], np.cumsum(rng.normal(0.0, math.sqrt(q * 0.01), knots.size - 1))))
     profile = Table(times=tuple(knots), accels=tuple(walk))
     t = np.arange(round(30.0 * 200.0)) / 200.0
-    traj = simulate(Pendulum(length=0.05, damping=19.8), profile, t, theta0=0.0, rtol=1e-9, atol=1e-11)
+    traj = simulate(Pendulum(length=0.05, damping=19.8), profile, t, theta0=0.0, method="rk8", dt=1e-3)
     return t, np.asarray(profile(t)), traj.theta + 2e-3 * rng.standard_normal(t.size)
 
 

@@ -1,5 +1,6 @@
 """A logger's CSV as users bring it: any of the encodings and line endings spreadsheets and phones write,
-and larger than a scene file, read line by line (textfile.text_lines under columns.read_csv_rows)."""
+and larger than a scene file, read line by line (textfile.text_lines under columns.read_csv_rows). A
+byte-order mark is no part of the first value or name; binary data and devices are refused in one line."""
 
 from __future__ import annotations
 
@@ -15,6 +16,8 @@ from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.motion_input.columns import read_columns
 from pendulum_accel.physics.profiles import Table
 from pendulum_accel.textfile import MAX_TEXT_BYTES, text_encoding, text_lines
+from test.conftest import cli
+from test.refusal import one_line_error
 
 HEADER = ("Zeit (s)", "Beschleunigung (m/s²)")  # "²" is one byte in Windows-1252, two in UTF-8
 
@@ -124,6 +127,7 @@ def test_a_data_file_past_its_bound_is_refused_before_it_is_read(tmp_path: Path)
     assert float(words[1]) == pytest.approx(1.0, abs=0.5) and float(words[2]) == 0.5
 
 
+@pytest.mark.slow
 def test_a_log_larger_than_a_scene_file_may_be_is_read(tmp_path: Path) -> None:
     """An hour of a phone's 400 Hz accelerometer in phyphox's layout is about 85 MiB, past the 64 MiB that
     bounds a scene file (read whole); a data file is streamed and reads. The values are copied from the
@@ -141,3 +145,38 @@ def test_a_log_larger_than_a_scene_file_may_be_is_read(tmp_path: Path) -> None:
     assert isinstance(profile, Table)
     assert np.array_equal(profile.times, np.array(times, dtype=float))
     assert np.array_equal(profile.accels, np.array(accels, dtype=float))
+
+
+def test_a_byte_order_mark_is_not_part_of_the_first_value_or_name(tmp_path: Path) -> None:
+    """A UTF-8 BOM (Excel, Windows tools) before a headerless first row or a header's first name: every
+    row is read, and the first column is found by its name."""
+    samples = [(0.1 * k, float(k % 7)) for k in range(60)]
+    body = "".join(f"{t!r},{a!r}\n" for t, a in samples)
+    (tmp_path / "bare.csv").write_bytes(b"\xef\xbb\xbf" + body.encode())
+    (tmp_path / "named.csv").write_bytes(b"\xef\xbb\xbf" + ("time,ax\n" + body).encode())
+    bare = profile_from_dict({"type": "accel_csv", "path": "bare.csv"}, base_dir=tmp_path)
+    named = profile_from_dict(
+        {"type": "accel_csv", "path": "named.csv", "time_column": "time", "accel_column": "ax"},
+        base_dir=tmp_path,
+    )
+    table = profile_from_dict({"type": "csv", "path": "bare.csv"}, base_dir=tmp_path)
+    for profile in (bare, named, table):
+        assert profile.to_dict()["accels"] == [a for _, a in samples]  # all 60, as recorded
+    columns = {"time_column": "time", "speed_column": "ax", "signed": True}
+    speeds = profile_from_dict(
+        {"type": "speed_csv", "path": "named.csv", "units": "m/s", **columns}, tmp_path
+    )
+    assert len(speeds.to_dict()["speeds"]) == 60
+
+
+def test_odd_files_are_one_line(tmp_path: Path) -> None:
+    (tmp_path / "binary.csv").write_bytes(b"\x89\xff\xfe\x00 not text")
+    profile = "acceleration:\n  type: csv\n  path: {}\n"
+    text = cli("scenes", "lecture_constant").stdout
+    start = text.index("acceleration:")
+    end = text.index("sensor:")
+    for source, words in (("binary.csv", ("not text", "NUL byte")), ("/dev/zero", ("character device",))):
+        scene = tmp_path / "csv_scene.yaml"
+        scene.write_text(text[:start] + profile.format(source) + text[end:])
+        one_line_error(cli("simulate", str(scene)), *words)
+    one_line_error(cli("simulate", "/dev/zero"), "character device")

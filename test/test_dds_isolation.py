@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from test.conftest import PYTHON, REPO, Spawn
+from test.conftest import PYTHON, REPO, SPARE_DOMAIN_ID, Spawn
 
 pytestmark = [
     pytest.mark.ros,
@@ -16,6 +16,8 @@ pytestmark = [
 def test_session_uses_private_domain_and_localhost() -> None:
     assert os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
     assert 1 <= int(os.environ["ROS_DOMAIN_ID"]) <= 101
+    # The spare domain is this process's own too (a parallel worker holds another pair).
+    assert int(os.environ["ROS_DOMAIN_ID"]) + 1 == SPARE_DOMAIN_ID
 
 
 def test_every_message_crosses_between_processes(spawn: Spawn) -> None:
@@ -35,7 +37,7 @@ def test_every_message_crosses_between_processes(spawn: Spawn) -> None:
 def test_other_domain_does_not_receive(spawn: Spawn) -> None:
     """A listener in another domain must see nothing of this session's traffic."""
     peer = str(REPO / "test" / "dds_peer.py")
-    other = dict(os.environ, ROS_DOMAIN_ID=str((int(os.environ["ROS_DOMAIN_ID"]) % 101) + 1))
+    other = dict(os.environ, ROS_DOMAIN_ID=str(SPARE_DOMAIN_ID))  # no other test process's domain
     # A talker only starts sending once it sees a subscriber, so pair each with one
     # in its own domain, and check the foreign listener's count stays at zero.
     listener_here = spawn([PYTHON, peer, "listen", "/leak_check", "50"])

@@ -1,12 +1,16 @@
-"""The package's Fast DDS profile: applied only when Fast DDS is the RMW and no profile file is chosen."""
+"""The package's Fast DDS profile: applied only when Fast DDS is the RMW and no profile file is chosen; the
+shared-memory ports a killed process left half-made, cleared before a node starts."""
 
 from __future__ import annotations
 
+import os
+import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 
+from pendulum_accel.nodes import shm_ports
 from pendulum_accel.nodes.dds_profile import LOOPBACK_PROFILE, PROFILE, use_package_profile
 
 NS = {"dds": "http://www.eprosima.com"}
@@ -71,3 +75,20 @@ def test_profile_is_installed_with_the_package() -> None:
     import importlib.resources
 
     assert importlib.resources.files("pendulum_accel.nodes").joinpath("fastdds_profile.xml").is_file()
+
+
+def test_only_an_old_empty_shm_port_is_cleared(tmp_path: Path) -> None:
+    """clear_stale_ports removes an empty port older than STALE_EMPTY_S (a killed process's: it would hang
+    every later participant that opens it), and keeps a young empty one (being made now), a sized one
+    (alive) and Fast DDS's lock files."""
+    names = ["fastdds_port65001", "fastdds_port65002", "fastdds_port65003", "fastdds_port65001_el"]
+    for name in names:
+        (tmp_path / name).touch()
+    (tmp_path / "fastdds_port65003").write_bytes(b"\0" * 64)
+    now = time.time()
+    old = now - 10 * shm_ports.STALE_EMPTY_S
+    for name in ("fastdds_port65001", "fastdds_port65003", "fastdds_port65001_el"):
+        os.utime(tmp_path / name, (old, old))
+    assert shm_ports.clear_stale_ports(tmp_path, now) == ["fastdds_port65001"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(names[1:])
+    assert shm_ports.clear_stale_ports(tmp_path / "missing", now) == []  # no /dev/shm: nothing to do

@@ -8,11 +8,12 @@ ImportError on a machine set up by that list; this test names it instead.
 from __future__ import annotations
 
 import ast
+import functools
 import importlib.metadata
 import re
 import sys
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -112,20 +113,28 @@ def colcon_pip_line(path: Path) -> set[str]:
     return {requirement_name(token) for token in lines[0].split()}
 
 
+@functools.cache
+def installed_distributions() -> Mapping[str, list[str]]:
+    """importlib.metadata.packages_distributions(), read once: it walks every installed distribution's file
+    list (the ROS wheels' are long), tens of seconds a call on a loaded machine."""
+    return importlib.metadata.packages_distributions()
+
+
 def distribution_of(module: str) -> str | None:
     """The installed distribution providing import name ``module`` (canonical), else the fallback table."""
-    dists = importlib.metadata.packages_distributions().get(module)
+    dists = installed_distributions().get(module)
     if dists:
         return canonical(dists[0])
     return IMPORT_TO_DIST_FALLBACK.get(module)
 
 
-def runtime_imports() -> dict[str, set[str]]:
-    """Third-party imports of the installed package and its launch files."""
+@functools.cache
+def runtime_imports() -> Mapping[str, set[str]]:
+    """Third-party imports of the installed package and its launch files (parsed once: read-only)."""
     return imports(p for folder in RUNTIME_CODE for p in sorted(folder.rglob("*.py")))
 
 
-def split_ros(found: dict[str, set[str]], ros_keys: set[str]) -> tuple[dict[str, str], set[str]]:
+def split_ros(found: Mapping[str, set[str]], ros_keys: set[str]) -> tuple[dict[str, str], set[str]]:
     """(PyPI import → distribution, ROS package names): a ROS package is a package.xml key that is not a
     python3-* rosdep key, or a module installed by a ros-* wheel, or one with no distribution here."""
     pypi: dict[str, str] = {}

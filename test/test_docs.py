@@ -24,7 +24,8 @@ ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
 README = ROOT / "README.md"
 # Scripts under benchmarks/ that are helpers, not benchmarks.
-NOT_BENCHMARKS = {"__init__", "report", "reference", "corpus"}  # corpus: the profiles the benchmarks share
+# corpus: the profiles the benchmarks share; bare_rclpy: the ceiling benchmarks.chain puts on its page.
+NOT_BENCHMARKS = {"__init__", "report", "reference", "corpus", "bare_rclpy"}
 
 
 def _nav_files(node: object) -> list[str]:

@@ -5,7 +5,7 @@ The benchmark scripts write their figures onto docs/benchmarks/*.md (benchmarks/
 page, and the README, may quote those figures or link the page, never type figures of its own: a typed
 figure goes stale at the next benchmark run. Generated pages are not checked: docs/benchmarks/ itself,
 docs/reference/ (written by `make docs-reference`) and the lab's teacher key (filled in from a fresh
-computation by pendulum_accel.lecture.lab_answers).
+computation by lab_teacher/key.py; it lives outside docs/).
 
 A figure is of one kind (µs/sample, ×-ratio, RMS m/s²) by its unit, by its table column's header, or by
 its table's caption, and it must be held by a benchmark figure of the same kind. Figures are compared

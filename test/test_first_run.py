@@ -1,15 +1,15 @@
 """The first run after an install: numba's cache is cold (the README's pip lines leave it so), and
 ``pendulum-accel run`` compiles it before starting the nodes, says so, and records the whole scene.
 
-NUMBA_CACHE_DIR points numba at an empty directory, as a fresh install's cache is; every process of the
-chain inherits it. Two install paths are taken as users take them: a fresh venv made with the README's
-pip lines in a clean checkout, and ``colcon build`` run from a workspace (its console scripts in the
-``ros2 run`` layout, lib/pendulum_accel/).
+The install path is taken as users take it: a fresh venv made with the README's pip lines in a clean
+checkout (its cache beside the installed modules, cold after pip), whose first run compiles. A cold compile
+is a minute or more of CPU: the suite does it once for a first run (here, the README's path) and once in
+colcon's install step (test_package); the launcher's compile-first path is the same code whichever script
+starts it, and test_package checks that a colcon install with an empty NUMBA_CACHE_DIR reads as cold.
 """
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
 import subprocess
@@ -17,49 +17,16 @@ from pathlib import Path
 
 import pytest
 
-from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.reader import read_bag
 from test.conftest import PYTHON, REPO
-
-COMPILING = "compiling the stepping kernels and the estimators' loops into numba's cache"
-
-
-def _cold(env: dict[str, str], python: str = PYTHON, cwd: Path = REPO) -> bool:
-    """kernel_cache.is_cold() under ``env``, in ``python`` started in ``cwd`` (``python -c`` imports from
-    its working directory first: "/" for an installed copy, so this checkout's modules do not shadow it)."""
-    code = "from pendulum_accel.kernel_cache import is_cold; print(is_cold())"
-    out = subprocess.run([python, "-c", code], env=env, capture_output=True, text=True, timeout=120, cwd=cwd)
-    assert out.returncode == 0, out.stderr[-2000:]
-    return out.stdout.strip() == "True"
-
-
-def _imported_from(env: dict[str, str], python: str) -> Path:
-    """The directory ``python`` imports pendulum_accel from under ``env`` (started in "/", as _cold)."""
-    code = "import pendulum_accel; print(pendulum_accel.__file__)"
-    out = subprocess.run([python, "-c", code], env=env, capture_output=True, text=True, timeout=120, cwd="/")
-    assert out.returncode == 0, out.stderr[-2000:]
-    return Path(out.stdout.strip()).parent
-
-
-def _outside_env() -> dict[str, str]:
-    """The test's environment (its ROS domain, localhost discovery) without what points Python at this
-    checkout or this venv, or numba at another cache: as a user's shell after an install."""
-    drop = ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "NUMBA_CACHE_DIR")
-    return {k: v for k, v in os.environ.items() if k not in drop}
-
-
-def _story(stderr: str) -> str:
-    """The launcher's lines (what started, waited, ended), every node's error line and the end of
-    ``stderr``: a failure's cause."""
-    marks = ("chain:", "pendulum-accel run:")
-    chain = [line for line in stderr.splitlines() if line.startswith(marks) or "error" in line.lower()]
-    return "\n".join(chain) + "\n...\n" + stderr[-2000:]
-
-
-def _assert_recorded(bag: Path) -> None:
-    """The bag holds angles and their estimates (the run summary's own check is its exit code)."""
-    topics = read_bag(bag).topics
-    assert topics[bm.TOPIC_JOINT_STATES].count > 0 and topics[bm.TOPIC_ACCEL_ESTIMATE].count > 0
+from test.install_paths import (
+    COMPILING,
+    assert_recorded,
+    clean_checkout,
+    cold,
+    imported_from,
+    outside_env,
+    story,
+)
 
 
 def readme_pip_lines() -> list[str]:
@@ -78,42 +45,6 @@ def readme_first_run() -> list[str]:
     return line.group(0).split()[1:]
 
 
-def clean_checkout(destination: Path) -> Path:
-    """The repository's tracked files, as the working tree has them, copied to ``destination`` (what a
-    fresh clone holds, with this tree's changes): no .venv, no caches, no build output."""
-    files = subprocess.run(
-        ["git", "ls-files", "-z"], cwd=REPO, capture_output=True, text=True, check=True
-    ).stdout.split("\0")
-    for name in filter(None, files):
-        source = REPO / name
-        if source.is_file():  # a deleted, not yet committed file is listed but absent
-            (destination / name).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(source, destination / name)
-    return destination
-
-
-# Compiling every kernel takes 1-2 min on 2 idle cores, and several times that on a loaded CI machine:
-# a longer limit than the suite's 600 s (pyproject.toml), not a speed threshold.
-@pytest.mark.timeout(2400)
-def test_first_run_on_a_cold_cache_compiles_first_and_records_the_scene(tmp_path: Path) -> None:
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
-    assert _cold(env)
-    bag = tmp_path / "bag"
-    command = ["run", "step_start", "--fast", "--set", "duration=2", "--record", str(bag)]
-    result = subprocess.run(
-        [PYTHON, "-m", "pendulum_accel.cli.main", *command],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=2300,
-        cwd=REPO,
-    )
-    assert result.returncode == 0, result.stderr[-2000:]
-    assert COMPILING in result.stderr
-    _assert_recorded(bag)
-    assert not _cold(env)  # what it compiled stays: the next run loads it
-
-
 # pip installs from its cache (~/.cache/pip, warm after `make setup`) in a few minutes, then the first run
 # compiles every kernel (1-2 min on 2 idle cores, several times that on a loaded machine): limits longer
 # than the suite's 600 s, not speed thresholds.
@@ -128,7 +59,9 @@ def test_the_readme_pip_lines_in_a_fresh_venv_give_a_first_run_that_works(tmp_pa
     # Not named pendulum_accel: the run starts in tmp_path, and `python -m` (every node) would import a
     # directory of that name there as a namespace package (as it would from a cwd holding such a clone).
     checkout = clean_checkout(tmp_path / "checkout")
-    env = _outside_env()
+    # pip's byte-compile of every installed module is half its CPU here (62 s against 34 s without), and
+    # nothing this test checks depends on it: Python compiles what the run imports as it imports it.
+    env = {**outside_env(), "PIP_NO_COMPILE": "1"}
     try:
         for line in lines:
             done = subprocess.run(
@@ -136,8 +69,8 @@ def test_the_readme_pip_lines_in_a_fresh_venv_give_a_first_run_that_works(tmp_pa
             )
             assert done.returncode == 0, f"{line}: {done.stdout[-1500:]}{done.stderr[-1500:]}"
         python = str(checkout / ".venv" / "bin" / "python")
-        assert _imported_from(env, python) == checkout / "pendulum_accel"  # the fresh install, not ours
-        assert _cold(env, python, Path("/"))  # the pip lines leave numba's cache cold
+        assert imported_from(env, python) == checkout / "pendulum_accel"  # the fresh install, not ours
+        assert cold(env, python, Path("/"))  # the pip lines leave numba's cache cold
         args = readme_first_run()
         bag = tmp_path / "bag"
         args[args.index("--record") + 1] = str(bag)
@@ -149,70 +82,12 @@ def test_the_readme_pip_lines_in_a_fresh_venv_give_a_first_run_that_works(tmp_pa
             text=True,
             timeout=2300,
         )
-        assert result.returncode == 0, _story(result.stderr)
+        assert result.returncode == 0, story(result.stderr)
         assert COMPILING in result.stderr
-        _assert_recorded(bag)
-        assert not _cold(env, python, Path("/"))
+        assert_recorded(bag)
+        assert not cold(env, python, Path("/"))
     finally:
         shutil.rmtree(tmp_path, ignore_errors=True)  # the venv is over a gigabyte
-
-
-@pytest.mark.slow
-@pytest.mark.timeout(2400)
-def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(tmp_path: Path) -> None:
-    """colcon build (from this venv, as the README's colcon lines do) warms numba's cache in its install
-    step, and the console script it installs in lib/pendulum_accel (what `ros2 run` starts) runs the
-    chain: on that warm cache without compiling, and on a cold one (NUMBA_CACHE_DIR empty, as after
-    `colcon build --symlink-install`) compiling first."""
-    colcon = str(Path(PYTHON).with_name("colcon"))
-    workspace = tmp_path / "ws"
-    (workspace / "src").mkdir(parents=True)
-    clean_checkout(workspace / "src" / "pendulum_accel")
-    env = _outside_env()
-    built = subprocess.run(
-        [colcon, "build", "--base-paths", "src"],
-        cwd=workspace,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=1800,
-    )
-    assert built.returncode == 0, built.stdout[-2000:] + built.stderr[-2000:]
-    prefix = workspace / "install" / "pendulum_accel"
-    (site,) = prefix.glob("lib/python3*/site-packages")
-    # What colcon's local_setup puts on the paths for this package (no ROS install here: the ROS wheels
-    # are in the venv the console scripts' shebang names).
-    env["PYTHONPATH"] = str(site)
-    env["AMENT_PREFIX_PATH"] = str(prefix)
-    env["PATH"] = f"{prefix / 'bin'}{os.pathsep}{env.get('PATH', '')}"
-    assert _imported_from(env, PYTHON) == site / "pendulum_accel"
-    assert not _cold(env, PYTHON, Path("/"))  # the install step compiled it beside the installed modules
-    script = prefix / "lib" / "pendulum_accel" / "pendulum-accel"
-    command = ["run", "step_start", "--fast", "--set", "duration=2", "--record"]
-    warm = subprocess.run(
-        [str(script), *command, str(tmp_path / "warm")],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert warm.returncode == 0, _story(warm.stderr)
-    assert COMPILING not in warm.stderr
-    _assert_recorded(tmp_path / "warm")
-    cold_env = {**env, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
-    assert _cold(cold_env, PYTHON, Path("/"))
-    cold = subprocess.run(
-        [str(script), *command, str(tmp_path / "cold")],
-        cwd=tmp_path,
-        env=cold_env,
-        capture_output=True,
-        text=True,
-        timeout=2300,
-    )
-    assert cold.returncode == 0, _story(cold.stderr)
-    assert COMPILING in cold.stderr
-    _assert_recorded(tmp_path / "cold")
 
 
 @pytest.mark.slow
@@ -231,5 +106,5 @@ def test_a_folder_named_like_the_package_in_the_working_directory_does_not_shado
         text=True,
         timeout=600,
     )
-    assert done.returncode == 0, _story(done.stderr)
-    _assert_recorded(bag)
+    assert done.returncode == 0, story(done.stderr)
+    assert_recorded(bag)

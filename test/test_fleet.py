@@ -166,6 +166,7 @@ def test_a_bag_without_truth_is_a_row_of_its_own_figures(corpus: Path, tmp_path:
     assert isinstance(row["estimate_mean"], float) and row["sigma_median"] > 0.0
 
 
+@pytest.mark.slow
 def test_one_sensors_recordings_without_a_scene_take_its_length(tmp_path: Path) -> None:
     """Two recordings of one real sensor (no truth, no scene): without --length each row says what to
     give; with it, every bag is re-run with that length, and its row is the single-bag report's."""
@@ -202,6 +203,7 @@ def test_local_cluster_gives_the_serial_table(corpus: Path) -> None:
     assert local == serial
 
 
+@pytest.mark.slow
 def test_cli_writes_parquet_and_csv_and_refuses_single_bag_options(corpus: Path, tmp_path: Path) -> None:
     """--out TABLE.parquet / .csv hold the same rows; exit 1 says some bags gave error rows; --plot is
     refused for a fleet in one line, before any work."""
@@ -227,14 +229,59 @@ def test_bag_rows_never_raises_for_a_bad_bag(tmp_path: Path) -> None:
     assert bag_rows(str(tmp_path / "missing"), Job())[0]["error"]
 
 
+# CPU seconds the workers of a LocalCluster spend, together, before they are surely analysing bags: each
+# spends about 2.4 s importing numpy, scipy, numba and distributed and loading the compiled kernels
+# (measured here), and the 40 bags take about 240 s of CPU, so at 6 s the two have started on the bags
+# and nearly all of the work is still to do.
+WORKING_CPU_S = 6.0
+
+
+def _descendants(pid: int) -> list[int]:
+    """The processes below ``pid`` (children, grandchildren, …), from /proc."""
+    parents: dict[int, int] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        with contextlib.suppress(OSError, ValueError, IndexError):
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            parents[int(stat.parent.name)] = int(fields[1])
+    found, frontier = [], [pid]
+    while frontier:
+        here = frontier.pop()
+        kids = [child for child, parent in parents.items() if parent == here]
+        found += kids
+        frontier += kids
+    return found
+
+
+def _cpu_seconds(pid: int) -> float:
+    """utime + stime of ``pid`` in seconds (/proc/PID/stat); 0 once it is gone."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _working(pid: int, workers: int, cpu_s: float, timeout: float) -> bool:
+    """True once ``pid`` has at least ``workers`` descendants and they have spent ``cpu_s`` of CPU together,
+    polled every 0.2 s for at most ``timeout`` s."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        below = _descendants(pid)
+        if len(below) >= workers and sum(_cpu_seconds(p) for p in below) >= cpu_s:
+            return True
+        time.sleep(0.2)
+    return False
+
+
 def test_ctrl_c_cancels_the_rest_and_writes_nothing(tmp_path: Path) -> None:
     """SIGINT while 40 bags are being analysed: exit 130 with one line, no table under the asked name
     and no temporary beside it, and the workers gone. The bound on the exit time (5 s) is loose on
     purpose: finishing the remaining work instead takes far longer, which is what the test tells
     apart, not the speed of the machine. Each bag is 300 s of udds (about 6 s of work per bag here),
-    so 40 of them on 2 workers are about 120 s of work: a machine 5× faster still has 24 s to go
-    when the signal comes at 12 s. (With 3 s bags, a faster CI machine finished all 40 before the
-    signal.) The bags share one MCAP file through hard links, so 40 of them cost no disk."""
+    so 40 of them on 2 workers are about 120 s of work: the signal comes once the workers have spent
+    WORKING_CPU_S of CPU, with most of it still to do on any machine. (With 3 s bags, a faster CI machine
+    finished all 40 before a fixed 12 s wait was over.) The bags share one MCAP file through hard links,
+    so 40 of them cost no disk."""
     source = tmp_path / "udds"
     done = cli("generate", "udds", "--duration", "300", "--out", str(source), timeout=300)
     assert done.returncode == 0, done.stderr
@@ -259,7 +306,8 @@ def test_ctrl_c_cancels_the_rest_and_writes_nothing(tmp_path: Path) -> None:
         cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
     )  # fmt: skip
     try:
-        time.sleep(12.0)  # the cluster is up and working (its start-up takes a few seconds)
+        # The cluster is up and working: its two workers have started and spent CPU beyond their imports.
+        assert _working(proc.pid, workers=2, cpu_s=WORKING_CPU_S, timeout=120.0), "the workers never worked"
         assert proc.poll() is None, proc.communicate()
         os.killpg(proc.pid, signal.SIGINT)
         start = time.monotonic()

@@ -1,13 +1,16 @@
-"""Ctrl-C during a long ``generate`` or ``animate``: exit 130 with one line, no partial output.
+"""Ctrl-C during a long command: exit 130 with one line, no partial output.
 
-What the command must do after SIGINT: finish the C call it is in (one frame's Agg draw, one MCAP chunk's
-compression), run its finally blocks (kill ffmpeg, drop the frames held, unlink the partial output),
-print the line and os._exit, skipping the interpreter's teardown. From SIGINT to exit: 0.01-0.22 s
-measured with both cores busy (two spinning processes, load 5), whether the SIGINT came while importing,
-simulating or drawing (after 45 s of GIF frames held). A machine shared with other suites may give the
-command a small fraction of a core for seconds at a time, so the tests wait for the exit
+What ``generate`` or ``animate`` must do after SIGINT: finish the C call it is in (one frame's Agg draw,
+one MCAP chunk's compression), run its finally blocks (kill ffmpeg, drop the frames held, unlink the
+partial output), print the line and os._exit, skipping the interpreter's teardown. From SIGINT to exit:
+0.01-0.22 s measured with both cores busy (two spinning processes, load 5), whether the SIGINT came while
+importing, simulating or drawing (after 45 s of GIF frames held). A machine shared with other suites may
+give the command a small fraction of a core for seconds at a time, so their tests wait for the exit
 itself: EXIT_TIMEOUT_S, 500 times the slowest stop measured, only tells a hung process (an interrupt
-lost) from a slow one, and no test asserts how quickly the stop came.
+lost) from a slow one, and none of them asserts how quickly the stop came.
+
+A compiled kernel run and ``allan`` hold the work in slices (kernels.SLICE_STEPS, allan.interruptible) so
+that Ctrl-C is handled between two of them: those two tests bound the stop, each bound argued beside it.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from pathlib import Path
 import pytest
 
 from pendulum_accel.scene import load_scene, scene_to_yaml
+from test.conftest import PYTHON, REPO
 
 EXIT_TIMEOUT_S = 120.0  # a stop that has not come by then never will: see the module docstring
 START_BOUND_S = 300.0  # imports and the work before the watched point, on a loaded machine
@@ -164,3 +168,83 @@ def test_an_error_raised_by_a_swallowed_ctrl_c_is_the_interrupt(sigint: bool) ->
     else:
         assert proc.returncode == 1
         assert proc.stderr.strip().splitlines()[-1] == "ValueError: Invalid bounding box"
+
+
+_LONG_KERNEL = """
+import numpy as np
+from pendulum_accel.physics import kernels
+from pendulum_accel.physics.params import Pendulum
+from pendulum_accel.physics.profiles import Sinusoid
+kernel = kernels.Kernel.rigid(Pendulum(1.0), Sinusoid(amplitude=1.0, frequency_hz=0.5))
+kernels.run_kernel(kernel, np.zeros(2), np.array([0.0, 0.001]), "rk4", 1e-9)  # compiled, cached
+print("stepping", flush=True)
+kernels.run_kernel(kernel, np.zeros(2), np.linspace(0.0, 100.0, 10001), "rk4", 1e-7)  # 1e9 steps
+"""
+
+
+def test_ctrl_c_stops_a_compiled_run_within_a_second() -> None:
+    """1e9 RK4 steps (minutes) in the compiled kernel: SIGINT ends it after at most one slice."""
+    proc = subprocess.Popen(
+        [PYTHON, "-c", _LONG_KERNEL], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO
+    )
+    try:
+        assert proc.stdout is not None and proc.stdout.readline().strip() == "stepping"
+        time.sleep(1.0)
+        assert proc.poll() is None
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=30)
+        waited = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode != 0 and "KeyboardInterrupt" in (proc.stderr.read() if proc.stderr else "")
+    # One slice is ~0.1-0.2 s of work; on a loaded 2-core machine allow a few times that, far below the run.
+    assert waited < 3.0, f"took {waited:.1f} s to stop"
+
+
+@pytest.mark.parametrize("after", [12.0, 45.0])  # simulating the static run; estimating on it
+@pytest.mark.slow
+def test_ctrl_c_stops_a_long_allan_within_a_second(tmp_path: Path, after: float) -> None:
+    """allan on 4e7 samples (400000 s at 100 Hz): minutes of numpy and compiled work. The main thread
+    waits for the work in 50 ms slices (allan.interruptible) and the compiled batch kernels leave the
+    GIL, so SIGINT is handled within a slice and the process exits at once (cli.main's os._exit):
+    1 s is 20 slices, a bound that holds on a loaded machine because nothing but the GIL hand-off
+    (5 ms switch interval) stands between the signal and the exit. Without the slices it was 1-1.6 s
+    on an idle machine and up to the whole estimator pass (minutes) inside it."""
+    plot = tmp_path / "allan.png"
+    proc = subprocess.Popen(
+        [
+            PYTHON,
+            "-m",
+            "pendulum_accel.cli.main",
+            "allan",
+            "lecture_constant",
+            "--duration",
+            "400000",
+            "--plot",
+            str(plot),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+        # A background job's SIGINT may be ignored by inheritance; the command must see it as a user would.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    try:
+        time.sleep(after)
+        assert proc.poll() is None, proc.communicate()
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        waited = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130 and "Traceback" not in err, err
+    assert err.strip().splitlines()[-1] == "pendulum-accel allan: interrupted", err
+    assert list(tmp_path.iterdir()) == []  # nothing partial: the plot is written only at the end
+    assert waited < 1.0, f"took {waited:.2f} s to stop"

@@ -1,7 +1,8 @@
 """A real sensor names its joint its own way: ``--joint NAME`` (the offline commands) and the estimator
 node's ``joint`` parameter read the pendulum's angle by that name, the rule the chain applies to
 ``pendulum_joint``. Without it, such angles are refused in one line that says how to read them. A fleet
-table applies --joint, --topic and --namespace to every bag (it ignored them before)."""
+table applies --joint, --topic and --namespace to every bag (it ignored them before). The estimator's input
+guard applies the same rule to each message: another joint or frame is dropped, counted and reported."""
 
 from __future__ import annotations
 
@@ -11,11 +12,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import BagWriter
+from pendulum_accel.estimators.guard import Decision, GuardState, InputGuard
 from pendulum_accel.recording.generate import generate_bag
+from test.bag_edits import rewritten
 from test.conftest import cli, strict_json
 
 JOINT = "encoder"
@@ -24,22 +29,17 @@ JOINT = "encoder"
 def _renamed(source: Path, out: Path, names: list[str], frame: str | None = None) -> Path:
     """``source`` rewritten with its angles naming ``names`` (the pendulum's value on the one named JOINT,
     0 on the others) and stamped in ``frame`` (None: as they were), every other message as it was."""
-    bag = read_bag(source)
-    with BagWriter(out, custom_data=bag.custom_data) as writer:
-        for name, info in bag.topics.items():
-            writer.add_topic(name, info.msgtype)
-        for topic, ns, data in bag.iter_raw():
-            if topic == bm.TOPIC_JOINT_STATES:
-                msg: Any = bm.deserialize(data, bm.JOINT_STATE)
-                theta, rate = float(msg.position[0]), float(msg.velocity[0])
-                msg.name = names
-                msg.position = np.array([theta if n == JOINT else 0.0 for n in names])
-                msg.velocity = np.array([rate if n == JOINT else 0.0 for n in names])
-                if frame is not None:
-                    msg.header.frame_id = frame
-                data = bm.serialize(msg, bm.JOINT_STATE)
-            writer.write(topic, ns, data)
-    return out
+
+    def edit(msg: Any) -> None:
+        """In place."""
+        theta, rate = float(msg.position[0]), float(msg.velocity[0])
+        msg.name = names
+        msg.position = np.array([theta if n == JOINT else 0.0 for n in names])
+        msg.velocity = np.array([rate if n == JOINT else 0.0 for n in names])
+        if frame is not None:
+            msg.header.frame_id = frame
+
+    return rewritten(source, out, bm.TOPIC_JOINT_STATES, edit)
 
 
 @pytest.fixture(scope="module")
@@ -50,6 +50,7 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     return root / "chain", _renamed(root / "chain", root / "fleet" / "sensor", [JOINT])
 
 
+@pytest.mark.slow
 def test_analyze_reads_a_named_joint_as_the_pendulum(bags: tuple[Path, Path]) -> None:
     chain, sensor = bags
     refused = cli("analyze", str(sensor))
@@ -69,6 +70,7 @@ def test_analyze_reads_a_named_joint_as_the_pendulum(bags: tuple[Path, Path]) ->
         assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
 
 
+@pytest.mark.slow
 def test_the_named_joint_is_read_at_its_place_among_a_robots_joints(
     bags: tuple[Path, Path], tmp_path: Path
 ) -> None:
@@ -108,6 +110,7 @@ def _alternated(first: Path, second: Path, out: Path) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_a_sensor_stamping_its_own_frame_is_read_with_joint_frame(
     bags: tuple[Path, Path], tmp_path: Path
 ) -> None:
@@ -137,6 +140,7 @@ def test_an_empty_joint_name_is_refused(bags: tuple[Path, Path]) -> None:
     assert refused.returncode == 2 and "--joint must name the pendulum's joint" in refused.stderr
 
 
+@pytest.mark.slow
 def test_a_fleet_table_applies_joint_topic_and_namespace_to_every_bag(bags: tuple[Path, Path]) -> None:
     chain, sensor = bags
     fleet = sensor.parent
@@ -157,3 +161,41 @@ def test_a_fleet_table_applies_joint_topic_and_namespace_to_every_bag(bags: tupl
     assert asked.returncode == 1
     rows = pd.read_csv(out, keep_default_na=False)
     assert all("--namespace car7: the bag has no topic under /car7/" in e for e in rows["error"])
+
+
+def test_a_foreign_joint_is_dropped_counted_and_reported() -> None:
+    guard = InputGuard(rate_hz=100.0)
+    assert guard.check(0.0, 0.1, names=["elbow_joint"]) is Decision.DROP
+    assert guard.check(0.01, 0.1, names=[bm.PENDULUM_JOINT]) is Decision.ACCEPT
+    # Extra joints: a robot's aggregated JointState; θ is the pendulum's by name, the others are counted.
+    assert guard.check(0.02, 0.1, names=["wheel", bm.PENDULUM_JOINT, "arm"]) is Decision.ACCEPT
+    assert guard.ignored_joints == 2
+    assert guard.check(0.03, 0.1, names=[bm.PENDULUM_JOINT], frame_id="odom") is Decision.DROP
+    assert guard.check(0.04, 0.1, names=[bm.PENDULUM_JOINT], frame_id=bm.FRAME_ID) is Decision.ACCEPT
+    assert guard.check(0.05, 0.1, names=[bm.PENDULUM_JOINT], frame_id="") is Decision.ACCEPT
+    assert guard.check(0.06, 0.1) is Decision.ACCEPT  # a bare angle, no names
+    report = guard.report()
+    assert report.state is GuardState.ERROR and "odom" in report.message
+    assert dict(report.values)["dropped_wrong_joint"] == "2"
+    assert dict(report.values)["ignored_joints"] == "2"
+    assert guard.accepted == 5
+
+
+def test_a_sensor_frame_is_accepted_only_where_it_is_named() -> None:
+    """joint_frame (the node's joint_frame_id): a real sensor's own frame is accepted in place of base_link,
+    and an empty frame still is; base_link then is another frame."""
+    guard = InputGuard(rate_hz=100.0, joint_frame="pan_link")
+    assert guard.check(0.0, 0.1, names=[bm.PENDULUM_JOINT], frame_id="pan_link") is Decision.ACCEPT
+    assert guard.check(0.01, 0.1, names=[bm.PENDULUM_JOINT], frame_id="") is Decision.ACCEPT
+    assert guard.check(0.02, 0.1, names=[bm.PENDULUM_JOINT], frame_id=bm.FRAME_ID) is Decision.DROP
+    report = guard.report()
+    assert report.state is GuardState.ERROR
+    assert "frame_id 'base_link', not 'pan_link'" in report.message
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.text(max_size=30).filter(lambda s: s != bm.PENDULUM_JOINT), min_size=1, max_size=5))
+def test_any_name_list_without_the_pendulum_joint_is_dropped(names: list[str]) -> None:
+    guard = InputGuard(rate_hz=100.0)
+    assert guard.check(0.0, 0.1, names=names) is Decision.DROP
+    assert guard.dropped_wrong_joint == 1 and guard.accepted == 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -11,7 +12,16 @@ from hypothesis import strategies as st
 
 from pendulum_accel.physics.elastic import elastic_rhs
 from pendulum_accel.physics.integrators import FIXED_STEP_METHODS, integrate
-from pendulum_accel.physics.kernels import ACCEL_LINEAR, RK8_B, Kernel, accel_coefficients, run_kernel
+from pendulum_accel.physics.kernels import (
+    ACCEL_LINEAR,
+    METHOD_CODES,
+    RK8_B,
+    SLICE_STEPS,
+    Kernel,
+    accel_coefficients,
+    run_kernel,
+    step_slices,
+)
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import (
     AccelProfile,
@@ -151,3 +161,24 @@ def sum_in_order(weights: list[float], value: float) -> float:
     for weight in weights:
         total += weight * value
     return total
+
+
+def test_sliced_kernel_runs_are_bit_identical(monkeypatch: pytest.MonkeyPatch) -> None:
+    kernel = Kernel.rigid(Pendulum(0.7, damping=0.1), Sinusoid(amplitude=2.0, frequency_hz=0.3))
+    nodes = np.linspace(0.0, 5.0, 501)
+    y0 = np.array([0.3, 0.0])
+    for method in METHOD_CODES:
+        whole = run_kernel(kernel, y0, nodes, method, 1.3e-3)
+        monkeypatch.setitem(SLICE_STEPS, method, 37)  # many slices, some splitting nothing
+        sliced = run_kernel(kernel, y0, nodes, method, 1.3e-3)
+        monkeypatch.undo()
+        assert whole is not None and sliced is not None
+        assert sliced[1] == whole[1]
+        np.testing.assert_array_equal(sliced[0], whole[0])
+
+
+def test_step_slices_cover_every_interval_once() -> None:
+    nodes = np.array([0.0, 1.0, 1.5, 4.0, 4.1, 9.0])
+    slices = step_slices(nodes, 0.1, 20)
+    assert slices[0][0] == 0 and slices[-1][1] == nodes.size - 1
+    assert all(a[1] == b[0] for a, b in itertools.pairwise(slices))

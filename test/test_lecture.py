@@ -176,6 +176,7 @@ def test_finite_difference_euler_lagrange_recovers_the_equation_of_motion() -> N
             assert got[1] == pytest.approx(expected, abs=1e-7)
 
 
+@pytest.mark.slow
 def test_a_result_that_takes_over_a_second_shows_progress_on_a_terminal_only() -> None:
     """lecture butterfly (a few seconds, no loop to count) draws an elapsed-time line on a terminal's
     stderr, and nothing on a pipe."""

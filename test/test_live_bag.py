@@ -171,6 +171,7 @@ def test_analyze(live_bag: Path) -> None:
 
 
 @pytest.mark.ros
+@pytest.mark.slow
 def test_analyze_and_animate_a_live_recording_without_truth(
     live_bag: Path, live_sensor: Path, tmp_path: Path
 ) -> None:
@@ -298,6 +299,7 @@ def test_repair(live_bag: Path, tmp_path: Path) -> None:
 
 
 @pytest.mark.ros
+@pytest.mark.slow
 def test_every_command_reads_a_split_live_recording_as_its_one_file(
     live_bag: Path, live_split: Path, tmp_path: Path
 ) -> None:

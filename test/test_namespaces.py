@@ -79,6 +79,7 @@ def _info_figures(path: Path, topic: str) -> tuple[float, float]:
     return duration, float(row.split()[-2])
 
 
+@pytest.mark.slow
 def test_two_namespaced_chains_on_one_domain_do_not_cross_talk(spawn: Spawn, tmp_path: Path) -> None:
     stranger = Output(spawn([PYTHON, STRANGER, "stranger_first"]))
     stranger.wait_for("stranger stranger_first: subscribed", timeout=60)
@@ -159,6 +160,7 @@ def _one_bag_of_two_chains(tmp_path: Path) -> None:
     assert wrong.returncode == 2 and "no topic under /car9/" in wrong.stderr, wrong.stderr
 
 
+@pytest.mark.slow
 def test_a_remapped_recording_is_read_by_every_tool(spawn: Spawn, tmp_path: Path) -> None:
     """A live chain run with its angles remapped: the bag stores the chain's topic map, and analyze,
     allan, export --merged and animate read the remapped angles by it; --topic names them by hand."""

@@ -383,3 +383,23 @@ def test_a_tf_message_is_logged_at_its_first_transforms_stamp() -> None:
     offset = stamp_offset(TF_MESSAGE)
     assert offset is not None and stamp_ns(data, offset) == 12 * 1_000_000_000 + 345
     assert stamp_offset("std_msgs/msg/Float64") is None
+
+
+def test_the_recorders_bulk_stamps_are_its_per_message_ones() -> None:
+    """log_times (the recorder's fast path, all of a write's messages at once) reads each payload's stamp as
+    stamp_ns reads it one by one: int32 seconds (negative too) and uint32 nanoseconds at the type's offset."""
+    from pendulum_accel.nodes.conversions import stamp_offset
+    from pendulum_accel.nodes.recorder_node import log_times, stamp_ns
+
+    stamps = [0, 1, 999_999_999, 12 * 1_000_000_000 + 345, (2**31 - 1) * 1_000_000_000 + 999_999_999, -5]
+    for msgtype, make in (
+        (bm.JOINT_STATE, lambda ns: bm.joint_state(ns, [bm.PENDULUM_JOINT], [0.1], [0.2])),
+        (bm.ACCEL_STAMPED, lambda ns: bm.accel_stamped(ns, 0.3)),
+    ):
+        offset = stamp_offset(msgtype)
+        assert offset is not None
+        payloads = [bm.serialize(make(max(ns, 0)), msgtype) for ns in stamps]
+        # A negative stamp cannot be made through the message builders: write its int32 seconds directly.
+        last = payloads[-1]
+        payloads[-1] = last[:offset] + (-1).to_bytes(4, "little", signed=True) + last[offset + 4 :]
+        assert log_times(payloads, offset).tolist() == [stamp_ns(p, offset) for p in payloads]

@@ -1,5 +1,6 @@
 """bag_player over real DDS: a golden bag replayed into the live estimator gives the offline estimates;
-looping makes the estimator reset; start offset, topic filter and /clock publishing work."""
+looping makes the estimator reset; start offset, topic filter and /clock publishing work. A path that is
+no bag is one line, the reader's own, and never a hang."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import os
 import pty
 import re
 import signal
+import subprocess
 import termios
 from pathlib import Path
 from typing import Any
@@ -22,7 +24,8 @@ from pendulum_accel.nodes.launcher import ParamValue, node_command
 from pendulum_accel.recording.settings import estimator_options
 from pendulum_accel.scene import load_scene
 from test.chain_helpers import PROBE, Output, start_node
-from test.conftest import PYTHON, REPO, Spawn
+from test.conftest import PYTHON, REPO, Spawn, cli
+from test.refusal import one_line_error
 
 pytestmark = [
     pytest.mark.ros,
@@ -477,3 +480,34 @@ def test_the_progress_line_shows_the_position_when_behind() -> None:
         pass
     position, end, out, behind = figures()
     assert abs(position - 9.0) < 1e-3 and out == 10 and behind is None
+
+
+@pytest.mark.parametrize(
+    ("make", "words"),
+    [
+        ("empty_dir", ("holds no .mcap file",)),
+        ("dir_named_mcap", ("x.mcap is a directory",)),
+        ("/etc/hostname", ("not an MCAP file",)),
+        ("fifo", ("FIFO",)),
+        ("/dev/null", ("character device",)),
+    ],
+)
+def test_the_player_refuses_a_path_that_is_no_bag(tmp_path: Path, make: str, words: tuple[str, ...]) -> None:
+    path = tmp_path / make
+    if make == "empty_dir":
+        path.mkdir()
+    elif make == "dir_named_mcap":
+        (path / "x.mcap").mkdir(parents=True)
+    elif make == "fifo":
+        os.mkfifo(path)  # opened for reading, it would wait for a writer forever
+    else:
+        path = Path(make)
+    result = subprocess.run(
+        [PYTHON, "-m", "pendulum_accel.nodes.player_node", "--ros-args", "-p", f"path:={path}"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
+    )
+    one_line_error(result, *words)
+    one_line_error(cli("info", str(path)), *words)  # the same reader: every command says the same

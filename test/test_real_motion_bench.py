@@ -33,6 +33,7 @@ def quick(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[list[rm.Ro
         yield rows, curves, imm, out
 
 
+@pytest.mark.slow
 def test_report_covers_every_validation_profile_design_and_method(quick: tuple) -> None:
     """Rows for every validation profile × design (the fitted two and the held-out one) × live method, the lag
     row, the smoother and both bounds; no training profile is reported; the Markdown names the split and

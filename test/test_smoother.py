@@ -1,14 +1,19 @@
-"""The smoother and the fixed-lag knob: offline only, never worse than the filter, lag → smoother."""
+"""The smoother and the fixed-lag knob: offline only, never worse than the filter, lag → smoother; angles
+across ±90° give a result, never a traceback or a non-finite number beside a finite one."""
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Callable
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from pendulum_accel.bag import messages as bm
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import ekf_kernels as kern
@@ -24,6 +29,8 @@ from pendulum_accel.physics.profiles import Step, Table
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.changes import after_change
+from pendulum_accel.recording.generate import generate_bag
+from test.bag_edits import rewritten
 from test.conftest import REPO
 
 L, C, SIGMA, RATE = 0.05, 19.8, 2e-3, 200.0  # the short damped design (scene udds)
@@ -256,6 +263,52 @@ def test_the_smoother_leaves_no_hole_where_its_single_model_pass_breaks_down() -
     published = estimate_batch("smoother", t, theta, length=0.5, noise_std=1e-3, rate_hz=100.0)
     for a, var in (imm_smoother(t, theta, est._params, qs, rates)[:2], published):
         assert np.all(np.isfinite(a)) and np.all(np.isfinite(var)) and np.all(var > 0.0)
+
+
+def _across_90() -> Callable[[Any], None]:
+    """Edit: θ alternating −1.6, +1.6 rad (across ±90°) from one message to the next."""
+    count = itertools.count()
+
+    def edit(msg: Any) -> None:
+        """In place."""
+        msg.position = np.array([1.6 if next(count) % 2 else -1.6])
+
+    return edit
+
+
+def test_the_smoother_on_angles_across_90_degrees_gives_a_result(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A bag whose angles jump across ±90° every sample: analyze and export give a result, not a traceback
+    (run in-process: an exception fails the test as a traceback would)."""
+    generate_bag("lecture_constant", tmp_path / "bag", duration=2.0)
+    alt90 = str(rewritten(tmp_path / "bag", tmp_path / "alt90", bm.TOPIC_JOINT_STATES, _across_90()))
+    assert main(["analyze", alt90, "--estimator", "smoother", "--json"]) == 0
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    assert main(["export", alt90, "--out", str(tmp_path / "t")]) == 0
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    table = np.genfromtxt(tmp_path / "t" / "car__accel__smoothed.csv", delimiter=",", names=True)
+    columns = table.dtype.names
+    assert columns is not None
+    a, var = table[columns[1]], table[columns[2]]
+    # Each sample is an estimate with a positive, finite variance, or a hole (both NaN): never inf,
+    # never a zero or negative variance beside a number.
+    assert np.array_equal(np.isnan(a), np.isnan(var))
+    assert np.all(np.isfinite(a[~np.isnan(a)])) and np.all(var[~np.isnan(var)] > 0.0)
+    assert np.all(np.isfinite(var[~np.isnan(var)]))
+
+
+def test_the_rts_pass_keeps_the_filtered_estimate_where_the_prior_has_no_inverse() -> None:
+    n = 4
+    eye = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    xpo = np.arange(3 * n, dtype=float).reshape(n, 3)
+    ppr = eye.copy()
+    ppr[2] = 0.0  # singular prior at sample 2: nothing can be carried back from it to sample 1
+    a, v = kern.rts(xpo.copy(), ppr, xpo, eye.copy(), eye.copy(), np.zeros(n, dtype=np.bool_))
+    assert a[1] == xpo[1, 2] and v[1] == 1.0  # the filtered value and variance, exactly
+    assert np.all(np.isfinite(a)) and np.all(v > 0.0)
 
 
 def test_the_summary_line_explains_the_estimator() -> None:

@@ -2,7 +2,8 @@
 
 The QoS form is rosbag2's version 9 one (enum names in lower case, times as sec/nsec), the same text
 in metadata.yaml and in each MCAP channel's ``offered_qos_profiles`` entry; parsing also takes the
-version 8 form (enum values as integers).
+version 8 form (enum values as integers). A document is written with ``write_metadata`` and read back with
+``load_metadata``, ``listed_counts`` and ``listed_custom_data``.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import yaml
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
@@ -193,6 +194,27 @@ def listed_counts(document: object) -> tuple[dict[str, int], int] | None:
         }
         return topics, int(info.get("message_count", -1))
     except (KeyError, TypeError, ValueError):
+        return None
+
+
+def listed_custom_data(document: object) -> dict[str, str]:
+    """custom_data of a parsed metadata.yaml ({} when it has none)."""
+    info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
+    custom = info.get("custom_data") if isinstance(info, dict) else None
+    return {str(k): str(v) for k, v in custom.items()} if isinstance(custom, dict) else {}
+
+
+def load_yaml(text: str) -> Any:
+    """yaml.safe_load with libyaml's C loader when available (metadata can be long)."""
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    return yaml.load(text, Loader=loader)
+
+
+def load_metadata(path: Path) -> Any:
+    """The parsed YAML of file ``path`` (a metadata.yaml); None when it cannot be read or does not parse."""
+    try:
+        return load_yaml(path.read_text(encoding="utf8"))
+    except (yaml.YAMLError, OSError, UnicodeDecodeError):
         return None
 
 

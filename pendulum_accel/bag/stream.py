@@ -27,13 +27,13 @@ from mcap.reader import SeekingReader
 from mcap.records import Chunk, ChunkIndex
 
 from pendulum_accel.bag.integrity import ChunkHead
-from pendulum_accel.bag.reader import _decompress, _locate
+from pendulum_accel.bag.locate import locate
+from pendulum_accel.bag.records import RECORD_HEAD, decompress
 from pendulum_accel.errors import BagError
 
 _INDEX_HEAD = 1 + 8 + 2 + 4  # MessageIndex record: opcode, length, channel id, entries byte length
 _ENTRY = struct.Struct("<QQ")  # (log time, offset in the chunk)
-# A record's head (opcode, length), then a message's: channel id, sequence, log time (publish time next).
-_RECORD_HEAD = struct.Struct("<BQ")
+# A message record's body: channel id, sequence, log time (publish time next).
 _MESSAGE_HEAD = struct.Struct("<HIQ")
 _OP_MESSAGE = int(Opcode.MESSAGE)
 
@@ -66,7 +66,7 @@ class StreamedBag:
 
     def __init__(self, path: Path | str) -> None:
         """Open the bag's MCAP files and read their summaries; NotIndexedError when one has no chunk index."""
-        found = _locate(Path(path))
+        found = locate(Path(path))
         self.path, mcap_paths = found.root, found.files
         if found.missing is not None:
             # What is there is read whole by bag.reader, which names what is missing.
@@ -151,14 +151,14 @@ class StreamedBag:
                 chunk.compression,
                 0,
             )
-            data = _decompress(head, chunk.data)
+            data = decompress(head, chunk.data)
         except ValueError as err:
             raise BagError(f"bag {self.path}: chunk at byte {index.chunk_start_offset}: {err}") from None
         if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
             raise BagError(f"bag {self.path}: chunk at byte {index.chunk_start_offset} fails its CRC")
         out: list[tuple[int, str, bytes]] = []
         at, end = 0, len(data)
-        record, message = _RECORD_HEAD.unpack_from, _MESSAGE_HEAD.unpack_from
+        record, message = RECORD_HEAD.unpack_from, _MESSAGE_HEAD.unpack_from
         while at + 9 <= end:
             opcode, length = record(data, at)
             body = at + 9

@@ -1,8 +1,9 @@
-"""``pendulum-accel lab check``: a student proves the install works (and warms numba's cache) before
-class. ``pendulum-accel lab make-class``: a teacher writes a class's lab data (one folder and zip per
-group) and its key from a secret. The code that measures the answers lives in the repository's
-``lab_teacher/``, which the installed package does not hold: make-class runs from a clone (or with
-``--teacher DIR``)."""
+"""``pendulum-accel lab check``: a student proves the install works before class, and compiles into numba's
+cache the estimators the notebook runs, on data read from a CSV file as the notebook reads its group's.
+``pendulum-accel lab make-class``: a teacher writes a class's lab data (one folder and zip per group) and
+its key from a secret. The code that measures the answers lives in the repository's ``lab_teacher/``
+(the teacher's edition), which the installed package does not hold: make-class runs from a clone (or
+with ``--teacher DIR``)."""
 
 from __future__ import annotations
 
@@ -24,18 +25,21 @@ def register(subparsers: Any) -> None:
         help="the lab: check a student's install; make a class's data and key from a secret (teachers)",
         description=(
             "The lab (docs/lab/). 'lab check': students, before class, prove the install works and compile "
-            "the simulator's kernels once. 'lab make-class --secret FILE --groups N --out DIR': teachers "
-            "write a folder and zip per group and the key (from a clone, which holds lab_teacher/)."
+            "the estimators the notebook runs, once. 'lab make-class --secret FILE --class NAME --groups N "
+            "--out DIR': teachers write a folder and zip per group and the key (from a clone of the "
+            "repository, the teacher's edition, which holds lab_teacher/)."
         ),
     )
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     check = actions.add_parser(
         "check",
-        help="students, before class: check the install and compile the simulator's kernels (once)",
+        help="students, before class: check the install and compile the notebook's estimators (once)",
         description=(
-            "Simulate a short swing, run the lab's four estimators on it, draw a plot and look for Jupyter; "
-            "the first run compiles numba's kernels into its on-disk cache (about 20 s), later runs take "
-            "seconds. Ends with 'install OK', or names what is missing (exit 2)."
+            "Simulate a short swing, write it to a CSV file and read it back as the notebook reads its "
+            "group's data, run the lab's four estimators on it, draw a plot and look for Jupyter. The first "
+            "run compiles the estimators into numba's on-disk cache, so that the notebook's cells do not "
+            "compile in class; later runs take seconds. Ends with 'install OK', or names what is missing "
+            "(exit 2)."
         ),
     )
     check.set_defaults(func=run_check)
@@ -50,9 +54,17 @@ def register(subparsers: Any) -> None:
         ),
     )
     make.add_argument("--secret", type=Path, required=True, metavar="FILE", help="at least 16 random bytes")
-    make.add_argument("--groups", type=int, required=True, metavar="N", help="number of groups")
-    make.add_argument("--out", type=Path, required=True, metavar="DIR", help="a new directory")
-    make.add_argument("--class", dest="class_name", default="class", metavar="NAME", help="the class's name")
+    make.add_argument(
+        "--class",
+        dest="class_name",
+        required=True,
+        metavar="NAME",
+        help="the class's name: with the secret, it draws the data (another class, other data)",
+    )
+    make.add_argument("--groups", type=int, required=True, metavar="N", help="number of groups, 1 to 99")
+    make.add_argument(
+        "--out", type=Path, required=True, metavar="DIR", help="a new directory (its parent must exist)"
+    )
     make.add_argument(
         "--teacher",
         type=Path,
@@ -81,13 +93,19 @@ LAB_MODULES = ("jupyterlab", "ipykernel")  # the lab extra: the notebook needs t
 
 
 def run_check(args: argparse.Namespace) -> int:
-    """Run what the lab's notebook runs, once, and report each step's time; 'install OK' at the end."""
+    """Run what the lab's notebook runs, once, and report each step's time; 'install OK' at the end.
+
+    The estimators run on a CSV file read back with np.genfromtxt(names=True), as the notebook's ``load``
+    reads a group's data: the columns of that table are what the notebook's cells hand the estimators.
+    """
     import dataclasses
     import importlib.util
     import io
+    import tempfile
     import time
 
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -101,13 +119,22 @@ def run_check(args: argparse.Namespace) -> int:
         raise ParameterError(f'missing {", ".join(missing)}: install the lab extra (pip install ".[lab]")')
     start = time.perf_counter()
     run = run_scene(dataclasses.replace(load_scene("lecture_constant"), duration=5.0))
-    print(f"simulator: {run.t.size} samples ({time.perf_counter() - start:.1f} s, compiles once)")
+    print(f"simulator: {run.t.size} samples ({time.perf_counter() - start:.1f} s)")
     p, s = run.scene.pendulum, run.scene.sensor
     cfg = {"length": p.length, "gravity": p.gravity, "noise_std": s.noise_std, "rate_hz": s.rate_hz}
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "check.csv"
+        columns = np.column_stack((run.t, run.theta_measured, run.accel_true))
+        np.savetxt(path, columns, delimiter=",", header="t_s,theta_rad,accel_m_s2", comments="")
+        table = np.genfromtxt(path, delimiter=",", names=True)  # the notebook's load()
     start = time.perf_counter()
     for name in LAB_ESTIMATORS:
-        estimate_batch(name, run.t, run.theta_measured, **cfg)
-    print(f"estimators: {', '.join(LAB_ESTIMATORS)} ({time.perf_counter() - start:.1f} s, compile once)")
+        estimate_batch(name, table["t_s"], table["theta_rad"], **cfg)
+    took = time.perf_counter() - start
+    print(
+        f"estimators: {', '.join(LAB_ESTIMATORS)} on a CSV read as the notebook reads it ({took:.1f} s; "
+        "the first run compiles them, once)"
+    )
     fig, ax = plt.subplots()
     ax.plot(run.t, run.theta_measured)
     fig.savefig(io.BytesIO(), format="png")

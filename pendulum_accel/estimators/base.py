@@ -191,13 +191,16 @@ def cramer_rao_std(accel: float, sigma: float, samples: float, gravity: float = 
 
 
 def check_batch_input(t: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Return (t, θ) as 1-D float arrays; raise ParameterError unless finite, equal length, t increasing."""
+    """Return (t, θ) as contiguous 1-D float arrays; raise ParameterError unless finite, equal length, t
+    increasing. Contiguous: a strided column (a field of np.genfromtxt's table, as the lab notebook reads
+    a CSV) would otherwise make numba compile each kernel once more, for its layout."""
     t = np.asarray(t, dtype=float)
     theta = np.asarray(theta, dtype=float)
     if t.ndim != 1 or theta.ndim != 1 or t.shape != theta.shape:
         raise ParameterError(
             f"t and theta must be 1-D arrays of equal length, got {t.shape} and {theta.shape}"
         )
+    t, theta = np.ascontiguousarray(t), np.ascontiguousarray(theta)
     if not np.isfinite(t).all():
         raise ParameterError(f"t must be finite, sample {int(np.argmin(np.isfinite(t)))} is not")
     if not np.isfinite(theta).all():

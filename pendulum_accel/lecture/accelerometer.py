@@ -126,7 +126,8 @@ def run(quick: bool = False) -> LectureReport:
         ax3.set(xlabel="time t [s]", ylabel="|â − a| [m/s²]", ylim=(1e-5, 20.0))
         for ax in (ax1, ax2, ax3):
             ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=7, loc="upper right", ncol=2)
+            # Beside the axes, not on them: inside, the legends covered the swing and the estimates.
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
 
     return LectureReport(
         name=NAME,

@@ -30,7 +30,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import AccelWithCovarianceStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
@@ -51,6 +51,7 @@ from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, Guard
 from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice, stated_motion
 from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
+from pendulum_accel.nodes.diagnostics import diagnostic_array, hardware_id_of
 from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOPIC, SCENE_PRESET
 from pendulum_accel.nodes.qos import (
@@ -81,7 +82,6 @@ from pendulum_accel.recording.settings import (
 from pendulum_accel.scene import Scene, load_scene
 
 NODE_NAME = "accel_estimator"
-HARDWARE_ID = "pendulum_accel"
 ESTIMATOR_PARAMETERS = ("method", "lag", "preset", *(spec.name for spec in ESTIMATOR_CONFIG))
 """The parameters the estimator is built from: a change of one of them rebuilds it."""
 _DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
@@ -90,35 +90,6 @@ _DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
 # services between messages; at this many, taking waits for the worker: the back-pressure (through
 # the reliable keep-all input) that keeps a fast chain lossless and this queue a few seconds of work.
 _BACKLOG_LIMIT = 5000
-
-
-def hardware_id_of(parameter: str, namespace: str) -> str:
-    """The status's hardware_id: the parameter, else 'pendulum_accel' followed by a namespace ('/car1')."""
-    return parameter or HARDWARE_ID + (namespace if namespace != "/" else "")
-
-
-def diagnostic_array(
-    report: GuardReport, method: str, stamp: Time, latency: float, name: str, hardware_id: str, lost: int = 0
-) -> DiagnosticArray:
-    """DiagnosticArray with one status named ``name`` (the node's fully qualified name, so an aggregator
-    tells two chains apart): level and message from the guard, counters, method, latency (s) and the
-    angles the middleware reported lost (a best-effort input)."""
-    status = DiagnosticStatus(
-        level=bytes([report.level]),
-        name=name,
-        message=f"{report.state.value}: {report.message}",
-        hardware_id=hardware_id,
-        values=[
-            KeyValue(key="method", value=method),
-            KeyValue(key="latency_s", value=f"{latency:g}"),
-            KeyValue(key="state", value=report.state.value),
-            KeyValue(key="lost", value=str(lost)),
-        ]
-        + [KeyValue(key=k, value=v) for k, v in report.values],
-    )
-    msg = DiagnosticArray(status=[status])
-    msg.header.stamp = stamp
-    return msg
 
 
 class EstimatorNode(ManagedNode):
@@ -173,6 +144,8 @@ class EstimatorNode(ManagedNode):
         # (arrival, CDR) of the angles taken by the executor, estimated in order by the worker thread.
         self._backlog: deque[tuple[float, bytes]] = deque()
         self._queue_changed = threading.Condition()
+        self._worker_waits = False  # the worker waits for an angle: the next one notifies it
+        self._producer_waits = False  # the executor waits for room in the backlog: the worker notifies it
         self._work_lock = threading.Lock()  # one estimator update, or its rebuild, at a time
         self._diagnostics_due = 0.0  # monotonic time of the next /diagnostics (0: at once)
         self._stopping_since: float | None = None
@@ -433,31 +406,45 @@ class EstimatorNode(ManagedNode):
 
     def _on_joint_state(self, data: bytes) -> None:
         """Take one angle sample (CDR) into the backlog, with its arrival time; wait while the backlog is
-        full (back-pressure), unless the node is stopping."""
+        full (back-pressure), unless the node is stopping. The lock is taken only to wait or to wake a
+        waiting worker: this runs for every angle, and a lock round per angle cost as much as its estimate."""
         now = time.monotonic()
         self._last_input = now
         self.inputs += 1
-        with self._queue_changed:
-            while len(self._backlog) >= _BACKLOG_LIMIT and not (self._stop.is_set() or self._stopping()):
-                self._queue_changed.wait(0.05)
-            self._backlog.append((now, data))
-            self._queue_changed.notify_all()
+        backlog = self._backlog
+        if len(backlog) >= _BACKLOG_LIMIT:
+            with self._queue_changed:
+                self._producer_waits = True
+                while len(backlog) >= _BACKLOG_LIMIT and not (self._stop.is_set() or self._stopping()):
+                    self._queue_changed.wait(0.05)
+                self._producer_waits = False
+        backlog.append((now, data))  # deque.append and popleft are atomic: no lock for the hand-over
+        if self._worker_waits:
+            with self._queue_changed:
+                self._queue_changed.notify_all()
 
     def _work(self) -> None:
         """Worker thread: estimate the backlog in order and publish /diagnostics every diagnostics_period
         once subscribed to the angles (also while a backlog is worked off, and while the input is silent),
         until the node deactivates."""
+        backlog = self._backlog
         while not self._stop.is_set():
             subscribed = self._subscription is not None
-            with self._queue_changed:
-                if not self._backlog:
+            if not backlog:
+                with self._queue_changed:
+                    # The flag first, then the look: an angle appended after the look sees the flag and
+                    # wakes this wait (the GIL orders the two threads' steps).
+                    self._worker_waits = True
                     # Until subscribed nothing is due: wait for the subscription's notify (or a stop).
                     due = self._diagnostics_due - time.monotonic() if subscribed else self.diagnostics_period
-                    self._queue_changed.wait(max(0.0, due))
-                item = self._backlog.popleft() if self._backlog else None
-                if item is not None:
-                    self._queue_changed.notify_all()
+                    if not backlog:
+                        self._queue_changed.wait(max(0.0, due))
+                    self._worker_waits = False
+            item = backlog.popleft() if backlog else None
             if item is not None:
+                if self._producer_waits:
+                    with self._queue_changed:
+                        self._queue_changed.notify_all()
                 with self._work_lock:
                     self._estimate(*item)
             # From the subscription on: before it, the node waits for its own readers, not for input.

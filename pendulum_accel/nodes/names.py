@@ -5,7 +5,7 @@ checked here, it is one line and nothing starts. The rules are ROS's own:
 
 * namespaces, topic names and full topic names: rclpy's validators (``rclpy.validate_namespace`` ...)
   and ``rclpy.expand_topic_name`` when rclpy imports, else the pure-Python copies below, which give
-  the same verdicts (test_hostile_inputs.py runs both over the same cases and random strings);
+  the same verdicts (test_ros_names.py runs both over the same cases and random strings);
 * remap rules: rcl's grammar (rcl/src/rcl/arguments.c), ``[node:]match:=replacement`` with
   ``match = [rostopic://|rosservice://][~/|/]TOKEN(/TOKEN)*`` and ``replacement = [~/|/]TOKEN(/TOKEN)*``,
   ``TOKEN = [A-Za-z_][A-Za-z0-9_]*`` without ``__`` (rclpy has no function for it; rcl's parser itself

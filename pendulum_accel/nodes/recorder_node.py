@@ -25,10 +25,11 @@ import json
 import os
 import struct
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 from rclpy.clock import Clock, ClockType
 
 from pendulum_accel import __version__
@@ -53,6 +54,7 @@ NODE_NAME = "bag_recorder"
 _DRAIN_IDLE = 0.3  # s without any message after a stop request: the queues are empty
 _DRAIN_LIMIT = 10.0  # s: close the bag even if messages keep coming
 _STAMP = struct.Struct("<iI")  # builtin_interfaces/Time: int32 sec, uint32 nanosec (little-endian CDR)
+_STAMP_DTYPE = np.dtype([("sec", "<i4"), ("nanosec", "<u4")])
 
 
 def stamp_ns(data: bytes, offset: int) -> int:
@@ -60,6 +62,13 @@ def stamp_ns(data: bytes, offset: int) -> int:
     # struct, not numpy: this runs for every recorded message, and numpy costs ~7x more per call.
     sec, nanosec = _STAMP.unpack_from(data, offset)
     return int(sec) * 1_000_000_000 + int(nanosec)
+
+
+def log_times(payloads: Sequence[bytes], offset: int) -> NDArray[np.int64]:
+    """ns = sec · 1e9 + nanosec of each CDR payload's int32/uint32 pair at ``offset``: stamp_ns in bulk (each
+    payload holds offset + 8 bytes)."""
+    pairs = np.frombuffer(b"".join(p[offset : offset + _STAMP.size] for p in payloads), dtype=_STAMP_DTYPE)
+    return pairs["sec"].astype(np.int64) * 1_000_000_000 + pairs["nanosec"].astype(np.int64)
 
 
 def status_namespace(name: str) -> str:
@@ -153,16 +162,17 @@ class RecorderNode(ChainNode):
         # Messages wait here (log times, CDR payloads) until the next flush writes them in one bulk call:
         # a per-message write through rosbags cost more CPU than the rest of the recorder.
         self._pending: dict[str, tuple[list[int], list[bytes]]] = {topic: ([], []) for topic in topics}
+        # The fast path (``_receiver``): once the bag has started and a topic is in it, a stamped message of
+        # it is only appended here; the next write reads the stamps of all of them at once (log_times).
+        self._raw: dict[str, list[bytes]] = {topic: [] for topic in topics}
+        self._fast: dict[str, list[bool]] = {topic: [False] for topic in topics}
+        self._raw_seen = 0  # fast-path messages counted so far: a change tells the drain that input goes on
         self._last_message = time.monotonic()
         self._stopping_since: float | None = None
         self._closed = False
         for topic in topics:
             make_subscription(
-                self,
-                message_class(self.types[topic]),
-                topic,
-                functools.partial(self._on_message, topic),
-                qos_for(topic),
+                self, message_class(self.types[topic]), topic, self._receiver(topic), qos_for(topic)
             )
         self.create_timer(0.1, self._tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.get_logger().info(f"recording {len(topics)} topics to {path}")
@@ -193,9 +203,45 @@ class RecorderNode(ChainNode):
         ]
         self.writer.add_topic(topic, self.types[topic], offered or [chain])
 
+    def _receiver(self, topic: str) -> Callable[[bytes], None]:
+        """The subscription callback of ``topic``: append the CDR to the topic's raw list when its fast path
+        is on and the message holds a whole stamp, else ``_on_message``. This runs for every recorded
+        message, so it does nothing else: stamps, counts and the drain's clock come in bulk at the next
+        write."""
+        raw = self._raw[topic].append
+        fast = self._fast[topic]
+        offset = self._offsets[topic]
+        need = (offset or 0) + _STAMP.size
+        slow = functools.partial(self._on_message, topic)
+
+        def receive(data: bytes) -> None:
+            if fast[0] and len(data) >= need:
+                raw(data)
+            else:
+                slow(data)
+
+        return receive
+
+    def _fast_path_allowed(self, topic: str) -> bool:
+        """True when every further message of ``topic`` that holds its stamp is logged at that stamp, as is:
+        stamp log times, the bag started, the topic in it, a stamped type, not /diagnostics (filtered)."""
+        return (
+            self.log_time == "stamp"
+            and self._first_stamp_ns is not None
+            and self.received[topic] > 0
+            and self._offsets[topic] is not None
+            and self.types[topic] != bm.DIAGNOSTIC_ARRAY
+        )
+
     def _on_message(self, topic: str, data: bytes) -> None:
         """Write one raw message at its stamp (or receive time); before the first angle, hold it."""
         self._last_message = time.monotonic()
+        self._on_message_at(topic, data)
+        if not self._closed and self._fast_path_allowed(topic):
+            self._fast[topic][0] = True
+
+    def _on_message_at(self, topic: str, data: bytes) -> None:
+        """_on_message's body: queue the message at its log time (or hold it before the first angle)."""
         if self._closed:
             return
         if self.types[topic] == bm.DIAGNOSTIC_ARRAY:
@@ -250,8 +296,26 @@ class RecorderNode(ChainNode):
         times.append(max(log_ns, 0))
         payloads.append(data)
 
+    def _take_raw(self) -> int:
+        """Count the fast path's messages as received, queue them at their stamps (clamped at 0); how many."""
+        taken = 0
+        for topic, raw in self._raw.items():
+            if not raw:
+                continue
+            payloads = raw[:]  # emptied in place: the topic's receiver holds this very list's append
+            raw.clear()
+            offset = self._offsets[topic]
+            assert offset is not None  # only stamped topics take the fast path
+            times, queued = self._pending[topic]
+            times.extend(np.maximum(log_times(payloads, offset), 0).tolist())
+            queued.extend(payloads)
+            self.received[topic] += len(payloads)
+            taken += len(payloads)
+        return taken
+
     def _write_pending(self) -> None:
         """Write every buffered message, merged by log time, and flush the file (BagWriter.write_sorted)."""
+        self._take_raw()
         pending, self._pending = self._pending, {topic: ([], []) for topic in self._pending}
         streams = [
             Stream(topic, np.array(times, dtype=np.int64), payloads)
@@ -267,6 +331,10 @@ class RecorderNode(ChainNode):
         """Write and flush when due (a kill loses at most ~1 s); during a stop, finish once drained."""
         if self._closed:
             return
+        seen = sum(len(raw) for raw in self._raw.values()) + sum(self.received.values())
+        if seen != self._raw_seen:  # the fast path took messages since the last tick
+            self._raw_seen = seen
+            self._last_message = time.monotonic()
         if self.writer.flush_due():
             try:
                 self._write_pending()
@@ -294,9 +362,15 @@ class RecorderNode(ChainNode):
         """Drain: keep recording until no message came for a moment, then finish."""
         self._stopping_since = time.monotonic()
 
+    def _stop_fast_path(self) -> None:
+        """Send every later message through _on_message, which drops it once the recorder is closed."""
+        for flag in self._fast.values():
+            flag[0] = False
+
     def _write_failed(self, err: OSError) -> None:
         """Disk full or unwritable: one error line, stop, exit 1; what was flushed stays salvageable."""
         self._closed = True
+        self._stop_fast_path()
         self.get_logger().error(
             f"cannot write the bag {self.writer.path} ({err.strerror or err}): recording stopped; the bag "
             f"keeps what was flushed before and `pendulum-accel repair {self.writer.path}` makes it readable"
@@ -308,6 +382,8 @@ class RecorderNode(ChainNode):
         if self._closed:
             return
         self._closed = True
+        self._stop_fast_path()
+        self._take_raw()
         # The roles whose counters were expected: one missing from the accounting died without closing.
         expected = [Path(name).stem for name in self.chain_summaries]
         own = {

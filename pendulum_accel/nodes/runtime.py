@@ -32,6 +32,7 @@ from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.dds_profile import use_package_profile
 from pendulum_accel.nodes.parameters import FROM_SCENE, TIME_SOURCES, ParamSpec, ParamValue
 from pendulum_accel.nodes.scheduling import apply_rt_priority
+from pendulum_accel.nodes.shm_ports import clear_stale_ports
 
 # How often the main thread wakes to run pending signal handlers.
 _SIGNAL_POLL_PERIOD = 0.05  # s
@@ -379,6 +380,7 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
             raise KeyboardInterrupt
 
     use_package_profile()
+    clear_stale_ports()  # a port a killed process left empty would hang this node's start-up
     try:
         check_ros_args(list(args) if args is not None else sys.argv)
         rclpy.init(

@@ -37,7 +37,8 @@ from pendulum_accel.bag.messages import (
     DiagnosticArrayMsg,
     deserialize_as,
 )
-from pendulum_accel.bag.reader import Bag, TopicArrays, read_bag
+from pendulum_accel.bag.reader import Bag, read_bag
+from pendulum_accel.bag.shapes import TopicArrays
 from pendulum_accel.bag.writer import CUSTOM_ESTIMATOR, CUSTOM_SCENE
 from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.estimators import (

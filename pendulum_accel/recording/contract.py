@@ -12,7 +12,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.reader import Bag, TopicArrays
+from pendulum_accel.bag.reader import Bag
+from pendulum_accel.bag.shapes import TopicArrays
 from pendulum_accel.errors import BagError
 from pendulum_accel.estimators.guard import frame_problem, joint_state_problem
 
