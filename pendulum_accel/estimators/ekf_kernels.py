@@ -1236,7 +1236,9 @@ def lag_variance_into(
 
 
 class Ring(NamedTuple):
-    """The fixed-lag buffer of every mode (ring_buffer, ``ring``), mode j's rows in row j."""
+    """The fixed-lag buffer of every mode (ring_buffer, ``ring``), mode j's rows in row j. The buffer holds
+    two sets of rows; a step mixes the current set into the other, which then becomes the current one (a
+    flag, the buffer's last float: no copy)."""
 
     A: np.ndarray  # m × (N + 1): â of each buffered sample
     V: np.ndarray  # m × (N + 1): its variance
@@ -1249,21 +1251,23 @@ class Ring(NamedTuple):
 
 
 def ring_buffer(size: int, m: int) -> np.ndarray:
-    """The float buffer of a ring of ``size`` = N + 1 slots over m modes (Ring)."""
-    return np.zeros(2 * (6 * m * size))
+    """The float buffer of a ring of ``size`` = N + 1 slots over m modes (Ring), and its flag."""
+    return np.zeros(2 * (6 * m * size) + 1)
 
 
 @njit(cache=True, inline="always")
 def ring(rbuf: np.ndarray, size: int, m: int) -> Ring:
-    """The ring buffer's parts (Ring)."""
+    """The ring buffer's parts (Ring): the current set of rows first, as its flag says."""
     o = m * size
+    cur = 6 * o if rbuf[12 * o] != 0.0 else 0
+    new = 6 * o - cur
     return Ring(
-        rbuf[:o].reshape(m, size),
-        rbuf[o : 2 * o].reshape(m, size),
-        rbuf[2 * o : 6 * o].reshape(m, 4, size),
-        rbuf[6 * o : 7 * o].reshape(m, size),
-        rbuf[7 * o : 8 * o].reshape(m, size),
-        rbuf[8 * o : 12 * o].reshape(m, 4, size),
+        rbuf[cur : cur + o].reshape(m, size),
+        rbuf[cur + o : cur + 2 * o].reshape(m, size),
+        rbuf[cur + 2 * o : cur + 6 * o].reshape(m, 4, size),
+        rbuf[new : new + o].reshape(m, size),
+        rbuf[new + o : new + 2 * o].reshape(m, size),
+        rbuf[new + 2 * o : new + 6 * o].reshape(m, 4, size),
     )
 
 
@@ -1382,27 +1386,27 @@ def _ring_update(
             C[j, 1, s] -= c0 * k1
             C[j, 2, s] -= c0 * k2
             C[j, 3, s] -= c0 * k3
-    if held:
-        rg.A[:] = rg.NA
-        rg.V[:] = rg.NV
-        rg.C[:] = rg.NC
 
 
 @njit(cache=True, inline="always")
 def _lagged_step(
-    st: ImmArrays, rg: Ring, perm: np.ndarray, m: int, band: int, d: int, walks: int, t: float, y: float,
-    params: np.ndarray, rates: np.ndarray, jerks: np.ndarray,
+    st: ImmArrays, rbuf: np.ndarray, perm: np.ndarray, m: int, band: int, d: int, walks: int, t: float,
+    y: float, params: np.ndarray, rates: np.ndarray, jerks: np.ndarray,
 ) -> bool:  # fmt: skip
-    """One sample into the IMM and its fixed-lag buffer (``_step`` with ``_ring_update`` between the
-    update and the rest); True when the IMM (re)started here, its buffer then holding the new sample only."""
-    size = rg.A.shape[1]
+    """One sample into the IMM and its fixed-lag buffer ``rbuf`` (ring_buffer: ``_step`` with ``_ring_update``
+    between the update and the rest); True when the IMM (re)started here, its buffer then holding the new
+    sample only."""
+    size = (rbuf.size - 1) // (12 * m)
     count = int(st.MEMO[2])
     if _predict_correct(st, perm, m, band, d, walks, t, y, params, rates, jerks, True):
-        _ring_start(st, rg, m, band, d)
+        _ring_start(st, ring(rbuf, size, m), m, band, d)
         return True
-    _ring_update(st, rg, perm, m, band, d, walks, min(count, size - 1), count % size)
+    held = min(count, size - 1)
+    _ring_update(st, ring(rbuf, size, m), perm, m, band, d, walks, held, count % size)
+    if held:  # the mixed rows are the current ones now
+        rbuf[rbuf.size - 1] = 0.0 if rbuf[rbuf.size - 1] != 0.0 else 1.0
     if _finish(st, perm, m, band, d, t, y, params, jerks):
-        _ring_start(st, rg, m, band, d)
+        _ring_start(st, ring(rbuf, size, m), m, band, d)
         return True
     return False
 
@@ -1451,7 +1455,7 @@ def run_imm(
     perm = ibuf[5 : 5 + m]
     st = imm_arrays(buf, m, band, d)
     size = int(lags.max()) + 1 if nl else 1
-    rg = ring(np.zeros(12 * m * size), size, m)
+    rbuf = np.zeros(12 * m * size + 1)  # ring_buffer(size, m)
     a = np.full((n, nl), np.nan)
     v = np.full((n, nl), np.nan)
     mus = np.empty((n if keep_mu else 0, m))
@@ -1463,8 +1467,9 @@ def run_imm(
                 a[i, c], v[i, c] = fa, fv
         else:
             if i > 0 and t[i] - st.MEMO[1] > params[6]:  # a gap ends the segment
-                _flush(a, v, st.MU, rg, m, band, i - 1, int(st.MEMO[2]), lags)
-            _lagged_step(st, rg, perm, m, band, d, walks, t[i], y[i], params, rates, jerks)
+                _flush(a, v, st.MU, ring(rbuf, size, m), m, band, i - 1, int(st.MEMO[2]), lags)
+            _lagged_step(st, rbuf, perm, m, band, d, walks, t[i], y[i], params, rates, jerks)
+            rg = ring(rbuf, size, m)
             count = int(st.MEMO[2])
             for c in range(nl):
                 lag = lags[c]
@@ -1476,7 +1481,7 @@ def run_imm(
             for j in range(m):
                 mus[i, j] = st.MU[band + j]
     if size > 1 and n:
-        _flush(a, v, st.MU, rg, m, band, n - 1, int(st.MEMO[2]), lags)
+        _flush(a, v, st.MU, ring(rbuf, size, m), m, band, n - 1, int(st.MEMO[2]), lags)
     return a, v, mus
 
 
@@ -1501,8 +1506,8 @@ def live_step(
         out[2] = t
         return True
     size = lag + 1
+    _lagged_step(st, rbuf, perm, m, band, d, walks, t, y, params, rates, jerks)
     rg = ring(rbuf, size, m)
-    _lagged_step(st, rg, perm, m, band, d, walks, t, y, params, rates, jerks)
     count = int(st.MEMO[2])
     newest = (count - 1) % size
     hist[newest, 0] = t
