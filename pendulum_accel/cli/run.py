@@ -191,7 +191,27 @@ def run(args: argparse.Namespace) -> int:
     if config.record is not None and (config.record / "metadata.yaml").exists():
         for line in summary_lines(config.record, config.estimator):
             print(line)
+        if code == 0:
+            code = _check_recording(config.record)
     return code
+
+
+def _check_recording(path: Path) -> int:
+    """0 when the bag the run recorded reads [complete] as ``info`` checks it (every message the recorder
+    says it wrote is in the file, the publishers' counts agree), else one WARNING line and 1: a bag
+    moved or replaced under the recorder holds fewer messages than the run reported."""
+    from pendulum_accel.bag.reader import read_bag
+    from pendulum_accel.cli.info import bag_state
+    from pendulum_accel.errors import PendulumAccelError
+
+    try:
+        state, losses = bag_state(read_bag(path))
+    except PendulumAccelError as err:
+        state, losses = str(err), []
+    if state == "complete":
+        return 0
+    print(f"WARNING: the recorded bag {path} is not complete: {'; '.join(losses) or state}", file=sys.stderr)
+    return 1
 
 
 def _empty_bag(path: Path) -> bool:
