@@ -374,3 +374,35 @@ def test_repair_never_moves_a_file_another_process_has_open(tmp_path: Path) -> N
         stop_processes([other])
     error_line(repair.code, repair.err, f"open in process {other.pid} (sleep)", "nothing changed")
     assert {p.name: p.read_bytes() for p in bag.iterdir()} == before
+
+
+def test_a_bag_another_recorder_writes_is_being_recorded(tmp_path: Path) -> None:
+    """A cut-off bag without our lock whose .mcap another process holds open for writing (``ros2 bag
+    record`` takes no lock of ours; here a sleep with the file as its stdout): info says it is being
+    recorded by that process, not damaged; analyze and repair refuse it in one line; nothing changes. An
+    empty file so held is 'nothing written yet', not 'empty'."""
+    bag = tmp_path / "b"
+    with BagWriter(bag) as writer:
+        writer.add_topic(bm.TOPIC_CLOCK, bm.CLOCK)
+        writer.write(bm.TOPIC_CLOCK, 1, bytes([0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0]))
+    mcap = bag / "b.mcap"
+    mcap.write_bytes(mcap.read_bytes()[:-40])  # cut off, as a live file is
+    before = {p.name: p.read_bytes() for p in bag.iterdir()}
+    with mcap.open("ab") as held:
+        other = subprocess.Popen(["sleep", "600"], stdout=held, text=True, start_new_session=True)
+    try:
+        info = _in_process("info", str(bag))
+        analyze = _in_process("analyze", str(bag))
+        repair = _in_process("repair", str(bag))
+        mcap.write_bytes(b"")
+        empty = _in_process("info", str(bag))
+        mcap.write_bytes(before["b.mcap"])
+    finally:
+        stop_processes([other])
+    recorder = f"sleep (pid {other.pid} on "
+    assert info.code == 1 and f"[RECORDING: being written by {recorder}" in info.out, info.out + info.err
+    assert "DAMAGED" not in info.out + info.err
+    error_line(analyze.code, analyze.err, f"is being recorded by {recorder}")
+    error_line(repair.code, repair.err, f"is being recorded by {recorder}", "nothing changed")
+    error_line(empty.code, empty.err, f"is being recorded by {recorder}", "nothing is written yet")
+    assert {p.name: p.read_bytes() for p in bag.iterdir()} == before

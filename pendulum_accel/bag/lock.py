@@ -63,8 +63,9 @@ class Holder:
         return self.pid == os.getpid() and self.host == socket.gethostname()
 
     def describe(self) -> str:
-        """'bag_recorder (pid 4242 on host1, since 2026-01-05T10:00:00Z)'."""
-        return f"{self.program} (pid {self.pid} on {self.host}, since {self.since})"
+        """'bag_recorder (pid 4242 on host1, since 2026-01-05T10:00:00Z)' (no 'since' when unknown)."""
+        since = f", since {self.since}" if self.since != "?" else ""
+        return f"{self.program} (pid {self.pid} on {self.host}{since})"
 
 
 def _now() -> str:
@@ -175,10 +176,28 @@ def holder(directory: Path) -> Holder | None:
         os.close(fd)
 
 
-def open_by_others(paths: list[Path]) -> list[tuple[Path, int, str]]:
-    """(path, pid, command) for each of ``paths`` another process has open, read from /proc/*/fd as
-    fuser(1) does: a recorder other than ours (``ros2 bag record``) writing the file. Only processes whose
-    /proc entries this user may read are seen (all of them as root)."""
+def writer_of(paths: list[Path]) -> Holder | None:
+    """The first other process that has one of ``paths`` open for writing (a recorder of another make,
+    ``ros2 bag record``, which takes no lock of ours), as a live Holder without a start time; None."""
+    for _, pid, command in open_by_others(paths, writing=True):
+        return Holder(pid, socket.gethostname(), command, "?")
+    return None
+
+
+def _writes(fdinfo: Path) -> bool:
+    """True when the open file /proc/PID/fdinfo/FD describes is open for writing (O_WRONLY or O_RDWR in
+    its octal 'flags:' line)."""
+    for line in fdinfo.read_text().splitlines():
+        if line.startswith("flags:"):
+            return int(line.split()[1], 8) & (os.O_WRONLY | os.O_RDWR) != 0
+    return False
+
+
+def open_by_others(paths: list[Path], *, writing: bool = False) -> list[tuple[Path, int, str]]:
+    """(path, pid, command) for each of ``paths`` another process has open (``writing``: open for
+    writing), read from /proc/*/fd as fuser(1) does: a recorder other than ours (``ros2 bag record``)
+    writing the file. Only processes whose /proc entries this user may read are seen (all of them as
+    root)."""
     wanted: dict[tuple[int, int], Path] = {}
     for path in paths:
         with contextlib.suppress(OSError):
@@ -196,7 +215,7 @@ def open_by_others(paths: list[Path]) -> list[tuple[Path, int, str]]:
                 with contextlib.suppress(OSError):
                     st = fd.stat()
                     match = wanted.get((st.st_dev, st.st_ino))
-                    if match is not None:
+                    if match is not None and (not writing or _writes(entry / "fdinfo" / fd.name)):
                         command = (entry / "comm").read_text().strip()
                         found.append((match, int(entry.name), command))
     return found

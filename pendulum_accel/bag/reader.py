@@ -39,7 +39,7 @@ from pendulum_accel.bag.blocks import Block, ChannelData, ChunkRef, Lazy, block_
 from pendulum_accel.bag.chunks import ChunkReader, Part
 from pendulum_accel.bag.integrity import ChunkDamage, chunk_head
 from pendulum_accel.bag.locate import locate
-from pendulum_accel.bag.lock import LOCK_NAME, Holder, holder
+from pendulum_accel.bag.lock import LOCK_NAME, Holder, holder, writer_of
 from pendulum_accel.bag.messages import TopicChoice, chain_topic, find_topic, stored_roles
 from pendulum_accel.bag.metadata import listed_custom_data
 from pendulum_accel.bag.records import RECORD_ERRORS, decompress, message_index
@@ -495,6 +495,7 @@ def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> 
         try:
             Scanner(bag, part, stream=stream).scan()
         except BagError as err:
+            writer = writer if writer is not None else writer_of(bag.mcap_paths)
             if writer is None or writer.ours:
                 raise
             if writer.live:
@@ -504,6 +505,10 @@ def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> 
                 ) from None
             raise BagError(f"{err}: its writer {writer.describe()} ended without closing it") from None
     bag.choice.roles.update(stored_roles(bag.custom_data))
+    if writer is None and bag.problem is not None:
+        # Cut off, and no lock of ours: a recorder of another make may be writing it (rosbag2 marks
+        # nothing, ros2/rosbag2#1597); only a scan that found a problem pays for the look through /proc.
+        writer = writer_of(bag.mcap_paths)
     if writer is not None and writer.live and not writer.ours:
         bag.recording = writer
         # A live file has no footer yet; what the scan took for damage is the end still being written.
