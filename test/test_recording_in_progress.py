@@ -142,6 +142,7 @@ def live(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Live]:
 
 
 @pytest.mark.ros
+@pytest.mark.slow  # the module's live run (about 20 s) is set up for it
 def test_info_says_a_live_bag_is_being_recorded_not_damaged(live: Live) -> None:
     """[RECORDING: being written by bag_recorder (pid …)], no DAMAGED, no advice to repair; exit 1 (not
     complete) with one warning line."""
@@ -240,6 +241,7 @@ def test_a_bag_whose_accounting_disagrees_is_incomplete(live: Live, tmp_path: Pa
 
 
 @pytest.mark.ros
+@pytest.mark.slow
 def test_a_run_whose_file_is_moved_under_its_recorder_does_not_exit_0(tmp_path: Path) -> None:
     """The live file moved aside and a cut copy put in its place (what repair did to a live bag): the
     recorder keeps writing into the moved file, the bag at DIR ends short, and run exits 1 with a WARNING
