@@ -381,8 +381,8 @@ def test_repair_never_moves_a_file_another_process_has_open(tmp_path: Path) -> N
 def test_a_bag_another_recorder_writes_is_being_recorded(tmp_path: Path) -> None:
     """A cut-off bag without our lock whose .mcap another process holds open for writing (``ros2 bag
     record`` takes no lock of ours; here a sleep with the file as its stdout): info says it is being
-    recorded by that process, not damaged; analyze and repair refuse it in one line; nothing changes. An
-    empty file so held is 'nothing written yet', not 'empty'."""
+    recorded by that process, not damaged; analyze, repair and generate --overwrite (which deleted it)
+    refuse it in one line; nothing changes. An empty file so held is 'nothing written yet', not 'empty'."""
     bag = tmp_path / "b"
     with BagWriter(bag) as writer:
         writer.add_topic(bm.TOPIC_CLOCK, bm.CLOCK)
@@ -396,6 +396,9 @@ def test_a_bag_another_recorder_writes_is_being_recorded(tmp_path: Path) -> None
         info = _in_process("info", str(bag))
         analyze = _in_process("analyze", str(bag))
         repair = _in_process("repair", str(bag))
+        generate = _in_process(
+            "generate", "lecture_constant", "--out", str(bag), "--overwrite", "--duration", "1"
+        )
         mcap.write_bytes(b"")
         empty = _in_process("info", str(bag))
         mcap.write_bytes(before["b.mcap"])
@@ -406,5 +409,40 @@ def test_a_bag_another_recorder_writes_is_being_recorded(tmp_path: Path) -> None
     assert "DAMAGED" not in info.out + info.err
     error_line(analyze.code, analyze.err, f"is being recorded by {recorder}")
     error_line(repair.code, repair.err, f"is being recorded by {recorder}", "nothing changed")
+    error_line(generate.code, generate.err, f"is being recorded by {recorder}", "refusing to replace it")
     error_line(empty.code, empty.err, f"is being recorded by {recorder}", "nothing is written yet")
     assert {p.name: p.read_bytes() for p in bag.iterdir()} == before
+
+
+@pytest.mark.ros
+def test_a_run_told_to_overwrite_a_live_bag_leaves_it_alone(tmp_path: Path) -> None:
+    """``run --record DIR --overwrite`` while another writer holds DIR's lock: its recorder refuses in one
+    line naming that writer, the run exits 1 without summarising the other's bag as its own (it printed
+    that bag's topics and 'bag: DIR'), and DIR's files are byte for byte as they were."""
+    bag = tmp_path / "held"
+    proc = subprocess.Popen(
+        [PYTHON, "-c", _HOLD, str(bag)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd=str(REPO),
+    )
+    try:
+        assert proc.stdin is not None and proc.stdout is not None and proc.stdout.readline().strip() == "open"
+        proc.stdin.write("go\n")
+        proc.stdin.flush()
+        assert proc.stdout.readline().strip() == "flushed"
+        before = {p.name: p.read_bytes() for p in bag.iterdir()}
+        run = _start_run(bag, 1.0, "--overwrite")
+        try:
+            code = run.finish(timeout=120)
+        finally:
+            stop_processes([run.proc])
+        after = {p.name: p.read_bytes() for p in bag.iterdir()}
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    assert code == 1, run.text
+    assert f"bag_recorder: error: bag {bag} is being recorded by holder_test (pid {proc.pid}" in run.text
+    assert f"bag: {bag}" not in run.text and "messages:" not in run.text, run.text
+    assert after == before

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from rosbags.interfaces import Qos
 
 from pendulum_accel import __version__
-from pendulum_accel.bag.lock import LOCK_NAME, BagLock, holder
+from pendulum_accel.bag.lock import LOCK_NAME, BagLock, holder, writer_of
 from pendulum_accel.bag.mcap_file import CHUNK_BYTES, MESSAGE_HEADER, OP_MESSAGE, IndexEntries, McapFile
 from pendulum_accel.bag.messages import TYPESTORE, qos_profile
 from pendulum_accel.bag.metadata import TopicRecord, dump_yaml, metadata_document, qos_text, write_metadata
@@ -77,7 +77,7 @@ def _is_bag_dir(path: Path) -> bool:
 
 def prepare_output(path: Path, overwrite: bool) -> None:
     """Refuse an existing ``path`` unless ``overwrite``; then delete it only if it holds nothing but a bag
-    that no process is writing (bag/lock.py)."""
+    that no process is writing (its lock, bag/lock.py, or another process with its file open to write)."""
     if not path.exists() and not path.is_symlink():
         return
     if not overwrite:
@@ -85,6 +85,9 @@ def prepare_output(path: Path, overwrite: bool) -> None:
     if not _is_bag_dir(path):
         raise BagError(f"{path} exists and is not a bag directory; refusing to delete it")
     writer = holder(path) if path.is_dir() and not path.is_symlink() else None
+    if writer is None and path.is_dir() and not path.is_symlink():
+        # A recorder of another make takes no lock of ours: the file it has open for writing says it.
+        writer = writer_of(sorted(path.glob("*.mcap")))
     if writer is not None and writer.live:
         raise BagError(f"bag {path} is being recorded by {writer.describe()}; refusing to replace it")
     shutil.rmtree(path)
