@@ -14,6 +14,9 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import socket
+import struct
+import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
@@ -28,19 +31,169 @@ Progress = Callable[[int], None]
 CLOSE_TIMEOUT = 10.0  # s given to Dask to close a client or cluster; past it the processes are left to exit
 
 
+SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+"""The comms a Dask scheduler listens on from another process (distributed.comm.registry's backends, less
+``inproc``, which only reaches a scheduler inside the process that started it)."""
+
+PROBE_TIMEOUT = 3.0
+"""s a scheduler is given to accept the connection, then to send its handshake. A TCP connect resends an
+unanswered SYN after an initial RTO of 1 s (RFC 6298, Linux's), so 3 s covers one lost SYN and a 2 s
+round trip, past any network a cluster runs on; a scheduler writes its handshake as soon as it accepts
+(distributed/comm/core.py, Listener.on_connection), and an event loop blocked 3 s is what Dask itself
+warns of (distributed.admin.tick.limit). Dask's own connect timeout (30 s) also waits for a scheduler
+still starting up: an address given to a command names one that runs."""
+
+HANDSHAKE_MAX = 1 << 20
+"""Bytes a Dask handshake may announce: it is a few hundred (a msgpack dict of compression, pickle protocol
+and versions); a length read from another protocol's greeting is of order 1e18."""
+
+
 def scheduler_address(given: str | None) -> str | None:
-    """The Dask scheduler to use: ``given``, else $DASK_SCHEDULER_ADDRESS, else None (an embedded
-    LocalCluster)."""
-    return given or os.environ.get("DASK_SCHEDULER_ADDRESS") or None
+    """The Dask scheduler to use: ``given``, else $DASK_SCHEDULER_ADDRESS (unset or empty: none), each
+    checked by check_address; None for an embedded LocalCluster."""
+    if given is not None:
+        return check_address(given, "--scheduler")
+    env = os.environ.get("DASK_SCHEDULER_ADDRESS")
+    return check_address(env, "$DASK_SCHEDULER_ADDRESS") if env else None
+
+
+def _host_port(location: str) -> tuple[str, str | None]:
+    """(host, port text or None) of 'host:port', '[v6]:port', 'host'."""
+    if location.startswith("["):
+        host, _, rest = location[1:].partition("]")
+        return host, rest[1:] if rest.startswith(":") else (rest or None)
+    host, sep, port = location.rpartition(":")
+    return (host, port) if sep else (location, None)
+
+
+def check_address(address: str, source: str) -> str:
+    """``address`` as Dask's Client takes it, 'SCHEME://HOST:PORT' (SCHEME in SCHEMES, tcp when left out,
+    1 ≤ PORT ≤ 65535); a PendulumAccelError naming ``source`` (the option or variable) and what is wrong,
+    where Dask would raise its own traceback (missing port number) or find an in-process scheduler."""
+    example = "give the scheduler's tcp://HOST:PORT (8786 unless it was told otherwise)"
+    if not address.strip():
+        raise PendulumAccelError(f"{source} is empty: {example}, or leave it out for a local cluster")
+    scheme, sep, location = address.partition("://")
+    scheme = scheme.lower() if sep else "tcp"
+    location = location if sep else address
+    if scheme in ("http", "https"):
+        raise PendulumAccelError(
+            f"{source} {address!r} is a web address (a dashboard's?), not a Dask scheduler's: {example}"
+        )
+    if scheme == "inproc":
+        raise PendulumAccelError(
+            f"{source} {address!r} names a scheduler inside the process that started it, which no other "
+            f"process reaches: {example}"
+        )
+    if scheme not in SCHEMES:
+        raise PendulumAccelError(
+            f"{source} {address!r}: unknown scheme {scheme!r} (Dask's are {', '.join(SCHEMES)}): {example}"
+        )
+    host, port = _host_port(location)
+    if not host or port is None:
+        raise PendulumAccelError(f"{source} {address!r} has no {'host' if port else 'port'}: {example}")
+    if not (port.isascii() and port.isdigit() and 1 <= int(port) <= 65535):
+        raise PendulumAccelError(f"{source} {address!r}: the port {port!r} is not a number from 1 to 65535")
+    return address
+
+
+def probe_scheduler(address: str) -> None:
+    """Within 2 PROBE_TIMEOUT, a PendulumAccelError unless something at ``address`` (check_address's)
+    accepts a connection and, on tcp, begins as a Dask scheduler does: an 8-byte frame length ("Q", as
+    distributed/comm/tcp.py reads it) of at most HANDSHAKE_MAX. Dask's Client would allocate whatever
+    length another protocol's greeting spells (3 EiB for 'SSH-2.0-'), or wait 30 s for an answer."""
+    scheme, sep, location = address.partition("://")
+    scheme = scheme.lower() if sep else "tcp"
+    if scheme == "ucx":
+        return  # UCX connects through its own layer, not a socket of ours
+    host, port = _host_port(location if sep else address)
+    try:
+        sock = socket.create_connection((host, int(port or 0)), timeout=PROBE_TIMEOUT)
+    except ConnectionRefusedError:
+        raise PendulumAccelError(f"no Dask scheduler at {address}: nothing listens there (refused)") from None
+    except TimeoutError:
+        raise PendulumAccelError(
+            f"cannot reach the Dask scheduler at {address}: no answer within {PROBE_TIMEOUT:g} s"
+        ) from None
+    except OSError as err:
+        raise PendulumAccelError(
+            f"cannot reach the Dask scheduler at {address}: {err.strerror or err}"
+        ) from None
+    with sock:
+        if scheme != "tcp":
+            return  # tls and websockets speak their own handshake first
+        head = b""
+        try:
+            while len(head) < 8:
+                chunk = sock.recv(8 - len(head))
+                if not chunk:
+                    break
+                head += chunk
+        except TimeoutError:
+            pass
+        except OSError as err:
+            raise PendulumAccelError(
+                f"the Dask scheduler at {address} broke the connection: {err.strerror}"
+            ) from None
+    if len(head) < 8:
+        said = f" (it sent {head!r})" if head else ""
+        raise PendulumAccelError(
+            f"{address} accepted the connection but sent no Dask handshake within {PROBE_TIMEOUT:g} s{said}: "
+            "is it a Dask scheduler?"
+        )
+    (length,) = struct.unpack("Q", head)
+    if not 0 < length <= HANDSHAKE_MAX:
+        raise PendulumAccelError(
+            f"{address} answers, but not as a Dask scheduler (it began with {head!r}): is it the "
+            "scheduler's port?"
+        )
 
 
 def _kill_local_workers() -> None:
-    """SIGKILL every child process of this one (the local cluster's nannies and workers)."""
-    import multiprocessing
+    """SIGKILL every descendant of this process (the local cluster's nannies and the worker processes
+    each nanny started) but multiprocessing's resource tracker, and wait until they have ended.
 
-    for child in multiprocessing.active_children():
-        with contextlib.suppress(OSError, ValueError):
-            child.kill()
+    The workers are the nannies' children, not ours: killing only our children (the nannies) left them
+    orphaned and running after the command exited (issue 58: 3 workers alive 2 s after exit 130). A nanny
+    also restarts a worker that dies, so every descendant is stopped (SIGSTOP) before any is killed, and
+    the tree is listed again once frozen: nothing is started in between. The resource tracker outlives
+    them on purpose: it frees the semaphores and shared memory the killed workers held.
+    """
+    import psutil  # a dependency of distributed, which started these processes
+
+    def tree() -> list[psutil.Process]:
+        """This process's descendants but the resource tracker."""
+        found = []
+        for proc in psutil.Process().children(recursive=True):
+            with contextlib.suppress(psutil.Error):
+                if not any("resource_tracker" in part for part in proc.cmdline()):
+                    found.append(proc)
+        return found
+
+    frozen = tree()
+    for proc in frozen:
+        with contextlib.suppress(psutil.Error):
+            proc.suspend()
+    doomed = {proc.pid: proc for proc in (*frozen, *tree())}
+    for proc in doomed.values():
+        with contextlib.suppress(psutil.Error):
+            proc.kill()
+    # Ours are reaped by wait_procs; a nanny's orphan is its new parent's to reap: dead once a zombie.
+    pending = list(doomed.values())
+    deadline = time.monotonic() + CLOSE_TIMEOUT
+    while pending and time.monotonic() < deadline:
+        _, pending = psutil.wait_procs(pending, timeout=0.05)
+        pending = [proc for proc in pending if _running(proc)]
+
+
+def _running(proc: Any) -> bool:
+    """True while the psutil Process ``proc`` runs (a zombie has ended)."""
+    import psutil
+
+    try:
+        return bool(proc.status() != psutil.STATUS_ZOMBIE)
+    except psutil.Error:
+        return False
 
 
 @contextlib.contextmanager
@@ -58,9 +211,11 @@ def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
             ) from None
         raise PendulumAccelError(f"this runs on Dask distributed, which failed to import: {err}") from None
     if address is not None:
+        probe_scheduler(address)
         try:
             client = Client(address, timeout=10)
-        except (OSError, TimeoutError) as err:
+        except (OSError, TimeoutError, MemoryError) as err:
+            # MemoryError: a length from a peer that passed the probe and then spoke another protocol.
             raise PendulumAccelError(f"cannot reach the Dask scheduler at {address}: {err}") from None
         try:
             yield client

@@ -10,6 +10,7 @@ import numpy as np
 
 from pendulum_accel.cli.main import main
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting
+from pendulum_accel.nodes.names import publisher_topic_map
 from pendulum_accel.recording.generate import chain_streams, write_chain_bag
 
 N = 200
@@ -103,3 +104,23 @@ def test_a_namespaced_chain_is_accounted_under_its_own_names() -> None:
     assert "/car1/pendulum/joint_states" in table and "/car1/car/accel/estimate" in table
     assert " /pendulum/joint_states" not in table
     assert "/car1/car/accel/truth: 10 of 100 not recorded" in ns.losses(recording=True)
+
+
+def test_a_remapped_chain_is_accounted_through_its_topic_map() -> None:
+    """After ``--remap pendulum/joint_states:=angles`` in namespace car1 the launcher's map finds the
+    angles under /car1/angles: the table has their row and a loss there is counted (the suffix match
+    found no angle row, and no loss). A name no role of the map covers is still compared under its own
+    name, so no loss goes unseen."""
+    roles = publisher_topic_map("car1", ["pendulum/joint_states:=angles"])
+    assert roles["pendulum/joint_states"] == "/car1/angles"
+    assert roles["car/accel/estimate"] == "/car1/car/accel/estimate"
+    published = {"/car1/angles": 100, "/car1/car/accel/truth": 100, "/car1/extra": 50}
+    recorded = {**published, "/car1/angles": 90, "/car1/extra": 40, "/car1/car/accel/estimate": 97}
+    remapped = Accounting(
+        {"published": published}, _estimator(100, 97, 3), {"written": recorded}, roles=roles
+    )
+    rows = {line.split()[0]: line.split()[1:5] for line in remapped.table()[1:]}
+    assert rows["/car1/angles"] == ["100", "100", "97", "90"]
+    losses = remapped.losses(recording=True)
+    assert "/car1/angles: 10 of 100 not recorded" in losses
+    assert "/car1/extra: 10 of 50 not recorded" in losses

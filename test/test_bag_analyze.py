@@ -29,6 +29,7 @@ from pendulum_accel.recording.contract import decode_chain
 from pendulum_accel.recording.generate import chain_streams, generate_bag, write_chain_bag
 from test.conftest import strict_json
 from test.figures import assert_figure
+from test.refusal import error_line
 from test.sensor_bag import A_STEP, CONFIG, DAMPING, LENGTH, NOISE, RATE, T_STEP, write_step_bag
 
 
@@ -134,6 +135,22 @@ def test_cli_wrong_type_topic(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert err.count("\n") == 1 and "Traceback" not in err
     assert "/pendulum/joint_states" in err and "geometry_msgs/msg/AccelStamped" in err
     assert "expected sensor_msgs/msg/JointState" in err
+
+
+@pytest.mark.parametrize("command", ["info", "analyze", "export", "allan"])
+def test_a_topic_rule_of_the_wrong_type_is_refused_by_every_command(
+    command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--topic pendulum/joint_states=/car/accel/truth`` (an AccelStamped topic for the JointState role):
+    one line naming the rule and both types, exit 2, nothing written; info read the bag as if no rule had
+    been given (analyze, export and allan refused it only once they decoded the topic)."""
+    golden = Path(__file__).resolve().parents[1] / "bags" / "step_start"
+    out = ["--out", str(tmp_path / "tables")] if command == "export" else []
+    rule = ["--topic", "pendulum/joint_states=/car/accel/truth"]
+    code = main([command, str(golden), *rule, *out])
+    error_line(code, capsys.readouterr().err, "--topic 'pendulum/joint_states=/car/accel/truth'",
+               "has type geometry_msgs/msg/AccelStamped, expected sensor_msgs/msg/JointState")  # fmt: skip
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.fixture(scope="module")

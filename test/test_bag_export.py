@@ -24,6 +24,7 @@ from pendulum_accel.bag.export import (
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.cli.main import main
 from test.conftest import REPO
+from test.refusal import error_line
 
 GOLDEN = REPO / "bags" / "step_start"
 JOINT_NAMES = {"position[0]": "pendulum_joint/position", "velocity[0]": "pendulum_joint/velocity"}
@@ -182,3 +183,67 @@ def test_a_robot_s_topics_of_other_types_are_exported_when_they_are_tables(tmp_p
         with pytest.raises(ExportError, match=re.escape(problem)):
             export_bag(read_bag(bag), out)
         assert not out.exists()  # nothing half-exported: the odometry was not written either
+
+
+def _marker_array(count: int) -> Any:
+    """A MarkerArray of ``count`` markers, each a copy of the golden bag's first marker (its own object,
+    as a decoded message's markers are)."""
+    import copy
+
+    _, payloads = read_bag(GOLDEN).raw(bm.TOPIC_MARKERS)
+    first: Any = bm.deserialize(payloads[0], bm.MARKER_ARRAY)
+    return type(first)(markers=[copy.deepcopy(first.markers[0]) for _ in range(count)])
+
+
+def test_export_of_marker_arrays_with_big_messages_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 58's case: 6 MarkerArrays, 3 of them with 2000 markers (64 000 numbers each). Export hung
+    learning their layout (killed after 120 s, nothing written); it now refuses the topic in one line,
+    exit 2, nothing written."""
+    from pendulum_accel.bag.writer import BagWriter
+
+    with BagWriter(tmp_path / "markers") as writer:
+        writer.add_topic("/viz", bm.MARKER_ARRAY)
+        for k in range(6):
+            writer.write(
+                "/viz",
+                (k + 1) * 10_000_000,
+                bm.serialize(_marker_array(2000 if k % 2 else 1), bm.MARKER_ARRAY),
+            )
+    code = main(["export", str(tmp_path / "markers"), "--out", str(tmp_path / "tables")])
+    error_line(code, capsys.readouterr().err, "topic /viz has type visualization_msgs/msg/MarkerArray",
+               "which export does not flatten")  # fmt: skip
+    assert not (tmp_path / "tables").exists()
+
+
+def test_a_layout_is_learnt_from_a_fixed_number_of_serializations(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Layout.of of a 50-marker MarkerArray (1 600 numeric fields) serializes the message 5 times (the
+    zeroed key, the template, two fills, and the template again), not twice per field, which made a
+    2000-marker message take hours; and it finds the same offsets as the field-by-field learning, for a
+    3-marker MarkerArray and for every message type of the golden bag."""
+    bag = read_bag(GOLDEN)
+    samples: list[tuple[object, str]] = [(_marker_array(3), bm.MARKER_ARRAY)]
+    for topic, info in bag.topics.items():
+        _, payloads = bag.raw(topic)
+        samples.append((bm.deserialize(payloads[0], info.msgtype), info.msgtype))
+    calls = []
+    real = bm.serialize
+
+    def counted(msg: object, msgtype: str) -> bytes:
+        calls.append(msgtype)
+        return real(msg, msgtype)
+
+    one = len(bm.Layout.of(_marker_array(1), bm.MARKER_ARRAY).fields)
+    monkeypatch.setattr(bm, "serialize", counted)
+    bm._LAYOUTS.clear()
+    layout = bm.Layout.of(_marker_array(50), bm.MARKER_ARRAY)
+    assert len(layout.fields) == 50 * one > 1000
+    assert len(calls) == 5, calls
+    monkeypatch.setattr(bm, "serialize", real)
+    for msg, msgtype in samples:
+        fast = bm.Layout._learn(msg, msgtype)
+        by_field = bm.Layout._learn_by_field(msg, msgtype)
+        assert fast.fields == by_field.fields, msgtype
+        np.testing.assert_array_equal(fast.mask, by_field.mask)
+        np.testing.assert_array_equal(fast.template, by_field.template)

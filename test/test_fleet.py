@@ -19,6 +19,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -29,12 +30,14 @@ import pyarrow.parquet as pq
 import pytest
 
 from pendulum_accel.cli.main import main
+from pendulum_accel.cluster import scheduler_address
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording import coverage
 from pendulum_accel.recording import design_study as ds
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.recording.fleet import COLUMN_NAMES, Job, analyze_many, bag_rows, find_bags, write_csv
 from test.conftest import REPO, Spawn, cli, stop_processes, strict_json
+from test.refusal import error_line
 from test.split_recording import split_recording
 from test.test_network import TwoHosts, two_hosts  # noqa: F401 (the fixture)
 
@@ -275,13 +278,14 @@ def _working(pid: int, workers: int, cpu_s: float, timeout: float) -> bool:
 
 def test_ctrl_c_cancels_the_rest_and_writes_nothing(tmp_path: Path) -> None:
     """SIGINT while 40 bags are being analysed: exit 130 with one line, no table under the asked name
-    and no temporary beside it, and the workers gone. The bound on the exit time (5 s) is loose on
-    purpose: finishing the remaining work instead takes far longer, which is what the test tells
-    apart, not the speed of the machine. Each bag is 300 s of udds (about 6 s of work per bag here),
-    so 40 of them on 2 workers are about 120 s of work: the signal comes once the workers have spent
-    WORKING_CPU_S of CPU, with most of it still to do on any machine. (With 3 s bags, a faster CI machine
-    finished all 40 before a fixed 12 s wait was over.) The bags share one MCAP file through hard links,
-    so 40 of them cost no disk."""
+    and no temporary beside it, and no process of its session alive as it exits: the nannies' workers
+    (grandchildren) were left running after the nannies were killed (issue 58). The bound on the exit
+    time (5 s) is loose on purpose: finishing the remaining work instead takes far longer, which is
+    what the test tells apart, not the speed of the machine. Each bag is 300 s of udds (about 6 s of
+    work per bag here), so 40 of them on 2 workers are about 120 s of work: the signal comes once the
+    workers have spent WORKING_CPU_S of CPU, with most of it still to do on any machine. (With 3 s bags,
+    a faster CI machine finished all 40 before a fixed 12 s wait was over.) The bags share one MCAP file
+    through hard links, so 40 of them cost no disk."""
     source = tmp_path / "udds"
     done = cli("generate", "udds", "--duration", "300", "--out", str(source), timeout=300)
     assert done.returncode == 0, done.stderr
@@ -313,13 +317,82 @@ def test_ctrl_c_cancels_the_rest_and_writes_nothing(tmp_path: Path) -> None:
         start = time.monotonic()
         _, err = proc.communicate(timeout=60)
         took = time.monotonic() - start
+        # Read as the command exits, before stop_processes kills what is left of its session.
+        left = _alive_in_session(proc.pid)
     finally:
         stop_processes([proc])
         taken.close()
     assert proc.returncode == 130, err
     assert err.strip().splitlines() == ["pendulum-accel analyze: interrupted"], err
     assert took < 5.0, f"took {took:.2f} s to stop"
+    assert left == [], f"alive after the command exited: {left}"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["many"]
+
+
+_NANNY_TREE = """
+import multiprocessing, subprocess, time
+from pendulum_accel.cluster import _kill_local_workers
+
+
+def nanny(queue):
+    # A worker busy where no parent watch can run; not on the script's pipes, which it would hold open.
+    worker = subprocess.Popen(["sleep", "600"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    queue.put(worker.pid)
+    time.sleep(600)
+
+
+if __name__ == "__main__":
+    ctx = multiprocessing.get_context("spawn")  # as LocalCluster starts its nannies
+    queue = ctx.Queue()
+    child = ctx.Process(target=nanny, args=(queue,))
+    child.start()
+    grandchild = queue.get(timeout=120)
+    _kill_local_workers()
+    print(child.pid, grandchild, flush=True)
+"""
+
+
+def _running_pid(pid: int) -> bool:
+    """True while process ``pid`` exists and is not a zombie."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def test_killing_the_local_workers_kills_the_nannies_children(tmp_path: Path) -> None:
+    """A nanny (a spawned child) and its worker (the nanny's child): _kill_local_workers, which Ctrl-C
+    runs, leaves neither running when it returns. It killed only this process's children, so a worker
+    whose nanny died kept running until Dask's parent watch got the GIL (issue 58: 3 workers alive 2 s
+    after exit 130, in one of two runs); here the worker is a sleep, which has no such watch."""
+    script = tmp_path / "tree.py"
+    script.write_text(_NANNY_TREE)
+    done = subprocess.run(
+        [sys.executable, str(script)], cwd=REPO, capture_output=True, text=True, timeout=120
+    )
+    pids = [int(p) for p in done.stdout.split()]
+    try:
+        assert done.returncode == 0 and len(pids) == 2, done.stderr
+        assert [pid for pid in pids if _running_pid(pid)] == [], "left running"
+    finally:
+        for pid in pids:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
+
+
+def _alive_in_session(session: int) -> list[str]:
+    """'PID CMDLINE' of each process of ``session`` (/proc/PID/stat's 6th field) that runs, a zombie aside,
+    and multiprocessing's resource tracker aside (it frees what the killed workers held, then exits)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        with contextlib.suppress(OSError):
+            fields = (entry / "stat").read_text().rpartition(")")[2].split()
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            if int(fields[3]) == session and fields[0] != "Z" and "resource_tracker" not in cmdline:
+                found.append(f"{entry.name} {cmdline[:120]}")
+    return found
 
 
 @pytest.fixture
@@ -591,3 +664,167 @@ def test_after_ctrl_c_on_a_local_cluster_dask_logs_only_errors() -> None:
         for child in multiprocessing.active_children():
             child.kill()
             child.join(1.0)
+
+
+@contextlib.contextmanager
+def _server(greeting: bytes | None) -> Iterator[str]:
+    """tcp://127.0.0.1:PORT of a listener that is not Dask: it sends ``greeting`` to each connection (an
+    SSH server's, say), or nothing (None: a server waiting for its client to speak first, as HTTP does)."""
+    listener = socket.create_server(("127.0.0.1", 0))
+    port = listener.getsockname()[1]
+    held: list[socket.socket] = []
+
+    def serve() -> None:
+        with contextlib.suppress(OSError):
+            while True:
+                conn, _ = listener.accept()
+                held.append(conn)
+                if greeting is not None:
+                    conn.sendall(greeting)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield f"tcp://127.0.0.1:{port}"
+    finally:
+        listener.close()
+        for conn in held:
+            conn.close()
+
+
+def _refused_port() -> str:
+    """tcp://127.0.0.1:PORT where nothing listens: a port bound, never listened on, so connect is refused."""
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    port = sock.getsockname()[1]
+    _UNLISTENED.append(sock)  # held for the session, so no other process takes the port meanwhile
+    return f"tcp://127.0.0.1:{port}"
+
+
+_UNLISTENED: list[socket.socket] = []
+
+BAD_ADDRESSES = {
+    "garbage": ("garbage", "has no port"),
+    "http": ("http://10.0.0.5:8787", "is a web address"),
+    "port_abc": ("tcp://h:abc", "the port 'abc' is not a number from 1 to 65535"),
+    "inproc": ("inproc://x", "names a scheduler inside the process that started it"),
+    "empty": ("", "--scheduler is empty"),
+    "unknown_scheme": ("udp://h:8786", "unknown scheme 'udp'"),
+}
+
+
+@pytest.fixture(scope="module")
+def one_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One generated bag, 1 s: what analyze needs to reach its scheduler."""
+    bag = tmp_path_factory.mktemp("one_bag") / "b"
+    done = cli("generate", "lecture_constant", "--duration", "1", "--out", str(bag))
+    assert done.returncode == 0, done.stderr
+    return bag
+
+
+def _fleet_command(command: str, bag: Path, out: Path) -> list[str]:
+    """analyze of ``bag`` twice (a fleet: the scheduler is used), or the smallest design, to ``out``."""
+    if command == "analyze":
+        return ["analyze", str(bag), str(bag), "--out", str(out)]
+    grid = ["--lengths", "1", "--damping-ratios", "0.7", "--rates", "50", "--noises", "1e-3", "--seeds", "1"]
+    return ["design", "--out", str(out), *grid, "--profiles", "lecture_constant", "--duration", "3"]
+
+
+@pytest.mark.parametrize("command", ["analyze", "design"])
+@pytest.mark.parametrize("case", list(BAD_ADDRESSES))
+def test_a_bad_scheduler_address_is_one_line(
+    one_bag: Path, tmp_path: Path, command: str, case: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """garbage, http://, tcp://h:abc, inproc://x, '' and an unknown scheme: one line naming --scheduler,
+    exit 2, nothing written (each was Dask's traceback, and '' ran a local cluster unasked)."""
+    address, words = BAD_ADDRESSES[case]
+    out = tmp_path / "t.csv"
+    code = main([*_fleet_command(command, one_bag, out), "--scheduler", address])
+    error_line(code, capsys.readouterr().err, words)
+    assert not out.exists()
+
+
+def test_dask_scheduler_address_is_checked_as_the_option_is(
+    one_bag: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """$DASK_SCHEDULER_ADDRESS=tcp://h:abc: one line naming the variable; set empty, it is unset (the
+    shell's way), and a fleet runs on the local cluster."""
+    out = tmp_path / "t.csv"
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", "tcp://h:abc")
+    code = main(_fleet_command("analyze", one_bag, out))
+    error_line(code, capsys.readouterr().err, "$DASK_SCHEDULER_ADDRESS 'tcp://h:abc'", "not a number")
+    assert not out.exists()
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", "")
+    assert scheduler_address(None) is None
+
+
+@pytest.mark.parametrize("command", ["analyze", "design"])
+def test_a_port_where_something_else_answers_is_one_line(
+    one_bag: Path, tmp_path: Path, command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An SSH server's greeting read as Dask's frame length asked numpy for 3.07 EiB (ArrayMemoryError);
+    a refused port went through Dask's retries. Each is one line, exit 2, nothing written."""
+    out = tmp_path / "t.csv"
+    with _server(b"SSH-2.0-OpenSSH_9.6\r\n") as address:
+        code = main([*_fleet_command(command, one_bag, out), "--scheduler", address])
+    error_line(code, capsys.readouterr().err, f"{address} answers, but not as a Dask scheduler", "SSH-2.0-")
+    refused = _refused_port()
+    code = main([*_fleet_command(command, one_bag, out), "--scheduler", refused])
+    error_line(code, capsys.readouterr().err, f"no Dask scheduler at {refused}")
+    assert not out.exists()
+
+
+def test_a_server_that_does_not_speak_first_is_not_waited_on_for_dask_s_30_s(
+    one_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A listener that accepts and says nothing (an HTTP server): one line once cluster.PROBE_TIMEOUT has
+    passed without Dask's handshake (a scheduler sends it as it accepts), naming that timeout."""
+    from pendulum_accel.cluster import PROBE_TIMEOUT
+
+    out = tmp_path / "t.csv"
+    with _server(None) as address:
+        code = main([*_fleet_command("analyze", one_bag, out), "--scheduler", address])
+    error_line(code, capsys.readouterr().err, "sent no Dask handshake", f"within {PROBE_TIMEOUT:g} s")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (
+            ["--duration", "2", "--profiles", "udds"],
+            "2 s of udds at 50 Hz leave no sample after the 2 s warm-up",
+        ),
+        (["--duration", "2.01", "--profiles", "udds"], "2.01 s of udds at 50 Hz leave no sample"),
+        (["--rates", "1e300", "--profiles", "udds"], "1e+300 Hz gives more than 50000000 samples a case"),
+        (["--rates", "1e-300", "--profiles", "udds"], "at 1e-300 Hz leave no sample after the 2 s warm-up"),
+    ],
+    ids=["duration_2", "duration_2.01", "rates_1e300", "rates_1e-300"],
+)
+def test_design_without_a_sample_to_pool_is_one_line(
+    tmp_path: Path, args: list[str], words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A case keeps t ≥ the 2 s warm-up: --duration 2 (accepted, in (0, 1e6]) kept none and the pooled
+    RMS divided by 0 after every case had run; 1e-300 Hz has no sample at all, 1e300 Hz asked for 3e302.
+    Each is one line before any case runs, exit 2, nothing written."""
+    out = tmp_path / "d.csv"
+    grid = ["--lengths", "1", "--damping-ratios", "0.7", "--noises", "1e-3", "--seeds", "1"]
+    rates = [] if "--rates" in args else ["--rates", "50"]
+    code = main(["design", "--out", str(out), *grid, *rates, *args])
+    error_line(code, capsys.readouterr().err, words)
+    assert not out.exists()
+
+
+def test_samples_after_warm_up_count_what_a_case_keeps() -> None:
+    """samples_after_warmup equals the count of case_signals' t_k = k/f ≥ WARMUP, at the edges too."""
+    for duration, rate in [
+        (2.0, 50.0),
+        (2.01, 50.0),
+        (2.02, 50.0),
+        (3.0, 1.0),
+        (2.5, 1.0),
+        (4.0, 3.0),
+        (7.3, 7.7),
+    ]:
+        t = np.arange(round(duration * rate)) / rate
+        assert ds.samples_after_warmup(duration, rate) == int(np.sum(t >= ds.WARMUP)), (duration, rate)

@@ -22,6 +22,14 @@ HOSTILE_PROFILES: dict[str, tuple[str, str]] = {
         "{type: speed_csv, path: ramp.csv, units: m/s, cutoff_hz: 1.0e-100}",
         "cutoff_hz must be at least 0.0005 Hz",
     ),
+    "speed_cutoff_0": (
+        "{type: speed_csv, path: ramp.csv, units: m/s, cutoff_hz: 0}",
+        "cutoff_hz must be > 0 Hz",
+    ),
+    "speed_cutoff_negative": (
+        "{type: speed_csv, path: ramp.csv, units: m/s, cutoff_hz: -1}",
+        "cutoff_hz must be > 0 Hz",
+    ),
     "accel_cutoff_1e-100": (
         "{type: accel_csv, path: ramp.csv, cutoff_hz: 1.0e-100}",
         "cutoff_hz must be at least 0.0005 Hz",
@@ -84,8 +92,8 @@ def test_a_hostile_profile_is_one_line_in_every_command(
     capsys: pytest.CaptureFixture[str],
     tmp_path: Path,
 ) -> None:
-    """Speeds of 1e300, time steps of 1e300, a cut-off of 1e-100, a topic with no messages, a FIFO for a
-    bag or a CSV: one line, exit 2, no traceback and no hang, nothing written."""
+    """Speeds of 1e300, time steps of 1e300, a cut-off of 1e-100, 0 or -1 Hz, a topic with no messages, a
+    FIFO for a bag or a CSV: one line, exit 2, no traceback and no hang, nothing written."""
     from pendulum_accel.cli.main import main
 
     scene = hostile_profiles[case]

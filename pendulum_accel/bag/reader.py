@@ -39,6 +39,7 @@ from pendulum_accel.bag.blocks import Block, ChannelData, ChunkRef, Lazy, block_
 from pendulum_accel.bag.chunks import ChunkReader, Part
 from pendulum_accel.bag.integrity import ChunkDamage, chunk_head
 from pendulum_accel.bag.locate import locate
+from pendulum_accel.bag.lock import LOCK_NAME, Holder, holder, writer_of
 from pendulum_accel.bag.messages import TopicChoice, chain_topic, find_topic, stored_roles
 from pendulum_accel.bag.metadata import listed_custom_data
 from pendulum_accel.bag.records import RECORD_ERRORS, decompress, message_index
@@ -85,6 +86,10 @@ class Bag:
         """Files of the recording that metadata.yaml lists and that are not there."""
         self.damaged_files: list[Path] = []
         """The MCAP files whose own scan found a problem (cut off, corrupt, a CRC mismatch), in order."""
+        self.recording: Holder | None = None
+        """The process writing the bag now (its lock, bag/lock.py), if another: its end is not written yet."""
+        self.abandoned: Holder | None = None
+        """The writer whose lock file is left without its lock: it ended without closing the bag."""
         self._channels: dict[int, ChannelData] = {}
         self._parts: list[Part] = []
         # Chunks read again lately: (file, offset) -> (channels read, their messages), for passes in step.
@@ -485,9 +490,36 @@ def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> 
         bag.custom_data.update(listed_custom_data(found.doc))
     bag.problem = found.missing
     bag.missing_files = found.gone
+    writer = _lock_holder(found.root)
     for part in bag._parts:
-        Scanner(bag, part, stream=stream).scan()
+        try:
+            Scanner(bag, part, stream=stream).scan()
+        except BagError as err:
+            writer = writer if writer is not None else writer_of(bag.mcap_paths)
+            if writer is None or writer.ours:
+                raise
+            if writer.live:
+                # Before the recorder's first flush its file is empty: nothing to summarise yet.
+                raise BagError(
+                    f"bag {bag.path} is being recorded by {writer.describe()}; nothing is written yet ({err})"
+                ) from None
+            raise BagError(f"{err}: its writer {writer.describe()} ended without closing it") from None
     bag.choice.roles.update(stored_roles(bag.custom_data))
+    if writer is None and bag.problem is not None:
+        # Cut off, and no lock of ours: a recorder of another make may be writing it (rosbag2 marks
+        # nothing, ros2/rosbag2#1597); only a scan that found a problem pays for the look through /proc.
+        writer = writer_of(bag.mcap_paths)
+    if writer is not None and writer.live and not writer.ours:
+        bag.recording = writer
+        # A live file has no footer yet; what the scan took for damage is the end still being written.
+        bag.problem = f"bag {bag.path} is being recorded by {writer.describe()}"
+        if not salvage:
+            raise BagError(
+                f"{bag.problem}: its end is not written yet; run this again once the recording ends, or "
+                f"pass --salvage to use the {bag.message_count} messages written so far"
+            )
+    elif writer is not None and not writer.live:
+        bag.abandoned = writer
     if bag.problem is not None and not salvage:
         raise BagError(
             f"bag {bag.path} is damaged ({bag.problem}); refusing to compute from it: pass --salvage "
@@ -509,10 +541,25 @@ def header_library(path: Path) -> str | None:
     return first.library if isinstance(first, Header) and first.library else None
 
 
+def _lock_holder(root: Path) -> Holder | None:
+    """The holder of the lock of the bag at ``root`` (its directory's, or a bare .mcap file's directory's
+    when that holds the lock file); None without one."""
+    directory = root if root.is_dir() else root.parent
+    if not (directory / LOCK_NAME).exists():
+        return None
+    return holder(directory)
+
+
 def salvage_note(bag: Bag) -> str | None:
-    """One line for a damaged bag: the damage and what was kept; None for an intact one."""
+    """One line for a damaged bag or one being recorded: the damage and what was kept; None for an intact
+    one."""
     if bag.problem is None:
         return None
+    if bag.recording is not None:
+        return (
+            f"{bag.problem}: read the {bag.message_count} messages written so far (its end is not written "
+            "yet: read it again once the recording ends)"
+        )
     recovered = sum(d.recovered for d in bag.damage)
     unverified = (
         f", {recovered} of them recovered by parsing damaged chunks: they frame and decode, but no "

@@ -12,7 +12,9 @@ one (another file of a split recording, or a file whose metadata.yaml was missin
 rewritten as one file; a file its metadata.yaml lists and that is missing is named in
 ``pendulum_accel.repaired``, so ``info`` never calls the result complete.
 Only files inside the bag directory are ever touched (the reader refuses a metadata.yaml that names
-one outside), and a write failure leaves the damaged bag as it was.
+one outside), and a write failure leaves the damaged bag as it was. A bag being recorded is left alone:
+one whose lock a live writer holds (bag/lock.py), or whose files another process has open (a recorder of
+another make). Repair holds the bag's lock while it rewrites, and removes a lock a dead writer left.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pendulum_accel.bag.integrity import ChunkDamage, damage_origin
+from pendulum_accel.bag.lock import LOCK_NAME, BagLock, open_by_others
 from pendulum_accel.bag.messages import TYPESTORE
 from pendulum_accel.bag.metadata import listed_counts, parse_qos
 from pendulum_accel.bag.reader import Bag, read_bag
@@ -90,8 +93,26 @@ def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:
     if not any(root.glob("*.mcap")) and not (root / "metadata.yaml").is_file():
         raise BagError(f"{root} is not a bag directory (no metadata.yaml, no .mcap file); nothing repaired")
     bag = read_bag(root)
+    if bag.recording is not None:
+        raise BagError(
+            f"{bag.problem}: not damaged, its end is still being written; repair leaves a recording in "
+            "progress alone (run it after the recording ends, if the bag is damaged then); nothing changed"
+        )
     if bag.problem is None and metadata_matches(bag):
         return RepairResult(root, False, {n: t.count for n, t in bag.topics.items()}, None, ())
+    if bag.abandoned is not None and not bag.abandoned.verified:
+        raise BagError(
+            f"bag {root} has the lock of {bag.abandoned.describe()}, which cannot be checked from this host "
+            f"(a recording there may be in progress); if it has ended, remove {root / LOCK_NAME} and repair "
+            "again; nothing changed"
+        )
+    busy = open_by_others(bag.mcap_paths)
+    if busy:
+        held, pid, command = busy[0]
+        raise BagError(
+            f"{held} is open in process {pid} ({command}): a recording in progress? repair never moves a "
+            "file another process has open; nothing changed"
+        )
     for name, topic in bag.topics.items():
         if topic.msgtype not in TYPESTORE.types:
             raise BagError(
@@ -100,7 +121,10 @@ def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:
         if topic.serialization_format != "cdr":
             raise BagError(f"cannot repair {root}: topic {name} is {topic.serialization_format!r}-encoded")
     staging = root.parent / f".{root.name}.repair"
+    lock: BagLock | None = None
     try:
+        # Held while the files are swapped: a second repair, or a writer told to --overwrite, waits its turn.
+        lock = BagLock(root, "pendulum-accel repair")
         return _rewrite(root, bag, staging, keep_backup)
     except OSError as err:
         # Disk full, read-only or unwritable directory: nothing of the original bag has been moved yet
@@ -109,6 +133,9 @@ def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:
             f"cannot write the repaired bag next to {root} ({err.strerror or err}); "
             f"the damaged bag is left as it was"
         ) from None
+    finally:
+        if lock is not None:
+            lock.release()  # the lock file goes too, and with it one a dead writer left
 
 
 def _rewrite(root: Path, bag: Bag, staging: Path, keep_backup: bool) -> RepairResult:

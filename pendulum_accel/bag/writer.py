@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from rosbags.interfaces import Qos
 
 from pendulum_accel import __version__
+from pendulum_accel.bag.lock import LOCK_NAME, BagLock, holder, writer_of
 from pendulum_accel.bag.mcap_file import CHUNK_BYTES, MESSAGE_HEADER, OP_MESSAGE, IndexEntries, McapFile
 from pendulum_accel.bag.messages import TYPESTORE, qos_profile
 from pendulum_accel.bag.metadata import TopicRecord, dump_yaml, metadata_document, qos_text, write_metadata
@@ -64,10 +65,10 @@ class _Topic:
 
 
 def _is_bag_dir(path: Path) -> bool:
-    """True for an empty directory or one holding only rosbag2 files (metadata.yaml, *.mcap, *.db3) and
-    what repair keeps of them (*.damaged, *.mcap.orig)."""
+    """True for an empty directory or one holding only rosbag2 files (metadata.yaml, *.mcap, *.db3), what
+    repair keeps of them (*.damaged, *.mcap.orig) and the lock a writer left (recording.lock)."""
     return path.is_dir() and all(
-        p.name == "metadata.yaml"
+        p.name in ("metadata.yaml", LOCK_NAME)
         or p.suffix in {".mcap", ".db3", ".damaged", ".tmp"}
         or p.name.endswith(".mcap.orig")
         for p in path.iterdir()
@@ -75,13 +76,20 @@ def _is_bag_dir(path: Path) -> bool:
 
 
 def prepare_output(path: Path, overwrite: bool) -> None:
-    """Refuse an existing ``path`` unless ``overwrite``; then delete it only if it holds nothing but a bag."""
+    """Refuse an existing ``path`` unless ``overwrite``; then delete it only if it holds nothing but a bag
+    that no process is writing (its lock, bag/lock.py, or another process with its file open to write)."""
     if not path.exists() and not path.is_symlink():
         return
     if not overwrite:
         raise BagError(f"{path} exists already; pass --overwrite to replace it")
     if not _is_bag_dir(path):
         raise BagError(f"{path} exists and is not a bag directory; refusing to delete it")
+    writer = holder(path) if path.is_dir() and not path.is_symlink() else None
+    if writer is None and path.is_dir() and not path.is_symlink():
+        # A recorder of another make takes no lock of ours: the file it has open for writing says it.
+        writer = writer_of(sorted(path.glob("*.mcap")))
+    if writer is not None and writer.live:
+        raise BagError(f"bag {path} is being recorded by {writer.describe()}; refusing to replace it")
     shutil.rmtree(path)
 
 
@@ -101,11 +109,14 @@ class BagWriter:
         flush_interval: float | None = 0.5,
         compression: str | None = None,
         type_hash_in_channels: bool = True,
+        program: str | None = None,
     ) -> None:
         """Create the bag directory ``path``; BagError if it exists and ``overwrite`` is false.
 
         ``type_hash_in_channels`` puts each topic's RIHS01 hash in its MCAP channel's metadata
         (``topic_type_hash``, as rosbag2's MCAP storage writes it); False gives rosbags' channel layout.
+        The bag's lock (recording.lock, bag/lock.py), naming ``program`` (default: this process's), is
+        held until ``close``.
         """
         self.path = Path(path)
         if flush_interval is not None and not flush_interval > 0.0:
@@ -121,10 +132,19 @@ class BagWriter:
         }
         try:
             self.path.mkdir(mode=0o755, parents=True)
+        except OSError as err:
+            raise BagError(f"cannot create bag {self.path}: {err}") from None
+        # Locked before the MCAP file exists: a reader never finds the file of a live bag unlocked.
+        try:
+            self._lock = BagLock(self.path, program)
+        except OSError as err:
+            raise BagError(f"cannot create bag {self.path}: {err}") from None
+        try:
             self._file: McapFile | None = McapFile(
                 self.mcap_path, library=LIBRARY, compression="zstd" if compression == "zstd" else ""
             )
         except OSError as err:
+            self._lock.release()
             raise BagError(f"cannot create bag {self.path}: {err}") from None
         self._topics: dict[str, _Topic] = {}
         self._schemas: dict[str, int] = {}
@@ -279,6 +299,7 @@ class BagWriter:
         self._final_counts = dict(mcap.counts)
         self._file = None
         write_metadata(self.path, doc)
+        self._lock.release()
         return self.counts
 
     def __enter__(self) -> BagWriter:

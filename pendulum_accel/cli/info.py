@@ -40,9 +40,9 @@ STAMP_BATCH = 1 << 17
 
 
 def bag_accounting(bag: Bag) -> Accounting | None:
-    """The chain's counters stored in ``bag`` (custom_data), or None."""
+    """The chain's counters stored in ``bag`` (custom_data), with the recording's topic map, or None."""
     text = bag.custom_data.get(CUSTOM_ACCOUNTING)
-    return Accounting.from_json(text) if text else None
+    return Accounting.from_json(text, bm.stored_roles(bag.custom_data)) if text else None
 
 
 def missing_estimates(bag: Bag, accounting: Accounting | None) -> int:
@@ -126,6 +126,8 @@ def damage_state(bag: Bag) -> str:
     parts = [f"{name} missing" for name in bag.missing_files]
     parts += [d.span(origin) for d in bag.damage]
     parts += bag.endings()
+    if bag.abandoned is not None:
+        parts.append(f"its writer {bag.abandoned.describe()} ended without closing it")
     return "DAMAGED: " + "; ".join(parts or ["see the warning"])
 
 
@@ -147,13 +149,22 @@ def fewer_than_listed(bag: Bag) -> list[str]:
 
 
 def bag_state(bag: Bag) -> tuple[str, list[str]]:
-    """('complete' | 'DAMAGED …' | 'INCOMPLETE: …' | 'recorded intact; …', the losses found).
+    """('complete' | 'RECORDING: …' | 'DAMAGED …' | 'INCOMPLETE: …' | 'recorded intact; …', the losses found).
+
+    'RECORDING' is a bag whose writer holds its lock (bag/lock.py): summarised as far as it is written,
+    neither damaged nor complete. 'INCOMPLETE' names the first loss: fewer messages than metadata.yaml
+    lists or than the recorder wrote (the file moved or replaced under it), a chain that ended early, a
+    publisher's count above the recorder's (each topic found through the recording's topic map), or
+    angles without an estimate.
 
     'complete' only where something could be checked: a bag written offline (no recorder counters), or a
     live recording whose publishers' counters agree with it. A live recording whose publishers left no
     counters (nodes started on their own, not by ``run``) is intact as far as the recorder saw, which
     says nothing of messages it never received.
     """
+    if bag.recording is not None:
+        # Not damage: the recorder's lock is held, the end of the file is being written (bag/lock.py).
+        return f"RECORDING: being written by {bag.recording.describe()}; summarised as far as written", []
     if bag.problem is not None:
         return damage_state(bag), []
     short = fewer_than_listed(bag)
@@ -163,6 +174,10 @@ def bag_state(bag: Bag) -> tuple[str, list[str]]:
         # Intact as a file now, but these records came back without a checksum to vouch for them.
         return f"repaired: {bag.custom_data[CUSTOM_REPAIRED]}", []
     accounting = bag_accounting(bag)
+    held = accounting.held_short({name: t.count for name, t in bag.topics.items()}) if accounting else []
+    if held:
+        # Written, then lost: the file was replaced or moved while the recorder wrote it.
+        return f"INCOMPLETE: {held[0]}", held
     ending = accounting.ending() if accounting else None
     if ending is not None:
         # A chain cut short by a dead node or an interrupt: the bag holds less than the scene.

@@ -188,10 +188,47 @@ def run(args: argparse.Namespace) -> int:
         print(
             f"pendulum-accel run: no message was recorded; removed the empty {config.record}", file=sys.stderr
         )
-    if config.record is not None and (config.record / "metadata.yaml").exists():
+    if (
+        config.record is not None
+        and (config.record / "metadata.yaml").exists()
+        and not _recorded_by_another(config.record)
+    ):
         for line in summary_lines(config.record, config.estimator):
             print(line)
+        if code == 0:
+            code = _check_recording(config.record)
     return code
+
+
+def _recorded_by_another(path: Path) -> bool:
+    """True when another process is writing the bag at ``path`` (its lock, bag/lock.py): this run's
+    recorder refused to replace it, and the bag there is not this run's to summarise."""
+    from pendulum_accel.bag.lock import holder
+    from pendulum_accel.errors import PendulumAccelError
+
+    try:
+        found = holder(path) if path.is_dir() else None
+    except PendulumAccelError:
+        return False
+    return found is not None and found.live and not found.ours
+
+
+def _check_recording(path: Path) -> int:
+    """0 when the bag the run recorded reads [complete] as ``info`` checks it (every message the recorder
+    says it wrote is in the file, the publishers' counts agree), else one WARNING line and 1: a bag
+    moved or replaced under the recorder holds fewer messages than the run reported."""
+    from pendulum_accel.bag.reader import read_bag
+    from pendulum_accel.cli.info import bag_state
+    from pendulum_accel.errors import PendulumAccelError
+
+    try:
+        state, losses = bag_state(read_bag(path))
+    except PendulumAccelError as err:
+        state, losses = str(err), []
+    if state == "complete":
+        return 0
+    print(f"WARNING: the recorded bag {path} is not complete: {'; '.join(losses) or state}", file=sys.stderr)
+    return 1
 
 
 def _empty_bag(path: Path) -> bool:

@@ -299,9 +299,12 @@ def spline_margin(cutoff_hz: float) -> float:
 def fitted_stretch(kind: str, d: Mapping[str, object], stretch: Stretch) -> tuple[Stretch, float, bool]:
     """(the stretch cut to what its window's spline depends on, f_c, whether f_c is the default): f_c is
     the profile's ``cutoff_hz``, else default_cutoff_hz of the whole stretch; the cut is
-    Stretch.around_window at spline_margin(f_c)."""
+    Stretch.around_window at spline_margin(f_c); ParameterError for f_c ≤ 0 (M = … / f_c has no value)."""
     default = "cutoff_hz" not in d
     cutoff = default_cutoff_hz(stretch.times) if default else field_number(kind, "cutoff_hz", d["cutoff_hz"])
+    if not (math.isfinite(cutoff) and cutoff > 0.0):
+        # Checked here, before spline_margin divides by it; spline_table checks the rest of its range.
+        raise ParameterError(f"cutoff_hz must be > 0 Hz, got {cutoff!r}", path="cutoff_hz")
     return stretch.around_window(spline_margin(cutoff)), cutoff, default
 
 

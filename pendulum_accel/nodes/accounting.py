@@ -4,6 +4,11 @@ Each node writes its counters at exit (``summary_file``); the recorder stores th
 (custom_data ``pendulum_accel.accounting``). ``run`` prints the table below from them and
 ``info`` checks a bag's estimate stream against them: an angle without an estimate is explained
 only by the estimator's own count of warm-up samples and dropped inputs.
+
+The counters name each topic as its node resolved it (a namespace and remaps applied), so a publisher's
+count and the recorder's meet under one name whatever it is; a role (the angles, the estimate) is found
+through the run's topic map (``roles``: the launcher's, or the one a recording stores), and only without
+one by the name's ending (bags of older recorders).
 """
 
 from __future__ import annotations
@@ -36,16 +41,20 @@ class Accounting:
     chain: Mapping[str, Any] = field(default_factory=dict)
     """How the launcher saw the chain end: {"ended": "finished" | "interrupted" | "node died", "died", "how"}
     (chain.json, which the launcher writes before it stops the nodes)."""
+    roles: Mapping[str, str] = field(default_factory=dict)
+    """{chain role: the topic name it had in this run}: the launcher's map of the publishers' resolved
+    names, or a recording's stored map (messages.CUSTOM_TOPICS)."""
 
     @classmethod
-    def from_json(cls, text: str) -> Accounting:
-        """Accounting from the custom_data JSON ({role: counters})."""
+    def from_json(cls, text: str, roles: Mapping[str, str] | None = None) -> Accounting:
+        """Accounting from the custom_data JSON ({role: counters}), with the recording's topic map."""
         data = json.loads(text)
         return cls(
             data.get("simulator", {}),
             data.get("estimator", {}),
             data.get("recorder", {}),
             data.get("chain", {}),
+            dict(roles or {}),
         )
 
     def ending(self) -> str | None:
@@ -67,27 +76,61 @@ class Accounting:
             return "the run was interrupted before the scene's end"
         return None
 
+    def name_of(self, role: str | None) -> str | None:
+        """The name ``role`` had in this run: the topic map's (``/angles`` after a remap, ``/car1/…`` in a
+        namespace), else the counted name that ends with the role; None when neither says."""
+        if role is None:
+            return None
+        if role in self.roles:
+            return self.roles[role]
+        for counts in (self.recorder.get("written", {}), self.simulator.get("published", {})):
+            for name in counts:
+                if bm.role_of(str(name)) == role:
+                    return str(name)
+        return None
+
     def published(self, topic: str) -> int | None:
-        """Messages the chain published on ``topic``'s role (simulator's topics, the estimator's outputs),
-        whatever namespace the chain ran in."""
+        """Messages the chain published on ``topic``'s role (given by its root name, /pendulum/joint_states):
+        the estimator's count for its outputs, the simulator's for the others, under whatever name the role
+        had in this run."""
         role = bm.role_of(topic)
         if role in (bm.ACCEL_ESTIMATE, bm.IMU_DATA_RAW) and self.estimator:
             return int(self.estimator["estimates"])
-        return _by_role(self.simulator.get("published", {}), role)
+        return _count(self.simulator.get("published", {}), self.name_of(role))
 
     def recorded(self, topic: str) -> int | None:
-        """Messages the recorder wrote on ``topic``'s role (the bag holds the resolved names)."""
-        return _by_role(self.recorder.get("written", {}), bm.role_of(topic))
+        """Messages the recorder wrote on ``topic``'s role, under the name the role had in this run."""
+        return _count(self.recorder.get("written", {}), self.name_of(bm.role_of(topic)))
 
     def shown_name(self, topic: str) -> str:
-        """The name ``topic``'s role had in this run (``/car1/pendulum/joint_states`` in a namespaced chain):
-        the recorder's or the simulator's resolved name for it, else ``topic`` as given."""
-        role = bm.role_of(topic)
-        for counts in (self.recorder.get("written", {}), self.simulator.get("published", {})):
-            for name in counts:
-                if role is not None and bm.role_of(name) == role:
-                    return str(name)
-        return topic
+        """The name ``topic``'s role had in this run (``/car1/pendulum/joint_states`` in a namespaced chain,
+        ``/angles`` after a remap), else ``topic`` as given."""
+        return self.name_of(bm.role_of(topic)) or topic
+
+    def _roleless(self) -> list[str]:
+        """Names the simulator counted that no role of the table is known by (a map that misses one): still
+        compared with the recorder's count under the same name, so no loss goes unseen."""
+        named = {self.name_of(bm.role_of(t)) for t in _TABLE_TOPICS}
+        return [str(n) for n in self.simulator.get("published", {}) if n not in named]
+
+    def _compared(self, topic: str) -> tuple[int | None, int | None]:
+        """(published, recorded) of a table topic (a root name, by its role) or of a name _roleless gave."""
+        if topic in _TABLE_TOPICS:
+            return self.published(topic), self.recorded(topic)
+        return _count(self.simulator.get("published", {}), topic), _count(
+            self.recorder.get("written", {}), topic
+        )
+
+    def held_short(self, held: Mapping[str, int]) -> list[str]:
+        """'the recorder wrote 7942 /pendulum/joint_states messages, the bag holds 2461', one per topic of
+        which the bag (``held``: name -> messages it holds) has fewer than the recorder wrote: messages lost
+        after they were written (the file moved or replaced while it was recorded)."""
+        written = self.recorder.get("written", {})
+        return [
+            f"the recorder wrote {int(n)} {name} messages, the bag holds {held.get(name, 0)}"
+            for name, n in written.items()
+            if held.get(name, 0) < int(n)
+        ]
 
     def explained_without_estimate(self) -> int:
         """Angles the estimator received that rightly have no estimate: warm-up plus dropped inputs."""
@@ -101,14 +144,10 @@ class Accounting:
 
     def table(self) -> list[str]:
         """Per topic: published / received by the estimator / estimated / recorded, and why they differ."""
-        topics = [
-            t
-            for t in (*bm.TOPIC_TYPES, bm.TOPIC_IMU)
-            if t != bm.TOPIC_DIAGNOSTICS and (self.published(t) is not None or self.recorded(t) is not None)
-        ]
+        topics = [t for t in _TABLE_TOPICS if self.published(t) is not None or self.recorded(t) is not None]
         lines = [f"  {'topic':<24} {'published':>9} {'est. in':>8} {'estimated':>9} {'recorded':>9}  notes"]
-        for topic in topics:
-            published, recorded = self.published(topic), self.recorded(topic)
+        for topic in [*topics, *self._roleless()]:
+            published, recorded = self._compared(topic)
             received = estimated = "-"
             notes = []
             if topic == bm.TOPIC_JOINT_STATES and self.estimator:
@@ -128,8 +167,8 @@ class Accounting:
         angles = self.published(bm.TOPIC_JOINT_STATES)
         if self.estimator and angles is not None and int(self.estimator["inputs"]) < angles:
             out.append(f"the estimator missed {angles - int(self.estimator['inputs'])} of {angles} angles")
-        for topic in (*bm.TOPIC_TYPES, bm.TOPIC_IMU):
-            published, recorded = self.published(topic), self.recorded(topic)
+        for topic in [*_TABLE_TOPICS, *self._roleless()]:
+            published, recorded = self._compared(topic)
             if published is not None and recorded is not None and recorded < published:
                 out.append(
                     f"{self.shown_name(topic)}: {published - recorded} of {published} published not recorded"
@@ -156,8 +195,8 @@ class Accounting:
         if recording:
             if not self.recorder:
                 out.append("the recorder left no counters")
-            for topic in (*bm.TOPIC_TYPES, bm.TOPIC_IMU):
-                published, recorded = self.published(topic), self.recorded(topic)
+            for topic in [*_TABLE_TOPICS, *self._roleless()]:
+                published, recorded = self._compared(topic)
                 if published is not None and (recorded or 0) < published:
                     out.append(
                         f"{self.shown_name(topic)}: {published - (recorded or 0)} of {published} not recorded"
@@ -167,12 +206,13 @@ class Accounting:
         return out
 
 
-def _by_role(counts: Mapping[str, Any], role: str | None) -> int | None:
-    """The count of the topic in ``counts`` (resolved name -> count) that plays ``role``; None if none."""
-    for name, value in counts.items():
-        if role is not None and bm.role_of(name) == role:
-            return int(value)
-    return None
+_TABLE_TOPICS = tuple(t for t in (*bm.TOPIC_TYPES, bm.TOPIC_IMU) if t != bm.TOPIC_DIAGNOSTICS)
+"""The roles the table and the losses compare, by root name (the diagnostics follow the wall clock)."""
+
+
+def _count(counts: Mapping[str, Any], name: str | None) -> int | None:
+    """The count ``counts`` (resolved name -> count) holds for ``name``; None if none."""
+    return int(counts[name]) if name is not None and name in counts else None
 
 
 def _text(count: int | None) -> str:

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 from pendulum_accel.errors import ParameterError, PendulumAccelError, RosMissingError
 from pendulum_accel.nodes.accounting import Accounting
-from pendulum_accel.nodes.names import fully_qualified_namespace
+from pendulum_accel.nodes.names import fully_qualified_namespace, publisher_topic_map
 from pendulum_accel.nodes.preflight import check_chain
 from pendulum_accel.nodes.scheduling import RT_PRIORITY_ENV
 
@@ -345,7 +345,11 @@ class Chain:
             if path.exists():
                 roles[role] = json.loads(path.read_text())
         self.accounting = Accounting(
-            roles.get("simulator", {}), roles.get("estimator", {}), roles.get("recorder", {})
+            roles.get("simulator", {}),
+            roles.get("estimator", {}),
+            roles.get("recorder", {}),
+            # The counters name the topics as the nodes resolved them: the map finds the roles among them.
+            roles=publisher_topic_map(self.config.namespace, self._names()["remaps"]),
         )
         if self.log:
             print("samples (published / received by the estimator / estimated / recorded):", flush=True)

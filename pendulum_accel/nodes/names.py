@@ -332,3 +332,27 @@ def _resolved(
         if expand(match, node, namespace) == full:
             return expand(replacement, node, namespace)
     return full
+
+
+PUBLISHERS: dict[str, str] = {
+    **dict.fromkeys(
+        (bm.JOINT_STATES, bm.ACCEL_TRUTH, bm.STRING, bm.MARKERS, bm.ROBOT_DESCRIPTION, bm.TOPIC_CLOCK),
+        "pendulum_sim",
+    ),
+    bm.ACCEL_ESTIMATE: "accel_estimator",
+    bm.IMU_DATA_RAW: "accel_estimator",
+}
+"""The node that publishes each chain role (the global /diagnostics has one from every node)."""
+
+
+def publisher_topic_map(namespace: str, remaps: Sequence[str]) -> dict[str, str]:
+    """{role: full name} of each chain role as the node that publishes it resolves it under ``namespace``
+    and ``remaps`` (rcl's rules, as check_chain_names applies them; rules already checked): the names
+    the nodes' counters carry, so that a remapped or namespaced run's accounting finds its roles."""
+    expand = validators(use_rclpy=False)[3]
+    node_ns = fully_qualified_namespace(namespace) or "/"
+    rules = []
+    for rule in remaps:
+        node, match, replacement = split_rule(rule) or ("", "", "")
+        rules.append((node, match.split("://")[-1], replacement))
+    return {role: _resolved(role, node, node_ns, rules, expand) for role, node in PUBLISHERS.items()}

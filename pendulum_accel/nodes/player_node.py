@@ -132,11 +132,15 @@ class StreamTimeline:
 
 
 def open_source(path: str) -> StreamedBag | Bag:
-    """The bag streamed through its chunk index, or read whole (salvaged) when it has none."""
+    """The bag streamed through its chunk index, or read whole (salvaged) when it has none; ParameterError
+    for a bag being recorded (its end is not written yet: a replay would stop short of it)."""
     try:
         return StreamedBag(path)
     except NotIndexedError:
-        return read_bag(path)
+        bag = read_bag(path)
+    if bag.recording is not None:
+        raise ParameterError(f"{bag.problem}: the player plays it once the recording has ended")
+    return bag
 
 
 def make_timeline(source: StreamedBag | Bag, topics: Sequence[str], first: int, last: int) -> Timeline:

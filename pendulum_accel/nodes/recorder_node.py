@@ -148,7 +148,7 @@ class RecorderNode(ChainNode):
                     "have none), so its messages cannot be received"
                 )
         custom_data = {**custom_data_for(scene), bm.CUSTOM_TOPICS: json.dumps(topic_map(asked, resolved))}
-        self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data)
+        self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data, program=NODE_NAME)
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
         self._offsets = {topic: stamp_offset(self.types[topic]) for topic in topics}
         self._first_stamp_ns: int | None = None

@@ -32,7 +32,7 @@ from pendulum_accel.recording import coverage
 from pendulum_accel.recording.analyze import nees_windows
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.scene import load_scene
-from pendulum_accel.sensor import SensorModel
+from pendulum_accel.sensor import MAX_SAMPLES, SensorModel
 
 WARMUP = 2.0  # s left out at the start of every case: the filters start from one sample
 DEFAULT_LAGS = (0.0, 0.1, 0.25, 0.5, 1.0)  # s: the fixed-lag curve
@@ -128,6 +128,25 @@ class Case:
 
 WINDOWS = ("steady", "after_change")
 """The live filter's two calibration windows (recording.changes.after_change splits them)."""
+
+
+def samples_after_warmup(duration: float, rate_hz: float) -> int:
+    """#{k : WARMUP ≤ k/f, 0 ≤ k < round(duration f)}: the samples t_k = k/f of a case (case_signals) that
+    its figures are computed from; ParameterError past MAX_SAMPLES (duration × rate out of range)."""
+    product = duration * rate_hz
+    if not product <= MAX_SAMPLES:  # inf and 1e300 Hz alike
+        raise ParameterError(
+            f"{duration:g} s at {rate_hz:g} Hz gives more than {MAX_SAMPLES} samples a case: lower --rates "
+            "or --duration"
+        )
+    n = round(product)
+    first = math.ceil(WARMUP * rate_hz)
+    # ceil of a rounded product may be one off the first k whose k/f (as case_signals divides) is ≥ WARMUP.
+    while first > 0 and (first - 1) / rate_hz >= WARMUP:
+        first -= 1
+    while first < n and first / rate_hz < WARMUP:
+        first += 1
+    return max(0, n - first)
 
 
 def case_signals(
@@ -234,6 +253,14 @@ def study(
         raise ParameterError(f"lags must be in 0..10 s, got {list(lags)}")
     lag_set = tuple(sorted({0.0, *map(float, lags)}))
     spans = {p: min(duration, load_scene(p).duration) for p in profiles}
+    for p, span in spans.items():
+        for rate in sorted({d.rate_hz for d in designs}):
+            if samples_after_warmup(span, rate) < 1:
+                # Checked before any case runs: the RMS pools Σe²/n over the samples after the warm-up.
+                raise ParameterError(
+                    f"{span:g} s of {p} at {rate:g} Hz leave no sample after the {WARMUP:g} s warm-up each "
+                    f"case leaves out: give a --duration over {WARMUP:g} s by a sample period or more"
+                )
     cases = [Case(d, p, s, spans[p], lag_set) for d in designs for p in profiles for s in range(seeds)]
     results = map_tasks(
         run_case, cases, scheduler=scheduler, workers=workers, progress=progress, distributed=distributed

@@ -9,6 +9,7 @@ One value, so that a fleet's every bag (on any worker) reads by the same rules.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from pendulum_accel.bag import messages as bm
@@ -28,12 +29,18 @@ class TopicRules:
 
     def apply(self, bag: Bag) -> Bag:
         """``bag`` reading by these rules on top of its stored map; BagError (one line) for a rule that
-        does not read ROLE=NAME, names no role or a topic the bag lacks, a namespace the bag has no topic
-        in, or an empty joint name."""
+        does not read ROLE=NAME, names no role, a topic the bag lacks or one of another type than the role's,
+        a namespace the bag has no topic in, or an empty joint name."""
         if not self.joint.strip():
             raise BagError("--joint must name the pendulum's joint, got ''")
         bag.choice = topic_choice(
-            list(bag.topics), bag.choice.roles, list(self.roles), self.namespace, self.joint, self.joint_frame
+            list(bag.topics),
+            bag.choice.roles,
+            list(self.roles),
+            self.namespace,
+            self.joint,
+            self.joint_frame,
+            types={name: topic.msgtype for name, topic in bag.topics.items()},
         )
         return bag
 
@@ -45,11 +52,14 @@ def topic_choice(
     namespace: str,
     joint: str = bm.PENDULUM_JOINT,
     joint_frame: str = bm.FRAME_ID,
+    types: Mapping[str, str] | None = None,
 ) -> bm.TopicChoice:
     """The TopicChoice of a bag with ``topics`` and a stored map ``roles``, with the user's ``--topic``
     rules (``texts``) on top, ``namespace``, the pendulum's ``joint`` and its angles' ``joint_frame``;
-    BagError (one line) for a rule that does not read ROLE=NAME, names no role, or names a topic the bag
-    lacks, and for a namespace the bag has no topic in."""
+    BagError (one line) for a rule that does not read ROLE=NAME, names no role, names a topic the bag
+    lacks or (with the bag's ``types``, name -> message type) one whose type is not the role's
+    (messages.ROLE_TYPES), and for a namespace the bag has no topic in: every command refuses it as
+    it parses its options, info too, which reads no message of it."""
     ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
     # The stored map names one chain's topics: another namespace asked for sets it aside.
     chosen = {role: name for role, name in roles.items() if not ns or bm.in_namespace(name, ns)}
@@ -63,6 +73,9 @@ def topic_choice(
             raise BagError(f"--topic {text!r}: {err}") from None
         if name not in topics:
             raise BagError(f"--topic {text!r}: the bag has no topic {name} (it has {', '.join(topics)})")
+        expected = bm.ROLE_TYPES[role]
+        if types is not None and types.get(name, expected) != expected:
+            raise BagError(f"--topic {text!r}: topic {name} has type {types[name]}, expected {expected}")
         chosen[role] = name
     if ns and not any(t.startswith(ns + "/") for t in topics):
         raise BagError(
