@@ -4,7 +4,8 @@ step_start runs in /car1 (a steps to 3 m/s² at t = 1 s) and at_rest in /car2 (a
 stranger subscribed to the root-namespace angles before either starts. Each estimate must follow its
 own truth, every angle must have its estimate, and each bag must hold only its own chain's messages:
 its clock (``/car1/clock``, not the other chain's) and its own estimator's /diagnostics statuses; and
-each chain draws in its own frames (``car1/base_link``: ``run --namespace`` sets the frame prefix).
+every message each chain publishes in a frame is in its own (``car1/base_link``: ``run --namespace`` sets
+the frame prefix).
 """
 
 from __future__ import annotations
@@ -54,9 +55,15 @@ def _own_topics_only(bag: Bag, namespace: str) -> None:
 
 
 def _drawn_frames(bag: Bag, namespace: str) -> set[str]:
-    """The frame_id of every marker and Imu message the chain in ``namespace`` recorded."""
+    """The frame_id of every estimate, truth, marker and Imu message the chain in ``namespace`` recorded
+    (everything it publishes in a frame but its joint states, which keep theirs, as robots' do)."""
     frames: set[str] = set()
-    for topic, msgtype in ((bm.MARKERS, bm.MARKER_ARRAY), (bm.IMU_DATA_RAW, bm.IMU)):
+    for topic, msgtype in (
+        (bm.ACCEL_ESTIMATE, bm.ACCEL_WITH_COVARIANCE_STAMPED),
+        (bm.ACCEL_TRUTH, bm.ACCEL_STAMPED),
+        (bm.MARKERS, bm.MARKER_ARRAY),
+        (bm.IMU_DATA_RAW, bm.IMU),
+    ):
         _, payloads = bag.raw(f"/{namespace}/{topic}")
         assert payloads, topic
         for data in payloads:

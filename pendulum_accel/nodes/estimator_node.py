@@ -121,7 +121,7 @@ class EstimatorNode(ManagedNode):
         self.joint_frame_id = str(values["joint_frame_id"])
         self.frame_id = str(values["frame_id"])
         self.imu_frame_id = str(values["imu_frame_id"]) or self.frame_id
-        self.frame_prefix = str(values["frame_prefix"])  # the viewers' frames: Imu, markers, /tf_static
+        self.frame_prefix = str(values["frame_prefix"])  # every frame it publishes: estimate, Imu, TF
         self.imu_offset = tuple(float(values[f"imu_offset_{axis}"]) for axis in "xyz")
         self.unmeasured_accel_variance = float(values["unmeasured_accel_variance"])
         namespace = self.get_namespace()
@@ -290,11 +290,13 @@ class EstimatorNode(ManagedNode):
         )
 
     def _build_writers(self) -> None:
-        """CDR writers of the estimate and the Imu: stamp, â and var(â) per message; frame, g fixed."""
+        """CDR writers of the estimate and the Imu: stamp, â and var(â) per message; frame, g fixed. Every
+        frame carries frame_prefix (car1/base_link in /car1), so a multi-robot TF tree resolves each."""
         stamp = ("header.stamp.sec", "header.stamp.nanosec")
-        self._write_estimate = bm.Layout.of(
-            bm.accel_with_covariance_stamped(0, 0.0, 0.0, self.frame_id), bm.ACCEL_WITH_COVARIANCE_STAMPED
-        ).writer((*stamp, "accel.accel.linear.x", "accel.covariance[0]"))
+        estimate = bm.accel_with_covariance_stamped(0, 0.0, 0.0, self.frame_prefix + self.frame_id)
+        self._write_estimate = bm.Layout.of(estimate, bm.ACCEL_WITH_COVARIANCE_STAMPED).writer(
+            (*stamp, "accel.accel.linear.x", "accel.covariance[0]")
+        )
         gravity = float(self.get_parameter("gravity").value)
         imu_frame = self.frame_prefix + self.imu_frame_id
         template = bm.imu(0, 0.0, gravity, 0.0, self.unmeasured_accel_variance, imu_frame)
