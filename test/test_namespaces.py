@@ -23,6 +23,7 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import CUSTOM_SCENE, BagWriter
 from pendulum_accel.cli.info import info_lines
+from pendulum_accel.nodes.recorder_node import status_namespace
 from pendulum_accel.recording.analyze import analyze_bag
 from test.chain_helpers import Output
 from test.conftest import PYTHON, REPO, Spawn, cli
@@ -51,7 +52,16 @@ def _own_topics_only(bag: Bag, namespace: str) -> None:
         for raw in bag.raw(bm.TOPIC_DIAGNOSTICS)[1]
         for status in bm.deserialize_as(raw, bm.DIAGNOSTIC_ARRAY, bm.DiagnosticArrayMsg).status
     }
-    assert names == {f"/{namespace}/accel_estimator"}, names
+    assert names == {f"{namespace}/accel_estimator"}, names  # its full name without the leading '/'
+
+
+def test_a_status_name_gives_its_nodes_namespace_with_or_without_the_leading_slash() -> None:
+    """The recorder keeps the statuses of its namespace's nodes: named 'car1/accel_estimator' (the
+    estimator's), '/car1/accel_estimator' (a full name) or 'node: task' (diagnostic_updater's, root)."""
+    assert status_namespace("car1/accel_estimator") == status_namespace("/car1/accel_estimator") == "/car1"
+    assert status_namespace("fleet/car1/accel_estimator: input") == "/fleet/car1"
+    assert status_namespace("accel_estimator") == status_namespace("/accel_estimator") == "/"
+    assert status_namespace("camera_driver: frequency") == "/"
 
 
 def _drawn_frames(bag: Bag, namespace: str) -> set[str]:

@@ -52,7 +52,7 @@ from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, Guard
 from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice, stated_motion
 from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
-from pendulum_accel.nodes.diagnostics import diagnostic_array, hardware_id_of
+from pendulum_accel.nodes.diagnostics import diagnostic_array, hardware_id_of, status_name
 from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOPIC, SCENE_PRESET
 from pendulum_accel.nodes.qos import (
@@ -565,7 +565,7 @@ class EstimatorNode(ManagedNode):
                 self.method,
                 stamp,
                 self.latency(),
-                self.get_fully_qualified_name(),
+                status_name(self.get_fully_qualified_name()),
                 self.hardware_id,
                 self.lost,
             )
