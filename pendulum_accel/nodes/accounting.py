@@ -100,13 +100,16 @@ class Accounting:
         )
 
     def table(self) -> list[str]:
-        """Per topic: published / received by the estimator / estimated / recorded, and why they differ."""
+        """Per topic: published / received by the estimator / estimated / recorded, and why they differ.
+        The topic column is as wide as its longest name (24 at least), so a namespaced chain's long names
+        keep the count columns aligned under their headers."""
         topics = [
             t
             for t in (*bm.TOPIC_TYPES, bm.TOPIC_IMU)
             if t != bm.TOPIC_DIAGNOSTICS and (self.published(t) is not None or self.recorded(t) is not None)
         ]
-        lines = [f"  {'topic':<24} {'published':>9} {'est. in':>8} {'estimated':>9} {'recorded':>9}  notes"]
+        w = max([24, *(len(self.shown_name(t)) for t in topics)])
+        lines = [f"  {'topic':<{w}} {'published':>9} {'est. in':>8} {'estimated':>9} {'recorded':>9}  notes"]
         for topic in topics:
             published, recorded = self.published(topic), self.recorded(topic)
             received = estimated = "-"
@@ -117,7 +120,7 @@ class Accounting:
                     notes.append(f"no estimate: {self.reasons()}")
             name = self.shown_name(topic)
             lines.append(
-                f"  {name:<24} {_text(published):>9} {received:>8} {estimated:>9} {_text(recorded):>9}  "
+                f"  {name:<{w}} {_text(published):>9} {received:>8} {estimated:>9} {_text(recorded):>9}  "
                 + "; ".join(notes)
             )
         return lines
