@@ -3,11 +3,18 @@
 Launch arguments: scene, record (a bag directory; empty: no recorder), estimator (method), fast,
 time_source (sim or wall; empty: sim with fast or record, else wall, as ``pendulum-accel run``),
 namespace, namespace_clock (true: a namespaced chain runs on ``<namespace>/clock``), remap (FROM:=TO
-rules for every node, separated by spaces), frame_prefix (of the frames viewers draw; auto:
-``<namespace>/`` in a namespace, as ``pendulum-accel run``) and autostart (false: the managed nodes wait
-for ``ros2 lifecycle set``). Every node reads ``config/pendulum_accel.params.yaml`` first; the arguments then
-override it. The same start-up rules as the launcher: the simulator publishes once
-accel_estimator (and bag_recorder, when recording) subscribe, by name.
+rules for every node, separated by spaces), frame_prefix (of every frame the chain publishes in; auto:
+``<namespace>/`` in a namespace, as ``pendulum-accel run``), autostart (false: the managed nodes wait
+for ``ros2 lifecycle set``), use_sim_time (true or false for every node, winning over time_source; empty:
+time_source decides) and shutdown_on_scene_end (true: the simulator's exit at the scene's end shuts the
+launch down, which closes the bag; false: it ends alone, as a robot bringup that includes this file
+needs). Every node reads ``config/pendulum_accel.params.yaml`` first; the arguments then override it. The
+same start-up rules as the launcher: the simulator publishes once accel_estimator (and bag_recorder,
+when recording) subscribe, by name.
+
+Includable: under a bringup's PushRosNamespace the chain's namespace is the pushed one (with
+``namespace`` appended, unless absolute), as launch_ros resolves the nodes' namespace, so the clock remap
+and the frame prefix follow it too.
 
 Only the standard library is imported at module level; ``launch``, ``launch_ros`` and
 ``ament_index_python`` inside ``generate_launch_description``, so ``chain_nodes`` (what runs, with
@@ -37,10 +44,16 @@ ARGUMENTS: dict[str, tuple[str, str]] = {
     ),
     "frame_prefix": (
         "auto",
-        "prepended to the frames of the markers, Imu and /tf_static (auto: <namespace>/ in a namespace, "
-        "else none; empty: none)",
+        "prepended to every frame the chain publishes in: estimate, truth, markers, Imu, /tf_static "
+        "(auto: <namespace>/ in a namespace, else none; empty: none)",
     ),
     "autostart": ("true", "false: the simulator and estimator wait, unconfigured, for ros2 lifecycle set"),
+    "use_sim_time": ("", "true or false: every node's use_sim_time, over time_source (empty: time_source)"),
+    "shutdown_on_scene_end": (
+        "true",
+        "true: the scene's end shuts the whole launch down (the bag closes); false: only the simulator ends "
+        "(for a bringup that includes this file)",
+    ),
 }
 
 
@@ -66,6 +79,15 @@ def remappings(namespace: str, namespace_clock: str, remap: str) -> list[tuple[s
     return [(source, target) for source, _, target in pairs]
 
 
+def chain_namespace(pushed: str, namespace: str) -> str:
+    """The nodes' namespace as launch_ros resolves it: ``namespace`` when absolute, else ``namespace`` under
+    the one a bringup pushed (PushRosNamespace keeps it in the 'ros_namespace' launch configuration)."""
+    if namespace.startswith("/"):
+        return namespace
+    parts = [part for part in (pushed.strip("/"), namespace.strip("/")) if part]
+    return "/" + "/".join(parts) if parts else ""
+
+
 def frame_prefix_of(namespace: str, frame_prefix: str) -> str:
     """The simulator's and estimator's frame_prefix: ``<namespace>/`` for auto (none in the root
     namespace), else the argument as given."""
@@ -82,13 +104,20 @@ def chain_nodes(
     time_source: str,
     autostart: str = "true",
     frame_prefix: str = "",
+    use_sim_time: str = "",
+    shutdown_on_scene_end: str = "true",
 ) -> list[dict[str, Any]]:
-    """What to run: one {executable, name, parameters} per node, recorder first (if recording)."""
+    """What to run: one {executable, name, parameters} per node, recorder first (if recording); the
+    simulator's ``ends_launch``: its exit shuts the launch down."""
     realtime = not _true(fast)
     # frame_prefix set only when not empty (the nodes' default), so a params file's value stays.
     sim_and_estimator: dict[str, Any] = {"autostart": _true(autostart)}
     if frame_prefix:
         sim_and_estimator["frame_prefix"] = frame_prefix
+    if use_sim_time.strip().lower() not in ("", "true", "false", "1", "0", "yes", "no"):
+        raise ValueError(f"use_sim_time must be true, false or empty, got {use_sim_time!r}")
+    # Set only when given: an explicit use_sim_time wins over time_source in every node (runtime.py).
+    clock: dict[str, Any] = {"use_sim_time": _true(use_sim_time)} if use_sim_time.strip() else {}
     source = time_source or ("sim" if (not realtime or record) else "wall")
     if source not in ("sim", "wall"):
         raise ValueError(f"time_source must be sim or wall, got {time_source!r}")
@@ -101,7 +130,7 @@ def chain_nodes(
             {
                 "executable": "bag_recorder",
                 "name": "bag_recorder",
-                "parameters": {"path": record, "scene": scene, "time_source": source},
+                "parameters": {"path": record, "scene": scene, "time_source": source, **clock},
             }
         )
     nodes.append(
@@ -114,6 +143,7 @@ def chain_nodes(
                 "time_source": source,
                 "recorder_node": recorder,
                 **sim_and_estimator,
+                **clock,
             },
         }
     )
@@ -129,8 +159,10 @@ def chain_nodes(
                 "reader_nodes": ["accel_estimator"],
                 "recorder_node": recorder,
                 **sim_and_estimator,
+                **clock,
             },
-            "ends_launch": True,  # its exit (the scene's end) shuts the launch down: the bag closes
+            # Its exit (the scene's end) shuts the launch down, which closes the bag; not in a bringup.
+            "ends_launch": _true(shutdown_on_scene_end),
         }
     )
     return nodes
@@ -150,8 +182,10 @@ def generate_launch_description() -> Any:
         """The Node actions for the arguments' values in ``context``."""
         values = {name: LaunchConfiguration(name).perform(context) for name in ARGUMENTS}
         namespace = values.pop("namespace")
-        remaps = remappings(namespace, values.pop("namespace_clock"), values.pop("remap"))
-        values["frame_prefix"] = frame_prefix_of(namespace, values["frame_prefix"])
+        # Where the nodes end up, a bringup's PushRosNamespace included: the clock and frames follow it.
+        full = chain_namespace(context.launch_configurations.get("ros_namespace", ""), namespace)
+        remaps = remappings(full, values.pop("namespace_clock"), values.pop("remap"))
+        values["frame_prefix"] = frame_prefix_of(full, values["frame_prefix"])
         return [
             Node(
                 package=PACKAGE,

@@ -31,10 +31,16 @@ SPEC keys (all optional):
   "linger_until": [state, seconds] then keep listening until a /diagnostics status whose state is
                                   ``state`` arrives after the feed and burst and after every angle
                                   published was acknowledged (at most seconds)
+  "qos_graph": [[topic, ...], n, seconds]  at the end, every other node's endpoint on these topics as the
+                                  graph lists it, once there are n of them (spinning, at most seconds):
+                                  [[node's full name, topic, "publisher"|"subscription", reliability,
+                                  durability]], sorted
 Prints one JSON object: {"estimates": [[t, a, var], ...], "diagnostics": [[level, message, values]],
-"set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s,
-"diagnostics_after": [[s, state, values]]} (diagnostics_after: each /diagnostics status's arrival, seconds
-after the feed and burst ended, with its state and key/values).
+"set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s (from the request, the service
+being discovered, to the answer), "acked_at_set": whether every angle published had been acknowledged when
+that answer came (false: the node answered while its input was still held back),
+"diagnostics_after": [[s, state, values]], "qos_graph": [...]} (diagnostics_after: each /diagnostics
+status's arrival, seconds after the feed and burst ended, with its state and key/values).
 """
 
 from __future__ import annotations
@@ -75,6 +81,24 @@ def call(node: Node, client: Any, request: Any) -> Any:
     future = client.call_async(request)
     rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
     return future.result()
+
+
+def qos_graph(node: Node, topics: list[str]) -> list[list[str]]:
+    """[full node name, topic, kind, reliability, durability] of every endpoint on ``topics`` but this
+    node's own, sorted (discovery carries no history or depth)."""
+    rows: list[list[str]] = []
+    for topic in topics:
+        for kind, infos in (
+            ("publisher", node.get_publishers_info_by_topic(topic)),
+            ("subscription", node.get_subscriptions_info_by_topic(topic)),
+        ):
+            for info in infos:
+                if info.node_name == node.get_name() and info.node_namespace == node.get_namespace():
+                    continue
+                name = info.node_namespace.rstrip("/") + "/" + info.node_name
+                qos = info.qos_profile
+                rows.append([name, topic, kind, qos.reliability.name.lower(), qos.durability.name.lower()])
+    return sorted(rows)
 
 
 def main() -> None:
@@ -156,9 +180,13 @@ def main() -> None:
         request = SetParameters.Request()
         for name, value in params.items():
             request.parameters.append(Parameter(name, value=value).to_parameter_msg())
+        # Timed from when the service is there: discovery under load is not the node's answer.
+        if not setter.wait_for_service(timeout_sec=20.0):
+            raise RuntimeError(f"service {setter.srv_name} not available")
         asked = time.monotonic()
         response = call(node, setter, request)
         out["set_seconds"] = time.monotonic() - asked
+        out["acked_at_set"] = publisher.wait_for_all_acked(Duration(seconds=0))
         out["set"] = [[r.successful, r.reason] for r in response.results]
         reply = call(node, getter, GetParameters.Request(names=list(params)))
         for name, value in zip(params, reply.values, strict=True):
@@ -220,6 +248,14 @@ def main() -> None:
         }
         for topic in spec.get("endpoints", [])
     }
+    if "qos_graph" in spec:
+        topics, count = list(spec["qos_graph"][0]), int(spec["qos_graph"][1])
+        end = time.monotonic() + float(spec["qos_graph"][2])
+        while True:
+            out["qos_graph"] = qos_graph(node, topics)
+            if len(out["qos_graph"]) >= count or time.monotonic() >= end:
+                break
+            spin_for(node, 0.1)
     print(json.dumps(out), flush=True)
     node.destroy_node()
     rclpy.try_shutdown()

@@ -95,6 +95,32 @@ def test_info_says_complete_only_where_the_publishers_counts_agree(tmp_path: Pat
     assert "11 of 211 published not recorded" in captured.err
 
 
+def test_the_table_keeps_its_columns_under_long_namespaced_names() -> None:
+    """Each count ends where its column's header ends, and each name stays in the topic column, for names
+    longer than the column's 24 characters (a deep namespace): parsed by position, not compared as text."""
+    ns = "/fleet/depot_north/car_0001"
+    published = {f"{ns}/pendulum/joint_states": 100, f"{ns}/car/accel/truth": 100, f"{ns}/clock": 100}
+    recorded = {**published, f"{ns}/car/accel/estimate": 97, f"{ns}/imu/data_raw": 97}
+    accounting = Accounting({"published": published}, _estimator(100, 97, 3), {"written": recorded})
+    header, *rows = accounting.table()
+    columns = ("published", "est. in", "estimated", "recorded")
+    ends = [header.index(word) + len(word) for word in columns]
+    first_count = header.index("published") + len("published") - 9  # the 9-wide column's left edge
+    assert rows and all(len(name) > 24 for name in (*published, *recorded))
+    for row in rows:
+        name = row.split()[0]
+        assert name.startswith(ns) and row.index(name) + len(name) < first_count, row
+        # The four count fields, right-aligned: each ends at its header's end.
+        fields = row.split()[1:5]
+        at = len(row.split()[0]) + row.index(name)
+        for field, end in zip(fields, ends, strict=True):
+            start = row.index(field, at)
+            assert start + len(field) == end, (row, field, end)
+            at = start + len(field)
+        counts = [int(f) for f in fields if f != "-"]  # the figures themselves, parsed
+        assert counts and all(c in (97, 100) for c in counts), row
+
+
 def test_a_namespaced_chain_is_accounted_under_its_own_names() -> None:
     """The table and the losses name the topics as the run resolved them (/car1/...), not the root names."""
     published = {"/car1/pendulum/joint_states": 100, "/car1/car/accel/truth": 100, "/clock": 100}

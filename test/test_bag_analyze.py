@@ -20,12 +20,13 @@ from pendulum_accel.cli.main import main
 from pendulum_accel.cli.output import json_text
 from pendulum_accel.errors import BagError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
+from pendulum_accel.estimators.guard import frame_problem
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Step
 from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.recording.analyze import analyze_bag, plot_analysis, settling
 from pendulum_accel.recording.changes import CHANGE_ONSET, CHANGE_WINDOW, after_change, change_rule
-from pendulum_accel.recording.contract import decode_chain
+from pendulum_accel.recording.contract import decode_chain, unprefixed
 from pendulum_accel.recording.generate import chain_streams, generate_bag, write_chain_bag
 from test.conftest import strict_json
 from test.figures import assert_figure
@@ -512,6 +513,16 @@ def test_the_contract_refuses_a_foreign_bag_before_its_decoding_breaks(
             decode_chain(bag, {bm.TOPIC_CLOCK: (bm.CLOCK, None)})
         if name == "odom":  # the decoding did not break: one pass found every shape the contract checks
             assert len(reads) == len(set(reads)) > 5
+
+
+def test_the_contract_takes_the_cars_frame_under_any_frame_prefix() -> None:
+    """A namespaced chain stamps its truth and estimate in car1/base_link (its frame prefix): the chain's;
+    another frame stays another robot's, prefixed or not."""
+    assert frame_problem(unprefixed("car1/base_link")) is None
+    assert frame_problem(unprefixed("fleet/car1/base_link")) is None
+    assert frame_problem(unprefixed("base_link")) is None
+    assert frame_problem(unprefixed("car1/odom")) is not None
+    assert frame_problem(unprefixed("odom")) is not None
 
 
 def _odom(msg: Any) -> None:

@@ -70,6 +70,8 @@ def test_launch_file_parses_and_declares_the_arguments() -> None:
         "remap",
         "frame_prefix",
         "autostart",
+        "use_sim_time",
+        "shutdown_on_scene_end",
     }
     # launch_ros.actions.Node's keyword arguments, as its source names them.
     source = LAUNCH.read_text()
@@ -106,6 +108,40 @@ def test_launch_frame_prefix_is_the_namespace_unless_given() -> None:
         given = {spec["executable"]: spec["parameters"].get("frame_prefix") for spec in specs}
         assert given["bag_recorder"] is None  # the recorder draws nothing
         assert {given["pendulum_sim"], given["accel_estimator"]} - {None} == expected
+
+
+def test_a_bringup_can_include_the_launch_file() -> None:
+    """Included by a robot bringup (issue 58): shutdown_on_scene_end:=false lets the scene end without
+    shutting the bringup down (true, the default, when run alone: the bag closes); use_sim_time, when
+    given, is every node's, over time_source; under a bringup's PushRosNamespace the clock remap and the
+    frame prefix follow the pushed namespace, as launch_ros resolves the nodes' own. Checked through the
+    module's functions and its source: launch and launch_ros are not on the package registry here, so
+    the LaunchDescription itself is not built in this suite."""
+    module = _launch_module()
+    alone = module.chain_nodes("step_start", "bag", "kalman", "true", "")
+    assert [spec["executable"] for spec in alone if spec.get("ends_launch")] == ["pendulum_sim"]
+    included = module.chain_nodes("step_start", "bag", "kalman", "true", "", shutdown_on_scene_end="false")
+    assert not any(spec.get("ends_launch") for spec in included)
+    source = LAUNCH.read_text()
+    assert 'on_exit=[Shutdown(reason="scene finished")] if spec.get("ends_launch") else None' in source
+    for given, expected in (("true", True), ("false", False)):
+        specs = module.chain_nodes("step_start", "bag", "kalman", "true", "", use_sim_time=given)
+        assert {spec["parameters"]["use_sim_time"] for spec in specs} == {expected}
+        assert len(specs) == 3
+    unset = module.chain_nodes("step_start", "bag", "kalman", "true", "")
+    assert not any("use_sim_time" in spec["parameters"] for spec in unset)  # time_source decides
+    with pytest.raises(ValueError, match="use_sim_time"):
+        module.chain_nodes("step_start", "", "kalman", "true", "", use_sim_time="maybe")
+    # launch_ros: a relative namespace goes under the pushed one, an absolute one stays.
+    assert module.chain_namespace("/car1", "") == "/car1"
+    assert module.chain_namespace("/fleet", "car1") == "/fleet/car1"
+    assert module.chain_namespace("/fleet", "/car1") == "/car1"
+    assert module.chain_namespace("", "car1") == "/car1"
+    assert module.chain_namespace("/", "") == module.chain_namespace("", "") == ""
+    pushed = module.chain_namespace("/car1", "")
+    assert module.remappings(pushed, "true", "") == [("/clock", "/car1/clock")]
+    assert module.frame_prefix_of(pushed, "auto") == "car1/"
+    assert 'context.launch_configurations.get("ros_namespace", "")' in source
 
 
 def test_every_node_parameter_and_executable_of_the_launch_file_is_real() -> None:

@@ -34,7 +34,7 @@ from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import BagWriter
 from pendulum_accel.cli.export import SMOOTHED
 from pendulum_accel.errors import BagError
-from pendulum_accel.recording.generate import generate_bag
+from pendulum_accel.recording.generate import DIAGNOSTIC_NAME, generate_bag
 from pendulum_accel.scene import load_scene
 from test.chain_helpers import Output, start_node
 from test.conftest import PYTHON, REPO, Spawn, cli, rclpy_available, stop_processes, strict_json
@@ -150,6 +150,25 @@ def test_the_live_bag_keeps_every_message_rclpy_wrote(live_bag: Path) -> None:
 
 
 @pytest.mark.ros
+@pytest.mark.ros
+def test_the_live_status_is_named_as_in_generated_and_golden_bags(live_bag: Path) -> None:
+    """The estimator's /diagnostics status in a live bag has the generated and golden bags' name, so a
+    PlotJuggler layout (series <hardware_id>/<name>/<key>) drawn on golden bags draws live ones too."""
+    bag = read_bag(live_bag)
+    names = {
+        status.name
+        for raw in bag.raw(bm.TOPIC_DIAGNOSTICS)[1]
+        for status in bm.deserialize_as(raw, bm.DIAGNOSTIC_ARRAY, bm.DiagnosticArrayMsg).status
+    }
+    golden = read_bag(REPO / "bags" / "lecture_constant")
+    golden_names = {
+        status.name
+        for raw in golden.raw(bm.TOPIC_DIAGNOSTICS)[1]
+        for status in bm.deserialize_as(raw, bm.DIAGNOSTIC_ARRAY, bm.DiagnosticArrayMsg).status
+    }
+    assert names == golden_names == {DIAGNOSTIC_NAME}, (names, golden_names)
+
+
 def test_info(live_bag: Path) -> None:
     result = cli("info", str(live_bag))
     _no_traceback(result)

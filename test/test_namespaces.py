@@ -4,7 +4,8 @@ step_start runs in /car1 (a steps to 3 m/s² at t = 1 s) and at_rest in /car2 (a
 stranger subscribed to the root-namespace angles before either starts. Each estimate must follow its
 own truth, every angle must have its estimate, and each bag must hold only its own chain's messages:
 its clock (``/car1/clock``, not the other chain's) and its own estimator's /diagnostics statuses; and
-each chain draws in its own frames (``car1/base_link``: ``run --namespace`` sets the frame prefix).
+every message each chain publishes in a frame is in its own (``car1/base_link``: ``run --namespace`` sets
+the frame prefix).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import CUSTOM_SCENE, BagWriter
 from pendulum_accel.cli.info import info_lines
+from pendulum_accel.nodes.recorder_node import status_namespace
 from pendulum_accel.recording.analyze import analyze_bag
 from test.chain_helpers import Output
 from test.conftest import PYTHON, REPO, Spawn, cli
@@ -50,13 +52,28 @@ def _own_topics_only(bag: Bag, namespace: str) -> None:
         for raw in bag.raw(bm.TOPIC_DIAGNOSTICS)[1]
         for status in bm.deserialize_as(raw, bm.DIAGNOSTIC_ARRAY, bm.DiagnosticArrayMsg).status
     }
-    assert names == {f"/{namespace}/accel_estimator"}, names
+    assert names == {f"{namespace}/accel_estimator"}, names  # its full name without the leading '/'
+
+
+def test_a_status_name_gives_its_nodes_namespace_with_or_without_the_leading_slash() -> None:
+    """The recorder keeps the statuses of its namespace's nodes: named 'car1/accel_estimator' (the
+    estimator's), '/car1/accel_estimator' (a full name) or 'node: task' (diagnostic_updater's, root)."""
+    assert status_namespace("car1/accel_estimator") == status_namespace("/car1/accel_estimator") == "/car1"
+    assert status_namespace("fleet/car1/accel_estimator: input") == "/fleet/car1"
+    assert status_namespace("accel_estimator") == status_namespace("/accel_estimator") == "/"
+    assert status_namespace("camera_driver: frequency") == "/"
 
 
 def _drawn_frames(bag: Bag, namespace: str) -> set[str]:
-    """The frame_id of every marker and Imu message the chain in ``namespace`` recorded."""
+    """The frame_id of every estimate, truth, marker and Imu message the chain in ``namespace`` recorded
+    (everything it publishes in a frame but its joint states, which keep theirs, as robots' do)."""
     frames: set[str] = set()
-    for topic, msgtype in ((bm.MARKERS, bm.MARKER_ARRAY), (bm.IMU_DATA_RAW, bm.IMU)):
+    for topic, msgtype in (
+        (bm.ACCEL_ESTIMATE, bm.ACCEL_WITH_COVARIANCE_STAMPED),
+        (bm.ACCEL_TRUTH, bm.ACCEL_STAMPED),
+        (bm.MARKERS, bm.MARKER_ARRAY),
+        (bm.IMU_DATA_RAW, bm.IMU),
+    ):
         _, payloads = bag.raw(f"/{namespace}/{topic}")
         assert payloads, topic
         for data in payloads:

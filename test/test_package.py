@@ -192,3 +192,27 @@ def test_colcon_build_warms_the_cache_and_the_ros2_run_layout_runs_first_time(
     assert COMPILING not in warm.stderr
     assert_recorded(tmp_path / "warm")
     assert cold({**env, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}, PYTHON, Path("/"))
+
+
+def test_a_pip_install_puts_the_share_files_where_the_readme_says(tmp_path: Path) -> None:
+    """setup.py's data files (what `pip install .` and colcon install) hold the URDF, the launch file and
+    the parameters under share/pendulum_accel; the README says so, and says that `pip install -e .`, its
+    own pip route, installs none (setuptools' editable installs leave data files out), naming where
+    they are then."""
+    subprocess.run(
+        [sys.executable, "setup.py", "-q", "install_data", "--install-dir", str(tmp_path)],
+        cwd=REPO,
+        check=True,
+        capture_output=True,
+    )
+    share = tmp_path / "share" / "pendulum_accel"
+    for installed in (
+        "urdf/pendulum_accel.urdf",
+        "launch/chain.launch.py",
+        "config/pendulum_accel.params.yaml",
+    ):
+        assert (share / installed).is_file(), installed
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    (row,) = [line for line in readme.splitlines() if line.startswith("| `urdf` |")]
+    assert "share/pendulum_accel/urdf/pendulum_accel.urdf" in row and "`pip install .`" in row
+    assert "`pip install -e .`" in row and "`urdf/`" in row and "installs no `share/`" in row

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.errors import ParameterError, SceneError
 from test.conftest import cli
 from test.refusal import one_line_error
@@ -49,5 +51,18 @@ def test_preflight_is_a_function_of_the_config(tmp_path: Path) -> None:
         check_chain(ChainConfig(scene="lecture_constant", record=tmp_path / "old"))
     with pytest.raises(SceneError):
         check_chain(ChainConfig(scene=str(tmp_path / "missing.yaml")))
-    with pytest.raises(ParameterError, match="does not exist"):
-        check_chain(ChainConfig(scene="lecture_constant", record=tmp_path / "a" / "b"))
+    # Missing directories above the bag are created, as rosbag2 creates them; a file on the way is refused.
+    check_chain(ChainConfig(scene="lecture_constant", record=tmp_path / "a" / "b"))
+    (tmp_path / "file").write_text("")
+    with pytest.raises(ParameterError, match="is a file, not a directory"):
+        check_chain(ChainConfig(scene="lecture_constant", record=tmp_path / "file" / "b"))
+
+
+@pytest.mark.ros
+def test_run_records_where_the_directories_above_the_bag_do_not_exist_yet(tmp_path: Path) -> None:
+    """``run --record a/b/bag`` with no a/: made, as ``ros2 bag record -o a/b/bag`` makes it (refused
+    before)."""
+    bag = tmp_path / "a" / "b" / "bag"
+    result = cli("run", "at_rest", "--fast", "--set", "duration=0.3", "--record", str(bag))
+    assert result.returncode == 0, result.stderr
+    assert (bag / "metadata.yaml").is_file() and read_bag(bag).topics[bm.TOPIC_JOINT_STATES].count == 31

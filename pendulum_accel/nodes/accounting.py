@@ -143,10 +143,14 @@ class Accounting:
         )
 
     def table(self) -> list[str]:
-        """Per topic: published / received by the estimator / estimated / recorded, and why they differ."""
+        """Per topic: published / received by the estimator / estimated / recorded, and why they differ.
+        The topic column is as wide as its longest name (24 at least), so a namespaced chain's long names
+        keep the count columns aligned under their headers."""
         topics = [t for t in _TABLE_TOPICS if self.published(t) is not None or self.recorded(t) is not None]
-        lines = [f"  {'topic':<24} {'published':>9} {'est. in':>8} {'estimated':>9} {'recorded':>9}  notes"]
-        for topic in [*topics, *self._roleless()]:
+        rows = [*topics, *self._roleless()]
+        w = max([24, *(len(self.shown_name(t)) for t in rows)])
+        lines = [f"  {'topic':<{w}} {'published':>9} {'est. in':>8} {'estimated':>9} {'recorded':>9}  notes"]
+        for topic in rows:
             published, recorded = self._compared(topic)
             received = estimated = "-"
             notes = []
@@ -156,7 +160,7 @@ class Accounting:
                     notes.append(f"no estimate: {self.reasons()}")
             name = self.shown_name(topic)
             lines.append(
-                f"  {name:<24} {_text(published):>9} {received:>8} {estimated:>9} {_text(recorded):>9}  "
+                f"  {name:<{w}} {_text(published):>9} {received:>8} {estimated:>9} {_text(recorded):>9}  "
                 + "; ".join(notes)
             )
         return lines

@@ -163,7 +163,8 @@ def frame_prefix_param(what: str) -> ParamSpec:
         "string",
         "",
         f"prepended to the frame_id of the {what} (e.g. car1/, as robot_state_publisher's frame_prefix), so "
-        "that two chains draw in their own frames; the estimate, truth and angle keep frame_id",
+        "that a multi-robot TF tree resolves each chain's messages to its own robot; the joint states keep "
+        "their frame, as robots' joint_states do",
     )
 
 
@@ -187,7 +188,7 @@ SIMULATOR: tuple[ParamSpec, ...] = (
            low=0.0, high=3600.0),
     _fixed("clock_rate_hz", "double", DEFAULT_CLOCK_RATE_HZ,
            "/clock messages per simulated second (0: one per sample)", low=0.0, high=100_000.0),
-    frame_prefix_param("markers"),
+    frame_prefix_param("truth and markers"),
     summary_file_param(),
 )  # fmt: skip
 
@@ -227,7 +228,7 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
              f"{axis} of the Imu frame's origin in frame_id, m (the transform is stated at start-up for a "
              "static_transform_publisher; a rigid, non-rotating car reads the same specific force there)",
              low=-100.0, high=100.0) for axis in "xyz"),
-    frame_prefix_param("Imu, markers and /tf_static"),
+    frame_prefix_param("estimate, Imu, markers and /tf_static"),
     _fixed("unmeasured_accel_variance", "double", UNMEASURED_ACCEL_VARIANCE,
            "Imu linear_acceleration_covariance of y and z, (m/s²)²: not measured by a pendulum",
            low=1e-6, high=1e12),

@@ -23,8 +23,9 @@ def check_chain(config: ChainConfig) -> Scene:
 
     Scene loads and validates with its overrides applied (ranges, whole seeds); the namespace and
     remap rules are names ROS accepts for every node (nodes.names, rcl's rules); the estimator is a
-    known method; the bag directory does not exist (or ``overwrite``), and its parent exists and is
-    writable. (``--rt-priority`` with ``--fast`` is refused by the command line, cli.run.chain_config.)
+    known method; the bag directory does not exist (or ``overwrite``), and the nearest existing
+    directory above it is writable (missing ones are created, as rosbag2 does). (``--rt-priority`` with
+    ``--fast`` is refused by the command line, cli.run.chain_config.)
     """
     from pendulum_accel.estimators import ESTIMATORS
     from pendulum_accel.nodes.names import check_chain_names
@@ -41,7 +42,8 @@ def check_chain(config: ChainConfig) -> Scene:
 
 
 def check_output_dir(path: os.PathLike[str] | str, *, overwrite: bool) -> None:
-    """ParameterError unless a bag directory can be created at ``path`` (parent a writable directory)."""
+    """ParameterError unless a bag directory can be created at ``path``: the nearest existing directory
+    above it writable (the missing ones between are created, as rosbag2 does)."""
     from pathlib import Path
 
     bag = Path(path)
@@ -49,9 +51,11 @@ def check_output_dir(path: os.PathLike[str] | str, *, overwrite: bool) -> None:
         raise ParameterError(f"{bag} exists already; pass --overwrite to replace it")
     if bag.exists() and not bag.is_dir():
         raise ParameterError(f"{bag} is a file, not a bag directory; choose another path")
-    parent = bag.absolute().parent
+    # The directories above it are created as rosbag2 creates them (SequentialWriter::open:
+    # std::filesystem::create_directories), so the nearest one that exists is the one written in.
+    parent = next(above for above in bag.absolute().parents if above.exists())
     if not parent.is_dir():
-        raise ParameterError(f"cannot record to {bag}: directory {parent} does not exist")
+        raise ParameterError(f"cannot record to {bag}: {parent} is a file, not a directory")
     if not os.access(parent, os.W_OK | os.X_OK) or (bag.is_dir() and not os.access(bag, os.W_OK | os.X_OK)):
         raise ParameterError(f"cannot record to {bag}: {parent} is not writable (read-only or permissions)")
     if _read_only_mount(parent):

@@ -4,7 +4,9 @@
 Every entity is created with ``qos_options()`` (rclpy's QoSOverridingOptions): its history, depth,
 reliability and durability can be set at start-up, by the parameter
 ``qos_overrides.<resolved topic>.<publisher|subscription>.<policy>`` (a params file or ``-p``), as in
-every ROS 2 node that supports overrides. Subscriptions to data ask for ``best_available``
+every ROS 2 node that supports overrides. Each entity gets its own copy of its profile: rclpy writes the
+overrides into the profile object it is given, so a shared one would carry one entity's overrides into
+every entity made from it later. Subscriptions to data ask for ``best_available``
 reliability: reliable (and lossless, as the chain needs) when every publisher is, best-effort when
 one is not, as a hardware driver's SensorDataQoS publisher.
 """
@@ -97,10 +99,17 @@ def qos_options() -> QoSOverridingOptions:
     return QoSOverridingOptions(OVERRIDABLE)
 
 
+def own_profile(qos: QoSProfile) -> QoSProfile:
+    """A copy of ``qos`` for one entity: rclpy's create_publisher and create_subscription write the entity's
+    qos_overrides into the profile they are given (rclpy.qos_overriding_options._declare_qos_parameters)."""
+    return copy.copy(qos)
+
+
 def subscription_qos(profile: QoSProfile) -> QoSProfile:
-    """``profile`` with best_available reliability: a subscription that matches reliable and best-effort
-    publishers alike (reliable when every publisher on the graph at its creation is)."""
-    out = copy.copy(profile)
+    """A copy of ``profile`` (``own_profile``) with best_available reliability: a subscription that matches
+    reliable and best-effort publishers alike (reliable when every publisher on the graph at its creation
+    is)."""
+    out = own_profile(profile)
     out.reliability = ReliabilityPolicy.BEST_AVAILABLE
     return out
 
@@ -157,11 +166,12 @@ def subscription_events(
 
 
 def make_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile) -> Publisher:
-    """node.create_publisher with the qos_overrides parameters and the one-line incompatible-QoS report."""
+    """node.create_publisher with its own copy of ``qos``, the qos_overrides parameters and the one-line
+    incompatible-QoS report."""
     return node.create_publisher(
         msg_type,
         topic,
-        qos,
+        own_profile(qos),
         event_callbacks=publisher_events(node, topic),
         qos_overriding_options=qos_options(),
     )

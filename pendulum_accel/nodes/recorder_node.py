@@ -72,12 +72,12 @@ def log_times(payloads: Sequence[bytes], offset: int) -> NDArray[np.int64]:
 
 
 def status_namespace(name: str) -> str:
-    """The namespace of the node a DiagnosticStatus name gives ('/car1/accel_estimator' → '/car1'; a name
-    without a '/', such as diagnostic_updater's 'node: task', is taken as the root namespace '/')."""
-    node = name.split(":", 1)[0].strip()
-    if not node.startswith("/"):
-        return "/"
-    return node.rsplit("/", 1)[0] or "/"
+    """The namespace of the node a DiagnosticStatus name gives, with or without the leading '/'
+    ('car1/accel_estimator' and '/car1/accel_estimator' → '/car1'; a name without a '/' in its node part,
+    such as diagnostic_updater's 'node: task', is taken as the root namespace '/')."""
+    node = name.split(":", 1)[0].strip().strip("/")
+    parent = node.rpartition("/")[0]
+    return "/" + parent if parent else "/"
 
 
 def topic_map(asked: Sequence[str], resolved: Sequence[str]) -> dict[str, str]:

@@ -104,7 +104,7 @@ class SimulatorNode(ManagedNode):
         self.recorder_node = node_names([str(values["recorder_node"])], namespace)
         self.wait_timeout = float(values["wait_timeout"])
         self.clock_rate_hz = float(values["clock_rate_hz"])
-        self._marker_frame = str(values["frame_prefix"]) + bm.FRAME_ID
+        self._frame = str(values["frame_prefix"]) + bm.FRAME_ID  # the truth's and the markers' frame
         self.summary_file = str(values["summary_file"])
         self._outputs: dict[str, Publisher] = {}
         self.counts: dict[str, int] = {}
@@ -287,7 +287,7 @@ class SimulatorNode(ManagedNode):
         """The scene's samples, serialised (logged with the time they took)."""
         scene = self.scene
         wall0 = time.perf_counter()
-        frames = serialise_run(run_scene(scene), self.clock_rate_hz)
+        frames = serialise_run(run_scene(scene), self.clock_rate_hz, self._frame)
         self.get_logger().info(
             f"scene {scene.name}: {frames.size} samples over {frames.t[-1] - frames.t[0]:.3f} s simulated "
             f"in {time.perf_counter() - wall0:.2f} s; {frames.plan}"
@@ -308,7 +308,7 @@ class SimulatorNode(ManagedNode):
             self._theta[first:][mask],
             self._accel[first:][mask],
             self._length,
-            self._marker_frame,
+            self._frame,
         )
 
     def _prepare_markers(self, frames: Frames) -> None:
@@ -325,7 +325,7 @@ class SimulatorNode(ManagedNode):
             self._theta[self._marker_mask],
             self._accel[self._marker_mask],
             self._length,
-            self._marker_frame,
+            self._frame,
         )
 
     def _publish_frames(self, frames: Frames, first: int = 0) -> bool:

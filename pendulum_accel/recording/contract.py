@@ -2,8 +2,9 @@
 each message (estimators.guard.joint_state_problem), once per shape of message in the bag.
 
 A bag whose angles name another joint and not the pendulum's, or whose angle, truth or estimate carry
-another frame is refused with one line (analyze, allan, animate, export): figures computed from another
-robot's data would look like figures of this one. Among a robot's joints, the pendulum's may be at any
+another frame (the truth's and estimate's: base_link under any frame prefix, as car1/base_link) is
+refused with one line (analyze, allan, animate, export): figures computed from another robot's data
+would look like figures of this one. Among a robot's joints, the pendulum's may be at any
 place, the same in every message: the offline readers take ``angle_field`` (``position[k]``).
 """
 
@@ -18,8 +19,15 @@ from pendulum_accel.errors import BagError
 from pendulum_accel.estimators.guard import frame_problem, joint_state_problem
 
 FRAMED_TOPICS = (bm.TOPIC_ACCEL_TRUTH, bm.TOPIC_ACCEL_ESTIMATE)
-"""Topics whose header.frame_id must be the car's (the angle's is checked with its joint). The Imu is not
-among them: its frame may be an ``imu_frame_id`` of the estimator's (docs/ros.md)."""
+"""Topics whose header.frame_id must be the car's, under any frame prefix (the angle's is checked with its
+joint). The Imu is not among them: its frame may be an ``imu_frame_id`` of the estimator's (docs/ros.md)."""
+
+
+def unprefixed(frame_id: str) -> str:
+    """``frame_id`` without a frame prefix: the part after its last '/' ('car1/base_link' → 'base_link').
+    A namespaced chain stamps its truth and estimate in its frame_prefix + base_link, as
+    robot_state_publisher's frame_prefix names a robot's frames, so a multi-robot TF tree keeps them apart."""
+    return frame_id.rsplit("/", 1)[-1]
 
 
 def _checks() -> list[tuple[str, str | None]]:
@@ -111,7 +119,9 @@ def check_chain_contract(bag: Bag) -> None:
                         "the offline commands read it at one place"
                     )
             else:
-                problem = frame_problem(frame) if frame is not None else None
+                problem = None
+                if frame is not None and frame_problem(unprefixed(frame)) is not None:
+                    problem = f"frame_id {frame[:40]!r}, not {bm.FRAME_ID!r} under a frame prefix"
             if problem is not None:
                 raise BagError(
                     f"bag {bag.path}: {count} of {total} {topic} messages are not the pendulum chain's "
