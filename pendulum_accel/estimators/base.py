@@ -257,6 +257,11 @@ class Estimator(ABC):
     def nominal_delay(self, accel: float) -> float:
         """Group delay at zero frequency (s) of the linearised method about θ_eq(a)."""
 
+    def warm(self) -> None:
+        """Load the compiled code ``update`` runs now, so a live chain's first angles do not wait behind
+        numba's loader (the estimator node calls it before it subscribes); nothing to load here."""
+        return None
+
     def motion_model(self) -> str | None:
         """The motion model the estimate assumes (kalman: its preset), as reports name it; None when the
         method has none."""

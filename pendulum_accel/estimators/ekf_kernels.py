@@ -1522,9 +1522,24 @@ def live_step(
     return True
 
 
-def _warm_imm() -> None:
+def warm_live(jerks: np.ndarray | None = None) -> None:
+    """Compile (or load from the cache) the live step (kalman.KalmanEstimator.update): a few samples through
+    ``live_step`` without and with a lag, with random walks only or with ``jerks``' trend modes."""
+    t = np.arange(3) / 100.0
+    params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
+    qs = np.array([1e-3, 0.1])
+    rates = np.array([[0.0, 0.2], [0.2, 0.0]])
+    jerks = np.empty(0) if jerks is None else jerks
+    for lag in (0, 5):
+        buf, ibuf = imm_buffer(qs, 1, jerks)
+        rbuf, hist, out = ring_buffer(lag + 1, qs.size), np.zeros((lag + 1, 3)), np.empty(3)
+        for k in range(3):
+            live_step(buf, ibuf, rbuf, hist, lag, float(t[k]), 0.0, params, rates, jerks, True, 2.0, 1.0, out)
+
+
+def _warm_imm(live: bool = True) -> None:
     """Compile (or load from the cache) the IMM's passes, a few samples through each: with random walks
-    only, with trend modes, filter and fixed lag, batch and live."""
+    only, with trend modes, filter and fixed lag, batch and (``live``) live."""
     t = np.arange(30) / 100.0
     y = np.zeros(30)
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
@@ -1534,13 +1549,8 @@ def _warm_imm() -> None:
         for lags in (np.zeros(1, dtype=np.int64), np.array([0, 5], dtype=np.int64)):
             for keep_mu in (True, False):
                 mu = run_imm(t, y, params, qs, rates, jerks, 1, lags, keep_mu)[2]
-        for lag in (0, 5):  # the live step (kalman.KalmanEstimator.update)
-            buf, ibuf = imm_buffer(qs, 1, jerks)
-            rbuf, hist, out = ring_buffer(lag + 1, qs.size), np.zeros((lag + 1, 3)), np.empty(3)
-            for k in range(3):
-                live_step(
-                    buf, ibuf, rbuf, hist, lag, float(t[k]), 0.0, params, rates, jerks, True, 2.0, 1.0, out
-                )
+        if live:
+            warm_live(jerks)
     smooth_modes(t, mu, rates, 1.0, 1)
     lag_variance_into(np.ones(2), np.full(2, 2.0), np.ones(2), np.zeros(2), 2.0, 1.0, np.empty(2))
     table = np.ones((2, 2))
@@ -1566,9 +1576,9 @@ def imm_pass(
     )
 
 
-def warm() -> None:
-    """Compile (or load from the cache) every pass: a few samples through each, and the IMM's
-    (``_warm_imm``)."""
+def warm_single() -> None:
+    """Compile (or load from the cache) the single model's passes (filter, RTS, likelihood) and the four-state
+    prediction: a few samples through each."""
     t = np.arange(30) / 100.0
     y = np.zeros(30)
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
@@ -1579,7 +1589,19 @@ def warm() -> None:
     work = np.empty((3, 4, 4))  # the four-state prediction (kalman.steady_state, the tests' references)
     predict_trend(np.zeros(4), np.eye(4), np.empty((4, 4)), 0.01, 9.8, 1.0, 0.0, 0.0, 0.0, 1.0, work)
     trend_noise(work[0], 1.0, 0.01, 0.0, 1.0, 0.0)
-    _warm_imm()
+
+
+def warm_batch() -> None:
+    """Compile (or load) every offline pass: the single model's (``warm_single``) and the IMM's
+    (``_warm_imm`` without its live step)."""
+    warm_single()
+    _warm_imm(live=False)
+
+
+def warm() -> None:
+    """Compile (or load) every pass, a few samples through each: ``warm_batch``, ``warm_live``."""
+    warm_batch()
+    warm_live()
 
 
 if __name__ == "__main__":

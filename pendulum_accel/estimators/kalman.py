@@ -287,9 +287,6 @@ class KalmanEstimator(Estimator):
         # What the passes run: q_a per mode, the chain's R, q_j per mode (empty: random walks only), its band.
         self._pass = (qs_run, rates_run, self._jerks, kern.chain_band(rates_run))
         self._a_max = config.gravity * math.tan(config.clamp_angle)
-        # The compiled passes load (from numba's cache) here, not at the first sample: a live chain's first
-        # angles must not wait behind the loader (the node builds its estimator before it subscribes).
-        kern.warm()
         self._params = np.array(
             [
                 config.gravity,
@@ -326,6 +323,11 @@ class KalmanEstimator(Estimator):
         self._hist = np.zeros((self.lag_n + 1, 3))  # each buffered sample's stamp and filter â, var
         self._out = np.empty(3)  # the live step's (â, var, time of the sample it describes)
         self._first_t: float | None = None  # sensor turn-on, for the bias variance
+
+    def warm(self) -> None:
+        """Load the live step (ekf_kernels.warm_live), not every pass: a batch loads what it runs when it runs
+        it, and loading all of them cost an estimator's every start about a second of CPU."""
+        kern.warm_live()
 
     def update(self, t: float, theta: float) -> Estimate | None:
         """One sample in; out â and var for the sample lag earlier (None while the lag fills). One compiled

@@ -250,7 +250,9 @@ class EstimatorNode(ManagedNode):
         opts: dict[str, object] = {"lag": lag} if lag > 0.0 else {}  # lag = 0: every method's own estimate
         if uses_preset(method):
             opts["preset"] = self.motion(str(values["preset"])).preset
-        return make_estimator(method, **cfg, **opts, **self._sensor_bias())  # type: ignore[arg-type]
+        estimator = make_estimator(method, **cfg, **opts, **self._sensor_bias())  # type: ignore[arg-type]
+        estimator.warm()  # its compiled step loads now, not behind the first angles
+        return estimator
 
     def motion(self, preset: str) -> MotionChoice:
         """kalman's preset: the ``preset`` parameter, or with 'scene' the scene's (recording.settings)."""
