@@ -16,7 +16,6 @@ import logging
 import os
 import socket
 import struct
-import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
@@ -150,50 +149,12 @@ def probe_scheduler(address: str) -> None:
 
 
 def _kill_local_workers() -> None:
-    """SIGKILL every descendant of this process (the local cluster's nannies and the worker processes
-    each nanny started) but multiprocessing's resource tracker, and wait until they have ended.
+    """SIGKILL every child process of this one (the local cluster's nannies and workers)."""
+    import multiprocessing
 
-    The workers are the nannies' children, not ours: killing only our children (the nannies) left them
-    orphaned and running after the command exited (issue 58: 3 workers alive 2 s after exit 130). A nanny
-    also restarts a worker that dies, so every descendant is stopped (SIGSTOP) before any is killed, and
-    the tree is listed again once frozen: nothing is started in between. The resource tracker outlives
-    them on purpose: it frees the semaphores and shared memory the killed workers held.
-    """
-    import psutil  # a dependency of distributed, which started these processes
-
-    def tree() -> list[psutil.Process]:
-        """This process's descendants but the resource tracker."""
-        found = []
-        for proc in psutil.Process().children(recursive=True):
-            with contextlib.suppress(psutil.Error):
-                if not any("resource_tracker" in part for part in proc.cmdline()):
-                    found.append(proc)
-        return found
-
-    frozen = tree()
-    for proc in frozen:
-        with contextlib.suppress(psutil.Error):
-            proc.suspend()
-    doomed = {proc.pid: proc for proc in (*frozen, *tree())}
-    for proc in doomed.values():
-        with contextlib.suppress(psutil.Error):
-            proc.kill()
-    # Ours are reaped by wait_procs; a nanny's orphan is its new parent's to reap: dead once a zombie.
-    pending = list(doomed.values())
-    deadline = time.monotonic() + CLOSE_TIMEOUT
-    while pending and time.monotonic() < deadline:
-        _, pending = psutil.wait_procs(pending, timeout=0.05)
-        pending = [proc for proc in pending if _running(proc)]
-
-
-def _running(proc: Any) -> bool:
-    """True while the psutil Process ``proc`` runs (a zombie has ended)."""
-    import psutil
-
-    try:
-        return bool(proc.status() != psutil.STATUS_ZOMBIE)
-    except psutil.Error:
-        return False
+    for child in multiprocessing.active_children():
+        with contextlib.suppress(OSError, ValueError):
+            child.kill()
 
 
 @contextlib.contextmanager
