@@ -188,43 +188,6 @@ def test_after_a_burst_the_silent_input_goes_stale_and_parameters_are_served(spa
     assert "20000 inputs, 20000 estimates published" in estimator.text
 
 
-def test_a_parameter_set_is_answered_while_a_full_backlog_holds_the_input_back(spawn: Spawn) -> None:
-    """With its backlog full (5,000 angles) the estimator waits inside the executor for room, pushing back
-    on the sender; a SetParameters call is answered then, not after every angle queued ahead of it."""
-    # kalman with a 5 s lag at 1 kHz: about 1.2 ms per update here (512 µs at lag 2 s, 23 µs without), so
-    # 7,000 angles are ≥ 8 s of work, and the probe publishes them in a fraction of a second: the backlog
-    # fills and 2,000 angles wait in the middleware, which is the state under test.
-    estimator = start_node(
-        spawn,
-        "estimator_node",
-        {"scene": SCENE, "method": "kalman", "lag": 5.0, "rate_hz": 1000.0, "diagnostics_period": 0.2},
-    )
-    estimator.wait_for(r"estimating with", timeout=90)
-    result = run_probe(
-        spawn,
-        {
-            "wait_subscribers": 1,
-            "burst": [7000, 1.0, 0.2],
-            "set": {"node": "accel_estimator", "params": {"noise_std": 0.002}},
-        },
-        timeout=120,
-    )
-    assert result["set"] == [[True, ""]] and result["get"] == {"noise_std": 0.002}
-    # Answered while the input was still held back: some of the burst not yet acknowledged by the node.
-    assert result["acked_at_set"] is False, result
-    # Issue 58's requirement: a parameter set returns within 0.5 s under load. The node answers at its next
-    # poll of the parameter services (_SERVICE_POLL, 0.05 s) after the request arrives, validating and
-    # building the estimator once (about 5 ms at this lag and rate); before, the request waited behind the
-    # ~2,000 angles announced ahead of it, one update each (3.4 s here). The bound is the requirement, an
-    # order of magnitude above the work.
-    assert result["set_seconds"] < 0.5, result["set_seconds"]
-    # Two stops: the first drains (up to 10 s of this backlog), the second ends it now.
-    estimator.proc.send_signal(signal.SIGINT)
-    estimator.proc.send_signal(signal.SIGINT)
-    assert estimator.finish(timeout=30) == 0, estimator.text
-    estimator.wait_for(r"estimator rebuilt: ", timeout=1)
-
-
 def test_an_explicit_use_sim_time_wins_over_time_source(spawn: Spawn) -> None:
     """time_source sim would set use_sim_time true; -p use_sim_time:=false given explicitly wins (and is
     said once); without it, time_source decides."""

@@ -6,8 +6,7 @@ variance in covariance[0]. Nothing non-finite is ever published.
 
 The executor only takes each angle into a backlog (with its arrival time); a worker thread estimates
 them in order and publishes /diagnostics every ``diagnostics_period``, so the parameter services and
-the health report are served while a burst is worked off (also while a full backlog holds the executor:
-it answers parameter requests as it waits, runtime.serve_parameter_requests), and a silent input goes STALE
+the health report are served while a burst is worked off, and a silent input goes STALE
 ``stale_after`` after its last arrival. The angles are taken by name (the ``joint`` parameter,
 ``pendulum_joint`` by default, among any other joints), from a reliable or a best-effort publisher
 (``nodes.qos``).
@@ -70,7 +69,6 @@ from pendulum_accel.nodes.runtime import (
     parameter_values,
     publish_blocking,
     run_node,
-    serve_parameter_requests,
     write_summary,
 )
 from pendulum_accel.nodes.static_tf import publish_static_transform
@@ -89,13 +87,9 @@ ESTIMATOR_PARAMETERS = ("method", "lag", "preset", *(spec.name for spec in ESTIM
 _DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
 _DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
 # Angles taken but not yet estimated. Taking is cheap, so the executor keeps serving the parameter
-# services between messages; at this many, taking waits for the worker (answering parameter requests
-# meanwhile): the back-pressure (through the reliable keep-all input) that keeps a fast chain lossless
-# and this queue a few seconds of work.
+# services between messages; at this many, taking waits for the worker: the back-pressure (through
+# the reliable keep-all input) that keeps a fast chain lossless and this queue a few seconds of work.
 _BACKLOG_LIMIT = 5000
-# s: while the executor waits for room in a full backlog, how often it answers parameter requests itself
-# (they would otherwise wait behind every angle queued before them: 9.6 s under load, issue 58).
-_SERVICE_POLL = 0.05
 
 
 class EstimatorNode(ManagedNode):
@@ -153,7 +147,6 @@ class EstimatorNode(ManagedNode):
         self._worker_waits = False  # the worker waits for an angle: the next one notifies it
         self._producer_waits = False  # the executor waits for room in the backlog: the worker notifies it
         self._work_lock = threading.Lock()  # one estimator update, or its rebuild, at a time
-        self._rebuilt = False  # a parameter change rebuilt the estimator: the worker says so
         self._diagnostics_due = 0.0  # monotonic time of the next /diagnostics (0: at once)
         self._stopping_since: float | None = None
         self._subscription: Subscription | None = None
@@ -336,26 +329,8 @@ class EstimatorNode(ManagedNode):
             # The guard checks the input against these two (its counters go on).
             self.guarded.guard.rate_hz = float(values["rate_hz"])
             self.guarded.guard.noise_std = float(values["noise_std"])
-            # Said by the worker before its next estimate: a description may solve the filter's steady
-            # state (scipy, 0.2-0.4 s), which the parameter service's answer should not wait for.
-            self._rebuilt = True
-        if self._worker_stopped():
-            self._say_rebuilt()
-
-    def _worker_stopped(self) -> bool:
-        """True when no worker thread runs (not active): nobody else will say a rebuild."""
-        return self._thread is None or not self._thread.is_alive()
-
-    def _say_rebuilt(self) -> None:
-        """Log the rebuilt estimator's description and latency (once per rebuild)."""
-        with self._work_lock:
-            if not self._rebuilt:
-                return
-            self._rebuilt = False
-            estimator, latency = self.guarded.estimator, self.latency()
-        # Outside the lock: the worker's update and a further change need not wait for the description.
-        self.get_logger().info(f"estimator rebuilt: {estimator.describe()}")
-        self.get_logger().info(f"latency {latency:.3f} s")
+        self.get_logger().info(f"estimator rebuilt: {self.guarded.estimator.describe()}")
+        self.get_logger().info(f"latency {self.latency():.3f} s")
 
     # -- data flow ------------------------------------------------------------------------------
 
@@ -435,22 +410,18 @@ class EstimatorNode(ManagedNode):
 
     def _on_joint_state(self, data: bytes) -> None:
         """Take one angle sample (CDR) into the backlog, with its arrival time; wait while the backlog is
-        full (back-pressure), unless the node is stopping, answering parameter requests while it waits. The
-        lock is taken only to wait or to wake a waiting worker: this runs for every angle, and a lock round
-        per angle cost as much as its estimate."""
+        full (back-pressure), unless the node is stopping. The lock is taken only to wait or to wake a
+        waiting worker: this runs for every angle, and a lock round per angle cost as much as its estimate."""
         now = time.monotonic()
         self._last_input = now
         self.inputs += 1
         backlog = self._backlog
-        while len(backlog) >= _BACKLOG_LIMIT and not (self._stop.is_set() or self._stopping()):
+        if len(backlog) >= _BACKLOG_LIMIT:
             with self._queue_changed:
                 self._producer_waits = True
-                if len(backlog) >= _BACKLOG_LIMIT:
-                    self._queue_changed.wait(_SERVICE_POLL)
+                while len(backlog) >= _BACKLOG_LIMIT and not (self._stop.is_set() or self._stopping()):
+                    self._queue_changed.wait(0.05)
                 self._producer_waits = False
-            # The executor is held here: the parameter requests it would run after the queued angles are
-            # answered now (outside the lock: a parameter change takes the worker's _work_lock).
-            serve_parameter_requests(self)
         backlog.append((now, data))  # deque.append and popleft are atomic: no lock for the hand-over
         if self._worker_waits:
             with self._queue_changed:
@@ -473,28 +444,22 @@ class EstimatorNode(ManagedNode):
                     if not backlog:
                         self._queue_changed.wait(max(0.0, due))
                     self._worker_waits = False
-            if self._rebuilt:
-                self._say_rebuilt()
             item = backlog.popleft() if backlog else None
             if item is not None:
                 if self._producer_waits:
                     with self._queue_changed:
                         self._queue_changed.notify_all()
-                # Only the update holds the lock: publishing may wait for a slow reader (keep-all), and a
-                # parameter change waiting for the lock behind it took seconds (issue 58).
                 with self._work_lock:
-                    outputs = self._estimate(*item)
-                if outputs is not None:
-                    self._publish_estimate(*outputs)
+                    self._estimate(*item)
             # From the subscription on: before it, the node waits for its own readers, not for input.
             if subscribed and time.monotonic() >= self._diagnostics_due:
                 self._diagnostics_due = time.monotonic() + self.diagnostics_period
                 with self._work_lock:
                     self._publish_diagnostics()
 
-    def _estimate(self, now: float, data: bytes) -> tuple[int, int, Any, Any, float] | None:
-        """â for one angle sample (CDR) that arrived at ``now``, stamped like it: (sec, nanosec, estimate
-        CDR, Imu CDR, â) to publish; None when the guard drops it or it warms up."""
+    def _estimate(self, now: float, data: bytes) -> None:
+        """â for one angle sample (CDR) that arrived at ``now``, stamped like it; nothing when the guard
+        drops it or it warms up."""
         fields = self._read_input(data)
         # The fast path's shape names ``joint`` in joint_frame_id already; any other shape (no velocity,
         # more joints, another frame) goes through rclpy and the guard's joint_state_problem.
@@ -516,7 +481,7 @@ class EstimatorNode(ManagedNode):
         estimate = self.guarded.update(t, theta, now, names, frame_id)
         if estimate is None:
             self._trim_stamps()
-            return None
+            return
         if estimate.time is not None and estimate.time != t:  # a lagged estimate: the sample it describes
             while self._stamps and self._stamps[0][0] < estimate.time:
                 self._stamps.popleft()
@@ -525,11 +490,6 @@ class EstimatorNode(ManagedNode):
         self._trim_stamps()
         out = self._write_estimate(sec, nanosec, estimate.a, estimate.variance)
         imu = self._write_imu(sec, nanosec, estimate.a, estimate.variance)
-        return sec, nanosec, out, imu, estimate.a
-
-    def _publish_estimate(self, sec: int, nanosec: int, out: Any, imu: Any, accel: float) -> None:
-        """Publish one estimate and its Imu (waiting while a keep-all reader pushes back), and the marker
-        arrow at MARKER_RATE_HZ of stamp time."""
         if publish_blocking(self.estimate_publisher, out, self._halted) and publish_blocking(
             self.imu_publisher, imu, self._halted
         ):
@@ -540,7 +500,7 @@ class EstimatorNode(ManagedNode):
         tick = math.floor(stamp_seconds(sec, nanosec) * visual.MARKER_RATE_HZ)
         if tick != self._marker_tick:  # the estimate's arrow at MARKER_RATE_HZ of stamp time
             self._marker_tick = tick
-            marker = self._write_marker(sec, nanosec, accel)
+            marker = self._write_marker(sec, nanosec, estimate.a)
             publish_blocking(self.marker_publisher, marker, self._halted)
 
     def _trim_stamps(self) -> None:
