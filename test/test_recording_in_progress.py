@@ -292,11 +292,8 @@ time.sleep(600)
 """
 
 
-def test_the_lock_names_its_holder_and_dies_with_its_process(tmp_path: Path) -> None:
-    """A writer killed with SIGKILL leaves its lock file, but not its lock: while it runs, holder() says
-    live and names it, a second writer and a replace are refused; once it is dead, the file is a dead
-    writer's (info: DAMAGED, naming it), and repair takes the bag, then removes the file."""
-    bag = tmp_path / "b"
+def _start_holder(bag: Path) -> subprocess.Popen[str]:
+    """A process running _HOLD on ``bag`` (its lock taken, its file open), once it has said 'open'."""
     proc = subprocess.Popen(
         [PYTHON, "-c", _HOLD, str(bag)],
         stdin=subprocess.PIPE,
@@ -304,8 +301,21 @@ def test_the_lock_names_its_holder_and_dies_with_its_process(tmp_path: Path) -> 
         text=True,
         cwd=str(REPO),
     )
+    if proc.stdout is None or proc.stdout.readline().strip() != "open":
+        proc.kill()
+        proc.wait()
+        raise AssertionError("the holder did not open its bag")
+    return proc
+
+
+def test_the_lock_names_its_holder_and_dies_with_its_process(tmp_path: Path) -> None:
+    """A writer killed with SIGKILL leaves its lock file, but not its lock: while it runs, holder() says
+    live and names it, a second writer and a replace are refused; once it is dead, the file is a dead
+    writer's (info: DAMAGED, naming it), and repair takes the bag, then removes the file."""
+    bag = tmp_path / "b"
+    proc = _start_holder(bag)
     try:
-        assert proc.stdin is not None and proc.stdout is not None and proc.stdout.readline().strip() == "open"
+        assert proc.stdin is not None and proc.stdout is not None
         # Before its first flush the file is empty: info says it is being recorded, not that it is empty.
         empty = _in_process("info", str(bag))
         error_line(empty.code, empty.err, "being recorded by holder_test", "nothing is written yet")
@@ -420,15 +430,9 @@ def test_a_run_told_to_overwrite_a_live_bag_leaves_it_alone(tmp_path: Path) -> N
     line naming that writer, the run exits 1 without summarising the other's bag as its own (it printed
     that bag's topics and 'bag: DIR'), and DIR's files are byte for byte as they were."""
     bag = tmp_path / "held"
-    proc = subprocess.Popen(
-        [PYTHON, "-c", _HOLD, str(bag)],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        text=True,
-        cwd=str(REPO),
-    )
+    proc = _start_holder(bag)
     try:
-        assert proc.stdin is not None and proc.stdout is not None and proc.stdout.readline().strip() == "open"
+        assert proc.stdin is not None and proc.stdout is not None
         proc.stdin.write("go\n")
         proc.stdin.flush()
         assert proc.stdout.readline().strip() == "flushed"

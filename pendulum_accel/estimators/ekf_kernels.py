@@ -1522,14 +1522,14 @@ def live_step(
     return True
 
 
-def warm_live(jerks: np.ndarray | None = None) -> None:
+def warm_live() -> None:
     """Compile (or load from the cache) the live step (kalman.KalmanEstimator.update): a few samples through
-    ``live_step`` without and with a lag, with random walks only or with ``jerks``' trend modes."""
+    ``live_step`` without and with a lag."""
     t = np.arange(3) / 100.0
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
     qs = np.array([1e-3, 0.1])
     rates = np.array([[0.0, 0.2], [0.2, 0.0]])
-    jerks = np.empty(0) if jerks is None else jerks
+    jerks = np.empty(0)  # random walks only: trend modes run the same compiled step
     for lag in (0, 5):
         buf, ibuf = imm_buffer(qs, 1, jerks)
         rbuf, hist, out = ring_buffer(lag + 1, qs.size), np.zeros((lag + 1, 3)), np.empty(3)
@@ -1537,9 +1537,9 @@ def warm_live(jerks: np.ndarray | None = None) -> None:
             live_step(buf, ibuf, rbuf, hist, lag, float(t[k]), 0.0, params, rates, jerks, True, 2.0, 1.0, out)
 
 
-def _warm_imm(live: bool = True) -> None:
-    """Compile (or load from the cache) the IMM's passes, a few samples through each: with random walks
-    only, with trend modes, filter and fixed lag, batch and (``live``) live."""
+def _warm_imm() -> None:
+    """Compile (or load from the cache) the IMM's batch passes, a few samples through each: with random
+    walks only, with trend modes, filter and fixed lag (the live step: ``warm_live``)."""
     t = np.arange(30) / 100.0
     y = np.zeros(30)
     params = np.array([9.80665, 1.0, 0.05, 1e-6, 0.0, 0.01, 1.0, 1.55, 0.3])
@@ -1549,8 +1549,6 @@ def _warm_imm(live: bool = True) -> None:
         for lags in (np.zeros(1, dtype=np.int64), np.array([0, 5], dtype=np.int64)):
             for keep_mu in (True, False):
                 mu = run_imm(t, y, params, qs, rates, jerks, 1, lags, keep_mu)[2]
-        if live:
-            warm_live(jerks)
     smooth_modes(t, mu, rates, 1.0, 1)
     lag_variance_into(np.ones(2), np.full(2, 2.0), np.ones(2), np.zeros(2), 2.0, 1.0, np.empty(2))
     table = np.ones((2, 2))
@@ -1595,7 +1593,7 @@ def warm_batch() -> None:
     """Compile (or load) every offline pass: the single model's (``warm_single``) and the IMM's
     (``_warm_imm`` without its live step)."""
     warm_single()
-    _warm_imm(live=False)
+    _warm_imm()
 
 
 def warm() -> None:
