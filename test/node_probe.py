@@ -14,6 +14,9 @@ SPEC keys (all optional):
   "others": value                 with "joints": the other joints' value (null = NaN; default 0.5)
   "frame_id": name                stamp the fed joint states in this frame (default: the chain's base_link)
   "burst": [n, t0, theta]         after "feed": n angles stamped t0 + i/1000 s, as fast as publish goes
+  "package_profile": true         use the package's Fast DDS profile (nodes.dds_profile), as the nodes do:
+                                  its 10 ms writer heartbeat repairs a lost sample (a service request
+                                  dropped by a flooded port) at once, where Fast DDS's default takes 3 s
   "sensor_data": true             publish with rclpy's SensorDataQoS (best-effort, keep last 5)
   "endpoints": [topic, ...]       at the end, each topic's subscriptions and publishers as the graph
                                   lists them: {topic: {"subscriptions"|"publishers": [[node, reliability,
@@ -36,9 +39,10 @@ SPEC keys (all optional):
                                   [[node's full name, topic, "publisher"|"subscription", reliability,
                                   durability]], sorted
 Prints one JSON object: {"estimates": [[t, a, var], ...], "diagnostics": [[level, message, values]],
-"set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s,
-"diagnostics_after": [[s, state, values]], "qos_graph": [...]} (diagnostics_after: each /diagnostics
-status's arrival, seconds after the feed and burst ended, with its state and key/values).
+"set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s (from the request, sent as the
+feed and burst end, to the answer; the service is discovered before the feed), "diagnostics_after":
+[[s, state, values]], "qos_graph": [...]} (diagnostics_after: each /diagnostics status's arrival, seconds
+after the feed and burst ended, with its state and key/values).
 """
 
 from __future__ import annotations
@@ -61,6 +65,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 
 from pendulum_accel.nodes.conversions import joint_state, time_from_ns, time_to_seconds
+from pendulum_accel.nodes.dds_profile import use_package_profile
 from pendulum_accel.nodes.qos import DATA_QOS, DIAGNOSTICS_QOS
 from pendulum_accel.nodes.runtime import publish_blocking
 
@@ -102,6 +107,8 @@ def qos_graph(node: Node, topics: list[str]) -> list[list[str]]:
 def main() -> None:
     """Run the spec from argv[1] and print the JSON result."""
     spec = json.loads(sys.argv[1])
+    if spec.get("package_profile"):
+        use_package_profile()
     rclpy.init()
     node = Node("node_probe")
     out: dict[str, Any] = {"estimates": [], "diagnostics": [], "set": [], "get": {}, "diagnostics_after": []}
@@ -139,6 +146,18 @@ def main() -> None:
     ):
         spin_for(node, 0.05)
     spin_for(node, 0.3)  # let the listeners match too
+    if "set" in spec:
+        target = spec["set"]["node"]
+        params = spec["set"]["params"]
+        setter: Any = node.create_client(SetParameters, f"/{target}/set_parameters")
+        getter: Any = node.create_client(GetParameters, f"/{target}/get_parameters")
+        request = SetParameters.Request()
+        for name, value in params.items():
+            request.parameters.append(Parameter(name, value=value).to_parameter_msg())
+        # Discovered before the feed: the request then goes out as the feed ends, and discovery under load
+        # is not part of the node's answer.
+        if not setter.wait_for_service(timeout_sec=30.0):
+            raise RuntimeError(f"service {setter.srv_name} not available")
     for item in spec.get("feed", []):
         if item[0] == "pause":
             spin_for(node, float(item[1]))
@@ -171,13 +190,6 @@ def main() -> None:
                 rclpy.spin_once(node, timeout_sec=0.0)
     fed_at.append(time.monotonic())
     if "set" in spec:
-        target = spec["set"]["node"]
-        params = spec["set"]["params"]
-        setter: Any = node.create_client(SetParameters, f"/{target}/set_parameters")
-        getter: Any = node.create_client(GetParameters, f"/{target}/get_parameters")
-        request = SetParameters.Request()
-        for name, value in params.items():
-            request.parameters.append(Parameter(name, value=value).to_parameter_msg())
         asked = time.monotonic()
         response = call(node, setter, request)
         out["set_seconds"] = time.monotonic() - asked

@@ -6,7 +6,8 @@ variance in covariance[0]. Nothing non-finite is ever published.
 
 The executor only takes each angle into a backlog (with its arrival time); a worker thread estimates
 them in order and publishes /diagnostics every ``diagnostics_period``, so the parameter services and
-the health report are served while a burst is worked off, and a silent input goes STALE
+the health report are served while a burst is worked off (also while a full backlog holds the executor:
+it answers parameter requests as it waits, runtime.serve_parameter_requests), and a silent input goes STALE
 ``stale_after`` after its last arrival. The angles are taken by name (the ``joint`` parameter,
 ``pendulum_joint`` by default, among any other joints), from a reliable or a best-effort publisher
 (``nodes.qos``).
@@ -69,6 +70,7 @@ from pendulum_accel.nodes.runtime import (
     parameter_values,
     publish_blocking,
     run_node,
+    serve_parameter_requests,
     write_summary,
 )
 from pendulum_accel.nodes.static_tf import publish_static_transform
@@ -86,10 +88,9 @@ ESTIMATOR_PARAMETERS = ("method", "lag", "preset", *(spec.name for spec in ESTIM
 """The parameters the estimator is built from: a change of one of them rebuilds it."""
 _DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
 _DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
-# Angles taken but not yet estimated. Taking is cheap, so the executor keeps serving the parameter
-# services between messages; at this many, taking waits for the worker: the back-pressure (through
-# the reliable keep-all input) that keeps a fast chain lossless and this queue a few seconds of work.
-_BACKLOG_LIMIT = 5000
+# s: while the executor waits for room in a full backlog (backlog_limit), how often it answers parameter
+# requests itself: they would otherwise wait behind every angle the middleware announced before them.
+_SERVICE_POLL = 0.05
 
 
 class EstimatorNode(ManagedNode):
@@ -108,6 +109,7 @@ class EstimatorNode(ManagedNode):
         self.warn_angle_deg = float(values["warn_angle_deg"])
         self.stale_after = float(values["stale_after"])
         self.diagnostics_period = float(values["diagnostics_period"])
+        self.backlog_limit = int(values["backlog_limit"])
         self.time_source = str(values["time_source"])
         self.joint = str(values["joint"])
         if not self.joint.strip():
@@ -147,6 +149,7 @@ class EstimatorNode(ManagedNode):
         self._worker_waits = False  # the worker waits for an angle: the next one notifies it
         self._producer_waits = False  # the executor waits for room in the backlog: the worker notifies it
         self._work_lock = threading.Lock()  # one estimator update, or its rebuild, at a time
+        self._rebuilt_lines: tuple[str, ...] | None = None  # a rebuilt estimator's lines, the worker logs
         self._diagnostics_due = 0.0  # monotonic time of the next /diagnostics (0: at once)
         self._stopping_since: float | None = None
         self._subscription: Subscription | None = None
@@ -323,14 +326,40 @@ class EstimatorNode(ManagedNode):
         self.method = str(values["method"])
         if not hasattr(self, "guarded"):  # not configured yet: configure builds it from these values
             return
+        # Built before the lock: only the swap waits for the update in progress.
+        estimator = self._build(values)
         with self._work_lock:
-            self.guarded.estimator = self._build(values)
+            self.guarded.estimator = estimator
             self._build_writers()
             # The guard checks the input against these two (its counters go on).
             self.guarded.guard.rate_hz = float(values["rate_hz"])
             self.guarded.guard.noise_std = float(values["noise_std"])
-        self.get_logger().info(f"estimator rebuilt: {self.guarded.estimator.describe()}")
-        self.get_logger().info(f"latency {self.latency():.3f} s")
+        # A description may solve the filter's steady state (scipy, 0.2-0.5 s): done beside the worker, so
+        # that neither the parameter service's answer nor the estimates and /diagnostics wait for it.
+        described = threading.Thread(
+            target=self._describe_rebuilt, args=(estimator,), name="describe_rebuilt", daemon=True
+        )
+        described.start()
+        if self._worker_stopped():  # nobody else will say it
+            described.join()
+            self._say_rebuilt()
+
+    def _worker_stopped(self) -> bool:
+        """True when no worker thread runs (not active)."""
+        return self._thread is None or not self._thread.is_alive()
+
+    def _describe_rebuilt(self, estimator: Estimator) -> None:
+        """The log lines of a rebuilt estimator (its description and latency), for the worker to say; a
+        description that comes after a newer rebuild's is dropped."""
+        lines = (f"estimator rebuilt: {estimator.describe()}", f"latency {self.latency():.3f} s")
+        if self.guarded.estimator is estimator:
+            self._rebuilt_lines = lines
+
+    def _say_rebuilt(self) -> None:
+        """Log the lines _describe_rebuilt left, once."""
+        lines, self._rebuilt_lines = self._rebuilt_lines, None
+        for line in lines or ():
+            self.get_logger().info(line)
 
     # -- data flow ------------------------------------------------------------------------------
 
@@ -410,18 +439,22 @@ class EstimatorNode(ManagedNode):
 
     def _on_joint_state(self, data: bytes) -> None:
         """Take one angle sample (CDR) into the backlog, with its arrival time; wait while the backlog is
-        full (back-pressure), unless the node is stopping. The lock is taken only to wait or to wake a
-        waiting worker: this runs for every angle, and a lock round per angle cost as much as its estimate."""
+        full (back-pressure), unless the node is stopping, answering parameter requests while it waits. The
+        lock is taken only to wait or to wake a waiting worker: this runs for every angle, and a lock round
+        per angle cost as much as its estimate."""
         now = time.monotonic()
         self._last_input = now
         self.inputs += 1
         backlog = self._backlog
-        if len(backlog) >= _BACKLOG_LIMIT:
+        while len(backlog) >= self.backlog_limit and not (self._stop.is_set() or self._stopping()):
             with self._queue_changed:
                 self._producer_waits = True
-                while len(backlog) >= _BACKLOG_LIMIT and not (self._stop.is_set() or self._stopping()):
-                    self._queue_changed.wait(0.05)
+                if len(backlog) >= self.backlog_limit:
+                    self._queue_changed.wait(_SERVICE_POLL)
                 self._producer_waits = False
+            # The executor is held here: the parameter requests it would run after the queued angles are
+            # answered now (outside the lock: a parameter change takes the worker's _work_lock).
+            serve_parameter_requests(self)
         backlog.append((now, data))  # deque.append and popleft are atomic: no lock for the hand-over
         if self._worker_waits:
             with self._queue_changed:
@@ -444,22 +477,28 @@ class EstimatorNode(ManagedNode):
                     if not backlog:
                         self._queue_changed.wait(max(0.0, due))
                     self._worker_waits = False
+            if self._rebuilt_lines is not None:
+                self._say_rebuilt()
             item = backlog.popleft() if backlog else None
             if item is not None:
                 if self._producer_waits:
                     with self._queue_changed:
                         self._queue_changed.notify_all()
+                # Only the update holds the lock: publishing may wait for a slow reader (keep-all), and a
+                # parameter change waiting for the lock behind it took seconds (issue 58).
                 with self._work_lock:
-                    self._estimate(*item)
+                    outputs = self._estimate(*item)
+                if outputs is not None:
+                    self._publish_estimate(*outputs)
             # From the subscription on: before it, the node waits for its own readers, not for input.
             if subscribed and time.monotonic() >= self._diagnostics_due:
                 self._diagnostics_due = time.monotonic() + self.diagnostics_period
                 with self._work_lock:
                     self._publish_diagnostics()
 
-    def _estimate(self, now: float, data: bytes) -> None:
-        """â for one angle sample (CDR) that arrived at ``now``, stamped like it; nothing when the guard
-        drops it or it warms up."""
+    def _estimate(self, now: float, data: bytes) -> tuple[int, int, Any, Any, float] | None:
+        """â for one angle sample (CDR) that arrived at ``now``, stamped like it: (sec, nanosec, estimate
+        CDR, Imu CDR, â) to publish; None when the guard drops it or it warms up."""
         fields = self._read_input(data)
         # The fast path's shape names ``joint`` in joint_frame_id already; any other shape (no velocity,
         # more joints, another frame) goes through rclpy and the guard's joint_state_problem.
@@ -481,7 +520,7 @@ class EstimatorNode(ManagedNode):
         estimate = self.guarded.update(t, theta, now, names, frame_id)
         if estimate is None:
             self._trim_stamps()
-            return
+            return None
         if estimate.time is not None and estimate.time != t:  # a lagged estimate: the sample it describes
             while self._stamps and self._stamps[0][0] < estimate.time:
                 self._stamps.popleft()
@@ -490,6 +529,11 @@ class EstimatorNode(ManagedNode):
         self._trim_stamps()
         out = self._write_estimate(sec, nanosec, estimate.a, estimate.variance)
         imu = self._write_imu(sec, nanosec, estimate.a, estimate.variance)
+        return sec, nanosec, out, imu, estimate.a
+
+    def _publish_estimate(self, sec: int, nanosec: int, out: Any, imu: Any, accel: float) -> None:
+        """Publish one estimate and its Imu (waiting while a keep-all reader pushes back), and the marker
+        arrow at MARKER_RATE_HZ of stamp time."""
         if publish_blocking(self.estimate_publisher, out, self._halted) and publish_blocking(
             self.imu_publisher, imu, self._halted
         ):
@@ -500,7 +544,7 @@ class EstimatorNode(ManagedNode):
         tick = math.floor(stamp_seconds(sec, nanosec) * visual.MARKER_RATE_HZ)
         if tick != self._marker_tick:  # the estimate's arrow at MARKER_RATE_HZ of stamp time
             self._marker_tick = tick
-            marker = self._write_marker(sec, nanosec, estimate.a)
+            marker = self._write_marker(sec, nanosec, accel)
             publish_blocking(self.marker_publisher, marker, self._halted)
 
     def _trim_stamps(self) -> None:

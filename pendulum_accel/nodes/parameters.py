@@ -217,6 +217,10 @@ ESTIMATOR: tuple[ParamSpec, ...] = (
            "STALE after this long without input, s (0: 20 periods, at least 0.5 s)", low=0.0, high=3600.0),
     _fixed("diagnostics_period", "double", 1.0, "seconds between /diagnostics messages (wall clock)",
            low=0.01, high=60.0),
+    _fixed("backlog_limit", "integer", 5000,
+           "angles taken but not yet estimated before taking waits for the estimator: the back-pressure, "
+           "through a reliable keep-all input, that keeps a chain faster than the estimator lossless "
+           "(parameter requests are answered while it waits)", low=10, high=10_000_000),
     _fixed("hardware_id", "string", "",
            "hardware_id of the /diagnostics status, whose name is the node's full name (empty: "
            "pendulum_accel followed by the node's namespace, e.g. pendulum_accel/car1)"),

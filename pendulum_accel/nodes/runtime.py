@@ -16,6 +16,14 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.srv import (
+    DescribeParameters,
+    GetParameters,
+    GetParameterTypes,
+    ListParameters,
+    SetParameters,
+    SetParametersAtomically,
+)
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
@@ -284,6 +292,42 @@ def publish_blocking(publisher: Publisher, msg: Any, stopping: Callable[[], bool
             if stopping():
                 return False
             time.sleep(_PUBLISH_RETRY_PERIOD)
+
+
+PARAMETER_SERVICE_TYPES = (
+    DescribeParameters,
+    GetParameters,
+    GetParameterTypes,
+    ListParameters,
+    SetParameters,
+    SetParametersAtomically,
+)
+"""The services rclpy's ParameterService gives every node (rclpy.parameter_service)."""
+
+
+def serve_parameter_requests(node: Node) -> int:
+    """Answer every parameter request waiting on ``node``'s parameter services; how many were answered.
+
+    For a callback that must wait inside the executor (a full backlog pushing back on its publisher): the
+    EventsExecutor runs one callback at a time, in the order the middleware announced them, so a request
+    announced behind thousands of queued messages waits for all of them. Taken here as the executor takes
+    them (rclpy.executors.Executor._take_service, the EventsExecutor's HandleServiceReady): take, call,
+    send the response; the executor's own take later finds nothing and skips it. Parameter services only:
+    a lifecycle transition from inside a subscription's callback could destroy that subscription.
+    """
+    answered = 0
+    for service in list(node.services):
+        if service.srv_type not in PARAMETER_SERVICE_TYPES:
+            continue
+        while True:
+            with service.handle:
+                taken = service.handle.service_take_request(service.srv_type.Request)
+            request, header = taken if taken is not None else (None, None)
+            if header is None:
+                break
+            service.send_response(service.callback(request, service.srv_type.Response()), header)
+            answered += 1
+    return answered
 
 
 def acked_within(publisher: Publisher, seconds: float, stopping: Callable[[], bool]) -> bool:
