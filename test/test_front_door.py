@@ -32,7 +32,7 @@ PYTHON_FENCE = re.compile(r"^\s*(?:```|~~~)\s*(?:python|py|python3|pycon)\s*$")
 
 def python_snippets(text: str) -> list[tuple[int, str]]:
     """(first line, source) of each fenced Python block and each inline import span of a Markdown page;
-    a pycon block's prompts are stripped."""
+    a pycon block's prompts and an inline span's closing ellipsis are stripped."""
     snippets: list[tuple[int, str]] = []
     lines = text.splitlines()
     i = 0
@@ -46,7 +46,8 @@ def python_snippets(text: str) -> list[tuple[int, str]]:
             snippets.append((i + 2, "\n".join(body)))
             i = j
         else:
-            snippets += [(i + 1, m.group(1)) for m in INLINE_IMPORT.finditer(lines[i])]
+            # An inline span may end its list of names with an ellipsis: "import load_scene, …".
+            snippets += [(i + 1, re.sub(r",?\s*…", "", m.group(1))) for m in INLINE_IMPORT.finditer(lines[i])]
         i += 1
     return snippets
 
@@ -94,7 +95,7 @@ def test_every_doc_example_imports_the_public_names_from_the_top() -> None:
 
 def test_the_scanner_finds_a_deep_import_in_each_kind_of_snippet() -> None:
     page = (
-        "Load it with `from pendulum_accel.scene import load_scene`.\n\n"
+        "Load it with `from pendulum_accel.scene import load_scene, …`.\n\n"
         "```python\nfrom pendulum_accel.bag.reader import Bag, read_bag\n```\n\n"
         "```pycon\n>>> from pendulum_accel.estimators import (\n...     estimate_batch,\n... )\n```\n"
         "```sh\nfrom pendulum_accel.planner import plan_scene\n```\n"
