@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import report
+from pendulum_accel import PendulumAccelError
 from pendulum_accel.allan import MISFIT_LIMIT, AllanResult, allan_deviation
-from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.sensor import SensorModel
 
 SEEDS = 20

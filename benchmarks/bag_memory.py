@@ -37,9 +37,7 @@ import time
 from pathlib import Path
 
 from benchmarks import report
-from pendulum_accel.bag.reader import read_bag
-from pendulum_accel.recording.generate import generate_bag
-from pendulum_accel.scene import load_scene
+from pendulum_accel import generate_bag, load_scene, read_bag
 
 _MIB = 2**20
 BYTES_PER_SAMPLE = 1200

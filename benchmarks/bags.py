@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from rosbags.rosbag2 import Reader
 
 from benchmarks import report
+from pendulum_accel import analyze_bag, estimate_batch, generate_bag, load_scene, read_bag
 from pendulum_accel.bag.export import export_bag
 from pendulum_accel.bag.messages import (
     ACCEL_STAMPED,
@@ -47,14 +48,12 @@ from pendulum_accel.bag.messages import (
     TYPESTORE,
     rows_from_bytes,
 )
-from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import Stream
-from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
-from pendulum_accel.recording.analyze import analyze_bag
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from pendulum_accel.recording.contract import angle_field, require_angles
-from pendulum_accel.recording.generate import generate_bag, write_chain_bag
+from pendulum_accel.recording.generate import write_chain_bag
 from pendulum_accel.recording.settings import estimator_options
-from pendulum_accel.scene import Scene, load_scene
+from pendulum_accel.scene import Scene
 
 
 @dataclasses.dataclass(frozen=True)

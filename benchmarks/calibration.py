@@ -25,11 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import report
-from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, estimate_batch
+from pendulum_accel import estimate_batch, load_scene, run_scene
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from pendulum_accel.recording.seed_spread import WindowSpread, spread_over_runs, with_seed
 from pendulum_accel.recording.settings import estimator_options
-from pendulum_accel.scene import SCENE_NAMES, load_scene
-from pendulum_accel.scene_run import SceneRun, run_scene
+from pendulum_accel.scene import SCENE_NAMES
+from pendulum_accel.scene_run import SceneRun
 
 SKIP = 2.0  # s of start-up left out
 # large_swing: no estimate is meaningful past 90°; hill: the grade reads as 0.98 m/s² by design (the

@@ -336,10 +336,8 @@ def run_once(rate: float, duration: float, realtime: bool, folder: Path, rt_prio
     real time, and a fourth reader on two cores would slow the chain it measures. CPU is then sampled
     from the simulator's "publishing" log line on.
     """
-    from pendulum_accel.bag.reader import read_bag
+    from pendulum_accel import apply_overrides, load_scene, read_bag
     from pendulum_accel.nodes.launcher import Chain, ChainConfig
-    from pendulum_accel.overrides import apply_overrides
-    from pendulum_accel.scene import load_scene
 
     overrides = {"rate_hz": float(rate), "duration": float(duration)}
     expected = apply_overrides(load_scene(SCENE), overrides).sensor.sample_count(duration)

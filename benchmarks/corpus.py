@@ -25,9 +25,9 @@ from pathlib import Path
 
 import yaml
 
+from pendulum_accel import load_scene
 from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.physics.profiles import AccelProfile, Braking, Step
-from pendulum_accel.scene import load_scene
 
 SCENES_DIR = Path(__file__).resolve().parents[1] / "pendulum_accel" / "scenes"
 KINDS = ("car", "robot", "accel_table", "lab")

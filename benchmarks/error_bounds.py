@@ -27,10 +27,11 @@ import numpy as np
 
 from benchmarks import report
 from benchmarks.reference import reference_theta
+from pendulum_accel import plan_scene
 from pendulum_accel.physics.params import STANDARD_GRAVITY as G
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, Constant, Ramp, Sinusoid, Step
-from pendulum_accel.planner import Plan, plan_scene
+from pendulum_accel.planner import Plan
 from pendulum_accel.scene import Scene
 from pendulum_accel.scene_run import simulate_plan
 from pendulum_accel.sensor import SensorModel

@@ -30,7 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import report
-from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, LIVE_ESTIMATORS, make_estimator
+from pendulum_accel import make_estimator
+from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, LIVE_ESTIMATORS
 from pendulum_accel.estimators.base import cramer_rao_std
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import AccelProfile, Ramp, Step, Table

@@ -30,7 +30,8 @@ import numpy as np
 
 from benchmarks import report
 from benchmarks.chain import CpuSampler, _start_on_log_line
-from pendulum_accel.bag.reader import Bag, read_bag
+from pendulum_accel import read_bag
+from pendulum_accel.bag.reader import Bag
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting
 
 SCENE = "lecture_constant"

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import curve_fit
 
-from pendulum_accel.estimators import estimate_batch
+from pendulum_accel import estimate_batch
 
 FloatArray = NDArray[np.float64]
 READING_DIGITS = 4  # significant digits of a value the key lists but does not grade

@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from pendulum_accel.errors import ParameterError
+from pendulum_accel import ParameterError, load_scene, run_scene
 from pendulum_accel.motion_input import profile_from_dict
 from pendulum_accel.physics.profiles import Constant
-from pendulum_accel.scene import Scene, load_scene
-from pendulum_accel.scene_run import SceneRun, run_scene
+from pendulum_accel.scene import Scene
+from pendulum_accel.scene_run import SceneRun
 from pendulum_accel.textfile import read_head
 
 SWING_SCENE = "lecture_constant"  # l = 1 m, g = 9.80665 m/s², undamped

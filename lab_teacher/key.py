@@ -34,8 +34,8 @@ from lab_teacher.classdata import (
     simulate_group,
     write_group,
 )
+from pendulum_accel import ParameterError
 from pendulum_accel.cli.output import check_output_dir
-from pendulum_accel.errors import ParameterError
 
 STUDENT_DOCS = Path(__file__).resolve().parent.parent / "docs" / "lab"
 GRADE_SIGMAS = 2.0  # a value is right within this many of the group's own σ
@@ -232,7 +232,7 @@ def render_key(class_name: str, groups: Sequence[tuple[GroupRuns, Path, Mapping[
 
 def _hill_ratios() -> dict[str, str]:
     """Extension B's formula values for the bundled hill scene: g tan β, √(cos β), sec β."""
-    from pendulum_accel.scene import load_scene
+    from pendulum_accel import load_scene
 
     hill = load_scene("hill")
     beta, g = math.atan(hill.grade), hill.pendulum.gravity

@@ -51,13 +51,8 @@ FLICKER_FLOOR = math.sqrt(2.0 * math.log(2.0) / math.pi)  # σ_floor = 0.664 B
 MIN_SAMPLES = 100
 BOUND_LEVEL = 0.975  # one-sided confidence of the N and K bounds: σ² below its expectation this often
 MISFIT_LIMIT = 20.0
-"""χ²/dof of the fit above which σ(τ) is not white noise and a walk. Those stay far under it: at most 7.7
-over 1000 records of 200 s with walks K 0 … 1e-3, 1.0–1.9 for the bundled scenes' 3600 s static runs. A
-swinging bob is far over (the bundled braking, step_start and hwfet runs and the demo's swing: 510–2200),
-and so is noise the two slopes lack (a Gauss-Markov bias of correlation time 0.3–10 s: 15–2700), which a
-record at rest can hold: the limit tells the model from the record, not motion from rest (test_allan).
-Above it the angle's fit tries a Gauss-Markov term (``gauss_markov``), which brings such a bias to
-χ²/dof 0.2–2.7 and leaves a swing far over (1700–7400 on the runs above)."""
+"""χ²/dof of the fit above which σ(τ) is not white noise and a walk (a swing, or a Gauss-Markov bias the two
+slopes lack: ``gauss_markov`` is tried then); set between the two on docs/benchmarks/allan_recovery.md."""
 _WAIT_SLICE = 0.05  # s: the main thread's longest wait between two checks for Ctrl-C
 T = TypeVar("T")
 

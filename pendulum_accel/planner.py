@@ -1,9 +1,9 @@
 """Planner: the cheapest model and solver that meets a scene's angle-accuracy target, explained in one line.
 
-Cost order (cheapest first, measured CPU on this machine): linear closed form (≈0.2 µs/sample)
-< exact closed form (≈0.6 µs/sample, Jacobi elliptic functions) < rigid, stepped by the compiled kernels
-of physics.kernels (RK4 at ≈0.1 µs a step or RK8 at ≈0.4 µs, whichever needs less CPU for the target)
-< elastic string, stepped the same way. The Lagrange-multiplier model is used only when a scene forces it.
+Cost order (cheapest first, by the CPU costs CLOSED_FORM_SAMPLE_S and KERNEL_STEP_S): linear closed form
+< exact closed form (Jacobi elliptic functions) < rigid, stepped by the compiled kernels of physics.kernels
+(RK4 or RK8, whichever needs less CPU for the target) < elastic string, stepped the same way. The
+Lagrange-multiplier model is used only when a scene forces it.
 
 Rules, in order:
 
@@ -95,19 +95,18 @@ PILOT_RTOLS = (1e-6, 1e-9)
 PILOT_POINTS = 1000
 RTOL_RANGE = (1e-13, 1e-3)
 EXACT_ROUNDOFF = 2.0  # × ε (Θ + 2kω span): closed_form_roundoff, calibrated by benchmarks/error_bounds.py
-DOUBLING_SHARE = 1.0 / 32.0  # each of the n argument doublings adds this share (measured: 1/8 was 4× loose)
+DOUBLING_SHARE = 1.0 / 32.0  # round-off share per argument doubling, fitted by benchmarks/error_bounds.py
 START_SAFETY = 2.0  # × the closed form's start rounding carried through S(t) (closed_form_start_error)
 START_NEAR_SEPARATRIX = 0.5  # |m1| below which K, K' and the nome depend on m1 enough for its rounding
 ROUNDOFF_SAFETY = 2.0  # × the measured round-off of a stepped run (conditioning: max over t of 1 draw)
-# A halving difference within this × the measured round-off of the run at h is rounding, not truncation:
-# the h/2 run takes twice the steps and its own rounding was measured up to 17× that of the h run (RK8 in
-# benchmarks/error_bounds.py), while truncation shrinks 2^p-fold per halving.
+# A halving difference within this × the run's round-off at h is rounding, not truncation (the h/2 run
+# takes twice the steps, so rounds more); fitted on the RK8 cases of docs/benchmarks/error_bounds.md.
 HALVING_NOISE = 10.0
 # Truncation shrinks 2^p-fold per halving: a doubling difference |θ_{2h} − θ_h| under 2^(p − DOUBLING_SLACK)
 # times the halving difference |θ_h − θ_{h/2}| says the latter is rounding (RK8: under 64×, RK4: under 4×).
 DOUBLING_SLACK = 2
 # Past the linear regime the predicted error is this × the spread of five runs one ulp apart (conditioning):
-# the run and the reference are two more such runs; measured up to 0.66× the spread on the chaotic drive.
+# the run and the reference are two more such runs; fitted on docs/benchmarks/error_bounds.md (past linear).
 SPREAD_SAFETY = 2.0
 DOUBLE_EPS = 2.0**-52
 LINEAR_CARRY = math.sqrt(2.0)

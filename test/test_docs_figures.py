@@ -302,18 +302,19 @@ def test_every_benchmark_figure_on_the_page_is_on_a_benchmark_page(path: Path) -
     )
 
 
-def test_the_default_reason_counts_the_cells_the_real_motion_page_holds() -> None:
-    """The run summary's reason for the default ('lowest RMS of the live methods on N of the M real-motion
-    validation cells') counts what docs/benchmarks/real_motion.md holds: per design × profile, the live
-    methods' RMS rows, compared as numbers."""
+def test_the_default_is_the_live_method_of_least_rms_on_every_real_motion_cell() -> None:
+    """The default's claim (DEFAULT_ESTIMATOR's comment; docs/estimators.md: 'lowest RMS of the live methods
+    on every validation cell') holds on docs/benchmarks/real_motion.md: per design × profile, of the live
+    methods' RMS rows, compared as numbers, the default's is the least; the run summary's reason names the
+    page and quotes no tally of it."""
     from pendulum_accel.estimators import DEFAULT_ESTIMATOR, DEFAULT_REASON, LIVE_ESTIMATORS
 
-    claim = re.search(r"on (\d+) of the (\d+) real-motion validation", DEFAULT_REASON)
-    assert claim is not None
+    assert "docs/benchmarks/real_motion.md" in DEFAULT_REASON
     rms: dict[tuple[str, str], dict[str, float]] = {}
     for line in (BENCHMARK_PAGES / "real_motion.md").read_text().splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if len(cells) > 3 and cells[2] in LIVE_ESTIMATORS:
             rms.setdefault((cells[0], cells[1]), {})[cells[2]] = float(cells[3])
-    best = [min(by_method, key=by_method.__getitem__) for by_method in rms.values()]
-    assert (int(claim.group(1)), int(claim.group(2))) == (best.count(DEFAULT_ESTIMATOR), len(best))
+    best = {cell: min(by_method, key=by_method.__getitem__) for cell, by_method in rms.items()}
+    assert len(best) > 0
+    assert {cell: m for cell, m in best.items() if m != DEFAULT_ESTIMATOR} == {}

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 def gather(arr: NDArray[np.uint8], starts: NDArray[np.int64], width: int) -> NDArray[np.uint8]:
     """(n, width) bytes arr[s : s + width] for each start s."""
-    # Copying whole rows of a window view beats an element-wise index (2x at 12 bytes, 25x at 364).
+    # Copying whole rows of a window view beats an element-wise index, the more so the wider the rows.
     rows: NDArray[np.uint8] = sliding_window_view(arr, width)[starts]
     return rows
 

@@ -98,11 +98,8 @@ no training cell above RMS_SLACK × auto's random walks alone, those within RMS_
 the one with the least calibration miss."""
 
 AUTO_CROSS_TIME = 10.0
-"""s: the mean time before auto's chain moves between a random-walk mode and its trend partner. Of 1, 3
-and 10 s, the one with the least RMS on the training split with every mode partnered (benchmarks.corpus's
-train entries, the teaching and short_damped designs, the first 60 s, seed 0; geometric mean over the
-profiles relative to the random walks alone: 0.904, 0.897 and 0.895 on teaching, 0.732, 0.708 and 0.701
-on short_damped)."""
+"""s: mean time before auto's chain moves between a random-walk mode and its trend partner; picked from 1, 3
+and 10 s for the least RMS on benchmarks.corpus's training split (teaching and short_damped designs)."""
 
 # auto (the default): a birth-death chain over AUTO_MODES, up every 3 s, down every 1 s, fitted by
 # ``python -m benchmarks.real_motion --fit --quick`` (fit_auto) on every training profile of the corpus
@@ -113,7 +110,7 @@ on short_damped)."""
 # designs (teaching l = 1 m, 100 Hz; short damped l = 5 cm, 200 Hz), seeds 0-1, on grids. q_accel (the
 # single model): the least RMS (geometric mean over the designs). modes, switch_time (the IMM): of the
 # candidates within 5 % of the least RMS, the one whose own variance is best calibrated (share of errors
-# beyond 2σ, steady and after changes, closest to a Gaussian's 4.55 %): the switch time sets how much of
+# beyond 2σ, steady and after changes, closest to a Gaussian error's): the switch time sets how much of
 # the manoeuvre mode's covariance the mixing hands the quiet mode each sample (docs/estimators.md).
 # q_ω = 0: with the damping known there is no unmodelled torque to absorb.
 PRESETS: dict[str, MotionPreset] = {

@@ -433,9 +433,8 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
         signal.signal(signal.SIGINT, on_signal)
         signal.signal(signal.SIGTERM, on_signal)
         node = factory()
-        # The spinning thread only: it runs every callback. With the DDS threads at FIFO too, the p99
-        # was worse (12-95 ms against 1.1-1.4 ms): they then compete with it, and with every other
-        # process, at the same priority.
+        # The spinning thread only: it runs every callback. With the DDS threads at FIFO too, they would
+        # compete with it, and with every other process, at the same priority.
         priority_problem = apply_rt_priority()
         if priority_problem is not None:
             node.get_logger().warning(priority_problem)

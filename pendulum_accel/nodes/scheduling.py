@@ -15,10 +15,9 @@ RT_PRIORITY_ENV = "PENDULUM_ACCEL_RT_PRIORITY"
 def apply_rt_priority() -> str | None:
     """SCHED_FIFO at priority $PENDULUM_ACCEL_RT_PRIORITY (1–99) for the calling thread; None, or why not.
 
-    Unset or 0: nothing. On this shared 2-core machine it took the 1 kHz chain's p99 latency from
-    4–124 ms (≤ 5 ms in 2 of 23 runs) to 0.7–37 ms (≤ 5 ms in 11 of 15; README, Benchmarks): a node at
-    normal priority waits behind whatever else is runnable when its sample arrives. Threads started
-    later by this one inherit the policy.
+    Unset or 0: nothing. A node at normal priority waits behind whatever else is runnable when its sample
+    arrives; at SCHED_FIFO it runs first (the 1 kHz chain's latency with and without it:
+    docs/benchmarks/chain.md). Threads started later by this one inherit the policy.
     """
     value = os.environ.get(RT_PRIORITY_ENV, "").strip()
     if value in ("", "0"):

@@ -14,8 +14,8 @@ Fixed-step methods (written here, vectorised: a state may be ``(n_state,)`` or a
   for tight targets, where RK4 would need ~10× more steps.
 
 A single rigid or elastic-string state (``kernel`` given) is stepped by the compiled kernels of
-physics.kernels, the same schemes at ≈ 0.1 µs a step; batches, projected states (the multiplier
-model) and other right-hand sides run the numpy loop here.
+physics.kernels, the same schemes at a fraction of the cost (planner.KERNEL_STEP_S); batches, projected
+states (the multiplier model) and other right-hand sides run the numpy loop here.
 
 The two symplectic methods need a second-order system: the state is ``[q, v]`` split in equal
 halves with q' = v, and f returns ``[v, a]``.

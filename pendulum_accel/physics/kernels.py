@@ -3,9 +3,9 @@
 The equations are those of physics.rigid and physics.elastic, written once more in scalar form because numba
 compiles scalar code, not the numpy closures there; ``test/test_kernels.py`` holds whole runs to the numpy
 loop's, and ``test/test_equation_of_motion.py`` the rigid rhs to ``rigid.theta_ddot``. A whole run (every
-sample interval, every substep) is one compiled call, so a step costs ≈ 0.1 µs (rigid RK4) instead of the
-microseconds of a Python-level step. Each model has its own compiled function: one function branching on the
-model ran 3× slower, its loops no longer optimised.
+sample interval, every substep) is one compiled call, so a step costs a fraction of a Python-level step
+(planner.KERNEL_STEP_S). Each model has its own compiled function: one function branching on the model
+keeps numba from optimising its loops.
 
 a(t) reaches the kernel in one of two forms:
 
@@ -448,7 +448,8 @@ SLICE_STEPS: dict[str, int] = {
     "rk4": 1_000_000,
     "rk8": 250_000,
 }
-"""Steps per compiled call, about 0.1-0.2 s of work each (rigid model; the elastic one costs ~1.5x)."""
+"""Steps per compiled call: a fraction of a second of work, so Ctrl-C and progress are seen between calls;
+fewer for a method of more stages per step."""
 
 
 def step_slices(nodes: np.ndarray, dt: float, per_slice: int) -> list[tuple[int, int]]:
