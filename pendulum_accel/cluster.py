@@ -149,7 +149,8 @@ def probe_scheduler(address: str) -> None:
 
 
 def _kill_local_workers() -> None:
-    """SIGKILL every child process of this one (the local cluster's nannies and workers)."""
+    """SIGKILL every child process of this one: the local cluster's nannies, and with each its worker
+    (cluster_worker.die_with_parent)."""
     import multiprocessing
 
     for child in multiprocessing.active_children():
@@ -199,6 +200,8 @@ def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
             # port on loopback only: no warning, and nothing listens on the machine's interfaces.
             dashboard_address="127.0.0.1:0",
             silence_logs=40,  # logging.ERROR: the terminal shows the bar and the errors only
+            # Each worker ends with its nanny, even while a kernel holds its GIL (cluster_worker).
+            preload=["pendulum_accel.cluster_worker"],
         )
         client = Client(cluster)
     except KeyboardInterrupt:
