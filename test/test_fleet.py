@@ -616,12 +616,6 @@ with dask_client(None, 1) as client:
 """
 
 
-def _cpu_seconds(pid: int) -> float:
-    """utime + stime of ``pid`` from /proc/PID/stat, in seconds."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 def _running(pid: int) -> bool:
     """True while ``pid`` exists and is not a zombie (an orphan's new parent may not reap it at once)."""
     try:
