@@ -17,6 +17,7 @@ SPEC keys (all optional):
   "package_profile": true         use the package's Fast DDS profile (nodes.dds_profile), as the nodes do:
                                   its 10 ms writer heartbeat repairs a lost sample (a service request
                                   dropped by a flooded port) at once, where Fast DDS's default takes 3 s
+  "say_feeding": true             print "feeding" to stderr as the feed begins (the publisher is up)
   "sensor_data": true             publish with rclpy's SensorDataQoS (best-effort, keep last 5)
   "endpoints": [topic, ...]       at the end, each topic's subscriptions and publishers as the graph
                                   lists them: {topic: {"subscriptions"|"publishers": [[node, reliability,
@@ -158,6 +159,8 @@ def main() -> None:
         # is not part of the node's answer.
         if not setter.wait_for_service(timeout_sec=30.0):
             raise RuntimeError(f"service {setter.srv_name} not available")
+    if spec.get("say_feeding"):
+        print("feeding", file=sys.stderr, flush=True)
     for item in spec.get("feed", []):
         if item[0] == "pause":
             spin_for(node, float(item[1]))

@@ -8,7 +8,9 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import re
 import signal
+import time
 from pathlib import Path
 
 import pytest
@@ -71,6 +73,30 @@ def test_a_best_effort_publisher_is_estimated_not_refused(spawn: Spawn) -> None:
         s for s in result["endpoints"][JOINT_TOPIC]["subscriptions"] if s[0] == "accel_estimator"
     ]
     assert subscription[1] == "best_effort"
+
+
+def test_a_best_effort_driver_already_there_is_taken_best_effort_without_a_warning(spawn: Spawn) -> None:
+    """A SensorDataQoS driver publishing before the estimator starts: best_available settles on best-effort
+    as the subscription is made, so neither side warns of a QoS mismatch (issue 58: the estimator had
+    subscribed before discovering the driver, asked reliable, and both warned at every start)."""
+    theta = math.atan2(1.0, G)
+    # 40 s at 100 Hz, past the estimator's start on a loaded machine (the spec is one argument: < 128 kB)
+    feed = [[round(0.01 * i, 2), round(theta, 6)] for i in range(1, 4001)]
+    driver = Output(
+        spawn([PYTHON, PROBE, json.dumps({"sensor_data": True, "say_feeding": True, "feed": feed})])
+    )
+    driver.wait_for(r"feeding", timeout=60)  # its publisher is on the graph before the estimator starts
+    estimator = start_node(spawn, "estimator_node", {"scene": SCENE, "method": "instant"})
+    estimator.wait_for(r"estimating with", timeout=90)
+    # Angles flow (the subscription matched the driver): the node's summary at its stop counts them. 2 s of a
+    # 100 Hz feed is 200 angles; one is enough.
+    time.sleep(2.0)
+    estimator.proc.send_signal(signal.SIGINT)
+    assert estimator.finish(timeout=30) == 0, estimator.text
+    inputs = int(re.search(r"(\d+) inputs, ", estimator.text).group(1))  # type: ignore[union-attr]
+    assert inputs > 0, estimator.text
+    assert "best-effort publisher" not in estimator.text and "incompatible" not in estimator.text.lower()
+    assert "incompatible" not in driver.text.lower(), driver.text
 
 
 def test_qos_overrides_from_a_params_file_take_effect(spawn: Spawn, tmp_path: Path) -> None:

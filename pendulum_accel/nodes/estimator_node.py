@@ -38,7 +38,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
-from rclpy.qos import QoSPolicyKind
+from rclpy.qos import QoSPolicyKind, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rclpy.subscription import Subscription
 from rclpy.timer import Timer
@@ -88,6 +88,11 @@ ESTIMATOR_PARAMETERS = ("method", "lag", "preset", *(spec.name for spec in ESTIM
 """The parameters the estimator is built from: a change of one of them rebuilds it."""
 _DRAIN_IDLE = 0.3  # s without input after a stop request: the queue is empty
 _DRAIN_LIMIT = 10.0  # s: stop even if input keeps coming
+# s after start-up the node waits for a publisher of the angles to be discovered before it subscribes (see
+# _discovering): a Fast DDS participant missed in its start-up announcements is heard at its next periodic
+# one (leaseDuration_announcementperiod, 3 s by default).
+DISCOVERY_GRACE = 3.0
+_DESCRIBE_WAIT = 10.0  # s close() waits for a rebuilt estimator's description (a steady-state solve)
 # s: while the executor waits for room in a full backlog (backlog_limit), how often it answers parameter
 # requests itself: they would otherwise wait behind every angle the middleware announced before them.
 _SERVICE_POLL = 0.05
@@ -100,6 +105,7 @@ class EstimatorNode(ManagedNode):
         """Declare parameters, then configure and activate when ``autostart`` (subscribing to the angles
         once the named readers of the outputs are there)."""
         super().__init__(NODE_NAME)
+        self._born = time.monotonic()
         # The parameters' defaults and configure's sensor figures come from one read of the scene (a
         # recorded log's table takes seconds to read); the scene parameter is read-only.
         # Everything but a(t), which the estimator never reads (a long log's file is not read again here).
@@ -149,6 +155,7 @@ class EstimatorNode(ManagedNode):
         self._worker_waits = False  # the worker waits for an angle: the next one notifies it
         self._producer_waits = False  # the executor waits for room in the backlog: the worker notifies it
         self._work_lock = threading.Lock()  # one estimator update, or its rebuild, at a time
+        self._describer: threading.Thread | None = None  # the latest rebuild's _describe_rebuilt
         self._rebuilt_lines: tuple[str, ...] | None = None  # a rebuilt estimator's lines, the worker logs
         self._diagnostics_due = 0.0  # monotonic time of the next /diagnostics (0: at once)
         self._stopping_since: float | None = None
@@ -339,6 +346,7 @@ class EstimatorNode(ManagedNode):
         described = threading.Thread(
             target=self._describe_rebuilt, args=(estimator,), name="describe_rebuilt", daemon=True
         )
+        self._describer = described
         described.start()
         if self._worker_stopped():  # nobody else will say it
             described.join()
@@ -354,6 +362,8 @@ class EstimatorNode(ManagedNode):
         lines = (f"estimator rebuilt: {estimator.describe()}", f"latency {self.latency():.3f} s")
         if self.guarded.estimator is estimator:
             self._rebuilt_lines = lines
+            with self._queue_changed:  # a waiting worker says them now, not at its next angle or status
+                self._queue_changed.notify_all()
 
     def _say_rebuilt(self) -> None:
         """Log the lines _describe_rebuilt left, once."""
@@ -380,7 +390,8 @@ class EstimatorNode(ManagedNode):
         """Subscribe to the angles once every named reader of the outputs is subscribed and matched."""
         if self._subscription is not None or not self._active:
             return
-        if not self._missing_readers():
+        if not self._missing_readers() and not self._discovering():
+            self._take_best_effort_if_offered()
             # The description may solve the filter's steady state (scipy): before subscribing, so the
             # first angles do not queue behind it.
             description = self.guarded.estimator.describe()
@@ -406,6 +417,37 @@ class EstimatorNode(ManagedNode):
                 self._diagnostics_due = 0.0
                 self._queue_changed.notify_all()
 
+    def _discovering(self) -> bool:
+        """True while no publisher of the angles is known yet and the node is younger than
+        DISCOVERY_GRACE: best_available reliability is settled by the publishers known as the subscription
+        is made, so one made before a best-effort driver already on the graph is discovered asks reliable,
+        and the driver and this node then each warn of the mismatch before the switch."""
+        if self.count_publishers(self.resolve_topic_name(bm.JOINT_STATES)) > 0:
+            return False
+        return time.monotonic() - self._born < DISCOVERY_GRACE
+
+    def _best_available(self) -> bool:
+        """True when the input's reliability is left at best_available (its qos_overrides parameter)."""
+        parameter = override_parameter(
+            self.resolve_topic_name(bm.JOINT_STATES), "subscription", "reliability"
+        )
+        return bool(self.has_parameter(parameter) and self.get_parameter(parameter).value == "best_available")
+
+    def _take_best_effort_if_offered(self) -> None:
+        """Subscribe best-effort from the start when a known publisher of the angles is best-effort (a
+        driver's SensorDataQoS) and reliability is left at best_available: what best_available asks, settled
+        here from the graph, so that neither side meets a reliable subscription first and warns."""
+        topic = self.resolve_topic_name(bm.JOINT_STATES)
+        if self._best_effort or not self._best_available():
+            return
+        offered = {info.qos_profile.reliability for info in self.get_publishers_info_by_topic(topic)}
+        if ReliabilityPolicy.BEST_EFFORT in offered:
+            self._best_effort = True
+            self.get_logger().info(
+                f"{topic}: a best-effort publisher: taking its angles best-effort (losses are counted: "
+                "'lost' on /diagnostics)"
+            )
+
     def _on_incompatible_angles(self, event: Any) -> None:
         """A publisher of the angles whose QoS this subscription refuses. A best-effort one (a hardware
         driver's SensorDataQoS) while reliability is left at best_available: subscribe again best-effort
@@ -413,8 +455,7 @@ class EstimatorNode(ManagedNode):
         topic = self.resolve_topic_name(bm.JOINT_STATES)
         kind = int(event.last_policy_kind)
         parameter = override_parameter(topic, "subscription", "reliability")
-        asked = self.get_parameter(parameter).value if self.has_parameter(parameter) else ""
-        if kind == int(QoSPolicyKind.RELIABILITY) and asked == "best_available" and not self._best_effort:
+        if kind == int(QoSPolicyKind.RELIABILITY) and self._best_available() and not self._best_effort:
             self._best_effort = True
             self._resubscribe = True
             self.get_logger().warning(
@@ -624,6 +665,9 @@ class EstimatorNode(ManagedNode):
         self._backlog.clear()
         if not hasattr(self, "guarded"):  # never configured: nothing was estimated
             return
+        if self._describer is not None:  # a rebuild's lines still being made: said before the counts
+            self._describer.join(timeout=_DESCRIBE_WAIT)
+            self._say_rebuilt()
         if self._publishers:  # configured (cleanup destroys them)
             for publisher in (self.estimate_publisher, self.imu_publisher):
                 publisher.wait_for_all_acked(Duration(seconds=2))
