@@ -56,8 +56,8 @@ from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators import estimate_batch
 from pendulum_accel.estimators.kalman import AUTO_MODES, PRESETS
 from pendulum_accel.physics.profiles import Step
-from pendulum_accel.recording.analyze import NeesStats, nees_windows
 from pendulum_accel.recording.changes import after_change
+from pendulum_accel.recording.coverage import NeesStats, nees_windows
 from pendulum_accel.recording.seed_spread import with_seed
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene

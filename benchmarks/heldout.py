@@ -45,7 +45,7 @@ from benchmarks.real_motion import (
 from pendulum_accel.cluster import map_tasks
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.estimators import make_estimator
-from pendulum_accel.recording.analyze import figure
+from pendulum_accel.recording.figures import figure
 from pendulum_accel.recording.settings import motion_choice
 from pendulum_accel.scene import load_scene
 
