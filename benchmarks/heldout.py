@@ -30,18 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import report as bench_report
-from benchmarks.real_motion import (
-    HELDOUT_DESIGNS,
-    Q_GRID,
-    Design,
-    Score,
-    designs,
-    kalman_q,
-    pooled_rms,
-    q_scan,
-    share_cell,
-    simulate_runs,
-)
+from benchmarks.motion_designs import HELDOUT_DESIGNS, Design, designs, simulate_runs
+from benchmarks.motion_scores import Q_GRID, Score, kalman_q, pooled_rms, q_scan, share_cell
 from pendulum_accel.cluster import map_tasks
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.estimators import make_estimator

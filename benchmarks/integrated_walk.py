@@ -38,22 +38,16 @@ import numpy as np
 from numba import njit
 
 from benchmarks import report
-from benchmarks.real_motion import (
+from benchmarks.motion_designs import (
     PROFILES,
-    Q_GRID,
     REPORTED_HELDOUT,
-    WARMUP,
     Design,
     Profile,
     Run,
-    Score,
     designs,
-    kalman_q,
-    pooled_rms,
-    q_scan,
-    share_cell,
     simulate_runs,
 )
+from benchmarks.motion_scores import Q_GRID, WARMUP, Score, kalman_q, pooled_rms, q_scan, share_cell
 from pendulum_accel.cluster import map_tasks
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators import make_estimator
