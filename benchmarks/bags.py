@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from rosbags.rosbag2 import Reader
 
 from benchmarks import report
+from pendulum_accel.bag.cdr_layout import rows_from_bytes
 from pendulum_accel.bag.export import export_bag
 from pendulum_accel.bag.messages import (
     ACCEL_STAMPED,
@@ -45,7 +46,6 @@ from pendulum_accel.bag.messages import (
     TOPIC_ACCEL_TRUTH,
     TOPIC_JOINT_STATES,
     TYPESTORE,
-    rows_from_bytes,
 )
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.writer import Stream

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pendulum_accel.bag import mcap_file
+from pendulum_accel.bag import cdr_layout, mcap_file
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag import writer as bag_writer
 from pendulum_accel.bag.blocks import Lazy
@@ -126,7 +126,7 @@ def test_cli_damaged_bag_warns_and_salvages(
 
 def test_cli_wrong_type_topic(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """/pendulum/joint_states recorded as AccelStamped: analyze names the topic and both types, exit 2."""
-    layout = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+    layout = cdr_layout.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
     ns = np.arange(10, dtype=np.int64) * 10_000_000
     sec, nsec = bm.split_stamp(ns)
     rows = layout.encode(10, {"header.stamp.sec": sec, "header.stamp.nanosec": nsec})
