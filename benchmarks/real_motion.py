@@ -68,10 +68,10 @@ SHOWN_LAG = 0.25  # s: the lag of the table's kalman lag row, the live fixed lag
 COST_SPAN = 20.0  # s of samples timed for µs/sample
 
 
-def stream_cost(name: str, design: Design, run: Run, opts: dict[str, object]) -> float:
+def stream_cost(name: str, design: Design, run: Run, opts: dict[str, float]) -> float:
     """µs per sample of streaming ``update`` over the first COST_SPAN s of ``run``."""
     n = min(run.t.size, round(COST_SPAN * design.rate_hz))
-    est = make_estimator(name, **design.settings(), **opts)  # type: ignore[arg-type]
+    est = make_estimator(name, **design.settings(), **opts)
     ts, ys = run.t[:n].tolist(), run.theta[:n].tolist()
     est.update(ts[0], ys[0])  # the first call may load compiled code
     est.reset()
@@ -144,11 +144,11 @@ def _validate_case(seeds: int, quick: bool, case: tuple[Design, Profile]) -> Cas
     lag_count: dict[float, int] = {}
     imm_sq: list[np.ndarray] = []
     runs = runs_for(profile, design, seeds, quick)
-    preset_opts: dict[str, object] = {}  # the default, auto: no preset from the profile
+    preset_opts: dict[str, float] = {}  # the default, auto: no preset from the profile
     by: dict[str, Score] = {}
     for method in methods:
         opts = preset_opts if method == "kalman" else {}
-        built = make_estimator(method, **design.settings(), **opts)  # type: ignore[arg-type]
+        built = make_estimator(method, **design.settings(), **opts)
         outs = [built.batch(r.t, r.theta) for r in runs]
         by[method] = Score.of(runs, outs, design.rate_hz)
         if method == "kalman":

@@ -31,7 +31,7 @@ import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -50,6 +50,7 @@ from pendulum_accel.physics.integrators import ADAPTIVE_METHODS, FIXED_STEP_METH
 from pendulum_accel.physics.simulate import simulate
 
 if TYPE_CHECKING:  # the planner is imported where a plan is made (the grid runs need none of it)
+    from pendulum_accel.physics.trajectory import Trajectory
     from pendulum_accel.planner import Plan
     from pendulum_accel.scene import Scene
 
@@ -154,7 +155,7 @@ def measure(
     simulate()'s default atol = 1e-3 rtol; the planner's runs keep the default, as the package runs them.
     """
 
-    def run() -> Any:
+    def run() -> Trajectory:
         """One simulate() call with the run's settings."""
         return simulate(
             case.pendulum,

@@ -49,6 +49,7 @@ class Case:
     h_omega: tuple[float, ...]
 
 
+# Any: mpmath numbers (mpmath has no type information), at whatever precision the caller works in.
 def mp_theta_ddot(theta: Any, theta_dot: Any, accel: Any, gravity: Any, length: Any, damping: Any) -> Any:
     """θ'' = −(g/l) sin θ + (a/l) cos θ − c θ' in mpmath numbers (physics.rigid.theta_ddot, any precision)."""
     import mpmath
@@ -85,7 +86,7 @@ def mpmath_reference(
             start, end = float(edges[k]), float(edges[k + 1])
             lo, a_lo, slope = mpmath.mpf(start), mpmath.mpf(float(coef[k, 0])), mpmath.mpf(float(coef[k, 1]))
 
-            def rhs(
+            def rhs(  # Any: mpmath numbers, as mp_theta_ddot's
                 x: Any, y: Sequence[Any], lo: Any = lo, a_lo: Any = a_lo, slope: Any = slope
             ) -> list[Any]:
                 """[θ', θ''(θ, θ', a(x))], a(x) = a_lo + slope (x − lo)."""
@@ -149,7 +150,7 @@ def reference(case: Case, cache_dir: Path | None, digits: int = MPMATH_DIGITS) -
     return theta, 0.0
 
 
-def asdict_pendulum(p: Pendulum) -> dict[str, Any]:
+def asdict_pendulum(p: Pendulum) -> dict[str, object]:
     """{'length': l, 'mass': m, 'gravity': g, 'damping': c, 'stiffness': k} of a Pendulum."""
     return asdict(p)
 

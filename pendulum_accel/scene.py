@@ -52,10 +52,10 @@ import bisect
 import logging
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TypeGuard
 
 import yaml
 
@@ -235,7 +235,7 @@ class Scene:
         return "stretch" in self.outputs
 
 
-def _finite(value: object) -> bool:
+def _finite(value: object) -> TypeGuard[float]:
     """True for an int or float (not a bool) that is finite."""
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
@@ -342,7 +342,7 @@ class _Fields:
         value = self.raw(key, expected)
         if not _finite(value):
             raise SceneError(f"{self.path_of(key)}: expected a finite number{bound}, got {_show(value)}")
-        number = float(value)  # type: ignore[arg-type]
+        number = float(value)
         if low is not None and (number < low or (strict and number == low)):
             raise SceneError(f"{self.path_of(key)}: expected a number{bound}, got {_show(value)}")
         return number
@@ -493,6 +493,8 @@ def _parse(data: object, base_dir: Path | None) -> Scene:
 
     accel = top.raw("acceleration", _EXPECTED["acceleration"])
     try:
+        # The ignore below: the scene's value goes as it is, so profile_from_dict refuses a non-mapping
+        # itself, in its own words with the field's path
         profile = profile_from_dict(accel, base_dir)  # type: ignore[arg-type]
     except ParameterError as err:
         where = f"acceleration.{err.path}" if err.path else "acceleration"
@@ -609,10 +611,10 @@ def list_scenes(names: tuple[str, ...] = SCENE_NAMES) -> tuple[Scene, ...]:
     return tuple(load_scene(name) for name in names)
 
 
-def scene_to_dict(scene: Scene) -> dict[str, Any]:
+def scene_to_dict(scene: Scene) -> dict[str, object]:
     """The YAML mapping of ``scene`` (a CSV profile is written inline as a table, so it stands alone)."""
     p = scene.pendulum
-    pendulum: dict[str, Any] = {
+    pendulum: dict[str, float] = {
         "length": p.length,
         "mass": p.mass,
         "damping": p.damping,
@@ -622,7 +624,7 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
     if p.stiffness is not None:
         pendulum["stiffness"] = p.stiffness
     s = scene.sensor
-    out: dict[str, Any] = {
+    out: dict[str, object] = {
         "name": scene.name,
         "description": scene.description,
         "duration": float(scene.duration),
@@ -648,16 +650,14 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
     return out
 
 
-def _plain(value: Any) -> Any:
+def _plain(value: object) -> object:
     """``value`` with tuples as lists and numpy scalars as Python numbers, for the YAML dumper."""
-    convert: Callable[[Any], Any] = _plain
     if isinstance(value, Mapping):
-        return {str(k): convert(v) for k, v in value.items()}
+        return {str(k): _plain(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [convert(v) for v in value]
-    if hasattr(value, "item"):
-        return value.item()
-    return value
+        return [_plain(v) for v in value]
+    item = getattr(value, "item", None)  # a numpy scalar's: its Python number
+    return item() if callable(item) else value
 
 
 def write_scene_file(scene: Scene, directory: Path) -> Path:

@@ -42,6 +42,8 @@ for _resolving in (_SceneLoader, _SceneDumper):
     _resolving.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT, list("-+0123456789."))
 
 
+# The ignore below: the base is chosen at run time (libyaml's loader where PyYAML was built with it), and
+# mypy cannot type a computed base class.
 class _CSceneLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
     """_SceneLoader's resolvers on libyaml's C parser: a recorded log's table (millions of numbers) parses
     about 5x faster. Only ever tried first: what it refuses is parsed again by _SceneLoader, whose error
@@ -50,6 +52,7 @@ class _CSceneLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ign
 
 _CSceneLoader.yaml_implicit_resolvers = _SceneLoader.yaml_implicit_resolvers
 
+# Any: yaml.dump's keyword arguments, of several types (bool, int), passed on as **_DUMP_STYLE.
 _DUMP_STYLE: dict[str, Any] = {"sort_keys": False, "allow_unicode": True, "width": 100}
 """scene_to_yaml's layout: the scene's own field order, characters as they are, lines up to 100."""
 
@@ -157,7 +160,7 @@ def _in_block_context(light: str, lists: dict[str, list[float]]) -> bool:
     return True
 
 
-def _put_back_float_lists(data: Any, lists: dict[str, list[float]]) -> bool:
+def _put_back_float_lists(data: object, lists: dict[str, list[float]]) -> bool:
     """Each placeholder that is a mapping's value in ``data`` replaced by its floats, in place; False (the
     data to be thrown away) unless each was found exactly once and nowhere else (cut out of a block scalar,
     one would sit inside a string; under a merge key, twice; in a !!set, lost)."""

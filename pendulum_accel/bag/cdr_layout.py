@@ -76,6 +76,7 @@ def _set_leaf(msg: object, path: str, value: float) -> None:
 def _fill(msgtype: str, msg: object, byte: int) -> None:
     """Every numeric field of ``msg``, array elements too, set in place to the value whose bytes all equal
     ``byte`` (0: zero); the walk of _numeric_leaves, an array replaced whole (not copied per element)."""
+    # Any: rosbags types field definitions as a union by node kind; the kind tag below narrows it.
     fielddefs: list[tuple[str, tuple[Any, Any]]] = TYPESTORE.fielddefs[msgtype][1]
     for name, (kind, detail) in fielddefs:
         value = getattr(msg, name)
@@ -95,13 +96,14 @@ def _fill(msgtype: str, msg: object, byte: int) -> None:
 
 def _filled(dtype: str, byte: int) -> np.generic:
     """The ``dtype`` scalar whose every byte is ``byte``."""
-    return np.frombuffer(bytes([byte] * np.dtype(dtype).itemsize), dtype=dtype)[0]
+    value: np.generic = np.frombuffer(bytes([byte] * np.dtype(dtype).itemsize), dtype=dtype)[0]
+    return value
 
 
 def _numeric_leaves(msgtype: str, msg: object, prefix: str = "") -> list[tuple[str, str]]:
     """(path, numpy dtype) of every numeric field of ``msg``, array elements one by one, in field order."""
     leaves: list[tuple[str, str]] = []
-    # rosbags types field definitions as a union by node kind; the kind tag below narrows it.
+    # Any: rosbags types field definitions as a union by node kind; the kind tag below narrows it.
     fielddefs: list[tuple[str, tuple[Any, Any]]] = TYPESTORE.fielddefs[msgtype][1]
     for name, (kind, detail) in fielddefs:
         path = prefix + name
@@ -308,7 +310,7 @@ class Layout:
     def decode(self, rows: NDArray[np.uint8], paths: Sequence[str] | None = None) -> dict[str, NDArray[Any]]:
         """{path: column} read from (n, size) rows of this shape (all fields, or just ``paths``)."""
         wanted = self.fields if paths is None else paths
-        out: dict[str, NDArray[Any]] = {}
+        out: dict[str, NDArray[Any]] = {}  # Any: each column keeps its field's dtype (int32, float64, …)
         for path in wanted:
             if path not in self.fields:
                 raise BagError(f"{self.msgtype} messages have no field {path!r}")

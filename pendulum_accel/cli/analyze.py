@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from pendulum_accel.cli.fleet import fleet_wanted, run_fleet
 from pendulum_accel.cli.output import check_output_file, json_text, write_output
@@ -18,7 +17,7 @@ from pendulum_accel.recording.seed_spread import SeedSpread, seed_spread
 from pendulum_accel.recording.stored_scene import stored_scene
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``analyze`` subcommand."""
     parser = subparsers.add_parser(
         "analyze",
@@ -140,13 +139,13 @@ def run(args: argparse.Namespace) -> int:
     return warn_salvaged("analyze", bag)
 
 
-def _spread_dict(spread: SeedSpread | None) -> dict[str, Any] | None:
+def _spread_dict(spread: SeedSpread | None) -> dict[str, float | None] | None:
     """{seeds, nees_<window>_…}: the pooled figures under a single bag's keys (recording.coverage.nees_fields:
     mean, median, share_2sigma, trials, share_2sigma_low/_high), and nees_<window>_share_p10/_p90 of one
     seed's share; a window without samples null throughout. None without --seeds."""
     if spread is None:
         return None
-    out: dict[str, Any] = {"seeds": spread.seeds}
+    out: dict[str, float | None] = {"seeds": spread.seeds}
     for window in ("steady", "after_change"):
         w = getattr(spread, window)
         key = f"nees_{window}"

@@ -243,8 +243,9 @@ def analyze_bag(
     if lag > 0.0:
         cfg["lag"] = lag
     motion = bag_motion(data) if uses_preset(name) else None
-    options: dict[str, object] = {} if motion is None else {"preset": motion.preset}
-    method = make_estimator(name, **cfg, **options)  # type: ignore[arg-type]
+    method = (
+        make_estimator(name, **cfg) if motion is None else make_estimator(name, **cfg, preset=motion.preset)
+    )
     if tolerance is not None:
         tol = float(tolerance)
     else:
