@@ -4,8 +4,8 @@
 
 Each SCENE.yaml brings a(t) (a ``speed_csv`` of your own drive or robot, an ``accel_csv`` of a logged IMU);
 kalman runs as the package would run it (``estimators.motion``: auto unless the scene states a motion).
-Every trace runs through the benchmark's two sensor designs (``benchmarks.real_motion``), the designs no
-fit uses (``real_motion.HELDOUT_DESIGNS``) and the scene's own, with seeds
+Every trace runs through the benchmark's two sensor designs (``benchmarks.motion_designs``), the designs no
+fit uses (``motion_designs.HELDOUT_DESIGNS``) and the scene's own, with seeds
 0 … N−1, like the real-motion benchmark (θ from physics.simulate, white angle noise, t ≥ 2 s).
 
 Per trace × design: kalman's RMS against the bound, the fixed-q EKF with q chosen with hindsight (ratio,
