@@ -39,6 +39,7 @@ from rosbags.rosbag2 import Reader
 
 from benchmarks import report
 from pendulum_accel import analyze_bag, estimate_batch, generate_bag, load_scene, read_bag
+from pendulum_accel.bag.cdr_layout import rows_from_bytes
 from pendulum_accel.bag.export import export_bag
 from pendulum_accel.bag.messages import (
     ACCEL_STAMPED,
@@ -46,7 +47,6 @@ from pendulum_accel.bag.messages import (
     TOPIC_ACCEL_TRUTH,
     TOPIC_JOINT_STATES,
     TYPESTORE,
-    rows_from_bytes,
 )
 from pendulum_accel.bag.writer import Stream
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS

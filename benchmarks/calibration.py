@@ -5,7 +5,7 @@
 For every estimator × bundled scene (except large_swing and hill, where no estimate is meaningful), the
 scene is simulated with N sensor seeds (0 … N−1, default 10), the estimator run in batch on each, and
 NEES = e²/var (e = â − a) summarised for t ≥ 2 s, split into steady state and the 2 s after any change
-of a(t) (recording.analyze.calibration): mean, median and the share beyond 2σ, pooled over the seeds,
+of a(t) (recording.coverage.calibration): mean, median and the share beyond 2σ, pooled over the seeds,
 with in brackets its independent trials (recording.coverage, summed over the seeds) and 95 % interval,
 and the 10th–90th percentile of the per-seed share. One recording shows only one draw of a sensor's
 errors, which a long-memory estimator correlates over seconds: the pooled figures are what the

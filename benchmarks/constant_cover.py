@@ -39,25 +39,14 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import report
-from benchmarks.real_motion import (
-    PROFILES,
-    WARMUP,
-    Design,
-    Run,
-    _runs_for,
-    calibration_counts,
-    calibration_miss,
-    designs,
-    kalman_q,
-    scored,
-    simulate_runs,
-)
+from benchmarks.motion_designs import PROFILES, Design, Run, designs, runs_for, simulate_runs
+from benchmarks.motion_scores import WARMUP, calibration_counts, calibration_miss, kalman_q, scored
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators import estimate_batch
 from pendulum_accel.estimators.kalman import AUTO_MODES, PRESETS
 from pendulum_accel.physics.profiles import Step
-from pendulum_accel.recording.analyze import NeesStats, nees_windows
 from pendulum_accel.recording.changes import after_change
+from pendulum_accel.recording.coverage import NeesStats, nees_windows
 from pendulum_accel.recording.seed_spread import with_seed
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
@@ -127,7 +116,7 @@ def _imm(params: np.ndarray, rates: np.ndarray, run: Run) -> tuple[np.ndarray, n
 def sticky_table(seeds: int) -> tuple[list[str], list[dict[str, float]]]:
     """Table 2: per T₀, the constant's share (per design) and the training split's RMS, miss and watched
     steady shares; returns the rows and the figures per T₀ for the plot."""
-    train = [(d, p, _runs_for(p, d, 1, True)) for d in designs() for p in PROFILES if p.role == "train"]
+    train = [(d, p, runs_for(p, d, 1, True)) for d in designs() for p in PROFILES if p.role == "train"]
     constant = {d.name: simulate_runs(STEP, d, seeds, SHORT) for d in designs()}
     cols = ["T₀ (s)"] + [f"constant, {d.name}: NEES, >2σ" for d in designs()]
     cols += ["training RMS (geo. mean)", "training miss"] + [f"{w} steady >2σ" for w in WATCHED]

@@ -4,8 +4,8 @@
 
 Each SCENE.yaml brings a(t) (a ``speed_csv`` of your own drive or robot, an ``accel_csv`` of a logged IMU);
 kalman runs as the package would run it (``estimators.motion``: auto unless the scene states a motion).
-Every trace runs through the benchmark's two sensor designs (``benchmarks.real_motion``), the designs no
-fit uses (``real_motion.HELDOUT_DESIGNS``) and the scene's own, with seeds
+Every trace runs through the benchmark's two sensor designs (``benchmarks.motion_designs``), the designs no
+fit uses (``motion_designs.HELDOUT_DESIGNS``) and the scene's own, with seeds
 0 … N−1, like the real-motion benchmark (θ from physics.simulate, white angle noise, t ≥ 2 s).
 
 Per trace × design: kalman's RMS against the bound, the fixed-q EKF with q chosen with hindsight (ratio,
@@ -30,22 +30,12 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import report as bench_report
-from benchmarks.real_motion import (
-    HELDOUT_DESIGNS,
-    Q_GRID,
-    Design,
-    Score,
-    designs,
-    kalman_q,
-    pooled_rms,
-    q_scan,
-    share_cell,
-    simulate_runs,
-)
+from benchmarks.motion_designs import HELDOUT_DESIGNS, Design, designs, simulate_runs
+from benchmarks.motion_scores import Q_GRID, Score, kalman_q, pooled_rms, q_scan, share_cell
 from pendulum_accel.cluster import map_tasks
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.estimators import make_estimator
-from pendulum_accel.recording.analyze import figure
+from pendulum_accel.recording.figures import figure
 from pendulum_accel.recording.settings import motion_choice
 from pendulum_accel.scene import load_scene
 

@@ -14,8 +14,8 @@ modes (kalman.AUTO_TRENDS, ekf_kernels.with_trends). The page's second table set
 random-walk modes alone (``walks only``, the default before the trend modes), with the figures the
 real-motion page judges (RMS, shares beyond 2σ steady and after a change, with n_eff).
 
-Profiles: the validation split of ``benchmarks.corpus`` (real_motion.PROFILES, role validate); designs: the
-two every fit uses and real_motion.REPORTED_HELDOUT; the first 60 s of each profile unless ``--full``;
+Profiles: the validation split of ``benchmarks.corpus`` (motion_designs.PROFILES, role validate); designs: the
+two every fit uses and motion_designs.REPORTED_HELDOUT; the first 60 s of each profile unless ``--full``;
 seeds 0 … N−1 pooled; t ≥ 2 s scored. Nothing here is fitted for use: both hindsight filters see the truth,
 which no estimator may, so they bound what a model of their class can do on the recording.
 
@@ -38,22 +38,16 @@ import numpy as np
 from numba import njit
 
 from benchmarks import report
-from benchmarks.real_motion import (
+from benchmarks.motion_designs import (
     PROFILES,
-    Q_GRID,
     REPORTED_HELDOUT,
-    WARMUP,
     Design,
     Profile,
     Run,
-    Score,
     designs,
-    kalman_q,
-    pooled_rms,
-    q_scan,
-    share_cell,
     simulate_runs,
 )
+from benchmarks.motion_scores import Q_GRID, WARMUP, Score, kalman_q, pooled_rms, q_scan, share_cell
 from pendulum_accel.cluster import map_tasks
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators import make_estimator

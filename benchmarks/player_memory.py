@@ -33,6 +33,7 @@ import numpy as np
 
 from benchmarks import report
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.cdr_layout import Layout
 from pendulum_accel.bag.writer import BagWriter, Stream
 
 _PAGE = os.sysconf("SC_PAGE_SIZE")
@@ -47,8 +48,8 @@ def rss_mib() -> float:
 
 def write_bag(path: Path, gib: float) -> tuple[int, float]:
     """A bag of about ``gib`` GiB of 1 kHz JointState + AccelStamped: (messages, bytes on disk)."""
-    joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
-    truth = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+    joint = Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+    truth = Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
     block = 200_000  # samples per write: bounded memory while writing too
     per_sample = joint.size + truth.size + 2 * 31  # payloads + message record headers
     samples = int(gib * 2**30 / per_sample)

@@ -35,8 +35,9 @@ from numpy.typing import NDArray
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.errors import BagError, ParameterError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
-from pendulum_accel.recording.analyze import analyze_bag, scene_but_motion
+from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.settings import estimator_options
+from pendulum_accel.recording.stored_scene import scene_but_motion
 from pendulum_accel.scene import Scene
 from pendulum_accel.scene_run import run_scene
 from pendulum_accel.textfile import write_through_partial

@@ -18,7 +18,7 @@ LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"physics", "bag"}),
     frozenset({"motion_input"}),
     frozenset({"estimators", "sensor", "kernel_cache"}),
-    frozenset({"scene"}),
+    frozenset({"scene", "scene_yaml"}),
     frozenset({"conditioning"}),
     frozenset({"overrides", "planner"}),
     frozenset({"scene_run", "sweep"}),

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pendulum_accel.bag import mcap_file
+from pendulum_accel.bag import cdr_layout, mcap_file
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag import writer as bag_writer
 from pendulum_accel.bag.blocks import Lazy
@@ -18,15 +18,17 @@ from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
 from pendulum_accel.cli.main import main
 from pendulum_accel.cli.output import json_text
-from pendulum_accel.errors import BagError
+from pendulum_accel.errors import BagError, ParameterError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.estimators.guard import frame_problem
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Step
 from pendulum_accel.physics.simulate import simulate
-from pendulum_accel.recording.analyze import analyze_bag, plot_analysis, settling
+from pendulum_accel.recording.analysis_plot import plot_analysis
+from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.changes import CHANGE_ONSET, CHANGE_WINDOW, after_change, change_rule
 from pendulum_accel.recording.contract import decode_chain, unprefixed
+from pendulum_accel.recording.figures import settling
 from pendulum_accel.recording.generate import chain_streams, generate_bag, write_chain_bag
 from test.conftest import strict_json
 from test.figures import assert_figure
@@ -124,7 +126,7 @@ def test_cli_damaged_bag_warns_and_salvages(
 
 def test_cli_wrong_type_topic(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """/pendulum/joint_states recorded as AccelStamped: analyze names the topic and both types, exit 2."""
-    layout = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+    layout = cdr_layout.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
     ns = np.arange(10, dtype=np.int64) * 10_000_000
     sec, nsec = bm.split_stamp(ns)
     rows = layout.encode(10, {"header.stamp.sec": sec, "header.stamp.nanosec": nsec})
@@ -239,7 +241,7 @@ def test_a_bag_without_truth_gets_the_figures_that_need_none(sensor_bag: Path, s
     assert "no truth in the bag (/car/accel/truth)" in report
     assert "RMS:" not in report and "settling" not in report
     assert_figure(report, "mean â:", values.mean, rel=1e-4)
-    with pytest.raises(BagError, match=r"settling band around the truth, and bag .* has none"):
+    with pytest.raises(ParameterError, match=r"settling band around the truth, and bag .* has none"):
         analyze_bag(sensor_bag, config=CONFIG, tolerance=0.1)
 
 

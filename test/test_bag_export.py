@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from pendulum_accel.bag import cdr_layout
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.export import (
     BULK_TYPES,
@@ -234,16 +235,16 @@ def test_a_layout_is_learnt_from_a_fixed_number_of_serializations(monkeypatch: p
         calls.append(msgtype)
         return real(msg, msgtype)
 
-    one = len(bm.Layout.of(_marker_array(1), bm.MARKER_ARRAY).fields)
-    monkeypatch.setattr(bm, "serialize", counted)
-    bm._LAYOUTS.clear()
-    layout = bm.Layout.of(_marker_array(50), bm.MARKER_ARRAY)
+    one = len(cdr_layout.Layout.of(_marker_array(1), bm.MARKER_ARRAY).fields)
+    monkeypatch.setattr(cdr_layout, "serialize", counted)
+    cdr_layout._LAYOUTS.clear()
+    layout = cdr_layout.Layout.of(_marker_array(50), bm.MARKER_ARRAY)
     assert len(layout.fields) == 50 * one > 1000
     assert len(calls) == 5, calls
-    monkeypatch.setattr(bm, "serialize", real)
+    monkeypatch.setattr(cdr_layout, "serialize", real)
     for msg, msgtype in samples:
-        fast = bm.Layout._learn(msg, msgtype)
-        by_field = bm.Layout._learn_by_field(msg, msgtype)
+        fast = cdr_layout.Layout._learn(msg, msgtype)
+        by_field = cdr_layout.Layout._learn_by_field(msg, msgtype)
         assert fast.fields == by_field.fields, msgtype
         np.testing.assert_array_equal(fast.mask, by_field.mask)
         np.testing.assert_array_equal(fast.template, by_field.template)

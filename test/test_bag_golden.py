@@ -19,7 +19,8 @@ from rosbags.rosbag2 import Reader
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.planner import plan_scene
-from pendulum_accel.recording.analyze import analyze_bag, stored_scene_name
+from pendulum_accel.recording.analyze import analyze_bag
+from pendulum_accel.recording.stored_scene import stored_scene_name
 from pendulum_accel.scene import list_scenes, scene_from_yaml
 from test.figures import assert_same_figures
 

@@ -13,6 +13,7 @@ from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 
 from pendulum_accel import __version__
+from pendulum_accel.bag import cdr_layout
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.repair import repair_bag
@@ -53,13 +54,13 @@ def _layouts() -> list[tuple[str, object, dict[str, np.ndarray]]]:
 def test_bulk_cdr_equals_typestore_byte_for_byte(case: int) -> None:
     """Layout.encode rows == typestore.serialize_cdr of the same message; decode inverts both."""
     msgtype, template, columns = _layouts()[case]
-    layout = bm.Layout.of(template, msgtype)
+    layout = cdr_layout.Layout.of(template, msgtype)
     n = len(next(iter(columns.values())))
     rows = layout.encode(n, columns)
     for i in range(n):
         msg = bm.deserialize(bm.serialize(template, msgtype), msgtype)
         for path, col in columns.items():
-            bm._set_leaf(msg, path, col[i].item())
+            cdr_layout._set_leaf(msg, path, col[i].item())
         assert rows[i].tobytes() == bm.serialize(msg, msgtype)
     decoded = layout.decode(rows)
     for path, col in columns.items():
@@ -73,7 +74,7 @@ def test_matches_is_the_bytewise_shape_test(case: int) -> None:
     byte equals the template's. One row per byte position with that byte flipped, plus an intact row and
     rows one byte short: exactly the flips of non-field bytes fail."""
     msgtype, template, columns = _layouts()[case]
-    layout = bm.Layout.of(template, msgtype)
+    layout = cdr_layout.Layout.of(template, msgtype)
     base = layout.encode(1, {path: col[:1] for path, col in columns.items()})[0]
     flipped = np.repeat(base[None, :], layout.size + 1, axis=0)
     positions = np.arange(layout.size)
@@ -91,7 +92,7 @@ def test_matches_is_the_bytewise_shape_test(case: int) -> None:
 
 def test_encode_refuses_nan() -> None:
     """A NaN field is a one-line BagError, never written."""
-    layout = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+    layout = cdr_layout.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
     with pytest.raises(BagError, match="NaN"):
         layout.encode(2, {"accel.linear.x": [1.0, np.nan]})
 
@@ -101,10 +102,12 @@ def _chain_streams(n: int) -> tuple[list[Stream], dict[str, str]]:
     ns = bm.seconds_to_ns(np.arange(n) * 1e-3)
     sec, nsec = bm.split_stamp(ns)
     stamp = {"header.stamp.sec": sec, "header.stamp.nanosec": nsec}
-    js = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
-    tr = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
-    est = bm.Layout.of(bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED)
-    ck = bm.Layout.of(bm.clock(0), bm.CLOCK)
+    js = cdr_layout.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+    tr = cdr_layout.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+    est = cdr_layout.Layout.of(
+        bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED
+    )
+    ck = cdr_layout.Layout.of(bm.clock(0), bm.CLOCK)
     theta = RNG.normal(size=n) * 0.1
     diag_ns = ns[::500]
     diag = [
@@ -413,7 +416,7 @@ def test_damaged_payload_is_skipped_not_fatal(tmp_path: Path) -> None:
 
 def test_layout_reader_and_writer_per_message() -> None:
     """reader: our shape's fields by struct, None for any other shape; writer: the serializer's bytes."""
-    joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+    joint = cdr_layout.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
     read = joint.reader(["header.stamp.sec", "header.stamp.nanosec", "position[0]"])
     ours = bm.serialize(bm.joint_state(2_000_000_007, [bm.PENDULUM_JOINT], [-0.25], [1.5]), bm.JOINT_STATE)
     assert read(ours) == (2, 7, -0.25)
@@ -426,7 +429,9 @@ def test_layout_reader_and_writer_per_message() -> None:
     ]
     for msg in others:
         assert read(bm.serialize(msg, bm.JOINT_STATE)) is None
-    estimate = bm.Layout.of(bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED)
+    estimate = cdr_layout.Layout.of(
+        bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED
+    )
     write = estimate.writer(
         ["header.stamp.sec", "header.stamp.nanosec", "accel.accel.linear.x", "accel.covariance[0]"]
     )

@@ -198,7 +198,7 @@ def test_merged_export_streamed_equals_the_whole_join(
 ) -> None:
     """--merged written 7000 angles at a time (with the smoother's series) reads back equal to the whole
     join (merged_table, then the derived series merged on t): same columns, dtypes and values, exactly."""
-    from pendulum_accel.recording.analyze import smoothed_estimate
+    from pendulum_accel.recording.smoothed import smoothed_estimate
 
     monkeypatch.setattr(bag_export, "BATCH_ROWS", 7000)
     monkeypatch.setattr(bag_export, "MERGE_ROWS", 7000)

@@ -12,7 +12,8 @@ import pytest
 from scipy.linalg import expm
 
 from benchmarks import integrated_walk as iw
-from benchmarks import real_motion as rm
+from benchmarks import motion_designs as md
+from benchmarks import motion_scores as ms
 from pendulum_accel.physics.profiles import Ramp
 
 G = 9.80665
@@ -61,17 +62,17 @@ def test_a_ramp_is_tracked_without_the_lag_a_random_walk_has() -> None:
     Error argument: σ = 1e-6 rad maps to about g σ = 1e-5 m/s² of a per sample; the bound 1e-3 m/s²
     on the integrated walk's RMS over 5–20 s is 100× that (it comes to 1.7e-5). The random walk's best
     RMS over the grid is its lag, 3.4e-3 here: asserted above 30× the integrated walk's, a 6× margin."""
-    design = rm.Design("ramp", 0.1, 0.5, 1e-6, 200.0)
-    runs = rm.simulate_runs(Ramp(0.0, 20.0, 0.0, 6.0), design, 1, 20.0)
+    design = md.Design("ramp", 0.1, 0.5, 1e-6, 200.0)
+    runs = md.simulate_runs(Ramp(0.0, 20.0, 0.0, 6.0), design, 1, 20.0)
     run = runs[0]
-    g, length, c, r = rm.kalman_q(design, 1.0)._params[:4]
+    g, length, c, r = ms.kalman_q(design, 1.0)._params[:4]
     a = iw.iw_pass(run.t, run.theta, g, length, c, r, 1e-6)
     late = run.t >= 5.0
     rms_iw = float(np.sqrt(np.mean((a - run.accel)[late] ** 2)))
     assert rms_iw < 1e-3
     rms_rw = min(
-        float(np.sqrt(np.mean((rm.kalman_q(design, q).batch(run.t, run.theta)[0] - run.accel)[late] ** 2)))
-        for q in rm.Q_GRID
+        float(np.sqrt(np.mean((ms.kalman_q(design, q).batch(run.t, run.theta)[0] - run.accel)[late] ** 2)))
+        for q in ms.Q_GRID
     )
     assert rms_rw > 30.0 * rms_iw
 
@@ -81,9 +82,9 @@ def page(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The benchmark run on one validation profile through one design, its page under a temporary docs."""
     docs = tmp_path_factory.mktemp("docs")
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(iw, "PROFILES", tuple(p for p in rm.PROFILES if p.name == "udds_p2"))
+        patch.setattr(iw, "PROFILES", tuple(p for p in md.PROFILES if p.name == "udds_p2"))
         patch.setattr(iw, "REPORTED_HELDOUT", ())
-        patch.setattr(iw, "designs", lambda: rm.designs()[1:])
+        patch.setattr(iw, "designs", lambda: md.designs()[1:])
         assert iw.main(["--out", str(docs / "out"), "--docs", str(docs)]) == 0
     return docs / "benchmarks" / "integrated_walk.md"
 

@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 
 from benchmarks import work_precision as wp
+from benchmarks import work_precision_cases as wpc
+from pendulum_accel.physics.integrators import ADAPTIVE_METHODS, FIXED_STEP_METHODS
 from pendulum_accel.physics.params import Pendulum
 from pendulum_accel.physics.profiles import Step
 
@@ -50,7 +52,7 @@ def test_every_method_measured_with_finite_errors(quick_run: Path) -> None:
     """Every integrator and closed form appears; every 'ok' row has a finite error and CPU > 0."""
     rows = _rows(quick_run)
     methods = {r["method"] for r in rows if r["setting"] != "plan"}
-    assert set(wp.FIXED_STEP_METHODS + wp.ADAPTIVE_METHODS) | {"closed-form"} <= methods
+    assert set(FIXED_STEP_METHODS + ADAPTIVE_METHODS) | {"closed-form"} <= methods
     ok = [r for r in rows if r["status"] == "ok"]
     assert len(ok) >= 30
     for r in ok:
@@ -86,7 +88,7 @@ def test_mpmath_reference_restarts_at_a_step() -> None:
 
     t = np.linspace(0.0, 1.0, 11)
     profile = Step(0.35, 0.0, 3.0)
-    ref = wp.mpmath_reference(Pendulum(0.7), profile, t, 0.1, -0.2, digits=20)
+    ref = wpc.mpmath_reference(Pendulum(0.7), profile, t, 0.1, -0.2, digits=20)
     exact = simulate(Pendulum(0.7), profile, t, theta0=0.1, theta_dot0=-0.2, model="exact")
     assert np.max(np.abs(ref - exact.theta)) < 1e-13
 

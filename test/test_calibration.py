@@ -26,7 +26,7 @@ from pendulum_accel.estimators.period_mean import PeriodMeanEstimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.physics.profiles import Constant, Table
 from pendulum_accel.physics.simulate import simulate
-from pendulum_accel.recording.analyze import NeesStats, calibration, nees_windows
+from pendulum_accel.recording.coverage import NeesStats, calibration, nees_windows
 from pendulum_accel.recording.settings import estimator_settings
 from pendulum_accel.scene import load_scene
 from pendulum_accel.scene_run import run_scene

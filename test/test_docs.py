@@ -25,7 +25,12 @@ DOCS = ROOT / "docs"
 README = ROOT / "README.md"
 # Scripts under benchmarks/ that are helpers, not benchmarks.
 # corpus: the profiles the benchmarks share; bare_rclpy: the ceiling benchmarks.chain puts on its page.
-NOT_BENCHMARKS = {"__init__", "report", "reference", "corpus", "bare_rclpy"}
+# Modules beside the scripts: the page writer, shared pieces (the corpus, the real-motion designs, scores and
+# preset fits, the work-precision scenes) and bare_rclpy.
+NOT_BENCHMARKS = {
+    "__init__", "report", "reference", "corpus", "bare_rclpy",
+    "motion_designs", "motion_scores", "fit_presets", "work_precision_cases",
+}  # fmt: skip
 
 
 def _nav_files(node: object) -> list[str]:

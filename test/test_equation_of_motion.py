@@ -11,7 +11,7 @@ import mpmath
 import numpy as np
 import pytest
 
-from benchmarks.work_precision import mp_theta_ddot
+from benchmarks.work_precision_cases import mp_theta_ddot
 from pendulum_accel.estimators.ekf_kernels import predict
 from pendulum_accel.physics.kernels import Kernel, _rigid_rhs
 from pendulum_accel.physics.params import Pendulum
@@ -109,7 +109,7 @@ def test_kalman_jacobian_is_that_of_theta_ddot() -> None:
 
 
 def test_benchmark_mpmath_reference_rhs_is_theta_ddot() -> None:
-    """benchmarks.work_precision.mp_theta_ddot at 30 digits rounds to theta_ddot."""
+    """benchmarks.work_precision_cases.mp_theta_ddot at 30 digits rounds to theta_ddot."""
     with mpmath.workdps(30):
         for p, th, w, a in _states(5):
             value = mp_theta_ddot(*(mpmath.mpf(v) for v in (th, w, a, p.gravity, p.length, p.damping)))

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks.real_motion import PROFILES
+from benchmarks.motion_designs import PROFILES
 from pendulum_accel.errors import SceneError
 from pendulum_accel.estimators import estimate_batch, estimator_line
 from pendulum_accel.estimators.kalman import PRESETS

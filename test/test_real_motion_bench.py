@@ -10,7 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks import fit_presets as fp
+from benchmarks import motion_designs as md
+from benchmarks import motion_scores as ms
 from benchmarks import real_motion as rm
+from pendulum_accel.estimators import LIVE_ESTIMATORS
 
 # The page's own run covers the whole validation corpus through four designs (tens of minutes); the test
 # checks the report's structure and its figures' properties on one validation profile of each kind and one
@@ -44,13 +48,13 @@ def test_report_covers_every_validation_profile_design_and_method(quick: tuple) 
     assert validation and training and not validation & training
     assert {r.profile for r in rows} == validation
     reported = {r.design for r in rows}
-    assert reported == {d.name for d in (*rm.designs(), *rm.REPORTED_HELDOUT)}
-    for design in (*rm.designs(), *rm.REPORTED_HELDOUT):
+    assert reported == {d.name for d in (*md.designs(), *rm.REPORTED_HELDOUT)}
+    for design in (*md.designs(), *rm.REPORTED_HELDOUT):
         for profile in validation:
             methods = {
                 r.method.split(" ")[0] for r in rows if r.design == design.name and r.profile == profile
             }
-            assert {*rm.LIVE_ESTIMATORS, "smoother", "ekf_hindsight", "rts_hindsight", "rts_best"} <= methods
+            assert {*LIVE_ESTIMATORS, "smoother", "ekf_hindsight", "rts_hindsight", "rts_best"} <= methods
     text = (out / "benchmarks" / "real_motion.md").read_text()
     assert "| design | profile | method | RMS |" in text and "Targets (issue 33)" in text
     assert "Split (benchmarks.corpus)" in text
@@ -71,7 +75,7 @@ def test_figures_are_finite_and_bounds_order_as_theory_says(quick: tuple) -> Non
         # Each share's independent trials: at least one per stretch, at most one per sample.
         for n, eff in ((s.n_steady, s.eff_steady), (s.n_after, s.eff_after)):
             assert (n == 0 and eff == 0.0) or 1.0 <= eff <= n
-    for design in rm.designs():
+    for design in md.designs():
         for profile in {r.profile for r in rows}:
             by = {
                 r.method.split(" q=")[0]: r for r in rows if r.design == design.name and r.profile == profile
@@ -93,15 +97,15 @@ def test_calibration_miss_is_zero_for_a_gaussian_share_and_grows_both_ways() -> 
     """The IMM fit's criterion: Σ |ln(share/4.55 %)| over steady and after-change; 0 at a Gaussian's
     share (P(|z| > 2) = erfc(√2)), ln 2 per factor 2 either way, a share of 0 floored, empty parts skipped."""
     n = 1e6  # samples: the shares below are exact fractions of it
-    gauss = rm.GAUSS_2SIGMA * n
-    assert abs(rm.GAUSS_2SIGMA - 0.0455) <= 5e-5  # the textbook 4.55 %, to its printed digits
-    assert rm.calibration_miss([0.0, gauss, n, gauss, n]) == pytest.approx(0.0, abs=1e-12)
+    gauss = ms.GAUSS_2SIGMA * n
+    assert abs(ms.GAUSS_2SIGMA - 0.0455) <= 5e-5  # the textbook 4.55 %, to its printed digits
+    assert ms.calibration_miss([0.0, gauss, n, gauss, n]) == pytest.approx(0.0, abs=1e-12)
     # ln 2 each way: 1e-12 covers the round-off of a log of a ratio of doubles
-    both = rm.calibration_miss([0.0, 2 * gauss, n, gauss / 2, n])
+    both = ms.calibration_miss([0.0, 2 * gauss, n, gauss / 2, n])
     assert both == pytest.approx(2 * math.log(2.0), abs=1e-12)
-    assert rm.calibration_miss([0.0, gauss, n, 0.0, 0.0]) == pytest.approx(0.0, abs=1e-12)
-    floored = rm.calibration_miss([0.0, 0.0, n, gauss, n])
-    assert floored == pytest.approx(math.log(rm.GAUSS_2SIGMA / rm.SHARE_FLOOR), abs=1e-12)
+    assert ms.calibration_miss([0.0, gauss, n, 0.0, 0.0]) == pytest.approx(0.0, abs=1e-12)
+    floored = ms.calibration_miss([0.0, 0.0, n, gauss, n])
+    assert floored == pytest.approx(math.log(ms.GAUSS_2SIGMA / ms.SHARE_FLOOR), abs=1e-12)
 
 
 def test_targets_count_every_judged_cell_once(quick: tuple) -> None:
@@ -121,15 +125,15 @@ def test_targets_count_every_judged_cell_once(quick: tuple) -> None:
         assert (len(kinds["in"]), len(kinds["unsure"]), len(kinds["out"])) == (inside, unsure, outside)
 
 
-def _tiny_training_split() -> tuple[rm.Profile, ...]:
+def _tiny_training_split() -> tuple[md.Profile, ...]:
     """One short training profile per preset (a step, a braking and a stop): every fit's code path in
     seconds, not the corpus's minutes."""
     from pendulum_accel.physics.profiles import Braking, Step
 
     return (
-        rm.Profile("tiny_car", "train", "car", lambda: Step(3.0, 0.0, 1.0), 6.0),
-        rm.Profile("tiny_robot", "train", "robot", lambda: Braking(2.0, 2.0, 3.0), 6.0),
-        rm.Profile("tiny_lab", "train", "lab_steps", lambda: Step(3.0, 1.0, -2.0), 6.0),
+        md.Profile("tiny_car", "train", "car", lambda: Step(3.0, 0.0, 1.0), 6.0),
+        md.Profile("tiny_robot", "train", "robot", lambda: Braking(2.0, 2.0, 3.0), 6.0),
+        md.Profile("tiny_lab", "train", "lab_steps", lambda: Step(3.0, 1.0, -2.0), 6.0),
     )
 
 
@@ -139,23 +143,23 @@ def test_fit_runs_every_fit_and_picks_from_its_grids(
     """``--fit`` (the command every tuned constant names) runs each fit to its end on a training split, and
     each prints a value of its own grid: q_a of Q_GRID and an IMM candidate per preset, auto's chain of
     AUTO_CHAINS, the fixed-lag and the smoother's variance maps of LAG_POWERS × LAG_WEIGHTS."""
-    monkeypatch.setattr(rm, "PROFILES", _tiny_training_split())
+    monkeypatch.setattr(fp, "PROFILES", _tiny_training_split())
     assert rm.main(["--fit", "--quick"]) == 0
     out = capsys.readouterr().out
     for preset in ("car", "robot", "lab_steps"):
         q = float(re.search(rf"^{preset}: single q_a = (\S+) ", out, re.M).group(1))  # type: ignore[union-attr]
         # printed to 3 significant digits: within half a unit of the third digit of a grid value
-        assert min(abs(q - g) / g for g in rm.Q_GRID) <= 5e-3
+        assert min(abs(q - g) / g for g in ms.Q_GRID) <= 5e-3
         imm = re.search(rf"^{preset}: IMM modes \((\S+), (\S+)\), switch_time (\S+) s", out, re.M)
         assert imm is not None
         modes = (float(imm.group(1)), float(imm.group(2)))
-        assert (modes, float(imm.group(3))) in rm.IMM_CANDIDATES
+        assert (modes, float(imm.group(3))) in fp.IMM_CANDIDATES
     chain = re.search(r"^auto: chain up (\S+) s, down (\S+) s", out, re.M)
-    assert chain is not None and (float(chain.group(1)), float(chain.group(2))) in rm.AUTO_CHAINS
+    assert chain is not None and (float(chain.group(1)), float(chain.group(2))) in fp.AUTO_CHAINS
     for name in ("fixed-lag", "smoother"):
         fitted = re.search(rf"^auto: {name} variance map γ (\S+) κ (\S+) ", out, re.M)
         assert fitted is not None, name
-        assert float(fitted.group(1)) in rm.LAG_POWERS and float(fitted.group(2)) in rm.LAG_WEIGHTS
+        assert float(fitted.group(1)) in fp.LAG_POWERS and float(fitted.group(2)) in fp.LAG_WEIGHTS
 
 
 def test_imm_scan_counts_what_the_estimator_publishes() -> None:
@@ -167,15 +171,15 @@ def test_imm_scan_counts_what_the_estimator_publishes() -> None:
 
     car = PRESETS["car"]
     candidate = (car.modes, car.switch_time)
-    assert candidate in rm.IMM_CANDIDATES
-    design = rm.designs()[0]
-    runs = rm.simulate_runs(Step(3.0, 0.0, 1.0), design, 2, 8.0)
-    (row,) = rm.imm_scan(runs, design, [candidate])
-    est = KalmanEstimator(rm.kalman_q(design, 1.0).config, preset="car")
+    assert candidate in fp.IMM_CANDIDATES
+    design = md.designs()[0]
+    runs = md.simulate_runs(Step(3.0, 0.0, 1.0), design, 2, 8.0)
+    (row,) = fp.imm_scan(runs, design, [candidate])
+    est = KalmanEstimator(ms.kalman_q(design, 1.0).config, preset="car")
     expected = [0.0, 0, 0, 0, 0]
     for r in runs:
         a, var = est.batch(r.t, r.theta)
-        keep = r.t >= rm.WARMUP
+        keep = r.t >= ms.WARMUP
         e = (a - r.accel)[keep]
         beyond = e * e > 4.0 * var[keep]  # the design has no bias: the published var is the IMM's own
         after = after_change(r.t, r.t, r.accel)[keep]

@@ -14,7 +14,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pendulum_accel import scene as scene_module
+from pendulum_accel import scene_yaml
 from pendulum_accel.cli.main import main
 from pendulum_accel.errors import SceneError
 from pendulum_accel.physics.profiles import Constant, Table
@@ -25,11 +25,11 @@ from pendulum_accel.scene import (
     list_scenes,
     load_scene,
     scene_from_yaml,
-    scene_text_without_motion,
     scene_to_dict,
     scene_to_yaml,
     write_scene_file,
 )
+from pendulum_accel.scene_yaml import scene_text_without_motion
 
 Doc = dict[str, Any]
 
@@ -93,7 +93,7 @@ def _library_text(scene: Any) -> str:
     return str(
         yaml.dump(
             scene_to_dict(scene),
-            Dumper=scene_module._SceneDumper,
+            Dumper=scene_yaml._SceneDumper,
             sort_keys=False,
             allow_unicode=True,
             width=100,
@@ -144,10 +144,10 @@ def test_non_finite_floats_and_a_placeholder_lookalike_are_the_librarys() -> Non
     """The float lines spell nan and ±inf as the representer does, and a scene whose description spells
     the placeholder scene_to_yaml uses is dumped by the library whole (its text is still the library's)."""
     values = [math.nan, math.inf, -math.inf, 1e-05, -0.0, 5e-324]
-    assert scene_module._float_block(values, "  ") == yaml.safe_dump({"k": {"v": values}}).split("\n", 2)[2]
-    lookalike = f"x: {scene_module._NUMBERS.format(0)}\ny"
+    assert scene_yaml._float_block(values, "  ") == yaml.safe_dump({"k": {"v": values}}).split("\n", 2)[2]
+    lookalike = f"x: {scene_yaml._NUMBERS.format(0)}\ny"
     scene = dataclasses.replace(
-        load_scene("stop_and_go"), description=f"a: {scene_module._NUMBERS.format(0)}\n{lookalike}"
+        load_scene("stop_and_go"), description=f"a: {scene_yaml._NUMBERS.format(0)}\n{lookalike}"
     )
     assert scene_to_yaml(scene) == _library_text(scene)
     assert scene_from_yaml(scene_to_yaml(scene)) == scene
@@ -156,15 +156,16 @@ def test_non_finite_floats_and_a_placeholder_lookalike_are_the_librarys() -> Non
 def _library_data(text: str) -> Any:
     """What the scene loader's library parse gives for ``text``, or the refusal's type and message."""
     try:
-        return yaml.load(text, Loader=scene_module._SceneLoader)
+        return yaml.load(text, Loader=scene_yaml._SceneLoader)
     except yaml.YAMLError as err:
         return (type(err).__name__, str(err))
 
 
 def _hand_data(text: str) -> Any:
-    """What scene_from_yaml's parse (_load_scene_data) gives for ``text``, or the refusal's type and text."""
+    """What scene_from_yaml's parse (scene_yaml.load_scene_data) gives for ``text``, or the refusal's type and
+    text."""
     try:
-        return scene_module._load_scene_data(text)
+        return scene_yaml.load_scene_data(text)
     except yaml.YAMLError as err:
         return (type(err).__name__, str(err))
 
@@ -173,13 +174,13 @@ def _hand_data(text: str) -> Any:
 def test_float_lists_read_by_hand_are_the_librarys(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """Every float list of a bundled scene's stored text, cut out and read by hand (down to one item, so
     every list is), gives the library's data. Compared through repr: exact, and nan equal to nan."""
-    monkeypatch.setattr(scene_module, "_FLOAT_RUN_MIN", 1)
+    monkeypatch.setattr(scene_yaml, "_FLOAT_RUN_MIN", 1)
     text = scene_to_yaml(load_scene(name))
     lists = sum(
         isinstance(v, list) and v != [] and all(type(x) is float for x in v)
         for v in _walk_values(_library_data(text))
     )
-    cut = scene_module._float_runs(text)
+    cut = scene_yaml._float_runs(text)
     assert (cut is not None) == (lists > 0)
     assert repr(_hand_data(text)) == repr(_library_data(text))
 
@@ -193,7 +194,7 @@ def _walk_values(node: Any) -> list[Any]:
 # Items: the writer's spellings (any float through _float_block) and ones the cut must leave to the library
 # (YAML 1.2's 1e5, a sign, underscores, ints, hex, a comment, other nan spellings, a string, an empty item).
 _ITEM = st.one_of(
-    st.floats().map(lambda v: scene_module._float_block([v], "")[2:-1]),
+    st.floats().map(lambda v: scene_yaml._float_block([v], "")[2:-1]),
     st.sampled_from(["1e5", "+1.0", "1_0.5", "7", "0x1f", "1.5E3", ".NaN", "abc", "1.0 # c", "", "1.0:"]),
 )
 # What comes before the run: nothing, a block scalar, a flow mapping, an anchor (merged after), a set,
@@ -227,7 +228,7 @@ def test_any_layout_around_a_float_run_reads_as_the_library_reads_it(
     if missing_newline:
         text = text.rstrip("\n")
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(scene_module, "_FLOAT_RUN_MIN", 1)
+        patch.setattr(scene_yaml, "_FLOAT_RUN_MIN", 1)
         assert repr(_hand_data(text)) == repr(_library_data(text))
 
 
@@ -238,13 +239,13 @@ def test_a_long_table_is_read_by_hand(monkeypatch: pytest.MonkeyPatch) -> None:
     table = Table(tuple(0.01 * k for k in range(n)), tuple(math.sin(0.37 * k) * 1e-3 for k in range(n)))
     scene = dataclasses.replace(load_scene("lecture_constant"), profile=table)
     text = scene_to_yaml(scene)
-    cut = scene_module._float_runs(text)
+    cut = scene_yaml._float_runs(text)
     assert cut is not None and [len(v) for v in cut[1].values()] == [n, n]
     assert len(cut[0]) < 2000
     assert scene_from_yaml(text) == scene
-    short = scene_module._FLOAT_RUN_MIN - 1
+    short = scene_yaml._FLOAT_RUN_MIN - 1
     small = Table(table.times[:short], table.accels[:short])
-    assert scene_module._float_runs(scene_to_yaml(dataclasses.replace(scene, profile=small))) is None
+    assert scene_yaml._float_runs(scene_to_yaml(dataclasses.replace(scene, profile=small))) is None
 
 
 def test_the_launchers_scene_file_keeps_a_table_beside_it(tmp_path: Path) -> None:
@@ -278,8 +279,8 @@ def test_a_stored_scene_read_without_its_motion_keeps_everything_else(name: str)
     assert light is not None
     assert scene_from_yaml(light) == dataclasses.replace(scene, profile=Constant(0.0))
     for each in (text, light):
-        assert yaml.load(each, Loader=scene_module._CSceneLoader) == yaml.load(
-            each, Loader=scene_module._SceneLoader
+        assert yaml.load(each, Loader=scene_yaml._CSceneLoader) == yaml.load(
+            each, Loader=scene_yaml._SceneLoader
         )
 
 

@@ -13,11 +13,13 @@ from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.cli.main import main
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, estimate_batch
 from pendulum_accel.recording import coverage
-from pendulum_accel.recording.analyze import NeesStats, analyze_bag, nees_windows, stored_scene
+from pendulum_accel.recording.analyze import analyze_bag
 from pendulum_accel.recording.changes import after_change
+from pendulum_accel.recording.coverage import NeesStats, nees_windows
 from pendulum_accel.recording.generate import chain_streams, write_chain_bag
 from pendulum_accel.recording.seed_spread import WindowSpread, seed_spread, with_seed
 from pendulum_accel.recording.settings import estimator_options
+from pendulum_accel.recording.stored_scene import stored_scene
 from pendulum_accel.scene_run import run_scene
 from test.conftest import strict_json
 

@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.cdr_layout import Layout
 from pendulum_accel.bag.reader import Bag
 from pendulum_accel.errors import PendulumAccelError
 
@@ -182,7 +183,7 @@ def flatten_problem(bag: Bag, topic: str) -> str | None:
     if msgtype in BULK_TYPES or msgtype == bm.DIAGNOSTIC_ARRAY:
         return None
     shapes = bag.shapes(topic)
-    fields = {tuple(bm.Layout.of(msg, msgtype).fields) for msg, _ in shapes}
+    fields = {tuple(Layout.of(msg, msgtype).fields) for msg, _ in shapes}
     if len(fields) > 1:
         return f"its messages come in {len(fields)} shapes with different fields (arrays of varying length)"
     width = len(next(iter(fields))) if fields else 0

@@ -297,7 +297,7 @@ class Bag:
         for _, data in self._iter_blocks(chans, self._cids([topic])):
             yield from block_payloads(data)
 
-    def _pass(
+    def _classify_blocks(
         self, topic: str, msgtype: str | None, want: frozenset[int] | None = None
     ) -> Iterator[tuple[NDArray[np.int64], Classified]]:
         """(log times, classified rows) of each block of ``topic`` in channel then file order; the shapes
@@ -319,7 +319,7 @@ class Bag:
 
     def _shape_pass(self, topic: str, want: frozenset[int]) -> Generator[None, None, None]:
         """A pass over ``topic`` for its shapes (cached at its end), yielding after each block."""
-        for _ in self._pass(topic, None, want):
+        for _ in self._classify_blocks(topic, None, want):
             yield
 
     def find_shapes(self, topics: Sequence[str]) -> None:
@@ -328,11 +328,11 @@ class Bag:
         want = self._cids(todo)
         self._in_step({t: self._shape_pass(t, want) for t in todo})
 
-    def _book(self, topic: str, msgtype: str | None) -> ShapeBook:
+    def _shape_book(self, topic: str, msgtype: str | None) -> ShapeBook:
         """The shapes of ``topic`` (type-checked), from the cache or from a pass over it."""
         self._channels_of(topic, msgtype)
         if topic not in self._shape_cache:
-            for _ in self._pass(topic, msgtype):
+            for _ in self._classify_blocks(topic, msgtype):
                 pass
         return self._shape_cache[topic]
 
@@ -342,7 +342,7 @@ class Bag:
         A cheap look at what a topic holds (e.g. which joints a JointState names) without decoding every
         message: a shape is every message equal to the first outside the numeric fields.
         """
-        return [(s.msg, s.count) for s in self._book(topic, msgtype).shapes]
+        return [(s.msg, s.count) for s in self._shape_book(topic, msgtype).shapes]
 
     def _note_skipped(self, topic: str) -> None:
         """Name the messages of ``topic`` that do not decode in ``problem`` (once: a topic read twice, as
@@ -398,7 +398,7 @@ class Bag:
         times_out = np.empty(total, dtype=np.int64)
         columns: dict[str, NDArray[Any]] = {}
         filled = 0
-        for times, classified in self._pass(topic, msgtype, want):
+        for times, classified in self._classify_blocks(topic, msgtype, want):
             wanted, (t, cols) = decode_block(topic, mtype, times, classified, wanted)
             if t.size:
                 times_out[filled : filled + t.size] = t
@@ -441,7 +441,7 @@ class Bag:
         parts: list[tuple[NDArray[np.int64], dict[str, NDArray[Any]]]] = []
         held = 0
         given = False
-        for times, classified in self._pass(topic, msgtype):
+        for times, classified in self._classify_blocks(topic, msgtype):
             wanted, kept = decode_block(topic, mtype, times, classified, wanted)
             if kept[0].size:
                 parts.append(kept)

@@ -242,7 +242,7 @@ class Scanner(ChunkReader):
             self.body_crc = crc32_combine(zlib.crc32(body[: head.records_at]), crc, len(data))
         return data
 
-    def _fold(self, head: bytes, body: memoryview, body_crc: int | None = None) -> None:
+    def _extend_data_crc(self, head: bytes, body: memoryview, body_crc: int | None = None) -> None:
         """Extend the data section CRC over one record (``body_crc``: crc32 of its body, when known)."""
         self.data_crc = zlib.crc32(head, self.data_crc)
         if body_crc is None:
@@ -309,7 +309,7 @@ class Scanner(ChunkReader):
                         self.pending[1].append(index)
                         if self.pending_ref is not None:
                             self.pending_ref.add(pos, body)
-                    self._fold(head, body)
+                    self._extend_data_crc(head, body)
                 else:
                     self._flush_chunk()
                     if op == Opcode.FOOTER:
@@ -319,7 +319,7 @@ class Scanner(ChunkReader):
                         self.chunks_seen += 1
                         chunk_data = self._open_chunk(body, pos, self.chunks_seen)
                         body_crc = self.body_crc if self.body_crc is not None else zlib.crc32(body)
-                        self._fold(head, body, body_crc)
+                        self._extend_data_crc(head, body, body_crc)
                         if chunk_data is not None:
                             self.pending, self.pending_at = (chunk_data, []), pos
                             if self.pending_damage is None:
@@ -328,7 +328,7 @@ class Scanner(ChunkReader):
                         self._data_end(body)
                     else:
                         self._top_level(op, body)
-                        self._fold(head, body)
+                        self._extend_data_crc(head, body)
             except RECORD_ERRORS as err:
                 bag.problem = f"{self.path} is corrupt at byte {pos} ({Opcode(op).name} record): {err}"
                 return pos

@@ -1,7 +1,7 @@
 """A topic's messages by shape, decoded column-wise: what ``Bag.decode`` and ``Bag.shapes`` are made of.
 
 A *shape* is every message equal to a first one outside the numeric fields of its
-:class:`~pendulum_accel.bag.messages.Layout` (strings, frame, joint names, sequence lengths). A pass
+:class:`~pendulum_accel.bag.cdr_layout.Layout` (strings, frame, joint names, sequence lengths). A pass
 over a topic classifies each block's payloads by shape (``classify``), the shapes found so far kept in
 a ``ShapeBook``: rows matching a known shape are taken in bulk; the first row of a new shape is decoded
 by the typestore and its layout learnt; rows that decode but not as the typestore writes them are
@@ -20,7 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pendulum_accel.bag.blocks import Payloads, Slices
-from pendulum_accel.bag.messages import Layout, canonical_cdr, deserialize, rows_from_bytes, stamp_seconds
+from pendulum_accel.bag.cdr_layout import Layout, rows_from_bytes
+from pendulum_accel.bag.messages import canonical_cdr, deserialize, stamp_seconds
 from pendulum_accel.errors import BagError
 
 

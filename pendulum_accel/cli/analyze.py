@@ -3,27 +3,21 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from pendulum_accel.cli.fleet import fleet_wanted, run_fleet
 from pendulum_accel.cli.output import check_output_file, json_text, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
 from pendulum_accel.cli.sensor_flags import add_sensor_flags, sensor_config
 from pendulum_accel.cli.topics import add_topic_flags, choose_topics
-from pendulum_accel.errors import BagError
-from pendulum_accel.recording.analyze import (
-    analysis_dict,
-    analyze_bag,
-    nees_fields,
-    plot_analysis,
-    stored_scene,
-)
+from pendulum_accel.errors import ParameterError
+from pendulum_accel.recording.analysis_plot import plot_analysis
+from pendulum_accel.recording.analyze import analysis_dict, analyze_bag
+from pendulum_accel.recording.coverage import nees_fields
 from pendulum_accel.recording.seed_spread import SeedSpread, seed_spread
+from pendulum_accel.recording.stored_scene import stored_scene
 
-"""Scene fields ``analyze`` lets the user replace in the estimator's settings (ranges: overrides.py)."""
 
-
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``analyze`` subcommand."""
     parser = subparsers.add_parser(
         "analyze",
@@ -117,13 +111,15 @@ def run(args: argparse.Namespace) -> int:
     bag = choose_topics(read_intact(args.bags[0], args.salvage), args)
     if args.skip > 0 and not args.skip < bag.duration_s:
         # Nothing would be left to average: the report would be NaN figures.
-        raise BagError(f"--skip {args.skip:g} s leaves no samples: {bag.path} spans {bag.duration_s:.3f} s")
+        raise ParameterError(
+            f"--skip {args.skip:g} s leaves no samples: {bag.path} spans {bag.duration_s:.3f} s"
+        )
     config = sensor_config(args)
     if args.seeds < 0:
-        raise BagError(f"--seeds must be >= 0, got {args.seeds}")
+        raise ParameterError(f"--seeds must be >= 0, got {args.seeds}")
     scene = stored_scene(bag) if args.seeds else None
     if args.seeds and scene is None:
-        raise BagError(f"--seeds re-simulates the bag's scene, and {bag.path} stores none")
+        raise ParameterError(f"--seeds re-simulates the bag's scene, and {bag.path} stores none")
     result = analyze_bag(
         bag, estimator=args.estimator, config=config, skip=args.skip, tolerance=args.tolerance, lag=args.lag
     )
@@ -143,13 +139,13 @@ def run(args: argparse.Namespace) -> int:
     return warn_salvaged("analyze", bag)
 
 
-def _spread_dict(spread: SeedSpread | None) -> dict[str, Any] | None:
-    """{seeds, nees_<window>_…}: the pooled figures under a single bag's keys (recording.analyze.nees_fields:
+def _spread_dict(spread: SeedSpread | None) -> dict[str, float | None] | None:
+    """{seeds, nees_<window>_…}: the pooled figures under a single bag's keys (recording.coverage.nees_fields:
     mean, median, share_2sigma, trials, share_2sigma_low/_high), and nees_<window>_share_p10/_p90 of one
     seed's share; a window without samples null throughout. None without --seeds."""
     if spread is None:
         return None
-    out: dict[str, Any] = {"seeds": spread.seeds}
+    out: dict[str, float | None] = {"seeds": spread.seeds}
     for window in ("steady", "after_change"):
         w = getattr(spread, window)
         key = f"nees_{window}"

@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     out = None if to_stdout else check_output_dir(args.out)
     bag = choose_topics(read_intact(args.bag, args.salvage), args)
     check_chain_contract(bag)
-    from pendulum_accel.recording.analyze import smoothable, smoothed_estimate  # estimators: when used
+    from pendulum_accel.recording.smoothed import smoothable, smoothed_estimate  # estimators: when used
 
     # Computed when its table is written (after the topics'; first for --merged): the smoother's memory
     # and the topics' batches are not held at once.

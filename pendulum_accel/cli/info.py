@@ -19,7 +19,7 @@ from pendulum_accel.bag.writer import CUSTOM_PLAN, CUSTOM_VERSION
 from pendulum_accel.cli.topics import add_topic_flags, choose_topics
 from pendulum_accel.errors import SeveralChainsError
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting, unexplained_missing
-from pendulum_accel.recording.analyze import stored_scene_name
+from pendulum_accel.recording.stored_scene import stored_scene_name
 
 
 def register(subparsers: Any) -> None:

@@ -282,7 +282,7 @@ class KalmanEstimator(Estimator):
         qs_run = self._qs if self.modes else np.array([self.q_accel])
         rates_run = self._rates if self.modes else np.zeros((1, 1))
         # What the passes run: q_a per mode, the chain's R, q_j per mode (empty: random walks only), its band.
-        self._pass = (qs_run, rates_run, self._jerks, kern.chain_band(rates_run))
+        self._imm_inputs = (qs_run, rates_run, self._jerks, kern.chain_band(rates_run))
         self._a_max = config.gravity * math.tan(config.clamp_angle)
         self._params = np.array(
             [
@@ -312,7 +312,7 @@ class KalmanEstimator(Estimator):
 
     def reset(self) -> None:
         """Forget the state and the lag's queue; the next sample initialises the filter at rest."""
-        qs, _, jerks, band = self._pass
+        qs, _, jerks, band = self._imm_inputs
         self._buf, self._ibuf = kern.imm_buffer(qs, band, jerks)
         # MEMO[1] of the buffer: the last accepted time (ekf_kernels.ImmArrays), for _accepts.
         self._last_slot = int(kern.imm_layout(qs.size, band, int(self._ibuf[2]))[-2]) + 1
@@ -333,7 +333,7 @@ class KalmanEstimator(Estimator):
             return None
         if self._first_t is None:
             self._first_t = t
-        _, rates, jerks, _ = self._pass
+        _, rates, jerks, _ = self._imm_inputs
         out = self._out
         mapped = bool(self.modes) and self.lag_n > 0  # the IMM's lag publishes the mapped variance
         if not kern.live_step(
@@ -380,7 +380,7 @@ class KalmanEstimator(Estimator):
         """μ (n × modes): the IMM's probability of each mode after each sample (one column without modes;
         with trend modes, in ekf_kernels.with_trends' order: each random-walk mode, then its partner)."""
         t, theta = check_batch_input(t, theta)
-        qs, rates, jerks, band = self._pass
+        qs, rates, jerks, band = self._imm_inputs
         return kern.run_imm(t, theta, self._params, qs, rates, jerks, band, np.zeros(1, np.int64), True)[2]
 
     def lagged(
@@ -390,7 +390,7 @@ class KalmanEstimator(Estimator):
         else the single model's at q_accel) with one column per lag (in samples), each aligned to the sample
         it describes."""
         lag_arr = np.array((0, *lags), dtype=np.int64)
-        qs, rates, jerks, band = self._pass
+        qs, rates, jerks, band = self._imm_inputs
         a, var, _ = kern.run_imm(t, theta, self._params, qs, rates, jerks, band, lag_arr, False)
         for m in range(1, lag_arr.size):  # NaN only where a divergence restart lost a sample
             lost = np.isnan(a[:, m])

@@ -14,6 +14,7 @@ from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, Qo
 from sensor_msgs.msg import JointState
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.cdr_layout import Layout
 from pendulum_accel.bag.messages import FRAME_ID, PENDULUM_JOINT
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.nodes.static_tf import TF_MESSAGE
@@ -34,7 +35,7 @@ def stamp_seconds(sec: int, nanosec: int) -> float:
 
 
 def stamp_offset(msgtype: str) -> int | None:
-    """Offset of the leading stamp's ``sec`` in the CDR of ``msgtype`` (learnt by bm.Layout); None for a
+    """Offset of the leading stamp's ``sec`` in the CDR of ``msgtype`` (learnt by Layout); None for a
     type without a stamp (std_msgs/String) or not of the chain. A MarkerArray's (a TFMessage's) is its
     first marker's (transform's) header stamp."""
     if msgtype == bm.STRING_MSG:
@@ -53,7 +54,7 @@ def stamp_offset(msgtype: str) -> int | None:
     }
     if msgtype not in templates:  # another type on the graph: logged at its receive time
         return None
-    layout = bm.Layout.of(templates[msgtype](), msgtype)
+    layout = Layout.of(templates[msgtype](), msgtype)
     key = "clock.sec" if msgtype == bm.CLOCK else "header.stamp.sec"
     offset, _ = layout.fields[key]
     nano, _ = layout.fields[key.replace(".sec", ".nanosec")]

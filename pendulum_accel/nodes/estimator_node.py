@@ -46,6 +46,7 @@ from sensor_msgs.msg import Imu, JointState
 from visualization_msgs.msg import MarkerArray
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.cdr_layout import Layout
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.estimators import Estimator, make_estimator
 from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, GuardState, InputGuard
@@ -145,7 +146,7 @@ class EstimatorNode(ManagedNode):
         # The template carries joint_frame_id: a message of that frame is the chain's shape; any other
         # frame (base_link too, when joint_frame_id names another) goes through the guard's check.
         template = bm.joint_state(0, [self.joint], [0.0], [0.0], frame_id=self.joint_frame_id)
-        self._read_input = bm.Layout.of(template, bm.JOINT_STATE).reader(
+        self._read_input = Layout.of(template, bm.JOINT_STATE).reader(
             ("header.stamp.sec", "header.stamp.nanosec", "position[0]")
         )
         self._last_input = time.monotonic()
@@ -299,13 +300,13 @@ class EstimatorNode(ManagedNode):
         frame carries frame_prefix (car1/base_link in /car1), so a multi-robot TF tree resolves each."""
         stamp = ("header.stamp.sec", "header.stamp.nanosec")
         estimate = bm.accel_with_covariance_stamped(0, 0.0, 0.0, self.frame_prefix + self.frame_id)
-        self._write_estimate = bm.Layout.of(estimate, bm.ACCEL_WITH_COVARIANCE_STAMPED).writer(
+        self._write_estimate = Layout.of(estimate, bm.ACCEL_WITH_COVARIANCE_STAMPED).writer(
             (*stamp, "accel.accel.linear.x", "accel.covariance[0]")
         )
         gravity = float(self.get_parameter("gravity").value)
         imu_frame = self.frame_prefix + self.imu_frame_id
         template = bm.imu(0, 0.0, gravity, 0.0, self.unmeasured_accel_variance, imu_frame)
-        self._write_imu = bm.Layout.of(template, bm.IMU).writer(
+        self._write_imu = Layout.of(template, bm.IMU).writer(
             (*stamp, "linear_acceleration.x", "linear_acceleration_covariance[0]")
         )
         self._write_marker = visual.estimate_marker_writer(

@@ -1,7 +1,7 @@
 """``pendulum_sim``: publishes a scene's measured angle, true acceleration, string state and /clock.
 
 The whole scene is simulated up front by the ROS-free core (``scene_run.run_scene``) and serialised
-in bulk (``bag.messages.Layout``), so publishing is a loop over ready CDR rows: the same scene and
+in bulk (``bag.cdr_layout.Layout``), so publishing is a loop over ready CDR rows: the same scene and
 seed always give the same bytes. ``realtime`` paces the loop by the wall clock and logs its jitter;
 otherwise it runs as fast as the subscribers take the messages (reliable keep-all QoS blocks the
 publisher when a reader lags, so nothing is lost) and the graph follows /clock.
@@ -42,6 +42,7 @@ from std_msgs.msg import String
 from visualization_msgs.msg import MarkerArray
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.cdr_layout import Layout
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import restamp, stamp_offset
 from pendulum_accel.nodes.graph import missing_readers, node_names, wait_for_readers
@@ -313,8 +314,8 @@ class SimulatorNode(ManagedNode):
 
     def _prepare_markers(self, frames: Frames) -> None:
         """The MarkerArray rows of this run (MARKER_RATE_HZ of simulated time), from the published θ and a."""
-        joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
-        truth = bm.Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+        joint = Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+        truth = Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
         self._theta = joint.decode(frames.rows[bm.TOPIC_JOINT_STATES], ["position[0]"])["position[0]"]
         self._accel = truth.decode(frames.rows[bm.TOPIC_ACCEL_TRUTH], ["accel.linear.x"])["accel.linear.x"]
         self._length = float(self.scene.pendulum.length)

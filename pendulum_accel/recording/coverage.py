@@ -1,5 +1,7 @@
-"""How much a share of errors beyond 2σ can tell: the effective number of independent samples behind it,
-and the share's 95 % interval (``analyze`` prints them beside each share, the benchmarks judge by them).
+"""Whether a published σ describes its errors: NEES = e²/var in steady state and after a change of a(t)
+(``nees_windows``, ``NeesStats``, ``Calibration``), and how much a share of errors beyond 2σ can tell: the
+effective number of independent samples behind it, and the share's 95 % interval (``analyze`` prints them
+beside each share, the benchmarks judge by them).
 
 An estimator's error is correlated over its memory: the error at one sample is most of the error at the
 next. A share counted over n samples is then not a binomial share of n trials, and a cell made of one
@@ -22,9 +24,13 @@ a steady stretch and of a step's first second are two different series (integrat
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
+
+from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change
 
 Z95 = 1.959963984540054  # the standard normal's two-sided 95 % point, Φ⁻¹(0.975)
 TARGET = (0.01, 0.12)  # the issue's band of the share beyond 2σ
@@ -132,3 +138,126 @@ def verdict(share: float, n_eff: float, target: tuple[float, float] = TARGET) ->
         return "in"
     lo, hi = wilson(share, n_eff)
     return "out" if hi < target[0] or lo > target[1] else "unsure"
+
+
+@dataclass(frozen=True)
+class NeesStats:
+    """NEES = e²/var: mean, median and the share with |e| > 2σ (NEES > 4) over n samples (NaN if n = 0),
+    and the independent trials behind the share (window_trials; NaN where they are not counted)."""
+
+    mean: float
+    median: float
+    share_2sigma: float
+    n: int
+    trials: float = math.nan
+
+    @classmethod
+    def of(cls, nees: NDArray[np.float64], trials: float = math.nan) -> NeesStats:
+        """Statistics of the finite entries of ``nees``."""
+        z = nees[np.isfinite(nees)]
+        if z.size == 0:
+            return cls(math.nan, math.nan, math.nan, 0, math.nan)
+        return cls(float(z.mean()), float(np.median(z)), float(np.mean(z > 4.0)), int(z.size), trials)
+
+    def interval(self) -> tuple[float, float] | None:
+        """The share's 95 % interval at its trials (wilson); None where they are not counted."""
+        if self.n == 0 or not math.isfinite(self.trials):
+            return None
+        return wilson(self.share_2sigma, self.trials)
+
+    def share_text(self) -> str:
+        """'x % beyond 2σ (n=N, about K independent: 95 % lo–hi %)'; without counted trials, no 'about'."""
+        span = self.interval()
+        trials = (
+            ""
+            if span is None
+            else f", about {self.trials:.0f} independent: 95 % {100 * span[0]:.1f}–{100 * span[1]:.1f} %"
+        )
+        return f"{100 * self.share_2sigma:.1f} % beyond 2σ (n={self.n}{trials})"
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """NEES figures in steady state and within CHANGE_WINDOW s after a change of a (a calibrated σ:
+    mean NEES ≈ 1, ≈ 5 % beyond 2σ)."""
+
+    steady: NeesStats
+    after_change: NeesStats
+
+    def line(self, label: str) -> str:
+        """'label: steady NEES mean m, median d, x % beyond 2σ (n, k independent: 95 % lo–hi %); after a
+        change: …'."""
+
+        def part(s: NeesStats) -> str:
+            """One window's figures."""
+            if s.n == 0:
+                return "no samples"
+            return f"NEES mean {s.mean:.3g}, median {s.median:.3g}, {s.share_text()}"
+
+        after = part(self.after_change)
+        return f"{label}: steady {part(self.steady)}; ≤{CHANGE_WINDOW:g} s after a change {after}"
+
+
+def nees_windows(
+    t: NDArray[np.float64],
+    error: NDArray[np.float64],
+    variance: NDArray[np.float64],
+    t_truth: NDArray[np.float64],
+    a_truth: NDArray[np.float64],
+    t_from: float,
+) -> tuple[tuple[NDArray[np.float64], float], tuple[NDArray[np.float64], float]]:
+    """((steady NEES, its trials), (after-change NEES, its trials)): NEES = e²/var at stamps t ≥ t_from
+    (NaN where var ≤ 0), split by recording.changes.after_change (within CHANGE_WINDOW s after
+    |a(t) − a(t − 1 s)| > CHANGE_JUMP on the truth), each window with its independent trials
+    n_eff = window_trials (its finite samples at the window's own integrated time τ)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        all_nees = np.where(variance > 0.0, error * error / variance, np.nan)
+    keep = t >= t_from
+    nees, after = all_nees[keep], after_change(t, t_truth, a_truth)[keep]
+    return (
+        (nees[~after], window_trials(nees, ~after)),
+        (nees[after], window_trials(nees, after)),
+    )
+
+
+def calibration(
+    t: NDArray[np.float64],
+    error: NDArray[np.float64],
+    variance: NDArray[np.float64],
+    t_truth: NDArray[np.float64],
+    a_truth: NDArray[np.float64],
+    t_from: float,
+) -> Calibration:
+    """NeesStats of nees_windows' two windows: steady state and CHANGE_WINDOW s after a change of a(t),
+    each with its independent trials."""
+    steady, after = nees_windows(t, error, variance, t_truth, a_truth, t_from)
+    return Calibration(NeesStats.of(*steady), NeesStats.of(*after))
+
+
+class NeesCells(NamedTuple):
+    """One NEES window's figures as table cells (nees_cells): None where a figure does not exist."""
+
+    mean: float | None
+    median: float | None
+    share_2sigma: float | None
+    trials: float | None
+    share_2sigma_low: float | None
+    share_2sigma_high: float | None
+
+
+def nees_cells(stats: NeesStats | None) -> NeesCells:
+    """(mean, median, p̂, n_eff, lo, hi) of one window, (lo, hi) its share's 95 % interval
+    (share_interval_cells); None throughout without the window, None where a share or its trials is missing,
+    and a mean or median the window lacks stays NaN (cli.output.json_text writes both as null)."""
+    if stats is None:
+        return NeesCells(None, None, None, None, None, None)
+    cells = share_interval_cells(stats.share_2sigma, stats.trials, "share", "trials")
+    return NeesCells(
+        stats.mean, stats.median, cells["share"], cells["trials"], cells["share_low"], cells["share_high"]
+    )
+
+
+def nees_fields(key: str, stats: NeesStats | None) -> dict[str, float | None]:
+    """{key}_{mean,median,share_2sigma,trials,share_2sigma_low,share_2sigma_high}: nees_cells of one window
+    under a table's keys."""
+    return {f"{key}_{name}": value for name, value in zip(NeesCells._fields, nees_cells(stats), strict=True)}

@@ -29,7 +29,6 @@ from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import DEFAULT_ESTIMATOR, make_estimator
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
 from pendulum_accel.recording import coverage
-from pendulum_accel.recording.analyze import nees_windows
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.scene import load_scene
 from pendulum_accel.sensor import MAX_SAMPLES, SensorModel
@@ -177,7 +176,7 @@ def case_signals(
 def run_case(case: Case) -> dict[str, Any]:
     """Sums for pooling one case: per lag Σe² and n; the live filter's delay and, per window (steady,
     after a change), its samples n, those beyond 2σ (NEES = e²/var > 4), Σ NEES and the independent
-    trials behind them (recording.analyze.nees_windows)."""
+    trials behind them (recording.coverage.nees_windows)."""
     t, theta, accel, settings = case_signals(case)
     keep = t >= WARMUP
     out: dict[str, Any] = {"sq": {}, "n": int(keep.sum())}
@@ -186,7 +185,7 @@ def run_case(case: Case) -> dict[str, Any]:
         e = np.asarray(est) - accel
         out["sq"][lag] = float(np.sum(e[keep] ** 2))
         if lag == 0.0:
-            windows = nees_windows(t, e, np.asarray(var, dtype=np.float64), t, accel, WARMUP)
+            windows = coverage.nees_windows(t, e, np.asarray(var, dtype=np.float64), t, accel, WARMUP)
             for window, (nees, trials) in zip(WINDOWS, windows, strict=True):
                 z = nees[np.isfinite(nees)]
                 out[window] = {

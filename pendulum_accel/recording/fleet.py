@@ -30,7 +30,8 @@ from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.cluster import Progress, map_tasks
 from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.recording import coverage
-from pendulum_accel.recording.analyze import Analysis, NeesStats, analyze_bag
+from pendulum_accel.recording.analyze import Analysis, analyze_bag
+from pendulum_accel.recording.coverage import NeesStats
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.recording.topic_rules import TopicRules
 

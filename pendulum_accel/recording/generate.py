@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from pendulum_accel import __version__
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.cdr_layout import Layout
 from pendulum_accel.bag.writer import (
     CUSTOM_ESTIMATOR,
     CUSTOM_PLAN,
@@ -135,19 +136,19 @@ def simulator_rows(
         raise BagError("sample times must be strictly increasing after rounding to ns")
     n = ns.size
     stamp = _stamp_columns(ns)
-    joint = bm.Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
-    truth = bm.Layout.of(bm.accel_stamped(0, 0.0, frame_id), bm.ACCEL_STAMPED)
+    joint = Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+    truth = Layout.of(bm.accel_stamped(0, 0.0, frame_id), bm.ACCEL_STAMPED)
     rows = {
         bm.TOPIC_JOINT_STATES: joint.encode(n, {**stamp, "position[0]": theta, "velocity[0]": theta_dot}),
         bm.TOPIC_ACCEL_TRUTH: truth.encode(n, {**stamp, "accel.linear.x": accel_true}),
     }
     if string is not None:
-        layout = bm.Layout.of(bm.joint_state(0, [bm.STRING_JOINT], [0.0], [0.0], [0.0]), bm.JOINT_STATE)
+        layout = Layout.of(bm.joint_state(0, [bm.STRING_JOINT], [0.0], [0.0], [0.0]), bm.JOINT_STATE)
         stretch, rate, tension = string
         cols = {**stamp, "position[0]": stretch, "velocity[0]": rate, "effort[0]": tension}
         rows[bm.TOPIC_STRING] = layout.encode(n, cols)
     mask = clock_mask(np.asarray(t, dtype=np.float64), clock_rate_hz)
-    clock = bm.Layout.of(bm.clock(0), bm.CLOCK)
+    clock = Layout.of(bm.clock(0), bm.CLOCK)
     clock_rows = clock.encode(int(mask.sum()), _stamp_columns(ns[mask], "clock"))
     return SimulatorRows(ns, rows, mask, clock_rows)
 
@@ -207,7 +208,7 @@ def chain_streams(
     ns = sim.ns
     streams = [Stream(bm.TOPIC_CLOCK, ns[sim.clock_mask], sim.clock_rows)]
     streams += [Stream(topic, ns, rows) for topic, rows in sim.rows.items()]
-    est = bm.Layout.of(bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED)
+    est = Layout.of(bm.accel_with_covariance_stamped(0, 0.0, 0.0), bm.ACCEL_WITH_COVARIANCE_STAMPED)
     ok = np.isfinite(accel_est) & np.isfinite(variance)
     est_ns = ns[ok]
     est_cols = {
@@ -273,7 +274,7 @@ def viewer_streams(
         "linear_acceleration.x": accel_est[ok],
         "linear_acceleration_covariance[0]": variance[ok],
     }
-    imu_rows = bm.Layout.of(template, bm.IMU).encode(est_ns.size, imu_cols)
+    imu_rows = Layout.of(template, bm.IMU).encode(est_ns.size, imu_cols)
     swing = visual.marker_mask(t)
     swing_rows = visual.swing_marker_rows(ns[swing], theta[swing], accel_true[swing], length)
     tick = np.floor(est_t * visual.MARKER_RATE_HZ).astype(np.int64)

@@ -10,7 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from pendulum_accel.recording.analyze import Analysis, analyze_bag, figure
+from pendulum_accel.recording.analyze import Analysis, analyze_bag
+from pendulum_accel.recording.figures import figure
 from pendulum_accel.recording.generate import GenerateResult, generate_bag
 from pendulum_accel.scene import list_scenes
 

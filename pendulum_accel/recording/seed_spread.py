@@ -22,8 +22,8 @@ from numpy.typing import NDArray
 
 from pendulum_accel.errors import ParameterError
 from pendulum_accel.estimators import estimate_batch
-from pendulum_accel.recording.analyze import NeesStats, nees_windows
 from pendulum_accel.recording.changes import CHANGE_WINDOW
+from pendulum_accel.recording.coverage import NeesStats, nees_windows
 from pendulum_accel.scene import Scene
 from pendulum_accel.scene_run import SceneRun, run_scene
 
@@ -108,7 +108,7 @@ def spread_over_runs(
 ) -> SeedSpread:
     """Run ``estimator`` (``config``) in batch on each of ``runs`` (one scene at other sensor seeds), split
     NEES = e²/var at t ≥ t₀ + skip into the two windows, each run's with its independent trials
-    (recording.analyze.nees_windows), and pool each window over the runs (WindowSpread.of)."""
+    (recording.coverage.nees_windows), and pool each window over the runs (WindowSpread.of)."""
     steady: list[NDArray[np.float64]] = []
     after: list[NDArray[np.float64]] = []
     steady_trials: list[float] = []

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.reader import Bag
-from pendulum_accel.errors import BagError
+from pendulum_accel.errors import ParameterError
 
 
 @dataclass(frozen=True)
@@ -28,11 +28,11 @@ class TopicRules:
     joint_frame: str = bm.FRAME_ID
 
     def apply(self, bag: Bag) -> Bag:
-        """``bag`` reading by these rules on top of its stored map; BagError (one line) for a rule that
+        """``bag`` reading by these rules on top of its stored map; ParameterError (one line) for a rule that
         does not read ROLE=NAME, names no role, a topic the bag lacks or one of another type than the role's,
         a namespace the bag has no topic in, or an empty joint name."""
         if not self.joint.strip():
-            raise BagError("--joint must name the pendulum's joint, got ''")
+            raise ParameterError("--joint must name the pendulum's joint, got ''")
         bag.choice = topic_choice(
             list(bag.topics),
             bag.choice.roles,
@@ -56,7 +56,7 @@ def topic_choice(
 ) -> bm.TopicChoice:
     """The TopicChoice of a bag with ``topics`` and a stored map ``roles``, with the user's ``--topic``
     rules (``texts``) on top, ``namespace``, the pendulum's ``joint`` and its angles' ``joint_frame``;
-    BagError (one line) for a rule that does not read ROLE=NAME, names no role, names a topic the bag
+    ParameterError (one line) for a rule that does not read ROLE=NAME, names no role, names a topic the bag
     lacks or (with the bag's ``types``, name -> message type) one whose type is not the role's
     (messages.ROLE_TYPES), and for a namespace the bag has no topic in: every command refuses it as
     it parses its options, info too, which reads no message of it."""
@@ -66,19 +66,23 @@ def topic_choice(
     for text in texts:
         role_text, sep, name = text.partition("=")
         if not sep or not name:
-            raise BagError(f"--topic {text!r} must read ROLE=NAME (e.g. pendulum/joint_states=/angle)")
+            raise ParameterError(f"--topic {text!r} must read ROLE=NAME (e.g. pendulum/joint_states=/angle)")
         try:
             role = bm.role_name(role_text)
         except ValueError as err:
-            raise BagError(f"--topic {text!r}: {err}") from None
+            raise ParameterError(f"--topic {text!r}: {err}") from None
         if name not in topics:
-            raise BagError(f"--topic {text!r}: the bag has no topic {name} (it has {', '.join(topics)})")
+            raise ParameterError(
+                f"--topic {text!r}: the bag has no topic {name} (it has {', '.join(topics)})"
+            )
         expected = bm.ROLE_TYPES[role]
         if types is not None and types.get(name, expected) != expected:
-            raise BagError(f"--topic {text!r}: topic {name} has type {types[name]}, expected {expected}")
+            raise ParameterError(
+                f"--topic {text!r}: topic {name} has type {types[name]}, expected {expected}"
+            )
         chosen[role] = name
     if ns and not any(t.startswith(ns + "/") for t in topics):
-        raise BagError(
+        raise ParameterError(
             f"--namespace {namespace}: the bag has no topic under {ns}/ (it has {', '.join(topics)})"
         )
     return bm.TopicChoice(chosen, ns, joint, joint_frame)

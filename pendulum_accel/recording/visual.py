@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.cdr_layout import Layout
 
 BODY = (1.0, 0.6, 0.2)
 """Car body box (length x, width y, height z), m: only a reference for the eye."""
@@ -176,7 +177,7 @@ def swing_marker_rows(
     string = _marker("string", _LINE_STRIP, (0.2, 0.2, 0.2), points=2, frame_id=frame_id)
     bob = _marker("bob", _SPHERE, (0.1, 0.3, 0.9), frame_id=frame_id)
     truth = _marker("accel_truth", _ARROW, TRUTH_COLOR, points=2, frame_id=frame_id)
-    layout = bm.Layout.of(_marker_array([string, bob, truth]), bm.MARKER_ARRAY)
+    layout = Layout.of(_marker_array([string, bob, truth]), bm.MARKER_ARRAY)
     bx = -length * np.sin(theta)  # bob = pivot + (−l sin θ, 0, −l cos θ)
     bz = h - length * np.cos(theta)
     diameter = 2.0 * bob_radius(length)
@@ -222,7 +223,7 @@ def estimate_marker_writer(length: float, frame_id: str = bm.FRAME_ID) -> Callab
     """(sec, nanosec, â) ↦ CDR of the estimate's one-arrow MarkerArray for a pendulum of ``length`` in
     ``frame_id``: an arrow from (0, 0, z) to (ARROW_M_PER_MS2 · â, 0, z), z above the truth arrow."""
     arrow = _marker("accel_estimate", _ARROW, ESTIMATE_COLOR, points=2, frame_id=frame_id)
-    layout = bm.Layout.of(_marker_array([arrow]), bm.MARKER_ARRAY)
+    layout = Layout.of(_marker_array([arrow]), bm.MARKER_ARRAY)
     z = pivot_height(length) + 0.2
     constants = _full(_arrow_columns("markers[0].", 0.0, z), 1)
     filled = dataclasses.replace(layout, template=layout.encode(1, constants)[0])
