@@ -14,7 +14,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pendulum_accel"
 
 # Bottom to top; a unit may import units of its own layer or below. Same table as docs/architecture.md.
 LAYERS: tuple[frozenset[str], ...] = (
-    frozenset({"errors", "textfile", "cluster"}),
+    frozenset({"errors", "textfile", "cluster", "cluster_worker"}),
     frozenset({"physics", "bag"}),
     frozenset({"motion_input"}),
     frozenset({"estimators", "sensor", "kernel_cache"}),
