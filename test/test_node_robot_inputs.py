@@ -263,6 +263,9 @@ def test_a_parameter_set_is_answered_while_a_full_backlog_holds_the_input_back(s
     assert estimator.finish(timeout=60) == 0, estimator.text
     assert "4000 inputs, " in estimator.text, estimator.text
     estimator.wait_for(r"estimator rebuilt: ", timeout=1)
+    # Said once: the estimator could not keep up (a lag of 10 s at 1 kHz is the same, for good).
+    behind = "the estimator is slower than its input: 250 angles wait"
+    assert estimator.text.count(behind) == 1, estimator.text
 
 
 def test_an_explicit_use_sim_time_wins_over_time_source(spawn: Spawn) -> None:

@@ -156,6 +156,7 @@ class EstimatorNode(ManagedNode):
         self._worker_waits = False  # the worker waits for an angle: the next one notifies it
         self._producer_waits = False  # the executor waits for room in the backlog: the worker notifies it
         self._work_lock = threading.Lock()  # one estimator update, or its rebuild, at a time
+        self._behind_said = False  # the backlog filled once: said (once per node)
         self._describer: threading.Thread | None = None  # the latest rebuild's _describe_rebuilt
         self._rebuilt_lines: tuple[str, ...] | None = None  # a rebuilt estimator's lines, the worker logs
         self._diagnostics_due = 0.0  # monotonic time of the next /diagnostics (0: at once)
@@ -488,6 +489,12 @@ class EstimatorNode(ManagedNode):
         self._last_input = now
         self.inputs += 1
         backlog = self._backlog
+        if len(backlog) >= self.backlog_limit and not self._behind_said:
+            self._behind_said = True
+            self.get_logger().warning(
+                f"the estimator is slower than its input: {len(backlog)} angles wait (backlog_limit); the "
+                "input is held back until it catches up (a best-effort publisher loses angles meanwhile)"
+            )
         while len(backlog) >= self.backlog_limit and not (self._stop.is_set() or self._stopping()):
             with self._queue_changed:
                 self._producer_waits = True
