@@ -1,7 +1,7 @@
 """Why the constants: the figures each tuned constant of the package was chosen on, computed afresh.
 
-    python -m benchmarks.constants            # every section (a few minutes of CPU)
-    python -m benchmarks.constants --quick    # shorter timings, fewer Allan records and seeds
+    python -m benchmarks.constants            # every section (under five minutes of CPU)
+    python -m benchmarks.constants --quick    # shorter timings, fewer Allan records, no cold compile
 
 A constant's comment in the code says what it is and names this page; the measurements that set it live
 here, each row with the constant, its value, what was compared, the figures and the data:
@@ -20,6 +20,8 @@ here, each row with the constant, its value, what was compared, the figures and 
   prediction with no share, 1/32 and 1/8 per argument doubling (37-digit reference,
   benchmarks/reference.py, as benchmarks/error_bounds.py), and HALVING_NOISE from the halving difference
   of error_bounds' RK8 plans against the run's measured round-off;
+- kernel_cache.WARM_PARTS: each part's cold compile, alone in a fresh process into an empty numba cache
+  (not with --quick);
 - kalman.AUTO_CROSS_TIME: auto's RMS with its trend partners (AUTO_TRENDS) swapping every 1, 3 or 10 s,
   over its random walks alone, on benchmarks.corpus's training entries (the first 60 s, seed 0) through
   the teaching and short_damped designs of benchmarks.real_motion.
@@ -32,7 +34,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+import resource
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -51,6 +57,7 @@ from pendulum_accel.allan import MISFIT_LIMIT, allan_deviation
 from pendulum_accel.conditioning import input_sensitivity
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import AUTO_CROSS_TIME, PRESETS
+from pendulum_accel.kernel_cache import WARM_PARTS
 from pendulum_accel.motion_input import trace
 from pendulum_accel.physics import kernels
 from pendulum_accel.physics.params import Pendulum
@@ -551,6 +558,40 @@ def cross_time_rows(seeds: int) -> list[Row]:
     ]
 
 
+# --- kernel_cache.WARM_PARTS ---------------------------------------------------------------------------
+
+
+def compile_seconds(module: str, function: str) -> float:
+    """CPU s (user + system) of a fresh Python process that runs kernel_cache.warm_part(module, function)
+    into an empty numba cache (NUMBA_CACHE_DIR a new temporary folder): the part's cold compile, with the
+    interpreter's start and the package's import."""
+    code = f"from pendulum_accel.kernel_cache import warm_part; warm_part({module!r}, {function!r})"
+    with tempfile.TemporaryDirectory() as cache:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        subprocess.run([sys.executable, "-c", code], env={**os.environ, "NUMBA_CACHE_DIR": cache}, check=True)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+
+
+def warm_rows(quick: bool) -> list[Row]:
+    """The WARM_PARTS row: each part's cold compile in CPU s and its share of the three (not in --quick)."""
+    if quick:
+        figures = "not measured with --quick (the cold compiles are most of the full run)"
+    else:
+        found = [(function, compile_seconds(module, function)) for module, function in WARM_PARTS]
+        total = sum(seconds for _, seconds in found)
+        figures = ", ".join(f"{name} {seconds:.0f} s ({seconds / total:.0%})" for name, seconds in found)
+    return [
+        Row(
+            "kernel_cache.WARM_PARTS",
+            ", ".join(function for _, function in WARM_PARTS),
+            "CPU of each part's cold compile (the order: longest first), and its share of the three",
+            figures,
+            "each part alone in a fresh process into an empty numba cache",
+        )
+    ]
+
+
 # --- the page ---------------------------------------------------------------------------------------------
 
 
@@ -601,7 +642,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m benchmarks.constants", description=__doc__.split("\n")[0]
     )
-    parser.add_argument("--quick", action="store_true", help="fewer records, seeds and cases")
+    parser.add_argument(
+        "--quick", action="store_true", help="shorter timings, fewer Allan records, no cold compile"
+    )
     parser.add_argument("--repeats", type=report.count, default=3, help="best of this many timings (3)")
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output directory (out/bench)")
     report.add_docs_argument(parser)
@@ -610,7 +653,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     spline, errors, decays = spline_rows()
     allan, groups = misfit_rows(records, seeds)
     crossing = cross_time_rows(1)
-    rows = [*cost_rows(args.quick, args.repeats), *spline, *allan, *planner_rows(), *crossing]
+    rows = [
+        *cost_rows(args.quick, args.repeats),
+        *spline,
+        *allan,
+        *planner_rows(),
+        *crossing,
+        *warm_rows(args.quick),
+    ]
     text = table(rows)
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
