@@ -131,7 +131,7 @@ docs-reference: $(STAMP)
 	$(BIN)/python -m pendulum_accel.cli.docs_reference docs
 
 # Every benchmark; figures print, land in out/bench, and each writes its page under docs/benchmarks.
-BENCHES := work_precision error_bounds estimators calibration constant_cover real_motion integrated_walk allan_recovery chain bags player_memory bag_memory sweep_bench soak teardown
+BENCHES := work_precision error_bounds estimators calibration constant_cover real_motion integrated_walk allan_recovery chain bags player_memory bag_memory sweep_bench soak teardown constants
 bench: $(STAMP)
 	@for b in $(BENCHES); do \
 	  echo "== python -m benchmarks.$$b"; \

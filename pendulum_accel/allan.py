@@ -52,7 +52,7 @@ MIN_SAMPLES = 100
 BOUND_LEVEL = 0.975  # one-sided confidence of the N and K bounds: σ² below its expectation this often
 MISFIT_LIMIT = 20.0
 """χ²/dof of the fit above which σ(τ) is not white noise and a walk (a swing, or a Gauss-Markov bias the two
-slopes lack: ``gauss_markov`` is tried then); set between the two on docs/benchmarks/allan_recovery.md."""
+slopes lack: ``gauss_markov`` is tried then); set between the two on docs/benchmarks/constants.md."""
 _WAIT_SLICE = 0.05  # s: the main thread's longest wait between two checks for Ctrl-C
 T = TypeVar("T")
 

@@ -66,8 +66,9 @@ def is_cold() -> bool:
     return not kernels
 
 
-# The cache's three independent parts, longest first, each a function of no arguments that compiles (or
-# loads) its kernels: every kernel has its own cache files, so two processes can fill different parts at once.
+# The cache's three independent parts, longest first (docs/benchmarks/constants.md), each a function of no
+# arguments that compiles (or loads) its kernels: every kernel has its own cache files, so two processes can
+# fill different parts at once.
 WARM_PARTS: tuple[tuple[str, str], ...] = (
     ("pendulum_accel.estimators.ekf_kernels", "warm_batch"),  # the offline passes, the longest
     ("pendulum_accel.estimators.ekf_kernels", "warm_live"),

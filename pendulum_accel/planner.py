@@ -95,22 +95,22 @@ PILOT_RTOLS = (1e-6, 1e-9)
 PILOT_POINTS = 1000
 RTOL_RANGE = (1e-13, 1e-3)
 EXACT_ROUNDOFF = 2.0  # × ε (Θ + 2kω span): closed_form_roundoff, calibrated by benchmarks/error_bounds.py
-DOUBLING_SHARE = 1.0 / 32.0  # round-off share per argument doubling, fitted by benchmarks/error_bounds.py
+DOUBLING_SHARE = 1.0 / 32.0  # round-off share per argument doubling (docs/benchmarks/constants.md)
 START_SAFETY = 2.0  # × the closed form's start rounding carried through S(t) (closed_form_start_error)
 START_NEAR_SEPARATRIX = 0.5  # |m1| below which K, K' and the nome depend on m1 enough for its rounding
 ROUNDOFF_SAFETY = 2.0  # × the measured round-off of a stepped run (conditioning: max over t of 1 draw)
 # A halving difference within this × the run's round-off at h is rounding, not truncation (the h/2 run
-# takes twice the steps, so rounds more); fitted on the RK8 cases of docs/benchmarks/error_bounds.md.
+# takes twice the steps, so rounds more); set on error_bounds' RK8 cases (docs/benchmarks/constants.md).
 HALVING_NOISE = 10.0
 # Truncation shrinks 2^p-fold per halving: a doubling difference |θ_{2h} − θ_h| under 2^(p − DOUBLING_SLACK)
 # times the halving difference |θ_h − θ_{h/2}| says the latter is rounding (RK8: under 64×, RK4: under 4×).
 DOUBLING_SLACK = 2
 # Past the linear regime the predicted error is this × the spread of five runs one ulp apart (conditioning):
-# the run and the reference are two more such runs; fitted on docs/benchmarks/error_bounds.md (past linear).
+# the run and the reference are two more such runs; set past linear on docs/benchmarks/constants.md.
 SPREAD_SAFETY = 2.0
 DOUBLE_EPS = 2.0**-52
 LINEAR_CARRY = math.sqrt(2.0)
-# Measured CPU on this machine (see module docstring); only their ratio matters for the choice.
+# CPU a step or a sample costs (docs/benchmarks/constants.md); only their ratio matters for the choice.
 KERNEL_STEP_S: dict[tuple[str, str], float] = {  # compiled kernels (physics.kernels), per step
     ("rigid", "rk4"): 0.1e-6,
     ("rigid", "rk8"): 0.4e-6,

@@ -45,7 +45,7 @@ SWEEP_STEPS_PER_RADIAN = 50.0
 PROGRESS_CHUNKS = 50
 MAX_VARIANTS = 1_000_000
 # Cost limits checked before integrating: a sweep is a Python loop over steps with numpy over the
-# variants, so these are minutes of work at the rate docs/benchmarks/sweep_bench.md gives.
+# variants, so these are minutes of work (docs/benchmarks/constants.md).
 MAX_SWEEP_STEPS = 20_000_000
 MAX_SWEEP_WORK = 2_000_000_000  # trajectory-steps: steps × variants
 MAX_SWEEP_BYTES = 2 * 1024**3

@@ -99,7 +99,7 @@ the one with the least calibration miss."""
 
 AUTO_CROSS_TIME = 10.0
 """s: mean time before auto's chain moves between a random-walk mode and its trend partner; picked from 1, 3
-and 10 s for the least RMS on benchmarks.corpus's training split (teaching and short_damped designs)."""
+and 10 s for the least RMS on benchmarks.corpus's training split (docs/benchmarks/constants.md)."""
 
 # auto (the default): a birth-death chain over AUTO_MODES, up every 3 s, down every 1 s, fitted by
 # ``python -m benchmarks.real_motion --fit --quick`` (fit_auto) on every training profile of the corpus

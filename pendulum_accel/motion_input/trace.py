@@ -60,7 +60,8 @@ more comes only from an |a''| no vehicle reaches (wrong units, or a corrupt valu
 
 MAX_SMOOTHING_STEPS = 2000
 """cutoff_hz ≥ 1/(MAX_SMOOTHING_STEPS h): the spline's solve loses digits as λ/h³ = (√2 − 1)/(2π f_c h)⁴
-grows; past it a sinusoid's derivative at f_c/4 departs from the continuous-limit gain H."""
+grows; past it a sinusoid's derivative at f_c/4 departs from the continuous-limit gain H
+(docs/benchmarks/constants.md)."""
 
 
 @dataclass(frozen=True)
@@ -285,7 +286,7 @@ SPLINE_MARGIN_WIDTHS = 80.0
 """How far the data a windowed spline is fitted to reach beyond the window, in the spline's kernel widths
 b = (√2 − 1)^¼ / (2π f_c): away from its ends the smoothing spline is a kernel smoother whose kernel
 (the inverse transform of H(f) = 1 / (1 + (2π f b)⁴)) decays as e^(−|t| / (b √2)), so a sample 80 b from
-the window weighs e^(−56.6) ≈ 3e-25 in it."""
+the window weighs e^(−56.6) ≈ 3e-25 in it (an impulse's fit against that: docs/benchmarks/constants.md)."""
 
 
 def spline_margin(cutoff_hz: float) -> float:

@@ -448,8 +448,8 @@ SLICE_STEPS: dict[str, int] = {
     "rk4": 1_000_000,
     "rk8": 250_000,
 }
-"""Steps per compiled call: a fraction of a second of work, so Ctrl-C and progress are seen between calls;
-fewer for a method of more stages per step."""
+"""Steps per compiled call: a fraction of a second of work (docs/benchmarks/constants.md), so Ctrl-C and
+progress are seen between calls; fewer for a method of more stages per step."""
 
 
 def step_slices(nodes: np.ndarray, dt: float, per_slice: int) -> list[tuple[int, int]]:
