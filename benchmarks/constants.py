@@ -66,7 +66,7 @@ from pendulum_accel.physics.simulate import simulate
 from pendulum_accel.scene import Scene
 
 if TYPE_CHECKING:
-    from benchmarks.real_motion import Run
+    from benchmarks.motion_designs import Run
 
 T = TypeVar("T")
 
@@ -516,7 +516,8 @@ def cross_time_rms(seeds: int) -> dict[str, np.ndarray]:
     """Per fitted design, per CROSS_TIMES: the geometric mean over benchmarks.corpus's training profiles
     (their first TRAINING_SPAN s, ``seeds`` seeds) of auto's RMS with its trend partners (AUTO_TRENDS)
     swapping every cross time, over auto's RMS with its random walks alone; and over both designs."""
-    from benchmarks.real_motion import WARMUP, designs, kalman_q, simulate_runs
+    from benchmarks.motion_designs import designs, simulate_runs
+    from benchmarks.motion_scores import WARMUP, kalman_q
 
     auto = PRESETS["auto"]
     walks, _, rates = auto.imm(walks_only=True)
