@@ -13,10 +13,10 @@ import pandas as pd
 import pytest
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.errors import ExportError
 from pendulum_accel.bag.export import (
     BULK_TYPES,
     VISUAL_ROLES,
-    ExportError,
     column_name,
     export_bag,
     file_stem,

@@ -18,7 +18,7 @@ from typing import Any, TypeVar
 import yaml
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
-from pendulum_accel.errors import BagError
+from pendulum_accel.bag.errors import ReaderError
 
 QosDict = dict[str, str | int | bool | dict[str, int]]
 """One offered QoS profile as rosbag2 v9 writes it in YAML."""
@@ -124,7 +124,7 @@ def parse_qos(text: str | Sequence[Mapping[str, object]]) -> list[Qos]:
             for item in items
         ]
     except (yaml.YAMLError, TypeError, ValueError, AttributeError) as err:
-        raise BagError(f"unreadable offered_qos_profiles: {err}") from None
+        raise ReaderError(f"unreadable offered_qos_profiles: {err}") from None
 
 
 def metadata_document(

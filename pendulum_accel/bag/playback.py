@@ -21,7 +21,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from pendulum_accel.errors import ParameterError
+from pendulum_accel.bag.errors import ParameterError
 
 _MAX_WAIT = 0.1  # s: longest sleep before the pacing loop looks at the controls again
 

@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pendulum_accel.bag.blocks import Payloads, Slices
+from pendulum_accel.bag.errors import BagError, ReaderError
 from pendulum_accel.bag.messages import Layout, canonical_cdr, deserialize, rows_from_bytes, stamp_seconds
-from pendulum_accel.errors import BagError
 
 
 @dataclass(frozen=True)
@@ -42,7 +42,9 @@ class TopicArrays:
         try:
             return self.fields[path]
         except KeyError:
-            raise BagError(f"topic {self.topic} ({self.msgtype}) messages have no field {path!r}") from None
+            raise ReaderError(
+                f"topic {self.topic} ({self.msgtype}) messages have no field {path!r}"
+            ) from None
 
     @property
     def stamp(self) -> NDArray[np.float64]:
@@ -170,7 +172,7 @@ def decode_block(
         missing = [p for p in wanted if p not in shape.layout.fields]
         if missing:
             at = int(times[int(idx[0])])
-            raise BagError(
+            raise ReaderError(
                 f"topic {topic} ({mtype}): the message logged at {at} ns has no field {missing[0]!r}"
             )
         for path, col in shape.layout.decode(rows, wanted).items():
