@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -43,7 +44,7 @@ def stamp_offset(msgtype: str) -> int | None:
         # The array's length (4 bytes) follows the 4-byte CDR header; the first marker (transform) starts
         # with its header, whose stamp comes first: offset 8, whatever the array holds.
         return 8
-    templates = {
+    templates: dict[str, Callable[[], object]] = {
         bm.JOINT_STATE: lambda: bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]),
         bm.ACCEL_STAMPED: lambda: bm.accel_stamped(0, 0.0),
         bm.ACCEL_WITH_COVARIANCE_STAMPED: lambda: bm.accel_with_covariance_stamped(0, 0.0, 0.0),

@@ -33,13 +33,11 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import AccelWithCovarianceStamped
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock
+from rclpy.clock_type import ClockType
 from rclpy.duration import Duration
-from rclpy.parameter import Parameter
-from rclpy.publisher import Publisher
 from rclpy.qos import QoSPolicyKind
 from rclpy.serialization import deserialize_message
-from rclpy.subscription import Subscription
 from rclpy.timer import Timer
 from sensor_msgs.msg import Imu, JointState
 from visualization_msgs.msg import MarkerArray
@@ -57,12 +55,15 @@ from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOP
 from pendulum_accel.nodes.qos import (
     DATA_QOS,
     DIAGNOSTICS_QOS,
+    AnyPublisher,
+    AnySubscription,
     incompatible_line,
     make_publisher,
     make_subscription,
     override_parameter,
 )
 from pendulum_accel.nodes.runtime import (
+    AnyParameter,
     ManagedNode,
     change_result,
     declare_parameters,
@@ -149,8 +150,8 @@ class EstimatorNode(ManagedNode):
         self._work_lock = threading.Lock()  # one estimator update, or its rebuild, at a time
         self._diagnostics_due = 0.0  # monotonic time of the next /diagnostics (0: at once)
         self._stopping_since: float | None = None
-        self._subscription: Subscription | None = None
-        self._publishers: list[Publisher] = []
+        self._subscription: AnySubscription | None = None
+        self._publishers: list[AnyPublisher] = []
         self._timers: list[Timer] = []
         self._active = False
         self._marker_tick = -1
@@ -229,7 +230,7 @@ class EstimatorNode(ManagedNode):
 
     # -- configuration --------------------------------------------------------------------------
 
-    def _config_values(self, changes: Sequence[Parameter] = ()) -> dict[str, Any]:
+    def _config_values(self, changes: Sequence[AnyParameter] = ()) -> dict[str, Any]:
         """method, lag, preset and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
         return parameter_values(self, ESTIMATOR_PARAMETERS, changes)
 
@@ -306,14 +307,14 @@ class EstimatorNode(ManagedNode):
         """The scene's sensor range R (rad; 0 = none), so readings clipped at ±R are flagged saturated."""
         return 0.0 if self._scene is None else float(self._scene.sensor.range)
 
-    def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
+    def _validate_parameters(self, params: list[AnyParameter]) -> SetParametersResult:
         """Accept a change only if the estimator it makes is valid; else keep the old value and say why.
         Other parameters (the qos_overrides each publisher declares) are not the estimator's: accepted."""
         if not any(p.name in ESTIMATOR_PARAMETERS for p in params):
             return SetParametersResult(successful=True)
         return change_result(lambda: self._build(self._config_values(params)))
 
-    def _parameters_applied(self, params: list[Parameter]) -> None:
+    def _parameters_applied(self, params: list[AnyParameter]) -> None:
         """Rebuild the estimator from the new values; it starts over from the next sample. Only a change
         of what it is built from rebuilds it: each qos_overrides parameter a publisher declares at start
         up had rebuilt it once (20 times, the scene's motion read again each time)."""

@@ -32,21 +32,23 @@ from typing import Any
 
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock
+from rclpy.clock_type import ClockType
 from rclpy.parameter import Parameter
-from rclpy.publisher import Publisher
 from std_srvs.srv import Trigger
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.errors import NotIndexedError
 from pendulum_accel.bag.playback import ArrayTimeline, Playback, Taken, Timeline
 from pendulum_accel.bag.reader import Bag, read_bag, salvage_note, stored_choice
-from pendulum_accel.bag.stream import NotIndexedError, StreamedBag
+from pendulum_accel.bag.stream import StreamedBag
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import message_class
 from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import PLAYER
-from pendulum_accel.nodes.qos import make_publisher, qos_for
+from pendulum_accel.nodes.qos import AnyPublisher, make_publisher, qos_for
 from pendulum_accel.nodes.runtime import (
+    AnyParameter,
     ThreadedNode,
     acked_within,
     declare_parameters,
@@ -222,7 +224,7 @@ class PlayerNode(ThreadedNode):
             raise ParameterError(f"no topic of bag {path} is left to play after the topic filters")
         if self.clock:  # the player's own /clock replaces the recorded one (a namespaced chain's too)
             wanted = [t for t in wanted if bm.role_of(t) != bm.TOPIC_CLOCK]
-        self._outputs: dict[str, Publisher] = {
+        self._outputs: dict[str, AnyPublisher] = {
             topic: make_publisher(self, message_class(available[topic]), topic, qos_for(topic))
             for topic in wanted
         }
@@ -279,7 +281,7 @@ class PlayerNode(ThreadedNode):
 
     # -- parameters and services ------------------------------------------------------------------
 
-    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+    def _on_set_parameters(self, params: list[AnyParameter]) -> SetParametersResult:
         """Apply a new ``rate`` at once (~/set_rate); other settable parameters are read when used."""
         for param in params:
             if param.name == "rate":

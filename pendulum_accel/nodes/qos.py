@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeAlias
 
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
@@ -32,6 +32,13 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.subscription import Subscription
 
 from pendulum_accel.bag.messages import ROBOT_DESCRIPTION, TOPIC_DIAGNOSTICS, role_of
+
+# Any: the message packages ship no type information, so to mypy their classes are not rclpy's Msg and
+# a publisher's or subscription's message class cannot be named (the chain's carry several).
+AnyPublisher: TypeAlias = Publisher[Any]
+"""A publisher of some message class."""
+AnySubscription: TypeAlias = Subscription[Any]
+"""A subscription to some message class."""
 
 # KEEP_ALL on both ends makes a slow reader push back on the writer (publish blocks)
 # instead of dropping samples: that is what keeps the as-fast-as-possible chain lossless.
@@ -165,7 +172,7 @@ def subscription_events(
     return SubscriptionEventCallbacks(incompatible_qos=on_incompatible, message_lost=message_lost)
 
 
-def make_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile) -> Publisher:
+def make_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile) -> AnyPublisher:
     """node.create_publisher with its own copy of ``qos``, the qos_overrides parameters and the one-line
     incompatible-QoS report."""
     return node.create_publisher(
@@ -187,7 +194,7 @@ def make_subscription(
     incompatible: Callable[[Any], None] | None = None,
     message_lost: Callable[[Any], None] | None = None,
     best_effort: bool = False,
-) -> Subscription:
+) -> AnySubscription:
     """node.create_subscription (raw CDR) with ``subscription_qos(qos)``, the qos_overrides parameters and
     the event callbacks of ``subscription_events``; ``best_effort``: best-effort reliability instead,
     which no parameter overrides (the switch a best-effort publisher asked for, see the estimator)."""

@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, TypeAlias
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
@@ -20,23 +20,28 @@ from rclpy._rclpy_pybind11 import RCLError
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
+from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.dds_profile import use_package_profile
 from pendulum_accel.nodes.parameters import FROM_SCENE, TIME_SOURCES, ParamSpec, ParamValue
+from pendulum_accel.nodes.qos import AnyPublisher
 from pendulum_accel.nodes.scheduling import apply_rt_priority
 from pendulum_accel.nodes.shm_ports import clear_stale_ports
 
 # How often the main thread wakes to run pending signal handlers.
 _SIGNAL_POLL_PERIOD = 0.05  # s
 _PUBLISH_RETRY_PERIOD = 0.001  # s
+
+# Any: a parameter holds any of ROS 2's value types (bool, int, float, str, their arrays), per name.
+AnyParameter: TypeAlias = Parameter[Any]
+"""A node parameter of some value type."""
+
 _ACK_SLICE = Duration(seconds=0.2)
 
 
@@ -46,7 +51,7 @@ class ChainNode(Node):
     def __init__(self, node_name: str, **kwargs: Any) -> None:
         """Node(node_name, **kwargs) plus the ``finished`` future that ends the spin."""
         super().__init__(node_name, **kwargs)
-        self.finished: Future = Future()
+        self.finished: Future[int] = Future()
 
     def finish(self, code: int = 0) -> None:
         """End the spin of ``run_node`` with exit code ``code`` (idempotent)."""
@@ -250,7 +255,9 @@ def write_summary(path: str, counters: Mapping[str, Any]) -> None:
         Path(path).write_text(json.dumps(dict(counters), indent=1, sort_keys=True))
 
 
-def parameter_values(node: Node, names: Sequence[str], changes: Sequence[Parameter] = ()) -> dict[str, Any]:
+def parameter_values(
+    node: Node, names: Sequence[str], changes: Sequence[AnyParameter] = ()
+) -> dict[str, Any]:
     """{name: current value} of ``names`` on ``node``, with ``changes`` (a pending set) on top."""
     values: dict[str, Any] = {name: node.get_parameter(name).value for name in names}
     for param in changes:
@@ -270,7 +277,7 @@ def change_result(build: Callable[[], object]) -> SetParametersResult:
     return SetParametersResult(successful=True)
 
 
-def publish_blocking(publisher: Publisher, msg: Any, stopping: Callable[[], bool]) -> bool:
+def publish_blocking(publisher: AnyPublisher, msg: Any, stopping: Callable[[], bool]) -> bool:
     """Publish ``msg`` (message or CDR bytes), retrying while the keep-all history is full; False if stopped.
 
     A reliable keep-all writer refuses a sample when its readers have not acknowledged enough of
@@ -286,7 +293,7 @@ def publish_blocking(publisher: Publisher, msg: Any, stopping: Callable[[], bool
             time.sleep(_PUBLISH_RETRY_PERIOD)
 
 
-def acked_within(publisher: Publisher, seconds: float, stopping: Callable[[], bool]) -> bool:
+def acked_within(publisher: AnyPublisher, seconds: float, stopping: Callable[[], bool]) -> bool:
     """True once every matched reader acknowledged all ``publisher`` sent; False after ``seconds`` or once
     ``stopping()``. Waits in short slices: close() gives a node's thread 5 s, and destroying a publisher
     while a thread still waits inside it crashes the process."""
