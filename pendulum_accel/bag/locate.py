@@ -15,7 +15,6 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from pendulum_accel.bag.errors import ReaderError
 from pendulum_accel.bag.mcap_file import MAGIC
@@ -30,7 +29,8 @@ class Located:
 
     root: Path
     files: list[Path]
-    doc: Any
+    doc: object
+    """The parsed metadata.yaml as read (any YAML value; None without one): see metadata.listed_counts."""
     gone: tuple[str, ...] = ()
     """Files metadata.yaml lists that are not there."""
 

@@ -29,7 +29,7 @@ import zlib
 from collections.abc import Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TypeVar
 
 import numpy as np
 from mcap.records import Header
@@ -45,7 +45,16 @@ from pendulum_accel.bag.messages import TopicChoice, chain_topic, find_topic, st
 from pendulum_accel.bag.metadata import listed_custom_data
 from pendulum_accel.bag.records import RECORD_ERRORS, decompress, message_index
 from pendulum_accel.bag.scan import Scanner
-from pendulum_accel.bag.shapes import Classified, ShapeBook, TopicArrays, classify, decode_block, joined
+from pendulum_accel.bag.shapes import (
+    Classified,
+    Columns,
+    DecodedBlock,
+    ShapeBook,
+    TopicArrays,
+    classify,
+    decode_block,
+    joined,
+)
 
 
 @dataclass(frozen=True)
@@ -78,7 +87,8 @@ class Bag:
         self.path = path
         self.mcap_paths = list(mcap_paths)
         self.problem: str | None = None
-        self.metadata: dict[str, Any] | None = None
+        self.metadata: dict[str, object] | None = None
+        """metadata.yaml as parsed, when it is a mapping (unchecked: metadata.listed_counts reads it)."""
         self.custom_data: dict[str, str] = {}
         self.damage: list[ChunkDamage] = []
         """Damaged chunks (and damage between chunks) in file order; empty when every CRC matched."""
@@ -396,7 +406,7 @@ class Bag:
         mtype, total = chans[0].msgtype, sum(ch.count for ch in chans)
         wanted = None if fields is None else list(fields)
         times_out = np.empty(total, dtype=np.int64)
-        columns: dict[str, NDArray[Any]] = {}
+        columns: Columns = {}
         filled = 0
         for times, classified in self._pass(topic, msgtype, want):
             wanted, (t, cols) = decode_block(topic, mtype, times, classified, wanted)
@@ -438,7 +448,7 @@ class Bag:
             yield self.decode(topic, msgtype, fields)
             return
         wanted = None if fields is None else list(fields)
-        parts: list[tuple[NDArray[np.int64], dict[str, NDArray[Any]]]] = []
+        parts: list[DecodedBlock] = []
         held = 0
         given = False
         for times, classified in self._pass(topic, msgtype):

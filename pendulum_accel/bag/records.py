@@ -17,7 +17,6 @@ import struct
 import weakref
 from io import BytesIO
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import zstandard
@@ -111,10 +110,12 @@ def decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes | memoryvie
     raise MalformedRecordError(f"unsupported chunk compression {head.compression!r}")
 
 
-def unaligned(data: bytes | memoryview, dtype: str) -> NDArray[Any]:
+def unaligned(data: bytes | memoryview, dtype: str) -> NDArray[np.generic]:
     """View v of ``data`` with v[i] = the ``dtype`` value in data[i : i + itemsize] (any byte offset i)."""
     width = np.dtype(dtype).itemsize
-    view: NDArray[Any] = np.ndarray((max(len(data) - width + 1, 0),), dtype=dtype, buffer=data, strides=(1,))
+    view: NDArray[np.generic] = np.ndarray(
+        (max(len(data) - width + 1, 0),), dtype=dtype, buffer=data, strides=(1,)
+    )
     return view
 
 
