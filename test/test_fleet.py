@@ -35,7 +35,15 @@ from pendulum_accel.errors import BagError
 from pendulum_accel.recording import coverage
 from pendulum_accel.recording import design_study as ds
 from pendulum_accel.recording.delay import group_delay
-from pendulum_accel.recording.fleet import COLUMN_NAMES, Job, analyze_many, bag_rows, find_bags, write_csv
+from pendulum_accel.recording.fleet import (
+    COLUMN_NAMES,
+    FleetRow,
+    Job,
+    analyze_many,
+    bag_rows,
+    find_bags,
+    write_csv,
+)
 from test.conftest import REPO, Spawn, cli, stop_processes, strict_json
 from test.refusal import error_line
 from test.split_recording import split_recording
@@ -77,6 +85,18 @@ def corpus(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
+def cells(row: FleetRow) -> dict[str, Any]:
+    """A row as a plain mapping, for the checks that name its cells by computed keys (share_2sigma_{window}):
+    Any, as a table cell is a str, bool, int or float, or None."""
+    return dict(row)
+
+
+def test_the_row_type_has_every_column() -> None:
+    """FleetRow (the TypedDict) and COLUMNS (the table's schema, docs/fleet.md) name the same columns."""
+    assert set(FleetRow.__annotations__) == set(COLUMN_NAMES)
+    assert FleetRow.__required_keys__ | FleetRow.__optional_keys__ == set(COLUMN_NAMES)
+
+
 def _by_key(rows: list[dict[str, object]]) -> dict[tuple[str, str], dict[str, object]]:
     """Rows keyed by (bag, estimator)."""
     return {(str(r["bag"]), str(r["estimator"])): r for r in rows}
@@ -98,7 +118,8 @@ def test_find_bags_walks_trees_and_globs_and_refuses_a_typo(corpus: Path) -> Non
 def test_serial_table_has_a_row_per_bag_and_estimator_and_error_rows(corpus: Path) -> None:
     """Good bags give a row per estimator with finite figures; the damaged and the foreign bag give one
     row each with an error and no figures; every row has every column."""
-    rows = analyze_many(find_bags([str(corpus)]), Job(estimators=("kalman", "instant")), distributed=False)
+    found = analyze_many(find_bags([str(corpus)]), Job(estimators=("kalman", "instant")), distributed=False)
+    rows = [cells(r) for r in found]
     assert all(tuple(r) == COLUMN_NAMES for r in rows)
     good = [r for r in rows if not r["error"]]
     bad = [r for r in rows if r["error"]]
@@ -134,7 +155,7 @@ def test_share_cells_are_the_single_bag_reports_and_null_without_samples(
     computation, two outputs: exact); a bag at rest has no after-change window, and its cells are null in
     the rows and empty fields in the CSV, never NaN."""
     bag = corpus / "site_b" / "braking"
-    (row,) = bag_rows(str(bag), Job(estimators=("kalman",)))
+    (row,) = map(cells, bag_rows(str(bag), Job(estimators=("kalman",))))
     assert main(["analyze", str(bag), "-e", "kalman", "--json"]) == 0
     single = strict_json(capsys.readouterr().out)
     for window in ("steady", "after_change"):
@@ -142,7 +163,7 @@ def test_share_cells_are_the_single_bag_reports_and_null_without_samples(
         assert row[f"trials_{window}"] == single[f"nees_{window}_trials"]
         assert row[f"share_2sigma_{window}_low"] == single[f"nees_{window}_share_2sigma_low"]
         assert row[f"share_2sigma_{window}_high"] == single[f"nees_{window}_share_2sigma_high"]
-    (rest,) = bag_rows(str(AT_REST), Job())
+    (rest,) = map(cells, bag_rows(str(AT_REST), Job()))
     assert not rest["error"] and isinstance(rest["trials_steady"], float)
     assert all(rest[k] is None for k in SHARE_CELLS if "after_change" in k)
     text = io.StringIO()
@@ -159,8 +180,8 @@ def test_a_bag_without_truth_is_a_row_of_its_own_figures(corpus: Path, tmp_path:
     whole = corpus / "site_a" / "step_start"
     bare = tmp_path / "no_truth"
     split_recording(whole, bare, 1, drop=("/car/accel/truth",))
-    (with_truth,) = bag_rows(str(whole), Job())
-    (row,) = bag_rows(str(bare), Job())
+    (with_truth,) = map(cells, bag_rows(str(whole), Job()))
+    (row,) = map(cells, bag_rows(str(bare), Job()))
     assert row["error"] == "" and row["truth"] is False and with_truth["truth"] is True
     for key in ("rms", "bias", "max_error", "delay", "nees_mean", *SHARE_CELLS):
         assert row[key] is None, key
