@@ -21,7 +21,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -85,9 +85,9 @@ def corpus(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
-def cells(row: FleetRow) -> dict[str, Any]:
-    """A row as a plain mapping, for the checks that name its cells by computed keys (share_2sigma_{window}):
-    Any, as a table cell is a str, bool, int or float, or None."""
+def cells(row: Mapping[str, object]) -> dict[str, Any]:
+    """A fleet or design row as a plain mapping, for the checks that name its cells by computed keys
+    (share_2sigma_{window}): Any, as a table cell is a str, bool, int or float, or None."""
     return dict(row)
 
 
@@ -428,7 +428,7 @@ def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path)
     for the reason given in test_local_cluster_gives_the_serial_table)."""
     designs = ds.design_grid([0.2, 1.0], [0.7], [100.0], [1e-3])
     kwargs: dict[str, Any] = {"seeds": 2, "duration": 20.0, "lags": (0.0, 0.5)}
-    rows = ds.study(designs, ["husky_odom"], distributed=False, **kwargs)
+    rows = [cells(r) for r in ds.study(designs, ["husky_odom"], distributed=False, **kwargs)]
     assert [r["design"] for r in rows] == [d.name for d in designs]
     for r in rows:
         assert r["cases"] == 2
@@ -463,7 +463,8 @@ def test_design_shares_carry_their_summed_trials_and_wilson_interval() -> None:
     the Wilson interval at them; a window no case reaches has null cells, never NaN."""
     designs = ds.design_grid([0.2, 1.0], [0.7], [100.0], [1e-3])
     seeds, duration = 2, 20.0
-    rows = ds.study(designs, ["husky_odom"], seeds=seeds, duration=duration, lags=(0.0,), distributed=False)
+    found = ds.study(designs, ["husky_odom"], seeds=seeds, duration=duration, lags=(0.0,), distributed=False)
+    rows = [cells(r) for r in found]
     for design, r in zip(designs, rows, strict=True):
         per_case = [_case_trials(ds.Case(design, "husky_odom", s, duration, (0.0,))) for s in range(seeds)]
         for window in ("steady", "after_change"):
@@ -475,7 +476,9 @@ def test_design_shares_carry_their_summed_trials_and_wilson_interval() -> None:
             assert trials >= seeds  # every case reaches both windows on 20 s of husky_odom
             assert low <= share <= high, (window, r)
             assert (low, high) == coverage.wilson(share, trials)  # the same function at the same arguments
-    (rest,) = ds.study(designs[:1], ["at_rest"], seeds=1, duration=5.0, lags=(0.0,), distributed=False)
+    (rest,) = map(
+        cells, ds.study(designs[:1], ["at_rest"], seeds=1, duration=5.0, lags=(0.0,), distributed=False)
+    )
     assert isinstance(rest["trials_steady"], float) and rest["trials_steady"] >= 1.0
     assert all(rest[k] is None for k in SHARE_CELLS if "after_change" in k), rest
 
