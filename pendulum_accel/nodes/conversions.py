@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 from builtin_interfaces.msg import Time
 from numpy.typing import NDArray
+from rclpy.duration import Duration
 from rclpy.qos import QoSProfile
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from sensor_msgs.msg import JointState
@@ -70,7 +71,7 @@ def restamp(rows: NDArray[np.uint8], offset: int, ns: NDArray[np.int64]) -> None
     rows[:, offset + 4 : offset + 8] = nanosec.astype("<u4").view(np.uint8).reshape(-1, 4)
 
 
-def time_to_seconds(stamp: Any) -> float:
+def time_to_seconds(stamp: Time) -> float:
     """t = sec + nanosec · 1e-9 for a builtin_interfaces/Time."""
     return stamp_seconds(stamp.sec, stamp.nanosec)
 
@@ -94,7 +95,7 @@ def pendulum_angle(msg: JointState, joint: str = PENDULUM_JOINT) -> float:
     return float(position[index]) if len(position) > index else math.nan
 
 
-def message_class(type_name: str) -> Any:
+def message_class(type_name: str) -> Any:  # Any: a class of a message package, which ships no types
     """The rclpy message class of a ROS 2 type name "pkg/msg/Type"; ParameterError if unknown."""
     parts = type_name.split("/")
     if len(parts) != 3 or parts[1] != "msg":
@@ -106,7 +107,7 @@ def message_class(type_name: str) -> Any:
         raise ParameterError(f"message type {type_name!r} is not installed") from None
 
 
-def _qos_time(duration: Any) -> QosTime:
+def _qos_time(duration: Duration) -> QosTime:
     """QosTime(sec, nsec) of an rclpy Duration."""
     sec, nsec = divmod(int(duration.nanoseconds), _NS_PER_S)
     return QosTime(sec=sec, nsec=nsec)

@@ -36,6 +36,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock
 from rclpy.clock_type import ClockType
 from rclpy.duration import Duration
+from rclpy.event_handler import QoSMessageLostInfo, QoSRequestedIncompatibleQoSInfo
 from rclpy.qos import QoSPolicyKind
 from rclpy.serialization import deserialize_message
 from rclpy.timer import Timer
@@ -378,7 +379,7 @@ class EstimatorNode(ManagedNode):
                 self._diagnostics_due = 0.0
                 self._queue_changed.notify_all()
 
-    def _on_incompatible_angles(self, event: Any) -> None:
+    def _on_incompatible_angles(self, event: QoSRequestedIncompatibleQoSInfo) -> None:
         """A publisher of the angles whose QoS this subscription refuses. A best-effort one (a hardware
         driver's SensorDataQoS) while reliability is left at best_available: subscribe again best-effort
         (the next tick), counting what is lost. Anything else: one line naming the parameter to set."""
@@ -397,7 +398,7 @@ class EstimatorNode(ManagedNode):
             self._incompatible_said.add(kind)
             self.get_logger().warning(incompatible_line(topic, "subscription", kind))
 
-    def _on_lost(self, event: Any) -> None:
+    def _on_lost(self, event: QoSMessageLostInfo) -> None:
         """Angles the middleware reports lost (a best-effort stream): counted, shown on /diagnostics."""
         self.lost += int(event.total_count_change)
 

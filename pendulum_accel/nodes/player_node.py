@@ -27,7 +27,7 @@ import sys
 import termios
 import threading
 import tty
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -110,7 +110,7 @@ class StreamTimeline:
         if self.size:
             head = next(bag.messages(self.topics, first_ns, last_ns))
             self.first_ns = head[1]
-        self._iter: Any = iter(())
+        self._iter: Iterator[tuple[str, int, bytes]] = iter(())
         self._next: tuple[str, int, bytes] | None = None
         self.seek(self.first_ns)
 
@@ -161,6 +161,7 @@ class _ListTimeline(ArrayTimeline):
         super().__init__(np.array([ns for _, ns, _ in messages], dtype=np.int64))
         self.messages = messages
 
+    # Any: the message (topic, ns, cdr), where ArrayTimeline.take gives an index (a Timeline's own item).
     def take(self) -> Any:
         """The message at the cursor; the cursor moves on."""
         return self.messages[super().take()]
@@ -264,7 +265,7 @@ class PlayerNode(ThreadedNode):
                 ("seek", self._srv_seek),
             )
         ]
-        self._stdin_mode: list[Any] | None = None
+        self._stdin_mode: list[int | list[bytes | int]] | None = None  # termios.tcgetattr's
         if bool(values["keyboard"]) and sys.stdin is not None and sys.stdin.isatty():
             self._start_keyboard()
         self._progress_tty = sys.stderr.isatty()

@@ -17,7 +17,12 @@ import copy
 from collections.abc import Callable
 from typing import Any, TypeAlias
 
-from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.event_handler import (
+    PublisherEventCallbacks,
+    QoSMessageLostInfo,
+    QoSRequestedIncompatibleQoSInfo,
+    SubscriptionEventCallbacks,
+)
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import (
@@ -141,11 +146,11 @@ def incompatible_line(topic: str, entity: str, policy_kind: int) -> str:
     return f"{topic}: a {peer} with incompatible QoS ({policy}) gets no messages from this {entity}; {fix}"
 
 
-def _once(node: Node, topic: str, entity: str) -> Callable[[Any], None]:
+def _once(node: Node, topic: str, entity: str) -> Callable[[QoSRequestedIncompatibleQoSInfo], None]:
     """An incompatible-QoS callback logging ``incompatible_line`` once per policy (discovery repeats it)."""
     said: set[int] = set()
 
-    def callback(event: Any) -> None:
+    def callback(event: QoSRequestedIncompatibleQoSInfo) -> None:
         kind = int(event.last_policy_kind)
         if kind not in said:
             said.add(kind)
@@ -162,8 +167,8 @@ def publisher_events(node: Node, topic: str) -> PublisherEventCallbacks:
 def subscription_events(
     node: Node,
     topic: str,
-    incompatible: Callable[[Any], None] | None = None,
-    message_lost: Callable[[Any], None] | None = None,
+    incompatible: Callable[[QoSRequestedIncompatibleQoSInfo], None] | None = None,
+    message_lost: Callable[[QoSMessageLostInfo], None] | None = None,
 ) -> SubscriptionEventCallbacks:
     """Event callbacks of a subscription on ``topic``: one line per incompatible publisher's policy (or
     ``incompatible(event)`` instead, when given), and ``message_lost(event)`` when the middleware reports
@@ -191,8 +196,8 @@ def make_subscription(
     callback: Callable[[Any], None],
     qos: QoSProfile,
     *,
-    incompatible: Callable[[Any], None] | None = None,
-    message_lost: Callable[[Any], None] | None = None,
+    incompatible: Callable[[QoSRequestedIncompatibleQoSInfo], None] | None = None,
+    message_lost: Callable[[QoSMessageLostInfo], None] | None = None,
     best_effort: bool = False,
 ) -> AnySubscription:
     """node.create_subscription (raw CDR) with ``subscription_qos(qos)``, the qos_overrides parameters and

@@ -19,7 +19,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
@@ -174,7 +174,7 @@ class ManagedNode(ThreadedNode, LifecycleNode):
 
 def parameter_descriptor(spec: ParamSpec) -> ParameterDescriptor:
     """ParameterDescriptor of a spec: description, read_only, range (step 0; 1 for integers), choices."""
-    limits: dict[str, Any] = {}
+    limits: dict[str, object] = {}
     if spec.low is not None and spec.high is not None:
         if spec.type == "integer":
             limits["integer_range"] = [
@@ -249,7 +249,7 @@ def apply_time_source(node: Node, time_source: str) -> None:
         )
 
 
-def write_summary(path: str, counters: Mapping[str, Any]) -> None:
+def write_summary(path: str, counters: Mapping[str, object]) -> None:
     """Write a node's counters as JSON to ``path`` (nothing when empty): the launcher's accounting."""
     if path:
         Path(path).write_text(json.dumps(dict(counters), indent=1, sort_keys=True))
@@ -277,7 +277,7 @@ def change_result(build: Callable[[], object]) -> SetParametersResult:
     return SetParametersResult(successful=True)
 
 
-def publish_blocking(publisher: AnyPublisher, msg: Any, stopping: Callable[[], bool]) -> bool:
+def publish_blocking(publisher: AnyPublisher, msg: object, stopping: Callable[[], bool]) -> bool:
     """Publish ``msg`` (message or CDR bytes), retrying while the keep-all history is full; False if stopped.
 
     A reliable keep-all writer refuses a sample when its readers have not acknowledged enough of
@@ -370,7 +370,7 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
     it takes about ten times as many messages per second in Python, which the 1 kHz chain needs.
     """
     node: Node | None = None
-    executor: Any = None
+    executor: Executor | None = None
     code = 0
     stops = 0
 
