@@ -231,11 +231,12 @@ class EstimatorNode(ManagedNode):
 
     # -- configuration --------------------------------------------------------------------------
 
+    # Any: each value has its own parameter's type (runtime.parameter_values).
     def _config_values(self, changes: Sequence[AnyParameter] = ()) -> dict[str, Any]:
         """method, lag, preset and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
         return parameter_values(self, ESTIMATOR_PARAMETERS, changes)
 
-    def _build(self, values: dict[str, Any]) -> Estimator:
+    def _build(self, values: dict[str, Any]) -> Estimator:  # Any: as _config_values'
         """make_estimator(method, l, g, noise_std, rate_hz, damping[, lag, preset]); ParameterError if bad."""
         cfg = {k: float(v) for k, v in values.items() if k not in ("method", "lag", "preset")}
         if not all(math.isfinite(v) for v in cfg.values()):
@@ -245,6 +246,7 @@ class EstimatorNode(ManagedNode):
         opts: dict[str, object] = {"lag": lag} if lag > 0.0 else {}  # lag = 0: every method's own estimate
         if uses_preset(method):
             opts["preset"] = self.motion(str(values["preset"])).preset
+        # The options are checked by make_estimator at run time; their types are the parameters', by name.
         estimator = make_estimator(method, **cfg, **opts, **self._sensor_bias())  # type: ignore[arg-type]
         estimator.warm()  # its compiled step loads now, not behind the first angles
         return estimator

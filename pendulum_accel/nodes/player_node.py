@@ -294,6 +294,8 @@ class PlayerNode(ThreadedNode):
         return SetParametersResult(successful=True)
 
     @staticmethod
+    # Any: the services' requests and responses are std_srvs/rosbag2_interfaces classes, which ship no
+    # types (as the message packages: see nodes/qos.py AnyPublisher).
     def _reply(response: Any, success: bool, message: str) -> Any:
         """Fill a Trigger response."""
         response.success = success

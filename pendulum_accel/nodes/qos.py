@@ -177,6 +177,7 @@ def subscription_events(
     return SubscriptionEventCallbacks(incompatible_qos=on_incompatible, message_lost=message_lost)
 
 
+# Any (msg_type): a message package's class; the packages ship no types (see AnyPublisher).
 def make_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile) -> AnyPublisher:
     """node.create_publisher with its own copy of ``qos``, the qos_overrides parameters and the one-line
     incompatible-QoS report."""
@@ -191,6 +192,8 @@ def make_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile) -> An
 
 def make_subscription(
     node: Node,
+    # Any: a message package's class (untyped, see AnyPublisher); the callback gets raw CDR bytes, which
+    # rclpy's types (callback of the message class) cannot say.
     msg_type: Any,
     topic: str,
     callback: Callable[[Any], None],

@@ -48,6 +48,7 @@ _ACK_SLICE = Duration(seconds=0.2)
 class ChainNode(Node):
     """A Node that may end on its own (``finish``), stops gracefully on request, and ``close``s its files."""
 
+    # Any: rclpy's Node keyword arguments, passed through as they are.
     def __init__(self, node_name: str, **kwargs: Any) -> None:
         """Node(node_name, **kwargs) plus the ``finished`` future that ends the spin."""
         super().__init__(node_name, **kwargs)
@@ -69,6 +70,7 @@ class ChainNode(Node):
 class ThreadedNode(ChainNode):
     """A ChainNode whose work runs in one daemon thread; a stop request ends the thread, then the spin."""
 
+    # Any: rclpy's LifecycleNode keyword arguments, passed through as they are.
     def __init__(self, node_name: str, **kwargs: Any) -> None:
         """ChainNode(node_name, **kwargs) with the ``_stop`` event its thread watches; no thread yet."""
         super().__init__(node_name, **kwargs)
@@ -204,12 +206,13 @@ def declare_parameters(
     node: Node,
     specs: Sequence[ParamSpec],
     scene_defaults: Callable[[str], Mapping[str, ParamValue]] | None = None,
-) -> dict[str, Any]:
+) -> dict[str, Any]:  # Any: each value has its parameter's own type (the spec's), read by name
     """Declare every spec on ``node`` in order; {name: value} (a launch override or the default).
 
     A FROM_SCENE default comes from ``scene_defaults(scene)``, called once with the value of the
     ``scene`` parameter, which the table declares before them.
     """
+    # Any: as declare_parameters' result.
     values: dict[str, Any] = {}
     defaults: Mapping[str, ParamValue] | None = None
     for spec in specs:
@@ -257,9 +260,9 @@ def write_summary(path: str, counters: Mapping[str, object]) -> None:
 
 def parameter_values(
     node: Node, names: Sequence[str], changes: Sequence[AnyParameter] = ()
-) -> dict[str, Any]:
+) -> dict[str, Any]:  # Any: each value has its parameter's own type, read by name
     """{name: current value} of ``names`` on ``node``, with ``changes`` (a pending set) on top."""
-    values: dict[str, Any] = {name: node.get_parameter(name).value for name in names}
+    values: dict[str, Any] = {name: node.get_parameter(name).value for name in names}  # Any: as returned
     for param in changes:
         if param.name in values:
             values[param.name] = param.value

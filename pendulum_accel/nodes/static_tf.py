@@ -29,6 +29,7 @@ STATIC_QOS = QoSProfile(
 )
 
 
+# Any: a class of tf2_msgs, a message package, which ships no types.
 def tf_message_type() -> Any | None:
     """tf2_msgs' TFMessage class, None where tf2_msgs is not installed."""
     try:

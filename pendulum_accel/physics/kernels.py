@@ -163,6 +163,7 @@ def _elastic_tangent_rhs(par: np.ndarray, a: float, y: np.ndarray, out: np.ndarr
 
 @njit(inline="always")
 def _steps(
+    # Any: a numba dispatcher (the model's right-hand side), which numba does not type.
     rhs: Any,
     par: np.ndarray,
     y0: np.ndarray,
