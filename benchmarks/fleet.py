@@ -24,11 +24,10 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from benchmarks import report as bench_report
 from pendulum_accel.cluster import dask_client, map_tasks
-from pendulum_accel.recording.fleet import Job, analyze_many, bag_rows, find_bags
+from pendulum_accel.recording.fleet import FleetRow, Job, analyze_many, bag_rows, find_bags
 
 SCENES = ("udds", "hwfet", "husky_odom", "ftp75", "bus_gps_speed")  # real motion, as a fleet records it
 DURATION = 120.0  # s of each scene: a two-minute recording per bag
@@ -69,7 +68,7 @@ def peak_rss_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def on_cluster(paths: Sequence[Path], workers: int, serial: list[dict[str, Any]]) -> ClusterRun:
+def on_cluster(paths: Sequence[Path], workers: int, serial: list[FleetRow]) -> ClusterRun:
     """Start a LocalCluster of ``workers``, analyse ``paths`` on it (the table compared with ``serial``)."""
     job = Job()
     start = time.perf_counter()
@@ -80,7 +79,7 @@ def on_cluster(paths: Sequence[Path], workers: int, serial: list[dict[str, Any]]
         # before its timing; what is timed below is the analysis itself.
         client.run(analyze_many, paths[:1], job, distributed=False)
         start = time.perf_counter()
-        task: Callable[[str], list[dict[str, Any]]] = functools.partial(bag_rows, job=job)
+        task: Callable[[str], list[FleetRow]] = functools.partial(bag_rows, job=job)
         parts = map_tasks(task, [str(p) for p in paths], client=client)
         run = time.perf_counter() - start
         rss = client.run(peak_rss_mib)

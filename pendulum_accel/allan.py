@@ -449,22 +449,23 @@ def interruptible(work: Callable[[], T]) -> T:
     handled within one slice even while the work sits in one long numpy call or compiled loop (those
     release the GIL: numpy's large-array loops, the estimators' batch kernels). The worker is a daemon:
     after an interrupt the command exits (cli.main) without waiting for it."""
-    box: dict[str, object] = {}
+    results: list[T] = []
+    errors: list[BaseException] = []
 
     def run() -> None:
         """Thread body: keep the result or the exception for the main thread."""
         try:
-            box["result"] = work()
+            results.append(work())
         except BaseException as err:  # re-raised in the main thread
-            box["error"] = err
+            errors.append(err)
 
     worker = threading.Thread(target=run, name="allan-work", daemon=True)
     worker.start()
     while worker.is_alive():
         worker.join(_WAIT_SLICE)  # a lock wait: a signal interrupts it
-    if "error" in box:
-        raise box["error"]  # type: ignore[misc]
-    return box["result"]  # type: ignore[return-value]
+    if errors:
+        raise errors[0]
+    return results[0]
 
 
 def bag_series(path: str | Bag) -> StaticSeries:

@@ -17,9 +17,12 @@ import os
 import socket
 import struct
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from pendulum_accel.errors import PendulumAccelError
+
+if TYPE_CHECKING:  # Dask is the fleet extra, imported on first use
+    from distributed import Client
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -159,7 +162,7 @@ def _kill_local_workers() -> None:
 
 
 @contextlib.contextmanager
-def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
+def dask_client(address: str | None, workers: int | None) -> Iterator[Client]:
     """A distributed.Client on the scheduler at ``address``, or on an embedded LocalCluster of
     ``workers`` single-threaded worker processes (default: one per CPU this process may use)."""
     try:
@@ -236,22 +239,22 @@ def dask_client(address: str | None, workers: int | None) -> Iterator[Any]:
             dask_logger.setLevel(level)
 
 
-def _on_client(fn: Callable[[T], R], items: Sequence[T], client: Any, progress: Progress) -> list[R]:
+def _on_client(fn: Callable[[T], R], items: Sequence[T], client: Client, progress: Progress) -> list[R]:
     """fn of each item as one Dask task; results in the order of ``items``. On any exception (Ctrl-C
     included) the tasks not yet finished are cancelled before it propagates."""
     from distributed import as_completed
 
     futures = client.map(fn, list(items), pure=False)
     index = {f.key: i for i, f in enumerate(futures)}
-    out: list[Any] = [None] * len(futures)
+    done: dict[int, R] = {}
     try:
         for future in as_completed(futures):
-            out[index[future.key]] = future.result()
+            done[index[future.key]] = future.result()
             progress(1)
     except BaseException:
         client.cancel(futures, force=True)
         raise
-    return out
+    return [done[i] for i in range(len(futures))]
 
 
 def map_tasks(
@@ -262,7 +265,7 @@ def map_tasks(
     workers: int | None = None,
     progress: Progress | None = None,
     distributed: bool | None = None,
-    client: Any | None = None,
+    client: Client | None = None,
 ) -> list[R]:
     """[fn(x) for x in items], one task per item. ``distributed`` None: one item runs in this process,
     several on Dask (``scheduler`` or $DASK_SCHEDULER_ADDRESS, else a LocalCluster of ``workers``

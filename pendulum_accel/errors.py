@@ -30,7 +30,8 @@ class SceneError(PendulumAccelError, ValueError):
 
 
 class BagError(PendulumAccelError):
-    """A bag that cannot be read, written or repaired."""
+    """A bag that cannot be read, written or repaired: the base of the bag library's own errors
+    (``pendulum_accel.bag.errors``: ReaderError, WriterError, RepairError, ExportError)."""
 
 
 class SeveralChainsError(BagError):

@@ -583,7 +583,7 @@ def _closed_form(setup: _Setup, pieces: list[Piece], model: str, extra: float) -
 def _first_step(setup: _Setup, model: str, method: str, budget: float) -> float:
     """A-priori h = (budget / (C (1 + ωT)))^(1/p) / ω, hω ≤ MAX_H_OMEGA, h ω_fast ≤ 0.8 stability limit."""
     order, const = FIXED_STEP_ORDER[method]
-    h_omega = (budget * (1.0 - ROUND_SLACK) / (const * setup.omega_t)) ** (1.0 / order)
+    h_omega: float = (budget * (1.0 - ROUND_SLACK) / (const * setup.omega_t)) ** (1.0 / order)
     h = min(h_omega, MAX_H_OMEGA.get(method, DEFAULT_MAX_H_OMEGA)) / setup.omega
     limit = stability_limit(method)
     if limit is not None and limit > 0.0:

@@ -266,6 +266,7 @@ def _cell(value: object) -> str:
     """A CSV cell: integers as is, floats with 12 significant digits, NaN/inf as an empty cell."""
     if isinstance(value, int | np.integer):
         return str(int(value))
+    # Rows hold numbers only (Python or numpy): float() of anything else is a bug, and raises.
     number = float(value)  # type: ignore[arg-type]
     return f"{number:.12g}" if math.isfinite(number) else ""
 

@@ -14,10 +14,10 @@ import pytest
 
 from pendulum_accel.bag import cdr_layout
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.errors import ExportError
 from pendulum_accel.bag.export import (
     BULK_TYPES,
     VISUAL_ROLES,
-    ExportError,
     column_name,
     export_bag,
     file_stem,

@@ -19,9 +19,10 @@ import pytest
 from mcap.reader import SeekingReader, make_reader
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.errors import NotIndexedError
 from pendulum_accel.bag.reader import read_bag
 from pendulum_accel.bag.repair import CUSTOM_REPAIRED, repair_bag
-from pendulum_accel.bag.stream import NotIndexedError, StreamedBag
+from pendulum_accel.bag.stream import StreamedBag
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.errors import BagError
 from pendulum_accel.recording.generate import generate_bag

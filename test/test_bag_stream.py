@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 from benchmarks.player_memory import write_bag
+from pendulum_accel.bag.errors import NotIndexedError
 from pendulum_accel.bag.reader import read_bag
-from pendulum_accel.bag.stream import NotIndexedError, StreamedBag
+from pendulum_accel.bag.stream import StreamedBag
 
 pytestmark = [pytest.mark.ros]  # player_node imports rclpy
 

@@ -22,7 +22,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +36,15 @@ from pendulum_accel.errors import BagError
 from pendulum_accel.recording import coverage
 from pendulum_accel.recording import design_study as ds
 from pendulum_accel.recording.delay import group_delay
-from pendulum_accel.recording.fleet import COLUMN_NAMES, Job, analyze_many, bag_rows, find_bags, write_csv
+from pendulum_accel.recording.fleet import (
+    COLUMN_NAMES,
+    FleetRow,
+    Job,
+    analyze_many,
+    bag_rows,
+    find_bags,
+    write_csv,
+)
 from test.conftest import REPO, Spawn, cli, stop_processes, strict_json
 from test.refusal import error_line
 from test.split_recording import split_recording
@@ -78,6 +86,18 @@ def corpus(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
+def cells(row: Mapping[str, object]) -> dict[str, Any]:
+    """A fleet or design row as a plain mapping, for the checks that name its cells by computed keys
+    (share_2sigma_{window}): Any, as a table cell is a str, bool, int or float, or None."""
+    return dict(row)
+
+
+def test_the_row_type_has_every_column() -> None:
+    """FleetRow (the TypedDict) and COLUMNS (the table's schema, docs/fleet.md) name the same columns."""
+    assert set(FleetRow.__annotations__) == set(COLUMN_NAMES)
+    assert FleetRow.__required_keys__ | FleetRow.__optional_keys__ == set(COLUMN_NAMES)
+
+
 def _by_key(rows: list[dict[str, object]]) -> dict[tuple[str, str], dict[str, object]]:
     """Rows keyed by (bag, estimator)."""
     return {(str(r["bag"]), str(r["estimator"])): r for r in rows}
@@ -99,7 +119,8 @@ def test_find_bags_walks_trees_and_globs_and_refuses_a_typo(corpus: Path) -> Non
 def test_serial_table_has_a_row_per_bag_and_estimator_and_error_rows(corpus: Path) -> None:
     """Good bags give a row per estimator with finite figures; the damaged and the foreign bag give one
     row each with an error and no figures; every row has every column."""
-    rows = analyze_many(find_bags([str(corpus)]), Job(estimators=("kalman", "instant")), distributed=False)
+    found = analyze_many(find_bags([str(corpus)]), Job(estimators=("kalman", "instant")), distributed=False)
+    rows = [cells(r) for r in found]
     assert all(tuple(r) == COLUMN_NAMES for r in rows)
     good = [r for r in rows if not r["error"]]
     bad = [r for r in rows if r["error"]]
@@ -135,7 +156,7 @@ def test_share_cells_are_the_single_bag_reports_and_null_without_samples(
     computation, two outputs: exact); a bag at rest has no after-change window, and its cells are null in
     the rows and empty fields in the CSV, never NaN."""
     bag = corpus / "site_b" / "braking"
-    (row,) = bag_rows(str(bag), Job(estimators=("kalman",)))
+    (row,) = map(cells, bag_rows(str(bag), Job(estimators=("kalman",))))
     assert main(["analyze", str(bag), "-e", "kalman", "--json"]) == 0
     single = strict_json(capsys.readouterr().out)
     for window in ("steady", "after_change"):
@@ -143,7 +164,7 @@ def test_share_cells_are_the_single_bag_reports_and_null_without_samples(
         assert row[f"trials_{window}"] == single[f"nees_{window}_trials"]
         assert row[f"share_2sigma_{window}_low"] == single[f"nees_{window}_share_2sigma_low"]
         assert row[f"share_2sigma_{window}_high"] == single[f"nees_{window}_share_2sigma_high"]
-    (rest,) = bag_rows(str(AT_REST), Job())
+    (rest,) = map(cells, bag_rows(str(AT_REST), Job()))
     assert not rest["error"] and isinstance(rest["trials_steady"], float)
     assert all(rest[k] is None for k in SHARE_CELLS if "after_change" in k)
     text = io.StringIO()
@@ -160,8 +181,8 @@ def test_a_bag_without_truth_is_a_row_of_its_own_figures(corpus: Path, tmp_path:
     whole = corpus / "site_a" / "step_start"
     bare = tmp_path / "no_truth"
     split_recording(whole, bare, 1, drop=("/car/accel/truth",))
-    (with_truth,) = bag_rows(str(whole), Job())
-    (row,) = bag_rows(str(bare), Job())
+    (with_truth,) = map(cells, bag_rows(str(whole), Job()))
+    (row,) = map(cells, bag_rows(str(bare), Job()))
     assert row["error"] == "" and row["truth"] is False and with_truth["truth"] is True
     for key in ("rms", "bias", "max_error", "delay", "nees_mean", *SHARE_CELLS):
         assert row[key] is None, key
@@ -416,7 +437,7 @@ def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path)
     for the reason given in test_local_cluster_gives_the_serial_table)."""
     designs = ds.design_grid([0.2, 1.0], [0.7], [100.0], [1e-3])
     kwargs: dict[str, Any] = {"seeds": 2, "duration": 20.0, "lags": (0.0, 0.5)}
-    rows = ds.study(designs, ["husky_odom"], distributed=False, **kwargs)
+    rows = [cells(r) for r in ds.study(designs, ["husky_odom"], distributed=False, **kwargs)]
     assert [r["design"] for r in rows] == [d.name for d in designs]
     for r in rows:
         assert r["cases"] == 2
@@ -451,7 +472,8 @@ def test_design_shares_carry_their_summed_trials_and_wilson_interval() -> None:
     the Wilson interval at them; a window no case reaches has null cells, never NaN."""
     designs = ds.design_grid([0.2, 1.0], [0.7], [100.0], [1e-3])
     seeds, duration = 2, 20.0
-    rows = ds.study(designs, ["husky_odom"], seeds=seeds, duration=duration, lags=(0.0,), distributed=False)
+    found = ds.study(designs, ["husky_odom"], seeds=seeds, duration=duration, lags=(0.0,), distributed=False)
+    rows = [cells(r) for r in found]
     for design, r in zip(designs, rows, strict=True):
         per_case = [_case_trials(ds.Case(design, "husky_odom", s, duration, (0.0,))) for s in range(seeds)]
         for window in ("steady", "after_change"):
@@ -463,7 +485,9 @@ def test_design_shares_carry_their_summed_trials_and_wilson_interval() -> None:
             assert trials >= seeds  # every case reaches both windows on 20 s of husky_odom
             assert low <= share <= high, (window, r)
             assert (low, high) == coverage.wilson(share, trials)  # the same function at the same arguments
-    (rest,) = ds.study(designs[:1], ["at_rest"], seeds=1, duration=5.0, lags=(0.0,), distributed=False)
+    (rest,) = map(
+        cells, ds.study(designs[:1], ["at_rest"], seeds=1, duration=5.0, lags=(0.0,), distributed=False)
+    )
     assert isinstance(rest["trials_steady"], float) and rest["trials_steady"] >= 1.0
     assert all(rest[k] is None for k in SHARE_CELLS if "after_change" in k), rest
 

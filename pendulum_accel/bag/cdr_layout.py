@@ -23,8 +23,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from rosbags.interfaces import Nodetype
 
+from pendulum_accel.bag.errors import BagError
 from pendulum_accel.bag.messages import TYPESTORE, serialize
-from pendulum_accel.errors import BagError
 
 _NUMERIC: dict[str, str] = {
     "int8": "i1",

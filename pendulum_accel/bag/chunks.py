@@ -24,6 +24,7 @@ from mcap.records import Channel, Schema
 from numpy.typing import NDArray
 
 from pendulum_accel.bag.blocks import ChannelData
+from pendulum_accel.bag.errors import MalformedRecordError
 from pendulum_accel.bag.records import (
     MESSAGE_DATA_OFFSET,
     MESSAGE_HEAD,
@@ -86,7 +87,9 @@ class ChunkReader:
         rec = Channel.read(ReadDataStream(BytesIO(body)))
         schema = self.schemas.get(rec.schema_id)
         if rec.schema_id != 0 and schema is None:
-            raise ValueError(f"channel {rec.id} ({rec.topic}) refers to unknown schema {rec.schema_id}")
+            raise MalformedRecordError(
+                f"channel {rec.id} ({rec.topic}) refers to unknown schema {rec.schema_id}"
+            )
         msgtype = schema.name if schema is not None else ""
         qos = rec.metadata.get("offered_qos_profiles", "")
         if rec.id in self.cids:
@@ -118,24 +121,25 @@ class ChunkReader:
         return got
 
     def walk(self, data: bytes | memoryview, start: int, stop: int) -> None:
-        """Walk the records of data[start:stop] (inside one chunk); ValueError at the first malformed one."""
+        """Walk the records of data[start:stop] (inside one chunk); MalformedRecordError at the first
+        malformed one."""
         view = memoryview(data)
         pos = start
         unpack_message = MESSAGE_HEAD.unpack_from
         while pos < stop:
             if pos + 9 > stop:
-                raise ValueError(f"record header cut off at chunk byte {pos}")
+                raise MalformedRecordError(f"record header cut off at chunk byte {pos}")
             op, length = RECORD_HEAD.unpack_from(data, pos)
             end = pos + 9 + length
             if end > stop:
-                raise ValueError(f"record at chunk byte {pos} overruns its chunk")
+                raise MalformedRecordError(f"record at chunk byte {pos} overruns its chunk")
             if op == Opcode.MESSAGE:
                 if length < 22:
-                    raise ValueError(f"message record at chunk byte {pos} is too short")
+                    raise MalformedRecordError(f"message record at chunk byte {pos} is too short")
                 _, _, cid, _, log_time = unpack_message(data, pos)
                 ch = self._target(cid)
                 if ch is None:
-                    raise ValueError(f"message at chunk byte {pos} on unknown channel {cid}")
+                    raise MalformedRecordError(f"message at chunk byte {pos} on unknown channel {cid}")
                 ch.times.append(log_time)
                 ch.payloads.append(bytes(data[pos + MESSAGE_DATA_OFFSET : end]))
                 self.walked += 1
@@ -144,7 +148,9 @@ class ChunkReader:
             elif op == Opcode.CHANNEL:
                 self.channel(view[pos + 9 : end])
             else:
-                raise ValueError(f"opcode 0x{op:02x} at chunk byte {pos} does not belong in a chunk")
+                raise MalformedRecordError(
+                    f"opcode 0x{op:02x} at chunk byte {pos} does not belong in a chunk"
+                )
             pos = end
 
     def chunk(
@@ -188,7 +194,7 @@ class ChunkReader:
         for cid in sorted({cid for cid, _ in indexes}):
             ch = self._target(cid)
             if ch is None:
-                raise ValueError(f"message index refers to unknown channel {cid}")
+                raise MalformedRecordError(f"message index refers to unknown channel {cid}")
             if cid in groups and (self.only is None or self.cids.get(cid) in self.only):
                 a, b = groups[cid]
                 ch.add_block(*messages_at(data, offs[a:b], lengths[a:b]))
@@ -203,7 +209,7 @@ class ChunkReader:
         for cid in sorted(entries):
             ch = self._target(cid)
             if ch is None:
-                raise ValueError(f"message index refers to unknown channel {cid}")
+                raise MalformedRecordError(f"message index refers to unknown channel {cid}")
             offs = np.sort(np.concatenate(entries[cid]).astype(np.int64))
             if offs.size:
                 ch.add_block(*messages_at(data, offs, unaligned(data, "<u8")[offs + 1].astype(np.int64)))

@@ -28,8 +28,8 @@ from numpy.typing import NDArray
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.cdr_layout import Layout
+from pendulum_accel.bag.errors import BagError, ExportError
 from pendulum_accel.bag.reader import Bag
-from pendulum_accel.errors import PendulumAccelError
 
 if TYPE_CHECKING:  # pandas is the optional export extra: imported at run time only by _pandas()
     from pandas import DataFrame
@@ -59,10 +59,6 @@ SeriesSource = Series | Callable[[], Series | None]
 """A derived series, or what computes it when its table is written (None: nothing to write)."""
 
 
-class ExportError(PendulumAccelError):
-    """Export impossible: a missing optional dependency, an unknown format or topic."""
-
-
 def _pandas() -> ModuleType:
     """The pandas module; ExportError with the install line when the extra is missing."""
     try:
@@ -71,7 +67,8 @@ def _pandas() -> ModuleType:
         raise ExportError(
             "export needs pandas (and pyarrow for Parquet): pip install 'pendulum_accel[export]'"
         ) from None
-    return pandas
+    result: ModuleType = pandas
+    return result
 
 
 def column_name(topic: str, path: str) -> str:
@@ -105,7 +102,7 @@ def _diagnostic_columns(
     for i, data in enumerate(payloads):
         try:
             msg, _ = bm.canonical_cdr(data, bm.DIAGNOSTIC_ARRAY)
-        except PendulumAccelError:
+        except BagError:
             continue
         if not isinstance(msg, bm.DiagnosticArrayMsg):
             continue

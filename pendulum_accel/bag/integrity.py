@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 import zstandard
 
+from pendulum_accel.bag.errors import BagError
 from pendulum_accel.bag.messages import TYPESTORE, deserialize
-from pendulum_accel.errors import BagError
 
 OP_MESSAGE, OP_SCHEMA, OP_CHANNEL = 0x05, 0x03, 0x04
 _RECORD_HEAD = struct.Struct("<BQ")

@@ -15,11 +15,10 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
+from pendulum_accel.bag.errors import ReaderError
 from pendulum_accel.bag.mcap_file import MAGIC
 from pendulum_accel.bag.metadata import load_metadata
-from pendulum_accel.errors import BagError
 from pendulum_accel.textfile import not_a_file_or_directory
 
 
@@ -30,7 +29,8 @@ class Located:
 
     root: Path
     files: list[Path]
-    doc: Any
+    doc: object
+    """The parsed metadata.yaml as read (any YAML value; None without one): see metadata.listed_counts."""
     gone: tuple[str, ...] = ()
     """Files metadata.yaml lists that are not there."""
 
@@ -64,12 +64,12 @@ def locate(path: Path) -> Located:
     odd = not_a_file_or_directory(path)
     if odd is not None:
         # Opening a FIFO for reading would wait for a writer forever; a device is no bag either.
-        raise BagError(f"bag {path} is {odd}, not a bag directory or an .mcap file")
+        raise ReaderError(f"bag {path} is {odd}, not a bag directory or an .mcap file")
     if path.is_file():
         _check_magic(path)
         return Located(path, [path], None)
     if not path.is_dir():
-        raise BagError(f"bag {path} does not exist")
+        raise ReaderError(f"bag {path} does not exist")
     meta = path / "metadata.yaml"
     doc = None
     if meta.is_file():
@@ -79,7 +79,7 @@ def locate(path: Path) -> Located:
         files = info.get("relative_file_paths")
         if str(info.get("compression_mode") or "").upper() == "MESSAGE":
             # Each payload is a zstd frame, not CDR: read as CDR, every message would look damaged.
-            raise BagError(
+            raise ReaderError(
                 f"bag {path}: its messages are compressed one by one (rosbag2's --compression-mode "
                 f"message, {info.get('compression_format') or 'unnamed'}); {convert_hint(path)}"
             )
@@ -90,12 +90,12 @@ def locate(path: Path) -> Located:
         for name, target in zip(names, listed, strict=True):
             if target.is_file() and name.endswith(".mcap.zstd"):
                 # rosbag2's --compression-mode file: the whole MCAP file is one zstd frame.
-                raise BagError(
+                raise ReaderError(
                     f"bag {path}: {name} is an MCAP file compressed whole (rosbag2's --compression-mode "
                     f"file); {convert_hint(path)}"
                 )
             if target.is_file() and not name.endswith(".mcap"):
-                raise BagError(f"bag {path} uses storage {name!r}, not MCAP; {convert_hint(path)}")
+                raise ReaderError(f"bag {path} uses storage {name!r}, not MCAP; {convert_hint(path)}")
         if present:
             return Located(path, present, doc, tuple(p.name for p in listed if not p.is_file()))
     named = sorted(
@@ -105,9 +105,9 @@ def locate(path: Path) -> Located:
     found = [f for f in named if f.is_file()]
     if not found and named:
         what = not_a_file_or_directory(named[0]) or "a directory"
-        raise BagError(f"bag {path}: {named[0].name} is {what}, not an MCAP file")
+        raise ReaderError(f"bag {path}: {named[0].name} is {what}, not an MCAP file")
     if not found:
-        raise BagError(f"bag {path} holds no .mcap file: not a bag directory")
+        raise ReaderError(f"bag {path} holds no .mcap file: not a bag directory")
     return Located(path, found, doc)
 
 
@@ -130,18 +130,18 @@ def _check_magic(path: Path) -> None:
         with path.open("rb") as handle:
             head = handle.read(len(_ROS1_MAGIC))
     except OSError as err:
-        raise BagError(f"cannot read {path}: {err.strerror or err}") from None
+        raise ReaderError(f"cannot read {path}: {err.strerror or err}") from None
     if head.startswith(_ROS1_MAGIC):
-        raise BagError(f"{path} is a ROS 1 bag, not MCAP; {convert_hint(path)}")
+        raise ReaderError(f"{path} is a ROS 1 bag, not MCAP; {convert_hint(path)}")
     if head.startswith(_ZSTD_MAGIC):
         # rosbags converts a bag directory; a file compressed on its own is decompressed on its own.
         parent = path.parent
         hint = (
             convert_hint(parent) if (parent / "metadata.yaml").is_file() else f"decompress it: zstd -d {path}"
         )
-        raise BagError(f"{path} is compressed whole (zstd), not MCAP; {hint}")
+        raise ReaderError(f"{path} is compressed whole (zstd), not MCAP; {hint}")
     if not head.startswith(MAGIC):
-        raise BagError(f"{path} is not an MCAP file (bad magic bytes)")
+        raise ReaderError(f"{path} is not an MCAP file (bad magic bytes)")
 
 
 def inside_bag(root: Path, name: str) -> Path:
@@ -151,10 +151,10 @@ def inside_bag(root: Path, name: str) -> Path:
     """
     parts = Path(name).parts
     if not name or Path(name).is_absolute() or ".." in parts or "\0" in name:
-        raise BagError(f"bag {root}: metadata.yaml names {name!r}, outside the bag directory; refused")
+        raise ReaderError(f"bag {root}: metadata.yaml names {name!r}, outside the bag directory; refused")
     target = root / name
     if not _within(root, target):
-        raise BagError(f"bag {root}: metadata.yaml names {name!r}, which leads outside the bag; refused")
+        raise ReaderError(f"bag {root}: metadata.yaml names {name!r}, which leads outside the bag; refused")
     return target
 
 

@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 from typing import BinaryIO
 
-from pendulum_accel.errors import BagError
+from pendulum_accel.bag.errors import ReaderError, WriterError
 
 LOCK_NAME = "recording.lock"
 """The lock file in a bag directory while a writer has the bag open (and after a writer died)."""
@@ -102,7 +102,7 @@ class BagLock:
             self._close()
             found = holder(directory)
             who = found.describe() if found is not None else "another process"
-            raise BagError(f"bag {directory} is being written by {who}")
+            raise WriterError(f"bag {directory} is being written by {who}")
         self.holder = Holder(os.getpid(), socket.gethostname(), program, _now())
         doc = {
             "pid": self.holder.pid,
@@ -158,7 +158,7 @@ def holder(directory: Path) -> Holder | None:
     except OSError as err:
         if err.errno in (errno.ELOOP, errno.EISDIR, errno.ENXIO):
             return None  # not a lock file of ours (a symlink, a directory, a FIFO without a writer)
-        raise BagError(f"cannot read the lock {path}: {err.strerror}") from None
+        raise ReaderError(f"cannot read the lock {path}: {err.strerror}") from None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)

@@ -39,7 +39,7 @@ from rosbags.typesys.stores.ros2_kilted import sensor_msgs__msg__Imu as ImuMsg
 from rosbags.typesys.stores.ros2_kilted import sensor_msgs__msg__JointState as JointStateMsg
 from rosbags.typesys.stores.ros2_kilted import std_msgs__msg__Header as HeaderMsg
 
-from pendulum_accel.errors import BagError, SeveralChainsError
+from pendulum_accel.bag.errors import BagError, SeveralChainsError
 
 TYPESTORE: Typestore = get_typestore(Stores.ROS2_KILTED)
 

@@ -13,18 +13,98 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TypedDict, TypeVar
 
 import yaml
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
-from pendulum_accel.errors import BagError
+from pendulum_accel.bag.errors import ReaderError
 
-QosDict = dict[str, str | int | bool | dict[str, int]]
-"""One offered QoS profile as rosbag2 v9 writes it in YAML."""
+# metadata.yaml's layout, as rosbag2 writes it (rosbag2_storage's metadata_io.cpp, version 9) and
+# rosbags types it (rosbags.rosbag2.metadata). These type what this library writes; a document read
+# back is parsed YAML, unchecked (``object``), and is read through listed_counts and listed_custom_data.
 
-MetadataDocument = dict[str, dict[str, object]]
-"""metadata.yaml: {"rosbag2_bagfile_information": {...}}."""
+
+class QosTimeDict(TypedDict):
+    """A QoS duration: seconds and nanoseconds."""
+
+    sec: int
+    nsec: int
+
+
+class QosDict(TypedDict):
+    """One offered QoS profile as rosbag2 v9 writes it in YAML (enum names in lower case)."""
+
+    history: str
+    depth: int
+    reliability: str
+    durability: str
+    deadline: QosTimeDict
+    lifespan: QosTimeDict
+    liveliness: str
+    liveliness_lease_duration: QosTimeDict
+    avoid_ros_namespace_conventions: bool
+
+
+class Duration(TypedDict):
+    """A bag's or file's duration."""
+
+    nanoseconds: int
+
+
+class StartingTime(TypedDict):
+    """A bag's or file's first log time."""
+
+    nanoseconds_since_epoch: int
+
+
+class TopicMetadata(TypedDict):
+    """One topic: name, message type, serialization, offered QoS, type hash (RIHS01)."""
+
+    name: str
+    type: str
+    serialization_format: str
+    offered_qos_profiles: list[QosDict]
+    type_description_hash: str
+
+
+class TopicWithMessageCount(TypedDict):
+    """One topic and its message count."""
+
+    topic_metadata: TopicMetadata
+    message_count: int
+
+
+class FileInformation(TypedDict):
+    """One storage file: its path (relative to the bag), first log time, duration, message count."""
+
+    path: str
+    starting_time: StartingTime
+    duration: Duration
+    message_count: int
+
+
+class BagfileInformation(TypedDict):
+    """rosbag2_bagfile_information, the document's one entry."""
+
+    version: int
+    storage_identifier: str
+    relative_file_paths: list[str]
+    duration: Duration
+    starting_time: StartingTime
+    message_count: int
+    topics_with_message_count: list[TopicWithMessageCount]
+    compression_format: str
+    compression_mode: str
+    files: list[FileInformation]
+    custom_data: dict[str, str] | None
+    ros_distro: str
+
+
+class MetadataDocument(TypedDict):
+    """metadata.yaml: {"rosbag2_bagfile_information": {...}}."""
+
+    rosbag2_bagfile_information: BagfileInformation
 
 
 @dataclass(frozen=True)
@@ -38,7 +118,7 @@ class TopicRecord:
     count: int
 
 
-def _time(value: QosTime) -> dict[str, int]:
+def _time(value: QosTime) -> QosTimeDict:
     """{sec, nsec} of a QoS duration."""
     return {"sec": int(value.sec), "nsec": int(value.nsec)}
 
@@ -124,7 +204,7 @@ def parse_qos(text: str | Sequence[Mapping[str, object]]) -> list[Qos]:
             for item in items
         ]
     except (yaml.YAMLError, TypeError, ValueError, AttributeError) as err:
-        raise BagError(f"unreadable offered_qos_profiles: {err}") from None
+        raise ReaderError(f"unreadable offered_qos_profiles: {err}") from None
 
 
 def metadata_document(
@@ -204,13 +284,14 @@ def listed_custom_data(document: object) -> dict[str, str]:
     return {str(k): str(v) for k, v in custom.items()} if isinstance(custom, dict) else {}
 
 
-def load_yaml(text: str) -> Any:
+def load_yaml(text: str) -> object:
     """yaml.safe_load with libyaml's C loader when available (metadata can be long)."""
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-    return yaml.load(text, Loader=loader)
+    document: object = yaml.load(text, Loader=loader)
+    return document
 
 
-def load_metadata(path: Path) -> Any:
+def load_metadata(path: Path) -> object:
     """The parsed YAML of file ``path`` (a metadata.yaml); None when it cannot be read or does not parse."""
     try:
         return load_yaml(path.read_text(encoding="utf8"))

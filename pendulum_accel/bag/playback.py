@@ -21,7 +21,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from pendulum_accel.errors import ParameterError
+from pendulum_accel.bag.errors import ParameterError
 
 _MAX_WAIT = 0.1  # s: longest sleep before the pacing loop looks at the controls again
 
@@ -33,6 +33,7 @@ class Taken:
 
     index: int
     jumped: bool
+    # Any: what the timeline's take gives (an ArrayTimeline's index, the player's (topic, ns, cdr)).
     item: Any = None
 
 
@@ -51,6 +52,7 @@ class Timeline(Protocol):
         """Log time of the message at the cursor, None past the last."""
         ...
 
+    # Any: each Timeline's own item; Playback hands it on without looking at it.
     def take(self) -> Any:
         """The message at the cursor (the caller checked there is one); the cursor moves on."""
         ...

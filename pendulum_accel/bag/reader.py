@@ -29,7 +29,7 @@ import zlib
 from collections.abc import Generator, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TypeVar
 
 import numpy as np
 from mcap.records import Header
@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from pendulum_accel.bag.blocks import Block, ChannelData, ChunkRef, Lazy, block_payloads, first_payload
 from pendulum_accel.bag.chunks import ChunkReader, Part
+from pendulum_accel.bag.errors import BagError, ReaderError
 from pendulum_accel.bag.integrity import ChunkDamage, chunk_head
 from pendulum_accel.bag.locate import locate
 from pendulum_accel.bag.lock import LOCK_NAME, Holder, holder, writer_of
@@ -44,8 +45,16 @@ from pendulum_accel.bag.messages import TopicChoice, chain_topic, find_topic, st
 from pendulum_accel.bag.metadata import listed_custom_data
 from pendulum_accel.bag.records import RECORD_ERRORS, decompress, message_index
 from pendulum_accel.bag.scan import Scanner
-from pendulum_accel.bag.shapes import Classified, ShapeBook, TopicArrays, classify, decode_block, joined
-from pendulum_accel.errors import BagError
+from pendulum_accel.bag.shapes import (
+    Classified,
+    Columns,
+    DecodedBlock,
+    ShapeBook,
+    TopicArrays,
+    classify,
+    decode_block,
+    joined,
+)
 
 
 @dataclass(frozen=True)
@@ -78,7 +87,8 @@ class Bag:
         self.path = path
         self.mcap_paths = list(mcap_paths)
         self.problem: str | None = None
-        self.metadata: dict[str, Any] | None = None
+        self.metadata: dict[str, object] | None = None
+        """metadata.yaml as parsed, when it is a mapping (unchecked: metadata.listed_counts reads it)."""
         self.custom_data: dict[str, str] = {}
         self.damage: list[ChunkDamage] = []
         """Damaged chunks (and damage between chunks) in file order; empty when every CRC matched."""
@@ -169,17 +179,17 @@ class Bag:
         chans = [ch for ch in self._channels.values() if ch.topic == topic]
         if not chans:
             known = ", ".join(sorted(self.topics)) or "none"
-            raise BagError(f"bag {self.path} has no topic {topic} (topics: {known})")
+            raise ReaderError(f"bag {self.path} has no topic {topic} (topics: {known})")
         types = {ch.msgtype for ch in chans}
         if msgtype is not None and types != {msgtype}:
-            raise BagError(
+            raise ReaderError(
                 f"topic {topic} in {self.path} has type {', '.join(sorted(types))}, expected {msgtype}"
             )
         if len(types) > 1:
-            raise BagError(f"topic {topic} in {self.path} mixes types {', '.join(sorted(types))}")
+            raise ReaderError(f"topic {topic} in {self.path} mixes types {', '.join(sorted(types))}")
         for ch in chans:
             if ch.encoding != "cdr":
-                raise BagError(f"topic {topic} in {self.path} is {ch.encoding!r}-encoded, expected cdr")
+                raise ReaderError(f"topic {topic} in {self.path} is {ch.encoding!r}-encoded, expected cdr")
         return chans
 
     def _load(self, lazy: Lazy, want: frozenset[int]) -> list[Block]:
@@ -194,7 +204,7 @@ class Bag:
                 del self._kept[next(iter(self._kept))]
         got = hit[1].get(lazy.cid)
         if got is None or got.count != lazy.count:
-            raise BagError(
+            raise ReaderError(
                 f"{self._parts[lazy.ref.part].path}: chunk at byte {lazy.ref.at} no longer holds the "
                 "messages it held"
             )
@@ -218,7 +228,7 @@ class Bag:
             crc = zlib.crc32(index_body, crc)
         head = chunk_head(body) if len(body) == ref.length and crc == ref.crc else None
         if head is None:
-            raise BagError(
+            raise ReaderError(
                 f"{part.path} changed since it was read (chunk at byte {ref.at} differs): read it again"
             )
         indexes = [i for i in (message_index(b) for b in bodies) if i is not None]
@@ -396,7 +406,7 @@ class Bag:
         mtype, total = chans[0].msgtype, sum(ch.count for ch in chans)
         wanted = None if fields is None else list(fields)
         times_out = np.empty(total, dtype=np.int64)
-        columns: dict[str, NDArray[Any]] = {}
+        columns: Columns = {}
         filled = 0
         for times, classified in self._classify_blocks(topic, msgtype, want):
             wanted, (t, cols) = decode_block(topic, mtype, times, classified, wanted)
@@ -438,7 +448,7 @@ class Bag:
             yield self.decode(topic, msgtype, fields)
             return
         wanted = None if fields is None else list(fields)
-        parts: list[tuple[NDArray[np.int64], dict[str, NDArray[Any]]]] = []
+        parts: list[DecodedBlock] = []
         held = 0
         given = False
         for times, classified in self._classify_blocks(topic, msgtype):
@@ -484,7 +494,7 @@ def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> 
         try:
             bag._parts.append(Part(index, mcap_path))
         except OSError as err:
-            raise BagError(f"cannot read {mcap_path}: {err.strerror}") from None
+            raise ReaderError(f"cannot read {mcap_path}: {err.strerror}") from None
     if isinstance(found.doc, dict):
         bag.metadata = found.doc
         bag.custom_data.update(listed_custom_data(found.doc))
@@ -500,10 +510,10 @@ def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> 
                 raise
             if writer.live:
                 # Before the recorder's first flush its file is empty: nothing to summarise yet.
-                raise BagError(
+                raise ReaderError(
                     f"bag {bag.path} is being recorded by {writer.describe()}; nothing is written yet ({err})"
                 ) from None
-            raise BagError(f"{err}: its writer {writer.describe()} ended without closing it") from None
+            raise ReaderError(f"{err}: its writer {writer.describe()} ended without closing it") from None
     bag.choice.roles.update(stored_roles(bag.custom_data))
     if writer is None and bag.problem is not None:
         # Cut off, and no lock of ours: a recorder of another make may be writing it (rosbag2 marks
@@ -514,14 +524,14 @@ def read_bag(path: Path | str, *, salvage: bool = True, stream: bool = True) -> 
         # A live file has no footer yet; what the scan took for damage is the end still being written.
         bag.problem = f"bag {bag.path} is being recorded by {writer.describe()}"
         if not salvage:
-            raise BagError(
+            raise ReaderError(
                 f"{bag.problem}: its end is not written yet; run this again once the recording ends, or "
                 f"pass --salvage to use the {bag.message_count} messages written so far"
             )
     elif writer is not None and not writer.live:
         bag.abandoned = writer
     if bag.problem is not None and not salvage:
-        raise BagError(
+        raise ReaderError(
             f"bag {bag.path} is damaged ({bag.problem}); refusing to compute from it: pass --salvage "
             f"to use only its intact records, or run `pendulum-accel repair {bag.path}`"
         )

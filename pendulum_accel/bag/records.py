@@ -17,7 +17,6 @@ import struct
 import weakref
 from io import BytesIO
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import zstandard
@@ -27,6 +26,7 @@ from mcap.records import Footer
 from numpy.typing import NDArray
 
 from pendulum_accel.bag.blocks import Slices
+from pendulum_accel.bag.errors import MalformedRecordError
 from pendulum_accel.bag.integrity import ChunkHead
 from pendulum_accel.bag.mcap_file import MAGIC
 
@@ -36,8 +36,10 @@ MESSAGE_HEAD = struct.Struct("<BQHIQ")
 """A Message record up to its log time: opcode, length, channel id, sequence, log time."""
 MESSAGE_DATA_OFFSET = 31  # opcode 1 + length 8 + channel 2 + sequence 4 + log time 8 + publish time 8
 OPCODES = {int(op) for op in Opcode}
-RECORD_ERRORS = (ValueError, struct.error, UnicodeDecodeError, KeyError, IndexError)
-"""What a malformed record makes the parsers raise."""
+RECORD_ERRORS = (MalformedRecordError, ValueError, struct.error, UnicodeDecodeError, KeyError, IndexError)
+"""What a malformed record makes the parsers raise: this reader's own checks MalformedRecordError; the
+``mcap`` library's record parsers and ``struct`` struct.error, UnicodeDecodeError (a name that is not
+UTF-8), KeyError and IndexError; numpy ValueError (a buffer of the wrong size)."""
 
 
 class OpenFile:
@@ -87,7 +89,8 @@ class ReadAhead:
 
 
 def decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes | memoryview:
-    """Uncompressed chunk records (none or zstd; lz4 when installed); ValueError when they do not inflate.
+    """Uncompressed chunk records (none or zstd; lz4 when installed); MalformedRecordError when they do not
+    inflate.
 
     An uncompressed chunk's records are ``packed`` itself (a view of the file's bytes, not a copy).
     """
@@ -103,14 +106,16 @@ def decompress(head: ChunkHead, packed: memoryview | bytes) -> bytes | memoryvie
 
             return bytes(lz4.frame.decompress(packed))
     except Exception as err:  # zstd/lz4 raise their own error types on damaged data
-        raise ValueError(f"{head.compression} chunk does not decompress ({err})") from None
-    raise ValueError(f"unsupported chunk compression {head.compression!r}")
+        raise MalformedRecordError(f"{head.compression} chunk does not decompress ({err})") from None
+    raise MalformedRecordError(f"unsupported chunk compression {head.compression!r}")
 
 
-def unaligned(data: bytes | memoryview, dtype: str) -> NDArray[Any]:
+def unaligned(data: bytes | memoryview, dtype: str) -> NDArray[np.generic]:
     """View v of ``data`` with v[i] = the ``dtype`` value in data[i : i + itemsize] (any byte offset i)."""
     width = np.dtype(dtype).itemsize
-    view: NDArray[Any] = np.ndarray((max(len(data) - width + 1, 0),), dtype=dtype, buffer=data, strides=(1,))
+    view: NDArray[np.generic] = np.ndarray(
+        (max(len(data) - width + 1, 0),), dtype=dtype, buffer=data, strides=(1,)
+    )
     return view
 
 

@@ -23,13 +23,13 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+from pendulum_accel.bag.errors import RepairError
 from pendulum_accel.bag.integrity import ChunkDamage, damage_origin
 from pendulum_accel.bag.lock import LOCK_NAME, BagLock, open_by_others
 from pendulum_accel.bag.messages import TYPESTORE
 from pendulum_accel.bag.metadata import listed_counts, parse_qos
 from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import BagWriter, Stream
-from pendulum_accel.errors import BagError
 
 CUSTOM_REPAIRED = "pendulum_accel.repaired"
 """custom_data key of a repaired bag: what repair recovered by parsing, without a checksum (one line)."""
@@ -89,19 +89,21 @@ def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:
     """
     root = Path(path)
     if not root.is_dir():
-        raise BagError(f"repair needs a bag directory, {root} is not one")
+        raise RepairError(f"repair needs a bag directory, {root} is not one")
     if not any(root.glob("*.mcap")) and not (root / "metadata.yaml").is_file():
-        raise BagError(f"{root} is not a bag directory (no metadata.yaml, no .mcap file); nothing repaired")
+        raise RepairError(
+            f"{root} is not a bag directory (no metadata.yaml, no .mcap file); nothing repaired"
+        )
     bag = read_bag(root)
     if bag.recording is not None:
-        raise BagError(
+        raise RepairError(
             f"{bag.problem}: not damaged, its end is still being written; repair leaves a recording in "
             "progress alone (run it after the recording ends, if the bag is damaged then); nothing changed"
         )
     if bag.problem is None and metadata_matches(bag):
         return RepairResult(root, False, {n: t.count for n, t in bag.topics.items()}, None, ())
     if bag.abandoned is not None and not bag.abandoned.verified:
-        raise BagError(
+        raise RepairError(
             f"bag {root} has the lock of {bag.abandoned.describe()}, which cannot be checked from this host "
             f"(a recording there may be in progress); if it has ended, remove {root / LOCK_NAME} and repair "
             "again; nothing changed"
@@ -109,17 +111,17 @@ def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:
     busy = open_by_others(bag.mcap_paths)
     if busy:
         held, pid, command = busy[0]
-        raise BagError(
+        raise RepairError(
             f"{held} is open in process {pid} ({command}): a recording in progress? repair never moves a "
             "file another process has open; nothing changed"
         )
     for name, topic in bag.topics.items():
         if topic.msgtype not in TYPESTORE.types:
-            raise BagError(
+            raise RepairError(
                 f"cannot repair {root}: topic {name} has type {topic.msgtype!r} unknown to rosbags"
             )
         if topic.serialization_format != "cdr":
-            raise BagError(f"cannot repair {root}: topic {name} is {topic.serialization_format!r}-encoded")
+            raise RepairError(f"cannot repair {root}: topic {name} is {topic.serialization_format!r}-encoded")
     staging = root.parent / f".{root.name}.repair"
     lock: BagLock | None = None
     try:
@@ -129,7 +131,7 @@ def repair_bag(path: Path | str, *, keep_backup: bool = True) -> RepairResult:
     except OSError as err:
         # Disk full, read-only or unwritable directory: nothing of the original bag has been moved yet
         # when the new one fails to write, and the staging copy is gone (finally below).
-        raise BagError(
+        raise RepairError(
             f"cannot write the repaired bag next to {root} ({err.strerror or err}); "
             f"the damaged bag is left as it was"
         ) from None

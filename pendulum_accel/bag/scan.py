@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 
 from pendulum_accel.bag.blocks import ChunkRef, Lazy, first_payload
 from pendulum_accel.bag.chunks import CUT_OFF, ChunkReader, Part
+from pendulum_accel.bag.errors import MalformedRecordError, ReaderError
 from pendulum_accel.bag.integrity import (
     ChunkDamage,
     ChunkHead,
@@ -59,7 +60,6 @@ from pendulum_accel.bag.records import (
     message_index,
     summary_span,
 )
-from pendulum_accel.errors import BagError
 
 if TYPE_CHECKING:
     from pendulum_accel.bag.reader import Bag
@@ -225,15 +225,19 @@ class Scanner(ChunkReader):
             # The fields were parsed by chunk_head; the records are the rest of the body.
             (records_length,) = struct.unpack_from("<Q", body, head.records_at - 8)
             if records_length != len(packed):
-                raise ValueError(f"records length {records_length} does not match the record's {len(packed)}")
+                raise MalformedRecordError(
+                    f"records length {records_length} does not match the record's {len(packed)}"
+                )
             if head.compression == "" and len(packed) != head.uncompressed_size:
-                raise ValueError("chunk data is shorter than its declared size")
+                raise MalformedRecordError("chunk data is shorter than its declared size")
             data = decompress(head, packed)
             if len(data) != head.uncompressed_size:
-                raise ValueError(f"inflates to {len(data)} bytes, declared {head.uncompressed_size}")
+                raise MalformedRecordError(
+                    f"inflates to {len(data)} bytes, declared {head.uncompressed_size}"
+                )
             crc = zlib.crc32(data)
             if head.crc and crc != head.crc:
-                raise ValueError("CRC mismatch")
+                raise MalformedRecordError("CRC mismatch")
         except RECORD_ERRORS as err:
             self.pending_damage = str(err)
             return inflate_prefix(head, packed)
@@ -269,7 +273,7 @@ class Scanner(ChunkReader):
         if magic != MAGIC:
             what = "empty" if size == 0 else "not an MCAP file (bad magic bytes)"
             if len(bag.mcap_paths) == 1:
-                raise BagError(f"{self.path} is {what}")
+                raise ReaderError(f"{self.path} is {what}")
             # One file of a split recording (a recorder killed as it opened the next file): the others
             # are still the recording.
             bag.problem = f"{self.path} is {what}"
@@ -393,7 +397,7 @@ class Scanner(ChunkReader):
             try:
                 op, length = RECORD_HEAD.unpack_from(read(at, at + 9), 0)
                 if op != Opcode.CHUNK or at + 9 + length > start:
-                    raise ValueError("the chunk index points at no chunk record")
+                    raise MalformedRecordError("the chunk index points at no chunk record")
                 body = memoryview(read(at + 9, at + 9 + length))
                 chunk_data = self._open_chunk(body, at, number)
                 if chunk_data is None:
@@ -435,7 +439,7 @@ class Scanner(ChunkReader):
             op, length = RECORD_HEAD.unpack_from(data, pos)
             end = pos + 9 + length
             if end > stop:
-                raise ValueError(f"summary record at byte {pos} overruns the summary")
+                raise MalformedRecordError(f"summary record at byte {pos} overruns the summary")
             body = view[pos + 9 : end]
             if op == Opcode.SCHEMA:
                 self.schema(body)

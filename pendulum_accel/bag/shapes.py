@@ -21,8 +21,17 @@ from numpy.typing import NDArray
 
 from pendulum_accel.bag.blocks import Payloads, Slices
 from pendulum_accel.bag.cdr_layout import Layout, rows_from_bytes
+from pendulum_accel.bag.errors import BagError, ReaderError
 from pendulum_accel.bag.messages import canonical_cdr, deserialize, stamp_seconds
-from pendulum_accel.errors import BagError
+
+Column = NDArray[Any]
+"""One decoded field, a value per message. Any: its dtype is the field's (float64, int32, uint8, bool,
+str), known only once the message type is read; a caller takes the column of a field it named as that
+field's type."""
+Columns = dict[str, Column]
+"""Decoded fields by path (``position[0]``)."""
+DecodedBlock = tuple[NDArray[np.int64], Columns]
+"""(log times, columns) of one block of a topic's messages."""
 
 
 @dataclass(frozen=True)
@@ -32,18 +41,20 @@ class TopicArrays:
     topic: str
     msgtype: str
     log_time_ns: NDArray[np.int64]
-    fields: dict[str, NDArray[Any]]
+    fields: Columns
 
     def __len__(self) -> int:
         """Number of messages."""
         return int(self.log_time_ns.size)
 
-    def __getitem__(self, path: str) -> NDArray[Any]:
+    def __getitem__(self, path: str) -> Column:
         """Column of field ``path``; BagError naming the topic when the messages have no such field."""
         try:
             return self.fields[path]
         except KeyError:
-            raise BagError(f"topic {self.topic} ({self.msgtype}) messages have no field {path!r}") from None
+            raise ReaderError(
+                f"topic {self.topic} ({self.msgtype}) messages have no field {path!r}"
+            ) from None
 
     @property
     def stamp(self) -> NDArray[np.float64]:
@@ -157,13 +168,13 @@ def _canonical(mtype: str, book: ShapeBook, idx: NDArray[np.int64], rows: NDArra
 
 def decode_block(
     topic: str, mtype: str, times: NDArray[np.int64], classified: Classified, wanted: list[str] | None
-) -> tuple[list[str] | None, tuple[NDArray[np.int64], dict[str, NDArray[Any]]]]:
+) -> tuple[list[str] | None, DecodedBlock]:
     """(the fields wanted, (log times, columns) of one block's messages that decode, in file order).
 
     ``wanted`` None: every field of the first shape met. BagError when a shape lacks a wanted field.
     """
     n = times.size
-    columns: dict[str, NDArray[Any]] = {}
+    columns: Columns = {}
     assigned = np.zeros(n, dtype=bool)
     for shape, idx, rows in classified:
         if wanted is None:
@@ -171,7 +182,7 @@ def decode_block(
         missing = [p for p in wanted if p not in shape.layout.fields]
         if missing:
             at = int(times[int(idx[0])])
-            raise BagError(
+            raise ReaderError(
                 f"topic {topic} ({mtype}): the message logged at {at} ns has no field {missing[0]!r}"
             )
         for path, col in shape.layout.decode(rows, wanted).items():
@@ -187,7 +198,7 @@ def decode_block(
 def joined(
     topic: str,
     mtype: str,
-    parts: list[tuple[NDArray[np.int64], dict[str, NDArray[Any]]]],
+    parts: list[DecodedBlock],
     fields: Sequence[str] | None,
 ) -> TopicArrays:
     """TopicArrays of blocks' (log times, columns) one after the other; no blocks: empty ``fields``."""

@@ -26,20 +26,16 @@ from mcap.opcode import Opcode
 from mcap.reader import SeekingReader
 from mcap.records import Chunk, ChunkIndex
 
+from pendulum_accel.bag.errors import MalformedRecordError, NotIndexedError, ReaderError
 from pendulum_accel.bag.integrity import ChunkHead
 from pendulum_accel.bag.locate import locate
 from pendulum_accel.bag.records import RECORD_HEAD, decompress
-from pendulum_accel.errors import BagError
 
 _INDEX_HEAD = 1 + 8 + 2 + 4  # MessageIndex record: opcode, length, channel id, entries byte length
 _ENTRY = struct.Struct("<QQ")  # (log time, offset in the chunk)
 # A message record's body: channel id, sequence, log time (publish time next).
 _MESSAGE_HEAD = struct.Struct("<HIQ")
 _OP_MESSAGE = int(Opcode.MESSAGE)
-
-
-class NotIndexedError(BagError):
-    """The bag has no summary with a chunk index (a killed recording): it cannot be streamed."""
 
 
 @dataclass(frozen=True)
@@ -152,10 +148,10 @@ class StreamedBag:
                 0,
             )
             data = decompress(head, chunk.data)
-        except ValueError as err:
-            raise BagError(f"bag {self.path}: chunk at byte {index.chunk_start_offset}: {err}") from None
+        except MalformedRecordError as err:
+            raise ReaderError(f"bag {self.path}: chunk at byte {index.chunk_start_offset}: {err}") from None
         if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
-            raise BagError(f"bag {self.path}: chunk at byte {index.chunk_start_offset} fails its CRC")
+            raise ReaderError(f"bag {self.path}: chunk at byte {index.chunk_start_offset} fails its CRC")
         out: list[tuple[int, str, bytes]] = []
         at, end = 0, len(data)
         record, message = RECORD_HEAD.unpack_from, _MESSAGE_HEAD.unpack_from

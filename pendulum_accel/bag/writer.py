@@ -24,11 +24,11 @@ from numpy.typing import NDArray
 from rosbags.interfaces import Qos
 
 from pendulum_accel import __version__
+from pendulum_accel.bag.errors import WriterError
 from pendulum_accel.bag.lock import LOCK_NAME, BagLock, holder, writer_of
 from pendulum_accel.bag.mcap_file import CHUNK_BYTES, MESSAGE_HEADER, OP_MESSAGE, IndexEntries, McapFile
 from pendulum_accel.bag.messages import TYPESTORE, qos_profile
 from pendulum_accel.bag.metadata import TopicRecord, dump_yaml, metadata_document, qos_text, write_metadata
-from pendulum_accel.errors import BagError
 
 CUSTOM_SCENE = "pendulum_accel.scene"
 CUSTOM_PLAN = "pendulum_accel.plan"
@@ -81,15 +81,15 @@ def prepare_output(path: Path, overwrite: bool) -> None:
     if not path.exists() and not path.is_symlink():
         return
     if not overwrite:
-        raise BagError(f"{path} exists already; pass --overwrite to replace it")
+        raise WriterError(f"{path} exists already; pass --overwrite to replace it")
     if not _is_bag_dir(path):
-        raise BagError(f"{path} exists and is not a bag directory; refusing to delete it")
+        raise WriterError(f"{path} exists and is not a bag directory; refusing to delete it")
     writer = holder(path) if path.is_dir() and not path.is_symlink() else None
     if writer is None and path.is_dir() and not path.is_symlink():
         # A recorder of another make takes no lock of ours: the file it has open for writing says it.
         writer = writer_of(sorted(path.glob("*.mcap")))
     if writer is not None and writer.live:
-        raise BagError(f"bag {path} is being recorded by {writer.describe()}; refusing to replace it")
+        raise WriterError(f"bag {path} is being recorded by {writer.describe()}; refusing to replace it")
     shutil.rmtree(path)
 
 
@@ -120,9 +120,9 @@ class BagWriter:
         """
         self.path = Path(path)
         if flush_interval is not None and not flush_interval > 0.0:
-            raise BagError(f"flush_interval must be > 0 s, got {flush_interval!r}")
+            raise WriterError(f"flush_interval must be > 0 s, got {flush_interval!r}")
         if compression not in (None, "", "none", "zstd"):
-            raise BagError(f"unknown compression {compression!r}; use 'zstd' or none")
+            raise WriterError(f"unknown compression {compression!r}; use 'zstd' or none")
         prepare_output(self.path, overwrite)
         self.flush_interval = flush_interval
         self.type_hash_in_channels = type_hash_in_channels
@@ -133,19 +133,19 @@ class BagWriter:
         try:
             self.path.mkdir(mode=0o755, parents=True)
         except OSError as err:
-            raise BagError(f"cannot create bag {self.path}: {err}") from None
+            raise WriterError(f"cannot create bag {self.path}: {err}") from None
         # Locked before the MCAP file exists: a reader never finds the file of a live bag unlocked.
         try:
             self._lock = BagLock(self.path, program)
         except OSError as err:
-            raise BagError(f"cannot create bag {self.path}: {err}") from None
+            raise WriterError(f"cannot create bag {self.path}: {err}") from None
         try:
             self._file: McapFile | None = McapFile(
                 self.mcap_path, library=LIBRARY, compression="zstd" if compression == "zstd" else ""
             )
         except OSError as err:
             self._lock.release()
-            raise BagError(f"cannot create bag {self.path}: {err}") from None
+            raise WriterError(f"cannot create bag {self.path}: {err}") from None
         self._topics: dict[str, _Topic] = {}
         self._schemas: dict[str, int] = {}
         self._final_counts: dict[int, int] = {}
@@ -157,7 +157,7 @@ class BagWriter:
     def _mcap(self) -> McapFile:
         """The open MCAP file, or BagError once closed."""
         if self._file is None:
-            raise BagError(f"bag {self.path} is closed")
+            raise WriterError(f"bag {self.path} is closed")
         return self._file
 
     @property
@@ -174,9 +174,9 @@ class BagWriter:
     def add_topic(self, name: str, msgtype: str, qos: Qos | Sequence[Qos] | None = None) -> None:
         """Register topic ``name`` of ``msgtype`` with its offered QoS (default: reliable, depth 1000)."""
         if name in self._topics:
-            raise BagError(f"topic {name} is already in bag {self.path}")
+            raise WriterError(f"topic {name} is already in bag {self.path}")
         if msgtype not in TYPESTORE.types:
-            raise BagError(f"unknown message type {msgtype!r} for topic {name}")
+            raise WriterError(f"unknown message type {msgtype!r} for topic {name}")
         profiles = [qos_profile()] if qos is None else ([qos] if isinstance(qos, Qos) else list(qos))
         mcap = self._mcap
         if msgtype not in self._schemas:
@@ -196,12 +196,12 @@ class BagWriter:
         try:
             return self._topics[name]
         except KeyError:
-            raise BagError(f"topic {name} was not added to bag {self.path}") from None
+            raise WriterError(f"topic {name} was not added to bag {self.path}") from None
 
     def write(self, topic: str, log_time_ns: int, data: bytes | memoryview) -> None:
         """Append one CDR message at log time ``log_time_ns``; flushes when the flush interval is due."""
         if log_time_ns < 0:
-            raise BagError(f"log time must be >= 0 ns, got {log_time_ns}")
+            raise WriterError(f"log time must be >= 0 ns, got {log_time_ns}")
         mcap = self._mcap
         if self._metadata_stale:
             self._write_provisional_metadata()
@@ -369,12 +369,12 @@ def _groups(stream: Stream, channel_id: int) -> list[_Group]:
     payloads = stream.payloads
     count = payloads.shape[0] if isinstance(payloads, np.ndarray) else len(payloads)
     if t.ndim != 1 or t.size != count:
-        raise BagError(f"topic {stream.topic}: {t.size} log times for {count} payloads")
+        raise WriterError(f"topic {stream.topic}: {t.size} log times for {count} payloads")
     if t.size and t.min() < 0:
-        raise BagError(f"topic {stream.topic}: log times must be >= 0 ns")
+        raise WriterError(f"topic {stream.topic}: log times must be >= 0 ns")
     if isinstance(payloads, np.ndarray):
         if payloads.dtype != np.uint8 or payloads.ndim != 2:
-            raise BagError(f"topic {stream.topic}: payload rows must be a 2-D uint8 array")
+            raise WriterError(f"topic {stream.topic}: payload rows must be a 2-D uint8 array")
         return [(channel_id, payloads, t)] if count else []
     groups = []
     lengths = np.fromiter((len(p) for p in payloads), dtype=np.int64, count=count)

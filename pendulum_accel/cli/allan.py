@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.cli.salvage import add_salvage_flag, read_intact, warn_salvaged
@@ -18,7 +18,7 @@ ESTIMATE_FIT_FROM = 5.0  # s: past the default kalman's quiet-mode memory (3.3 s
 DEFAULT_DURATION = 3600.0  # s of a generated static run: enough clusters to read the walk out to ~400 s
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``allan`` subcommand."""
     parser = subparsers.add_parser(
         "allan",

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
 
 from tqdm import tqdm
 
@@ -19,7 +18,7 @@ DEFAULT_FPS = 20
 DEFAULT_DURATION = 10.0  # s: a longer run is cut, so a GIF stays small; --duration changes it
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``animate`` subcommand."""
     parser = subparsers.add_parser(
         "animate",

@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import Any
 
 from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.errors import ParameterError
@@ -32,7 +31,7 @@ def _floats(option: str, text: str | list[float]) -> list[float]:
     return values
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``design`` subcommand."""
     from pendulum_accel.recording.design_study import DEFAULT_DURATION, DEFAULT_LAGS, DEFAULT_PROFILES
 

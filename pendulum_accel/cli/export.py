@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import functools
 import sys
-from typing import Any
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.export import FORMATS, VISUAL_ROLES, export_bag, export_tables, write_csv_table
@@ -19,7 +18,7 @@ SMOOTHED = "/car/accel/smoothed"
 """Name of the derived smoother series (not a topic in the bag): columns a and variance."""
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``export`` subcommand."""
     parser = subparsers.add_parser(
         "export",

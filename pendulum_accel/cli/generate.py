@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import shutil
-from typing import Any
 
 from pendulum_accel.cli.output import check_output_dir
 from pendulum_accel.errors import OutputError
@@ -13,7 +12,7 @@ from pendulum_accel.recording.generate import generate_bag
 from pendulum_accel.scene import load_scene
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``generate`` subcommand."""
     parser = subparsers.add_parser(
         "generate",

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from pendulum_accel.recording.golden import GOLDEN_MAX_DURATION, write_golden_bags
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``golden-bags`` subcommand."""
     parser = subparsers.add_parser(
         "golden-bags",

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Iterator
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,7 +21,7 @@ from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING, Accounting, unexp
 from pendulum_accel.recording.stored_scene import stored_scene_name
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``info`` subcommand."""
     parser = subparsers.add_parser(
         "info",

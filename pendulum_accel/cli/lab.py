@@ -11,14 +11,14 @@ import argparse
 import importlib
 import sys
 from pathlib import Path
-from typing import Any
+from types import ModuleType
 
 from pendulum_accel.errors import ParameterError
 
 TEACHER_PACKAGE = "lab_teacher"
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``lab`` subcommand and its ``make-class`` action."""
     parser = subparsers.add_parser(
         "lab",
@@ -74,7 +74,7 @@ def register(subparsers: Any) -> None:
     make.set_defaults(func=run)
 
 
-def _teacher_module(where: Path | None) -> Any:
+def _teacher_module(where: Path | None) -> ModuleType:
     """lab_teacher.key, imported from ``where``, the clone this package sits in, or the working directory."""
     candidates = [where] if where else [Path(__file__).resolve().parents[2], Path.cwd()]
     for root in candidates:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import functools
 from pathlib import Path
-from typing import Any
 
 from pendulum_accel.cli.output import check_output_file, write_output
 from pendulum_accel.errors import ParameterError
@@ -14,7 +13,7 @@ from pendulum_accel.lecture import RESULTS, get_result
 ALL = "all"
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``lecture`` subcommand."""
     parser = subparsers.add_parser(
         "lecture",

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from pendulum_accel.bag.repair import BACKUP_SUFFIXES, DROPS, repair_bag
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``repair`` subcommand."""
     parser = subparsers.add_parser(
         "repair",

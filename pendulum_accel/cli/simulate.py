@@ -11,7 +11,7 @@ import math
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TextIO, TypedDict
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from pendulum_accel.errors import IllConditionedError, ParameterError, SceneErro
 from pendulum_accel.overrides import OVERRIDE_BY_NAME, SET_HELP, apply_overrides, parse_override
 from pendulum_accel.physics.integrators import METHODS
 from pendulum_accel.physics.params import STANDARD_GRAVITY, Pendulum
-from pendulum_accel.physics.profiles import Constant
+from pendulum_accel.physics.profiles import AccelProfile, Constant
 from pendulum_accel.physics.simulate import CLOSED_FORM_METHOD, MODELS
 from pendulum_accel.physics.trajectory import Trajectory
 from pendulum_accel.scene import Scene, load_scene
@@ -38,7 +38,7 @@ TABLE_FLAGS: dict[str, str] = {
 """Flags that set an override-table field (flag → field): the same range check as --set and the nodes."""
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``simulate`` subcommand."""
     parser = subparsers.add_parser(
         "simulate",
@@ -87,6 +87,14 @@ def register(subparsers: Any) -> None:
     parser.set_defaults(func=run)
 
 
+class _SceneChanges(TypedDict, total=False):
+    """The Scene fields simulate's own options replace (--accel, --theta-dot0, --target)."""
+
+    profile: AccelProfile
+    theta_dot0: float
+    accuracy: float
+
+
 def _plain_scene(args: argparse.Namespace) -> Scene:
     """A scene from flags alone, before the table's fields: no sensor noise, constant a, PLAIN_DEFAULTS."""
     return Scene(
@@ -115,7 +123,7 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
     scene = load_scene(args.scene)
     try:
         scene = apply_overrides(scene, values)
-        changes: dict[str, Any] = {}
+        changes: _SceneChanges = {}
         if args.accel is not None:
             changes["profile"] = Constant(args.accel)
         if args.theta_dot0 is not None:

@@ -7,10 +7,9 @@ for ``robot_state_publisher`` and viewers that load a file (test_urdf checks tha
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``urdf`` subcommand."""
     parser = subparsers.add_parser(
         "urdf",

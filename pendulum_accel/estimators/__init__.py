@@ -115,6 +115,7 @@ def make_estimator(
         gravity=gravity,
         noise_std=noise_std,
         rate_hz=rate_hz,
+        # EstimatorConfig checks each field's value when built: the names are known here, not their types.
         **config_opts,  # type: ignore[arg-type]
     )
     return cls(config, **opts)
@@ -124,6 +125,7 @@ def estimate_batch(
     name: str, t: np.ndarray, theta: np.ndarray, **cfg: object
 ) -> tuple[np.ndarray, np.ndarray]:
     """(â, var_a) for a whole recording; ``cfg`` as for make_estimator; equals streaming from fresh state."""
+    # make_estimator checks every option's value at run time; ``cfg`` holds any of them, by name.
     return make_estimator(name, **cfg).batch(t, theta)  # type: ignore[arg-type]
 
 

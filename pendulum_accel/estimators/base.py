@@ -118,10 +118,13 @@ class EstimatorConfig:
         turn_on = self.bias_mean**2 + self.bias_stddev**2
         total = self.bias**2 + self.bias_random_walk**2 * t
         tau = self.dynamic_bias_correlation_time
+        result: np.ndarray
         if tau <= 0.0:
-            return total + turn_on
+            result = total + turn_on
+            return result
         decay = np.exp(-2.0 * t / tau)
-        return total + decay * turn_on + 0.5 * tau * self.dynamic_bias_stddev**2 * (1.0 - decay)
+        result = total + decay * turn_on + 0.5 * tau * self.dynamic_bias_stddev**2 * (1.0 - decay)
+        return result
 
     @property
     def sigma(self) -> float:
@@ -172,7 +175,8 @@ def accel_gain(theta: float, gravity: float) -> float:
 def accel_gain_array(theta: np.ndarray, gravity: float) -> np.ndarray:
     """Vectorised da/dθ = g sec²θ."""
     c = np.cos(theta)
-    return gravity / (c * c)
+    result: np.ndarray = gravity / (c * c)
+    return result
 
 
 def bias_variance(config: EstimatorConfig, theta: float, elapsed: float) -> float:
@@ -182,7 +186,10 @@ def bias_variance(config: EstimatorConfig, theta: float, elapsed: float) -> floa
 
 def bias_variance_array(config: EstimatorConfig, theta: np.ndarray, elapsed: np.ndarray) -> np.ndarray:
     """Vectorised :func:`bias_variance`: (g sec²θ)² E[b²](elapsed)."""
-    return accel_gain_array(theta, config.gravity) ** 2 * config.bias_second_moment_array(elapsed)
+    result: np.ndarray = accel_gain_array(theta, config.gravity) ** 2 * config.bias_second_moment_array(
+        elapsed
+    )
+    return result
 
 
 def cramer_rao_std(accel: float, sigma: float, samples: float, gravity: float = STANDARD_GRAVITY) -> float:

@@ -92,7 +92,8 @@ def sliding_fits(x: np.ndarray, weights: np.ndarray, width: int, block: int) -> 
     padded = np.zeros((blocks - 1) * block + weights.shape[0])
     padded[: x.size] = x
     rows = np.lib.stride_tricks.sliding_window_view(padded, weights.shape[0])[::block]
-    return (rows @ weights).reshape(-1, sets)[:outputs]
+    result: np.ndarray = (rows @ weights).reshape(-1, sets)[:outputs]
+    return result
 
 
 Num = TypeVar("Num", float, np.ndarray)
@@ -101,12 +102,13 @@ Num = TypeVar("Num", float, np.ndarray)
 def _quad_form(v0: Num, v1: Num, v2: Num, g: np.ndarray) -> Num:
     """vᵀGv for v = (v0, v1, v2) and the symmetric 3×3 G: Σw² of w = v0 c₀ + v1 c₁ + v2 c₂, G their Gram
     matrix (for one θ or an array of them: the same operations, so streaming and batch agree)."""
-    return (
+    result: Num = (
         v0 * v0 * g[0, 0]
         + v1 * v1 * g[1, 1]
         + v2 * v2 * g[2, 2]
         + 2.0 * (v0 * v1 * g[0, 1] + v0 * v2 * g[0, 2] + v1 * v2 * g[1, 2])
     )
+    return result
 
 
 class DynamicEstimator(Estimator):

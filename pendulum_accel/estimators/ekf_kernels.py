@@ -308,7 +308,8 @@ def step(
 def needs_restart(state: np.ndarray, t: float, reset_gap: float) -> bool:
     """True before the first sample and after a gap longer than reset_gap."""
     last_t = state[0]
-    return last_t != last_t or t - last_t > reset_gap  # NaN != NaN: no sample yet
+    result: bool = last_t != last_t or t - last_t > reset_gap
+    return result
 
 
 @njit(cache=True)
@@ -1000,7 +1001,8 @@ def _step(
     its buffer's update between ``_predict_correct`` and ``_finish``."""
     if _predict_correct(st, perm, m, band, d, walks, t, y, params, rates, jerks, False):
         return True
-    return _finish(st, perm, m, band, d, t, y, params, jerks)
+    result: bool = _finish(st, perm, m, band, d, t, y, params, jerks)
+    return result
 
 
 @njit(cache=True, inline="always")
@@ -1216,7 +1218,8 @@ def lag_variance_one(
     if not var_filter > 0.0 or var_lag != var_lag:  # no filter variance, or no lagged one (NaN) to map
         return var_lag
     ratio = min(max(var_lag / var_filter, 0.0), 1.0)
-    return min(var_filter * ratio**power + weight * revision * revision, var_lag)
+    result: float = min(var_filter * ratio**power + weight * revision * revision, var_lag)
+    return result
 
 
 @njit(cache=True)
@@ -1569,9 +1572,10 @@ def imm_pass(
     modes only."""
     trend = np.empty(0) if jerks is None else np.asarray(jerks, dtype=float)
     lag_arr = np.asarray(lags, dtype=np.int64)
-    return run_imm(
+    result: tuple[np.ndarray, np.ndarray, np.ndarray] = run_imm(
         t, y, params, np.asarray(qs, dtype=float), rates, trend, chain_band(rates), lag_arr, keep_mu
     )
+    return result
 
 
 def warm_single() -> None:

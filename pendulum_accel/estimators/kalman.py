@@ -381,7 +381,10 @@ class KalmanEstimator(Estimator):
         with trend modes, in ekf_kernels.with_trends' order: each random-walk mode, then its partner)."""
         t, theta = check_batch_input(t, theta)
         qs, rates, jerks, band = self._imm_inputs
-        return kern.run_imm(t, theta, self._params, qs, rates, jerks, band, np.zeros(1, np.int64), True)[2]
+        result: np.ndarray = kern.run_imm(
+            t, theta, self._params, qs, rates, jerks, band, np.zeros(1, np.int64), True
+        )[2]
+        return result
 
     def lagged(
         self, t: np.ndarray, theta: np.ndarray, lags: tuple[int, ...]
@@ -449,7 +452,8 @@ class KalmanEstimator(Estimator):
         system = np.vstack((gen.T, np.ones(self._qs.size)))
         rhs = np.zeros(self._qs.size + 1)
         rhs[-1] = 1.0
-        return np.linalg.lstsq(system, rhs, rcond=None)[0]
+        result: np.ndarray = np.linalg.lstsq(system, rhs, rcond=None)[0]
+        return result
 
     def _closed_loop(self, accel: float) -> tuple[float, float, float]:
         """(Σw, Σw², Σ j w_j) of the steady filter's impulse response w = Σ_m π_m w⁽ᵐ⁾, w⁽ᵐ⁾_j = e₃ᵀ M_mʲ K_m,

@@ -90,7 +90,8 @@ class LowpassEstimator(Estimator):
         first, _ = signal.lfilter(self._b, self._a, impulse, zi=self._zi)
         h = signal.lfilter(self._b, self._a, impulse)
         past = np.concatenate(([0.0], np.cumsum(h * h)[:-1]))
-        return first * first + past
+        result: np.ndarray = first * first + past
+        return result
 
     def reset(self) -> None:
         """Empty the filter state; the next sample re-initialises it in steady state."""

@@ -29,7 +29,8 @@ Num = TypeVar("Num", float, np.ndarray)
 
 def interp_integral(i_j: Num, y_j: Num, y_next: Num, d: Num, h: Num) -> Num:
     """I_j + ∫ from t_j to t_j + d of the line through (t_j, y_j) and (t_j + h, y_next)."""
-    return i_j + y_j * d + (y_next - y_j) * d * d / (2.0 * h)
+    result: Num = i_j + y_j * d + (y_next - y_j) * d * d / (2.0 * h)
+    return result
 
 
 def integrals(t: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -75,7 +76,8 @@ def swing_amplitude(variance: Num) -> Num:
     ``period_mean``. The correction leaves 0.01 % at 0.77 rad and 0.5 % at 2 rad (test_swing.py
     checks it against the exact pendulum).
     """
-    return (2.0 * variance / (1.0 + variance / 48.0)) ** 0.5
+    result: Num = (2.0 * variance / (1.0 + variance / 48.0)) ** 0.5
+    return result
 
 
 def agm_cos_half(amplitude: float) -> float:

@@ -17,17 +17,20 @@ FloatArray = NDArray[np.float64]
 
 def equilibrium_angle(p: Pendulum, accel: ArrayLike) -> FloatArray:
     """tan θ = a/g (lecture: tan θ' = −a/g, θ' = −θ)."""
-    return np.arctan2(np.asarray(accel, dtype=float), p.gravity)
+    result: FloatArray = np.arctan2(np.asarray(accel, dtype=float), p.gravity)
+    return result
 
 
 def rest_tension(p: Pendulum, accel: ArrayLike) -> FloatArray:
     """T = m √(g² + a²)."""
-    return p.mass * np.hypot(p.gravity, np.asarray(accel, dtype=float))
+    result: FloatArray = p.mass * np.hypot(p.gravity, np.asarray(accel, dtype=float))
+    return result
 
 
 def omega_squared(p: Pendulum, accel: ArrayLike) -> FloatArray:
     """ω² = √(g² + a²)/l."""
-    return np.hypot(p.gravity, np.asarray(accel, dtype=float)) / p.length
+    result: FloatArray = np.hypot(p.gravity, np.asarray(accel, dtype=float)) / p.length
+    return result
 
 
 def small_angle_period(p: Pendulum, accel: ArrayLike) -> FloatArray:
@@ -38,7 +41,8 @@ def small_angle_period(p: Pendulum, accel: ArrayLike) -> FloatArray:
 def exact_period(p: Pendulum, accel: ArrayLike, amplitude: ArrayLike) -> FloatArray:
     """T = 4 K(m)/ω, m = sin²(A/2), A = swing amplitude about θ_eq (valid for A < π)."""
     m = np.sin(0.5 * np.asarray(amplitude, dtype=float)) ** 2
-    return 4.0 * ellipk(m) / np.sqrt(omega_squared(p, accel))
+    result: FloatArray = 4.0 * ellipk(m) / np.sqrt(omega_squared(p, accel))
+    return result
 
 
 def multiplier_from_tension(p: Pendulum, tension: ArrayLike) -> FloatArray:

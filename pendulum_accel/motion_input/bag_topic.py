@@ -73,6 +73,7 @@ DEFAULT_FIELDS = SPEED_FIELDS | ACCEL_FIELDS
 """Every type bag_topic reads, and the field read when the profile names none."""
 
 
+# Any (message): a rosbags message dataclass of a type read from the bag; its fields are found by name.
 def numeric_fields(message: Any, prefix: str = "") -> list[str]:
     """Dotted paths of a message's scalar number fields (header and arrays left out): the choices a
     ``field`` error lists."""
@@ -89,6 +90,7 @@ def numeric_fields(message: Any, prefix: str = "") -> list[str]:
     return names
 
 
+# Any: rosbags message dataclasses of a type read from the bag (see numeric_fields).
 def field_reader(msgtype: str, field: str, message: Any) -> Callable[[Any], float]:
     """A reader of the dotted ``field`` of messages shaped as ``message`` (the first one), checked on it:
     ParameterError listing the type's numeric fields when the path leads to no scalar number."""
@@ -178,6 +180,7 @@ def read_topic(path: Path, topic: str, field: str | None = None) -> tuple[str, n
                     path="topic",
                 )
             for connection, log_ns, raw in reader.messages(connections=connections):
+                # Any: a message of a type read from the bag, its fields read by name.
                 message: Any = reader.deserialize(raw, connection.msgtype)
                 if not values:  # the field is checked on the first message, then read from each as from it
                     read = field_reader(msgtype, default if field is None else field, message)

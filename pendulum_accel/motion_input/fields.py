@@ -17,7 +17,7 @@ def field_number(kind: str, name: str, value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | str):
         raise ParameterError(f"{kind} profile field '{name}' must be a number, got {value!r}", path=name)
     try:
-        return require_finite(f"{kind} profile field '{name}'", value)  # type: ignore[arg-type]
+        return require_finite(f"{kind} profile field '{name}'", value)
     except ParameterError as err:
         raise ParameterError(str(err), path=name) from None
 

@@ -292,7 +292,8 @@ the window weighs e^(−56.6) ≈ 3e-25 in it (an impulse's fit against that: do
 def spline_margin(cutoff_hz: float) -> float:
     """M = SPLINE_MARGIN_WIDTHS × (√2 − 1)^¼ / (2π f_c), s: the data a window's a(t) depends on lie
     within M of it (10.2 s at f_c = 1 Hz, 41 s at 0.25 Hz)."""
-    return SPLINE_MARGIN_WIDTHS * (math.sqrt(2.0) - 1.0) ** 0.25 / (2.0 * math.pi * cutoff_hz)
+    result: float = SPLINE_MARGIN_WIDTHS * (math.sqrt(2.0) - 1.0) ** 0.25 / (2.0 * math.pi * cutoff_hz)
+    return result
 
 
 def fitted_stretch(kind: str, d: Mapping[str, object], stretch: Stretch) -> tuple[Stretch, float, bool]:

@@ -35,6 +35,7 @@ _EXPLAINED = (
 class Accounting:
     """The chain's counters: simulator, estimator and recorder summaries (each may be missing)."""
 
+    # Any: each node's summary JSON as the node wrote it (counts, flags, names), read by key.
     simulator: Mapping[str, Any] = field(default_factory=dict)
     estimator: Mapping[str, Any] = field(default_factory=dict)
     recorder: Mapping[str, Any] = field(default_factory=dict)
@@ -214,6 +215,7 @@ _TABLE_TOPICS = tuple(t for t in (*bm.TOPIC_TYPES, bm.TOPIC_IMU) if t != bm.TOPI
 """The roles the table and the losses compare, by root name (the diagnostics follow the wall clock)."""
 
 
+# Any: a summary's counts, JSON numbers read back (int() makes them counts).
 def _count(counts: Mapping[str, Any], name: str | None) -> int | None:
     """The count ``counts`` (resolved name -> count) holds for ``name``; None if none."""
     return int(counts[name]) if name is not None and name in counts else None

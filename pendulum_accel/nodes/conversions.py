@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import importlib
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
 from numpy.typing import NDArray
+from rclpy.duration import Duration
 from rclpy.qos import QoSProfile
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from sensor_msgs.msg import JointState
@@ -44,7 +46,7 @@ def stamp_offset(msgtype: str) -> int | None:
         # The array's length (4 bytes) follows the 4-byte CDR header; the first marker (transform) starts
         # with its header, whose stamp comes first: offset 8, whatever the array holds.
         return 8
-    templates = {
+    templates: dict[str, Callable[[], object]] = {
         bm.JOINT_STATE: lambda: bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]),
         bm.ACCEL_STAMPED: lambda: bm.accel_stamped(0, 0.0),
         bm.ACCEL_WITH_COVARIANCE_STAMPED: lambda: bm.accel_with_covariance_stamped(0, 0.0, 0.0),
@@ -70,7 +72,7 @@ def restamp(rows: NDArray[np.uint8], offset: int, ns: NDArray[np.int64]) -> None
     rows[:, offset + 4 : offset + 8] = nanosec.astype("<u4").view(np.uint8).reshape(-1, 4)
 
 
-def time_to_seconds(stamp: Any) -> float:
+def time_to_seconds(stamp: Time) -> float:
     """t = sec + nanosec · 1e-9 for a builtin_interfaces/Time."""
     return stamp_seconds(stamp.sec, stamp.nanosec)
 
@@ -94,7 +96,7 @@ def pendulum_angle(msg: JointState, joint: str = PENDULUM_JOINT) -> float:
     return float(position[index]) if len(position) > index else math.nan
 
 
-def message_class(type_name: str) -> Any:
+def message_class(type_name: str) -> Any:  # Any: a class of a message package, which ships no types
     """The rclpy message class of a ROS 2 type name "pkg/msg/Type"; ParameterError if unknown."""
     parts = type_name.split("/")
     if len(parts) != 3 or parts[1] != "msg":
@@ -106,7 +108,7 @@ def message_class(type_name: str) -> Any:
         raise ParameterError(f"message type {type_name!r} is not installed") from None
 
 
-def _qos_time(duration: Any) -> QosTime:
+def _qos_time(duration: Duration) -> QosTime:
     """QosTime(sec, nsec) of an rclpy Duration."""
     sec, nsec = divmod(int(duration.nanoseconds), _NS_PER_S)
     return QosTime(sec=sec, nsec=nsec)

@@ -34,13 +34,12 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import AccelWithCovarianceStamped
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock
+from rclpy.clock_type import ClockType
 from rclpy.duration import Duration
-from rclpy.parameter import Parameter
-from rclpy.publisher import Publisher
+from rclpy.event_handler import QoSMessageLostInfo, QoSRequestedIncompatibleQoSInfo
 from rclpy.qos import QoSPolicyKind, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
-from rclpy.subscription import Subscription
 from rclpy.timer import Timer
 from sensor_msgs.msg import Imu, JointState
 from visualization_msgs.msg import MarkerArray
@@ -59,12 +58,15 @@ from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOP
 from pendulum_accel.nodes.qos import (
     DATA_QOS,
     DIAGNOSTICS_QOS,
+    AnyPublisher,
+    AnySubscription,
     incompatible_line,
     make_publisher,
     make_subscription,
     override_parameter,
 )
 from pendulum_accel.nodes.runtime import (
+    AnyParameter,
     ManagedNode,
     change_result,
     declare_parameters,
@@ -161,8 +163,8 @@ class EstimatorNode(ManagedNode):
         self._rebuilt_lines: tuple[str, ...] | None = None  # a rebuilt estimator's lines, the worker logs
         self._diagnostics_due = 0.0  # monotonic time of the next /diagnostics (0: at once)
         self._stopping_since: float | None = None
-        self._subscription: Subscription | None = None
-        self._publishers: list[Publisher] = []
+        self._subscription: AnySubscription | None = None
+        self._publishers: list[AnyPublisher] = []
         self._timers: list[Timer] = []
         self._active = False
         self._marker_tick = -1
@@ -241,11 +243,12 @@ class EstimatorNode(ManagedNode):
 
     # -- configuration --------------------------------------------------------------------------
 
-    def _config_values(self, changes: Sequence[Parameter] = ()) -> dict[str, Any]:
+    # Any: each value has its own parameter's type (runtime.parameter_values).
+    def _config_values(self, changes: Sequence[AnyParameter] = ()) -> dict[str, Any]:
         """method, lag, preset and the ESTIMATOR_CONFIG values, with ``changes`` applied on top."""
         return parameter_values(self, ESTIMATOR_PARAMETERS, changes)
 
-    def _build(self, values: dict[str, Any]) -> Estimator:
+    def _build(self, values: dict[str, Any]) -> Estimator:  # Any: as _config_values'
         """make_estimator(method, l, g, noise_std, rate_hz, damping[, lag, preset]); ParameterError if bad."""
         cfg = {k: float(v) for k, v in values.items() if k not in ("method", "lag", "preset")}
         if not all(math.isfinite(v) for v in cfg.values()):
@@ -255,6 +258,7 @@ class EstimatorNode(ManagedNode):
         opts: dict[str, object] = {"lag": lag} if lag > 0.0 else {}  # lag = 0: every method's own estimate
         if uses_preset(method):
             opts["preset"] = self.motion(str(values["preset"])).preset
+        # The options are checked by make_estimator at run time; their types are the parameters', by name.
         estimator = make_estimator(method, **cfg, **opts, **self._sensor_bias())  # type: ignore[arg-type]
         estimator.warm()  # its compiled step loads now, not behind the first angles
         return estimator
@@ -318,14 +322,14 @@ class EstimatorNode(ManagedNode):
         """The scene's sensor range R (rad; 0 = none), so readings clipped at ±R are flagged saturated."""
         return 0.0 if self._scene is None else float(self._scene.sensor.range)
 
-    def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
+    def _validate_parameters(self, params: list[AnyParameter]) -> SetParametersResult:
         """Accept a change only if the estimator it makes is valid; else keep the old value and say why.
         Other parameters (the qos_overrides each publisher declares) are not the estimator's: accepted."""
         if not any(p.name in ESTIMATOR_PARAMETERS for p in params):
             return SetParametersResult(successful=True)
         return change_result(lambda: self._build(self._config_values(params)))
 
-    def _parameters_applied(self, params: list[Parameter]) -> None:
+    def _parameters_applied(self, params: list[AnyParameter]) -> None:
         """Rebuild the estimator from the new values; it starts over from the next sample. Only a change
         of what it is built from rebuilds it: each qos_overrides parameter a publisher declares at start
         up had rebuilt it once (20 times, the scene's motion read again each time)."""
@@ -450,7 +454,7 @@ class EstimatorNode(ManagedNode):
                 "'lost' on /diagnostics)"
             )
 
-    def _on_incompatible_angles(self, event: Any) -> None:
+    def _on_incompatible_angles(self, event: QoSRequestedIncompatibleQoSInfo) -> None:
         """A publisher of the angles whose QoS this subscription refuses. A best-effort one (a hardware
         driver's SensorDataQoS) while reliability is left at best_available: subscribe again best-effort
         (the next tick), counting what is lost. Anything else: one line naming the parameter to set."""
@@ -468,7 +472,7 @@ class EstimatorNode(ManagedNode):
             self._incompatible_said.add(kind)
             self.get_logger().warning(incompatible_line(topic, "subscription", kind))
 
-    def _on_lost(self, event: Any) -> None:
+    def _on_lost(self, event: QoSMessageLostInfo) -> None:
         """Angles the middleware reports lost (a best-effort stream): counted, shown on /diagnostics."""
         self.lost += int(event.total_count_change)
 

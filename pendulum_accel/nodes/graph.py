@@ -16,8 +16,9 @@ import time
 from collections.abc import Callable, Sequence
 
 from rclpy.node import Node
-from rclpy.publisher import Publisher
 from rclpy.qos import QoSCompatibility, qos_check_compatible
+
+from pendulum_accel.nodes.qos import AnyPublisher
 
 
 def qualified_name(name: str, namespace: str) -> str:
@@ -32,7 +33,7 @@ def node_names(entries: Sequence[str], namespace: str) -> list[str]:
     return [qualified_name(entry, namespace) for entry in entries if entry]
 
 
-def missing_readers(node: Node, publisher: Publisher, wanted: Sequence[str]) -> list[str]:
+def missing_readers(node: Node, publisher: AnyPublisher, wanted: Sequence[str]) -> list[str]:
     """The names in ``wanted`` not yet subscribed to the publisher's topic (its resolved name: namespace
     and remaps applied) and matched by ``publisher``.
 

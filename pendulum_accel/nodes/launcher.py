@@ -28,7 +28,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
 
 from pendulum_accel.errors import ParameterError, PendulumAccelError, RosMissingError
 from pendulum_accel.nodes.accounting import Accounting
@@ -82,6 +82,13 @@ def ros_param(name: str, value: ParamValue) -> list[str]:
     else:
         text = json.dumps(value)
     return ["-p", f"{name}:={text}"]
+
+
+class _NodeNames(TypedDict):
+    """node_command's namespace and remap rules of a chain's node."""
+
+    namespace: str
+    remaps: list[str]
 
 
 def node_command(
@@ -257,7 +264,7 @@ class Chain:
         out.append(("simulator", node_command("simulator_node", sim, **self._names())))
         return out
 
-    def _names(self) -> dict[str, Any]:
+    def _names(self) -> _NodeNames:
         """node_command's namespace and remaps for every node of this chain (the user's rules before
         the chain's own clock: rcl applies the first rule that matches, so a user's rule for /clock wins)."""
         cfg = self.config

@@ -27,26 +27,28 @@ import sys
 import termios
 import threading
 import tty
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock
+from rclpy.clock_type import ClockType
 from rclpy.parameter import Parameter
-from rclpy.publisher import Publisher
 from std_srvs.srv import Trigger
 
 from pendulum_accel.bag import messages as bm
+from pendulum_accel.bag.errors import NotIndexedError
 from pendulum_accel.bag.playback import ArrayTimeline, Playback, Taken, Timeline
 from pendulum_accel.bag.reader import Bag, read_bag, salvage_note, stored_choice
-from pendulum_accel.bag.stream import NotIndexedError, StreamedBag
+from pendulum_accel.bag.stream import StreamedBag
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import message_class
 from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import PLAYER
-from pendulum_accel.nodes.qos import make_publisher, qos_for
+from pendulum_accel.nodes.qos import AnyPublisher, make_publisher, qos_for
 from pendulum_accel.nodes.runtime import (
+    AnyParameter,
     ThreadedNode,
     acked_within,
     declare_parameters,
@@ -108,7 +110,7 @@ class StreamTimeline:
         if self.size:
             head = next(bag.messages(self.topics, first_ns, last_ns))
             self.first_ns = head[1]
-        self._iter: Any = iter(())
+        self._iter: Iterator[tuple[str, int, bytes]] = iter(())
         self._next: tuple[str, int, bytes] | None = None
         self.seek(self.first_ns)
 
@@ -159,6 +161,7 @@ class _ListTimeline(ArrayTimeline):
         super().__init__(np.array([ns for _, ns, _ in messages], dtype=np.int64))
         self.messages = messages
 
+    # Any: the message (topic, ns, cdr), where ArrayTimeline.take gives an index (a Timeline's own item).
     def take(self) -> Any:
         """The message at the cursor; the cursor moves on."""
         return self.messages[super().take()]
@@ -222,7 +225,7 @@ class PlayerNode(ThreadedNode):
             raise ParameterError(f"no topic of bag {path} is left to play after the topic filters")
         if self.clock:  # the player's own /clock replaces the recorded one (a namespaced chain's too)
             wanted = [t for t in wanted if bm.role_of(t) != bm.TOPIC_CLOCK]
-        self._outputs: dict[str, Publisher] = {
+        self._outputs: dict[str, AnyPublisher] = {
             topic: make_publisher(self, message_class(available[topic]), topic, qos_for(topic))
             for topic in wanted
         }
@@ -262,7 +265,7 @@ class PlayerNode(ThreadedNode):
                 ("seek", self._srv_seek),
             )
         ]
-        self._stdin_mode: list[Any] | None = None
+        self._stdin_mode: list[int | list[bytes | int]] | None = None  # termios.tcgetattr's
         if bool(values["keyboard"]) and sys.stdin is not None and sys.stdin.isatty():
             self._start_keyboard()
         self._progress_tty = sys.stderr.isatty()
@@ -279,7 +282,7 @@ class PlayerNode(ThreadedNode):
 
     # -- parameters and services ------------------------------------------------------------------
 
-    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+    def _on_set_parameters(self, params: list[AnyParameter]) -> SetParametersResult:
         """Apply a new ``rate`` at once (~/set_rate); other settable parameters are read when used."""
         for param in params:
             if param.name == "rate":
@@ -291,6 +294,8 @@ class PlayerNode(ThreadedNode):
         return SetParametersResult(successful=True)
 
     @staticmethod
+    # Any: the services' requests and responses are std_srvs/rosbag2_interfaces classes, which ship no
+    # types (as the message packages: see nodes/qos.py AnyPublisher).
     def _reply(response: Any, success: bool, message: str) -> Any:
         """Fill a Trigger response."""
         response.success = success

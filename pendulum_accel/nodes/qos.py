@@ -15,9 +15,14 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeAlias
 
-from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.event_handler import (
+    PublisherEventCallbacks,
+    QoSMessageLostInfo,
+    QoSRequestedIncompatibleQoSInfo,
+    SubscriptionEventCallbacks,
+)
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import (
@@ -32,6 +37,13 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.subscription import Subscription
 
 from pendulum_accel.bag.messages import ROBOT_DESCRIPTION, TOPIC_DIAGNOSTICS, role_of
+
+# Any: the message packages ship no type information, so to mypy their classes are not rclpy's Msg and
+# a publisher's or subscription's message class cannot be named (the chain's carry several).
+AnyPublisher: TypeAlias = Publisher[Any]
+"""A publisher of some message class."""
+AnySubscription: TypeAlias = Subscription[Any]
+"""A subscription to some message class."""
 
 # KEEP_ALL on both ends makes a slow reader push back on the writer (publish blocks)
 # instead of dropping samples: that is what keeps the as-fast-as-possible chain lossless.
@@ -134,11 +146,11 @@ def incompatible_line(topic: str, entity: str, policy_kind: int) -> str:
     return f"{topic}: a {peer} with incompatible QoS ({policy}) gets no messages from this {entity}; {fix}"
 
 
-def _once(node: Node, topic: str, entity: str) -> Callable[[Any], None]:
+def _once(node: Node, topic: str, entity: str) -> Callable[[QoSRequestedIncompatibleQoSInfo], None]:
     """An incompatible-QoS callback logging ``incompatible_line`` once per policy (discovery repeats it)."""
     said: set[int] = set()
 
-    def callback(event: Any) -> None:
+    def callback(event: QoSRequestedIncompatibleQoSInfo) -> None:
         kind = int(event.last_policy_kind)
         if kind not in said:
             said.add(kind)
@@ -155,8 +167,8 @@ def publisher_events(node: Node, topic: str) -> PublisherEventCallbacks:
 def subscription_events(
     node: Node,
     topic: str,
-    incompatible: Callable[[Any], None] | None = None,
-    message_lost: Callable[[Any], None] | None = None,
+    incompatible: Callable[[QoSRequestedIncompatibleQoSInfo], None] | None = None,
+    message_lost: Callable[[QoSMessageLostInfo], None] | None = None,
 ) -> SubscriptionEventCallbacks:
     """Event callbacks of a subscription on ``topic``: one line per incompatible publisher's policy (or
     ``incompatible(event)`` instead, when given), and ``message_lost(event)`` when the middleware reports
@@ -165,7 +177,8 @@ def subscription_events(
     return SubscriptionEventCallbacks(incompatible_qos=on_incompatible, message_lost=message_lost)
 
 
-def make_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile) -> Publisher:
+# Any (msg_type): a message package's class; the packages ship no types (see AnyPublisher).
+def make_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile) -> AnyPublisher:
     """node.create_publisher with its own copy of ``qos``, the qos_overrides parameters and the one-line
     incompatible-QoS report."""
     return node.create_publisher(
@@ -179,15 +192,17 @@ def make_publisher(node: Node, msg_type: Any, topic: str, qos: QoSProfile) -> Pu
 
 def make_subscription(
     node: Node,
+    # Any: a message package's class (untyped, see AnyPublisher); the callback gets raw CDR bytes, which
+    # rclpy's types (callback of the message class) cannot say.
     msg_type: Any,
     topic: str,
     callback: Callable[[Any], None],
     qos: QoSProfile,
     *,
-    incompatible: Callable[[Any], None] | None = None,
-    message_lost: Callable[[Any], None] | None = None,
+    incompatible: Callable[[QoSRequestedIncompatibleQoSInfo], None] | None = None,
+    message_lost: Callable[[QoSMessageLostInfo], None] | None = None,
     best_effort: bool = False,
-) -> Subscription:
+) -> AnySubscription:
     """node.create_subscription (raw CDR) with ``subscription_qos(qos)``, the qos_overrides parameters and
     the event callbacks of ``subscription_events``; ``best_effort``: best-effort reliability instead,
     which no parameter overrides (the switch a best-effort publisher asked for, see the estimator)."""

@@ -30,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock
+from rclpy.clock_type import ClockType
 
 from pendulum_accel import __version__
 from pendulum_accel.bag import messages as bm
@@ -46,9 +47,9 @@ from pendulum_accel.errors import ParameterError
 from pendulum_accel.nodes.accounting import CUSTOM_ACCOUNTING
 from pendulum_accel.nodes.conversions import bag_qos, message_class, stamp_offset
 from pendulum_accel.nodes.parameters import LOG_TIMES, RECORDER
-from pendulum_accel.nodes.qos import make_subscription, qos_for
+from pendulum_accel.nodes.qos import TOPIC_TF_STATIC, make_subscription, qos_for
 from pendulum_accel.nodes.runtime import ChainNode, declare_parameters, run_node, write_summary
-from pendulum_accel.nodes.static_tf import TF_MESSAGE, TOPIC_TF_STATIC, tf_message_type
+from pendulum_accel.nodes.static_tf import TF_MESSAGE, tf_message_type
 
 NODE_NAME = "bag_recorder"
 _DRAIN_IDLE = 0.3  # s without any message after a stop request: the queues are empty

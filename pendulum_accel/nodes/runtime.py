@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, TypeAlias
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
@@ -27,34 +27,40 @@ from rcl_interfaces.srv import (
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
+from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.publisher import Publisher
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.dds_profile import use_package_profile
 from pendulum_accel.nodes.parameters import FROM_SCENE, TIME_SOURCES, ParamSpec, ParamValue
+from pendulum_accel.nodes.qos import AnyPublisher
 from pendulum_accel.nodes.scheduling import apply_rt_priority
 from pendulum_accel.nodes.shm_ports import clear_stale_ports
 
 # How often the main thread wakes to run pending signal handlers.
 _SIGNAL_POLL_PERIOD = 0.05  # s
 _PUBLISH_RETRY_PERIOD = 0.001  # s
+
+# Any: a parameter holds any of ROS 2's value types (bool, int, float, str, their arrays), per name.
+AnyParameter: TypeAlias = Parameter[Any]
+"""A node parameter of some value type."""
+
 _ACK_SLICE = Duration(seconds=0.2)
 
 
 class ChainNode(Node):
     """A Node that may end on its own (``finish``), stops gracefully on request, and ``close``s its files."""
 
+    # Any: rclpy's Node keyword arguments, passed through as they are.
     def __init__(self, node_name: str, **kwargs: Any) -> None:
         """Node(node_name, **kwargs) plus the ``finished`` future that ends the spin."""
         super().__init__(node_name, **kwargs)
-        self.finished: Future = Future()
+        self.finished: Future[int] = Future()
 
     def finish(self, code: int = 0) -> None:
         """End the spin of ``run_node`` with exit code ``code`` (idempotent)."""
@@ -72,6 +78,7 @@ class ChainNode(Node):
 class ThreadedNode(ChainNode):
     """A ChainNode whose work runs in one daemon thread; a stop request ends the thread, then the spin."""
 
+    # Any: rclpy's LifecycleNode keyword arguments, passed through as they are.
     def __init__(self, node_name: str, **kwargs: Any) -> None:
         """ChainNode(node_name, **kwargs) with the ``_stop`` event its thread watches; no thread yet."""
         super().__init__(node_name, **kwargs)
@@ -177,7 +184,7 @@ class ManagedNode(ThreadedNode, LifecycleNode):
 
 def parameter_descriptor(spec: ParamSpec) -> ParameterDescriptor:
     """ParameterDescriptor of a spec: description, read_only, range (step 0; 1 for integers), choices."""
-    limits: dict[str, Any] = {}
+    limits: dict[str, object] = {}
     if spec.low is not None and spec.high is not None:
         if spec.type == "integer":
             limits["integer_range"] = [
@@ -207,12 +214,13 @@ def declare_parameters(
     node: Node,
     specs: Sequence[ParamSpec],
     scene_defaults: Callable[[str], Mapping[str, ParamValue]] | None = None,
-) -> dict[str, Any]:
+) -> dict[str, Any]:  # Any: each value has its parameter's own type (the spec's), read by name
     """Declare every spec on ``node`` in order; {name: value} (a launch override or the default).
 
     A FROM_SCENE default comes from ``scene_defaults(scene)``, called once with the value of the
     ``scene`` parameter, which the table declares before them.
     """
+    # Any: as declare_parameters' result.
     values: dict[str, Any] = {}
     defaults: Mapping[str, ParamValue] | None = None
     for spec in specs:
@@ -252,15 +260,17 @@ def apply_time_source(node: Node, time_source: str) -> None:
         )
 
 
-def write_summary(path: str, counters: Mapping[str, Any]) -> None:
+def write_summary(path: str, counters: Mapping[str, object]) -> None:
     """Write a node's counters as JSON to ``path`` (nothing when empty): the launcher's accounting."""
     if path:
         Path(path).write_text(json.dumps(dict(counters), indent=1, sort_keys=True))
 
 
-def parameter_values(node: Node, names: Sequence[str], changes: Sequence[Parameter] = ()) -> dict[str, Any]:
+def parameter_values(
+    node: Node, names: Sequence[str], changes: Sequence[AnyParameter] = ()
+) -> dict[str, Any]:  # Any: each value has its parameter's own type, read by name
     """{name: current value} of ``names`` on ``node``, with ``changes`` (a pending set) on top."""
-    values: dict[str, Any] = {name: node.get_parameter(name).value for name in names}
+    values: dict[str, Any] = {name: node.get_parameter(name).value for name in names}  # Any: as returned
     for param in changes:
         if param.name in values:
             values[param.name] = param.value
@@ -278,7 +288,7 @@ def change_result(build: Callable[[], object]) -> SetParametersResult:
     return SetParametersResult(successful=True)
 
 
-def publish_blocking(publisher: Publisher, msg: Any, stopping: Callable[[], bool]) -> bool:
+def publish_blocking(publisher: AnyPublisher, msg: object, stopping: Callable[[], bool]) -> bool:
     """Publish ``msg`` (message or CDR bytes), retrying while the keep-all history is full; False if stopped.
 
     A reliable keep-all writer refuses a sample when its readers have not acknowledged enough of
@@ -330,7 +340,7 @@ def serve_parameter_requests(node: Node) -> int:
     return answered
 
 
-def acked_within(publisher: Publisher, seconds: float, stopping: Callable[[], bool]) -> bool:
+def acked_within(publisher: AnyPublisher, seconds: float, stopping: Callable[[], bool]) -> bool:
     """True once every matched reader acknowledged all ``publisher`` sent; False after ``seconds`` or once
     ``stopping()``. Waits in short slices: close() gives a node's thread 5 s, and destroying a publisher
     while a thread still waits inside it crashes the process."""
@@ -407,7 +417,7 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
     it takes about ten times as many messages per second in Python, which the 1 kHz chain needs.
     """
     node: Node | None = None
-    executor: Any = None
+    executor: Executor | None = None
     code = 0
     stops = 0
 

@@ -34,8 +34,6 @@ import numpy as np
 from geometry_msgs.msg import AccelStamped
 from numpy.typing import NDArray
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.parameter import Parameter
-from rclpy.publisher import Publisher
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -47,8 +45,9 @@ from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.nodes.conversions import restamp, stamp_offset
 from pendulum_accel.nodes.graph import missing_readers, node_names, wait_for_readers
 from pendulum_accel.nodes.parameters import SIMULATOR
-from pendulum_accel.nodes.qos import DATA_QOS, DESCRIPTION_QOS, make_publisher
+from pendulum_accel.nodes.qos import DATA_QOS, DESCRIPTION_QOS, AnyPublisher, make_publisher
 from pendulum_accel.nodes.runtime import (
+    AnyParameter,
     ManagedNode,
     acked_within,
     change_result,
@@ -107,10 +106,10 @@ class SimulatorNode(ManagedNode):
         self.clock_rate_hz = float(values["clock_rate_hz"])
         self._frame = str(values["frame_prefix"]) + bm.FRAME_ID  # the truth's and the markers' frame
         self.summary_file = str(values["summary_file"])
-        self._outputs: dict[str, Publisher] = {}
+        self._outputs: dict[str, AnyPublisher] = {}
         self.counts: dict[str, int] = {}
         self.unacknowledged: list[str] = []
-        self._extra: list[Publisher] = []
+        self._extra: list[AnyPublisher] = []
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._parameters_applied)
         self._restart = threading.Event()
@@ -165,7 +164,7 @@ class SimulatorNode(ManagedNode):
 
     # -- parameters ---------------------------------------------------------------------------
 
-    def _override_values(self, changes: Sequence[Parameter] = ()) -> dict[str, float]:
+    def _override_values(self, changes: Sequence[AnyParameter] = ()) -> dict[str, float]:
         """Current override parameter values, with ``changes`` applied on top."""
         return parameter_values(self, OVERRIDE_NAMES, changes)
 
@@ -173,7 +172,7 @@ class SimulatorNode(ManagedNode):
         """The base scene with the override values (PendulumAccelError naming a bad value)."""
         return apply_overrides(self._base_scene, values)
 
-    def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
+    def _validate_parameters(self, params: list[AnyParameter]) -> SetParametersResult:
         """Accept a change only if the scene it makes is valid; otherwise keep the old value and say why.
         Other parameters (the qos_overrides each publisher declares at start up) leave the scene alone."""
         for param in params:
@@ -185,7 +184,7 @@ class SimulatorNode(ManagedNode):
             return SetParametersResult(successful=True)
         return change_result(lambda: self._scene_from(self._override_values(params)))
 
-    def _parameters_applied(self, params: list[Parameter]) -> None:
+    def _parameters_applied(self, params: list[AnyParameter]) -> None:
         """A physics change restarts the scene at t = 0 with the new values (receivers see time jump back)."""
         if any(p.name in OVERRIDE_NAMES for p in params):
             self.scene = self._scene_from(self._override_values())

@@ -16,10 +16,9 @@ from typing import Any
 
 from geometry_msgs.msg import TransformStamped
 from rclpy.node import Node
-from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from pendulum_accel.nodes.qos import TOPIC_TF_STATIC
+from pendulum_accel.nodes.qos import TOPIC_TF_STATIC, AnyPublisher
 
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 STATIC_QOS = QoSProfile(
@@ -30,6 +29,7 @@ STATIC_QOS = QoSProfile(
 )
 
 
+# Any: a class of tf2_msgs, a message package, which ships no types.
 def tf_message_type() -> Any | None:
     """tf2_msgs' TFMessage class, None where tf2_msgs is not installed."""
     try:
@@ -40,7 +40,7 @@ def tf_message_type() -> Any | None:
 
 def publish_static_transform(
     node: Node, parent: str, child: str, xyz: tuple[float, float, float]
-) -> Publisher | None:
+) -> AnyPublisher | None:
     """Publish child's origin at ``xyz`` (m, no rotation) in ``parent`` on /tf_static; the publisher (keep
     it: transient local serves late listeners while it lives), or None without tf2_msgs (logged)."""
     x, y, z = xyz

@@ -37,7 +37,6 @@ import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -328,7 +327,7 @@ def _adaptive(
         def fun(t: float, flat: np.ndarray, clamp: Callable[[float], float] = clamp) -> np.ndarray:
             return np.asarray(rhs(clamp(t), flat.reshape(shape))).ravel()
 
-        options: dict[str, Any] = {
+        options: dict[str, object] = {
             "method": method,
             "t_eval": nodes[i_lo + 1 : i_hi + 1],
             "rtol": rel,

@@ -73,9 +73,12 @@ RK8_C = np.ascontiguousarray(dop853_tableau.C, dtype=float)
 @njit(cache=True, inline="always")
 def _accel(t: float, seg: int, lo: float, kind: int, coef: np.ndarray) -> float:
     """a(t) = coef[seg, 0] + coef[seg, 1] (t − lo), or offset + A sin(ω t + φ)."""
+    result: float
     if kind == ACCEL_LINEAR:
-        return coef[seg, 0] + coef[seg, 1] * (t - lo)
-    return coef[0, 0] + coef[0, 1] * math.sin(coef[0, 2] * t + coef[0, 3])
+        result = coef[seg, 0] + coef[seg, 1] * (t - lo)
+        return result
+    result = coef[0, 0] + coef[0, 1] * math.sin(coef[0, 2] * t + coef[0, 3])
+    return result
 
 
 @njit(cache=True, inline="always")
@@ -160,6 +163,7 @@ def _elastic_tangent_rhs(par: np.ndarray, a: float, y: np.ndarray, out: np.ndarr
 
 @njit(inline="always")
 def _steps(
+    # Any: a numba dispatcher (the model's right-hand side), which numba does not type.
     rhs: Any,
     par: np.ndarray,
     y0: np.ndarray,
@@ -276,7 +280,8 @@ def rigid_steps(
     coef: np.ndarray,
 ) -> tuple[np.ndarray, int]:
     """``_steps`` of the rigid pendulum, state [θ, θ'], par = (g/l, 1/l, c)."""
-    return _steps(_rigid_rhs, par, y0, comp, nodes, method, dt, kind, coef)
+    result: tuple[np.ndarray, int] = _steps(_rigid_rhs, par, y0, comp, nodes, method, dt, kind, coef)
+    return result
 
 
 @njit(cache=True)
@@ -291,7 +296,8 @@ def elastic_steps(
     coef: np.ndarray,
 ) -> tuple[np.ndarray, int]:
     """``_steps`` of the elastic string, state [r, θ, r', θ'], par = (k/m, g, c, l)."""
-    return _steps(_elastic_rhs, par, y0, comp, nodes, method, dt, kind, coef)
+    result: tuple[np.ndarray, int] = _steps(_elastic_rhs, par, y0, comp, nodes, method, dt, kind, coef)
+    return result
 
 
 @njit(cache=True)
@@ -306,7 +312,8 @@ def rigid_tangent_steps(
     coef: np.ndarray,
 ) -> tuple[np.ndarray, int]:
     """``_steps`` of the rigid pendulum and its variational equations (``_rigid_tangent_rhs``), 6 states."""
-    return _steps(_rigid_tangent_rhs, par, y0, comp, nodes, method, dt, kind, coef)
+    result: tuple[np.ndarray, int] = _steps(_rigid_tangent_rhs, par, y0, comp, nodes, method, dt, kind, coef)
+    return result
 
 
 @njit(cache=True)
@@ -321,7 +328,10 @@ def elastic_tangent_steps(
     coef: np.ndarray,
 ) -> tuple[np.ndarray, int]:
     """``_steps`` of the elastic string and its variational equations (_elastic_tangent_rhs): 12 states."""
-    return _steps(_elastic_tangent_rhs, par, y0, comp, nodes, method, dt, kind, coef)
+    result: tuple[np.ndarray, int] = _steps(
+        _elastic_tangent_rhs, par, y0, comp, nodes, method, dt, kind, coef
+    )
+    return result
 
 
 _LINEAR_PROFILES = (Constant, Step, Ramp, Table, Braking)

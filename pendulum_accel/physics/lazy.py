@@ -20,6 +20,9 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
+# Any throughout: numba, untyped, compiles any function; a LazyJit stands for its dispatcher, which
+# takes and returns what the compiled function does, and a LazyModule for any module.
+
 
 class LazyJit:
     """A function to be compiled by ``numba.njit(**options)`` when first used (module doc)."""

@@ -48,7 +48,8 @@ def multiplier(p: Pendulum, y: np.ndarray, accel: ArrayLike) -> np.ndarray:
     a = np.asarray(accel)
     radial_speed = x * xd + z * zd
     num = a * x + p.gravity * z - (xd * xd + zd * zd) + p.damping * radial_speed
-    return p.mass * num / (x * x + z * z)
+    result: np.ndarray = p.mass * num / (x * x + z * z)
+    return result
 
 
 def multiplier_rhs(p: Pendulum, accel: ArrayAccel) -> Callable[[float, np.ndarray], np.ndarray]:

@@ -10,8 +10,9 @@ from pendulum_accel.errors import ParameterError
 STANDARD_GRAVITY = 9.80665  # m/s², ISO 80000-3
 
 
-def require_finite(name: str, value: float) -> float:
-    """Return ``float(value)``, or raise ParameterError naming it when it is NaN, inf or not a number."""
+def require_finite(name: str, value: float | str) -> float:
+    """Return ``float(value)`` (a number, or a string float() parses), or raise ParameterError naming it
+    when it is NaN, inf or not a number."""
     try:
         number = float(value)
     except (TypeError, ValueError):

@@ -22,7 +22,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -85,7 +85,7 @@ class AccelProfile(ABC):
         return float(np.max(np.abs(self(times))))
 
     @abstractmethod
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """{'type': kind, field: value, ...}, the inverse of ``motion_input.profile_from_dict``."""
 
 
@@ -113,7 +113,7 @@ class Constant(AccelProfile):
         _check_interval(t0, t1)
         return abs(self.a)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """{'type': 'constant', 'a': a}."""
         return {"type": self.kind, "a": self.a}
 
@@ -145,7 +145,7 @@ class Step(AccelProfile):
         start, end = _check_interval(t0, t1)
         return _split_constant(start, end, self.breakpoints(), lambda s: float(self(s)))
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """{'type': 'step', 't_step', 'a_before', 'a_after'}."""
         return {"type": self.kind, "t_step": self.t_step, "a_before": self.a_before, "a_after": self.a_after}
 
@@ -190,7 +190,7 @@ class Ramp(AccelProfile):
             return None
         return _split_constant(start, end, (), lambda s: float(self(s)))
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """{'type': 'ramp', 't_start', 't_end', 'a_start', 'a_end'}."""
         return {
             "type": self.kind,
@@ -246,7 +246,7 @@ class Sinusoid(AccelProfile):
             candidates += [(math.pi / 2 + k * math.pi - self.phase) / omega for k in range(k_lo, k_hi + 1)]
         return float(np.max(np.abs(self(np.array(candidates)))))
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """{'type': 'sinusoid', 'amplitude', 'frequency_hz', 'offset', 'phase'}."""
         return {
             "type": self.kind,
@@ -283,7 +283,7 @@ class Table(AccelProfile):
     times: tuple[float, ...]
     accels: tuple[float, ...]
     origin: str = field(default="", compare=False)
-    recipe: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
+    recipe: Mapping[str, object] | None = field(default=None, compare=False, repr=False)
     kind: ClassVar[str] = "table"
     _t: np.ndarray = field(init=False, repr=False, compare=False)
     _a: np.ndarray = field(init=False, repr=False, compare=False)
@@ -334,7 +334,7 @@ class Table(AccelProfile):
                 return None
         return _split_constant(start, end, self.times, lambda s: float(self(s)))
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """{'type': 'table', 'times': [...], 'accels': [...]}, or the recipe of a derived table."""
         if self.recipe is not None:
             return dict(self.recipe)
@@ -375,7 +375,7 @@ class Braking(AccelProfile):
         start, end = _check_interval(t0, t1)
         return _split_constant(start, end, self.breakpoints(), lambda s: float(self(s)))
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """{'type': 'braking', 'v0', 'decel', 't_start'}."""
         return {"type": self.kind, "v0": self.v0, "decel": self.decel, "t_start": self.t_start}
 
@@ -418,7 +418,7 @@ class Offset(AccelProfile):
             return max(abs(a) for _, _, a in pieces)
         return self.base.max_abs(t0, t1) + abs(self.offset)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """{'type': 'offset', 'base': base.to_dict(), 'offset'} (for display; scene files never hold one)."""
         return {"type": self.kind, "base": self.base.to_dict(), "offset": self.offset}
 

@@ -40,9 +40,10 @@ ArrayAccel = Callable[[float], "float | np.ndarray"]
 def theta_ddot(p: Pendulum, theta: ArrayLike, theta_dot: ArrayLike, accel: ArrayLike) -> np.ndarray:
     """θ'' = −(g/l) sin θ + (a/l) cos θ − c θ'."""
     th = np.asarray(theta, dtype=float)
-    return (-p.gravity * np.sin(th) + np.asarray(accel) * np.cos(th)) / p.length - p.damping * np.asarray(
-        theta_dot, dtype=float
-    )
+    result: np.ndarray = (
+        -p.gravity * np.sin(th) + np.asarray(accel) * np.cos(th)
+    ) / p.length - p.damping * np.asarray(theta_dot, dtype=float)
+    return result
 
 
 def rigid_rhs(p: Pendulum, accel: ArrayAccel) -> Callable[[float, np.ndarray], np.ndarray]:
@@ -64,7 +65,8 @@ def tension(p: Pendulum, theta: ArrayLike, theta_dot: ArrayLike, accel: ArrayLik
     """T = m (l θ'² + g cos θ + a sin θ)  (N)."""
     th = np.asarray(theta, dtype=float)
     w = np.asarray(theta_dot, dtype=float)
-    return p.mass * (p.length * w * w + p.gravity * np.cos(th) + np.asarray(accel) * np.sin(th))
+    result: np.ndarray = p.mass * (p.length * w * w + p.gravity * np.cos(th) + np.asarray(accel) * np.sin(th))
+    return result
 
 
 def energy(p: Pendulum, theta: ArrayLike, theta_dot: ArrayLike, accel: ArrayLike) -> np.ndarray:
@@ -72,7 +74,10 @@ def energy(p: Pendulum, theta: ArrayLike, theta_dot: ArrayLike, accel: ArrayLike
     th = np.asarray(theta, dtype=float)
     w = np.asarray(theta_dot, dtype=float)
     length = p.length
-    return length * (0.5 * length * w * w - p.gravity * np.cos(th) - np.asarray(accel) * np.sin(th))
+    result: np.ndarray = length * (
+        0.5 * length * w * w - p.gravity * np.cos(th) - np.asarray(accel) * np.sin(th)
+    )
+    return result
 
 
 def car_frame_lagrangian(

@@ -338,7 +338,8 @@ class SteppedRuns:
 
     def _angle(self, y: np.ndarray) -> np.ndarray:
         """θ rows of the node states ``y``, at the samples."""
-        return y[0 if self.model == "rigid" else 1, self.is_sample]
+        result: np.ndarray = y[0 if self.model == "rigid" else 1, self.is_sample]
+        return result
 
     def theta(self, theta0: float, theta_dot0: float, dt: float) -> np.ndarray:
         """θ at the samples from (θ0, θ'0) with steps ≤ dt: simulate(..., dt=dt).theta, bit for bit."""

@@ -19,7 +19,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Literal, NotRequired, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -125,7 +125,8 @@ class Case:
     lags: tuple[float, ...]
 
 
-WINDOWS = ("steady", "after_change")
+Window = Literal["steady", "after_change"]
+WINDOWS: tuple[Window, Window] = ("steady", "after_change")
 """The live filter's two calibration windows (recording.changes.after_change splits them)."""
 
 
@@ -173,13 +174,37 @@ def case_signals(
     return t, theta, accel, settings
 
 
-def run_case(case: Case) -> dict[str, Any]:
+class WindowSums(TypedDict):
+    """One window's sums in one case: samples, those beyond 2σ (NEES > 4), Σ NEES, independent trials."""
+
+    n: int
+    beyond: int
+    nees_sum: float
+    trials: float
+
+
+class CaseSums(TypedDict):
+    """What one case gives for pooling: Σe² per lag, samples n; the live filter's windows and delay (set
+    by its lag-0 run, which every case has)."""
+
+    sq: dict[float, float]
+    n: int
+    steady: NotRequired[WindowSums]
+    after_change: NotRequired[WindowSums]
+    delay: NotRequired[float]
+
+
+DesignRow = dict[str, str | float | None]
+"""One row of the design table (DESIGN_COLUMNS, and an rms_lag_<lag> column per lag asked); None: null."""
+
+
+def run_case(case: Case) -> CaseSums:
     """Sums for pooling one case: per lag Σe² and n; the live filter's delay and, per window (steady,
     after a change), its samples n, those beyond 2σ (NEES = e²/var > 4), Σ NEES and the independent
     trials behind them (recording.coverage.nees_windows)."""
     t, theta, accel, settings = case_signals(case)
     keep = t >= WARMUP
-    out: dict[str, Any] = {"sq": {}, "n": int(keep.sum())}
+    out: CaseSums = {"sq": {}, "n": int(keep.sum())}
     for lag in case.lags:
         est, var = make_estimator(DEFAULT_ESTIMATOR, **settings, lag=lag).batch(t, theta)
         e = np.asarray(est) - accel
@@ -198,7 +223,7 @@ def run_case(case: Case) -> dict[str, Any]:
     return out
 
 
-def _share_cells(window: str, counts: Sequence[dict[str, Any]]) -> dict[str, float | None]:
+def _share_cells(window: str, counts: Sequence[WindowSums]) -> dict[str, float | None]:
     """share_2sigma_{window} = Σ beyond / Σ n over the cases, trials_{window} = Σ trials (the cases are
     independent runs: their independent trials add) and the share's 95 % interval
     share_2sigma_{window}_low/_high (coverage.share_interval_cells); None where no case has a sample."""
@@ -208,11 +233,11 @@ def _share_cells(window: str, counts: Sequence[dict[str, Any]]) -> dict[str, flo
     return coverage.share_interval_cells(share, trials, f"share_2sigma_{window}", f"trials_{window}")
 
 
-def summarise(design: SensorDesign, parts: Sequence[dict[str, Any]], lags: Sequence[float]) -> dict[str, Any]:
+def summarise(design: SensorDesign, parts: Sequence[CaseSums], lags: Sequence[float]) -> DesignRow:
     """One table row: the design, RMS = √(Σe²/Σn) per lag pooled over its cases, the median delay, the
     pooled shares beyond 2σ with their trials and 95 % intervals, and the mean NEES of the live filter."""
     n = sum(p["n"] for p in parts)
-    row: dict[str, Any] = {
+    row: DesignRow = {
         "design": design.name,
         "length": design.length,
         "damping": design.damping,
@@ -243,7 +268,7 @@ def study(
     workers: int | None = None,
     progress: Progress | None = None,
     distributed: bool | None = None,
-) -> list[dict[str, Any]]:
+) -> list[DesignRow]:
     """One row per design (summarise), from designs × profiles × seeds cases run as tasks. Each profile
     is cut to min(duration, its scene's)."""
     if seeds < 1:
@@ -264,27 +289,27 @@ def study(
     results = map_tasks(
         run_case, cases, scheduler=scheduler, workers=workers, progress=progress, distributed=distributed
     )
-    per_design: dict[SensorDesign, list[dict[str, Any]]] = {}
+    per_design: dict[SensorDesign, list[CaseSums]] = {}
     for case, result in zip(cases, results, strict=True):
         per_design.setdefault(case.design, []).append(result)
     return [summarise(d, per_design[d], lag_set) for d in designs]
 
 
-def design_latency(lag: float, row: Mapping[str, Any]) -> float:
+def design_latency(lag: float, row: Mapping[str, object]) -> float:
     """lag + max(delay, 0) of a design row: a filter's delay is a latency only when it lags; an unmeasured
     delay (null: a constant a(t)) counts as 0, so the lag alone is the latency."""
     delay = row["delay"]
-    return lag + (max(float(delay), 0.0) if delay is not None else 0.0)
+    return lag + (max(float(delay), 0.0) if isinstance(delay, float | int) else 0.0)
 
 
-def front(rows: Sequence[dict[str, Any]]) -> list[tuple[float, float, str]]:
+def front(rows: Sequence[Mapping[str, object]]) -> list[tuple[float, float, str]]:
     """(latency, RMS, design) points on the accuracy–latency front: latency = lag + the live filter's
     delay (``design_latency``); a point is on the front when no other has both a lower latency and a
     lower RMS."""
     points = []
     for row in rows:
         for key, value in row.items():
-            if key.startswith("rms_lag_"):
+            if key.startswith("rms_lag_") and isinstance(value, float | int):
                 lag = float(key[len("rms_lag_") :])
                 points.append((design_latency(lag, row), float(value), str(row["design"])))
     points.sort()
@@ -296,7 +321,7 @@ def front(rows: Sequence[dict[str, Any]]) -> list[tuple[float, float, str]]:
     return out
 
 
-def plot_front(rows: Sequence[dict[str, Any]], path: Path) -> None:
+def plot_front(rows: Sequence[Mapping[str, object]], path: Path) -> None:
     """Every design's fixed-lag curve (latency, RMS) in grey, the front on top."""
     import matplotlib
 
@@ -307,7 +332,7 @@ def plot_front(rows: Sequence[dict[str, Any]], path: Path) -> None:
     for row in rows:
         lags = sorted(float(k[len("rms_lag_") :]) for k in row if k.startswith("rms_lag_"))
         x = [design_latency(g, row) for g in lags]
-        y = [row[f"rms_lag_{g:g}"] for g in lags]
+        y = np.array([row[f"rms_lag_{g:g}"] for g in lags], dtype=float)
         ax.plot(x, y, color="0.75", lw=0.8, marker=".", ms=3)
     pts = front(rows)
     ax.plot([p[0] for p in pts], [p[1] for p in pts], color="C3", lw=2, marker="o", label="front")

@@ -18,10 +18,10 @@ import math
 import os
 import sys
 import tempfile
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TextIO, TypedDict, Unpack, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -75,26 +75,62 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
 COLUMN_NAMES = tuple(name for name, _, _ in COLUMNS)
 
 
+class FleetCells(TypedDict, total=False):
+    """The cells a row is given, by :data:`COLUMNS`' names (all but ``bag``); None is the table's null."""
+
+    estimator: str
+    motion_model: str
+    truth: bool
+    estimate_mean: float | None
+    sigma_median: float | None
+    rms: float | None
+    bias: float | None
+    max_error: float | None
+    delay: float | None
+    share_2sigma_steady: float | None
+    trials_steady: float | None
+    share_2sigma_steady_low: float | None
+    share_2sigma_steady_high: float | None
+    share_2sigma_after_change: float | None
+    trials_after_change: float | None
+    share_2sigma_after_change_low: float | None
+    share_2sigma_after_change_high: float | None
+    nees_mean: float | None
+    duration: float | None
+    angles: int
+    complete: bool
+    error: str
+
+
+class FleetRow(FleetCells):
+    """One row of the results table: every column of :data:`COLUMNS`, in its order, None where the row
+    was not given it (an unreadable bag's row holds its ``error`` only)."""
+
+    bag: str
+
+
 def _float(x: float | None) -> float | None:
     """x, or None where it is not a finite number (the table's null, never NaN)."""
     return None if x is None or not math.isfinite(x) else float(x)
 
 
-def _row(bag: str, **values: Any) -> dict[str, Any]:
+def _row(bag: str, **values: Unpack[FleetCells]) -> FleetRow:
     """One table row: every column, None where not given."""
-    row: dict[str, Any] = dict.fromkeys(COLUMN_NAMES)
+    row: dict[str, object] = dict.fromkeys(COLUMN_NAMES)
     row.update(bag=bag, **values)
-    return row
+    # Every column of COLUMNS, which are FleetRow's keys (test_fleet holds them equal).
+    return cast(FleetRow, row)
 
 
-def _share_cells(window: str, stats: NeesStats | None) -> dict[str, float | None]:
-    """share_2sigma_{window}, trials_{window} and the share's 95 % interval share_2sigma_{window}_low/_high
+def _share_cells(stats: NeesStats | None) -> tuple[float | None, float | None, float | None, float | None]:
+    """(share beyond 2σ, its trials, low and high ends of its 95 % interval) of one window as table cells
     (coverage.share_interval_cells); None where the window has no samples."""
     share, trials = (math.nan, math.nan) if stats is None else (stats.share_2sigma, stats.trials)
-    return coverage.share_interval_cells(share, trials, f"share_2sigma_{window}", f"trials_{window}")
+    cells = coverage.share_interval_cells(share, trials, "share", "trials")
+    return cells["share"], cells["trials"], cells["share_low"], cells["share_high"]
 
 
-def _figures(result: Analysis, complete: bool) -> dict[str, Any]:
+def _figures(result: Analysis, complete: bool) -> FleetCells:
     """The table's figures of one re-run."""
     keep = np.isfinite(result.accel_est) & (result.t >= result.t[0] + result.skip)
     delay = math.nan
@@ -107,6 +143,8 @@ def _figures(result: Analysis, complete: bool) -> dict[str, Any]:
         )
     nees = nees[keep & np.isfinite(nees)]
     cal = result.calibration
+    steady = _share_cells(None if cal is None else cal.steady)
+    after = _share_cells(None if cal is None else cal.after_change)
     return {
         "estimator": result.estimator,
         "motion_model": result.motion.preset if result.motion is not None else "",
@@ -117,8 +155,14 @@ def _figures(result: Analysis, complete: bool) -> dict[str, Any]:
         "bias": _float(result.stats.bias),
         "max_error": _float(result.stats.max_abs),
         "delay": _float(delay),
-        **_share_cells("steady", None if cal is None else cal.steady),
-        **_share_cells("after_change", None if cal is None else cal.after_change),
+        "share_2sigma_steady": steady[0],
+        "trials_steady": steady[1],
+        "share_2sigma_steady_low": steady[2],
+        "share_2sigma_steady_high": steady[3],
+        "share_2sigma_after_change": after[0],
+        "trials_after_change": after[1],
+        "share_2sigma_after_change_low": after[2],
+        "share_2sigma_after_change_high": after[3],
         "nees_mean": _float(float(nees.mean())) if nees.size else None,
         "duration": _float(float(result.t[-1] - result.t[0])),
         "angles": int(result.t.size),
@@ -140,7 +184,7 @@ class Job:
     """--topic, --namespace and --joint, applied to every bag."""
 
 
-def bag_rows(path: str, job: Job) -> list[dict[str, Any]]:
+def bag_rows(path: str, job: Job) -> list[FleetRow]:
     """One row per estimator of ``job`` for the bag at ``path``; one row with ``error`` when the bag
     cannot be analysed. Never raises for a bad bag: a fleet's other bags must still finish."""
     try:
@@ -234,7 +278,7 @@ def analyze_many(
     workers: int | None = None,
     progress: Progress | None = None,
     distributed: bool | None = None,
-) -> list[dict[str, Any]]:
+) -> list[FleetRow]:
     """Rows (:data:`COLUMNS`) of every bag × estimator, in the order of ``paths``: one task per bag
     (cluster.map_tasks: one bag in this process, several on Dask)."""
     parts = map_tasks(
@@ -249,7 +293,7 @@ def analyze_many(
 
 
 def write_rows(
-    rows: Sequence[dict[str, Any]], path: Path, columns: Sequence[tuple[str, str, str]] | None = None
+    rows: Sequence[Mapping[str, object]], path: Path, columns: Sequence[tuple[str, str, str]] | None = None
 ) -> None:
     """Write ``rows`` to ``path`` as Parquet (.parquet) or CSV (.csv): under a temporary name beside it,
     then renamed onto it, so an interrupted or failed write leaves nothing under the asked name (a
@@ -271,7 +315,7 @@ def write_rows(
 
 
 def _write_rows(
-    rows: Sequence[dict[str, Any]],
+    rows: Sequence[Mapping[str, object]],
     path: Path,
     names: Sequence[str],
     columns: Sequence[tuple[str, str, str]] | None,
@@ -288,7 +332,9 @@ def _write_rows(
         write_csv(rows, handle, names)
 
 
-def write_csv(rows: Sequence[dict[str, Any]], handle: Any, names: Sequence[str] = COLUMN_NAMES) -> None:
+def write_csv(
+    rows: Sequence[Mapping[str, object]], handle: TextIO, names: Sequence[str] = COLUMN_NAMES
+) -> None:
     """``rows`` as CSV with a header line; a null is an empty field."""
     writer = csv.DictWriter(handle, fieldnames=list(names), lineterminator="\n")
     writer.writeheader()

@@ -10,13 +10,16 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from pendulum_accel.bag import messages as bm
 from pendulum_accel.bag.cdr_layout import Layout
+
+if TYPE_CHECKING:  # rosbags' protocol of its typestore's message classes (defined for type checkers only)
+    from rosbags.typesys.store import Msg
 
 BODY = (1.0, 0.6, 0.2)
 """Car body box (length x, width y, height z), m: only a reference for the eye."""
@@ -108,7 +111,7 @@ def urdf(length: float, name: str = "pendulum_accel", *, mass: float = 1.0) -> s
 
 def _marker(
     ns: str, kind: int, color: tuple[float, float, float], points: int = 0, frame_id: str = bm.FRAME_ID
-) -> Any:
+) -> Msg:
     """A visualization_msgs/Marker in ``frame_id`` (id 0 in ``ns``), ``points`` zero points, opaque."""
     store = bm.TYPESTORE.types
     marker_cls = store["visualization_msgs/msg/Marker"]
@@ -118,7 +121,7 @@ def _marker(
     color_cls = store["std_msgs/msg/ColorRGBA"]
     vector_cls = store["geometry_msgs/msg/Vector3"]
     duration_cls = store["builtin_interfaces/msg/Duration"]
-    return marker_cls(
+    marker: Msg = marker_cls(
         header=bm.joint_state(0, [], [], frame_id=frame_id).header,
         ns=ns,
         id=0,
@@ -143,11 +146,13 @@ def _marker(
         mesh_file=store["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, dtype=np.uint8)),
         mesh_use_embedded_materials=False,
     )
+    return marker
 
 
-def _marker_array(markers: list[Any]) -> Any:
+def _marker_array(markers: list[Msg]) -> Msg:
     """visualization_msgs/MarkerArray of ``markers``."""
-    return bm.TYPESTORE.types[bm.MARKER_ARRAY](markers=markers)
+    array: Msg = bm.TYPESTORE.types[bm.MARKER_ARRAY](markers=markers)
+    return array
 
 
 def marker_mask(t: NDArray[np.float64], rate_hz: float = MARKER_RATE_HZ) -> NDArray[np.bool_]:
@@ -158,7 +163,7 @@ def marker_mask(t: NDArray[np.float64], rate_hz: float = MARKER_RATE_HZ) -> NDAr
     return mask
 
 
-def _stamp(ns: NDArray[np.int64], prefix: str) -> dict[str, Any]:
+def _stamp(ns: NDArray[np.int64], prefix: str) -> dict[str, object]:
     """{prefix.header.stamp.sec / nanosec: columns} of integer nanoseconds."""
     sec, nanosec = bm.split_stamp(ns)
     return {f"{prefix}header.stamp.sec": sec, f"{prefix}header.stamp.nanosec": nanosec}
@@ -182,7 +187,7 @@ def swing_marker_rows(
     bz = h - length * np.cos(theta)
     diameter = 2.0 * bob_radius(length)
     arrow_z = h + 0.1
-    cols: dict[str, Any] = {}
+    cols: dict[str, object] = {}
     for i in range(3):
         cols.update(_stamp(ns, f"markers[{i}]."))
     cols.update(
