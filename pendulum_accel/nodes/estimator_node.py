@@ -38,7 +38,7 @@ from rclpy.clock import Clock
 from rclpy.clock_type import ClockType
 from rclpy.duration import Duration
 from rclpy.event_handler import QoSMessageLostInfo, QoSRequestedIncompatibleQoSInfo
-from rclpy.qos import QoSPolicyKind, ReliabilityPolicy
+from rclpy.qos import QoSPolicyKind
 from rclpy.serialization import deserialize_message
 from rclpy.timer import Timer
 from sensor_msgs.msg import Imu, JointState
@@ -61,8 +61,10 @@ from pendulum_accel.nodes.qos import (
     AnyPublisher,
     AnySubscription,
     incompatible_line,
+    left_best_available,
     make_publisher,
     make_subscription,
+    offered_best_effort,
     override_parameter,
 )
 from pendulum_accel.nodes.runtime import (
@@ -432,22 +434,12 @@ class EstimatorNode(ManagedNode):
             return False
         return time.monotonic() - self._born < DISCOVERY_GRACE
 
-    def _best_available(self) -> bool:
-        """True when the input's reliability is left at best_available (its qos_overrides parameter)."""
-        parameter = override_parameter(
-            self.resolve_topic_name(bm.JOINT_STATES), "subscription", "reliability"
-        )
-        return bool(self.has_parameter(parameter) and self.get_parameter(parameter).value == "best_available")
-
     def _take_best_effort_if_offered(self) -> None:
         """Subscribe best-effort from the start when a known publisher of the angles is best-effort (a
         driver's SensorDataQoS) and reliability is left at best_available: what best_available asks, settled
         here from the graph, so that neither side meets a reliable subscription first and warns."""
         topic = self.resolve_topic_name(bm.JOINT_STATES)
-        if self._best_effort or not self._best_available():
-            return
-        offered = {info.qos_profile.reliability for info in self.get_publishers_info_by_topic(topic)}
-        if ReliabilityPolicy.BEST_EFFORT in offered:
+        if not self._best_effort and left_best_available(self, topic) and offered_best_effort(self, topic):
             self._best_effort = True
             self.get_logger().info(
                 f"{topic}: a best-effort publisher: taking its angles best-effort (losses are counted: "
@@ -461,7 +453,8 @@ class EstimatorNode(ManagedNode):
         topic = self.resolve_topic_name(bm.JOINT_STATES)
         kind = int(event.last_policy_kind)
         parameter = override_parameter(topic, "subscription", "reliability")
-        if kind == int(QoSPolicyKind.RELIABILITY) and self._best_available() and not self._best_effort:
+        best_available = left_best_available(self, topic)
+        if kind == int(QoSPolicyKind.RELIABILITY) and best_available and not self._best_effort:
             self._best_effort = True
             self._resubscribe = True
             self.get_logger().warning(

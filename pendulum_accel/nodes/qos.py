@@ -132,6 +132,19 @@ def override_parameter(topic: str, entity: str, policy: str) -> str:
     return f"qos_overrides.{topic}.{entity}.{policy}"
 
 
+def left_best_available(node: Node, topic: str) -> bool:
+    """True when the subscription to ``topic`` (resolved) is left at best_available reliability: its
+    qos_overrides parameter says so (declared at the subscription's first creation)."""
+    parameter = override_parameter(topic, "subscription", "reliability")
+    return bool(node.has_parameter(parameter) and node.get_parameter(parameter).value == "best_available")
+
+
+def offered_best_effort(node: Node, topic: str) -> bool:
+    """True when a publisher of ``topic`` (resolved) known to ``node``'s graph is best-effort."""
+    offered = {info.qos_profile.reliability for info in node.get_publishers_info_by_topic(topic)}
+    return ReliabilityPolicy.BEST_EFFORT in offered
+
+
 def incompatible_line(topic: str, entity: str, policy_kind: int) -> str:
     """The one line a node logs when a peer's QoS is incompatible with its ``entity`` on ``topic``: which
     policy, and the parameter that changes it (or, for a policy not exposed, that the peer must)."""
