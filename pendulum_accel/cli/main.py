@@ -138,7 +138,7 @@ def _interrupted(command: str | None, own_process: bool) -> int:
     print(f"pendulum-accel {command or ''}: interrupted".replace(" :", ":"), file=sys.stderr)
     if own_process:
         # The command has removed its partial output already; the interpreter's own teardown (numba,
-        # llvmlite, matplotlib finalizers) took 2-3 s of a loaded machine after a long generate.
+        # llvmlite, matplotlib finalizers) can take seconds on a loaded machine after a long generate.
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(130)

@@ -349,8 +349,8 @@ class EstimatorNode(ManagedNode):
             # The guard checks the input against these two (its counters go on).
             self.guarded.guard.rate_hz = float(values["rate_hz"])
             self.guarded.guard.noise_std = float(values["noise_std"])
-        # A description may solve the filter's steady state (scipy, 0.2-0.5 s): done beside the worker, so
-        # that neither the parameter service's answer nor the estimates and /diagnostics wait for it.
+        # A description may solve the filter's steady state (scipy): made beside the worker, so that neither
+        # the parameter service's answer nor the estimates and /diagnostics wait for it.
         described = threading.Thread(
             target=self._describe_rebuilt, args=(estimator,), name="describe_rebuilt", daemon=True
         )
