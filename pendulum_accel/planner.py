@@ -18,7 +18,7 @@ Rules, in order:
    the separatrix by 1/m₁ (m₁ = cos²(A/2): the period's sensitivity to the amplitude).
 4. Otherwise the rigid model, stepped.
 5. Fixed steps of order p (RK4: 4, RK8: 8). A first step from err ≈ C (hω)^p (1 + ωT), ω of the swing
-   (C: RK4 0.1, RK8 0.01, typical of the swings measured; near the separatrix C grows 10-100×, which the
+   (C: RK4 0.1, RK8 0.01, typical of a swing; near the separatrix C grows by orders of magnitude, which the
    pilot below catches), h ≤ the sample interval, hω ≤ MAX_H_OMEGA, and for the elastic string
    h √(k/m) ≤ 0.8 of the method's stability limit. The cheaper of RK4 and RK8 at that step (steps × the
    measured µs per step) is then checked by a pilot on the scene itself, step halving: the error of θ_h
