@@ -24,6 +24,7 @@ from pendulum_accel.bag.reader import Bag, read_bag
 from pendulum_accel.bag.writer import CUSTOM_SCENE, BagWriter
 from pendulum_accel.cli.info import info_lines
 from pendulum_accel.nodes.recorder_node import status_namespace
+from pendulum_accel.recording import visual
 from pendulum_accel.recording.analyze import analyze_bag
 from test.chain_helpers import Output
 from test.conftest import PYTHON, REPO, Spawn, cli
@@ -66,7 +67,7 @@ def test_a_status_name_gives_its_nodes_namespace_with_or_without_the_leading_sla
 
 def _drawn_frames(bag: Bag, namespace: str) -> set[str]:
     """The frame_id of every estimate, truth, marker and Imu message the chain in ``namespace`` recorded
-    (everything it publishes in a frame but its joint states, which keep theirs, as robots' do)."""
+    (everything it publishes in a frame but its joint states, which name none with a prefix, as robots' do)."""
     frames: set[str] = set()
     for topic, msgtype in (
         (bm.ACCEL_ESTIMATE, bm.ACCEL_WITH_COVARIANCE_STAMPED),
@@ -81,6 +82,31 @@ def _drawn_frames(bag: Bag, namespace: str) -> set[str]:
             inner = message.markers if msgtype == bm.MARKER_ARRAY else [message]
             frames |= {m.header.frame_id for m in inner}
     return frames
+
+
+def _joint_frames(bag: Bag, namespace: str) -> set[str]:
+    """The frame_id of every joint state the chain in ``namespace`` recorded."""
+    _, payloads = bag.raw(f"/{namespace}/{bm.JOINT_STATES}")
+    return {bm.deserialize(data, bm.JOINT_STATE).header.frame_id for data in payloads}  # type: ignore[attr-defined]
+
+
+def _truth_arrows(bag: Bag, namespace: str) -> tuple[list[float], list[float]]:
+    """(a the truth arrow draws, a the truth says) at each marker stamp of the chain in ``namespace``."""
+    _, truths = bag.raw(f"/{namespace}/{bm.ACCEL_TRUTH}")
+    truth: dict[tuple[int, int], float] = {}
+    for data in truths:
+        message: Any = bm.deserialize(data, bm.ACCEL_STAMPED)
+        truth[(message.header.stamp.sec, message.header.stamp.nanosec)] = message.accel.linear.x
+    drawn, said = [], []
+    _, payloads = bag.raw(f"/{namespace}/{bm.MARKERS}")
+    for data in payloads:
+        markers: Any = bm.deserialize(data, bm.MARKER_ARRAY)
+        for marker in markers.markers:
+            stamp = (marker.header.stamp.sec, marker.header.stamp.nanosec)
+            if marker.ns == "accel_truth" and stamp in truth:
+                drawn.append(marker.points[1].x / visual.ARROW_M_PER_MS2)
+                said.append(truth[stamp])
+    return drawn, said
 
 
 def _namespace(namespace: str) -> argparse.Namespace:
@@ -108,6 +134,13 @@ def test_two_namespaced_chains_on_one_domain_do_not_cross_talk(spawn: Spawn, tmp
         bag = read_bag(tmp_path / namespace)
         _own_topics_only(bag, namespace)
         assert _drawn_frames(bag, namespace) == {f"{namespace}/{bm.FRAME_ID}"}, namespace
+        # The joint states name no frame (as robots' do): an unprefixed base_link was another robot's.
+        assert _joint_frames(bag, namespace) == {""}, namespace
+        # The simulator's truth arrow draws its own truth: it was read back with the unprefixed layout,
+        # every field shifted by the prefix, and drew ~1e-319. A product by ARROW_M_PER_MS2 and the
+        # quotient back, each rounded once: within 2 ulp of |a| ≤ 3 m/s² (~1e-15); 1e-12 allows that.
+        drawn, said = _truth_arrows(bag, namespace)
+        assert drawn and np.allclose(drawn, said, rtol=0.0, atol=1e-12), namespace
         joint = f"/{namespace}/{bm.JOINT_STATES}"
         estimate = f"/{namespace}/{bm.ACCEL_ESTIMATE}"
         angles = bag.decode(joint).stamp

@@ -147,12 +147,18 @@ class EstimatorNode(ManagedNode):
         # Per message: our own JointState shape (the one joint, named ``joint``) read at fixed offsets,
         # the estimate written into a template (Layout.reader/writer); anything else goes through
         # rclpy's deserializer.
-        # The template carries joint_frame_id: a message of that frame is the chain's shape; any other
-        # frame (base_link too, when joint_frame_id names another) goes through the guard's check.
-        template = bm.joint_state(0, [self.joint], [0.0], [0.0], frame_id=self.joint_frame_id)
-        self._read_input = Layout.of(template, bm.JOINT_STATE).reader(
-            ("header.stamp.sec", "header.stamp.nanosec", "position[0]")
-        )
+        # The templates carry joint_frame_id and no frame (a namespaced chain's simulator, robots' drivers):
+        # a message of either is the chain's shape; any other frame (base_link too, when joint_frame_id
+        # names another) goes through the guard's check. The one the chain sends (none with a frame
+        # prefix) is tried first.
+        frames = [self.joint_frame_id, ""] if not self.frame_prefix else ["", self.joint_frame_id]
+        self._readers = [
+            Layout.of(bm.joint_state(0, [self.joint], [0.0], [0.0], frame_id=frame), bm.JOINT_STATE).reader(
+                ("header.stamp.sec", "header.stamp.nanosec", "position[0]")
+            )
+            for frame in dict.fromkeys(frames)
+        ]
+        self._read_input = self._readers[0]
         self._last_input = time.monotonic()
         # (arrival, CDR) of the angles taken by the executor, estimated in order by the worker thread.
         self._backlog: deque[tuple[float, bytes]] = deque()
@@ -546,6 +552,8 @@ class EstimatorNode(ManagedNode):
         """â for one angle sample (CDR) that arrived at ``now``, stamped like it: (sec, nanosec, estimate
         CDR, Imu CDR, â) to publish; None when the guard drops it or it warms up."""
         fields = self._read_input(data)
+        if fields is None and len(self._readers) > 1:
+            fields = self._readers[1](data)
         # The fast path's shape names ``joint`` in joint_frame_id already; any other shape (no velocity,
         # more joints, another frame) goes through rclpy and the guard's joint_state_problem.
         names: list[str] | None = None

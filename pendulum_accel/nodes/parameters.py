@@ -163,8 +163,8 @@ def frame_prefix_param(what: str) -> ParamSpec:
         "string",
         "",
         f"prepended to the frame_id of the {what} (e.g. car1/, as robot_state_publisher's frame_prefix), so "
-        "that a multi-robot TF tree resolves each chain's messages to its own robot; the joint states keep "
-        "their frame, as robots' joint_states do",
+        "that a multi-robot TF tree resolves each chain's messages to its own robot; with a prefix the "
+        "simulator's joint states name no frame, as robots' joint_states do",
     )
 
 

@@ -105,6 +105,9 @@ class SimulatorNode(ManagedNode):
         self.wait_timeout = float(values["wait_timeout"])
         self.clock_rate_hz = float(values["clock_rate_hz"])
         self._frame = str(values["frame_prefix"]) + bm.FRAME_ID  # the truth's and the markers' frame
+        # The joint states' frame: base_link as ever, and none with a prefix (as robots' joint_states), where
+        # an unprefixed base_link would name another robot's frame and no prefixed one measures the joint.
+        self._joint_frame = "" if values["frame_prefix"] else bm.FRAME_ID
         self.summary_file = str(values["summary_file"])
         self._outputs: dict[str, AnyPublisher] = {}
         self.counts: dict[str, int] = {}
@@ -287,7 +290,7 @@ class SimulatorNode(ManagedNode):
         """The scene's samples, serialised (logged with the time they took)."""
         scene = self.scene
         wall0 = time.perf_counter()
-        frames = serialise_run(run_scene(scene), self.clock_rate_hz, self._frame)
+        frames = serialise_run(run_scene(scene), self.clock_rate_hz, self._frame, self._joint_frame)
         self.get_logger().info(
             f"scene {scene.name}: {frames.size} samples over {frames.t[-1] - frames.t[0]:.3f} s simulated "
             f"in {time.perf_counter() - wall0:.2f} s; {frames.plan}"
@@ -313,8 +316,10 @@ class SimulatorNode(ManagedNode):
 
     def _prepare_markers(self, frames: Frames) -> None:
         """The MarkerArray rows of this run (MARKER_RATE_HZ of simulated time), from the published θ and a."""
-        joint = Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
-        truth = Layout.of(bm.accel_stamped(0, 0.0), bm.ACCEL_STAMPED)
+        # Read back with the layouts they were written in: a frame's length moves every field after it.
+        joint_state = bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0], frame_id=self._joint_frame)
+        joint = Layout.of(joint_state, bm.JOINT_STATE)
+        truth = Layout.of(bm.accel_stamped(0, 0.0, self._frame), bm.ACCEL_STAMPED)
         self._theta = joint.decode(frames.rows[bm.TOPIC_JOINT_STATES], ["position[0]"])["position[0]"]
         self._accel = truth.decode(frames.rows[bm.TOPIC_ACCEL_TRUTH], ["accel.linear.x"])["accel.linear.x"]
         self._length = float(self.scene.pendulum.length)

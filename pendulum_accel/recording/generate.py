@@ -128,15 +128,18 @@ def simulator_rows(
     string: StringColumns | None = None,
     clock_rate_hz: float = DEFAULT_CLOCK_RATE_HZ,
     frame_id: str = bm.FRAME_ID,
+    joint_frame_id: str = bm.FRAME_ID,
 ) -> SimulatorRows:
-    """What the simulator publishes at times t (s): measured θ and its rate, true a in ``frame_id`` (the
-    chain's frame prefix + base_link), (r − l, ṙ, T)."""
+    """What the simulator publishes at times t (s): measured θ and its rate (joint states in
+    ``joint_frame_id``), true a in ``frame_id`` (the chain's frame prefix + base_link), (r − l, ṙ, T)."""
     ns = bm.seconds_to_ns(t)
     if ns.size > 1 and np.any(np.diff(ns) <= 0):
         raise BagError("sample times must be strictly increasing after rounding to ns")
     n = ns.size
     stamp = _stamp_columns(ns)
-    joint = Layout.of(bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0]), bm.JOINT_STATE)
+    joint = Layout.of(
+        bm.joint_state(0, [bm.PENDULUM_JOINT], [0.0], [0.0], frame_id=joint_frame_id), bm.JOINT_STATE
+    )
     truth = Layout.of(bm.accel_stamped(0, 0.0, frame_id), bm.ACCEL_STAMPED)
     rows = {
         bm.TOPIC_JOINT_STATES: joint.encode(n, {**stamp, "position[0]": theta, "velocity[0]": theta_dot}),
@@ -169,9 +172,11 @@ class Frames:
         return int(self.t.size)
 
 
-def serialise_run(run: SceneRun, clock_rate_hz: float, frame_id: str = bm.FRAME_ID) -> Frames:
-    """Frames of a SceneRun: joint_states (measured θ and rate), truth (a, in ``frame_id``), string
-    (r − l, ṙ, T), clock."""
+def serialise_run(
+    run: SceneRun, clock_rate_hz: float, frame_id: str = bm.FRAME_ID, joint_frame_id: str = bm.FRAME_ID
+) -> Frames:
+    """Frames of a SceneRun: joint_states (measured θ and rate, in ``joint_frame_id``), truth (a, in
+    ``frame_id``), string (r − l, ṙ, T), clock."""
     t = np.asarray(run.t, dtype=np.float64)
     sim = simulator_rows(
         t,
@@ -181,6 +186,7 @@ def serialise_run(run: SceneRun, clock_rate_hz: float, frame_id: str = bm.FRAME_
         string=string_columns(run),
         clock_rate_hz=clock_rate_hz,
         frame_id=frame_id,
+        joint_frame_id=joint_frame_id,
     )
     return Frames(t, sim.rows, sim.clock_rows, sim.clock_mask, run.plan.explain())
 
