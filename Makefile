@@ -82,7 +82,8 @@ pytest: $(STAMP)
 NUMERICS_TESTS := $(addprefix test/test_,$(addsuffix .py, \
   physics_properties equation_of_motion rigid elastic multiplier grade linear exact variational \
   integrators dop853_tableau kernels profiles simulate extremes planner error_bounds \
-  estimators estimator_guard smoother calibration seed_spread sensor allan accel_csv real_motion_profiles corpus_scenes coverage \
+  estimators estimator_guard smoother calibration seed_spread sensor allan accel_csv corpus_scenes coverage \
+  speed_trace speed_csv csv_layouts bundled_recordings bag_topic_input \
   lecture lab sweep scene_run plan_honesty wrap_bound bag_golden figures cpu_emulation bench_integrated_walk \
   trend_modes))
 
