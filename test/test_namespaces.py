@@ -67,7 +67,7 @@ def test_a_status_name_gives_its_nodes_namespace_with_or_without_the_leading_sla
 
 def _drawn_frames(bag: Bag, namespace: str) -> set[str]:
     """The frame_id of every estimate, truth, marker and Imu message the chain in ``namespace`` recorded
-    (everything it publishes in a frame but its joint states, which name none with a prefix, as robots' do)."""
+    (everything it publishes in a frame but its joint states, which name none under a prefix)."""
     frames: set[str] = set()
     for topic, msgtype in (
         (bm.ACCEL_ESTIMATE, bm.ACCEL_WITH_COVARIANCE_STAMPED),
