@@ -45,7 +45,6 @@ from sensor_msgs.msg import Imu, JointState
 from visualization_msgs.msg import MarkerArray
 
 from pendulum_accel.bag import messages as bm
-from pendulum_accel.bag.cdr_layout import Layout
 from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.estimators import Estimator, make_estimator
 from pendulum_accel.estimators.guard import GuardedEstimator, GuardReport, GuardState, InputGuard
@@ -53,6 +52,7 @@ from pendulum_accel.estimators.kalman import DEFAULT_PRESET
 from pendulum_accel.estimators.motion import MotionChoice, stated_motion
 from pendulum_accel.nodes.conversions import pendulum_angle, stamp_seconds
 from pendulum_accel.nodes.diagnostics import diagnostic_array, hardware_id_of, status_name
+from pendulum_accel.nodes.estimator_messages import angle_readers, output_writers
 from pendulum_accel.nodes.graph import missing_readers, node_names
 from pendulum_accel.nodes.parameters import ESTIMATOR, ESTIMATOR_CONFIG, IMU_TOPIC, SCENE_PRESET
 from pendulum_accel.nodes.qos import (
@@ -144,20 +144,7 @@ class EstimatorNode(ManagedNode):
         self._last_stamp: tuple[int, int] | None = None  # (sec, nanosec) of the latest input
         # (t, sec, nanosec) of the inputs a lagged estimate may describe: its stamp is the described sample's.
         self._stamps: deque[tuple[float, int, int]] = deque()
-        # Per message: our own JointState shape (the one joint, named ``joint``) read at fixed offsets,
-        # the estimate written into a template (Layout.reader/writer); anything else goes through
-        # rclpy's deserializer.
-        # The templates carry joint_frame_id and no frame (a namespaced chain's simulator, robots' drivers):
-        # a message of either is the chain's shape; any other frame (base_link too, when joint_frame_id
-        # names another) goes through the guard's check. The one the chain sends (none with a frame
-        # prefix) is tried first.
-        frames = [self.joint_frame_id, ""] if not self.frame_prefix else ["", self.joint_frame_id]
-        self._readers = [
-            Layout.of(bm.joint_state(0, [self.joint], [0.0], [0.0], frame_id=frame), bm.JOINT_STATE).reader(
-                ("header.stamp.sec", "header.stamp.nanosec", "position[0]")
-            )
-            for frame in dict.fromkeys(frames)
-        ]
+        self._readers = angle_readers(self.joint, self.joint_frame_id, self.frame_prefix)
         self._read_input = self._readers[0]
         self._last_input = time.monotonic()
         # (arrival, CDR) of the angles taken by the executor, estimated in order by the worker thread.
@@ -309,21 +296,14 @@ class EstimatorNode(ManagedNode):
         )
 
     def _build_writers(self) -> None:
-        """CDR writers of the estimate and the Imu: stamp, â and var(â) per message; frame, g fixed. Every
-        frame carries frame_prefix (car1/base_link in /car1), so a multi-robot TF tree resolves each."""
-        stamp = ("header.stamp.sec", "header.stamp.nanosec")
-        estimate = bm.accel_with_covariance_stamped(0, 0.0, 0.0, self.frame_prefix + self.frame_id)
-        self._write_estimate = Layout.of(estimate, bm.ACCEL_WITH_COVARIANCE_STAMPED).writer(
-            (*stamp, "accel.accel.linear.x", "accel.covariance[0]")
-        )
-        gravity = float(self.get_parameter("gravity").value)
-        imu_frame = self.frame_prefix + self.imu_frame_id
-        template = bm.imu(0, 0.0, gravity, 0.0, self.unmeasured_accel_variance, imu_frame)
-        self._write_imu = Layout.of(template, bm.IMU).writer(
-            (*stamp, "linear_acceleration.x", "linear_acceleration_covariance[0]")
-        )
-        self._write_marker = visual.estimate_marker_writer(
-            float(self.get_parameter("length").value), self.frame_prefix + self.frame_id
+        """The estimate's, Imu's and marker's writers. Every frame carries frame_prefix (car1/base_link in
+        /car1), so a multi-robot TF tree resolves each."""
+        self._writers = output_writers(
+            self.frame_prefix + self.frame_id,
+            self.frame_prefix + self.imu_frame_id,
+            float(self.get_parameter("gravity").value),
+            self.unmeasured_accel_variance,
+            float(self.get_parameter("length").value),
         )
 
     def _sensor_range(self) -> float:
@@ -581,8 +561,8 @@ class EstimatorNode(ManagedNode):
             if self._stamps and self._stamps[0][0] == estimate.time:
                 sec, nanosec = self._stamps[0][1], self._stamps[0][2]
         self._trim_stamps()
-        out = self._write_estimate(sec, nanosec, estimate.a, estimate.variance)
-        imu = self._write_imu(sec, nanosec, estimate.a, estimate.variance)
+        out = self._writers.estimate(sec, nanosec, estimate.a, estimate.variance)
+        imu = self._writers.imu(sec, nanosec, estimate.a, estimate.variance)
         return sec, nanosec, out, imu, estimate.a
 
     def _publish_estimate(self, sec: int, nanosec: int, out: Any, imu: Any, accel: float) -> None:
@@ -598,7 +578,7 @@ class EstimatorNode(ManagedNode):
         tick = math.floor(stamp_seconds(sec, nanosec) * visual.MARKER_RATE_HZ)
         if tick != self._marker_tick:  # the estimate's arrow at MARKER_RATE_HZ of stamp time
             self._marker_tick = tick
-            marker = self._write_marker(sec, nanosec, accel)
+            marker = self._writers.marker(sec, nanosec, accel)
             publish_blocking(self.marker_publisher, marker, self._halted)
 
     def _trim_stamps(self) -> None:
