@@ -528,7 +528,7 @@ class EstimatorNode(ManagedNode):
                 with self._work_lock:
                     self._publish_diagnostics()
 
-    def _estimate(self, now: float, data: bytes) -> tuple[int, int, Any, Any, float] | None:
+    def _estimate(self, now: float, data: bytes) -> tuple[int, int, bytes, bytes, float] | None:
         """â for one angle sample (CDR) that arrived at ``now``, stamped like it: (sec, nanosec, estimate
         CDR, Imu CDR, â) to publish; None when the guard drops it or it warms up."""
         fields = self._read_input(data)
@@ -565,7 +565,7 @@ class EstimatorNode(ManagedNode):
         imu = self._writers.imu(sec, nanosec, estimate.a, estimate.variance)
         return sec, nanosec, out, imu, estimate.a
 
-    def _publish_estimate(self, sec: int, nanosec: int, out: Any, imu: Any, accel: float) -> None:
+    def _publish_estimate(self, sec: int, nanosec: int, out: bytes, imu: bytes, accel: float) -> None:
         """Publish one estimate and its Imu (waiting while a keep-all reader pushes back), and the marker
         arrow at MARKER_RATE_HZ of stamp time."""
         if publish_blocking(self.estimate_publisher, out, self._halted) and publish_blocking(
