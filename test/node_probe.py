@@ -35,10 +35,12 @@ SPEC keys (all optional):
   "linger_until": [state, seconds] then keep listening until a /diagnostics status whose state is
                                   ``state`` arrives after the feed and burst and after every angle
                                   published was acknowledged (at most seconds)
-  "qos_graph": [[topic, ...], n, seconds]  at the end, every other node's endpoint on these topics as the
-                                  graph lists it, once there are n of them (spinning, at most seconds):
-                                  [[node's full name, topic, "publisher"|"subscription", reliability,
-                                  durability]], sorted
+  "qos_graph": [[topic, ...], n, seconds, [node, ...]]  at the end, the endpoints on these topics of the
+                                  named nodes (full names) as the graph lists them, once there are n of
+                                  them (spinning, at most seconds): [[node's full name, topic,
+                                  "publisher"|"subscription", reliability, durability]], sorted. Only the
+                                  named nodes count: a stopped test's nodes linger in the graph until
+                                  their lease ends, and their endpoints would fill the count early
 Prints one JSON object: {"estimates": [[t, a, var], ...], "diagnostics": [[level, message, values]],
 "set": [[successful, reason], ...], "get": {name: value}, "set_seconds": s (from the request, sent as the
 feed and burst end, to the answer; the service is discovered before the feed), "diagnostics_after":
@@ -260,8 +262,9 @@ def main() -> None:
     if "qos_graph" in spec:
         topics, count = list(spec["qos_graph"][0]), int(spec["qos_graph"][1])
         end = time.monotonic() + float(spec["qos_graph"][2])
+        named = set(spec["qos_graph"][3])
         while True:
-            out["qos_graph"] = qos_graph(node, topics)
+            out["qos_graph"] = [row for row in qos_graph(node, topics) if row[0] in named]
             if len(out["qos_graph"]) >= count or time.monotonic() >= end:
                 break
             spin_for(node, 0.1)
