@@ -24,13 +24,26 @@ from test.fleet_rows import _no_leftover_workers  # noqa: F401 (the autouse fixt
 WORKING_CPU_S = 6.0
 
 
+def _stat(pid: int | str) -> list[str] | None:
+    """/proc/PID/stat's fields after the command name (state, ppid, pgrp, session, …); None once gone."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+
+
+def _pids() -> list[str]:
+    """Every process id /proc lists now."""
+    return [entry.name for entry in Path("/proc").iterdir() if entry.name.isdigit()]
+
+
 def _descendants(pid: int) -> list[int]:
     """The processes below ``pid`` (children, grandchildren, …), from /proc."""
     parents: dict[int, int] = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        with contextlib.suppress(OSError, ValueError, IndexError):
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-            parents[int(stat.parent.name)] = int(fields[1])
+    for other in _pids():
+        fields = _stat(other)
+        if fields is not None:
+            parents[int(other)] = int(fields[1])
     found, frontier = [], [pid]
     while frontier:
         here = frontier.pop()
@@ -42,9 +55,8 @@ def _descendants(pid: int) -> list[int]:
 
 def _cpu_seconds(pid: int) -> float:
     """utime + stime of ``pid`` in seconds (/proc/PID/stat); 0 once it is gone."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    except OSError:
+    fields = _stat(pid)
+    if fields is None:
         return 0.0
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
@@ -154,20 +166,18 @@ with dask_client(None, 1) as client:
 
 def _running(pid: int) -> bool:
     """True while ``pid`` exists and is not a zombie (an orphan's new parent may not reap it at once)."""
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except FileNotFoundError:
-        return False
+    fields = _stat(pid)
+    return fields is not None and fields[0] != "Z"
 
 
 def _session(sid: int) -> list[str]:
     """The command lines of the running (not zombie) processes of session ``sid``."""
     found = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        with contextlib.suppress(OSError):
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-            if int(fields[3]) == sid and fields[0] != "Z":
-                found.append((stat.parent / "cmdline").read_text().replace("\0", " ")[:120])
+    for pid in _pids():
+        fields = _stat(pid)
+        if fields is not None and int(fields[3]) == sid and fields[0] != "Z":
+            with contextlib.suppress(OSError):
+                found.append(Path(f"/proc/{pid}/cmdline").read_text().replace("\0", " ")[:120])
     return found
 
 

@@ -472,7 +472,18 @@ class EstimatorNode(ManagedNode):
         self._last_input = now
         self.inputs += 1
         backlog = self._backlog
-        if len(backlog) >= self.backlog_limit and not self._behind_said:
+        if len(backlog) >= self.backlog_limit:  # one comparison per angle while there is room
+            self._wait_for_room()
+        backlog.append((now, data))  # deque.append and popleft are atomic: no lock for the hand-over
+        if self._worker_waits:
+            with self._queue_changed:
+                self._queue_changed.notify_all()
+
+    def _wait_for_room(self) -> None:
+        """Wait while the backlog is full (back-pressure) and the node is not stopping, answering parameter
+        requests meanwhile; say once that the estimator is slower than its input."""
+        backlog = self._backlog
+        if not self._behind_said:
             self._behind_said = True
             self.get_logger().warning(
                 f"the estimator is slower than its input: {len(backlog)} angles wait (backlog_limit); the "
@@ -487,10 +498,6 @@ class EstimatorNode(ManagedNode):
             # The executor is held here: the parameter requests it would run after the queued angles are
             # answered now (outside the lock: a parameter change takes the worker's _work_lock).
             serve_parameter_requests(self)
-        backlog.append((now, data))  # deque.append and popleft are atomic: no lock for the hand-over
-        if self._worker_waits:
-            with self._queue_changed:
-                self._queue_changed.notify_all()
 
     def _work(self) -> None:
         """Worker thread: estimate the backlog in order and publish /diagnostics every diagnostics_period
