@@ -215,3 +215,38 @@ def test_killed_launcher_takes_its_nodes_with_it(spawn: Spawn, tmp_path: Path) -
     # The launcher's scratch went where TMPDIR said, so tmp_path's cleanup removes what it left.
     left = [p.name for p in (tmp_path / "launcher_tmp").iterdir()]
     assert len(left) == 1 and left[0].startswith("pendulum_accel_chain_"), left
+
+
+class _Polls:
+    """A stand-in for a child's Popen: poll() gives ``codes`` in turn, then the last one for good."""
+
+    def __init__(self, *codes: int | None) -> None:
+        self.codes = list(codes)
+        self.returncode: int | None = None
+        self.pid = 1
+
+    def poll(self) -> int | None:
+        self.returncode = self.codes.pop(0) if len(self.codes) > 1 else self.codes[0]
+        return self.returncode
+
+
+def test_a_simulator_ending_between_the_supervisors_two_polls_is_the_scene_finishing() -> None:
+    """The supervisor polls the simulator, then every child: a simulator that exits 0 between the two
+    polls had been reported as a node that died (exit 1, no recorder line; CI, once). Its end is read
+    where the simulator is, on the next round."""
+    from pendulum_accel.nodes.launcher import Chain, Child
+
+    chain = Chain.__new__(Chain)
+    chain.log, chain._signalled, chain._summaries = False, 0, None
+    simulator = Child("simulator", [], _Polls(None, 0))  # type: ignore[arg-type]
+    recorder = Child("recorder", [], _Polls(None))  # type: ignore[arg-type]
+    chain.children = [simulator, recorder]
+    stopped: list[str] = []
+
+    def stop_child(child: Child, timeout: float = 0.0) -> None:
+        """Note the stop instead of signalling a process."""
+        stopped.append(child.role)
+
+    chain._stop_child = stop_child  # type: ignore[method-assign]
+    assert chain._supervise() == 0
+    assert stopped == ["simulator", "recorder"]
