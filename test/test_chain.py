@@ -250,3 +250,51 @@ def test_a_simulator_ending_between_the_supervisors_two_polls_is_the_scene_finis
     chain._stop_child = stop_child  # type: ignore[method-assign]
     assert chain._supervise() == 0
     assert stopped == ["simulator", "recorder"]
+
+
+_BUILT_UNDER_A_SIGNAL = """
+import os, signal, sys, time
+from pendulum_accel.nodes.runtime import ChainNode, run_node
+
+class Node(ChainNode):
+    def __init__(self) -> None:
+        super().__init__("built_under_a_signal")
+        if sys.argv[1] == "holds":
+            self.holds_input()  # as the estimator does before it subscribes, the recorder before its bag
+        os.kill(os.getpid(), signal.SIGINT)  # the launcher's stop, while the constructor still runs
+        time.sleep(0.2)  # Python runs the handler here, inside the constructor
+        print("built", flush=True)
+
+    def request_stop(self) -> None:
+        print("stop requested", flush=True)
+        self.finish(0)
+
+    def close(self) -> None:
+        print("closed", flush=True)
+
+raise SystemExit(run_node(Node, "built_under_a_signal", []))
+"""
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("holds", [True, False], ids=["holding-input", "holding-nothing"])
+def test_a_stop_that_comes_while_a_node_is_built_drains_it_once_it_holds_input(holds: bool) -> None:
+    """The launcher's SIGINT reached an estimator still in its constructor, after it had subscribed (its
+    first log line took the rest of the scene on a loaded machine): the process ended before its spin,
+    with the acknowledged angles never estimated and no counters (CI, once). A node that holds input now
+    gets request_stop once built, and close; one that holds nothing yet still ends at once."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", _BUILT_UNDER_A_SIGNAL, "holds" if holds else "empty"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    said = done.stdout.split()
+    if holds:
+        assert done.stdout.splitlines() == ["built", "stop requested", "closed"], done.stdout + done.stderr
+    else:
+        assert "built" not in said and "closed" not in said, done.stdout + done.stderr

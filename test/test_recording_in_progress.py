@@ -450,3 +450,41 @@ def test_a_run_told_to_overwrite_a_live_bag_leaves_it_alone(tmp_path: Path) -> N
     assert f"bag_recorder: error: bag {bag} is being recorded by holder_test (pid {proc.pid}" in run.text
     assert f"bag: {bag}" not in run.text and "messages:" not in run.text, run.text
     assert after == before
+
+
+def test_a_run_whose_bag_is_too_short_to_summarise_warns_and_exits_1(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """What CI met once: the cut copy left in DIR held 1 angle, so the summary's analysis refused it (exit 2,
+    "at least 2 are needed") before the run said the bag was not complete. Without ROS: the chain is
+    replaced by one that leaves a 1-angle bag whose metadata.yaml lists 5; the run says why it has no
+    summary, gives the WARNING, and exits 1."""
+    import yaml
+
+    from pendulum_accel.nodes import launcher
+    from pendulum_accel.recording.generate import generate_bag
+
+    def leave_a_cut_bag(config: launcher.ChainConfig, *, log: bool = True) -> int:
+        """A bag at config.record with one angle, its metadata.yaml claiming four more."""
+        assert config.record is not None
+        generate_bag("at_rest", config.record, duration=0.005)  # 100 Hz: the sample at t = 0 only
+        meta_path = config.record / "metadata.yaml"
+        meta = yaml.safe_load(meta_path.read_text())
+        info = meta["rosbag2_bagfile_information"]
+        for entry in info["topics_with_message_count"]:
+            if entry["topic_metadata"]["name"] == bm.TOPIC_JOINT_STATES:
+                assert entry["message_count"] == 1, entry
+                entry["message_count"] += 4
+        info["message_count"] += 4
+        meta_path.write_text(yaml.safe_dump(meta))
+        return 0
+
+    monkeypatch.setattr(launcher, "require_rclpy", lambda: None)
+    monkeypatch.setattr(launcher, "run_chain", leave_a_cut_bag)
+    monkeypatch.setattr("pendulum_accel.kernel_cache.warm_if_cold", lambda say: None)
+    bag = tmp_path / "cut"
+    code = main(["run", "at_rest", "--fast", "--record", str(bag)])
+    err = capsys.readouterr().err
+    assert code == 1, err
+    assert "no summary: " in err and "at least 2 are needed" in err, err
+    assert f"WARNING: the recorded bag {bag} is not complete: " in err, err

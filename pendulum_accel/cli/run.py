@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pendulum_accel.errors import ParameterError
+from pendulum_accel.errors import ParameterError, PendulumAccelError
 from pendulum_accel.overrides import SET_HELP, parse_override
 
 if TYPE_CHECKING:
@@ -193,10 +193,21 @@ def run(args: argparse.Namespace) -> int:
         and (config.record / "metadata.yaml").exists()
         and not _recorded_by_another(config.record)
     ):
-        for line in summary_lines(config.record, config.estimator):
-            print(line)
-        if code == 0:
-            code = _check_recording(config.record)
+        # Checked before the summary reads it: a bag moved or cut under its recorder may hold too little
+        # to summarise, and the run must then end with the WARNING that says so (exit 1), not the summary's
+        # error (exit 2).
+        problem = _recording_problem(config.record)
+        try:
+            for line in summary_lines(config.record, config.estimator):
+                print(line)
+        except PendulumAccelError as err:
+            if problem is None:
+                raise
+            print(f"pendulum-accel run: no summary: {err}", file=sys.stderr)
+        if problem is not None:
+            print(problem, file=sys.stderr)
+        if code == 0 and problem is not None:
+            code = 1
     return code
 
 
@@ -204,7 +215,6 @@ def _recorded_by_another(path: Path) -> bool:
     """True when another process is writing the bag at ``path`` (its lock, bag/lock.py): this run's
     recorder refused to replace it, and the bag there is not this run's to summarise."""
     from pendulum_accel.bag.lock import holder
-    from pendulum_accel.errors import PendulumAccelError
 
     try:
         found = holder(path) if path.is_dir() else None
@@ -213,22 +223,20 @@ def _recorded_by_another(path: Path) -> bool:
     return found is not None and found.live and not found.ours
 
 
-def _check_recording(path: Path) -> int:
-    """0 when the bag the run recorded reads [complete] as ``info`` checks it (every message the recorder
-    says it wrote is in the file, the publishers' counts agree), else one WARNING line and 1: a bag
+def _recording_problem(path: Path) -> str | None:
+    """None when the bag the run recorded reads [complete] as ``info`` checks it (every message the recorder
+    says it wrote is in the file, the publishers' counts agree), else the one WARNING line to print: a bag
     moved or replaced under the recorder holds fewer messages than the run reported."""
     from pendulum_accel.bag.reader import read_bag
     from pendulum_accel.cli.info import bag_state
-    from pendulum_accel.errors import PendulumAccelError
 
     try:
         state, losses = bag_state(read_bag(path))
     except PendulumAccelError as err:
         state, losses = str(err), []
     if state == "complete":
-        return 0
-    print(f"WARNING: the recorded bag {path} is not complete: {'; '.join(losses) or state}", file=sys.stderr)
-    return 1
+        return None
+    return f"WARNING: the recorded bag {path} is not complete: {'; '.join(losses) or state}"
 
 
 def _empty_bag(path: Path) -> bool:

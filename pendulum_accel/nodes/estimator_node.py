@@ -389,6 +389,7 @@ class EstimatorNode(ManagedNode):
             # The description may solve the filter's steady state (scipy): before subscribing, so the
             # first angles do not queue behind it.
             description = self.guarded.estimator.describe()
+            self.holds_input()
             self._subscription = make_subscription(
                 self,
                 JointState,
@@ -634,9 +635,11 @@ class EstimatorNode(ManagedNode):
             self.finish(0)
 
     def request_stop(self) -> None:
-        """Drain: keep estimating until the input has been idle for a moment, then finish (at once when
-        not configured: nothing to drain)."""
+        """Drain: keep estimating until the input has been idle for _DRAIN_IDLE since the later of its last
+        angle and this request, then finish (at once when not configured: nothing to drain). Counted from
+        the request too: one deferred while the node was built comes before its first angle is taken."""
         self._stopping_since = time.monotonic()
+        self._last_input = max(self._last_input, self._stopping_since)
         if not self._timers:
             self.finish(0)
 

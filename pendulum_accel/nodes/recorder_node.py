@@ -149,6 +149,7 @@ class RecorderNode(ChainNode):
                     "have none), so its messages cannot be received"
                 )
         custom_data = {**custom_data_for(scene), bm.CUSTOM_TOPICS: json.dumps(topic_map(asked, resolved))}
+        self.holds_input()
         self.writer = BagWriter(Path(path), overwrite=overwrite, custom_data=custom_data, program=NODE_NAME)
         self.received: dict[str, int] = dict.fromkeys(topics, 0)
         self._offsets = {topic: stamp_offset(self.types[topic]) for topic in topics}
@@ -360,8 +361,11 @@ class RecorderNode(ChainNode):
         return out
 
     def request_stop(self) -> None:
-        """Drain: keep recording until no message came for a moment, then finish."""
+        """Drain: keep recording until no message came for _DRAIN_IDLE since the later of the last message
+        and this request (one deferred while the node was built comes before its first message), then
+        finish."""
         self._stopping_since = time.monotonic()
+        self._last_message = max(self._last_message, self._stopping_since)
 
     def _stop_fast_path(self) -> None:
         """Send every later message through _on_message, which drops it once the recorder is closed."""

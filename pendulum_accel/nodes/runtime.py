@@ -53,6 +53,11 @@ AnyParameter: TypeAlias = Parameter[Any]
 _ACK_SLICE = Duration(seconds=0.2)
 
 
+# The node being built (run_node's factory) once it holds input: a subscription whose messages the middleware
+# acknowledges at once, or an open bag. A stop signal then waits for the node to exist and drain it.
+_HOLDING: list[ChainNode] = []
+
+
 class ChainNode(Node):
     """A Node that may end on its own (``finish``), stops gracefully on request, and ``close``s its files."""
 
@@ -61,6 +66,16 @@ class ChainNode(Node):
         """Node(node_name, **kwargs) plus the ``finished`` future that ends the spin."""
         super().__init__(node_name, **kwargs)
         self.finished: Future[int] = Future()
+
+    def holds_input(self) -> None:
+        """Say, before subscribing or opening a file, that a stop must now drain this node, not drop it.
+
+        A stop signal that comes while the node is still being built (its constructor subscribes as soon as
+        its readers are there, and rclpy's first log line alone can take a second on a loaded machine)
+        is kept until the node exists, then asked as request_stop: it used to end the process before its
+        spin, the angles the middleware had acknowledged never estimated and no counters written."""
+        if not _HOLDING:
+            _HOLDING.append(self)
 
     def finish(self, code: int = 0) -> None:
         """End the spin of ``run_node`` with exit code ``code`` (idempotent)."""
@@ -422,7 +437,7 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
     stops = 0
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
-        """First signal: request_stop(); later ones: finish now."""
+        """First signal: request_stop() (once the node exists, if it holds input while built); later: now."""
         nonlocal stops
         stops += 1
         if isinstance(node, ChainNode):
@@ -430,7 +445,7 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
                 node.request_stop()
             else:
                 node.finish(0)
-        else:
+        elif stops > 1 or not _HOLDING:  # nothing taken yet (a compile, say): end the start-up at once
             raise KeyboardInterrupt
 
     use_package_profile()
@@ -443,6 +458,8 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
         signal.signal(signal.SIGINT, on_signal)
         signal.signal(signal.SIGTERM, on_signal)
         node = factory()
+        if stops and isinstance(node, ChainNode):  # a stop that came while it was built (holds_input)
+            node.request_stop()
         # The spinning thread only: it runs every callback. With the DDS threads at FIFO too, they would
         # compete with it, and with every other process, at the same priority.
         priority_problem = apply_rt_priority()
