@@ -377,6 +377,10 @@ def test_analyze_splits_a_real_trace_into_steady_and_after_change(
         assert 1.0 <= figures[f"nees_{window}_trials"] <= getattr(result.calibration, window).n
         low, high = figures[f"nees_{window}_share_2sigma_low"], figures[f"nees_{window}_share_2sigma_high"]
         assert low <= share <= high
+        # The share beyond 3σ beside it: the same computation as the result's (a float's JSON is exact),
+        # and never above the 2σ share (NEES > 9 implies NEES > 4).
+        beyond3 = figures[f"nees_{window}_share_3sigma"]
+        assert beyond3 == getattr(result.calibration, window).share_3sigma and 0.0 <= beyond3 <= share
     assert figures["motion_model"] == result.motion_model == "auto"  # learned from the angles, no scene rule
 
 

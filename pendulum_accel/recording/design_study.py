@@ -8,7 +8,7 @@ pooled: RMS of e = â − a at each lag (the fixed-lag curve), the live filter's
 peak) and its calibration (share of errors beyond 2σ in steady stretches and within 2 s after a change,
 a change being |a(t) − a(t − 1 s)| > 0.2 m/s²), each share with the independent trials behind it
 (recording.coverage; the cases are independent runs, so their trials add) and its 95 % interval at
-those trials. The accuracy–latency front is the set of (latency, RMS)
+those trials, and beside it the share beyond 3σ. The accuracy–latency front is the set of (latency, RMS)
 points, latency = lag + delay, that no other point beats on both.
 """
 
@@ -104,10 +104,16 @@ DESIGN_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("trials_steady", "double", "independent errors behind share_2sigma_steady, summed over the cases"),
     ("share_2sigma_steady_low", "double", "lower end of that share's 95 % Wilson interval at those trials"),
     ("share_2sigma_steady_high", "double", "upper end of that interval"),
+    (
+        "share_3sigma_steady",
+        "double",
+        "share of the live filter's steady-state errors beyond 3σ (a calibrated Gaussian σ: 0.27 %)",
+    ),
     ("share_2sigma_after_change", "double", "the same within 2 s after a change of a(t)"),
     ("trials_after_change", "double", "independent errors behind share_2sigma_after_change"),
     ("share_2sigma_after_change_low", "double", "lower end of that share's 95 % Wilson interval"),
     ("share_2sigma_after_change_high", "double", "upper end of that interval"),
+    ("share_3sigma_after_change", "double", "the share beyond 3σ within 2 s after a change of a(t)"),
     ("nees_mean", "double", "mean e²/σ² of the live filter (1 when σ tells the truth)"),
 )
 """The design table: (column, Arrow type, meaning); one rms_lag_LAG column per asked lag. A share's cells
@@ -175,12 +181,14 @@ def case_signals(
 
 
 class WindowSums(TypedDict):
-    """One window's sums in one case: samples, those beyond 2σ (NEES > 4), Σ NEES, independent trials."""
+    """One window's sums in one case: samples, those beyond 2σ (NEES > 4) and 3σ (NEES > 9), Σ NEES,
+    independent trials."""
 
     n: int
     beyond: int
     nees_sum: float
     trials: float
+    beyond_3sigma: int
 
 
 class CaseSums(TypedDict):
@@ -200,8 +208,8 @@ DesignRow = dict[str, str | float | None]
 
 def run_case(case: Case) -> CaseSums:
     """Sums for pooling one case: per lag Σe² and n; the live filter's delay and, per window (steady,
-    after a change), its samples n, those beyond 2σ (NEES = e²/var > 4), Σ NEES and the independent
-    trials behind them (recording.coverage.nees_windows)."""
+    after a change), its samples n, those beyond 2σ (NEES = e²/var > 4) and 3σ (> 9), Σ NEES and the
+    independent trials behind them (recording.coverage.nees_windows)."""
     t, theta, accel, settings = case_signals(case)
     keep = t >= WARMUP
     out: CaseSums = {"sq": {}, "n": int(keep.sum())}
@@ -218,6 +226,7 @@ def run_case(case: Case) -> CaseSums:
                     "beyond": int(np.sum(z > 4.0)),
                     "nees_sum": float(np.sum(z)),
                     "trials": trials,
+                    "beyond_3sigma": int(np.sum(z > 9.0)),
                 }
             out["delay"] = group_delay(np.asarray(est)[keep], accel[keep], case.design.rate_hz)
     return out
@@ -225,12 +234,15 @@ def run_case(case: Case) -> CaseSums:
 
 def _share_cells(window: str, counts: Sequence[WindowSums]) -> dict[str, float | None]:
     """share_2sigma_{window} = Σ beyond / Σ n over the cases, trials_{window} = Σ trials (the cases are
-    independent runs: their independent trials add) and the share's 95 % interval
-    share_2sigma_{window}_low/_high (coverage.share_interval_cells); None where no case has a sample."""
+    independent runs: their independent trials add), the share's 95 % interval
+    share_2sigma_{window}_low/_high (coverage.share_interval_cells), and share_3sigma_{window} =
+    Σ beyond_3sigma / Σ n; None where no case has a sample."""
     n = sum(c["n"] for c in counts)
     share = sum(c["beyond"] for c in counts) / n if n else math.nan
     trials = math.fsum(c["trials"] for c in counts if c["n"]) if n else math.nan
-    return coverage.share_interval_cells(share, trials, f"share_2sigma_{window}", f"trials_{window}")
+    cells = coverage.share_interval_cells(share, trials, f"share_2sigma_{window}", f"trials_{window}")
+    cells[f"share_3sigma_{window}"] = sum(c["beyond_3sigma"] for c in counts) / n if n else None
+    return cells
 
 
 def summarise(design: SensorDesign, parts: Sequence[CaseSums], lags: Sequence[float]) -> DesignRow:
