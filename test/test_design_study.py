@@ -43,6 +43,29 @@ def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path)
     pts = ds.front(rows)
     assert all(a[0] <= b[0] and a[1] > b[1] for a, b in itertools.pairwise(pts))
     assert ds.study(designs, ["husky_odom"], workers=2, distributed=True, **kwargs) == rows
+    _assert_curves_are_named(rows)
+
+
+def _assert_curves_are_named(rows: list[dict[str, Any]]) -> None:
+    """The accuracy–latency plot names every design's curve in its legend (then the front), each curve in
+    a colour or line style of its own, its points the row's (latency, RMS) at each lag."""
+    import matplotlib.pyplot as plt
+
+    fig = ds.front_figure(rows)
+    try:
+        (ax,) = fig.axes
+        legend = ax.get_legend()
+        assert legend is not None
+        assert [t.get_text() for t in legend.get_texts()] == [*(r["design"] for r in rows), "front"]
+        lines = {line.get_label(): line for line in ax.get_lines()}
+        looks = {(str(lines[r["design"]].get_color()), lines[r["design"]].get_linestyle()) for r in rows}
+        assert len(looks) == len(rows)
+        for r in rows:
+            x, y = (np.asarray(v, dtype=float) for v in lines[r["design"]].get_data())
+            assert y.tolist() == [r["rms_lag_0"], r["rms_lag_0.5"]]  # the row's floats, drawn as they are
+            assert x.tolist() == [ds.design_latency(lag, r) for lag in (0.0, 0.5)]
+    finally:
+        plt.close(fig)
 
 
 def _case_trials(case: ds.Case) -> dict[str, tuple[float, int, int]]:

@@ -19,7 +19,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, NotRequired, TypedDict
+from typing import TYPE_CHECKING, Literal, NotRequired, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +32,9 @@ from pendulum_accel.recording import coverage
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.scene import load_scene
 from pendulum_accel.sensor import MAX_SAMPLES, SensorModel
+
+if TYPE_CHECKING:  # matplotlib is loaded when a plot is drawn
+    from matplotlib.figure import Figure
 
 WARMUP = 2.0  # s left out at the start of every case: the filters start from one sample
 DEFAULT_LAGS = (0.0, 0.1, 0.25, 0.5, 1.0)  # s: the fixed-lag curve
@@ -334,28 +337,45 @@ def front(rows: Sequence[Mapping[str, object]]) -> list[tuple[float, float, str]
 
 
 def plot_front(rows: Sequence[Mapping[str, object]], path: Path) -> None:
-    """Every design's fixed-lag curve (latency, RMS) in grey, the front on top."""
+    """front_figure of ``rows``, saved to ``path`` at 110 dpi."""
+    import matplotlib.pyplot as plt
+
+    fig = front_figure(rows)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+CURVE_STYLES = ("-", "--", ":", "-.")
+"""Line styles cycled once the colour cycle (tab20) is used up, so no two of 80 designs' curves look alike."""
+
+
+def front_figure(rows: Sequence[Mapping[str, object]]) -> Figure:
+    """Every design's fixed-lag curve (latency, RMS), each in its own colour and named in the legend beside
+    the axes (its design string), the front on top in bold."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5))
-    for row in rows:
+    colours = matplotlib.colormaps["tab20"]
+    fig, ax = plt.subplots(figsize=(11, 5.5))
+    for i, row in enumerate(rows):
         lags = sorted(float(k[len("rms_lag_") :]) for k in row if k.startswith("rms_lag_"))
         x = [design_latency(g, row) for g in lags]
         y = np.array([row[f"rms_lag_{g:g}"] for g in lags], dtype=float)
-        ax.plot(x, y, color="0.75", lw=0.8, marker=".", ms=3)
+        style = CURVE_STYLES[(i // colours.N) % len(CURVE_STYLES)]
+        colour = colours(i % colours.N)
+        ax.plot(x, y, color=colour, ls=style, lw=1.0, marker=".", ms=3, label=str(row["design"]))
     pts = front(rows)
-    ax.plot([p[0] for p in pts], [p[1] for p in pts], color="C3", lw=2, marker="o", label="front")
+    ax.plot([p[0] for p in pts], [p[1] for p in pts], color="black", lw=2.5, marker="o", label="front")
     ax.set_xlabel("latency: lag + delay (s)")
     ax.set_ylabel("RMS of â − a (m/s²)")
     ax.set_yscale("log")
     ax.set_title(
         f"accuracy–latency of {len(rows)} sensor designs ({DEFAULT_ESTIMATOR}, each design's fixed-lag curve)"
     )
-    ax.legend(loc="upper right")
+    # Beside the axes, one column per 30 names: the curves stay unhidden whatever their number.
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, ncols=1 + len(rows) // 30)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig
