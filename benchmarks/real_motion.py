@@ -25,7 +25,9 @@ design for the least RMS over a grid (with the truth: hindsight), and ``rts_hind
 smoother on that same model; ``rts_best`` is a tighter bound, the RTS at its own hindsight q (every
 other grid point). Ratios: kalman / ekf_hindsight, smoother / rts_hindsight (and / rts_best). The
 latency–accuracy curve is the RMS of kalman's fixed-lag smoother against its lag (0 … 2 s), per design,
-over the validation profiles, beside the live IMM filter at lag 0.
+over the validation profiles, beside the live IMM filter at lag 0. The reliability diagram (a second
+plot) sets each judged output's published σ in deciles (``recording.reliability``, pooled over the seeds of
+one profile × design, t ≥ 2 s) against the RMS error of each decile, beside the diagonal of a calibrated σ.
 
 ``--fit`` fits the presets on the training split only (``benchmarks.fit_presets``) and prints the values
 to put in ``estimators.kalman.PRESETS``.
@@ -62,6 +64,7 @@ from pendulum_accel.cluster import map_tasks
 from pendulum_accel.estimators import LIVE_ESTIMATORS, make_estimator
 from pendulum_accel.estimators.kalman import KalmanEstimator, lag_samples
 from pendulum_accel.recording import coverage
+from pendulum_accel.recording.reliability import ReliabilityBins, reliability_bins
 
 LAGS = (0.0, 0.05, 0.1, 0.2, 0.25, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0)  # s, the latency–accuracy curve
 SHOWN_LAG = 0.25  # s: the lag of the table's kalman lag row, the live fixed lag issue 33 judges
@@ -93,6 +96,17 @@ class Row:
     us: float
     ratio: float | None = None  # RMS over the matching bound
     ratio_best: float | None = None  # the smoother's RMS over rts_best
+    reliability: ReliabilityBins | None = None  # the σ deciles of a judged output (live, lag, smoother)
+
+
+def pooled_reliability(
+    runs: Sequence[Run], outputs: Sequence[tuple[np.ndarray, np.ndarray]]
+) -> ReliabilityBins:
+    """reliability_bins of e = â − a and the published var, pooled over the runs at t ≥ WARMUP."""
+    keep = [r.t >= WARMUP for r in runs]
+    pairs = list(zip(runs, outputs, keep, strict=True))
+    error = np.concatenate([(a - r.accel)[k] for r, (a, _), k in pairs])
+    return reliability_bins(error, np.concatenate([np.asarray(v)[k] for _, (_, v), k in pairs]))
 
 
 def evaluate(
@@ -161,6 +175,7 @@ def _validate_case(seeds: int, quick: bool, case: tuple[Design, Profile]) -> Cas
                 method,
                 by[method],
                 stream_cost(method, design, runs[0], opts),
+                reliability=pooled_reliability(runs, outs) if method == "kalman" else None,
             )
         )
     # kalman with a lag, and the lag curve (one pass gives every lag; for the fitted designs only:
@@ -176,7 +191,8 @@ def _validate_case(seeds: int, quick: bool, case: tuple[Design, Profile]) -> Cas
             lag_sum[lag] = lag_sum.get(lag, 0.0) + float(np.sum(sq))
             lag_count[lag] = lag_count.get(lag, 0) + int(sq.size)
     shown = curve_lags.index(SHOWN_LAG)
-    lag_score = Score.of(runs, [(a[:, shown], v[:, shown]) for a, v in lagged], design.rate_hz)
+    lag_outs = [(a[:, shown], v[:, shown]) for a, v in lagged]
+    lag_score = Score.of(runs, lag_outs, design.rate_hz)
     rows.append(
         Row(
             design.name,
@@ -185,6 +201,7 @@ def _validate_case(seeds: int, quick: bool, case: tuple[Design, Profile]) -> Cas
             f"kalman lag={SHOWN_LAG:g}s",
             lag_score,
             stream_cost("kalman", design, runs[0], {**preset_opts, "lag": SHOWN_LAG}),
+            reliability=pooled_reliability(runs, lag_outs),
         )
     )
     smooth = [make_estimator("smoother", **design.settings()).batch(r.t, r.theta) for r in runs]
@@ -203,7 +220,7 @@ def _validate_case(seeds: int, quick: bool, case: tuple[Design, Profile]) -> Cas
     rts_own = Score.of(runs, [best_rts.smoothed(r.t, r.theta) for r in runs], design.rate_hz)
     smooth_row = Row(
         design.name, profile.name, profile.role, "smoother", smooth_score, math.nan,
-        smooth_score.rms / rts_score.rms, smooth_score.rms / rts_own.rms,
+        smooth_score.rms / rts_score.rms, smooth_score.rms / rts_own.rms, pooled_reliability(runs, smooth),
     )  # fmt: skip
     rows.append(smooth_row)
     rows.append(
@@ -410,6 +427,52 @@ def plot(
     plt.close(fig)
 
 
+def plot_reliability(rows: Sequence[Row], path: Path) -> None:
+    """The reliability diagram: one panel per judged output (the rows carrying σ deciles, in their order),
+    each profile × design's deciles √(mean σ²) against √(mean e²) as one curve coloured by design, on log
+    axes beside the diagonal observed = predicted of a calibrated σ."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    methods = list(dict.fromkeys(r.method for r in rows if r.reliability is not None))
+    design_names = list(dict.fromkeys(r.design for r in rows))
+    colours = matplotlib.colormaps["tab10"]
+    fig, axes = plt.subplots(
+        1, len(methods), figsize=(5.0 * len(methods), 4.6), constrained_layout=True, squeeze=False
+    )
+    for ax, method in zip(axes[0], methods, strict=True):
+        low, high = math.inf, 0.0
+        named: set[str] = set()
+        for r in rows:
+            bins = r.reliability
+            if r.method != method or bins is None:
+                continue
+            shown = (bins.predicted > 0.0) & (bins.observed > 0.0)  # a log axis holds positive values only
+            if not shown.any():
+                continue
+            label = r.design if r.design not in named else None
+            named.add(r.design)
+            colour = colours(design_names.index(r.design) % colours.N)
+            ax.plot(bins.predicted[shown], bins.observed[shown], ".-", color=colour, lw=0.7, ms=3,
+                    alpha=0.7, label=label)  # fmt: skip
+            low = min(low, float(bins.predicted[shown].min()), float(bins.observed[shown].min()))
+            high = max(high, float(bins.predicted[shown].max()), float(bins.observed[shown].max()))
+        if high > 0.0:
+            ax.plot([low, high], [low, high], "k--", lw=1, label="calibrated: observed = σ")
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+        ax.set_xlabel("published σ, RMS within each σ-decile (m/s²)")
+        ax.set_ylabel("RMS error of the decile (m/s²)")
+        ax.set_title(f"{method}: one curve per profile, coloured by design", fontsize=10)
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=7)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Fit (``--fit``) or evaluate; print and write the Markdown table and the plot."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -448,13 +511,21 @@ def report(
     text = markdown(rows, curves, imm, quick, seeds)
     print(text)
     with tempfile.TemporaryDirectory() as tmp:
-        png = Path(tmp) / "lag.png"
+        png, reliability_png = Path(tmp) / "lag.png", Path(tmp) / "reliability.png"
         plot(curves, imm, rows, png)
+        plot_reliability(rows, reliability_png)
         page = bench_report.write_page(
             "real_motion",
             "Real-motion benchmark",
             [text],
-            [(png, "RMS error against the fixed-lag smoother's lag, for each sensor design")],
+            [
+                (png, "RMS error against the fixed-lag smoother's lag, for each sensor design"),
+                (
+                    reliability_png,
+                    "reliability: each output's published σ in deciles against the RMS error of each decile "
+                    "(one curve per profile × design; below the diagonal σ is too wide, above it too narrow)",
+                ),
+            ],
             intro=(__doc__ or "").split("\n\n")[0],
             docs=docs,
             argv=argv,

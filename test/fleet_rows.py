@@ -16,9 +16,11 @@ SHARE_CELLS = tuple(
         ("trials", ""),
         ("share_2sigma", "_low"),
         ("share_2sigma", "_high"),
+        ("share_3sigma", ""),
     )
 )
-"""The fleet table's cells of the shares beyond 2σ: each share, its trials and its 95 % interval."""
+"""The fleet and design tables' share cells: each share beyond 2σ, its trials and its 95 % interval, and the
+share beyond 3σ beside it."""
 
 
 def cells(row: Mapping[str, object]) -> dict[str, Any]:

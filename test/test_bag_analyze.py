@@ -377,6 +377,10 @@ def test_analyze_splits_a_real_trace_into_steady_and_after_change(
         assert 1.0 <= figures[f"nees_{window}_trials"] <= getattr(result.calibration, window).n
         low, high = figures[f"nees_{window}_share_2sigma_low"], figures[f"nees_{window}_share_2sigma_high"]
         assert low <= share <= high
+        # The share beyond 3σ beside it: the same computation as the result's (a float's JSON is exact),
+        # and never above the 2σ share (NEES > 9 implies NEES > 4).
+        beyond3 = figures[f"nees_{window}_share_3sigma"]
+        assert beyond3 == getattr(result.calibration, window).share_3sigma and 0.0 <= beyond3 <= share
     assert figures["motion_model"] == result.motion_model == "auto"  # learned from the angles, no scene rule
 
 
@@ -530,3 +534,60 @@ def test_the_contract_takes_the_cars_frame_under_any_frame_prefix() -> None:
 def _odom(msg: Any) -> None:
     """Edit: header.frame_id 'odom', another frame than the car's."""
     msg.header.frame_id = "odom"
+
+
+def test_analyze_plot_draws_each_streams_reliability_diagram(
+    step_bag: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``analyze --plot`` with a fixed lag: a fourth panel holds the reliability diagram of the recorded
+    (live) estimate and of the fixed-lag re-run, each curve the stream's σ deciles (the very floats
+    recording.reliability gives for that stream: exact), and the diagonal; the PNG is written. The text
+    report states the 3σ share beside the 2σ share and the Gaussian reference once."""
+    from pendulum_accel.recording import analysis_plot
+
+    drawn: list[Any] = []
+    save = analysis_plot._save
+
+    def keep(fig: Any, out: Path | str) -> Path:
+        """Note the figure's panels before it is saved and closed."""
+        drawn.append(
+            [(ax, [(line.get_label(), *line.get_data()) for line in ax.get_lines()]) for ax in fig.axes]
+        )
+        return save(fig, out)
+
+    monkeypatch.setattr(analysis_plot, "_save", keep)
+    png = tmp_path / "plot.png"
+    args = ["analyze", str(step_bag), "--length", str(LENGTH), "--lag", "0.25", "--plot", str(png)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    (panels,) = drawn
+    assert len(panels) == 4
+    ax, lines = panels[3]
+    assert ax.get_xscale() == ax.get_yscale() == "log"
+    by_label = {label: (x, y) for label, x, y in lines}
+    result = analyze_bag(step_bag, config={"length": LENGTH}, lag=0.25)  # what the command computed
+    assert result.recorded_figures is not None
+    streams = {
+        f"recorded ({result.recorded_figures.estimator})": result.recorded_figures,
+        f"offline re-run ({result.estimator}, lag 0.25 s)": result.offline_figures,
+    }
+    for label, stream in streams.items():
+        bins = analysis_plot.stream_reliability(result, stream)
+        assert bins.predicted.size == 10  # deciles: 1,200 estimates and more each
+        x, y = by_label[label]
+        np.testing.assert_array_equal(x, bins.predicted)
+        np.testing.assert_array_equal(y, bins.observed)
+    (diagonal,) = [(x, y) for label, x, y in lines if label.startswith("calibrated")]
+    np.testing.assert_array_equal(diagonal[0], diagonal[1])
+    lines_of = [line for line in out.splitlines() if line.startswith("calibration")]
+    assert len(lines_of) == 2  # re-run and recorded
+    for line in lines_of:
+        steady = line.split(";")[0]
+        two = float(re.search(r"([\d.]+) % beyond 2σ", steady).group(1))  # type: ignore[union-attr]
+        three = float(re.search(r"([\d.]+) % beyond 3σ", steady).group(1))  # type: ignore[union-attr]
+        # 2σ printed to 0.1 % (off by ≤ 0.05), 3σ to 0.01 % (≤ 0.005), and the true 3σ share ≤ the 2σ one.
+        assert 0.0 <= three <= two + 0.055
+    notes = [line for line in out.splitlines() if "calibrated Gaussian" in line]
+    assert len(notes) == 1
+    assert float(re.search(r"([\d.]+) % beyond 3σ", notes[0]).group(1)) == 0.27  # type: ignore[union-attr]

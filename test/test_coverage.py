@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import re
+import statistics
 
 import numpy as np
 import pytest
@@ -176,3 +178,44 @@ def test_verdict_needs_the_interval_to_miss_the_band() -> None:
     assert coverage.verdict(0.05, 2.0) == "in"
     assert coverage.verdict(math.nan, 10.0) == "—"
     assert coverage.verdict(0.3, 0.0) == "—"
+
+
+def _gaussian_quantiles(n: int) -> np.ndarray:
+    """u_i = Φ⁻¹((i + ½)/n), i = 0 … n−1: a standard normal sample with no sampling error. A tail
+    {|u| > k} then holds round(n Φ(−k)) points a side, so its share is within 1/n of 2 Φ(−k)."""
+    inv = statistics.NormalDist().inv_cdf
+    return np.array([inv((i + 0.5) / n) for i in range(n)])
+
+
+def test_the_share_beyond_3sigma_sits_beside_the_2sigma_share() -> None:
+    """NeesStats of a calibrated Gaussian's NEES u²: 4.55 % beyond 2σ, 0.27 % beyond 3σ, median 0.455.
+    Tolerance 1/n each: the quantile sample's two tails are each off by at most half a point
+    (_gaussian_quantiles). The median averages the u² of the grid points at probabilities 0.75 ∓ ½/n, each
+    off the true one by |Δu²| = 2|u| (½/n)/φ(u) = 2 · 0.674 · 0.5/(0.318 n) ≤ 2.2/n; 4/n is that with room.
+    """
+    n = 2000
+    stats = coverage.NeesStats.of(_gaussian_quantiles(n) ** 2, trials=float(n))
+    assert stats.share_2sigma == pytest.approx(coverage.GAUSS_2SIGMA, abs=1.0 / n)
+    assert stats.share_3sigma == pytest.approx(coverage.GAUSS_3SIGMA, abs=1.0 / n)
+    assert stats.median == pytest.approx(coverage.GAUSS_NEES_MEDIAN, abs=4.0 / n)
+    # The references themselves, to the digits the reports print (0.27 %, 4.55 %, 0.455).
+    assert round(100 * coverage.GAUSS_3SIGMA, 2) == 0.27 and round(100 * coverage.GAUSS_2SIGMA, 2) == 4.55
+    assert round(coverage.GAUSS_NEES_MEDIAN, 3) == 0.455
+    # The text gives both shares; parsed, not compared as text.
+    text = stats.share_text()
+    two = float(re.search(r"([\d.]+) % beyond 2σ", text).group(1))  # type: ignore[union-attr]
+    three = float(re.search(r"([\d.]+) % beyond 3σ", text).group(1))  # type: ignore[union-attr]
+    assert two == pytest.approx(100 * stats.share_2sigma, abs=0.05)  # printed to 0.1 %: half a digit
+    assert three == pytest.approx(100 * stats.share_3sigma, abs=0.005)  # printed to 0.01 %
+
+
+def test_nees_cells_carry_the_3sigma_share_and_null_it_without_samples() -> None:
+    """Four NEES of which one exceeds 9 and two exceed 4: share_3sigma 1/4 beside share_2sigma 2/4 (exact
+    binary fractions), under nees_fields' keys; no window: every cell null, the 3σ share too."""
+    stats = coverage.NeesStats.of(np.array([0.5, 5.0, 10.0, 1.0]), trials=2.0)
+    cells = coverage.nees_cells(stats)
+    assert cells.share_2sigma == 0.5 and cells.share_3sigma == 0.25
+    fields = coverage.nees_fields("nees_steady", stats)
+    assert fields["nees_steady_share_3sigma"] == 0.25 and fields["nees_steady_share_2sigma"] == 0.5
+    assert set(coverage.nees_fields("k", None).values()) == {None}
+    assert coverage.nees_cells(coverage.NeesStats.of(np.array([np.nan]))).share_3sigma is None

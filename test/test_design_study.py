@@ -43,12 +43,35 @@ def test_design_study_rows_front_and_the_same_on_a_local_cluster(tmp_path: Path)
     pts = ds.front(rows)
     assert all(a[0] <= b[0] and a[1] > b[1] for a, b in itertools.pairwise(pts))
     assert ds.study(designs, ["husky_odom"], workers=2, distributed=True, **kwargs) == rows
+    _assert_curves_are_named(rows)
 
 
-def _case_trials(case: ds.Case) -> dict[str, float]:
-    """The independent trials of one design-study case's live filter per window, computed here from its
-    signals with coverage's own functions: each window's τ of the NEES after the warm-up over that window's
-    stretches, n_eff of the window's mask at it."""
+def _assert_curves_are_named(rows: list[dict[str, Any]]) -> None:
+    """The accuracy–latency plot names every design's curve in its legend (then the front), each curve in
+    a colour or line style of its own, its points the row's (latency, RMS) at each lag."""
+    import matplotlib.pyplot as plt
+
+    fig = ds.front_figure(rows)
+    try:
+        (ax,) = fig.axes
+        legend = ax.get_legend()
+        assert legend is not None
+        assert [t.get_text() for t in legend.get_texts()] == [*(r["design"] for r in rows), "front"]
+        lines = {line.get_label(): line for line in ax.get_lines()}
+        looks = {(str(lines[r["design"]].get_color()), lines[r["design"]].get_linestyle()) for r in rows}
+        assert len(looks) == len(rows)
+        for r in rows:
+            x, y = (np.asarray(v, dtype=float) for v in lines[r["design"]].get_data())
+            assert y.tolist() == [r["rms_lag_0"], r["rms_lag_0.5"]]  # the row's floats, drawn as they are
+            assert x.tolist() == [ds.design_latency(lag, r) for lag in (0.0, 0.5)]
+    finally:
+        plt.close(fig)
+
+
+def _case_trials(case: ds.Case) -> dict[str, tuple[float, int, int]]:
+    """(independent trials, samples beyond 3σ, samples) of one design-study case's live filter per window,
+    computed here from its signals with coverage's own functions: each window's τ of the NEES after the
+    warm-up over that window's stretches, n_eff of the window's mask at it; NEES > 9 counted directly."""
     from pendulum_accel.estimators import DEFAULT_ESTIMATOR, make_estimator
     from pendulum_accel.recording.changes import after_change
 
@@ -59,14 +82,19 @@ def _case_trials(case: ds.Case) -> dict[str, float]:
     assert np.all(np.isfinite(nees))  # var > 0 everywhere: every sample counts in its window
     after = after_change(t, t, accel)[keep]
     return {
-        "steady": coverage.effective_samples(~after, coverage.integrated_time(nees, ~after)),
-        "after_change": coverage.effective_samples(after, coverage.integrated_time(nees, after)),
+        name: (
+            coverage.effective_samples(mask, coverage.integrated_time(nees, mask)),
+            int(np.sum(nees[mask] > 9.0)),
+            int(np.sum(mask)),
+        )
+        for name, mask in (("steady", ~after), ("after_change", after))
     }
 
 
 def test_design_shares_carry_their_summed_trials_and_wilson_interval() -> None:
     """Each design row's share beyond 2σ comes with the trials of its cases summed (independent runs) and
-    the Wilson interval at them; a window no case reaches has null cells, never NaN."""
+    the Wilson interval at them, and its share beyond 3σ pools the cases' exceedances; a window no case
+    reaches has null cells, never NaN."""
     designs = ds.design_grid([0.2, 1.0], [0.7], [100.0], [1e-3])
     seeds, duration = 2, 20.0
     found = ds.study(designs, ["husky_odom"], seeds=seeds, duration=duration, lags=(0.0,), distributed=False)
@@ -78,10 +106,13 @@ def test_design_shares_carry_their_summed_trials_and_wilson_interval() -> None:
             low, high = r[f"share_2sigma_{window}_low"], r[f"share_2sigma_{window}_high"]
             # Both sides add the same two per-case floats (fsum there, + here: each one correctly rounded
             # sum), so they agree to a rounding or two of ~1e-16 relative; 1e-12 is far above that.
-            assert trials == pytest.approx(sum(c[window] for c in per_case), rel=1e-12), (window, r)
+            assert trials == pytest.approx(sum(c[window][0] for c in per_case), rel=1e-12), (window, r)
             assert trials >= seeds  # every case reaches both windows on 20 s of husky_odom
             assert low <= share <= high, (window, r)
             assert (low, high) == coverage.wilson(share, trials)  # the same function at the same arguments
+            # Pooled like the 2σ share: Σ beyond / Σ n, both sides dividing the same two integers (exact).
+            beyond3, n = sum(c[window][1] for c in per_case), sum(c[window][2] for c in per_case)
+            assert r[f"share_3sigma_{window}"] == beyond3 / n, (window, r)
     (rest,) = map(
         cells, ds.study(designs[:1], ["at_rest"], seeds=1, duration=5.0, lags=(0.0,), distributed=False)
     )
@@ -119,6 +150,7 @@ def test_design_cli_table_plot_and_one_line_refusals(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     header = out.read_text().splitlines()[0].split(",")
     assert "rms_lag_0.25" in header and "share_2sigma_after_change" in header
+    assert "share_3sigma_steady" in header and "share_3sigma_after_change" in header
     (row,) = list(csv.DictReader(io.StringIO(out.read_text())))
     for window in ("steady", "after_change"):
         share, trials = float(row[f"share_2sigma_{window}"]), float(row[f"trials_{window}"])

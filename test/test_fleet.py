@@ -127,9 +127,9 @@ def test_serial_table_has_a_row_per_bag_and_estimator_and_error_rows(corpus: Pat
 def test_share_cells_are_the_single_bag_reports_and_null_without_samples(
     corpus: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Each share's trials and interval in a row are those ``analyze BAG --json`` reports for the bag (one
-    computation, two outputs: exact); a bag at rest has no after-change window, and its cells are null in
-    the rows and empty fields in the CSV, never NaN."""
+    """Each share's trials and interval, and the share beyond 3σ, in a row are those ``analyze BAG --json``
+    reports for the bag (one computation, two outputs: exact); a bag at rest has no after-change window,
+    and its cells are null in the rows and empty fields in the CSV, never NaN."""
     bag = corpus / "site_b" / "braking"
     (row,) = map(cells, bag_rows(str(bag), Job(estimators=("kalman",))))
     assert main(["analyze", str(bag), "-e", "kalman", "--json"]) == 0
@@ -139,6 +139,7 @@ def test_share_cells_are_the_single_bag_reports_and_null_without_samples(
         assert row[f"trials_{window}"] == single[f"nees_{window}_trials"]
         assert row[f"share_2sigma_{window}_low"] == single[f"nees_{window}_share_2sigma_low"]
         assert row[f"share_2sigma_{window}_high"] == single[f"nees_{window}_share_2sigma_high"]
+        assert row[f"share_3sigma_{window}"] == single[f"nees_{window}_share_3sigma"]
     (rest,) = map(cells, bag_rows(str(AT_REST), Job()))
     assert not rest["error"] and isinstance(rest["trials_steady"], float)
     assert all(rest[k] is None for k in SHARE_CELLS if "after_change" in k)

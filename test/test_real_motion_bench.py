@@ -59,6 +59,8 @@ def test_report_covers_every_validation_profile_design_and_method(quick: tuple) 
     assert "| design | profile | method | RMS |" in text and "Targets (issue 33)" in text
     assert "Split (benchmarks.corpus)" in text
     assert (out / "img" / "bench_real_motion.png").stat().st_size > 0
+    assert (out / "img" / "bench_real_motion_2.png").stat().st_size > 0  # the reliability diagram
+    assert "bench_real_motion_2.png" in text
 
 
 def test_figures_are_finite_and_bounds_order_as_theory_says(quick: tuple) -> None:
@@ -83,6 +85,47 @@ def test_figures_are_finite_and_bounds_order_as_theory_says(quick: tuple) -> Non
             assert by["rts_hindsight"].score.rms <= by["ekf_hindsight"].score.rms
             assert by["smoother"].score.rms <= by["kalman"].score.rms
             assert by["kalman"].ratio is not None and by["kalman"].ratio > 0.0
+
+
+def test_the_judged_outputs_carry_their_sigma_deciles(quick: tuple) -> None:
+    """The live, fixed-lag and smoother rows carry the reliability diagram's bins (ten deciles, ascending
+    σ, every error scored once: the bins' samples add to the scored samples), the other rows none."""
+    rows, _, _, _ = quick
+    judged = {"kalman", f"kalman lag={rm.SHOWN_LAG:g}s", "smoother"}
+    for r in rows:
+        if r.method not in judged:
+            assert r.reliability is None, r.method
+            continue
+        bins = r.reliability
+        assert bins is not None and bins.predicted.size == 10, r.method
+        assert np.all(np.diff(bins.predicted) >= 0.0) and np.all(bins.observed > 0.0)
+        assert int(bins.samples.sum()) == r.score.n_steady + r.score.n_after
+
+
+def test_pooled_reliability_bins_the_runs_after_the_warmup(tmp_path: Path) -> None:
+    """Two runs' errors and variances after WARMUP, concatenated, binned once (the very arrays: exact);
+    the diagram of rows carrying them is written, one panel per judged output."""
+    rng = np.random.default_rng(5)
+    runs, outs = [], []
+    for n in (400, 600):
+        t = np.arange(n) / 100.0
+        var = 10.0 ** rng.uniform(-4.0, -2.0, n)
+        runs.append(md.Run(t, np.zeros(n), np.zeros(n)))
+        outs.append((np.sqrt(var) * rng.standard_normal(n), var))
+    bins = rm.pooled_reliability(runs, outs)
+    keep = [r.t >= ms.WARMUP for r in runs]
+    expected = rm.reliability_bins(
+        np.concatenate([a[k] for (a, _), k in zip(outs, keep, strict=True)]),
+        np.concatenate([v[k] for (_, v), k in zip(outs, keep, strict=True)]),
+    )
+    for got, want in zip(bins, expected, strict=True):
+        np.testing.assert_array_equal(got, want)
+    assert int(bins.samples.sum()) == sum(int(k.sum()) for k in keep)
+    score = ms.Score(1.0, 1.0, 0.0, 1.0, 0.05, 0.05, 1, 1)
+    rows = [rm.Row("d", "p", "validate", m, score, 0.0, reliability=bins) for m in ("kalman", "smoother")]
+    png = tmp_path / "reliability.png"
+    rm.plot_reliability([*rows, rm.Row("d", "p", "validate", "instant", score, 0.0)], png)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_latency_buys_accuracy(quick: tuple) -> None:

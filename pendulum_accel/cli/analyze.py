@@ -141,8 +141,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _spread_dict(spread: SeedSpread | None) -> dict[str, float | None] | None:
     """{seeds, nees_<window>_…}: the pooled figures under a single bag's keys (recording.coverage.nees_fields:
-    mean, median, share_2sigma, trials, share_2sigma_low/_high), and nees_<window>_share_p10/_p90 of one
-    seed's share; a window without samples null throughout. None without --seeds."""
+    mean, median, share_2sigma, trials, share_2sigma_low/_high, share_3sigma), and
+    nees_<window>_share_p10/_p90 of one seed's share; a window without samples null throughout. None
+    without --seeds."""
     if spread is None:
         return None
     out: dict[str, float | None] = {"seeds": spread.seeds}

@@ -43,9 +43,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
             "--quantizations) on every motion profile with seeds 0..N-1, run the default estimator live "
             "and as a fixed-lag smoother at each --lags, and write one row per design: RMS per lag, "
             "delay, share of errors beyond 2σ steady and after a change (with its independent trials and "
-            "95 % interval), mean NEES. The plot draws each design's latency–RMS curve and the front no "
-            "design beats. One case (design × profile × seed) is one task on Dask (a local cluster, or "
-            "--scheduler)."
+            "95 % interval) and beyond 3σ, mean NEES. The plot draws each design's latency–RMS curve, "
+            "named in its legend, and the front no design beats. One case (design × profile × seed) is "
+            "one task on Dask (a local cluster, or --scheduler)."
         ),
     )
     parser.add_argument("--out", required=True, metavar="TABLE", help="the table (.parquet or .csv)")

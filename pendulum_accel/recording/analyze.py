@@ -45,7 +45,7 @@ from pendulum_accel.estimators import DEFAULT_ESTIMATOR, ESTIMATORS, TEACHING_NO
 from pendulum_accel.estimators.motion import MotionChoice
 from pendulum_accel.recording.changes import change_rule
 from pendulum_accel.recording.contract import angle_field, decode_chain, require_angles
-from pendulum_accel.recording.coverage import Calibration, calibration, nees_cells
+from pendulum_accel.recording.coverage import GAUSSIAN_NOTE, Calibration, calibration, nees_cells
 from pendulum_accel.recording.figures import (
     DEFAULT_ABS_TOLERANCE,
     ErrorStats,
@@ -156,6 +156,8 @@ class Analysis:
             out.append(self.calibration.line("calibration (re-run)"))
         if self.recorded_calibration is not None:
             out.append(self.recorded_calibration.line("calibration (recorded)"))
+        if self.calibration is not None or self.recorded_calibration is not None:
+            out.append(f"            ({GAUSSIAN_NOTE})")
         return out
 
 
@@ -398,24 +400,28 @@ class AnalysisDict(TypedDict):
     nees_steady_trials: float | None
     nees_steady_share_2sigma_low: float | None
     nees_steady_share_2sigma_high: float | None
+    nees_steady_share_3sigma: float | None
     nees_after_change_mean: float | None
     nees_after_change_median: float | None
     nees_after_change_share_2sigma: float | None
     nees_after_change_trials: float | None
     nees_after_change_share_2sigma_low: float | None
     nees_after_change_share_2sigma_high: float | None
+    nees_after_change_share_3sigma: float | None
     recorded_nees_steady_mean: float | None
     recorded_nees_steady_median: float | None
     recorded_nees_steady_share_2sigma: float | None
     recorded_nees_steady_trials: float | None
     recorded_nees_steady_share_2sigma_low: float | None
     recorded_nees_steady_share_2sigma_high: float | None
+    recorded_nees_steady_share_3sigma: float | None
     recorded_nees_after_change_mean: float | None
     recorded_nees_after_change_median: float | None
     recorded_nees_after_change_share_2sigma: float | None
     recorded_nees_after_change_trials: float | None
     recorded_nees_after_change_share_2sigma_low: float | None
     recorded_nees_after_change_share_2sigma_high: float | None
+    recorded_nees_after_change_share_3sigma: float | None
 
 
 def analysis_dict(result: Analysis) -> AnalysisDict:
@@ -456,22 +462,26 @@ def analysis_dict(result: Analysis) -> AnalysisDict:
         "nees_steady_trials": steady.trials,
         "nees_steady_share_2sigma_low": steady.share_2sigma_low,
         "nees_steady_share_2sigma_high": steady.share_2sigma_high,
+        "nees_steady_share_3sigma": steady.share_3sigma,
         "nees_after_change_mean": after.mean,
         "nees_after_change_median": after.median,
         "nees_after_change_share_2sigma": after.share_2sigma,
         "nees_after_change_trials": after.trials,
         "nees_after_change_share_2sigma_low": after.share_2sigma_low,
         "nees_after_change_share_2sigma_high": after.share_2sigma_high,
+        "nees_after_change_share_3sigma": after.share_3sigma,
         "recorded_nees_steady_mean": rec_steady.mean,
         "recorded_nees_steady_median": rec_steady.median,
         "recorded_nees_steady_share_2sigma": rec_steady.share_2sigma,
         "recorded_nees_steady_trials": rec_steady.trials,
         "recorded_nees_steady_share_2sigma_low": rec_steady.share_2sigma_low,
         "recorded_nees_steady_share_2sigma_high": rec_steady.share_2sigma_high,
+        "recorded_nees_steady_share_3sigma": rec_steady.share_3sigma,
         "recorded_nees_after_change_mean": rec_after.mean,
         "recorded_nees_after_change_median": rec_after.median,
         "recorded_nees_after_change_share_2sigma": rec_after.share_2sigma,
         "recorded_nees_after_change_trials": rec_after.trials,
         "recorded_nees_after_change_share_2sigma_low": rec_after.share_2sigma_low,
         "recorded_nees_after_change_share_2sigma_high": rec_after.share_2sigma_high,
+        "recorded_nees_after_change_share_3sigma": rec_after.share_3sigma,
     }

@@ -24,6 +24,7 @@ a steady stretch and of a step's first second are two different series (integrat
 from __future__ import annotations
 
 import math
+import statistics
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -34,6 +35,14 @@ from pendulum_accel.recording.changes import CHANGE_WINDOW, after_change
 
 Z95 = 1.959963984540054  # the standard normal's two-sided 95 % point, Φ⁻¹(0.975)
 TARGET = (0.01, 0.12)  # the issue's band of the share beyond 2σ
+GAUSS_2SIGMA = math.erfc(2.0 / math.sqrt(2.0))  # P(|u| > 2) = erfc(2/√2) of a standard normal u
+GAUSS_3SIGMA = math.erfc(3.0 / math.sqrt(2.0))  # P(|u| > 3) = erfc(3/√2): the tail a calibrated σ gives
+GAUSS_NEES_MEDIAN = statistics.NormalDist().inv_cdf(0.75) ** 2  # the median of χ²₁: a calibrated σ's NEES
+GAUSSIAN_NOTE = (
+    f"a calibrated Gaussian σ gives NEES mean 1, median {GAUSS_NEES_MEDIAN:.3f}, "
+    f"{100 * GAUSS_2SIGMA:.2f} % beyond 2σ, {100 * GAUSS_3SIGMA:.2f} % beyond 3σ"
+)
+"""The reference every calibration report states once (a footnote or a column header), not in every row."""
 
 
 def integrated_time(z: NDArray[np.float64], mask: NDArray[np.bool_] | None = None) -> float:
@@ -142,14 +151,16 @@ def verdict(share: float, n_eff: float, target: tuple[float, float] = TARGET) ->
 
 @dataclass(frozen=True)
 class NeesStats:
-    """NEES = e²/var: mean, median and the share with |e| > 2σ (NEES > 4) over n samples (NaN if n = 0),
-    and the independent trials behind the share (window_trials; NaN where they are not counted)."""
+    """NEES = e²/var: mean, median, the share with |e| > 2σ (NEES > 4) and the share with |e| > 3σ
+    (NEES > 9) over n samples (NaN if n = 0), and the independent trials behind the 2σ share
+    (window_trials; NaN where they are not counted)."""
 
     mean: float
     median: float
     share_2sigma: float
     n: int
     trials: float = math.nan
+    share_3sigma: float = math.nan
 
     @classmethod
     def of(cls, nees: NDArray[np.float64], trials: float = math.nan) -> NeesStats:
@@ -157,7 +168,14 @@ class NeesStats:
         z = nees[np.isfinite(nees)]
         if z.size == 0:
             return cls(math.nan, math.nan, math.nan, 0, math.nan)
-        return cls(float(z.mean()), float(np.median(z)), float(np.mean(z > 4.0)), int(z.size), trials)
+        return cls(
+            float(z.mean()),
+            float(np.median(z)),
+            float(np.mean(z > 4.0)),
+            int(z.size),
+            trials,
+            float(np.mean(z > 9.0)),
+        )
 
     def interval(self) -> tuple[float, float] | None:
         """The share's 95 % interval at its trials (wilson); None where they are not counted."""
@@ -166,27 +184,31 @@ class NeesStats:
         return wilson(self.share_2sigma, self.trials)
 
     def share_text(self) -> str:
-        """'x % beyond 2σ (n=N, about K independent: 95 % lo–hi %)'; without counted trials, no 'about'."""
+        """'x % beyond 2σ (n=N, about K independent: 95 % lo–hi %), y % beyond 3σ'; without counted trials,
+        no 'about'."""
         span = self.interval()
         trials = (
             ""
             if span is None
             else f", about {self.trials:.0f} independent: 95 % {100 * span[0]:.1f}–{100 * span[1]:.1f} %"
         )
-        return f"{100 * self.share_2sigma:.1f} % beyond 2σ (n={self.n}{trials})"
+        return (
+            f"{100 * self.share_2sigma:.1f} % beyond 2σ (n={self.n}{trials}), "
+            f"{100 * self.share_3sigma:.2f} % beyond 3σ"
+        )
 
 
 @dataclass(frozen=True)
 class Calibration:
     """NEES figures in steady state and within CHANGE_WINDOW s after a change of a (a calibrated σ:
-    mean NEES ≈ 1, ≈ 5 % beyond 2σ)."""
+    GAUSSIAN_NOTE)."""
 
     steady: NeesStats
     after_change: NeesStats
 
     def line(self, label: str) -> str:
-        """'label: steady NEES mean m, median d, x % beyond 2σ (n, k independent: 95 % lo–hi %); after a
-        change: …'."""
+        """'label: steady NEES mean m, median d, x % beyond 2σ (n, k independent: 95 % lo–hi %), y % beyond
+        3σ; after a change: …'."""
 
         def part(s: NeesStats) -> str:
             """One window's figures."""
@@ -243,21 +265,30 @@ class NeesCells(NamedTuple):
     trials: float | None
     share_2sigma_low: float | None
     share_2sigma_high: float | None
+    share_3sigma: float | None
 
 
 def nees_cells(stats: NeesStats | None) -> NeesCells:
-    """(mean, median, p̂, n_eff, lo, hi) of one window, (lo, hi) its share's 95 % interval
-    (share_interval_cells); None throughout without the window, None where a share or its trials is missing,
-    and a mean or median the window lacks stays NaN (cli.output.json_text writes both as null)."""
+    """(mean, median, p̂₂, n_eff, lo, hi, p̂₃) of one window, (lo, hi) the 2σ share's 95 % interval
+    (share_interval_cells), p̂₃ the share beyond 3σ; None throughout without the window, None where a share or
+    its trials is missing, and a mean or median the window lacks stays NaN (cli.output.json_text writes both
+    as null)."""
     if stats is None:
-        return NeesCells(None, None, None, None, None, None)
+        return NeesCells(None, None, None, None, None, None, None)
     cells = share_interval_cells(stats.share_2sigma, stats.trials, "share", "trials")
+    beyond3 = float(stats.share_3sigma) if math.isfinite(stats.share_3sigma) else None
     return NeesCells(
-        stats.mean, stats.median, cells["share"], cells["trials"], cells["share_low"], cells["share_high"]
+        stats.mean,
+        stats.median,
+        cells["share"],
+        cells["trials"],
+        cells["share_low"],
+        cells["share_high"],
+        beyond3,
     )
 
 
 def nees_fields(key: str, stats: NeesStats | None) -> dict[str, float | None]:
-    """{key}_{mean,median,share_2sigma,trials,share_2sigma_low,share_2sigma_high}: nees_cells of one window
-    under a table's keys."""
+    """{key}_{mean,median,share_2sigma,trials,share_2sigma_low,share_2sigma_high,share_3sigma}: nees_cells of
+    one window under a table's keys."""
     return {f"{key}_{name}": value for name, value in zip(NeesCells._fields, nees_cells(stats), strict=True)}

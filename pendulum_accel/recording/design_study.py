@@ -8,7 +8,7 @@ pooled: RMS of e = â − a at each lag (the fixed-lag curve), the live filter's
 peak) and its calibration (share of errors beyond 2σ in steady stretches and within 2 s after a change,
 a change being |a(t) − a(t − 1 s)| > 0.2 m/s²), each share with the independent trials behind it
 (recording.coverage; the cases are independent runs, so their trials add) and its 95 % interval at
-those trials. The accuracy–latency front is the set of (latency, RMS)
+those trials, and beside it the share beyond 3σ. The accuracy–latency front is the set of (latency, RMS)
 points, latency = lag + delay, that no other point beats on both.
 """
 
@@ -19,7 +19,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, NotRequired, TypedDict
+from typing import TYPE_CHECKING, Literal, NotRequired, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +32,9 @@ from pendulum_accel.recording import coverage
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.scene import load_scene
 from pendulum_accel.sensor import MAX_SAMPLES, SensorModel
+
+if TYPE_CHECKING:  # matplotlib is loaded when a plot is drawn
+    from matplotlib.figure import Figure
 
 WARMUP = 2.0  # s left out at the start of every case: the filters start from one sample
 DEFAULT_LAGS = (0.0, 0.1, 0.25, 0.5, 1.0)  # s: the fixed-lag curve
@@ -104,10 +107,16 @@ DESIGN_COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("trials_steady", "double", "independent errors behind share_2sigma_steady, summed over the cases"),
     ("share_2sigma_steady_low", "double", "lower end of that share's 95 % Wilson interval at those trials"),
     ("share_2sigma_steady_high", "double", "upper end of that interval"),
+    (
+        "share_3sigma_steady",
+        "double",
+        "share of the live filter's steady-state errors beyond 3σ (a calibrated Gaussian σ: 0.27 %)",
+    ),
     ("share_2sigma_after_change", "double", "the same within 2 s after a change of a(t)"),
     ("trials_after_change", "double", "independent errors behind share_2sigma_after_change"),
     ("share_2sigma_after_change_low", "double", "lower end of that share's 95 % Wilson interval"),
     ("share_2sigma_after_change_high", "double", "upper end of that interval"),
+    ("share_3sigma_after_change", "double", "the share beyond 3σ within 2 s after a change of a(t)"),
     ("nees_mean", "double", "mean e²/σ² of the live filter (1 when σ tells the truth)"),
 )
 """The design table: (column, Arrow type, meaning); one rms_lag_LAG column per asked lag. A share's cells
@@ -175,12 +184,14 @@ def case_signals(
 
 
 class WindowSums(TypedDict):
-    """One window's sums in one case: samples, those beyond 2σ (NEES > 4), Σ NEES, independent trials."""
+    """One window's sums in one case: samples, those beyond 2σ (NEES > 4) and 3σ (NEES > 9), Σ NEES,
+    independent trials."""
 
     n: int
     beyond: int
     nees_sum: float
     trials: float
+    beyond_3sigma: int
 
 
 class CaseSums(TypedDict):
@@ -200,8 +211,8 @@ DesignRow = dict[str, str | float | None]
 
 def run_case(case: Case) -> CaseSums:
     """Sums for pooling one case: per lag Σe² and n; the live filter's delay and, per window (steady,
-    after a change), its samples n, those beyond 2σ (NEES = e²/var > 4), Σ NEES and the independent
-    trials behind them (recording.coverage.nees_windows)."""
+    after a change), its samples n, those beyond 2σ (NEES = e²/var > 4) and 3σ (> 9), Σ NEES and the
+    independent trials behind them (recording.coverage.nees_windows)."""
     t, theta, accel, settings = case_signals(case)
     keep = t >= WARMUP
     out: CaseSums = {"sq": {}, "n": int(keep.sum())}
@@ -218,6 +229,7 @@ def run_case(case: Case) -> CaseSums:
                     "beyond": int(np.sum(z > 4.0)),
                     "nees_sum": float(np.sum(z)),
                     "trials": trials,
+                    "beyond_3sigma": int(np.sum(z > 9.0)),
                 }
             out["delay"] = group_delay(np.asarray(est)[keep], accel[keep], case.design.rate_hz)
     return out
@@ -225,12 +237,15 @@ def run_case(case: Case) -> CaseSums:
 
 def _share_cells(window: str, counts: Sequence[WindowSums]) -> dict[str, float | None]:
     """share_2sigma_{window} = Σ beyond / Σ n over the cases, trials_{window} = Σ trials (the cases are
-    independent runs: their independent trials add) and the share's 95 % interval
-    share_2sigma_{window}_low/_high (coverage.share_interval_cells); None where no case has a sample."""
+    independent runs: their independent trials add), the share's 95 % interval
+    share_2sigma_{window}_low/_high (coverage.share_interval_cells), and share_3sigma_{window} =
+    Σ beyond_3sigma / Σ n; None where no case has a sample."""
     n = sum(c["n"] for c in counts)
     share = sum(c["beyond"] for c in counts) / n if n else math.nan
     trials = math.fsum(c["trials"] for c in counts if c["n"]) if n else math.nan
-    return coverage.share_interval_cells(share, trials, f"share_2sigma_{window}", f"trials_{window}")
+    cells = coverage.share_interval_cells(share, trials, f"share_2sigma_{window}", f"trials_{window}")
+    cells[f"share_3sigma_{window}"] = sum(c["beyond_3sigma"] for c in counts) / n if n else None
+    return cells
 
 
 def summarise(design: SensorDesign, parts: Sequence[CaseSums], lags: Sequence[float]) -> DesignRow:
@@ -322,28 +337,45 @@ def front(rows: Sequence[Mapping[str, object]]) -> list[tuple[float, float, str]
 
 
 def plot_front(rows: Sequence[Mapping[str, object]], path: Path) -> None:
-    """Every design's fixed-lag curve (latency, RMS) in grey, the front on top."""
+    """front_figure of ``rows``, saved to ``path`` at 110 dpi."""
+    import matplotlib.pyplot as plt
+
+    fig = front_figure(rows)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+CURVE_STYLES = ("-", "--", ":", "-.")
+"""Line styles cycled once the colour cycle (tab20) is used up, so no two of 80 designs' curves look alike."""
+
+
+def front_figure(rows: Sequence[Mapping[str, object]]) -> Figure:
+    """Every design's fixed-lag curve (latency, RMS), each in its own colour and named in the legend beside
+    the axes (its design string), the front on top in bold."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5))
-    for row in rows:
+    colours = matplotlib.colormaps["tab20"]
+    fig, ax = plt.subplots(figsize=(11, 5.5))
+    for i, row in enumerate(rows):
         lags = sorted(float(k[len("rms_lag_") :]) for k in row if k.startswith("rms_lag_"))
         x = [design_latency(g, row) for g in lags]
         y = np.array([row[f"rms_lag_{g:g}"] for g in lags], dtype=float)
-        ax.plot(x, y, color="0.75", lw=0.8, marker=".", ms=3)
+        style = CURVE_STYLES[(i // colours.N) % len(CURVE_STYLES)]
+        colour = colours(i % colours.N)
+        ax.plot(x, y, color=colour, ls=style, lw=1.0, marker=".", ms=3, label=str(row["design"]))
     pts = front(rows)
-    ax.plot([p[0] for p in pts], [p[1] for p in pts], color="C3", lw=2, marker="o", label="front")
+    ax.plot([p[0] for p in pts], [p[1] for p in pts], color="black", lw=2.5, marker="o", label="front")
     ax.set_xlabel("latency: lag + delay (s)")
     ax.set_ylabel("RMS of â − a (m/s²)")
     ax.set_yscale("log")
     ax.set_title(
         f"accuracy–latency of {len(rows)} sensor designs ({DEFAULT_ESTIMATOR}, each design's fixed-lag curve)"
     )
-    ax.legend(loc="upper right")
+    # Beside the axes, one column per 30 names: the curves stay unhidden whatever their number.
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, ncols=1 + len(rows) // 30)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig

@@ -31,7 +31,6 @@ from pendulum_accel.cluster import Progress, map_tasks
 from pendulum_accel.errors import BagError, PendulumAccelError
 from pendulum_accel.recording import coverage
 from pendulum_accel.recording.analyze import Analysis, analyze_bag
-from pendulum_accel.recording.coverage import NeesStats
 from pendulum_accel.recording.delay import group_delay
 from pendulum_accel.recording.topic_rules import TopicRules
 
@@ -60,10 +59,16 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
     ("trials_steady", "double", "independent errors behind share_2sigma_steady (recording/coverage.py)"),
     ("share_2sigma_steady_low", "double", "lower end of that share's 95 % Wilson interval at those trials"),
     ("share_2sigma_steady_high", "double", "upper end of that interval"),
+    (
+        "share_3sigma_steady",
+        "double",
+        "share of steady-state errors beyond 3σ (a calibrated Gaussian σ: 0.27 %)",
+    ),
     ("share_2sigma_after_change", "double", "share of errors beyond 2σ within 2 s after a change of a(t)"),
     ("trials_after_change", "double", "independent errors behind share_2sigma_after_change"),
     ("share_2sigma_after_change_low", "double", "lower end of that share's 95 % Wilson interval"),
     ("share_2sigma_after_change_high", "double", "upper end of that interval"),
+    ("share_3sigma_after_change", "double", "share of errors beyond 3σ within 2 s after a change of a(t)"),
     ("nees_mean", "double", "mean e²/σ² over every estimate (1 when σ tells the truth)"),
     ("duration", "double", "the bag's span of angles (s)"),
     ("angles", "int64", "joint-state samples in the bag"),
@@ -91,10 +96,12 @@ class FleetCells(TypedDict, total=False):
     trials_steady: float | None
     share_2sigma_steady_low: float | None
     share_2sigma_steady_high: float | None
+    share_3sigma_steady: float | None
     share_2sigma_after_change: float | None
     trials_after_change: float | None
     share_2sigma_after_change_low: float | None
     share_2sigma_after_change_high: float | None
+    share_3sigma_after_change: float | None
     nees_mean: float | None
     duration: float | None
     angles: int
@@ -122,14 +129,6 @@ def _row(bag: str, **values: Unpack[FleetCells]) -> FleetRow:
     return cast(FleetRow, row)
 
 
-def _share_cells(stats: NeesStats | None) -> tuple[float | None, float | None, float | None, float | None]:
-    """(share beyond 2σ, its trials, low and high ends of its 95 % interval) of one window as table cells
-    (coverage.share_interval_cells); None where the window has no samples."""
-    share, trials = (math.nan, math.nan) if stats is None else (stats.share_2sigma, stats.trials)
-    cells = coverage.share_interval_cells(share, trials, "share", "trials")
-    return cells["share"], cells["trials"], cells["share_low"], cells["share_high"]
-
-
 def _figures(result: Analysis, complete: bool) -> FleetCells:
     """The table's figures of one re-run."""
     keep = np.isfinite(result.accel_est) & (result.t >= result.t[0] + result.skip)
@@ -143,8 +142,9 @@ def _figures(result: Analysis, complete: bool) -> FleetCells:
         )
     nees = nees[keep & np.isfinite(nees)]
     cal = result.calibration
-    steady = _share_cells(None if cal is None else cal.steady)
-    after = _share_cells(None if cal is None else cal.after_change)
+    # One window's cells: the shares beyond 2σ and 3σ, the trials and interval; None without samples.
+    steady = coverage.nees_cells(None if cal is None else cal.steady)
+    after = coverage.nees_cells(None if cal is None else cal.after_change)
     return {
         "estimator": result.estimator,
         "motion_model": result.motion.preset if result.motion is not None else "",
@@ -155,14 +155,16 @@ def _figures(result: Analysis, complete: bool) -> FleetCells:
         "bias": _float(result.stats.bias),
         "max_error": _float(result.stats.max_abs),
         "delay": _float(delay),
-        "share_2sigma_steady": steady[0],
-        "trials_steady": steady[1],
-        "share_2sigma_steady_low": steady[2],
-        "share_2sigma_steady_high": steady[3],
-        "share_2sigma_after_change": after[0],
-        "trials_after_change": after[1],
-        "share_2sigma_after_change_low": after[2],
-        "share_2sigma_after_change_high": after[3],
+        "share_2sigma_steady": steady.share_2sigma,
+        "trials_steady": steady.trials,
+        "share_2sigma_steady_low": steady.share_2sigma_low,
+        "share_2sigma_steady_high": steady.share_2sigma_high,
+        "share_3sigma_steady": steady.share_3sigma,
+        "share_2sigma_after_change": after.share_2sigma,
+        "trials_after_change": after.trials,
+        "share_2sigma_after_change_low": after.share_2sigma_low,
+        "share_2sigma_after_change_high": after.share_2sigma_high,
+        "share_3sigma_after_change": after.share_3sigma,
         "nees_mean": _float(float(nees.mean())) if nees.size else None,
         "duration": _float(float(result.t[-1] - result.t[0])),
         "angles": int(result.t.size),

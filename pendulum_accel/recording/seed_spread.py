@@ -7,7 +7,8 @@ the bag's scene again with sensor seeds 0 … N−1 and the same estimator setti
 pooled calibration (what the variance promises) and the 10th–90th percentile of one seed's share (how
 far a single bag may stray from it). ``pendulum-accel analyze BAG --seeds N`` prints them next to the
 bag's own. The seeds are independent runs, so the pooled share rests on the sum of their independent
-trials: n_eff = Σ_i n_eff,i, the share Σ exceedances / Σ n, its 95 % interval Wilson's at n_eff.
+trials: n_eff = Σ_i n_eff,i, the share Σ exceedances / Σ n, its 95 % interval Wilson's at n_eff; the
+share beyond 3σ pools the same way.
 """
 
 from __future__ import annotations
@@ -63,8 +64,8 @@ class WindowSpread:
         return cls(pooled, float(low), float(high))
 
     def text(self) -> str:
-        """'pooled NEES mean m, x % beyond 2σ (n=N, about K independent: 95 % lo–hi %); one seed's share
-        a–b %'."""
+        """'pooled NEES mean m, x % beyond 2σ (n=N, about K independent: 95 % lo–hi %), y % beyond 3σ; one
+        seed's share a–b %' (the pooled share beyond 3σ: Σ exceedances of NEES > 9 / Σ n)."""
         p = self.pooled
         lo, hi = 100 * self.share_low, 100 * self.share_high
         return f"pooled NEES mean {p.mean:.3g}, {p.share_text()}; one seed's share {lo:.1f}–{hi:.1f} %"
