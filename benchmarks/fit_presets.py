@@ -13,7 +13,6 @@ Gaussian's 4.6 %) among those within 5 % of the least RMS.
 from __future__ import annotations
 
 import math
-import statistics
 from collections.abc import Iterator, Sequence
 
 import numpy as np
@@ -31,6 +30,7 @@ from benchmarks.motion_scores import (
 )
 from pendulum_accel.estimators import ekf_kernels as kern
 from pendulum_accel.estimators.kalman import PRESETS, imm_smoother, lag_samples, lag_variance
+from pendulum_accel.recording import coverage
 from pendulum_accel.recording.changes import after_change
 
 
@@ -208,7 +208,7 @@ LAG_WEIGHTS = (0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0)
 """κ of the variance maps min(P_f (P_lag/P_f)^γ + κ d², P_lag) tried by ``fit_lag_map`` and
 ``fit_smoother_map`` (0: the power alone)."""
 
-GAUSS_MEDIAN_NEES = statistics.NormalDist().inv_cdf(0.75) ** 2  # 0.455: the median of χ²₁
+GAUSS_MEDIAN_NEES = coverage.GAUSS_NEES_MEDIAN  # the median of χ²₁: the one definition, in coverage
 NEES_DECADES = np.linspace(-12.0, 12.0, 2401)  # log10 bin edges of the fits' NEES histograms (2.3 % a bin)
 
 

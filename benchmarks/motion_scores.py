@@ -23,7 +23,7 @@ from pendulum_accel.recording.delay import group_delay
 
 WARMUP = 2.0  # s left out at the start of every run: the filters start from one sample
 Q_GRID = tuple(float(q) for q in np.logspace(-4, 2, 19))  # (m/s²)²/s, 3 per decade
-GAUSS_2SIGMA = math.erfc(2.0 / math.sqrt(2.0))  # 0.0455: P(|z| > 2) of a standard normal
+GAUSS_2SIGMA = coverage.GAUSS_2SIGMA  # P(|z| > 2) of a standard normal: the one definition, in coverage
 SHARE_FLOOR = 1e-4  # a share of 0 counts as 0.01 % (the log stays finite; 0 is as wrong as 0.01 %)
 
 
@@ -42,12 +42,14 @@ class Score:
     eff_steady: float = 0.0  # independent trials behind beyond_steady (recording.coverage)
     eff_after: float = 0.0
     nees_median: float = math.nan  # a Gaussian error's: 0.455; far below, σ bounds the error, not its spread
+    beyond3_steady: float = math.nan  # share with |e| > 3σ (NEES > 9) in steady state; a Gaussian's: 0.27 %
+    beyond3_after: float = math.nan  # the same within CHANGE_WINDOW s after a change of a(t)
 
     @staticmethod
     def of(runs: Sequence[Run], outputs: Sequence[tuple[np.ndarray, np.ndarray]], rate_hz: float) -> Score:
         """Pool e = â − a and NEES = e²/var over the runs (t ≥ WARMUP); the shares' effective trials
         (coverage.window_trials of each run's NEES: each window at its own τ)."""
-        errs, nees, steady, after, delays = [], [], [], [], []
+        errs, nees, steady, after, delays, steady3, after3 = [], [], [], [], [], [], []
         eff_steady, eff_after = 0.0, 0.0
         for run, (a, var) in zip(runs, outputs, strict=True):
             keep = run.t >= WARMUP
@@ -59,12 +61,15 @@ class Score:
             nees.append(z)
             steady.append(z[~after_mask] > 4.0)
             after.append(z[after_mask] > 4.0)
+            steady3.append(z[~after_mask] > 9.0)
+            after3.append(z[after_mask] > 9.0)
             eff_steady += coverage.window_trials(z, ~after_mask)
             eff_after += coverage.window_trials(z, after_mask)
             delays.append(group_delay(a[keep], run.accel[keep], rate_hz))
         e_all = np.concatenate(errs)
         z_all = np.concatenate(nees)
         s_all, c_all = np.concatenate(steady), np.concatenate(after)
+        s3_all, c3_all = np.concatenate(steady3), np.concatenate(after3)
         return Score(
             rms=float(np.sqrt(np.mean(e_all**2))),
             max_err=float(np.max(np.abs(e_all))),
@@ -79,6 +84,8 @@ class Score:
             n_after=int(c_all.size),
             eff_steady=eff_steady,
             eff_after=eff_after,
+            beyond3_steady=float(np.mean(s3_all)) if s3_all.size else math.nan,
+            beyond3_after=float(np.mean(c3_all)) if c3_all.size else math.nan,
         )
 
 
@@ -136,6 +143,11 @@ def calibration_miss(counts: Sequence[float] | np.ndarray) -> float:
 def scored(runs: Sequence[Run]) -> int:
     """Samples scored over the runs (t ≥ WARMUP)."""
     return sum(int(np.count_nonzero(r.t >= WARMUP)) for r in runs)
+
+
+def share3_cell(share: float) -> str:
+    """'p̂ %' of a share beyond 3σ, to 0.01 % (a Gaussian's is 0.27 %); '—' where there are no samples."""
+    return f"{100 * share:.2f} %" if math.isfinite(share) else "—"
 
 
 def share_cell(share: float, n_eff: float) -> str:

@@ -74,6 +74,9 @@ def test_figures_are_finite_and_bounds_order_as_theory_says(quick: tuple) -> Non
         assert math.isnan(s.beyond_steady) or 0.0 <= s.beyond_steady <= 1.0  # NaN: an agile robot is
         # never steady for 3 s (f1tenth_ds5: every sample lies within 2 s of a change)
         assert math.isnan(s.beyond_after) or 0.0 <= s.beyond_after <= 1.0
+        # Beyond 3σ is a part of beyond 2σ (NEES > 9 implies NEES > 4), counted over the same samples.
+        for two, three in ((s.beyond_steady, s.beyond3_steady), (s.beyond_after, s.beyond3_after)):
+            assert (math.isnan(two) and math.isnan(three)) or 0.0 <= three <= two
         # Each share's independent trials: at least one per stretch, at most one per sample.
         for n, eff in ((s.n_steady, s.eff_steady), (s.n_after, s.eff_after)):
             assert (n == 0 and eff == 0.0) or 1.0 <= eff <= n
