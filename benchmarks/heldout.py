@@ -31,7 +31,7 @@ import numpy as np
 
 from benchmarks import report as bench_report
 from benchmarks.motion_designs import HELDOUT_DESIGNS, Design, designs, simulate_runs
-from benchmarks.motion_scores import Q_GRID, Score, kalman_q, pooled_rms, q_scan, share_cell
+from benchmarks.motion_scores import Q_GRID, Score, kalman_q, pooled_rms, q_scan, share3_cell, share_cell
 from pendulum_accel.cluster import map_tasks
 from pendulum_accel.errors import PendulumAccelError
 from pendulum_accel.estimators import make_estimator
@@ -121,6 +121,7 @@ def line(r: Result) -> str:
         f"×{k.rms / r.gtan.rms:.2f} g·tanθ, "
         f"beyond 2σ steady {share_cell(k.beyond_steady, k.eff_steady)}, "
         f"after {share_cell(k.beyond_after, k.eff_after)}, "
+        f"beyond 3σ steady {share3_cell(k.beyond3_steady)}, after {share3_cell(k.beyond3_after)}, "
         f"smoother ×{r.smoother / r.rts_hindsight:.2f} hindsight RTS"
     )
 
@@ -129,9 +130,9 @@ def table(results: Sequence[Result]) -> str:
     """The markdown table of every result."""
     rows = [
         "| trace | preset | design | kalman RMS | / hindsight EKF | / g·tanθ | >2σ steady (n_eff) "
-        "| >2σ after (n_eff) | NEES "
+        "| >2σ after (n_eff) | >3σ steady | >3σ after | NEES "
         "| smoother / hindsight RTS | meets |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in results:
         k = r.kalman
@@ -139,6 +140,7 @@ def table(results: Sequence[Result]) -> str:
             f"| {r.trace} | {r.preset} | {r.design} | {k.rms:.3g} | {k.rms / r.hindsight.rms:.2f} | "
             f"{k.rms / r.gtan.rms:.2f} | {share_cell(k.beyond_steady, k.eff_steady)} | "
             f"{share_cell(k.beyond_after, k.eff_after)} | "
+            f"{share3_cell(k.beyond3_steady)} | {share3_cell(k.beyond3_after)} | "
             f"{figure(k.nees, '.2f', '')} | {r.smoother / r.rts_hindsight:.2f} | "
             f"{'yes' if r.meets else 'no'} |"
         )

@@ -55,7 +55,9 @@ def test_heldout_page_has_a_row_per_design_and_a_verdict_from_its_figures(
     assert page.count("| trace | auto |") == len(results)
     assert (tmp_path / "docs" / "img" / "bench_heldout.png").stat().st_size > 0
     # A window without samples (a trace that never holds still has no steady stretch) reads "—", never nan.
-    quiet = dataclasses.replace(results[0].kalman, beyond_steady=math.nan, eff_steady=math.nan, nees=math.nan)
+    quiet = dataclasses.replace(
+        results[0].kalman, beyond_steady=math.nan, eff_steady=math.nan, nees=math.nan, beyond3_steady=math.nan
+    )
     empty = dataclasses.replace(results[0], kalman=quiet)
     for text in (heldout.line(empty), heldout.table([empty])):
         words = {w.strip("|,%()").lower() for w in text.split()}
