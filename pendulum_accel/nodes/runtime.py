@@ -428,8 +428,10 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
 
     The first SIGINT or SIGTERM asks a ChainNode to stop gracefully (``request_stop``: a recorder
     drains its queues before closing the bag); a second one ends the spin at once. Either way
-    ``close()`` runs before the process exits. The EventsExecutor, not the default one, because
-    it takes about ten times as many messages per second in Python, which the 1 kHz chain needs.
+    ``close()`` runs before the process exits. A first signal while the node is still being built waits
+    for it once it holds input (``ChainNode.holds_input``), and ends the start-up at once before that.
+    The EventsExecutor, not the default one, because it takes about ten times as many messages per
+    second in Python, which the 1 kHz chain needs.
     """
     node: Node | None = None
     executor: Executor | None = None
