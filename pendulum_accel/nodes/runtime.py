@@ -53,9 +53,10 @@ AnyParameter: TypeAlias = Parameter[Any]
 _ACK_SLICE = Duration(seconds=0.2)
 
 
-# The node being built (run_node's factory) once it holds input: a subscription whose messages the middleware
-# acknowledges at once, or an open bag. A stop signal then waits for the node to exist and drain it.
-_HOLDING: list[ChainNode] = []
+# Set once the node being built (run_node's factory) holds input: a subscription whose messages the
+# middleware acknowledges at once, or an open bag. A stop signal then waits for the node to exist and
+# drain it.
+_HOLDING = threading.Event()
 
 
 class ChainNode(Node):
@@ -74,8 +75,7 @@ class ChainNode(Node):
         its readers are there, and rclpy's first log line alone can take a second on a loaded machine)
         is kept until the node exists, then asked as request_stop: it used to end the process before its
         spin, the angles the middleware had acknowledged never estimated and no counters written."""
-        if not _HOLDING:
-            _HOLDING.append(self)
+        _HOLDING.set()
 
     def finish(self, code: int = 0) -> None:
         """End the spin of ``run_node`` with exit code ``code`` (idempotent)."""
@@ -447,7 +447,7 @@ def run_node(factory: Callable[[], Node], name: str, args: Sequence[str] | None 
                 node.request_stop()
             else:
                 node.finish(0)
-        elif stops > 1 or not _HOLDING:  # nothing taken yet (a compile, say): end the start-up at once
+        elif stops > 1 or not _HOLDING.is_set():  # nothing taken yet (a compile, say): end start-up now
             raise KeyboardInterrupt
 
     use_package_profile()
